@@ -1,0 +1,53 @@
+"""The OpenGL context the GPU code runs in.
+
+The viewer makes a window whose context is current; everything else (tests,
+`isoscope render`, `app.marching_cubes(backend="gpu")` from a script) gets a
+standalone EGL context, which needs no display (Mesa llvmpipe, or the NVIDIA
+driver on a GPU machine).
+"""
+from __future__ import annotations
+
+import moderngl
+
+REQUIRED_GL = 430  # compute shaders and SSBOs
+
+_standalone: moderngl.Context | None = None
+
+
+class GLUnavailable(RuntimeError):
+    """No OpenGL 4.3 context could be made here."""
+
+
+def current_or_standalone() -> moderngl.Context:
+    """The context current on this thread (a viewer window's), else a cached standalone EGL one."""
+    global _standalone
+    try:
+        ctx = moderngl.create_context(require=REQUIRED_GL)
+        return ctx
+    except Exception:
+        pass
+    if _standalone is None:
+        _standalone = standalone()
+    return _standalone
+
+
+def standalone() -> moderngl.Context:
+    """A new headless context (EGL first, then the platform default)."""
+    errors = []
+    for kwargs in ({"backend": "egl"}, {}):
+        try:
+            return moderngl.create_context(standalone=True, require=REQUIRED_GL, **kwargs)
+        except Exception as exc:  # each backend fails in its own way; report them all
+            errors.append(f"{kwargs.get('backend', 'default')}: {exc}".strip())
+    raise GLUnavailable(
+        "no OpenGL 4.3 context: " + "; ".join(errors)
+        + " (install Mesa's EGL drivers, e.g. apt-get install libegl1 libgl1-mesa-dri)"
+    )
+
+
+def gl_available() -> bool:
+    try:
+        current_or_standalone()
+        return True
+    except GLUnavailable:
+        return False

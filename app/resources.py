@@ -1,0 +1,53 @@
+"""Find the package's data files (GLSL sources, sample volumes) from a checkout or a wheel.
+
+In a checkout they sit at the top level (`shaders/`, `volumes/`); pyproject.toml
+installs them into the wheel as the data packages `app._shaders` and `app._volumes`.
+"""
+from __future__ import annotations
+
+import re
+from importlib import resources
+from pathlib import Path
+
+_CHECKOUT_ROOT = Path(__file__).resolve().parent.parent
+_INCLUDE = re.compile(r'^\s*#include\s+"([\w./-]+)"\s*$', re.MULTILINE)
+
+
+def _data_dir(checkout_name: str, package: str) -> Path:
+    local = _CHECKOUT_ROOT / checkout_name
+    if local.is_dir():
+        return local
+    return Path(str(resources.files(package)))
+
+
+def shaders_dir() -> Path:
+    return _data_dir("shaders", "app._shaders")
+
+
+def volumes_dir() -> Path:
+    return _data_dir("volumes", "app._volumes")
+
+
+def shader_source(name: str, defines: dict[str, object] | None = None) -> str:
+    """Read shaders/NAME, expand `#include "file"` lines, and add `#define`s after `#version`.
+
+    GLSL has no include; shared helpers (the case-table layout, sampling) live
+    in their own .glsl files and are pasted in here, once each.
+    """
+    seen: set[str] = set()
+
+    def expand(file_name: str) -> str:
+        if file_name in seen:
+            return ""
+        seen.add(file_name)
+        text = (shaders_dir() / file_name).read_text()
+        return _INCLUDE.sub(lambda m: expand(m.group(1)), text)
+
+    source = expand(name)
+    if defines:
+        lines = source.split("\n", 1)
+        if not lines[0].startswith("#version"):
+            raise ValueError(f"{name}: first line must be #version")
+        extra = "".join(f"#define {k} {v}\n" for k, v in defines.items())
+        source = lines[0] + "\n" + extra + (lines[1] if len(lines) > 1 else "")
+    return source
