@@ -1,0 +1,23 @@
+"""isoscope: live GPU isosurfaces of 3-D scalar fields.
+
+    verts, faces, normals, values = app.marching_cubes(volume, level)
+
+follows scikit-image's `measure.marching_cubes` conventions; `app.Extractor`
+keeps a volume resident on the GPU for repeated extraction at new levels.
+"""
+from __future__ import annotations
+
+__version__ = "0.1.0"
+
+__all__ = ["marching_cubes", "Extractor", "__version__"]
+
+
+def __getattr__(name):
+    # Import lazily: `import app` must not need a GL driver or load every module.
+    if name == "marching_cubes":
+        from .api import marching_cubes
+        return marching_cubes
+    if name == "Extractor":
+        from .extractor import Extractor
+        return Extractor
+    raise AttributeError(name)
