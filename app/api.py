@@ -1,0 +1,58 @@
+"""`marching_cubes`: scikit-image's call, on the GPU or in numpy."""
+from __future__ import annotations
+
+import numpy as np
+
+from . import validation
+from .reference import marching_cubes_reference
+
+BACKENDS = ("auto", "gpu", "cpu")
+
+
+def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
+                   backend="auto"):
+    """Extract the isosurface ``volume == level`` as an indexed, watertight triangle mesh.
+
+    Parameters follow ``skimage.measure.marching_cubes``:
+
+    volume : 3-D array, every axis at least 2 long, finite values.
+    level : float, default the middle of the data range; must lie within it.
+    spacing : voxel size along axes 0, 1, 2; vertices are scaled by it.
+    gradient_direction : "descent" when the object is where values are above
+        the level (densities, CT), "ascent" when below (signed distances).
+        Normals point out of the object and triangles wind counter-clockwise
+        seen from outside.
+    backend : "gpu" (OpenGL 4.3 compute shaders; a standalone EGL context when
+        none is current), "cpu" (the numpy reference), or "auto" (GPU when an
+        OpenGL 4.3 context can be had).
+
+    Returns ``verts`` (N, 3) float32 in array-index order times spacing,
+    ``faces`` (M, 3) int32, ``normals`` (N, 3) float32 unit vectors, ``values``
+    (N,) float32.  Every grid edge whose ends lie on different sides of the
+    level has exactly one vertex, shared by the triangles that use it.
+    """
+    if backend not in BACKENDS:
+        raise ValueError(f"backend {backend!r} is not one of {BACKENDS}")
+    field = validation.as_volume(volume)
+    spacing = validation.as_spacing(spacing)
+    descent = validation.as_gradient_direction(gradient_direction)
+    level = validation.as_level(level, validation.value_range(field))
+
+    if backend == "auto":
+        from .gl_context import gl_available
+        backend = "gpu" if gl_available() else "cpu"
+    if backend == "cpu":
+        return marching_cubes_reference(field, level, spacing, descent)
+
+    from .extractor import Extractor
+    extractor = Extractor(field, spacing=spacing, gradient_direction=gradient_direction)
+    try:
+        extractor.extract(level)
+        return extractor.read_mesh()
+    finally:
+        extractor.release()
+
+
+def empty_mesh():
+    return (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32),
+            np.zeros((0, 3), np.float32), np.zeros((0,), np.float32))

@@ -1,0 +1,146 @@
+"""Marching cubes in numpy: the same algorithm, table and output order as the shaders.
+
+Read it beside `shaders/mc_*.comp`; each step below names the pass it mirrors.
+
+Conventions shared with the GPU (see `app.case_table` for the cell geometry):
+
+* A sample is *inside* when ``sign * value >= sign * level``, with
+  ``sign = +1`` for gradient_direction "descent" (object above the level) and
+  ``-1`` for "ascent".  Ties count as inside: the symbolic perturbation of the
+  seed's "exact zero" case, so a sample equal to the level never needs a
+  special case.
+* Every grid edge whose ends differ gets one vertex, owned by the edge's lower
+  end, shared by all triangles that use it.  Its parameter along the edge is
+  kept within ``[EDGE_MARGIN, 1 - EDGE_MARGIN]`` so that vertices from
+  different edges never coincide and no triangle collapses to zero area
+  (a tie would otherwise put up to six vertices on one grid point).
+* Vertices are ordered by (i, j, k // 32, axis, k): the GPU packs 32 signs
+  along axis 2 into one word and numbers a word's vertices axis by axis.
+  Triangles are ordered by cell (C order), then by the table's order.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .case_table import EDGE_AXIS, EDGE_ORIGIN, CaseTable, montani_table
+
+EDGE_MARGIN = np.float32(1.0 / 256.0)
+"""Smallest edge parameter of a vertex; shaders/mc_common.glsl holds the same number."""
+
+WORD_BITS = 32
+
+
+def inside_mask(field: np.ndarray, level: float) -> np.ndarray:
+    """mc_signs.comp: True where a (sign-adjusted) sample is on the object's side, ties included."""
+    return field >= np.float32(level)
+
+
+def crossing_edges(inside: np.ndarray) -> list[np.ndarray]:
+    """mc_classify.comp: per axis, a mask over owning grid points of edges whose ends differ."""
+    masks = []
+    for axis in range(3):
+        lo = [slice(None)] * 3
+        hi = [slice(None)] * 3
+        lo[axis], hi[axis] = slice(0, -1), slice(1, None)
+        differ = inside[tuple(lo)] != inside[tuple(hi)]
+        pad = [(0, 0)] * 3
+        pad[axis] = (0, 1)  # the last grid plane owns no edge along this axis
+        masks.append(np.pad(differ, pad))
+    return masks
+
+
+def cube_cases(inside: np.ndarray) -> np.ndarray:
+    """mc_classify.comp: the 8-bit case of every cell, bit c set when corner c is inside."""
+    n0, n1, n2 = inside.shape
+    cases = np.zeros((n0 - 1, n1 - 1, n2 - 1), dtype=np.uint8)
+    for corner in range(8):
+        d0, d1, d2 = corner & 1, corner >> 1 & 1, corner >> 2 & 1
+        bit = inside[d0 : n0 - 1 + d0, d1 : n1 - 1 + d1, d2 : n2 - 1 + d2]
+        cases |= bit.astype(np.uint8) << np.uint8(corner)
+    return cases
+
+
+def gradient_at(field: np.ndarray, points: np.ndarray, spacing: np.ndarray) -> np.ndarray:
+    """Central differences at grid points, one-sided at the border, in physical units."""
+    shape = np.array(field.shape)
+    grad = np.empty(points.shape, dtype=np.float32)
+    for axis in range(3):
+        lo, hi = points.copy(), points.copy()
+        lo[:, axis] = np.maximum(points[:, axis] - 1, 0)
+        hi[:, axis] = np.minimum(points[:, axis] + 1, shape[axis] - 1)
+        step = ((hi[:, axis] - lo[:, axis]).astype(np.float32) * np.float32(spacing[axis]))
+        diff = field[tuple(hi.T)] - field[tuple(lo.T)]
+        grad[:, axis] = diff / step
+    return grad
+
+
+def place_vertices(field, inside, level, points, axes, spacing, sign):
+    """mc_vertices.comp: position, outward normal and value of each edge's vertex."""
+    step = np.eye(3, dtype=np.int64)[axes]
+    ends = points + step
+    v0 = field[tuple(points.T)]
+    v1 = field[tuple(ends.T)]
+    t = (np.float32(level) - v0) / (v1 - v0)
+    t = np.clip(t, EDGE_MARGIN, np.float32(1) - EDGE_MARGIN).astype(np.float32)
+
+    spacing32 = spacing.astype(np.float32)
+    positions = (points.astype(np.float32) + t[:, None] * step.astype(np.float32)) * spacing32
+    values = (v0 + t * (v1 - v0)) * np.float32(sign)
+
+    g0 = gradient_at(field, points, spacing)
+    g1 = gradient_at(field, ends, spacing)
+    grad = g0 + t[:, None] * (g1 - g0)
+    length = np.linalg.norm(grad, axis=1)
+    normals = np.empty_like(grad)
+    ok = length > 0
+    normals[ok] = -grad[ok] / length[ok, None]  # the field grows into the object: out is downhill
+    # A flat field gives no gradient: point along the edge, from its inside end to its outside end.
+    start_inside = inside[tuple(points.T)]
+    normals[~ok] = np.where(start_inside[~ok, None], 1.0, -1.0) * step[~ok]
+    return positions, normals.astype(np.float32), values.astype(np.float32)
+
+
+def marching_cubes_reference(volume: np.ndarray, level: float, spacing=(1.0, 1.0, 1.0),
+                             descent: bool = True, table: CaseTable | None = None):
+    """verts (N,3) float32, faces (M,3) int32, normals (N,3) float32, values (N,) float32.
+
+    `volume` must already be validated (3-D float32, finite, every axis >= 2).
+    """
+    table = table or montani_table()
+    sign = 1.0 if descent else -1.0
+    field = volume if descent else -volume
+    lvl = np.float32(sign * level)
+    spacing = np.asarray(spacing, dtype=np.float64)
+    n0, n1, n2 = field.shape
+    words = -(-n2 // WORD_BITS)
+
+    inside = inside_mask(field, lvl)
+
+    # Vertices: one per crossing edge, in the GPU's (i, j, word, axis, k) order.
+    masks = crossing_edges(inside)
+    owners = [np.argwhere(m) for m in masks]
+    points = np.concatenate(owners).astype(np.int64)
+    axes = np.concatenate([np.full(len(o), a) for a, o in enumerate(owners)]).astype(np.int64)
+    word_id = (points[:, 0] * n1 + points[:, 1]) * words + points[:, 2] // WORD_BITS
+    order = np.lexsort((points[:, 2], axes, word_id))
+    points, axes = points[order], axes[order]
+
+    vertex_of = np.full((3, n0, n1, n2), -1, dtype=np.int64)  # (axis, owner) -> vertex index
+    vertex_of[axes, points[:, 0], points[:, 1], points[:, 2]] = np.arange(len(points))
+    verts, normals, values = place_vertices(field, inside, lvl, points, axes, spacing, sign)
+
+    # Triangles: mc_triangles.comp, cells in C order, the table's triangles in order.
+    cases = cube_cases(inside)
+    per_cell = table.counts[cases]
+    cells = np.argwhere(per_cell > 0)
+    cell_cases = cases[tuple(cells.T)]
+    n_tri = table.counts[cell_cases].astype(np.int64)
+    cell_of_tri = np.repeat(np.arange(len(cells)), n_tri)
+    slot = np.arange(n_tri.sum()) - np.repeat(np.cumsum(n_tri) - n_tri, n_tri)
+    edges = table.triangles[cell_cases[cell_of_tri], slot].astype(np.int64)  # (M, 3)
+
+    owner = cells[cell_of_tri][:, None, :] + EDGE_ORIGIN[edges]  # (M, 3 corners, 3 coords)
+    faces = vertex_of[EDGE_AXIS[edges], owner[..., 0], owner[..., 1], owner[..., 2]]
+    if faces.size and faces.min() < 0:
+        raise AssertionError("a triangle uses an edge with no vertex: the case table is broken")
+    return verts, faces.astype(np.int32), normals, values
