@@ -1,0 +1,97 @@
+"""Volumes: what the viewer and the CLI can open, as a checked `Volume`.
+
+Spec syntax (the VOLUME argument, the panel's picker and text box):
+
+    sphere                 a built-in field at its default resolution (`isoscope volumes` lists them)
+    sphere:128             ... at 128 samples per axis (or --resolution 128)
+    path/to/file.npy       a file: .npy, .npz, .nrrd/.nhdr, .nii, .nii.gz, .raw (see below)
+    path/to/file.npz:name  one named array of an .npz (default: the first)
+    sample:bucky.raw       a small file shipped in the package's volumes/ directory
+    expr:x + 2*y - 3*z + 1 an implicit function, sampled on the GPU (numpy without one);
+        options after semicolons:  expr:sin(x)*cos(y); box=-3.2,3.2; res=96
+        box=LO,HI (a cube) or box=X0,X1,Y0,Y1,Z0,Z1 (default -1,1), res=N (default 64).
+        Grammar: numbers, x y z pi, + - * / ^ (right-assoc), parentheses,
+        sin cos tan exp log sqrt abs min max. The object is where the value is
+        below the level (default 0), as for F(x,y,z) < 0 inside.
+
+Files:
+    .npy / .npz    never unpickled; 4-D arrays are frames along axis 0 (--frame N).
+    .nrrd / .nhdr  pynrrd; spacing from "spacings" or "space directions";
+                   4-D: the non-spatial axis (by "kinds"), else the last one.
+    .nii / .nii.gz nibabel; spacing from the header's zooms; 4-D: axis 3 is time.
+    .raw / other   --dims X Y Z (x fastest, as ParaView and the CUDA sample),
+                   --dtype (default uint8), --endian little|big, --spacing X Y Z,
+                   or a JSON sidecar (file.json or file.raw.json) with keys
+                   dims, dtype, endian, spacing; flags win over the sidecar.
+
+Axis 0 of `Volume.data` is x. Integer data keeps its type and range. Every bad
+input raises `VolumeError` with one line naming the problem and the fix.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from .builtins import BUILTINS, split_builtin_spec, open_builtin
+from .errors import VolumeError
+from .volume import Progress, Volume
+
+__all__ = [
+    "Volume", "VolumeError", "DEFAULT_VOLUME", "open_volume", "builtin_names",
+    "describe_builtins", "add_volume_arguments", "open_volume_from_args",
+]
+
+# Smooth, blended blobs: a closed surface with varied curvature that looks good lit
+# and extracts in well under a second at 80^3 on llvmpipe.
+DEFAULT_VOLUME = "metaballs"
+
+
+def builtin_names() -> list[str]:
+    return list(BUILTINS)
+
+
+def describe_builtins() -> list[tuple[str, str]]:
+    return [(b.name, f"{b.description} [default {b.default_resolution}^3]"
+             if b.name != "ambiguous" else b.description) for b in BUILTINS.values()]
+
+
+def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, frame=None,
+                resolution=None, progress: Progress | None = None, backend: str = "auto",
+                ctx=None) -> Volume:
+    """Open a volume from a spec (see the module docstring); raise VolumeError on bad input.
+
+    backend ("auto", "gpu", "cpu") and ctx (a moderngl context) only matter for
+    expr: specs; "auto" samples on the GPU when a GL 4.3 context can be had.
+    """
+    if not isinstance(spec, str) or not spec.strip():
+        raise VolumeError("no volume given; name a file, a built-in (isoscope volumes) or expr:FORMULA")
+    spec = spec.strip()
+    file_only = dict(dims=dims, dtype=dtype, endian=endian, frame=frame)
+    if spec.lower().startswith("expr:"):
+        _refuse_options(spec, "an expression", **file_only, spacing=spacing)
+        from .expression_volume import open_expression
+        return open_expression(spec, resolution=resolution, progress=progress, backend=backend, ctx=ctx)
+    if split_builtin_spec(spec) is not None and not Path(spec).exists():
+        _refuse_options(spec, "a built-in volume", **file_only, spacing=spacing)
+        return open_builtin(spec, resolution=resolution, progress=progress)
+    if resolution is not None:
+        raise VolumeError(f"--resolution applies to built-ins and expr: volumes, not to the file "
+                          f"{spec}; drop it")
+    from .files import open_file
+    return open_file(spec, progress=progress, spacing=spacing, **file_only)
+
+
+def _refuse_options(spec: str, kind: str, **options) -> None:
+    given = [name for name, value in options.items() if value is not None]
+    if given:
+        flags = " ".join(f"--{name}" for name in given)
+        raise VolumeError(f"{spec} is {kind}; {flags} only apply to files: drop {flags}")
+
+
+def add_volume_arguments(parser) -> None:
+    from .cli_options import add_volume_arguments as add
+    add(parser)
+
+
+def open_volume_from_args(spec: str, args, progress: Progress | None = None) -> Volume:
+    from .cli_options import open_volume_from_args as open_from
+    return open_from(spec, args, progress)

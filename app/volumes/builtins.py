@@ -1,0 +1,197 @@
+"""The generated volumes: `isoscope volumes` lists them, any VOLUME argument accepts them.
+
+Each is a function of (x, y, z) over a box, sampled at a resolution the user
+may choose ("sphere:128"). Each declares which side is inside (its gradient
+direction) and a level at which it shows the intended surface, so normals
+point out of the object and the first frame looks right.
+"""
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from .errors import VolumeError
+from .grid import Box, check_resolution, sample_function
+from .volume import Progress, Volume, finish_volume, report
+
+UNIT_BOX = Box.cube(-1.0, 1.0)
+
+
+@dataclass(frozen=True)
+class Builtin:
+    name: str
+    description: str
+    default_resolution: int
+    gradient_direction: str
+    default_level: float
+    make: Callable[[int, Progress | None], tuple[np.ndarray, tuple[float, float, float], list[str]]]
+
+
+def _on_unit_box(field, what):
+    """A maker sampling field(x, y, z) on [-1, 1]^3 at n samples per axis, as float32."""
+    def make(n, progress):
+        shape = (n, n, n)
+        return sample_function(field, UNIT_BOX, shape, what=what, progress=progress), \
+            UNIT_BOX.spacing(shape), []
+    return make
+
+
+# --- signed distance fields: negative inside, so "ascent" ------------------------------
+
+def _sphere(x, y, z):
+    return np.sqrt(x * x + y * y + z * z) - 0.7
+
+
+def _torus(x, y, z):
+    ring, tube = 0.6, 0.25
+    return np.sqrt((np.sqrt(x * x + y * y) - ring) ** 2 + z * z) - tube
+
+
+def _box(x, y, z):
+    # Exact box SDF (Quilez): its edges and corners are sharp features that plain
+    # marching cubes rounds off, which is what this volume is here to show.
+    half = (0.6, 0.45, 0.3)
+    qx, qy, qz = np.abs(x) - half[0], np.abs(y) - half[1], np.abs(z) - half[2]
+    outside = np.sqrt(np.maximum(qx, 0) ** 2 + np.maximum(qy, 0) ** 2 + np.maximum(qz, 0) ** 2)
+    inside = np.minimum(np.maximum(qx, np.maximum(qy, qz)), 0)
+    return outside + inside
+
+
+def _plane(x, y, z):
+    # The seed's implicit surface x + 2y - 3z + 1 = 0; "inside" is the negative half-space.
+    return x + 2 * y - 3 * z + 1
+
+
+GYROID_BOX = Box.cube(-2 * np.pi, 2 * np.pi)  # two periods per axis
+
+
+def _make_gyroid(n, progress):
+    def gyroid(x, y, z):
+        return np.sin(x) * np.cos(y) + np.sin(y) * np.cos(z) + np.sin(z) * np.cos(x)
+    shape = (n, n, n)
+    return sample_function(gyroid, GYROID_BOX, shape, what="gyroid", progress=progress), \
+        GYROID_BOX.spacing(shape), []
+
+
+# --- Wyvill soft objects (the seed's reference 10): density, "descent" ------------------
+
+METABALL_CENTRES = np.array([
+    (0.0, 0.0, 0.0), (0.42, 0.1, 0.05), (-0.4, 0.15, -0.1), (0.05, 0.45, 0.15),
+    (0.1, -0.42, -0.05), (-0.15, -0.2, 0.4), (0.2, 0.15, -0.42), (-0.5, -0.4, 0.2),
+    (0.55, -0.35, 0.35), (-0.2, 0.55, -0.4),
+])
+METABALL_RADIUS = 0.5  # radius of influence R; a lone ball's 0.5-level surface has radius R/2
+
+
+def _metaballs(x, y, z):
+    total = 0.0
+    for cx, cy, cz in METABALL_CENTRES:
+        s = np.minimum(((x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2) / METABALL_RADIUS ** 2, 1.0)
+        # C(r) = 1 - 22/9 s + 17/9 s^2 - 4/9 s^3 with s = r^2/R^2; exactly 0 at r >= R.
+        total = total + np.maximum(1 + s * (-22 / 9 + s * (17 / 9 - 4 / 9 * s)), 0.0)
+    return total
+
+
+# --- C60 like the CUDA sample's Bucky.raw: uint8 density, "descent" ---------------------
+
+def c60_atoms() -> np.ndarray:
+    """The 60 vertices of a truncated icosahedron, edge length 2 (circumradius ~4.956).
+
+    Cyclic permutations with all sign flips of (0, 1, 3phi), (2, 1+2phi, phi), (1, 2+phi, 2phi).
+    """
+    phi = (1 + 5 ** 0.5) / 2
+    atoms = set()
+    for base in ((0, 1, 3 * phi), (2, 1 + 2 * phi, phi), (1, 2 + phi, 2 * phi)):
+        for shift in range(3):
+            rotated = base[shift:] + base[:shift]
+            for signs in itertools.product((1, -1), repeat=3):
+                atoms.add(tuple(round(s * c, 9) for s, c in zip(signs, rotated)))
+    return np.array(sorted(atoms))
+
+
+def _make_bucky(n, progress):
+    atoms = c60_atoms() * (0.75 / 4.956)  # fit in the unit box with a margin
+    sigma = 0.07
+
+    def density(x, y, z):
+        total = 0.0
+        for ax, ay, az in atoms:
+            total = total + np.exp(-((x - ax) ** 2 + (y - ay) ** 2 + (z - az) ** 2) / (2 * sigma ** 2))
+        return np.clip(np.rint(255 * total), 0, 255)
+
+    shape = (n, n, n)
+    data = sample_function(density, UNIT_BOX, shape, dtype=np.uint8, what="bucky", progress=progress)
+    return data, UNIT_BOX.spacing(shape), []
+
+
+# --- every marching-cubes case, the ambiguous ones included -----------------------------
+
+AMBIGUOUS_SHAPE = (25, 25, 13)  # 8 x 8 x 4 cells at a stride of 3 samples, plus a border
+
+
+def _make_ambiguous(n, progress):
+    """The cell whose low corner is sample (3a+1, 3b+1, 3c+1) has sign pattern a + 8b + 64c.
+
+    Pattern p puts corner (dx, dy, dz) inside when bit dx + 2dy + 4dz of p is set,
+    so the 8 x 8 x 4 cells hold all 256 marching-cubes cases.
+    Corner magnitudes vary (a fixed random draw), so the ambiguous faces' saddle
+    values fall on both sides of 0 and the asymptotic decider has real work.
+    Samples between the cells are outside, so each case is its own small piece.
+    """
+    rng = np.random.default_rng(256)
+    data = np.full(AMBIGUOUS_SHAPE, -1.0, dtype=np.float32)
+    for pattern in range(256):
+        a, b, c = pattern % 8, (pattern // 8) % 8, pattern // 64
+        for dx, dy, dz in itertools.product((0, 1), repeat=3):
+            inside = (pattern >> (dx + 2 * dy + 4 * dz)) & 1
+            magnitude = rng.uniform(0.2, 1.0)
+            data[3 * a + 1 + dx, 3 * b + 1 + dy, 3 * c + 1 + dz] = magnitude if inside else -magnitude
+    notes = [] if n == AMBIGUOUS_SHAPE[0] else [
+        f"ambiguous is a fixed {'x'.join(map(str, AMBIGUOUS_SHAPE))} grid; the resolution is ignored"]
+    return data, (1.0, 1.0, 1.0), notes
+
+
+BUILTINS: dict[str, Builtin] = {b.name: b for b in (
+    Builtin("sphere", "signed distance to a sphere of radius 0.7 (negative inside)", 64,
+            "ascent", 0.0, _on_unit_box(_sphere, "sphere")),
+    Builtin("torus", "signed distance to a torus, ring 0.6, tube 0.25", 64,
+            "ascent", 0.0, _on_unit_box(_torus, "torus")),
+    Builtin("plane", "the seed's plane x + 2y - 3z + 1 = 0 over [-1, 1]^3", 32,
+            "ascent", 0.0, _on_unit_box(_plane, "plane")),
+    Builtin("gyroid", "sin x cos y + sin y cos z + sin z cos x, two periods per axis", 96,
+            "ascent", 0.0, _make_gyroid),
+    Builtin("metaballs", "ten Wyvill soft objects (density, level 0.5)", 80,
+            "descent", 0.5, _on_unit_box(_metaballs, "metaballs")),
+    Builtin("bucky", "C60: 60 atoms on a truncated icosahedron, uint8 like the CUDA sample's Bucky.raw", 64,
+            "descent", 128.0, _make_bucky),
+    Builtin("box", "signed distance to a box: sharp edges and corners", 64,
+            "ascent", 0.0, _on_unit_box(_box, "box")),
+    Builtin("ambiguous", "all 256 cube sign patterns, one per cell, ambiguous faces both ways (25x25x13)",
+            AMBIGUOUS_SHAPE[0], "descent", 0.0, _make_ambiguous),
+)}
+
+
+def split_builtin_spec(spec: str) -> tuple[Builtin, str | None] | None:
+    """'sphere' or 'sphere:128' -> (the builtin, '128'); None when the name is not a builtin."""
+    name, _, resolution = spec.partition(":")
+    builtin = BUILTINS.get(name.strip().lower())
+    if builtin is None:
+        return None
+    return builtin, (resolution.strip() or None) if _ else None
+
+
+def open_builtin(spec: str, resolution=None, progress: Progress | None = None) -> Volume:
+    builtin, spec_resolution = split_builtin_spec(spec)
+    if resolution is not None and spec_resolution is not None and str(resolution) != spec_resolution:
+        raise VolumeError(f"{spec}: resolution given twice ({spec_resolution} and --resolution "
+                          f"{resolution}); give it once")
+    chosen = resolution if resolution is not None else spec_resolution
+    n = builtin.default_resolution if chosen is None else check_resolution(chosen, builtin.name)
+    data, spacing, notes = builtin.make(n, progress)
+    report(progress, 1.0, f"{builtin.name} ready")
+    return finish_volume(data, spacing=spacing, name=builtin.name if chosen is None else f"{builtin.name}:{n}",
+                         source=spec, gradient_direction=builtin.gradient_direction,
+                         default_level=builtin.default_level, notes=notes)

@@ -1,0 +1,29 @@
+"""The command-line flags that describe a volume, shared by every isoscope subcommand."""
+from __future__ import annotations
+
+import argparse
+
+from .raw import RAW_DTYPES
+from .volume import Progress, Volume
+
+
+def add_volume_arguments(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("volume options")
+    group.add_argument("--dims", nargs=3, type=int, metavar=("X", "Y", "Z"),
+                       help="raw files: samples along x, y, z (x varies fastest)")
+    group.add_argument("--dtype", choices=RAW_DTYPES, help="raw files: sample type (default uint8)")
+    group.add_argument("--endian", choices=("little", "big"), help="raw files: byte order (default little)")
+    group.add_argument("--spacing", nargs=3, type=float, metavar=("X", "Y", "Z"),
+                       help="voxel size along x, y, z (overrides the header)")
+    group.add_argument("--frame", type=int, metavar="N", help="4-D files: which volume to show (default 0)")
+    group.add_argument("--resolution", type=int, metavar="N",
+                       help="built-ins and expr: samples per axis")
+
+
+def open_volume_from_args(spec: str, args: argparse.Namespace, progress: Progress | None = None) -> Volume:
+    from . import open_volume
+    options = {name: getattr(args, name, None)
+               for name in ("dims", "dtype", "endian", "spacing", "frame", "resolution")}
+    backend = getattr(args, "backend", None)
+    return open_volume(spec, progress=progress, backend=backend if backend in ("cpu", "gpu") else "auto",
+                       **options)

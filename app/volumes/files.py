@@ -1,0 +1,85 @@
+"""From a file spec to a checked Volume: find the file, pick the loader, apply flags."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from .errors import VolumeError
+from .loaders import load_nifti, load_npy, load_npz, load_nrrd, select_frame
+from .raw import _three, load_raw
+from .volume import Progress, Volume, finish_volume, shape_text
+
+SAMPLE_PREFIX = "sample:"
+RAW_SUFFIXES = (".raw", ".bin", ".dat", ".img")  # .img: only without a .hdr (Analyze) next to it
+KNOWN_FORMATS = ".npy, .npz, .nrrd, .nhdr, .nii, .nii.gz, .raw (with --dims)"
+
+
+def resolve_path(spec: str) -> tuple[Path, str | None]:
+    """(path, npz array name). 'sample:NAME' looks in the package's volumes/ directory."""
+    if spec.lower().startswith(SAMPLE_PREFIX):
+        from app.resources import volumes_dir
+        spec = str(volumes_dir() / spec[len(SAMPLE_PREFIX):])
+    path = Path(spec).expanduser()
+    if not path.exists():
+        # "file.npz:density" names one array of an archive.
+        head, sep, array_name = spec.rpartition(":")
+        if sep and head.lower().endswith(".npz") and Path(head).expanduser().is_file():
+            return Path(head).expanduser(), array_name
+        raise VolumeError(f"no such file or built-in volume: {spec} (check the path; "
+                          f"`isoscope volumes` lists the built-ins)")
+    if path.is_dir():
+        raise VolumeError(f"{spec} is a directory; give one volume file inside it")
+    return path, None
+
+
+def _format_of(path: Path, has_raw_flags: bool) -> str:
+    name = path.name.lower()
+    for suffix, kind in ((".nii.gz", "nifti"), (".nii", "nifti"), (".nrrd", "nrrd"), (".nhdr", "nrrd"),
+                         (".npy", "npy"), (".npz", "npz")):
+        if name.endswith(suffix):
+            return kind
+    if name.endswith(RAW_SUFFIXES) or has_raw_flags:
+        return "raw"
+    from .raw import sidecar_path
+    if sidecar_path(path) is not None:
+        return "raw"
+    raise VolumeError(f"unknown volume format: {path.name}; isoscope reads {KNOWN_FORMATS} "
+                      f"(for headerless data pass --dims X Y Z --dtype T)")
+
+
+def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, frame=None,
+              progress: Progress | None = None) -> Volume:
+    path, array_name = resolve_path(spec)
+    kind = _format_of(path, dims is not None)
+    if kind != "raw":
+        for flag, value in (("--dtype", dtype), ("--endian", endian)):
+            if value is not None:
+                raise VolumeError(f"{path.name} has a header that gives its type; drop {flag}")
+    if spacing is not None:
+        spacing = _three(spacing, "--spacing", float, path.name)
+    try:
+        if kind == "raw":
+            data, header_spacing, notes = load_raw(path, dims, dtype, endian, spacing, progress)
+        elif kind == "npy":
+            data, header_spacing, notes = load_npy(path, progress)
+        elif kind == "npz":
+            data, header_spacing, notes = load_npz(path, array_name, progress)
+        elif kind == "nrrd":
+            data, header_spacing, notes = load_nrrd(path, frame, progress)
+        else:
+            data, header_spacing, notes = load_nifti(path, frame, progress)
+    except MemoryError:
+        raise VolumeError(f"{path.name} does not fit in memory; crop or downsample it first") from None
+    except PermissionError:
+        raise VolumeError(f"{path.name} cannot be read (permission denied); check its permissions") from None
+    if kind in ("npy", "npz"):
+        data, frame_notes = select_frame(data, 0, frame, path.name)  # stacks of volumes: frames first
+        notes += frame_notes
+    if kind != "raw" and dims is not None and tuple(int(d) for d in dims) != tuple(data.shape):
+        raise VolumeError(f"--dims {' '.join(map(str, dims))} does not match {path.name}, whose header "
+                          f"says {shape_text(data.shape)}; drop --dims (it is only for raw files)")
+    if spacing is not None and header_spacing is not None and tuple(header_spacing) != spacing:
+        notes.append(f"--spacing overrides the header's {tuple(round(s, 6) for s in header_spacing)}")
+    chosen = spacing or header_spacing or (1.0, 1.0, 1.0)
+    return finish_volume(data, spacing=chosen, name=path.name if array_name is None else f"{path.name}:{array_name}",
+                         source=spec, gradient_direction="descent", default_level=None,
+                         notes=notes, what=path.name, progress=progress)

@@ -1,0 +1,128 @@
+"""Raw binary volumes: no header, so the layout comes from flags or a JSON sidecar.
+
+Layout is x fastest (ParaView's raw reader, the CUDA sample's Bucky.raw): the
+file is a C-order (z, y, x) array, transposed here so axis 0 is x.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import VolumeError
+from .volume import Progress, refuse_if_too_big, report, shape_text, size_text
+
+RAW_DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64")
+ENDIANS = {"little": "<", "big": ">"}
+SIDECAR_KEYS = ("dims", "dtype", "endian", "spacing")
+_READ_CHUNK = 32 << 20
+
+
+@dataclass
+class RawLayout:
+    dims: tuple[int, int, int]
+    dtype: np.dtype
+    spacing: tuple[float, float, float] | None
+    notes: list[str]
+
+
+def sidecar_path(path: Path) -> Path | None:
+    for candidate in (path.with_name(path.name + ".json"), path.with_suffix(".json")):
+        if candidate.is_file() and candidate != path:
+            return candidate
+    return None
+
+
+def _read_sidecar(path: Path) -> dict:
+    try:
+        keys = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise VolumeError(f"sidecar {path.name} is not valid JSON ({exc}); fix it or pass --dims "
+                          f"--dtype on the command line") from None
+    if not isinstance(keys, dict):
+        raise VolumeError(f"sidecar {path.name} must hold a JSON object with keys {', '.join(SIDECAR_KEYS)}")
+    unknown = sorted(set(keys) - set(SIDECAR_KEYS))
+    if unknown:
+        raise VolumeError(f"sidecar {path.name} has unknown key(s) {', '.join(unknown)}; "
+                          f"allowed: {', '.join(SIDECAR_KEYS)}")
+    return keys
+
+
+def _three(values, flag: str, kind, where: str):
+    try:
+        items = [kind(v) for v in values]
+    except (TypeError, ValueError):
+        items = []
+    if len(items) != 3 or any(v <= 0 for v in items) or (kind is int and any(
+            isinstance(v, float) and not v.is_integer() for v in values)):
+        raise VolumeError(f"{where}: {flag} needs three positive {'whole ' if kind is int else ''}"
+                          f"numbers (X Y Z), got {values!r}")
+    return tuple(items)
+
+
+def raw_layout(path: Path, dims=None, dtype=None, endian=None, spacing=None) -> RawLayout:
+    """Merge flags over the sidecar; flags win. dims is required from one of them."""
+    notes: list[str] = []
+    sidecar = sidecar_path(path)
+    keys = _read_sidecar(sidecar) if sidecar else {}
+    where = f"sidecar {sidecar.name}" if sidecar else "raw file"
+    if sidecar:
+        notes.append(f"layout from {sidecar.name}" + (" (flags override it)" if any(
+            v is not None for v in (dims, dtype, endian, spacing)) else ""))
+    dims = dims if dims is not None else keys.get("dims")
+    if dims is None:
+        raise VolumeError(f"{path.name} is raw data with no header: give --dims X Y Z (and --dtype), "
+                          f"or write {path.name}.json with {{\"dims\": [X, Y, Z], \"dtype\": \"uint8\"}}")
+    dims = _three(dims, "--dims", int, where)
+    dtype_name = str(dtype if dtype is not None else keys.get("dtype", "uint8")).lower()
+    if dtype_name not in RAW_DTYPES:
+        raise VolumeError(f"unknown --dtype {dtype_name!r}; use one of {', '.join(RAW_DTYPES)}")
+    endian_name = str(endian if endian is not None else keys.get("endian", "little")).lower()
+    if endian_name not in ENDIANS:
+        raise VolumeError(f"unknown --endian {endian_name!r}; use little or big")
+    spacing = spacing if spacing is not None else keys.get("spacing")
+    spacing = _three(spacing, "--spacing", float, where) if spacing is not None else None
+    return RawLayout(dims, np.dtype(dtype_name).newbyteorder(ENDIANS[endian_name]), spacing, notes)
+
+
+def _check_file_size(path: Path, layout: RawLayout) -> None:
+    n_voxels = int(np.prod(layout.dims, dtype=np.int64))
+    expected = n_voxels * layout.dtype.itemsize
+    actual = path.stat().st_size
+    if actual == expected:
+        return
+    dims = " ".join(map(str, layout.dims))
+    fitting = [name for name in RAW_DTYPES if n_voxels * np.dtype(name).itemsize == actual]
+    hint = (f"try --dtype {' or '.join(fitting)}" if fitting else
+            f"check --dims and --dtype")
+    if actual < expected:
+        raise VolumeError(f"{path.name} is truncated or the layout is wrong: --dims {dims} as "
+                          f"{layout.dtype.name} needs {expected} bytes, the file has {actual}; {hint}")
+    raise VolumeError(f"{path.name} is larger than its layout: --dims {dims} as {layout.dtype.name} "
+                      f"needs {expected} bytes, the file has {actual} ({actual - expected} extra, "
+                      f"a header?); {hint}")
+
+
+def load_raw(path: Path, dims=None, dtype=None, endian=None, spacing=None,
+             progress: Progress | None = None):
+    layout = raw_layout(path, dims, dtype, endian, spacing)
+    # Two copies live at once: the file order (z, y, x) and the transposed result.
+    refuse_if_too_big((2,) + layout.dims, layout.dtype.itemsize, path.name)
+    _check_file_size(path, layout)
+    x, y, z = layout.dims
+    file_order = np.empty((z, y, x), dtype=layout.dtype)
+    buffer = file_order.reshape(-1).view(np.uint8)
+    with open(path, "rb") as fp:
+        done = 0
+        while done < buffer.size:
+            count = fp.readinto(memoryview(buffer[done:done + _READ_CHUNK]))
+            if not count:
+                raise VolumeError(f"{path.name} ended early while reading; is it still being written?")
+            done += count
+            report(progress, done / buffer.size,
+                   f"reading {path.name} ({size_text(done)} of {size_text(buffer.size)})")
+    data = np.ascontiguousarray(file_order.transpose(2, 1, 0))
+    layout.notes.append(f"raw {shape_text(layout.dims)} {layout.dtype.name}")
+    return data, layout.spacing, layout.notes
