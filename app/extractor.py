@@ -1,0 +1,200 @@
+"""The GPU marching-cubes extractor: a volume resident in a 3-D texture, re-extracted per level.
+
+Passes (one compute shader each, as in NVIDIA's CUDA sample, but producing an
+indexed mesh and sized from the scans, so nothing is ever dropped):
+
+1. ``mc_signs``     pack the inside bit of every sample, 32 per word along axis 2
+2. ``mc_classify``  per word: vertices owned (per axis) and triangles of its cells
+3. ``scan``         exclusive scans of both counts -> output offsets and totals
+4. ``mc_vertices``  one vertex per sign-changing edge: position, normal, value
+5. ``mc_triangles`` triangle indices into those shared vertices
+
+Scratch per voxel: 1 sign bit plus 12 bytes per 32-sample word (0.5 byte).
+The only read-back is the two totals, 8 bytes, needed to size the outputs.
+"""
+from __future__ import annotations
+
+import time
+
+import moderngl
+import numpy as np
+
+from . import validation
+from .case_table import CaseTable, montani_table
+from .gl_context import current_or_standalone
+from .gpu_programs import compute_program, dispatch_groups, set_uniforms
+from .scan import ExclusiveScan
+
+VERTEX_BYTES = 32  # vec4(position, value), vec4(normal, 0): std430, drawable as "3f 1f 3f 1x4"
+INDEX_BYTES = 12  # three uint32 per triangle
+LOCAL_SIZE = 64  # shaders/mc_*.comp local_size_x
+
+
+class GPULimitError(ValueError):
+    """The volume or its mesh does not fit this GL implementation's limits."""
+
+
+class Extractor:
+    """Keeps one volume on the GPU and extracts its isosurface at any level.
+
+    >>> ex = Extractor(volume, spacing=(1, 1, 1), gradient_direction="descent")
+    >>> n_vertices, n_triangles = ex.extract(0.5)   # mesh stays in ex.vertex_buffer / ex.index_buffer
+    >>> verts, faces, normals, values = ex.read_mesh()
+    """
+
+    def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
+                 ctx: moderngl.Context | None = None, table: CaseTable | None = None):
+        field = validation.as_volume(volume)
+        self.spacing = validation.as_spacing(spacing)
+        self.descent = validation.as_gradient_direction(gradient_direction)
+        self.gradient_direction = gradient_direction
+        self.shape = field.shape
+        self.value_range = validation.value_range(field)
+        self.ctx = ctx or current_or_standalone()
+        self.table = table or montani_table()
+
+        n0, n1, n2 = self.shape
+        self._check_texture_limits()
+        self.words_per_row = -(-n2 // 32)
+        self.word_count = n0 * n1 * self.words_per_row
+
+        self._volume = self._upload(field)
+        self._signs = self._storage(self.word_count)
+        self._vertex_offsets = self._storage(self.word_count + 1)
+        self._triangle_offsets = self._storage(self.word_count + 1)
+        self._axis_counts = self._storage(self.word_count)
+        self._case_table = self.ctx.buffer(self.table.packed_for_gpu().tobytes())
+        self._scan = ExclusiveScan(self.ctx)
+
+        defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u"}
+        self._passes = {name: compute_program(self.ctx, f"{name}.comp", defines)
+                        for name in ("mc_signs", "mc_classify", "mc_vertices", "mc_triangles")}
+
+        self.vertex_buffer = self.ctx.buffer(reserve=VERTEX_BYTES)
+        self.index_buffer = self.ctx.buffer(reserve=INDEX_BYTES)
+        self.n_vertices = 0
+        self.n_triangles = 0
+        self.level: float | None = None
+        self.last_extract_ms = 0.0
+
+    # -- set-up -----------------------------------------------------------------------------
+
+    def _check_texture_limits(self) -> None:
+        limit = int(self.ctx.info["GL_MAX_3D_TEXTURE_SIZE"])
+        if max(self.shape) > limit:
+            raise GPULimitError(
+                f"volume {'x'.join(map(str, self.shape))} exceeds this GPU's 3-D texture limit of "
+                f"{limit} samples per axis; crop or downsample it (e.g. volume[::2, ::2, ::2])")
+
+    def _max_storage_bytes(self) -> int:
+        return int(self.ctx.info["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"])
+
+    def _storage(self, elements: int) -> moderngl.Buffer:
+        size = max(elements, 1) * 4
+        if size > self._max_storage_bytes():
+            raise GPULimitError(
+                f"volume {'x'.join(map(str, self.shape))} needs a {size >> 20} MiB work buffer, above this "
+                f"GPU's {self._max_storage_bytes() >> 20} MiB storage-block limit; crop or downsample it")
+        return self.ctx.buffer(reserve=size)
+
+    def _upload(self, field: np.ndarray) -> moderngl.Texture3D:
+        n0, n1, n2 = self.shape
+        try:
+            texture = self.ctx.texture3d((n2, n1, n0), 1, field.tobytes(), dtype="f4")
+        except moderngl.Error as exc:
+            raise GPULimitError(f"volume {n0}x{n1}x{n2} ({field.nbytes >> 20} MiB) could not be uploaded "
+                                f"to the GPU ({exc}); crop or downsample it") from None
+        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        texture.repeat_x = texture.repeat_y = texture.repeat_z = False
+        return texture
+
+    def _ensure_output(self, n_vertices: int, n_triangles: int) -> None:
+        """Grow the mesh buffers to fit (by half again, so dragging the slider rarely reallocates)."""
+        for attr, needed in (("vertex_buffer", n_vertices * VERTEX_BYTES),
+                             ("index_buffer", n_triangles * INDEX_BYTES)):
+            if needed > self._max_storage_bytes():
+                raise GPULimitError(
+                    f"the mesh at this level ({n_vertices} vertices, {n_triangles} triangles) needs "
+                    f"{needed >> 20} MiB in one buffer, above this GPU's {self._max_storage_bytes() >> 20} MiB "
+                    "storage-block limit; pick another level, crop the volume, or use backend='cpu'")
+            buf = getattr(self, attr)
+            if buf.size < needed:
+                size = min(max(needed, int(buf.size * 1.5)), self._max_storage_bytes())
+                buf.release()
+                setattr(self, attr, self.ctx.buffer(reserve=size))
+
+    # -- extraction -------------------------------------------------------------------------
+
+    def _set_common_uniforms(self, level: float) -> None:
+        sign = 1.0 if self.descent else -1.0
+        for program in self._passes.values():
+            set_uniforms(program, u_dims=self.shape, u_words=self.words_per_row,
+                         u_word_count=self.word_count, u_level=float(np.float32(sign * level)),
+                         u_sign=sign, u_spacing=self.spacing, u_volume=0)
+
+    def _run(self, name: str, invocations: int) -> None:
+        dispatch_groups(self._passes[name], -(-invocations // LOCAL_SIZE))
+        self.ctx.memory_barrier()
+
+    def extract(self, level: float) -> tuple[int, int]:
+        """Extract the surface at `level` into vertex_buffer/index_buffer; returns (vertices, triangles)."""
+        level = validation.as_level(level, self.value_range)
+        start = time.perf_counter()
+        self._set_common_uniforms(level)
+        self._volume.use(location=0)
+        self._signs.bind_to_storage_buffer(0)
+        self._vertex_offsets.bind_to_storage_buffer(1)
+        self._triangle_offsets.bind_to_storage_buffer(2)
+        self._axis_counts.bind_to_storage_buffer(3)
+        self._case_table.bind_to_storage_buffer(4)
+
+        self._run("mc_signs", self.word_count)
+        self._run("mc_classify", self.word_count + 1)
+        self._scan(self._vertex_offsets, self.word_count + 1)
+        self._scan(self._triangle_offsets, self.word_count + 1)
+        total_offset = self.word_count * 4
+        n_vertices = int(np.frombuffer(self._vertex_offsets.read(4, total_offset), np.uint32)[0])
+        n_triangles = int(np.frombuffer(self._triangle_offsets.read(4, total_offset), np.uint32)[0])
+
+        self._ensure_output(n_vertices, n_triangles)
+        if n_vertices:
+            # The scan rebound slots 0 and 1; put the passes' buffers back.
+            self._signs.bind_to_storage_buffer(0)
+            self._vertex_offsets.bind_to_storage_buffer(1)
+            self._triangle_offsets.bind_to_storage_buffer(2)
+            self.vertex_buffer.bind_to_storage_buffer(5)
+            self.index_buffer.bind_to_storage_buffer(6)
+            self._run("mc_vertices", self.word_count)
+            if n_triangles:
+                self._run("mc_triangles", self.word_count)
+        self.ctx.finish()
+
+        self.n_vertices, self.n_triangles, self.level = n_vertices, n_triangles, level
+        self.last_extract_ms = (time.perf_counter() - start) * 1000.0
+        return n_vertices, n_triangles
+
+    def read_mesh(self):
+        """The last extraction as numpy arrays: verts, faces, normals, values (skimage's layout)."""
+        records = np.frombuffer(self.vertex_buffer.read(self.n_vertices * VERTEX_BYTES), np.float32)
+        records = records.reshape(self.n_vertices, 8)
+        faces = np.frombuffer(self.index_buffer.read(self.n_triangles * INDEX_BYTES), np.uint32)
+        return (np.ascontiguousarray(records[:, :3]), faces.reshape(-1, 3).astype(np.int32),
+                np.ascontiguousarray(records[:, 4:7]), np.ascontiguousarray(records[:, 3]))
+
+    def scratch_bytes(self) -> int:
+        """GPU memory beyond the volume texture and the mesh buffers."""
+        return sum(b.size for b in (self._signs, self._vertex_offsets, self._triangle_offsets,
+                                    self._axis_counts, self._case_table)) + sum(
+            b.size for b in self._scan._scratch.values())
+
+    def release(self) -> None:
+        for obj in (self._volume, self._signs, self._vertex_offsets, self._triangle_offsets,
+                    self._axis_counts, self._case_table, self.vertex_buffer, self.index_buffer):
+            obj.release()
+        self._scan.release()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.release()

@@ -1,0 +1,40 @@
+"""Compiled compute programs, one set per GL context, and the dispatch helper they share."""
+from __future__ import annotations
+
+import weakref
+
+import moderngl
+
+from .resources import shader_source
+
+MAX_GROUPS_PER_DIMENSION = 65535
+
+_cache: "weakref.WeakKeyDictionary[moderngl.Context, dict]" = weakref.WeakKeyDictionary()
+
+
+def compute_program(ctx: moderngl.Context, name: str, defines: dict | None = None) -> moderngl.ComputeShader:
+    """shaders/NAME compiled for ctx, cached: llvmpipe spends tens of ms compiling each one."""
+    programs = _cache.setdefault(ctx, {})
+    key = (name, tuple(sorted((defines or {}).items())))
+    if key not in programs:
+        programs[key] = ctx.compute_shader(shader_source(name, defines))
+    return programs[key]
+
+
+def dispatch_groups(program: moderngl.ComputeShader, groups: int) -> None:
+    """Run `groups` work groups, folded into 2-D when one dimension's limit would be passed.
+
+    Shaders rebuild the linear group id as y * num_groups.x + x and bounds-check it.
+    """
+    if groups <= 0:
+        return
+    x = min(groups, MAX_GROUPS_PER_DIMENSION)
+    y = -(-groups // x)
+    program.run(x, y, 1)
+
+
+def set_uniforms(program: moderngl.ComputeShader, **values) -> None:
+    """Set the uniforms the program uses; the GLSL compiler drops unused ones, so skip those."""
+    for name, value in values.items():
+        if name in program:
+            program[name].value = value
