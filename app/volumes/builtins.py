@@ -14,7 +14,7 @@ from typing import Callable
 import numpy as np
 
 from .errors import VolumeError
-from .grid import Box, check_resolution, sample_function
+from .grid import Box, pick_resolution, sample_function
 from .volume import Progress, Volume, finish_volume, report
 
 UNIT_BOX = Box.cube(-1.0, 1.0)
@@ -185,13 +185,9 @@ def split_builtin_spec(spec: str) -> tuple[Builtin, str | None] | None:
 
 def open_builtin(spec: str, resolution=None, progress: Progress | None = None) -> Volume:
     builtin, spec_resolution = split_builtin_spec(spec)
-    if resolution is not None and spec_resolution is not None and str(resolution) != spec_resolution:
-        raise VolumeError(f"{spec}: resolution given twice ({spec_resolution} and --resolution "
-                          f"{resolution}); give it once")
-    chosen = resolution if resolution is not None else spec_resolution
-    n = builtin.default_resolution if chosen is None else check_resolution(chosen, builtin.name)
+    n = pick_resolution(spec_resolution, resolution, builtin.default_resolution, builtin.name)
     data, spacing, notes = builtin.make(n, progress)
     report(progress, 1.0, f"{builtin.name} ready")
-    return finish_volume(data, spacing=spacing, name=builtin.name if chosen is None else f"{builtin.name}:{n}",
+    return finish_volume(data, spacing=spacing, name=builtin.name if n == builtin.default_resolution else f"{builtin.name}:{n}",
                          source=spec, gradient_direction=builtin.gradient_direction,
                          default_level=builtin.default_level, notes=notes)

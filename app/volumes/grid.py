@@ -47,6 +47,15 @@ def check_resolution(resolution, what: str) -> int:
     return n
 
 
+def pick_resolution(in_spec, from_flag, default: int, what: str) -> int:
+    """The resolution from the spec ("sphere:96", "res=96") or --resolution; both must agree."""
+    if in_spec is not None and from_flag is not None and str(from_flag).strip() != str(in_spec).strip():
+        raise VolumeError(f"{what}: resolution given twice ({in_spec} in the spec and --resolution "
+                          f"{from_flag}); give it once")
+    chosen = from_flag if from_flag is not None else in_spec
+    return default if chosen is None else check_resolution(chosen, what)
+
+
 def sample_function(fn: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray], box: Box,
                     shape: tuple[int, int, int], *, dtype=np.float32, what: str = "field",
                     progress: Progress | None = None) -> np.ndarray:

@@ -120,8 +120,13 @@ def as_numeric_3d(data: np.ndarray, what: str) -> tuple[np.ndarray, list[str]]:
     return np.ascontiguousarray(data), notes
 
 
-def check_values(data: np.ndarray, what: str, progress: Progress | None = None) -> None:
-    """Refuse NaN/Inf samples and constant volumes, naming where and what."""
+def _at_index(index) -> str:
+    return f"at index {tuple(int(i) for i in index)}; replace them (e.g. np.nan_to_num) before loading"
+
+
+def check_values(data: np.ndarray, what: str, progress: Progress | None = None,
+                 where: Callable[[tuple], str] = _at_index) -> None:
+    """Refuse NaN/Inf samples and constant volumes; `where` words the first bad sample's place and fix."""
     plane_bytes = max(1, data[0].nbytes)
     step = max(1, _CHECK_SLAB_BYTES // plane_bytes)
     lo, hi = np.inf, -np.inf
@@ -132,13 +137,9 @@ def check_values(data: np.ndarray, what: str, progress: Progress | None = None) 
             if bad.any():
                 index = np.unravel_index(int(np.argmax(bad)), slab.shape)
                 index = (index[0] + start,) + tuple(index[1:])
-                value = data[index]
                 count = int(np.count_nonzero(~np.isfinite(data)))
-                raise VolumeError(
-                    f"{what} has {count} NaN/Inf sample(s), the first {value} at index "
-                    f"{tuple(int(i) for i in index)}; replace them (e.g. np.nan_to_num) "
-                    f"before loading"
-                )
+                raise VolumeError(f"{what} has {count} NaN/Inf sample(s), the first ({data[index]}) "
+                                  f"{where(index)}")
         lo = min(lo, float(slab.min()))
         hi = max(hi, float(slab.max()))
         if data.shape[0] > step:
@@ -146,17 +147,18 @@ def check_values(data: np.ndarray, what: str, progress: Progress | None = None) 
     if lo == hi:
         raise VolumeError(
             f"{what} is constant (every sample is {lo:g}), so no level has a surface; "
-            f"check that the right file or frame was loaded"
+            f"check the file, frame or formula"
         )
 
 
 def finish_volume(data: np.ndarray, *, spacing, name: str, source: str, gradient_direction: str,
                   default_level: float | None, notes: list[str] | None = None,
-                  what: str | None = None, progress: Progress | None = None) -> Volume:
+                  what: str | None = None, progress: Progress | None = None,
+                  where: Callable[[tuple], str] = _at_index) -> Volume:
     """The single gate: shape, dtype and value checks, then the record."""
     what = what or name
     data, dtype_notes = as_numeric_3d(np.asarray(data), what)
-    check_values(data, what, progress)
+    check_values(data, what, progress, where)
     spacing = tuple(float(s) for s in spacing)
     if len(spacing) != 3 or not all(np.isfinite(s) and s > 0 for s in spacing):
         raise VolumeError(f"{what}: spacing {spacing} must be three positive numbers")

@@ -1,0 +1,65 @@
+"""Sampling a parsed expression on the GPU: the only module here that touches GL.
+
+The expression becomes the EXPR_FIELD macro of shaders/expr_sample.comp; the
+grid is filled a slab of axis-0 planes at a time into one reused SSBO, sized
+under GL_MAX_SHADER_STORAGE_BLOCK_SIZE (128 MiB on llvmpipe), and read back
+into the numpy array the Volume will hold.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from app.resources import shader_source
+
+from .expression import to_glsl
+from .grid import Box
+from .volume import Progress, refuse_if_too_big, report
+
+LOCAL_SIZE = (8, 8, 1)  # matches expr_sample.comp; 8x8x1 is the fast shape on llvmpipe
+_SLAB_BYTES = 64 << 20  # smaller slabs keep the progress bar moving and the read-back cheap
+
+
+def _slab_planes(ctx, shape) -> int:
+    limit = int(ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27))
+    plane_bytes = shape[1] * shape[2] * 4
+    return max(1, min(shape[0], min(limit, _SLAB_BYTES) // plane_bytes))
+
+
+def _set_uniform(program, name: str, value) -> None:
+    # The compiler drops uniforms an expression does not need (no x: no u_first).
+    uniform = program.get(name, None)
+    if uniform is not None:
+        uniform.value = value
+
+
+def sample_on_gpu(tree, box: Box, shape: tuple[int, int, int], ctx=None,
+                  progress: Progress | None = None) -> np.ndarray:
+    """float32 samples of the expression tree at lo + index * step, axis 0 first."""
+    if ctx is None:
+        from app.gl_context import current_or_standalone
+        ctx = current_or_standalone()
+    refuse_if_too_big(shape, 4, "the expression grid")
+    out = np.empty(shape, dtype=np.float32)
+    program = ctx.compute_shader(shader_source("expr_sample.comp", defines={"EXPR_FIELD": to_glsl(tree)}))
+    planes = _slab_planes(ctx, shape)
+    buffer = ctx.buffer(reserve=planes * shape[1] * shape[2] * 4)
+    try:
+        _set_uniform(program, "u_shape", tuple(int(n) for n in shape))
+        _set_uniform(program, "u_lo", tuple(float(v) for v in box.lo))
+        _set_uniform(program, "u_step", tuple(float(s) for s in box.spacing(shape)))
+        buffer.bind_to_storage_buffer(0)
+        groups_x = -(-shape[2] // LOCAL_SIZE[0])
+        groups_y = -(-shape[1] // LOCAL_SIZE[1])
+        for first in range(0, shape[0], planes):
+            count = min(planes, shape[0] - first)
+            _set_uniform(program, "u_first", first)
+            _set_uniform(program, "u_planes", count)
+            program.run(groups_x, groups_y, count)
+            slab_bytes = count * shape[1] * shape[2] * 4
+            out[first:first + count] = np.frombuffer(buffer.read(size=slab_bytes), dtype=np.float32
+                                                     ).reshape(count, shape[1], shape[2])
+            report(progress, (first + count) / shape[0], "sampling the expression on the GPU")
+    finally:
+        buffer.release()
+        program.release()
+    return out
