@@ -1,0 +1,6 @@
+"""`python -m app` is the `isoscope` command."""
+import sys
+
+from .cli import main
+
+sys.exit(main())

@@ -1,0 +1,76 @@
+"""The viewer's scene without a window: render into a multisampled FBO of an EGL context.
+
+`isoscope render` and the tests use this; it draws exactly what the window
+draws (same state, renderer and panel), so a PNG from here shows what a user
+would see.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..gl_context import standalone
+from ..volumes import Volume
+from .camera import OrbitCamera
+from .panel import ImguiLayer, Panel
+from .renderer import OffscreenTarget, SceneRenderer
+from .screenshot import save_png
+from .state import ViewerState
+
+
+class HeadlessViewer:
+    def __init__(self, size=(800, 600), ctx=None):
+        self.size = (int(size[0]), int(size[1]))
+        self.ctx = ctx if ctx is not None else standalone()
+        self.state = ViewerState(self.ctx)
+        self.camera = OrbitCamera()
+        self.renderer = SceneRenderer(self.ctx)
+        self.target = OffscreenTarget(self.ctx, self.size)
+        self._imgui: ImguiLayer | None = None   # made on the first render with the panel
+        self._panel = Panel(can_browse=False)
+
+    def show(self, volume: Volume, iso: float | None = None, azimuth=None, elevation=None) -> None:
+        """Load `volume` and frame it; raises ValueError with the state's one-line error on failure."""
+        if not self.state.show(volume, iso):
+            raise ValueError(self.state.error)
+        lower, upper = self.state.bounds()
+        self.camera.fit(lower, upper, azimuth, elevation)
+        self.renderer.set_box(lower, upper)
+
+    def render(self, panel: bool = False) -> np.ndarray:
+        """Re-extract if the iso value changed, draw, and return (height, width, 3) uint8 pixels."""
+        if panel:
+            self._layout_panel()   # the panel may change the state, as in the window
+        self.state.update(0.0)
+        self.target.use()
+        self.renderer.draw(self.state.extractor, self.camera, self.target.viewport, self.state.style)
+        if panel:
+            self._imgui.render()
+        return self.target.read_rgb()
+
+    def _layout_panel(self) -> None:
+        if self._imgui is None:
+            self._imgui = ImguiLayer()
+            # imgui hides a new auto-sized window for its first frame while it measures it.
+            self._imgui.new_frame(self.size)
+            self._panel.draw(self.state)
+            self._imgui.render()
+        self._imgui.new_frame(self.size)
+        self._panel.draw(self.state)
+
+    def release(self) -> None:
+        if self._imgui is not None:
+            self._imgui.shutdown()
+        self.state.release()
+        self.renderer.release()
+        self.target.release()
+
+
+def render_png(volume: Volume, out, iso: float | None = None, size=(800, 600),
+               azimuth=None, elevation=None, panel: bool = False):
+    """Render one view of `volume` to the PNG file `out`; returns its path."""
+    viewer = HeadlessViewer(size)
+    try:
+        viewer.show(volume, iso, azimuth, elevation)
+        return save_png(viewer.render(panel=panel), out)
+    finally:
+        viewer.release()

@@ -1,0 +1,171 @@
+"""The imgui side panel, and the imgui context + native backends that draw it.
+
+`ImguiLayer` owns imgui's GL objects (through imgui-bundle's C++ OpenGL3
+backend, no PyOpenGL) and, in a window, its GLFW input backend; headless
+renders feed it a display size instead.  `Panel` lays out the widgets and
+changes the viewer only through `ViewerState`.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from imgui_bundle import imgui
+
+from ..volumes import builtin_names
+from .state import ViewerState
+
+PANEL_WIDTH = 330
+ERROR_COLOR = imgui.ImVec4(1.0, 0.45, 0.40, 1.0)
+NOTE_COLOR = imgui.ImVec4(0.60, 0.85, 0.60, 1.0)
+VOLUME_FILE_FILTERS = ["Volumes", "*.npy *.npz *.nii *.nii.gz *.nrrd *.nhdr *.raw *.vol *.mhd *.tif *.tiff",
+                       "All files", "*"]
+EXPR_HINT = "sqrt(x*x+y*y+z*z)"
+
+
+class ImguiLayer:
+    def __init__(self, glfw_window_address: int | None = None):
+        """With a GLFW window's address, imgui reads that window's input; without, it is headless."""
+        self.context = imgui.create_context()
+        imgui.get_io().set_ini_filename("")  # no imgui.ini littering the working directory
+        self._has_window = glfw_window_address is not None
+        if self._has_window:
+            # install_callbacks=True chains to callbacks set on the window before this call.
+            imgui.backends.glfw_init_for_opengl(glfw_window_address, True)
+        imgui.backends.opengl3_init("#version 430")
+
+    def new_frame(self, display_size: tuple[int, int] | None = None, dt_seconds: float = 1 / 60) -> None:
+        imgui.set_current_context(self.context)
+        imgui.backends.opengl3_new_frame()
+        if self._has_window:
+            imgui.backends.glfw_new_frame()
+        else:
+            io = imgui.get_io()
+            io.display_size = imgui.ImVec2(*display_size)
+            io.delta_time = max(dt_seconds, 1e-4)
+        imgui.new_frame()
+
+    def render(self) -> None:
+        """Draw this frame's widgets into the framebuffer that is bound now."""
+        imgui.render()
+        imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
+
+    @property
+    def wants_mouse(self) -> bool:
+        return imgui.get_io().want_capture_mouse
+
+    @property
+    def wants_keyboard(self) -> bool:
+        return imgui.get_io().want_capture_keyboard
+
+    def shutdown(self) -> None:
+        imgui.set_current_context(self.context)
+        imgui.backends.opengl3_shutdown()
+        if self._has_window:
+            imgui.backends.glfw_shutdown()
+        imgui.destroy_context(self.context)
+
+
+class Panel:
+    def __init__(self, can_browse: bool = True):
+        self.can_browse = can_browse   # headless renders have no desktop to open a dialog on
+        self.expr_text = ""
+        self._file_dialog = None       # a pending portable_file_dialogs.open_file
+
+    def draw(self, state: ViewerState) -> None:
+        self._collect_file_dialog(state)
+        imgui.set_next_window_pos(imgui.ImVec2(8, 8), imgui.Cond_.first_use_ever)
+        imgui.set_next_window_size(imgui.ImVec2(PANEL_WIDTH, 0), imgui.Cond_.first_use_ever)
+        imgui.begin("isoscope")
+        self._volume_section(state)
+        self._iso_section(state)
+        self._display_section(state)
+        self._stats_section(state)
+        self._messages(state)
+        imgui.end()
+
+    # --- sections ----------------------------------------------------------
+    def _volume_section(self, state: ViewerState) -> None:
+        imgui.separator_text("Volume")
+        if state.volume is not None:
+            volume = state.volume
+            shape = "x".join(str(n) for n in volume.data.shape)
+            imgui.text_wrapped(f"{volume.name}  {shape} {volume.data.dtype}")
+            for note in volume.notes:
+                imgui.text_wrapped(note)
+        current = state.volume.name if state.volume is not None else ""
+        if imgui.begin_combo("built-in", current if current in builtin_names() else ""):
+            for name in builtin_names():
+                if imgui.selectable(name, name == current)[0]:
+                    state.open(name)
+            imgui.end_combo()
+        if state.recent.paths and imgui.begin_combo("recent", ""):
+            for path in state.recent.paths:
+                if imgui.selectable(Path(path).name + "##" + path, False)[0]:
+                    state.open(path)
+                if imgui.is_item_hovered():
+                    imgui.set_tooltip(path)
+            imgui.end_combo()
+        if self.can_browse and imgui.button("Open file...") and self._file_dialog is None:
+            import imgui_bundle.portable_file_dialogs as pfd  # spawns zenity/kdialog: only on demand
+            self._file_dialog = pfd.open_file("Open volume", str(Path.cwd()), VOLUME_FILE_FILTERS)
+        entered, self.expr_text = imgui.input_text_with_hint(
+            "expr", EXPR_HINT, self.expr_text, imgui.InputTextFlags_.enter_returns_true)
+        if (entered or imgui.button("Show expr")) and self.expr_text.strip():
+            state.open("expr:" + self.expr_text.strip())
+
+    def _iso_section(self, state: ViewerState) -> None:
+        imgui.separator_text("Iso value")
+        if state.extractor is None:
+            return
+        low, high = state.value_range
+        imgui.set_next_item_width(-1)
+        changed, value = imgui.slider_float("##iso", state.iso, low, high, "%.5g")
+        if changed:
+            state.set_iso(value)
+        # Typing an exact value: applied on Enter, so half-typed numbers do not extract.
+        typed, value = imgui.input_double("exact", state.iso, 0.0, 0.0, "%.6g",
+                                          imgui.InputTextFlags_.enter_returns_true)
+        if typed:
+            state.set_iso(value)
+        imgui.text(f"range {low:.5g} .. {high:.5g}")
+        toggled, animate = imgui.checkbox("animate (space)", state.animating)
+        if toggled and animate != state.animating:
+            state.toggle_animation()
+
+    def _display_section(self, state: ViewerState) -> None:
+        imgui.separator_text("Display")
+        style = state.style
+        style.lighting = imgui.checkbox("lighting (l)", style.lighting)[1]
+        imgui.same_line()
+        style.wireframe = imgui.checkbox("wireframe (w)", style.wireframe)[1]
+        style.show_box = imgui.checkbox("bounding box", style.show_box)[1]
+        style.front_color = tuple(imgui.color_edit3("front", list(style.front_color))[1])
+        style.back_color = tuple(imgui.color_edit3("back", list(style.back_color))[1])
+
+    def _stats_section(self, state: ViewerState) -> None:
+        imgui.separator_text("Stats")
+        imgui.text(f"vertices   {state.n_vertices:,}")
+        imgui.text(f"triangles  {state.n_triangles:,}")
+        imgui.text(f"extraction {state.extract_ms:.1f} ms")
+        imgui.text(f"frame      {state.frame_ms:.1f} ms")
+        imgui.text_wrapped(f"GL: {state.gl_renderer}")
+
+    def _messages(self, state: ViewerState) -> None:
+        if state.error:
+            imgui.separator()
+            imgui.push_text_wrap_pos(0.0)
+            imgui.text_colored(ERROR_COLOR, state.error)
+            imgui.pop_text_wrap_pos()
+        if state.message:
+            imgui.push_text_wrap_pos(0.0)
+            imgui.text_colored(NOTE_COLOR, state.message)
+            imgui.pop_text_wrap_pos()
+
+    def _collect_file_dialog(self, state: ViewerState) -> None:
+        # The dialog runs in another process; poll it so the UI keeps drawing meanwhile.
+        if self._file_dialog is None or not self._file_dialog.ready(0):
+            return
+        paths = self._file_dialog.result()
+        self._file_dialog = None
+        if paths:
+            state.open(paths[0])

@@ -1,0 +1,175 @@
+"""The viewer's state: the volume on show, its GPU extractor, the iso value, display flags, messages.
+
+The panel, the keys and the tests all change the viewer through this object;
+the window loop calls `update()` once a frame, which re-extracts whenever the
+iso value changed since the last extraction (so dragging the slider re-extracts
+on every frame in which the value moved, and never when it did not).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import moderngl
+
+from ..volumes import Volume, open_volume
+from .renderer import SurfaceStyle
+
+ANIMATION_PERIOD_S = 6.0          # one sweep up and back down
+ANIMATION_SPAN = (0.02, 0.98)     # fractions of the range; the very ends give empty surfaces
+MAX_RECENT = 8
+
+# What a bad volume or extraction can raise: one-line messages meant for the user.
+USER_ERRORS = (ValueError, OSError, moderngl.Error)
+
+
+class RecentFiles:
+    """Files the user opened, newest first, kept in a small JSON file across sessions."""
+
+    def __init__(self, path: Path | None):
+        self.path = path
+        self.paths: list[str] = []
+        if path is not None:
+            try:
+                loaded = json.loads(Path(path).read_text())
+                self.paths = [p for p in loaded if isinstance(p, str)][:MAX_RECENT]
+            except (OSError, ValueError):
+                pass  # no history yet, or an unreadable one: start afresh
+
+    @staticmethod
+    def default_path() -> Path:
+        config = os.environ.get("XDG_CONFIG_HOME") or os.path.join(os.path.expanduser("~"), ".config")
+        return Path(config) / "isoscope" / "recent.json"
+
+    def add(self, path: str) -> None:
+        path = str(Path(path).resolve())
+        self.paths = [path] + [p for p in self.paths if p != path][:MAX_RECENT - 1]
+        if self.path is not None:
+            try:
+                self.path.parent.mkdir(parents=True, exist_ok=True)
+                self.path.write_text(json.dumps(self.paths, indent=1))
+            except OSError:
+                pass  # a read-only home must not stop the viewer
+
+
+class ViewerState:
+    def __init__(self, ctx: moderngl.Context, recent: RecentFiles | None = None):
+        self.ctx = ctx                   # the context the extractor's buffers must live in (the window's)
+        self.volume: Volume | None = None
+        self.extractor = None            # app.extractor.Extractor for `volume`
+        self.iso = 0.0
+        self._extracted_iso: float | None = None
+        self.style = SurfaceStyle()
+        self.animating = False
+        self._animation_phase = 0.0
+        self.error: str | None = None    # shown in the panel until the next successful action
+        self.message: str | None = None  # e.g. where the last screenshot went
+        self.recent = recent if recent is not None else RecentFiles(None)
+        self.volume_serial = 0           # bumps on every new volume: the window refits its camera
+        self.frame_ms = 0.0
+        self.gl_renderer = ctx.info.get("GL_RENDERER", "unknown")
+
+    # --- volumes -----------------------------------------------------------
+    def open(self, spec: str, **open_options) -> bool:
+        """Open a built-in name, file path or 'expr:...'; on failure keep the current volume and set `error`."""
+        try:
+            # ctx: an expr: volume is sampled on the GPU in the viewer's own context.
+            volume = open_volume(spec, ctx=self.ctx, **open_options)
+        except USER_ERRORS as exc:
+            self.error = str(exc)
+            return False
+        shown = self.show(volume)
+        if shown and Path(spec).is_file():
+            self.recent.add(spec)
+        return shown
+
+    def show(self, volume: Volume, iso: float | None = None) -> bool:
+        """Upload `volume` to the GPU and extract its first surface; the old volume stays on failure."""
+        from ..extractor import Extractor  # imported late: `isoscope --help` needs no GL code
+        try:
+            extractor = Extractor(volume.data, spacing=volume.spacing,
+                                  gradient_direction=volume.gradient_direction, ctx=self.ctx)
+        except USER_ERRORS as exc:
+            self.error = str(exc)
+            return False
+        if self.extractor is not None:
+            self.extractor.release()
+        self.volume, self.extractor = volume, extractor
+        low, high = extractor.value_range
+        first_iso = iso if iso is not None else volume.default_level
+        self.iso = (low + high) / 2 if first_iso is None else min(max(float(first_iso), low), high)
+        self._extracted_iso = None
+        self.volume_serial += 1
+        self.error = None
+        self.update(0.0)
+        return self.error is None
+
+    # --- iso ---------------------------------------------------------------
+    @property
+    def value_range(self) -> tuple[float, float]:
+        return self.extractor.value_range if self.extractor is not None else (0.0, 1.0)
+
+    def set_iso(self, value: float) -> None:
+        low, high = self.value_range
+        self.iso = min(max(float(value), low), high)
+
+    def nudge_iso(self, fraction_of_range: float) -> None:
+        low, high = self.value_range
+        self.set_iso(self.iso + fraction_of_range * (high - low))
+
+    def toggle_animation(self) -> None:
+        self.animating = not self.animating
+        if self.animating:
+            # Start the sweep from the current value so the surface does not jump.
+            low, high = self.value_range
+            start, end = ANIMATION_SPAN
+            fraction = ((self.iso - low) / (high - low) - start) / (end - start) if high > low else 0.0
+            self._animation_phase = math.acos(1 - 2 * min(max(fraction, 0.0), 1.0)) / (2 * math.pi)
+
+    # --- per frame ---------------------------------------------------------
+    def update(self, dt_seconds: float) -> bool:
+        """Advance the animation and re-extract if the iso value moved; True when it re-extracted."""
+        if self.extractor is None:
+            return False
+        if self.animating:
+            self._animation_phase = (self._animation_phase + dt_seconds / ANIMATION_PERIOD_S) % 1.0
+            low, high = self.value_range
+            start, end = ANIMATION_SPAN
+            sweep = (1 - math.cos(2 * math.pi * self._animation_phase)) / 2  # 0 -> 1 -> 0, eased at the ends
+            self.iso = low + (high - low) * (start + (end - start) * sweep)
+        if self.iso == self._extracted_iso:
+            return False
+        try:
+            self.extractor.extract(self.iso)
+        except USER_ERRORS as exc:
+            self.error = str(exc)
+            self.animating = False
+        self._extracted_iso = self.iso  # also on failure: do not retry the same value every frame
+        return True
+
+    # --- stats for the panel ----------------------------------------------
+    @property
+    def n_vertices(self) -> int:
+        return self.extractor.n_vertices if self.extractor is not None else 0
+
+    @property
+    def n_triangles(self) -> int:
+        return self.extractor.n_triangles if self.extractor is not None else 0
+
+    @property
+    def extract_ms(self) -> float:
+        return self.extractor.last_extract_ms if self.extractor is not None else 0.0
+
+    def bounds(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """The volume's box in world units: [0, (n-1) * spacing] along each axis."""
+        if self.volume is None:
+            return (0.0, 0.0, 0.0), (1.0, 1.0, 1.0)
+        upper = tuple((n - 1) * s for n, s in zip(self.volume.data.shape, self.volume.spacing))
+        return (0.0, 0.0, 0.0), upper
+
+    def release(self) -> None:
+        if self.extractor is not None:
+            self.extractor.release()
+            self.extractor = None

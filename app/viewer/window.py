@@ -1,0 +1,216 @@
+"""The desktop window: GLFW + an OpenGL 4.3 core context, the frame loop, mouse and keys.
+
+Each frame: poll input -> lay out the panel (which may move the iso value) ->
+`state.update()` re-extracts on the GPU if the value moved -> draw the mesh
+straight from the extractor's buffers -> draw imgui on top -> swap.
+"""
+from __future__ import annotations
+
+import ctypes
+import time
+from pathlib import Path
+
+import imgui_bundle  # noqa: F401  -- before glfw: pyGLFW then loads the libglfw imgui-bundle ships
+import glfw
+import moderngl
+
+from ..volumes import Volume
+from .camera import OrbitCamera
+from .panel import ImguiLayer, Panel
+from .renderer import SceneRenderer, read_rgb
+from .screenshot import next_screenshot_path, save_png
+from .state import RecentFiles, ViewerState
+
+FRAME_MS_SMOOTHING = 0.1   # exponential moving average: a readable number, not a flicker
+MINIMISED_WAIT_S = 0.1
+
+
+class WindowUnavailable(RuntimeError):
+    """No window could be opened (no display, no OpenGL 4.3)."""
+
+
+def _glfw_error_text() -> str:
+    _, description = glfw.get_error()
+    return description.decode() if isinstance(description, bytes) else str(description or "")
+
+
+class ViewerWindow:
+    def __init__(self, volume: Volume | None = None, iso: float | None = None, size=(1280, 800),
+                 screenshot_dir=".", recent: RecentFiles | None = None, title="isoscope"):
+        if not glfw.init():
+            raise WindowUnavailable(f"cannot open a window ({_glfw_error_text() or 'no display'}); "
+                                    "run it on a desktop, or under xvfb-run, or use `isoscope render` for a PNG")
+        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 4)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
+        glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
+        glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
+        glfw.window_hint(glfw.SAMPLES, 4)             # GLFW falls back to no MSAA where there is none
+        glfw.window_hint(glfw.SCALE_TO_MONITOR, True)  # HiDPI: a window the same physical size
+        self.window = glfw.create_window(size[0], size[1], title, None, None)
+        if not self.window:
+            message = _glfw_error_text()
+            glfw.terminate()
+            raise WindowUnavailable(f"cannot create an OpenGL 4.3 core window ({message}); "
+                                    "update the graphics driver, or use `isoscope render` for a PNG")
+        glfw.make_context_current(self.window)
+        glfw.swap_interval(1)
+        self.ctx = moderngl.create_context(require=430)
+        self.screenshot_dir = Path(screenshot_dir)
+        self.state = ViewerState(self.ctx, recent if recent is not None else RecentFiles(RecentFiles.default_path()))
+        self.renderer = SceneRenderer(self.ctx)
+        self.camera = OrbitCamera()
+        self._framed_serial = -1
+        self._install_callbacks()   # before imgui's: its GLFW backend chains to these
+        self.imgui = ImguiLayer(ctypes.cast(self.window, ctypes.c_void_p).value)
+        self._scale_ui_to_monitor()
+        self.panel = Panel(can_browse=True)
+        self._drag_button: int | None = None
+        self._last_cursor = glfw.get_cursor_pos(self.window)
+        self._screenshot_requested = False
+        self._last_frame_start: float | None = None
+        self.last_screenshot: Path | None = None
+        if volume is not None:
+            self.state.show(volume, iso)
+
+    # --- loop --------------------------------------------------------------
+    def run(self) -> None:
+        try:
+            while self.draw_frame():
+                pass
+        finally:
+            self.close()
+
+    def draw_frame(self) -> bool:
+        """Process input and draw one frame; False once the window should close."""
+        glfw.poll_events()
+        if glfw.window_should_close(self.window):
+            return False
+        fb_width, fb_height = glfw.get_framebuffer_size(self.window)
+        if fb_width == 0 or fb_height == 0:
+            # Minimised: nothing to draw into; sleep until something happens.
+            glfw.wait_events_timeout(MINIMISED_WAIT_S)
+            self._last_frame_start = None
+            return True
+        now = time.perf_counter()
+        dt = 0.0 if self._last_frame_start is None else now - self._last_frame_start
+        if dt:
+            self.state.frame_ms += FRAME_MS_SMOOTHING * (1000 * dt - self.state.frame_ms)
+        self._last_frame_start = now
+
+        self.imgui.new_frame()
+        self.panel.draw(self.state)
+        self.state.update(dt)
+        if self.state.volume_serial != self._framed_serial:
+            self._frame_volume()
+
+        self.ctx.screen.use()
+        self.renderer.draw(self.state.extractor, self.camera, (0, 0, fb_width, fb_height), self.state.style)
+        self.imgui.render()
+        if self._screenshot_requested:
+            self._save_screenshot((fb_width, fb_height))
+        glfw.swap_buffers(self.window)
+        return True
+
+    def _frame_volume(self) -> None:
+        lower, upper = self.state.bounds()
+        self.camera.fit(lower, upper)
+        self.renderer.set_box(lower, upper)
+        self._framed_serial = self.state.volume_serial
+        if self.state.volume is not None:
+            glfw.set_window_title(self.window, f"isoscope - {self.state.volume.name}")
+
+    def _save_screenshot(self, size) -> None:
+        # Read the back buffer before the swap: exactly what this frame shows, panel included.
+        self._screenshot_requested = False
+        path = next_screenshot_path(self.screenshot_dir)
+        try:
+            save_png(read_rgb(self.ctx.screen, size), path)
+        except OSError as exc:
+            self.state.error = f"cannot save the screenshot to {path}: {exc.strerror}; pick a writable --screenshot-dir"
+            return
+        self.last_screenshot = path
+        self.state.message = f"screenshot saved: {path}"
+        print(self.state.message, flush=True)
+
+    def _scale_ui_to_monitor(self) -> None:
+        scale = max(glfw.get_window_content_scale(self.window))
+        if scale > 1.0:
+            from imgui_bundle import imgui
+            style = imgui.get_style()
+            style.scale_all_sizes(scale)
+            style.font_scale_dpi = scale
+
+    def close(self) -> None:
+        if self.window is None:
+            return
+        self.state.release()
+        self.renderer.release()
+        self.imgui.shutdown()
+        glfw.destroy_window(self.window)
+        glfw.terminate()
+        self.window = None
+
+    # --- input -------------------------------------------------------------
+    def _install_callbacks(self) -> None:
+        glfw.set_char_callback(self.window, self._on_char)
+        glfw.set_key_callback(self.window, self._on_key)
+        glfw.set_mouse_button_callback(self.window, self._on_mouse_button)
+        glfw.set_cursor_pos_callback(self.window, self._on_cursor)
+        glfw.set_scroll_callback(self.window, self._on_scroll)
+        glfw.set_drop_callback(self.window, self._on_drop)
+
+    def _typing_in_panel(self) -> bool:
+        from imgui_bundle import imgui
+        return imgui.get_io().want_text_input
+
+    def _on_char(self, window, codepoint: int) -> None:
+        if self._typing_in_panel():
+            return
+        character = chr(codepoint)
+        state = self.state
+        actions = {
+            "=": lambda: state.nudge_iso(+0.01),
+            "-": lambda: state.nudge_iso(-0.01),
+            "+": lambda: state.nudge_iso(+0.10),
+            "_": lambda: state.nudge_iso(-0.10),
+            " ": state.toggle_animation,
+            "w": lambda: setattr(state.style, "wireframe", not state.style.wireframe),
+            "l": lambda: setattr(state.style, "lighting", not state.style.lighting),
+            "r": self.camera.reset,
+            "s": self.request_screenshot,
+        }
+        action = actions.get(character.lower() if character.isalpha() else character)
+        if action is not None:
+            action()
+
+    def request_screenshot(self) -> None:
+        self._screenshot_requested = True
+
+    def _on_key(self, window, key, scancode, action, mods) -> None:
+        if key == glfw.KEY_ESCAPE and action == glfw.PRESS and not self._typing_in_panel():
+            glfw.set_window_should_close(window, True)
+
+    def _on_mouse_button(self, window, button, action, mods) -> None:
+        if action == glfw.PRESS and not self.imgui.wants_mouse:
+            # Shift+left pans too, for one-button touchpads.
+            self._drag_button = glfw.MOUSE_BUTTON_RIGHT if (
+                button == glfw.MOUSE_BUTTON_LEFT and mods & glfw.MOD_SHIFT) else button
+            self._last_cursor = glfw.get_cursor_pos(window)
+        elif action == glfw.RELEASE:
+            self._drag_button = None
+
+    def _on_cursor(self, window, x: float, y: float) -> None:
+        dx, dy = x - self._last_cursor[0], y - self._last_cursor[1]
+        self._last_cursor = (x, y)
+        if self._drag_button == glfw.MOUSE_BUTTON_LEFT:
+            self.camera.orbit(dx, dy)
+        elif self._drag_button in (glfw.MOUSE_BUTTON_RIGHT, glfw.MOUSE_BUTTON_MIDDLE):
+            self.camera.pan(dx, dy, glfw.get_window_size(window)[1])
+
+    def _on_scroll(self, window, x_offset: float, y_offset: float) -> None:
+        if not self.imgui.wants_mouse:
+            self.camera.zoom(y_offset)
+
+    def _on_drop(self, window, paths) -> None:
+        if paths:
+            self.state.open(paths[0])

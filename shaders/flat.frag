@@ -1,0 +1,8 @@
+#version 430
+// One flat colour: the wireframe overlay and the bounding box.
+uniform vec3 u_color;
+out vec4 frag_color;
+
+void main() {
+    frag_color = vec4(u_color, 1.0);
+}
