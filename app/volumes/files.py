@@ -24,7 +24,11 @@ def resolve_path(spec: str) -> tuple[Path, str | None]:
         head, sep, array_name = spec.rpartition(":")
         if sep and head.lower().endswith(".npz") and Path(head).expanduser().is_file():
             return Path(head).expanduser(), array_name
-        raise VolumeError(f"no such file or built-in volume: {spec} (check the path; "
+        from difflib import get_close_matches
+        from .builtins import BUILTINS
+        close = get_close_matches(spec.lower(), list(BUILTINS), n=1)
+        hint = f"did you mean {close[0]}? " if close else ""
+        raise VolumeError(f"no such file or built-in volume: {spec} ({hint}check the path; "
                           f"`isoscope volumes` lists the built-ins)")
     if path.is_dir():
         raise VolumeError(f"{spec} is a directory; give one volume file inside it")

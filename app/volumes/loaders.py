@@ -149,21 +149,25 @@ def load_nifti(path: Path, frame: int | None, progress: Progress | None = None) 
         dtype = image.header.get_data_dtype()
         zooms = tuple(float(z) for z in image.header.get_zooms())
     except (ImageFileError, OSError, EOFError, ValueError) as exc:
+        _raise_if_broken_gzip(path)
         raise VolumeError(f"{path.name} is not a readable NIfTI file ({_reason(exc)}); check the file") from None
     except Exception as exc:
         _raise_if_corrupt_compression(exc, path)
         raise
     refuse_if_too_big(shape[:3], max(dtype.itemsize, 4 if _nifti_scaled(image) else 1), path.name)
     notes: list[str] = []
+    one_frame_of_many = len(shape) == 4 or (len(shape) > 4 and all(n == 1 for n in shape[4:]))
+    if one_frame_of_many:
+        index = _frame_index(frame, shape[3], path.name)
+        notes.append(_frame_note(path.name, index, shape[3]))
+    else:
+        _refuse_frame(frame, path.name, len(shape))
     report(progress, 0.0, f"reading {path.name}")
     try:
-        if len(shape) == 4 or (len(shape) > 4 and all(n == 1 for n in shape[4:])):
-            index = _frame_index(frame, shape[3], path.name)
-            notes.append(_frame_note(path.name, index, shape[3]))
+        if one_frame_of_many:
             # Slicing the proxy reads one frame only, and applies the header's scaling.
             data = np.asarray(image.dataobj[:, :, :, index, ...]).reshape(shape[:3])
         else:
-            _refuse_frame(frame, path.name, len(shape))
             data = np.asarray(image.dataobj)
     except (OSError, EOFError, ValueError) as exc:
         raise VolumeError(f"{path.name} is damaged or truncated ({_reason(exc)}); export it again") from None
@@ -182,6 +186,20 @@ def _raise_if_corrupt_compression(exc: Exception, path: Path) -> None:
     # zlib.error is not an OSError; it is what a corrupt deflate stream raises.
     if type(exc).__module__ in ("zlib", "_bz2", "bz2", "gzip"):
         raise VolumeError(f"{path.name}: its compressed data is corrupt ({exc}); export it again") from None
+
+
+def _raise_if_broken_gzip(path: Path) -> None:
+    """nibabel reports a cut-off .gz as an unknown file type; say what is really wrong."""
+    if not path.name.lower().endswith(".gz"):
+        return
+    import gzip
+    import zlib
+    try:
+        with gzip.open(path) as stream:
+            stream.read(1 << 16)
+    except (EOFError, OSError, zlib.error) as exc:
+        raise VolumeError(f"{path.name} is a corrupt or truncated gzip file ({_reason(exc)}); "
+                          f"download or export it again") from None
 
 
 def _reason(exc: Exception) -> str:
