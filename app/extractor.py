@@ -175,6 +175,9 @@ class Extractor:
 
     def read_mesh(self):
         """The last extraction as numpy arrays: verts, faces, normals, values (skimage's layout)."""
+        if self.n_vertices == 0:
+            from .api import empty_mesh
+            return empty_mesh()
         records = np.frombuffer(self.vertex_buffer.read(self.n_vertices * VERTEX_BYTES), np.float32)
         records = records.reshape(self.n_vertices, 8)
         faces = np.frombuffer(self.index_buffer.read(self.n_triangles * INDEX_BYTES), np.uint32)

@@ -1,0 +1,23 @@
+"""Shared fixtures: one real EGL (llvmpipe) context for the session, and small fields."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+
+@pytest.fixture(scope="session")
+def gl_ctx():
+    from app.gl_context import current_or_standalone
+    return current_or_standalone()
+
+
+def grid(n, lo=-1.0, hi=1.0):
+    axis = np.linspace(lo, hi, n, dtype=np.float64)
+    return np.meshgrid(axis, axis, axis, indexing="ij")
+
+
+@pytest.fixture
+def sphere_sdf():
+    """64^3 signed distance to a sphere of radius 0.6 in [-1, 1]^3 (negative inside): (field, radius, voxel)."""
+    x, y, z = grid(64)
+    return (np.sqrt(x * x + y * y + z * z) - 0.6).astype(np.float32), 0.6, 2.0 / 63

@@ -1,0 +1,50 @@
+"""Independent facts about triangle meshes, computed from the arrays alone."""
+from __future__ import annotations
+
+import numpy as np
+
+
+def directed_edges(faces):
+    return np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+
+
+def edge_use_counts(faces):
+    """Map undirected edge -> number of triangles using it."""
+    undirected = np.sort(directed_edges(faces), axis=1)
+    edges, counts = np.unique(undirected, axis=0, return_counts=True)
+    return edges, counts
+
+
+def assert_closed_manifold(faces):
+    """Every edge in exactly two triangles, traversed in opposite directions (consistent winding)."""
+    _, counts = edge_use_counts(faces)
+    assert counts.size and (counts == 2).all(), f"edge use counts: {np.bincount(counts)}"
+    directed = directed_edges(faces)
+    assert len(np.unique(directed, axis=0)) == len(directed), "some edge is traversed twice the same way"
+
+
+def triangle_areas(verts, faces):
+    tri = verts[faces].astype(np.float64)
+    return 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+
+
+def signed_volume(verts, faces):
+    tri = verts[faces].astype(np.float64)
+    return np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6.0
+
+
+def euler_characteristic(verts, faces):
+    edges, _ = edge_use_counts(faces)
+    return len(np.unique(faces)) - len(edges) + len(faces)
+
+
+def sign_changing_edges(volume, level, descent=True):
+    """Grid edges whose two samples are on different sides of the level (ties count as inside)."""
+    inside = volume >= level if descent else volume <= level
+    return int(sum(np.count_nonzero(np.diff(inside.astype(np.int8), axis=a)) for a in range(3)))
+
+
+def assert_clean_geometry(verts, faces):
+    """No zero-area triangle and no two vertices at one position."""
+    assert len(faces) == 0 or triangle_areas(verts, faces).min() > 0
+    assert len(np.unique(verts, axis=0)) == len(verts), "two vertices share a position"

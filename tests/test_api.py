@@ -1,0 +1,87 @@
+"""app.marching_cubes speaks scikit-image's conventions and rejects bad input clearly."""
+import numpy as np
+import pytest
+from skimage import measure
+
+import app
+from mesh_checks import sign_changing_edges
+
+
+def sphere(n=32, r=0.55, centre=(0.02, -0.03, 0.01)):
+    x, y, z = np.meshgrid(*[np.linspace(-1, 1, n)] * 3, indexing="ij")
+    return (np.sqrt((x - centre[0]) ** 2 + (y - centre[1]) ** 2 + (z - centre[2]) ** 2) - r).astype(np.float32)
+
+
+def sorted_rows(a):
+    return a[np.lexsort(a.T[::-1])]
+
+
+@pytest.mark.parametrize("backend", ["cpu", "gpu"])
+def test_vertices_match_scikit_image_on_a_generic_field(backend):
+    """Same vertex per crossing edge (array-index order, scaled by spacing) as skimage's marching cubes."""
+    volume = sphere()
+    spacing = (1.0, 0.5, 2.0)
+    verts, faces, normals, values = app.marching_cubes(volume, 0.0, spacing=spacing, backend=backend)
+    sk_verts, sk_faces, _, _ = measure.marching_cubes(volume, 0.0, spacing=spacing)
+    assert len(verts) == len(sk_verts) == sign_changing_edges(volume, 0.0)
+    # Equal up to the 1/256-of-an-edge margin that keeps our vertices off grid points.
+    np.testing.assert_allclose(sorted_rows(verts), sorted_rows(sk_verts), atol=max(spacing) / 256 + 1e-4)
+    assert faces.dtype == np.int32 and faces.shape[1] == 3
+    assert np.allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-5)
+    # Values are the field at the vertex: the level, but for the edge margin's shift.
+    largest_step = max(np.abs(np.diff(volume, axis=a)).max() for a in range(3))
+    assert np.abs(values).max() <= largest_step / 256 + 1e-6
+
+
+def test_level_none_is_the_middle_of_the_range():
+    volume = sphere()
+    mid = (float(volume.min()) + float(volume.max())) / 2
+    a = app.marching_cubes(volume, backend="cpu")
+    b = app.marching_cubes(volume, mid, backend="cpu")
+    np.testing.assert_array_equal(a[1], b[1])
+
+
+def test_ascent_on_a_field_equals_descent_on_its_negation():
+    volume = sphere()
+    a = app.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="gpu")
+    b = app.marching_cubes(-volume, 0.0, gradient_direction="descent", backend="gpu")
+    np.testing.assert_array_equal(a[1], b[1])
+    np.testing.assert_allclose(a[0], b[0], atol=1e-6)
+    np.testing.assert_allclose(a[2], b[2], atol=1e-6)
+    np.testing.assert_allclose(a[3], -b[3], atol=1e-6)
+
+
+def test_auto_backend_uses_the_gpu_here():
+    volume = sphere(20)
+    a = app.marching_cubes(volume, 0.0, backend="auto")
+    b = app.marching_cubes(volume, 0.0, backend="gpu")
+    np.testing.assert_array_equal(a[1], b[1])
+
+
+def test_integer_and_boolean_volumes_are_accepted():
+    volume = (sphere(16) < 0).astype(np.uint8) * 200
+    verts, faces, _, _ = app.marching_cubes(volume, 100, backend="gpu")
+    assert len(verts) == sign_changing_edges(volume.astype(np.float32), 100.0)
+
+
+BAD = [
+    (np.zeros((4, 4)), 0.0, {}, "3-D"),
+    (np.zeros((4, 1, 4)), 0.0, {}, "shorter than 2"),
+    (np.arange(27.0).reshape(3, 3, 3), 99.0, {}, "outside the data range"),
+    (np.where(np.arange(27) == 4, np.nan, 1.0).reshape(3, 3, 3), 0.5, {}, "NaN or Inf"),
+    (np.where(np.arange(27) == 4, np.inf, 1.0).reshape(3, 3, 3), 0.5, {}, "NaN or Inf"),
+    (np.arange(27.0).reshape(3, 3, 3), 5.0, {"spacing": (1.0, -1.0, 1.0)}, "positive"),
+    (np.arange(27.0).reshape(3, 3, 3), 5.0, {"spacing": (1.0, 1.0)}, "3 values"),
+    (np.arange(27.0).reshape(3, 3, 3), 5.0, {"spacing": "abc"}, "spacing"),
+    (np.arange(27.0).reshape(3, 3, 3), 5.0, {"gradient_direction": "up"}, "gradient_direction"),
+    (np.arange(27.0).reshape(3, 3, 3), 5.0, {"backend": "cuda"}, "backend"),
+    (np.array([["a"] * 2] * 2 * 2).reshape(2, 2, 2), 0.0, {}, "dtype"),
+]
+
+
+@pytest.mark.parametrize("volume, level, kwargs, words", BAD)
+def test_bad_input_raises_one_line_value_error(volume, level, kwargs, words):
+    with pytest.raises(ValueError) as err:
+        app.marching_cubes(volume, level, **kwargs)
+    message = str(err.value)
+    assert words in message and "\n" not in message

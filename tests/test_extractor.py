@@ -1,0 +1,131 @@
+"""The compute-shader extractor on a real EGL context, checked against the numpy reference and facts."""
+import numpy as np
+import pytest
+
+from app.extractor import VERTEX_BYTES, Extractor
+from app.reference import marching_cubes_reference
+from app.scan import ExclusiveScan
+from mesh_checks import (assert_clean_geometry, assert_closed_manifold, edge_use_counts,
+                         sign_changing_edges, signed_volume)
+
+RNG = np.random.default_rng(20261122)
+
+
+def gpu_mesh(ctx, volume, level, **kwargs):
+    with Extractor(volume, ctx=ctx, **kwargs) as ex:
+        ex.extract(level)
+        return ex.read_mesh()
+
+
+def assert_same_mesh(gpu, cpu):
+    (gv, gf, gn, gval), (cv, cf, cn, cval) = gpu, cpu
+    assert gf.dtype == np.int32 and gv.dtype == np.float32
+    np.testing.assert_array_equal(gf, cf)
+    np.testing.assert_allclose(gv, cv, rtol=1e-6, atol=1e-5)
+    np.testing.assert_allclose(gn, cn, atol=1e-5)
+    np.testing.assert_allclose(gval, cval, rtol=1e-5, atol=1e-5)
+
+
+@pytest.mark.parametrize("shape", [(2, 2, 2), (300, 300, 2), (17, 5, 33), (3, 2, 65), (2, 31, 32), (6, 4, 97)])
+def test_any_grid_size_matches_the_reference(gl_ctx, shape):
+    volume = RNG.normal(size=shape).astype(np.float32)
+    level = 0.05
+    gpu = gpu_mesh(gl_ctx, volume, level)
+    assert_same_mesh(gpu, marching_cubes_reference(volume, level))
+    assert len(gpu[0]) == sign_changing_edges(volume, level)
+
+
+@pytest.mark.parametrize("direction", ["descent", "ascent"])
+def test_ties_and_spacing_match_the_reference(gl_ctx, direction):
+    volume = RNG.integers(-2, 3, size=(19, 23, 40)).astype(np.float32)  # about a fifth of samples tie
+    spacing = (0.5, 2.0, 1.25)
+    gpu = gpu_mesh(gl_ctx, volume, 0.0, spacing=spacing, gradient_direction=direction)
+    cpu = marching_cubes_reference(volume, 0.0, spacing, direction == "descent")
+    assert_same_mesh(gpu, cpu)
+    assert len(gpu[0]) == sign_changing_edges(volume, 0.0, direction == "descent")
+
+
+def test_output_is_identical_from_run_to_run(gl_ctx):
+    volume = RNG.normal(size=(40, 33, 70)).astype(np.float32)
+    with Extractor(volume, ctx=gl_ctx) as ex:
+        ex.extract(0.2)
+        first = [a.copy() for a in ex.read_mesh()]
+        ex.extract(-0.5)
+        ex.extract(0.2)
+        second = ex.read_mesh()
+    for a, b in zip(first, second):
+        assert a.tobytes() == b.tobytes()
+
+
+def test_nothing_is_written_past_the_mesh(gl_ctx):
+    """Fill the output buffers with a sentinel, re-extract a smaller mesh, and find the tail untouched."""
+    volume = RNG.normal(size=(30, 30, 30)).astype(np.float32)
+    with Extractor(volume, ctx=gl_ctx) as ex:
+        ex.extract(0.0)
+        big_vertices = ex.n_vertices
+        sentinel_v = b"\xab" * ex.vertex_buffer.size
+        sentinel_i = b"\xcd" * ex.index_buffer.size
+        ex.vertex_buffer.write(sentinel_v)
+        ex.index_buffer.write(sentinel_i)
+        ex.extract(2.0)
+        assert 0 < ex.n_vertices < big_vertices
+        tail_v = ex.vertex_buffer.read()[ex.n_vertices * VERTEX_BYTES:]
+        tail_i = ex.index_buffer.read()[ex.n_triangles * 12:]
+        assert tail_v == sentinel_v[: len(tail_v)] and len(tail_v) > 0
+        assert tail_i == sentinel_i[: len(tail_i)] and len(tail_i) > 0
+        faces = ex.read_mesh()[1]
+        assert faces.min() >= 0 and faces.max() < ex.n_vertices
+
+
+def test_outputs_grow_with_the_mesh_and_nothing_is_dropped(gl_ctx):
+    volume = RNG.normal(size=(48, 48, 48)).astype(np.float32)
+    with Extractor(volume, ctx=gl_ctx) as ex:
+        for level in (3.0, 1.0, 0.0):  # the mesh grows at each level
+            ex.extract(level)
+            cpu = marching_cubes_reference(volume, level)
+            assert (ex.n_vertices, ex.n_triangles) == (len(cpu[0]), len(cpu[1]))
+            assert ex.vertex_buffer.size >= ex.n_vertices * VERTEX_BYTES
+
+
+def test_scan_is_exact_well_past_2_to_the_24(gl_ctx):
+    count = (1 << 24) + (1 << 20) + 7
+    values = RNG.integers(0, 200, size=count, dtype=np.uint32)
+    buf = gl_ctx.buffer(values.tobytes())
+    scan = ExclusiveScan(gl_ctx)
+    scan(buf, count)
+    got = np.frombuffer(buf.read(), np.uint32)
+    expected = np.zeros(count, np.uint64)
+    np.cumsum(values[:-1], dtype=np.uint64, out=expected[1:])
+    np.testing.assert_array_equal(got, expected.astype(np.uint32))
+    buf.release()
+    scan.release()
+
+
+def test_empty_level_gives_an_empty_mesh(gl_ctx):
+    volume = RNG.normal(size=(9, 9, 9)).astype(np.float32)
+    with Extractor(volume, ctx=gl_ctx) as ex:
+        assert ex.extract(float(volume.min())) == (0, 0)  # every sample is inside: no surface
+        verts, faces, normals, values = ex.read_mesh()
+        assert verts.shape == (0, 3) and faces.shape == (0, 3)
+
+
+def test_closed_surfaces_from_random_padded_fields_are_watertight(gl_ctx):
+    for trial in range(6):
+        shape = RNG.integers(3, 24, size=3)
+        volume = np.pad(RNG.integers(-1, 2, size=shape).astype(np.float32), 1, constant_values=-1.0)
+        verts, faces, _, _ = gpu_mesh(gl_ctx, volume, 0.0)
+        assert_closed_manifold(faces)
+        assert_clean_geometry(verts, faces)
+        assert signed_volume(verts, faces) > 0
+
+
+def test_open_surface_holes_only_at_the_volume_border(gl_ctx):
+    volume = RNG.normal(size=(20, 25, 30)).astype(np.float32)
+    verts, faces, _, _ = gpu_mesh(gl_ctx, volume, 0.0)
+    edges, counts = edge_use_counts(faces)
+    assert set(np.unique(counts)) <= {1, 2}
+    border = edges[counts == 1]
+    ends = verts[border]  # (E, 2, 3): both ends of every once-used edge lie on one border plane
+    upper = (np.array(volume.shape) - 1).astype(np.float32)
+    on_plane = (np.isclose(ends, 0.0) | np.isclose(ends, upper)).all(axis=1)
+    assert on_plane.any(axis=1).all()

@@ -1,0 +1,30 @@
+"""Shaders and sample volumes are found from a checkout and ship inside the wheel."""
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+from app import resources
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_shaders_are_found_and_includes_expand():
+    assert (resources.shaders_dir() / "mc_signs.comp").is_file()
+    source = resources.shader_source("mc_vertices.comp", {"MAX_TRIANGLES_PER_CELL": "5u"})
+    assert "#include" not in source and "uint invocation_index()" in source
+    assert source.splitlines()[0] == "#version 430"
+
+
+def test_wheel_contains_shaders_volumes_and_the_console_script(tmp_path):
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
+                    "-w", str(tmp_path), str(ROOT)], check=True)
+    wheel = next(tmp_path.glob("isoscope-*.whl"))
+    names = zipfile.ZipFile(wheel).namelist()
+    shipped = {n.split("/", 2)[-1] for n in names if n.startswith("app/_shaders/")}
+    in_checkout = {p.name for p in (ROOT / "shaders").iterdir() if p.is_file()}
+    assert in_checkout and in_checkout <= shipped
+    modules = {str(p.relative_to(ROOT)) for p in (ROOT / "app").rglob("*.py")}
+    assert modules <= set(names), f"modules missing from the wheel: {sorted(modules - set(names))}"
+    entry_points = next(n for n in names if n.endswith("entry_points.txt"))
+    assert "isoscope = app.cli:main" in zipfile.ZipFile(wheel).read(entry_points).decode()
