@@ -252,7 +252,7 @@ def evaluate(tree, x, y, z):
 
 # GLSL's own log/sqrt/pow are undefined outside their domain; the ex_* helpers in
 # shaders/expr_functions.glsl give numpy's answers instead.
-_GLSL_FUNCTIONS = {
+GLSL_FUNCTIONS = {
     "sin": "sin", "cos": "cos", "tan": "tan", "exp": "exp", "log": "ex_log",
     "sqrt": "ex_sqrt", "abs": "abs", "min": "ex_min", "max": "ex_max",
 }
@@ -277,4 +277,4 @@ def to_glsl(tree) -> str:
             return f"ex_pow({to_glsl(tree.left)}, {to_glsl(tree.right)})"
         return f"({to_glsl(tree.left)} {tree.op} {to_glsl(tree.right)})"
     args = ", ".join(to_glsl(arg) for arg in tree.args)
-    return f"{_GLSL_FUNCTIONS[tree.function]}({args})"
+    return f"{GLSL_FUNCTIONS[tree.function]}({args})"
