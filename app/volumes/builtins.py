@@ -15,7 +15,7 @@ import numpy as np
 
 from .errors import VolumeError
 from .grid import Box, pick_resolution, sample_function
-from .volume import Progress, Volume, finish_volume, report
+from .volume import Progress, Volume, finish_volume, refuse_if_too_big, report
 
 UNIT_BOX = Box.cube(-1.0, 1.0)
 
@@ -112,18 +112,27 @@ def c60_atoms() -> np.ndarray:
     return np.array(sorted(atoms))
 
 
+BUCKY_SIGMA = 0.07
+_BUCKY_CUTOFF = 5 * BUCKY_SIGMA  # exp(-12.5) * 255 < 0.001: beyond it an atom adds nothing to a uint8
+
+
 def _make_bucky(n, progress):
-    atoms = c60_atoms() * (0.75 / 4.956)  # fit in the unit box with a margin
-    sigma = 0.07
-
-    def density(x, y, z):
-        total = 0.0
-        for ax, ay, az in atoms:
-            total = total + np.exp(-((x - ax) ** 2 + (y - ay) ** 2 + (z - az) ** 2) / (2 * sigma ** 2))
-        return np.clip(np.rint(255 * total), 0, 255)
-
+    atoms = c60_atoms() * (0.75 / 4.956)  # circumradius 0.75: fits the unit box with a margin
     shape = (n, n, n)
-    data = sample_function(density, UNIT_BOX, shape, dtype=np.uint8, what="bucky", progress=progress)
+    refuse_if_too_big(shape, 4, "bucky")
+    axis = UNIT_BOX.axis(0, n)
+    density = np.zeros(shape, dtype=np.float32)
+    # Each atom touches only the samples within its cutoff: ~40x less work than summing
+    # 60 Gaussians over the whole grid, which makes bucky:256 take a moment, not seconds.
+    for done, atom in enumerate(atoms, start=1):
+        window = []
+        for a in range(3):
+            first, last = np.searchsorted(axis, (atom[a] - _BUCKY_CUTOFF, atom[a] + _BUCKY_CUTOFF))
+            window.append(slice(first, last))
+        x, y, z = (axis[window[a]].reshape([-1 if b == a else 1 for b in range(3)]) - atom[a] for a in range(3))
+        density[tuple(window)] += np.exp(-(x * x + y * y + z * z) / (2 * BUCKY_SIGMA ** 2))
+        report(progress, done / len(atoms), "computing bucky")
+    data = np.clip(np.rint(255 * density), 0, 255).astype(np.uint8)
     return data, UNIT_BOX.spacing(shape), []
 
 

@@ -47,9 +47,43 @@ def _read_npy_member(fp, what: str) -> np.ndarray:
 
 def load_npy(path: Path, progress: Progress | None = None) -> Loaded:
     with open(path, "rb") as fp:
-        report(progress, 0.0, f"reading {path.name}")
-        data = _read_npy_member(fp, path.name)
+        shape, dtype = _npy_header(fp, path.name)
+    report(progress, 0.0, f"reading {path.name}")
+    if len(shape) < 3 or np.prod(shape, dtype=np.float64) * dtype.itemsize < _SLAB_BYTES:
+        with open(path, "rb") as fp:
+            return _read_npy_member(fp, path.name), None, []
+    # Big: map the file and copy it slab by slab, so the progress bar moves.
+    try:
+        mapped = np.load(path, mmap_mode="r", allow_pickle=False)
+    except (ValueError, OSError) as exc:
+        raise VolumeError(f"{path.name} is damaged or truncated ({_reason(exc)}); save it again with np.save") from None
+    slab_axis = len(shape) - 1 if mapped.flags.f_contiguous and not mapped.flags.c_contiguous else 0
+    data = read_in_slabs(lambda index: mapped[index], shape, slab_axis, path.name, progress)
     return data, None, []
+
+
+_SLAB_BYTES = 32 << 20
+
+
+def read_in_slabs(read, shape, axis: int, what: str, progress: Progress | None) -> np.ndarray:
+    """A new array filled by read(index) over slabs along one axis, reporting progress.
+
+    Slabbing along the axis the file stores slowest keeps each read contiguous.
+    The array takes the dtype of the first slab (a scaled NIfTI reads as float).
+    """
+    out, start, step = None, 0, 1  # one plane first, to learn the dtype; then ~_SLAB_BYTES at a time
+    plane_voxels = max(1, int(np.prod(shape, dtype=np.float64)) // shape[axis])
+    while start < shape[axis]:
+        index = [slice(None)] * len(shape)
+        index[axis] = slice(start, min(start + step, shape[axis]))
+        slab = read(tuple(index))
+        if out is None:
+            out = np.empty(shape, dtype=slab.dtype)
+            step = max(1, _SLAB_BYTES // (plane_voxels * slab.dtype.itemsize))
+        out[tuple(index)] = slab
+        start = index[axis].stop
+        report(progress, start / shape[axis], f"reading {what}")
+    return out
 
 
 def load_npz(path: Path, array_name: str | None, progress: Progress | None = None) -> Loaded:
@@ -154,27 +188,37 @@ def load_nifti(path: Path, frame: int | None, progress: Progress | None = None) 
     except Exception as exc:
         _raise_if_corrupt_compression(exc, path)
         raise
-    refuse_if_too_big(shape[:3], max(dtype.itemsize, 4 if _nifti_scaled(image) else 1), path.name)
+    itemsize = max(dtype.itemsize, 4 if _nifti_scaled(image) else 1)  # scaled data comes back as float
     notes: list[str] = []
-    one_frame_of_many = len(shape) == 4 or (len(shape) > 4 and all(n == 1 for n in shape[4:]))
-    if one_frame_of_many:
+    if len(shape) < 3 or any(n != 1 for n in shape[4:]):
+        # Not a volume or a series of them: read it so the common checks can say what it is.
+        refuse_if_too_big(shape, itemsize, path.name)
+        _refuse_frame(frame, path.name, len(shape))
+        return _read_nifti(path, lambda: np.asarray(image.dataobj)), None, notes
+    refuse_if_too_big(shape[:3], itemsize, path.name)
+    frame_index: tuple[int, ...] = ()
+    if len(shape) >= 4:
         index = _frame_index(frame, shape[3], path.name)
         notes.append(_frame_note(path.name, index, shape[3]))
+        frame_index = (index,) + (0,) * (len(shape) - 4)
     else:
         _refuse_frame(frame, path.name, len(shape))
     report(progress, 0.0, f"reading {path.name}")
+    # Slicing the proxy reads only what is asked for and applies the header's scaling;
+    # slabs along z (slowest in the file) keep the reads sequential, even through gzip.
+    data = _read_nifti(path, lambda: read_in_slabs(
+        lambda slab: np.asarray(image.dataobj[slab + frame_index]), shape[:3], 2, path.name, progress))
+    return data, zooms[:3] if len(zooms) >= 3 else None, notes
+
+
+def _read_nifti(path: Path, read):
     try:
-        if one_frame_of_many:
-            # Slicing the proxy reads one frame only, and applies the header's scaling.
-            data = np.asarray(image.dataobj[:, :, :, index, ...]).reshape(shape[:3])
-        else:
-            data = np.asarray(image.dataobj)
+        return read()
     except (OSError, EOFError, ValueError) as exc:
         raise VolumeError(f"{path.name} is damaged or truncated ({_reason(exc)}); export it again") from None
     except Exception as exc:
         _raise_if_corrupt_compression(exc, path)
         raise
-    return data, zooms[:3] if len(zooms) >= 3 else None, notes
 
 
 def _nifti_scaled(image) -> bool:
