@@ -75,8 +75,14 @@ class OrbitCamera:
     def view_matrix(self) -> np.ndarray:
         return matrix44.create_look_at(self.eye(), self.target, WORLD_UP, dtype="f4")
 
-    def projection_matrix(self, aspect: float) -> np.ndarray:
+    def projection_matrix(self, aspect: float, shift_x: float = 0.0) -> np.ndarray:
+        """Perspective for a viewport of `aspect` (width/height); `shift_x` moves the image
+        centre right by that much NDC (a lens shift), to centre the scene beside the panel."""
         # Near/far hug the scene's bounding sphere: depth precision where the surface is.
         near = max(self.distance - 1.5 * self.scene_radius, self.distance * 0.01)
         far = self.distance + 1.5 * self.scene_radius
-        return matrix44.create_perspective_projection(self.fov_degrees, max(aspect, 1e-6), near, far, dtype="f4")
+        projection = matrix44.create_perspective_projection(self.fov_degrees, max(aspect, 1e-6), near, far, dtype="f4")
+        if shift_x:
+            # pyrr composes left to right: project first, then translate in clip space.
+            projection = matrix44.multiply(projection, matrix44.create_from_translation([shift_x, 0.0, 0.0], dtype="f4"))
+        return projection

@@ -70,17 +70,20 @@ class Panel:
         self.can_browse = can_browse   # headless renders have no desktop to open a dialog on
         self.expr_text = ""
         self._file_dialog = None       # a pending portable_file_dialogs.open_file
+        self.covered_width = 0.0       # panel's right edge in imgui units (0 when collapsed)
 
     def draw(self, state: ViewerState) -> None:
         self._collect_file_dialog(state)
         imgui.set_next_window_pos(imgui.ImVec2(8, 8), imgui.Cond_.first_use_ever)
         imgui.set_next_window_size(imgui.ImVec2(PANEL_WIDTH, 0), imgui.Cond_.first_use_ever)
-        imgui.begin("isoscope")
-        self._volume_section(state)
-        self._iso_section(state)
-        self._display_section(state)
-        self._stats_section(state)
-        self._messages(state)
+        expanded, _ = imgui.begin("isoscope")
+        self.covered_width = imgui.get_window_pos().x + imgui.get_window_size().x if expanded else 0.0
+        if expanded:
+            self._messages(state)   # first: an error must be seen, even in a short window
+            self._volume_section(state)
+            self._iso_section(state)
+            self._display_section(state)
+            self._stats_section(state)
         imgui.end()
 
     # --- sections ----------------------------------------------------------
@@ -152,7 +155,6 @@ class Panel:
 
     def _messages(self, state: ViewerState) -> None:
         if state.error:
-            imgui.separator()
             imgui.push_text_wrap_pos(0.0)
             imgui.text_colored(ERROR_COLOR, state.error)
             imgui.pop_text_wrap_pos()

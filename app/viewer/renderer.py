@@ -16,7 +16,8 @@ from ..resources import shader_source
 # The extractor's 32-byte vertex record: vec4(position.xyz, value), vec4(normal.xyz, 0).
 MESH_FORMAT = "3f 1x4 3f 1x4"
 MESH_POSITION_ONLY_FORMAT = "3f 1x4 4x4"
-WIRE_COLOR = (0.05, 0.05, 0.08)
+WIRE_COLOR = (0.02, 0.02, 0.05)
+WIRE_OPACITY = 0.45
 
 # The 12 edges of a box as pairs of corner indices; corner i has bit k set when axis k is at `upper`.
 _BOX_EDGES = [(a, b) for a in range(8) for b in range(8) if a < b and bin(a ^ b).count("1") == 1]
@@ -73,10 +74,12 @@ class SceneRenderer:
         self._mesh_vao = self._wire_vao = None
         self._bound_buffers = (None, None)
 
-    def draw(self, mesh, camera, viewport: tuple[int, int, int, int], style: SurfaceStyle) -> None:
+    def draw(self, mesh, camera, viewport: tuple[int, int, int, int], style: SurfaceStyle,
+             covered_left: int = 0) -> None:
         """Clear `viewport` of the bound framebuffer and draw the scene into it.
 
         `mesh` has the extractor's `vertex_buffer`, `index_buffer` and `n_triangles` (or is None).
+        `covered_left`: pixels at the left hidden by the panel; the scene centres in the rest.
         """
         ctx = self.ctx
         # imgui's C++ renderer changes GL state behind moderngl's back: set all we rely on.
@@ -90,13 +93,15 @@ class SceneRenderer:
 
         width, height = viewport[2], viewport[3]
         view = camera.view_matrix().tobytes()
-        projection = camera.projection_matrix(width / max(height, 1)).tobytes()
+        shift_x = min(max(covered_left, 0), width // 2) / max(width, 1)
+        projection = camera.projection_matrix(width / max(height, 1), shift_x).tobytes()
         for program in (self.mesh_program, self.wire_program, self.box_program):
             program["u_view"].write(view)
             program["u_projection"].write(projection)
 
         if style.show_box:
             self.box_program["u_color"].value = style.box_color
+            self.box_program["u_opacity"].value = 1.0
             self.box_vao.render(moderngl.LINES)
 
         if mesh is None or mesh.n_triangles == 0:
@@ -113,8 +118,13 @@ class SceneRenderer:
         if style.wireframe:
             ctx.polygon_offset = (0.0, 0.0)
             ctx.wireframe = True
+            # Translucent lines: a dense mesh still shows the shading underneath.
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
             self.wire_program["u_color"].value = WIRE_COLOR
+            self.wire_program["u_opacity"].value = WIRE_OPACITY
             self._wire_vao.render(moderngl.TRIANGLES, vertices=n_indices)
+            ctx.disable(moderngl.BLEND)
             ctx.wireframe = False
 
     def release(self) -> None:

@@ -25,6 +25,11 @@ MAX_RECENT = 8
 USER_ERRORS = (ValueError, OSError, moderngl.Error)
 
 
+def one_line(exc: Exception) -> str:
+    """The panel shows one line: GL driver errors (shader logs) come with several."""
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
 class RecentFiles:
     """Files the user opened, newest first, kept in a small JSON file across sessions."""
 
@@ -78,7 +83,7 @@ class ViewerState:
             # ctx: an expr: volume is sampled on the GPU in the viewer's own context.
             volume = open_volume(spec, ctx=self.ctx, **open_options)
         except USER_ERRORS as exc:
-            self.error = str(exc)
+            self.error = one_line(exc)
             return False
         shown = self.show(volume)
         if shown and Path(spec).is_file():
@@ -92,7 +97,7 @@ class ViewerState:
             extractor = Extractor(volume.data, spacing=volume.spacing,
                                   gradient_direction=volume.gradient_direction, ctx=self.ctx)
         except USER_ERRORS as exc:
-            self.error = str(exc)
+            self.error = one_line(exc)
             return False
         if self.extractor is not None:
             self.extractor.release()
@@ -144,7 +149,7 @@ class ViewerState:
         try:
             self.extractor.extract(self.iso)
         except USER_ERRORS as exc:
-            self.error = str(exc)
+            self.error = one_line(exc)
             self.animating = False
         self._extracted_iso = self.iso  # also on failure: do not retry the same value every frame
         return True

@@ -21,6 +21,9 @@ from .renderer import SceneRenderer, read_rgb
 from .screenshot import next_screenshot_path, save_png
 from .state import RecentFiles, ViewerState
 
+# GLFW errors reach the user through WindowUnavailable's one line, not as Python warnings.
+glfw.ERROR_REPORTING = "ignore"
+
 FRAME_MS_SMOOTHING = 0.1   # exponential moving average: a readable number, not a flicker
 MINIMISED_WAIT_S = 0.1
 
@@ -104,7 +107,9 @@ class ViewerWindow:
             self._frame_volume()
 
         self.ctx.screen.use()
-        self.renderer.draw(self.state.extractor, self.camera, (0, 0, fb_width, fb_height), self.state.style)
+        pixels_per_unit = fb_width / max(glfw.get_window_size(self.window)[0], 1)  # framebuffer scale
+        self.renderer.draw(self.state.extractor, self.camera, (0, 0, fb_width, fb_height), self.state.style,
+                           covered_left=int(self.panel.covered_width * pixels_per_unit))
         self.imgui.render()
         if self._screenshot_requested:
             self._save_screenshot((fb_width, fb_height))
