@@ -153,7 +153,7 @@ def test_cli_flags_reach_the_loader(tmp_path, ramp):
 
 
 def test_progress_is_reported_while_reading_a_raw_file(tmp_path, monkeypatch):
-    from app.volumes import raw
+    from app.volumes import raw_format as raw
     data = np.arange(64 * 64 * 64, dtype=np.float32).reshape(64, 64, 64)
     data.ravel(order="F").tofile(tmp_path / "p.raw")
     monkeypatch.setattr(raw, "_READ_CHUNK", 1 << 16)  # 16 reads instead of one, to see progress move

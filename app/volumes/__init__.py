@@ -76,7 +76,7 @@ def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, 
     if resolution is not None:
         raise VolumeError(f"--resolution applies to built-ins and expr: volumes, not to the file "
                           f"{spec}; drop it")
-    from .files import open_file
+    from .loaders import open_file
     return open_file(spec, progress=progress, spacing=spacing, **file_only)
 
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from .raw import RAW_DTYPES
+from .raw_format import RAW_DTYPES
 from .volume import Progress, Volume
 
 

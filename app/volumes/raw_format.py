@@ -50,7 +50,7 @@ def _read_sidecar(path: Path) -> dict:
     return keys
 
 
-def _three(values, flag: str, kind, where: str):
+def three_positive(values, flag: str, kind, where: str):
     try:
         items = [kind(v) for v in values]
     except (TypeError, ValueError):
@@ -75,7 +75,7 @@ def raw_layout(path: Path, dims=None, dtype=None, endian=None, spacing=None) -> 
     if dims is None:
         raise VolumeError(f"{path.name} is raw data with no header: give --dims X Y Z (and --dtype), "
                           f"or write {path.name}.json with {{\"dims\": [X, Y, Z], \"dtype\": \"uint8\"}}")
-    dims = _three(dims, "--dims", int, where)
+    dims = three_positive(dims, "--dims", int, where)
     dtype_name = str(dtype if dtype is not None else keys.get("dtype", "uint8")).lower()
     if dtype_name not in RAW_DTYPES:
         raise VolumeError(f"unknown --dtype {dtype_name!r}; use one of {', '.join(RAW_DTYPES)}")
@@ -83,7 +83,7 @@ def raw_layout(path: Path, dims=None, dtype=None, endian=None, spacing=None) -> 
     if endian_name not in ENDIANS:
         raise VolumeError(f"unknown --endian {endian_name!r}; use little or big")
     spacing = spacing if spacing is not None else keys.get("spacing")
-    spacing = _three(spacing, "--spacing", float, where) if spacing is not None else None
+    spacing = three_positive(spacing, "--spacing", float, where) if spacing is not None else None
     return RawLayout(dims, np.dtype(dtype_name).newbyteorder(ENDIANS[endian_name]), spacing, notes)
 
 

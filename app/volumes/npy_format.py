@@ -1,0 +1,77 @@
+"""numpy's .npy and .npz files, read without ever unpickling.
+
+The header is parsed first, so object (pickled) arrays and shapes too big for
+memory are refused before a byte of data is read. 4-D arrays are stacks of
+volumes, frames along axis 0 (np.stack(volumes)); the caller picks one.
+"""
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from .errors import VolumeError
+from .reading import SLAB_BYTES, Loaded, damaged, read_in_slabs
+from .volume import Progress, refuse_if_too_big, report
+
+_RESAVE = "save it again with np.save"
+
+
+def read_header(fp, what: str) -> tuple[tuple[int, ...], np.dtype]:
+    """Shape and dtype from an .npy header; refuses pickles and monsters."""
+    try:
+        version = np.lib.format.read_magic(fp)
+        read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+        shape, _fortran_order, dtype = read(fp)
+    except ValueError as exc:
+        raise VolumeError(f"{what} is not a valid .npy file ({exc}); {_RESAVE}") from None
+    if dtype.hasobject:
+        raise VolumeError(f"{what} holds Python objects (a pickled array), which isoscope never "
+                          f"loads; save a numeric array with np.save(path, a.astype(np.float32))")
+    refuse_if_too_big(shape, dtype.itemsize, what)
+    return shape, dtype
+
+
+def load_npy(path: Path, progress: Progress | None = None) -> Loaded:
+    with open(path, "rb") as fp:
+        shape, dtype = read_header(fp, path.name)
+    report(progress, 0.0, f"reading {path.name}")
+    try:
+        if len(shape) < 3 or np.prod(shape, dtype=np.float64) * dtype.itemsize < SLAB_BYTES:
+            return np.load(path, allow_pickle=False), None, []
+        # Big: map the file and copy it slab by slab, so the progress bar moves.
+        mapped = np.load(path, mmap_mode="r", allow_pickle=False)
+        slab_axis = len(shape) - 1 if mapped.flags.f_contiguous and not mapped.flags.c_contiguous else 0
+        return read_in_slabs(lambda index: mapped[index], shape, slab_axis, path.name, progress), None, []
+    except (ValueError, EOFError, OSError) as exc:
+        raise damaged(path, exc, _RESAVE) from None
+
+
+def load_npz(path: Path, array_name: str | None, progress: Progress | None = None) -> Loaded:
+    """The named array of an .npz (default: the first); never unpickles."""
+    try:
+        archive = zipfile.ZipFile(path)
+    except zipfile.BadZipFile:
+        raise VolumeError(f"{path.name} is not a valid .npz (zip) file; save it with np.savez") from None
+    with archive:
+        members = [m[:-4] for m in archive.namelist() if m.endswith(".npy")]
+        if not members:
+            raise VolumeError(f"{path.name} holds no arrays; save one with np.savez(path, volume=a)")
+        name = array_name if array_name is not None else members[0]
+        if name not in members:
+            raise VolumeError(f"{path.name} has no array named {name!r}; it has "
+                              f"{', '.join(members)} (pick one as {path.name}:NAME)")
+        report(progress, 0.0, f"reading {path.name}:{name}")
+        try:
+            with archive.open(name + ".npy") as member:
+                read_header(member, f"{path.name}:{name}")
+            with archive.open(name + ".npy") as member:  # zip members cannot seek back
+                data = np.lib.format.read_array(member, allow_pickle=False)
+        except VolumeError:
+            raise
+        except (ValueError, EOFError, OSError, zipfile.BadZipFile) as exc:
+            raise damaged(path, exc, "save it again with np.savez") from None
+    notes = [f"{path.name} holds {len(members)} arrays; showing {name!r} (pick one as {path.name}:NAME)"] \
+        if len(members) > 1 and array_name is None else []
+    return data, None, notes

@@ -1,0 +1,70 @@
+"""NRRD (.nrrd, .nhdr with a detached data file) through pynrrd.
+
+pynrrd's default Fortran index order gives data[x, y, z], so axis 0 is x as
+isoscope wants. Spacing comes from "spacings" or the lengths of the "space
+directions"; a 4-D file's frame axis is the one whose kind is not spatial.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .errors import VolumeError
+from .frames import select_frame
+from .reading import Loaded, damaged, raise_if_corrupt_compression, reason
+from .volume import Progress, refuse_if_too_big, report
+
+_SPATIAL_KINDS = {"domain", "space"}
+
+
+def _itemsize(type_name: str) -> int:
+    """Bytes per sample from an NRRD "type" name; only for the size check before reading."""
+    name = type_name.lower()
+    if "char" in name or name.endswith(("int8", "int8_t")):
+        return 1
+    if "short" in name or "16" in name:
+        return 2
+    if "long" in name or "64" in name or name == "double":
+        return 8
+    return 4
+
+
+def _spacing(header: dict, spatial_axes: list[int]):
+    if "spacings" in header:
+        values = [float(header["spacings"][a]) for a in spatial_axes]
+    elif header.get("space directions") is not None:
+        values = [float(np.linalg.norm(header["space directions"][a])) for a in spatial_axes]
+    else:
+        return None
+    return tuple(values) if all(np.isfinite(v) and v > 0 for v in values) else None
+
+
+def load_nrrd(path: Path, frame: int | None, progress: Progress | None = None) -> Loaded:
+    import nrrd
+    try:
+        header = nrrd.read_header(str(path))
+    except (nrrd.NRRDError, OSError, ValueError, UnicodeDecodeError) as exc:
+        raise VolumeError(f"{path.name} has no valid NRRD header ({reason(exc)}); check the file") from None
+    if header.get("type") == "block":
+        raise VolumeError(f"{path.name} holds NRRD 'block' samples, not numbers; save a numeric type")
+    refuse_if_too_big([int(s) for s in header.get("sizes", [])],
+                      _itemsize(str(header.get("type", "double"))), path.name)
+    report(progress, 0.0, f"reading {path.name}")  # pynrrd reads in one call: no finer progress
+    try:
+        data, header = nrrd.read(str(path))
+    except (nrrd.NRRDError, OSError, EOFError, ValueError) as exc:
+        raise damaged(path, exc) from None
+    except Exception as exc:
+        raise_if_corrupt_compression(exc, path)
+        raise
+    notes: list[str] = []
+    spatial_axes = list(range(data.ndim))
+    if data.ndim == 4:
+        kinds = [str(k).lower() for k in header.get("kinds", [])]
+        frame_axis = next((a for a, k in enumerate(kinds) if k not in _SPATIAL_KINDS), 3)
+        data, notes = select_frame(data, frame_axis, frame, path.name)
+        spatial_axes.remove(frame_axis)
+    else:
+        data, notes = select_frame(data, 0, frame, path.name)  # refuses --frame on 3-D data
+    return data, _spacing(header, spatial_axes) if len(spatial_axes) == 3 else None, notes
