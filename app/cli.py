@@ -69,6 +69,9 @@ def viewer_parser() -> argparse.ArgumentParser:
                         help="window size in screen units (default 1280x800)")
     parser.add_argument("--screenshot-dir", default=".", metavar="DIR",
                         help="where key s saves PNGs (default: the current directory)")
+    parser.add_argument("--msaa", type=int, choices=(0, 2, 4, 8), metavar="N",
+                        help="multisampling, samples per pixel: 0, 2, 4 or 8 (default 4 on a GPU, "
+                             "0 on software OpenGL such as llvmpipe, where it costs 3x the frame time)")
     add_volume_arguments(parser)
     return parser
 
@@ -122,7 +125,7 @@ def run_viewer(args) -> int:
     iso = _checked_iso(volume, args.iso)
     from .viewer.window import ViewerWindow, WindowUnavailable
     try:
-        window = ViewerWindow(volume, iso, size=args.size, screenshot_dir=args.screenshot_dir)
+        window = ViewerWindow(volume, iso, size=args.size, screenshot_dir=args.screenshot_dir, msaa=args.msaa)
     except WindowUnavailable as exc:
         print(f"isoscope: {exc}", file=sys.stderr)
         return EXIT_NO_GL

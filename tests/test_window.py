@@ -90,12 +90,13 @@ def test_window_draws_takes_keys_and_saves_a_screenshot(x_display, tmp_path):
     if child.is_alive():
         child.kill()
     assert child.exitcode == 0, "the window process failed: its traceback is in the captured stderr"
-    assert len(list(tmp_path.glob("isoscope-*.png"))) == 1
+    assert len(list(tmp_path.glob("isoscope-*.png"))) == 2
 
 
 def drive_window(x_display, tmp_path):
     """The test body, run in the spawned process; any failed assert gives a non-zero exit code."""
     os.environ["DISPLAY"] = x_display
+    import glfw
     from app.viewer.state import RecentFiles
     from app.viewer.window import ViewerWindow
     from app.volumes import open_volume
@@ -126,6 +127,16 @@ def drive_window(x_display, tmp_path):
         assert (shot[-5:, -5:] == background).all()                      # scene background at a corner
         assert np.abs(shot[200, 420] - background).max() > 30           # the surface beside the panel
         assert np.abs(shot[60:200, 20:300] - background).max(axis=2).mean() > 0.3   # the panel
+
+        # Resizing: the next frame and screenshot use the new framebuffer size.
+        first_shot = window.last_screenshot
+        glfw.set_window_size(window.window, 500, 320)
+        assert frames_until(window, lambda: glfw.get_framebuffer_size(window.window) == (500, 320))
+        press_key(window, "s")
+        assert frames_until(window, lambda: window.last_screenshot != first_shot)
+        resized = np.asarray(Image.open(window.last_screenshot).convert("RGB")).astype(int)
+        assert resized.shape == (320, 500, 3)
+        assert np.abs(resized[160, 380] - background).max() > 30         # still centred beside the panel
 
         press_key(window, "Escape")
         assert any(not window.draw_frame() for _ in range(MAX_FRAMES_PER_STEP))
