@@ -109,3 +109,16 @@ def test_ambiguous_field_contains_every_marching_cubes_case():
 def test_default_volume_opens():
     volume = open_volume(DEFAULT_VOLUME)
     assert 64 <= max(volume.data.shape) <= 96
+
+
+@pytest.mark.parametrize("name", ["sphere", "torus", "box", "metaballs", "bucky"])
+def test_closed_objects_stay_inside_the_box(name):
+    """Every face of the grid is on the outside, so the surface is closed, not cut by the box."""
+    volume = open_volume(name)
+    data = volume.data.astype(np.float64)
+    faces = np.concatenate([data[0].ravel(), data[-1].ravel(), data[:, 0].ravel(),
+                            data[:, -1].ravel(), data[:, :, 0].ravel(), data[:, :, -1].ravel()])
+    if volume.gradient_direction == "ascent":
+        assert faces.min() > volume.default_level
+    else:
+        assert faces.max() < volume.default_level

@@ -78,12 +78,12 @@ def _make_gyroid(n, progress):
 
 # --- Wyvill soft objects (the seed's reference 10): density, "descent" ------------------
 
-METABALL_CENTRES = np.array([
+METABALL_CENTRES = 1.15 * np.array([
     (0.0, 0.0, 0.0), (0.42, 0.1, 0.05), (-0.4, 0.15, -0.1), (0.05, 0.45, 0.15),
     (0.1, -0.42, -0.05), (-0.15, -0.2, 0.4), (0.2, 0.15, -0.42), (-0.5, -0.4, 0.2),
     (0.55, -0.35, 0.35), (-0.2, 0.55, -0.4),
 ])
-METABALL_RADIUS = 0.5  # radius of influence R; a lone ball's 0.5-level surface has radius R/2
+METABALL_RADIUS = 0.56  # radius of influence R; a lone ball's 0.5-level surface has radius R/2
 
 
 def _metaballs(x, y, z):
@@ -112,7 +112,7 @@ def c60_atoms() -> np.ndarray:
     return np.array(sorted(atoms))
 
 
-BUCKY_SIGMA = 0.07
+BUCKY_SIGMA = 0.085
 _BUCKY_CUTOFF = 5 * BUCKY_SIGMA  # exp(-12.5) * 255 < 0.001: beyond it an atom adds nothing to a uint8
 
 
