@@ -3,7 +3,8 @@
 Spec syntax (the VOLUME argument, the panel's picker and text box):
 
     sphere                 a built-in field at its default resolution (`isoscope volumes` lists them)
-    sphere:128             ... at 128 samples per axis (or --resolution 128)
+    sphere:128             ... at 128 samples per axis (or --resolution 128);
+                           an existing file of the same name wins (write ./sphere for it anyway)
     path/to/file.npy       a file: .npy, .npz, .nrrd/.nhdr, .nii, .nii.gz, .raw (see below)
     path/to/file.npz:name  one named array of an .npz (default: the first)
     sample:bucky.raw       a small file shipped in the package's volumes/ directory

@@ -14,7 +14,7 @@ from typing import Callable
 import numpy as np
 
 from .errors import VolumeError
-from .grid import Box, pick_resolution, sample_function
+from .grid import LOWER_RESOLUTION, Box, pick_resolution, sample_function
 from .volume import Progress, Volume, finish_volume, refuse_if_too_big, report
 
 UNIT_BOX = Box.cube(-1.0, 1.0)
@@ -119,7 +119,7 @@ _BUCKY_CUTOFF = 5 * BUCKY_SIGMA  # exp(-12.5) * 255 < 0.001: beyond it an atom a
 def _make_bucky(n, progress):
     atoms = c60_atoms() * (0.75 / 4.956)  # circumradius 0.75: fits the unit box with a margin
     shape = (n, n, n)
-    refuse_if_too_big(shape, 4, "bucky")
+    refuse_if_too_big(shape, 4, "bucky", fix=LOWER_RESOLUTION)
     axis = UNIT_BOX.axis(0, n)
     density = np.zeros(shape, dtype=np.float32)
     # Each atom touches only the samples within its cutoff: ~40x less work than summing

@@ -12,7 +12,7 @@ import numpy as np
 from app.resources import shader_source
 
 from .expression import to_glsl
-from .grid import Box
+from .grid import LOWER_RESOLUTION, Box
 from .volume import Progress, refuse_if_too_big, report
 
 LOCAL_SIZE = (8, 8, 1)  # matches expr_sample.comp; 8x8x1 is the fast shape on llvmpipe
@@ -38,7 +38,7 @@ def sample_on_gpu(tree, box: Box, shape: tuple[int, int, int], ctx=None,
     if ctx is None:
         from app.gl_context import current_or_standalone
         ctx = current_or_standalone()
-    refuse_if_too_big(shape, 4, "the expression grid")
+    refuse_if_too_big(shape, 4, "the expression grid", fix=LOWER_RESOLUTION)
     out = np.empty(shape, dtype=np.float32)
     program = ctx.compute_shader(shader_source("expr_sample.comp", defines={"EXPR_FIELD": to_glsl(tree)}))
     planes = _slab_planes(ctx, shape)

@@ -15,6 +15,7 @@ from .volume import Progress, refuse_if_too_big, report
 
 MIN_RESOLUTION = 2
 MAX_RESOLUTION = 2048  # GL_MAX_3D_TEXTURE_SIZE on llvmpipe; bigger could never be drawn
+LOWER_RESOLUTION = "use a lower resolution (e.g. --resolution 256)"
 _SLAB_VOXELS = 1 << 22  # bounds the float64 temporaries numpy makes per slab
 
 
@@ -60,7 +61,7 @@ def sample_function(fn: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarra
                     shape: tuple[int, int, int], *, dtype=np.float32, what: str = "field",
                     progress: Progress | None = None) -> np.ndarray:
     """fn gets broadcastable coordinate arrays x (n0,1,1), y (1,n1,1), z (1,1,n2)."""
-    refuse_if_too_big(shape, np.dtype(dtype).itemsize, what)
+    refuse_if_too_big(shape, np.dtype(dtype).itemsize, what, fix=LOWER_RESOLUTION)
     out = np.empty(shape, dtype=dtype)
     y = box.axis(1, shape[1])[None, :, None]
     z = box.axis(2, shape[2])[None, None, :]

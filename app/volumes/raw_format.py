@@ -109,7 +109,7 @@ def load_raw(path: Path, dims=None, dtype=None, endian=None, spacing=None,
              progress: Progress | None = None):
     layout = raw_layout(path, dims, dtype, endian, spacing)
     # Two copies live at once: the file order (z, y, x) and the transposed result.
-    refuse_if_too_big((2,) + layout.dims, layout.dtype.itemsize, path.name)
+    refuse_if_too_big(layout.dims, layout.dtype.itemsize, path.name, copies=2)
     _check_file_size(path, layout)
     x, y, z = layout.dims
     file_order = np.empty((z, y, x), dtype=layout.dtype)

@@ -68,21 +68,23 @@ def available_memory_bytes() -> int:
         return 1 << 34
 
 
-def refuse_if_too_big(shape, itemsize: int, what: str) -> None:
+def refuse_if_too_big(shape, itemsize: int, what: str, *, copies: int = 1,
+                      fix: str = "crop or downsample it first") -> None:
     """Refuse, before allocating, a volume that cannot fit in memory.
 
-    Loading may need a second copy (byte swap, transpose to C order), so the
-    budget is half of what is available.
+    The budget is half of what is available: the checks, a dtype conversion or
+    the extractor's upload may need a second copy while the first is alive.
+    `copies` counts the copies the caller itself holds at once.
     """
     n_voxels = 1
     for n in shape:
         n_voxels *= int(n)
-    n_bytes = n_voxels * int(itemsize)
+    n_bytes = n_voxels * int(itemsize) * copies
     budget = available_memory_bytes() // 2
     if n_bytes > budget:
         raise VolumeError(
-            f"{what} claims {shape_text(shape)} voxels ({size_text(n_bytes)}), more than this "
-            f"machine can hold (about {size_text(budget)} usable): crop or downsample it first"
+            f"{what} is {shape_text(shape)} voxels ({size_text(n_bytes)} to load), more than this "
+            f"machine can hold (about {size_text(budget)} usable): {fix}"
         )
 
 
