@@ -7,6 +7,8 @@ changes the viewer only through `ViewerState`.
 """
 from __future__ import annotations
 
+import shutil
+import sys
 from pathlib import Path
 
 from imgui_bundle import imgui
@@ -19,7 +21,8 @@ ERROR_COLOR = imgui.ImVec4(1.0, 0.45, 0.40, 1.0)
 NOTE_COLOR = imgui.ImVec4(0.60, 0.85, 0.60, 1.0)
 VOLUME_FILE_FILTERS = ["Volumes", "*.npy *.npz *.nii *.nii.gz *.nrrd *.nhdr *.raw *.vol *.mhd *.tif *.tiff",
                        "All files", "*"]
-EXPR_HINT = "sqrt(x*x+y*y+z*z)"
+LINUX_DIALOG_TOOLS = ("zenity", "kdialog", "qarma", "matedialog")
+EXPR_HINT = "x^2 + y^2 + z^2 - 0.5"   # the volumes grammar; inside is where it is < 0
 
 
 class ImguiLayer:
@@ -109,8 +112,7 @@ class Panel:
                     imgui.set_tooltip(path)
             imgui.end_combo()
         if self.can_browse and imgui.button("Open file...") and self._file_dialog is None:
-            import imgui_bundle.portable_file_dialogs as pfd  # spawns zenity/kdialog: only on demand
-            self._file_dialog = pfd.open_file("Open volume", str(Path.cwd()), VOLUME_FILE_FILTERS)
+            self._open_file_dialog(state)
         entered, self.expr_text = imgui.input_text_with_hint(
             "expr", EXPR_HINT, self.expr_text, imgui.InputTextFlags_.enter_returns_true)
         if (entered or imgui.button("Show expr")) and self.expr_text.strip():
@@ -150,7 +152,7 @@ class Panel:
         imgui.text(f"vertices   {state.n_vertices:,}")
         imgui.text(f"triangles  {state.n_triangles:,}")
         imgui.text(f"extraction {state.extract_ms:.1f} ms")
-        imgui.text(f"frame      {state.frame_ms:.1f} ms")
+        imgui.text(f"frame      {state.frame_ms:.1f} ms" if state.frame_ms else "frame      -")
         imgui.text_wrapped(f"GL: {state.gl_renderer}")
 
     def _messages(self, state: ViewerState) -> None:
@@ -162,6 +164,16 @@ class Panel:
             imgui.push_text_wrap_pos(0.0)
             imgui.text_colored(NOTE_COLOR, state.message)
             imgui.pop_text_wrap_pos()
+
+    def _open_file_dialog(self, state: ViewerState) -> None:
+        # On Linux portable_file_dialogs runs zenity or kdialog; without one it returns
+        # no file at once, which would look like a dead button.
+        if sys.platform.startswith("linux") and not any(shutil.which(tool) for tool in LINUX_DIALOG_TOOLS):
+            state.error = ("no file dialog on this desktop (install zenity or kdialog); "
+                           "drop the file on the window or pass it on the command line")
+            return
+        import imgui_bundle.portable_file_dialogs as pfd  # only on demand: it spawns a process
+        self._file_dialog = pfd.open_file("Open volume", str(Path.cwd()), VOLUME_FILE_FILTERS)
 
     def _collect_file_dialog(self, state: ViewerState) -> None:
         # The dialog runs in another process; poll it so the UI keeps drawing meanwhile.
