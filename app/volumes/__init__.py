@@ -51,8 +51,7 @@ def builtin_names() -> list[str]:
 
 
 def describe_builtins() -> list[tuple[str, str]]:
-    return [(b.name, f"{b.description} [default {b.default_resolution}^3]"
-             if b.name != "ambiguous" else b.description) for b in BUILTINS.values()]
+    return [(builtin.name, builtin.summary) for builtin in BUILTINS.values()]
 
 
 def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, frame=None,

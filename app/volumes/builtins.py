@@ -28,6 +28,13 @@ class Builtin:
     gradient_direction: str
     default_level: float
     make: Callable[[int, Progress | None], tuple[np.ndarray, tuple[float, float, float], list[str]]]
+    fixed_shape: tuple[int, int, int] | None = None  # set when the resolution cannot change
+
+    @property
+    def summary(self) -> str:
+        """The line `isoscope volumes` prints."""
+        size = "x".join(map(str, self.fixed_shape)) if self.fixed_shape else f"default {self.default_resolution}^3"
+        return f"{self.description} [{size}]"
 
 
 def _on_unit_box(field, what):
@@ -178,8 +185,8 @@ BUILTINS: dict[str, Builtin] = {b.name: b for b in (
             "descent", 128.0, _make_bucky),
     Builtin("box", "signed distance to a box: sharp edges and corners", 64,
             "ascent", 0.0, _on_unit_box(_box, "box")),
-    Builtin("ambiguous", "all 256 cube sign patterns, one per cell, ambiguous faces both ways (25x25x13)",
-            AMBIGUOUS_SHAPE[0], "descent", 0.0, _make_ambiguous),
+    Builtin("ambiguous", "all 256 cube sign patterns, one per cell, ambiguous faces both ways",
+            AMBIGUOUS_SHAPE[0], "descent", 0.0, _make_ambiguous, fixed_shape=AMBIGUOUS_SHAPE),
 )}
 
 

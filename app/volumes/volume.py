@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Callable
 
 import numpy as np
@@ -31,8 +32,9 @@ class Volume:
     default_level: float | None  # a good first iso value; None -> middle of the range
     notes: list[str] = field(default_factory=list)  # things to tell the user
 
-    @property
+    @cached_property
     def value_range(self) -> tuple[float, float]:
+        """(min, max) of the data; finish_volume fills it from its own scan."""
         return float(self.data.min()), float(self.data.max())
 
 
@@ -46,11 +48,11 @@ def shape_text(shape) -> str:
 
 
 def size_text(n_bytes: float) -> str:
-    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
-        if n_bytes < 1024 or unit == "PiB":
-            return f"{n_bytes:.0f} {unit}" if unit == "B" else f"{n_bytes:.1f} {unit}"
-        n_bytes /= 1024
-    return ""  # unreachable
+    units = ("B", "KiB", "MiB", "GiB", "TiB", "PiB")
+    step = 0
+    while n_bytes >= 1024 and step < len(units) - 1:
+        n_bytes, step = n_bytes / 1024, step + 1
+    return f"{n_bytes:.1f} {units[step]}" if step else f"{int(n_bytes)} B"
 
 
 def available_memory_bytes() -> int:
@@ -127,8 +129,11 @@ def _at_index(index) -> str:
 
 
 def check_values(data: np.ndarray, what: str, progress: Progress | None = None,
-                 where: Callable[[tuple], str] = _at_index) -> None:
-    """Refuse NaN/Inf samples and constant volumes; `where` words the first bad sample's place and fix."""
+                 where: Callable[[tuple], str] = _at_index) -> tuple[float, float]:
+    """The value range; refuses NaN/Inf samples and constant volumes.
+
+    `where` words the first bad sample's place and the fix.
+    """
     plane_bytes = max(1, data[0].nbytes)
     step = max(1, _CHECK_SLAB_BYTES // plane_bytes)
     lo, hi = np.inf, -np.inf
@@ -151,6 +156,7 @@ def check_values(data: np.ndarray, what: str, progress: Progress | None = None,
             f"{what} is constant (every sample is {lo:g}), so no level has a surface; "
             f"check the file, frame or formula"
         )
+    return lo, hi
 
 
 def finish_volume(data: np.ndarray, *, spacing, name: str, source: str, gradient_direction: str,
@@ -160,12 +166,14 @@ def finish_volume(data: np.ndarray, *, spacing, name: str, source: str, gradient
     """The single gate: shape, dtype and value checks, then the record."""
     what = what or name
     data, dtype_notes = as_numeric_3d(np.asarray(data), what)
-    check_values(data, what, progress, where)
+    value_range = check_values(data, what, progress, where)
     spacing = tuple(float(s) for s in spacing)
     if len(spacing) != 3 or not all(np.isfinite(s) and s > 0 for s in spacing):
         raise VolumeError(f"{what}: spacing {spacing} must be three positive numbers")
     if gradient_direction not in ("descent", "ascent"):
         raise ValueError(f"gradient_direction must be 'descent' or 'ascent', not {gradient_direction!r}")
-    return Volume(data=data, spacing=spacing, name=name, source=source,
-                  gradient_direction=gradient_direction, default_level=default_level,
-                  notes=list(notes or []) + dtype_notes)
+    volume = Volume(data=data, spacing=spacing, name=name, source=source,
+                    gradient_direction=gradient_direction, default_level=default_level,
+                    notes=list(notes or []) + dtype_notes)
+    volume.__dict__["value_range"] = value_range  # already scanned: spare callers another pass
+    return volume
