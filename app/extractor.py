@@ -3,14 +3,22 @@
 Passes (one compute shader each, as in NVIDIA's CUDA sample, but producing an
 indexed mesh and sized from the scans, so nothing is ever dropped):
 
-1. ``mc_signs``     pack the inside bit of every sample, 32 per word along axis 2
-2. ``mc_classify``  per word: vertices owned (per axis) and triangles of its cells
-3. ``scan``         exclusive scans of both counts -> output offsets and totals
-4. ``mc_vertices``  one vertex per sign-changing edge: position, normal, value
-5. ``mc_triangles`` triangle indices into those shared vertices
+0. ``mc_brick_range`` once per volume: the value range of each brick (8 x 8 rows
+   x 32 samples, plus the halo its cells reach), for empty-space skipping
+1. ``mc_signs``        every brick: pack inside bits 32 per word along axis 2;
+                       bricks the level cannot cut write constants and are skipped
+                       from here on; the rest go on an active list
+2. ``mc_classify``     active bricks: per word, vertices owned (per axis) and triangles
+3. ``mc_brick_sums``   per active brick: its totals
+4. ``scan``            exclusive scans of the per-brick totals -> offsets and grand totals
+5. ``mc_word_offsets`` per active brick: each word's first vertex and triangle
+6. ``mc_vertices``     active bricks: one vertex per sign-changing edge
+7. ``mc_triangles``    active bricks: triangle indices into those shared vertices
 
-Scratch per voxel: 1 sign bit plus 12 bytes per 32-sample word (0.5 byte).
-The only read-back is the two totals, 8 bytes, needed to size the outputs.
+Passes 2-7 are dispatched indirectly from the active count, so an iso change
+touches only the bricks whose range contains the new level.  Scratch: 16 bytes
+per 32-sample word plus 20 per brick (about 0.5 byte per voxel).  The only
+read-back is the two totals, 8 bytes, needed to size the outputs.
 """
 from __future__ import annotations
 
@@ -23,11 +31,11 @@ from . import validation
 from .case_table import CaseTable, montani_table
 from .gl_context import current_or_standalone
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
+from .reference import BRICK_I, BRICK_J
 from .scan import ExclusiveScan
 
 VERTEX_BYTES = 32  # vec4(position, value), vec4(normal, 0): std430, drawable as "3f 1f 3f 1x4"
 INDEX_BYTES = 12  # three uint32 per triangle
-LOCAL_SIZE = 64  # shaders/mc_*.comp local_size_x
 
 
 class GPULimitError(ValueError):
@@ -57,25 +65,35 @@ class Extractor:
         self._check_texture_limits()
         self.words_per_row = -(-n2 // 32)
         self.word_count = n0 * n1 * self.words_per_row
+        self.bricks = (-(-n0 // BRICK_I), -(-n1 // BRICK_J))
+        self.brick_count = self.bricks[0] * self.bricks[1] * self.words_per_row
 
         self._volume = self._upload(field)
-        self._signs = self._storage(self.word_count)
-        self._vertex_offsets = self._storage(self.word_count + 1)
-        self._triangle_offsets = self._storage(self.word_count + 1)
-        self._axis_counts = self._storage(self.word_count)
+        self._sign_words = self._storage(self.word_count)
+        self._word_counts = self._storage(self.word_count)
+        self._word_offsets = self._storage(2 * self.word_count)  # (first vertex, first triangle)
+        self._brick_vertex_offsets = self._storage(self.brick_count + 1)
+        self._brick_triangle_offsets = self._storage(self.brick_count + 1)
+        self._brick_ranges = self._storage(2 * self.brick_count)
+        self._active_bricks = self._storage(1 + self.brick_count)
+        self._dispatch_args = self.ctx.buffer(reserve=24)  # groups per active brick, then per 64 bricks
         self._case_table = self.ctx.buffer(self.table.packed_for_gpu().tobytes())
         self._scan = ExclusiveScan(self.ctx)
 
-        defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u"}
+        defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u",
+                   "BRICK_I": BRICK_I, "BRICK_J": BRICK_J, "BRICK_WORDS": BRICK_I * BRICK_J}
         self._passes = {name: compute_program(self.ctx, f"{name}.comp", defines)
-                        for name in ("mc_signs", "mc_classify", "mc_vertices", "mc_triangles")}
+                        for name in ("mc_brick_range", "mc_signs", "mc_dispatch_args", "mc_classify",
+                                     "mc_brick_sums", "mc_word_offsets", "mc_vertices", "mc_triangles")}
 
         self.vertex_buffer = self.ctx.buffer(reserve=VERTEX_BYTES)
         self.index_buffer = self.ctx.buffer(reserve=INDEX_BYTES)
         self.n_vertices = 0
         self.n_triangles = 0
+        self.active_bricks = 0
         self.level: float | None = None
         self.last_extract_ms = 0.0
+        self._measure_brick_ranges()
 
     # -- set-up -----------------------------------------------------------------------------
 
@@ -128,12 +146,24 @@ class Extractor:
     def _set_common_uniforms(self, level: float) -> None:
         sign = 1.0 if self.descent else -1.0
         for program in self._passes.values():
-            set_uniforms(program, u_dims=self.shape, u_words=self.words_per_row,
-                         u_word_count=self.word_count, u_level=float(np.float32(sign * level)),
+            set_uniforms(program, u_dims=self.shape, u_words=self.words_per_row, u_bricks=self.bricks,
+                         u_brick_count=self.brick_count, u_level=float(np.float32(sign * level)),
                          u_sign=sign, u_spacing=self.spacing, u_volume=0)
 
-    def _run(self, name: str, invocations: int) -> None:
-        dispatch_groups(self._passes[name], -(-invocations // LOCAL_SIZE))
+    def _bind(self, *slots: tuple[int, moderngl.Buffer]) -> None:
+        for binding, buffer in slots:
+            buffer.bind_to_storage_buffer(binding)
+
+    def _measure_brick_ranges(self) -> None:
+        self._set_common_uniforms(self.value_range[0])
+        self._volume.use(location=0)
+        self._bind((8, self._brick_ranges))
+        dispatch_groups(self._passes["mc_brick_range"], self.brick_count)
+        self.ctx.memory_barrier()
+
+    def _run_over_active_bricks(self, name: str, per_brick: bool = False) -> None:
+        """A work group per active brick (an invocation per word), or an invocation per active brick."""
+        self._passes[name].run_indirect(self._dispatch_args, offset=12 if per_brick else 0)
         self.ctx.memory_barrier()
 
     def extract(self, level: float) -> tuple[int, int]:
@@ -142,34 +172,37 @@ class Extractor:
         start = time.perf_counter()
         self._set_common_uniforms(level)
         self._volume.use(location=0)
-        self._signs.bind_to_storage_buffer(0)
-        self._vertex_offsets.bind_to_storage_buffer(1)
-        self._triangle_offsets.bind_to_storage_buffer(2)
-        self._axis_counts.bind_to_storage_buffer(3)
-        self._case_table.bind_to_storage_buffer(4)
+        self._active_bricks.write(b"\0\0\0\0")  # the active count, appended to by mc_signs
+        self._bind((0, self._sign_words), (1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets),
+                   (3, self._word_counts), (4, self._case_table), (7, self._active_bricks),
+                   (8, self._brick_ranges), (9, self._dispatch_args))
+        dispatch_groups(self._passes["mc_signs"], self.brick_count)
+        self.ctx.memory_barrier()
+        dispatch_groups(self._passes["mc_dispatch_args"], 1)
+        self.ctx.memory_barrier()
+        self._run_over_active_bricks("mc_classify")
+        self._run_over_active_bricks("mc_brick_sums", per_brick=True)
 
-        self._run("mc_signs", self.word_count)
-        self._run("mc_classify", self.word_count + 1)
-        self._scan(self._vertex_offsets, self.word_count + 1)
-        self._scan(self._triangle_offsets, self.word_count + 1)
-        total_offset = self.word_count * 4
-        n_vertices = int(np.frombuffer(self._vertex_offsets.read(4, total_offset), np.uint32)[0])
-        n_triangles = int(np.frombuffer(self._triangle_offsets.read(4, total_offset), np.uint32)[0])
+        self._scan(self._brick_vertex_offsets, self.brick_count + 1)
+        self._scan(self._brick_triangle_offsets, self.brick_count + 1)
+        total_at = self.brick_count * 4
+        n_vertices = int(np.frombuffer(self._brick_vertex_offsets.read(4, total_at), np.uint32)[0])
+        n_triangles = int(np.frombuffer(self._brick_triangle_offsets.read(4, total_at), np.uint32)[0])
 
         self._ensure_output(n_vertices, n_triangles)
         if n_vertices:
-            # The scan rebound slots 0 and 1; put the passes' buffers back.
-            self._signs.bind_to_storage_buffer(0)
-            self._vertex_offsets.bind_to_storage_buffer(1)
-            self._triangle_offsets.bind_to_storage_buffer(2)
-            self.vertex_buffer.bind_to_storage_buffer(5)
-            self.index_buffer.bind_to_storage_buffer(6)
-            self._run("mc_vertices", self.word_count)
+            # The scan used slots 0 and 1; bind the passes' buffers again.
+            self._bind((0, self._sign_words), (1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets),
+                       (5, self._word_offsets), (6, self.vertex_buffer))
+            self._run_over_active_bricks("mc_word_offsets", per_brick=True)
+            self._run_over_active_bricks("mc_vertices")
             if n_triangles:
-                self._run("mc_triangles", self.word_count)
+                self._bind((6, self.index_buffer))
+                self._run_over_active_bricks("mc_triangles")
         self.ctx.finish()
 
         self.n_vertices, self.n_triangles, self.level = n_vertices, n_triangles, level
+        self.active_bricks = int(np.frombuffer(self._active_bricks.read(4), np.uint32)[0])
         self.last_extract_ms = (time.perf_counter() - start) * 1000.0
         return n_vertices, n_triangles
 
@@ -186,13 +219,15 @@ class Extractor:
 
     def scratch_bytes(self) -> int:
         """GPU memory beyond the volume texture and the mesh buffers."""
-        return sum(b.size for b in (self._signs, self._vertex_offsets, self._triangle_offsets,
-                                    self._axis_counts, self._case_table)) + sum(
-            b.size for b in self._scan._scratch.values())
+        return sum(b.size for b in self._scratch_buffers()) + self._scan.scratch_bytes()
+
+    def _scratch_buffers(self) -> tuple[moderngl.Buffer, ...]:
+        return (self._sign_words, self._word_counts, self._word_offsets, self._brick_vertex_offsets,
+                self._brick_triangle_offsets, self._brick_ranges, self._active_bricks, self._dispatch_args,
+                self._case_table)
 
     def release(self) -> None:
-        for obj in (self._volume, self._signs, self._vertex_offsets, self._triangle_offsets,
-                    self._axis_counts, self._case_table, self.vertex_buffer, self.index_buffer):
+        for obj in (self._volume, self.vertex_buffer, self.index_buffer, *self._scratch_buffers()):
             obj.release()
         self._scan.release()
 

@@ -14,9 +14,12 @@ Conventions shared with the GPU (see `app.case_table` for the cell geometry):
   kept within ``[EDGE_MARGIN, 1 - EDGE_MARGIN]`` so that vertices from
   different edges never coincide and no triangle collapses to zero area
   (a tie would otherwise put up to six vertices on one grid point).
-* Vertices are ordered by (i, j, k // 32, axis, k): the GPU packs 32 signs
-  along axis 2 into one word and numbers a word's vertices axis by axis.
-  Triangles are ordered by cell (C order), then by the table's order.
+* Output order follows the GPU's work split: it packs 32 signs along axis 2
+  into a word and groups BRICK_I x BRICK_J rows of words into a brick.
+  Vertices are ordered by (brick, word in brick, axis, k); triangles by
+  (brick, word in brick, k), then the table's order.  Bricks are numbered
+  (i // BRICK_I, j // BRICK_J, k // 32) in C order, words in a brick
+  (i % BRICK_I, j % BRICK_J).
 """
 from __future__ import annotations
 
@@ -28,6 +31,17 @@ EDGE_MARGIN = np.float32(1.0 / 256.0)
 """Smallest edge parameter of a vertex; shaders/mc_common.glsl holds the same number."""
 
 WORD_BITS = 32
+BRICK_I = BRICK_J = 8  # rows of words per brick along axes 0 and 1: one GPU work group each
+
+
+def brick_order_key(points: np.ndarray, shape) -> np.ndarray:
+    """The GPU's processing order of the words holding `points` (N, 3): brick first, then word."""
+    n0, n1, n2 = shape
+    words = -(-n2 // WORD_BITS)
+    bricks_j = -(-n1 // BRICK_J)
+    i, j, k = points[:, 0], points[:, 1], points[:, 2]
+    brick = ((i // BRICK_I) * bricks_j + j // BRICK_J) * words + k // WORD_BITS
+    return brick * (BRICK_I * BRICK_J) + (i % BRICK_I) * BRICK_J + j % BRICK_J
 
 
 def inside_mask(field: np.ndarray, level: float) -> np.ndarray:
@@ -112,27 +126,26 @@ def marching_cubes_reference(volume: np.ndarray, level: float, spacing=(1.0, 1.0
     lvl = np.float32(sign * level)
     spacing = np.asarray(spacing, dtype=np.float64)
     n0, n1, n2 = field.shape
-    words = -(-n2 // WORD_BITS)
 
     inside = inside_mask(field, lvl)
 
-    # Vertices: one per crossing edge, in the GPU's (i, j, word, axis, k) order.
+    # Vertices: one per crossing edge, in the GPU's (brick, word, axis, k) order.
     masks = crossing_edges(inside)
     owners = [np.argwhere(m) for m in masks]
     points = np.concatenate(owners).astype(np.int64)
     axes = np.concatenate([np.full(len(o), a) for a, o in enumerate(owners)]).astype(np.int64)
-    word_id = (points[:, 0] * n1 + points[:, 1]) * words + points[:, 2] // WORD_BITS
-    order = np.lexsort((points[:, 2], axes, word_id))
+    order = np.lexsort((points[:, 2], axes, brick_order_key(points, field.shape)))
     points, axes = points[order], axes[order]
 
     vertex_of = np.full((3, n0, n1, n2), -1, dtype=np.int64)  # (axis, owner) -> vertex index
     vertex_of[axes, points[:, 0], points[:, 1], points[:, 2]] = np.arange(len(points))
     verts, normals, values = place_vertices(field, inside, lvl, points, axes, spacing, sign)
 
-    # Triangles: mc_triangles.comp, cells in C order, the table's triangles in order.
+    # Triangles: mc_triangles.comp, cells in (brick, word, k) order, the table's triangles in order.
     cases = cube_cases(inside)
     per_cell = table.counts[cases]
     cells = np.argwhere(per_cell > 0)
+    cells = cells[np.lexsort((cells[:, 2], brick_order_key(cells, field.shape)))]
     cell_cases = cases[tuple(cells.T)]
     n_tri = table.counts[cell_cases].astype(np.int64)
     cell_of_tri = np.repeat(np.arange(len(cells)), n_tri)

@@ -50,6 +50,9 @@ class ExclusiveScan:
         dispatch_groups(self._apply, blocks)
         self.ctx.memory_barrier()
 
+    def scratch_bytes(self) -> int:
+        return sum(buf.size for buf in self._scratch.values())
+
     def release(self) -> None:
         for buf in self._scratch.values():
             buf.release()

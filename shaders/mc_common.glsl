@@ -1,36 +1,45 @@
-// Shared by the marching-cubes passes: grid layout, sign words, volume sampling.
+// Shared by the marching-cubes passes: grid and brick layout, volume sampling.
 //
 // The volume is a 3-D R32F texture of size (n2, n1, n0): texel (k, j, i) holds
 // volume[i, j, k].  Signs are packed 32 per uint along axis 2: word w of row
 // (i, j) holds the inside bits of samples k = 32w .. 32w+31 (bit k - 32w).
-// Word id = (i * n1 + j) * u_words + w; every pass runs one invocation per word.
+//
+// Words are grouped into bricks of BRICK_I x BRICK_J rows x 1 word (injected
+// from app/reference.py).  A brick is one work group, one invocation per word;
+// brick id = (bi * bricks_j + bj) * u_words + w.  Each brick has the value range
+// of every sample its words' edges and cells touch, so a level outside it means
+// the brick has no surface, whatever the level was before.
 
 uniform ivec3 u_dims;      // n0, n1, n2: samples per axis
 uniform int u_words;       // words per row: ceil(n2 / 32)
-uniform uint u_word_count; // n0 * n1 * u_words
+uniform ivec2 u_bricks;    // bricks along axes 0 and 1 (a brick is one word deep along axis 2)
+uniform uint u_brick_count;
 uniform float u_level;     // level * u_sign
 uniform float u_sign;      // +1: object above the level ("descent"); -1: below ("ascent")
 uniform vec3 u_spacing;
 uniform sampler3D u_volume;
 
 const float EDGE_MARGIN = 1.0 / 256.0;  // app/reference.py EDGE_MARGIN: vertices stay off grid points
-const uint MAX_TRIANGLES = MAX_TRIANGLES_PER_CELL;  // injected by app/extractor.py from the case table
-const uint CASE_COUNTS_OFFSET = 256u * MAX_TRIANGLES;
+const uint WORDS_PER_BRICK = uint(BRICK_WORDS);  // BRICK_I * BRICK_J, injected as a literal for local_size_x
 
-// Dispatches are 2-D when one dimension would pass 65535 groups.
-uint invocation_index() {
-    uint group = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
-    return group * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
-}
-
-ivec3 word_origin(uint word_id) {  // (i, j, first k) of a word
-    uint w = word_id % uint(u_words);
-    uint row = word_id / uint(u_words);
-    return ivec3(int(row / uint(u_dims.y)), int(row % uint(u_dims.y)), int(w) * 32);
+uint linear_group() {  // dispatches fold into 2-D past 65535 groups
+    return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
 }
 
 uint word_id_of(int i, int j, int w) {
     return (uint(i) * uint(u_dims.y) + uint(j)) * uint(u_words) + uint(w);
+}
+
+// This invocation's word in brick `brick` (one invocation per word): (i, j, w), and whether it
+// lies inside the grid.
+ivec3 brick_word(uint brick, out bool exists) {
+    int w = int(brick % uint(u_words));
+    uint column = brick / uint(u_words);
+    int bi = int(column / uint(u_bricks.y)), bj = int(column % uint(u_bricks.y));
+    int local = int(gl_LocalInvocationIndex);
+    ivec3 word = ivec3(bi * BRICK_I + local / BRICK_J, bj * BRICK_J + local % BRICK_J, w);
+    exists = word.x < u_dims.x && word.y < u_dims.y;
+    return word;
 }
 
 // Bits of a word whose samples exist (k < n2) and whose axis-2 edge exists (k < n2 - 1).
@@ -40,6 +49,10 @@ uint low_bits(int count) {
 uint point_bits(int w) { return low_bits(u_dims.z - 32 * w); }
 uint axis2_edge_bits(int w) { return low_bits(u_dims.z - 1 - 32 * w); }
 
-float field_at(ivec3 p) {
-    return u_sign * texelFetch(u_volume, ivec3(p.z, p.y, p.x), 0).r;
-}
+float sample_at(ivec3 p) { return texelFetch(u_volume, ivec3(p.z, p.y, p.x), 0).r; }
+float field_at(ivec3 p) { return u_sign * sample_at(p); }
+
+// Per word, packed counts: vertices it owns along axes 0, 1, 2 (6 bits each) and triangles of its cells.
+uint vertices_along(uint counts, uint axis) { return (counts >> (6u * axis)) & 63u; }
+uint vertex_total(uint counts) { return vertices_along(counts, 0u) + vertices_along(counts, 1u) + vertices_along(counts, 2u); }
+uint triangle_total(uint counts) { return counts >> 18; }

@@ -31,7 +31,7 @@ CellRows cell_rows(int i, int j, int w) {
     return rows;
 }
 
-// Cells of the word with corners on both sides of the level.
+// Cells of the word (i, j, w) with corners on both sides of the level.
 uint mixed_cells(CellRows rows, int w) {
     uint any_in = 0u, all_in = 0xFFFFFFFFu;
     for (int r = 0; r < 4; ++r) {
@@ -40,6 +40,8 @@ uint mixed_cells(CellRows rows, int w) {
     }
     return any_in & ~all_in & axis2_edge_bits(w);
 }
+
+bool has_cells(int i, int j) { return i + 1 < u_dims.x && j + 1 < u_dims.y; }
 
 // Case index of cell k: bit c = corner (c & 1, c >> 1 & 1, c >> 2 & 1), as app/case_table.py.
 uint cell_case(CellRows rows, uint k) {

@@ -1,13 +1,16 @@
 #version 430
-// Pass 4: one vertex per sign-changing edge, at the word's scanned offset, axis by axis.
-layout(local_size_x = 64) in;
+// Pass 6, over active bricks, one invocation per word: a vertex per sign-changing edge the
+// word owns, from the word's first vertex on, axis by axis.
+layout(local_size_x = BRICK_WORDS) in;
 #include "mc_common.glsl"
 #include "mc_sign_words.glsl"
+#include "mc_active_bricks.glsl"
 
-layout(std430, binding = 1) readonly buffer VertexOffsets { uint vertex_offsets[]; };
+layout(std430, binding = 3) readonly buffer WordCounts { uint word_counts[]; };
+layout(std430, binding = 5) readonly buffer WordOffsets { uvec2 word_offsets[]; };  // (vertex, triangle)
 
 struct Vertex { vec4 position_value; vec4 normal; };
-layout(std430, binding = 5) writeonly buffer Vertices { Vertex vertices[]; };
+layout(std430, binding = 6) writeonly buffer Vertices { Vertex vertices[]; };
 
 vec3 gradient_at(ivec3 p) {  // central differences, one-sided at the border, physical units
     vec3 g;
@@ -40,18 +43,22 @@ Vertex edge_vertex(ivec3 p0, int axis) {
 }
 
 void main() {
-    uint word_id = invocation_index();
-    if (word_id >= u_word_count) return;
-    uint next = vertex_offsets[word_id];
-    if (vertex_offsets[word_id + 1u] == next) return;
-    ivec3 p = word_origin(word_id);
-    uvec3 crossing = crossing_masks(p.x, p.y, p.z / 32);
+    uint brick;
+    if (!active_brick(brick)) return;
+    bool exists;
+    ivec3 word = brick_word(brick, exists);
+    if (!exists) return;
+    uint id = word_id_of(word.x, word.y, word.z);
+    if (vertex_total(word_counts[id]) == 0u) return;
+    uint next = word_offsets[id].x;
+
+    uvec3 crossing = crossing_masks(word.x, word.y, word.z);
     for (int axis = 0; axis < 3; ++axis) {
         uint bits = crossing[axis];
         while (bits != 0u) {
             int b = findLSB(bits);
             bits &= bits - 1u;
-            vertices[next++] = edge_vertex(ivec3(p.x, p.y, p.z + b), axis);
+            vertices[next++] = edge_vertex(ivec3(word.x, word.y, 32 * word.z + b), axis);
         }
     }
 }

@@ -1,0 +1,31 @@
+// Passes dispatched indirectly over the bricks that the signs pass found active.
+// No pass here uses barrier(): on llvmpipe a work group with barriers runs its invocations as
+// coroutines and costs two to four times as much, so per-brick sums and offsets are serial loops
+// in one invocation per brick (mc_brick_sums.comp, mc_word_offsets.comp).
+layout(std430, binding = 7) readonly buffer ActiveBricks { uint active_count; uint active_bricks[]; };
+
+// The brick of this work group (one invocation per word), or false past the end of the list.
+bool active_brick(out uint brick) {
+    uint slot = linear_group();
+    if (slot >= active_count) return false;
+    brick = active_bricks[slot];
+    return true;
+}
+
+// The brick of this invocation (one invocation per brick), or false past the end of the list.
+bool active_brick_of_invocation(out uint brick) {
+    uint slot = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
+    if (slot >= active_count) return false;
+    brick = active_bricks[slot];
+    return true;
+}
+
+// The grid word id of word `local` (0 .. WORDS_PER_BRICK-1) of `brick`, or false outside the grid.
+bool word_of_brick(uint brick, uint local, out uint word_id) {
+    int w = int(brick % uint(u_words));
+    uint column = brick / uint(u_words);
+    int i = int(column / uint(u_bricks.y)) * BRICK_I + int(local) / BRICK_J;
+    int j = int(column % uint(u_bricks.y)) * BRICK_J + int(local) % BRICK_J;
+    word_id = word_id_of(i, j, w);
+    return i < u_dims.x && j < u_dims.y;
+}

@@ -1,0 +1,25 @@
+#version 430
+// Pass 3, one invocation per active brick: the brick's vertex and triangle totals, for the scans.
+layout(local_size_x = 64) in;
+#include "mc_common.glsl"
+#include "mc_active_bricks.glsl"
+
+layout(std430, binding = 1) writeonly buffer BrickVertexCounts { uint brick_vertex_counts[]; };
+layout(std430, binding = 2) writeonly buffer BrickTriangleCounts { uint brick_triangle_counts[]; };
+layout(std430, binding = 3) readonly buffer WordCounts { uint word_counts[]; };
+
+void main() {
+    uint brick;
+    if (!active_brick_of_invocation(brick)) return;
+    uint vertices = 0u, triangles = 0u;
+    for (uint local = 0u; local < WORDS_PER_BRICK; ++local) {
+        uint id;
+        if (word_of_brick(brick, local, id)) {
+            uint counts = word_counts[id];
+            vertices += vertex_total(counts);
+            triangles += triangle_total(counts);
+        }
+    }
+    brick_vertex_counts[brick] = vertices;
+    brick_triangle_counts[brick] = triangles;
+}

@@ -1,0 +1,25 @@
+#version 430
+// Pass 5, one invocation per active brick: each word's first vertex and first triangle, from
+// the brick's scanned offsets plus the words before it in the brick.
+layout(local_size_x = 64) in;
+#include "mc_common.glsl"
+#include "mc_active_bricks.glsl"
+
+layout(std430, binding = 1) readonly buffer BrickVertexOffsets { uint brick_vertex_offsets[]; };
+layout(std430, binding = 2) readonly buffer BrickTriangleOffsets { uint brick_triangle_offsets[]; };
+layout(std430, binding = 3) readonly buffer WordCounts { uint word_counts[]; };
+layout(std430, binding = 5) writeonly buffer WordOffsets { uvec2 word_offsets[]; };  // (vertex, triangle)
+
+void main() {
+    uint brick;
+    if (!active_brick_of_invocation(brick)) return;
+    uvec2 next = uvec2(brick_vertex_offsets[brick], brick_triangle_offsets[brick]);
+    for (uint local = 0u; local < WORDS_PER_BRICK; ++local) {
+        uint id;
+        if (word_of_brick(brick, local, id)) {
+            word_offsets[id] = next;
+            uint counts = word_counts[id];
+            next += uvec2(vertex_total(counts), triangle_total(counts));
+        }
+    }
+}
