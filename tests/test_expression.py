@@ -15,7 +15,7 @@ from app.volumes.grid import Box, sample_function
 
 
 def value(text, x=0.3, y=-0.7, z=1.9):
-    return float(evaluate(parse(text), x, y, z))
+    return float(evaluate(parse(text), x, y, z, dtype=np.float64))
 
 
 @pytest.mark.parametrize("text, expected", [

@@ -228,14 +228,18 @@ _NUMPY_FUNCTIONS = {
 _NUMPY_OPERATORS = {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.divide, "^": np.power}
 
 
-def evaluate(tree, x, y, z):
-    """Evaluate on numpy arrays (broadcasting), in float64, IEEE results for undefined maths."""
-    variables = {"x": np.asarray(x, dtype=np.float64), "y": np.asarray(y, dtype=np.float64),
-                 "z": np.asarray(z, dtype=np.float64)}
+def evaluate(tree, x, y, z, dtype=np.float32):
+    """Evaluate on numpy arrays (broadcasting), with IEEE results for undefined maths.
+
+    float32 by default, as the GPU computes, so both back ends overflow, cancel and
+    round alike; pass np.float64 for a reference of higher precision.
+    """
+    variables = {name: np.asarray(value, dtype=dtype) for name, value in zip(VARIABLES, (x, y, z))}
+    number = np.dtype(dtype).type  # a numpy scalar of the same type keeps the arithmetic in dtype
 
     def walk(node):
         if isinstance(node, Number):
-            return np.float64(node.value)
+            return number(node.value)
         if isinstance(node, Variable):
             return variables[node.name]
         if isinstance(node, Unary):
