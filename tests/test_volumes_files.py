@@ -162,3 +162,29 @@ def test_progress_is_reported_while_reading_a_raw_file(tmp_path, monkeypatch):
                 progress=lambda fraction, message: calls.append((fraction, message)))
     fractions = [f for f, m in calls if m.startswith("reading")]
     assert len(fractions) >= 16 and fractions == sorted(fractions) and fractions[-1] == 1.0
+
+
+@pytest.fixture
+def small_slabs(monkeypatch):
+    """Read 4 KiB at a time, so small test files take the slab path big files take."""
+    from app.volumes import npy_format, reading
+    monkeypatch.setattr(reading, "SLAB_BYTES", 4096)
+    monkeypatch.setattr(npy_format, "SLAB_BYTES", 4096)
+
+
+@pytest.mark.parametrize("order", ["C", "F"])
+def test_big_npy_is_read_in_slabs_with_progress(tmp_path, small_slabs, order):
+    data = np.random.default_rng(1).random((16, 12, 10)).astype(np.float32)
+    np.save(tmp_path / "b.npy", np.asarray(data, order=order))
+    calls = []
+    volume = open_volume(str(tmp_path / "b.npy"), progress=lambda f, m: calls.append(f))
+    np.testing.assert_array_equal(volume.data, data)
+    assert len(calls) > 3 and calls == sorted(calls) and calls[-1] == 1.0
+
+
+def test_nifti_is_read_in_z_slabs_with_progress(small_slabs):
+    path = NIBABEL_DATA / "example4d.nii.gz"
+    calls = []
+    volume = open_volume(str(path), frame=1, progress=lambda f, m: calls.append(f))
+    np.testing.assert_array_equal(volume.data, np.asarray(nibabel.load(str(path)).dataobj)[..., 1])
+    assert len(calls) > 3 and calls == sorted(calls) and calls[-1] == 1.0
