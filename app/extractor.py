@@ -5,18 +5,19 @@ indexed mesh and sized from the scans, so nothing is ever dropped):
 
 0. ``mc_brick_range`` once per volume: the value range of each brick (8 x 8 rows
    x 32 samples, plus the halo its cells reach), for empty-space skipping
-1. ``mc_signs``        every brick: pack inside bits 32 per word along axis 2;
-                       bricks the level cannot cut write constants and are skipped
-                       from here on; the rest go on an active list
-2. ``mc_classify``     active bricks: per word, vertices owned (per axis) and triangles
-3. ``mc_brick_sums``   per active brick: its totals
-4. ``scan``            exclusive scans of the per-brick totals -> offsets and grand totals
-5. ``mc_word_offsets`` per active brick: each word's first vertex and triangle
-6. ``mc_vertices``     active bricks: one vertex per sign-changing edge
-7. ``mc_triangles``    active bricks: triangle indices into those shared vertices
+1. ``mc_bricks``       per brick: bricks the level cannot cut write constant signs
+                       and are skipped from here on; the rest go on an active list
+2. ``mc_signs``        active bricks: pack inside bits 32 per word along axis 2
+3. ``mc_classify``     active bricks: per word, vertices owned (per axis) and triangles
+4. ``mc_brick_sums``   per active brick: its totals
+5. ``scan``            exclusive scans of the per-brick totals -> offsets and grand totals
+6. ``mc_word_offsets`` per active brick: each word's first vertex and triangle
+7. ``mc_vertex_jobs``  active bricks: name each sign-changing edge in its vertex's slot
+8. ``mc_vertices``     per vertex: position, value and outward normal
+9. ``mc_triangles``    active bricks: triangle indices into those shared vertices
 
-Passes 2-7 are dispatched indirectly from the active count, so an iso change
-touches only the bricks whose range contains the new level.  Scratch: 16 bytes
+Passes 2-7 and 9 are dispatched indirectly from the active count, so an iso
+change touches only the bricks whose range contains the new level.  Scratch: 16 bytes
 per 32-sample word plus 20 per brick (about 0.5 byte per voxel).  The only
 read-back is the two totals, 8 bytes, needed to size the outputs.
 """
@@ -83,8 +84,9 @@ class Extractor:
         defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u",
                    "BRICK_I": BRICK_I, "BRICK_J": BRICK_J, "BRICK_WORDS": BRICK_I * BRICK_J}
         self._passes = {name: compute_program(self.ctx, f"{name}.comp", defines)
-                        for name in ("mc_brick_range", "mc_signs", "mc_dispatch_args", "mc_classify",
-                                     "mc_brick_sums", "mc_word_offsets", "mc_vertices", "mc_triangles")}
+                        for name in ("mc_brick_range", "mc_bricks", "mc_signs", "mc_dispatch_args", "mc_classify",
+                                     "mc_brick_sums", "mc_word_offsets", "mc_vertex_jobs", "mc_vertices",
+                                     "mc_triangles")}
 
         self.vertex_buffer = self.ctx.buffer(reserve=VERTEX_BYTES)
         self.index_buffer = self.ctx.buffer(reserve=INDEX_BYTES)
@@ -176,10 +178,11 @@ class Extractor:
         self._bind((0, self._sign_words), (1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets),
                    (3, self._word_counts), (4, self._case_table), (7, self._active_bricks),
                    (8, self._brick_ranges), (9, self._dispatch_args))
-        dispatch_groups(self._passes["mc_signs"], self.brick_count)
+        dispatch_groups(self._passes["mc_bricks"], -(-(self.brick_count + 1) // 64))
         self.ctx.memory_barrier()
         dispatch_groups(self._passes["mc_dispatch_args"], 1)
         self.ctx.memory_barrier()
+        self._run_over_active_bricks("mc_signs")
         self._run_over_active_bricks("mc_classify")
         self._run_over_active_bricks("mc_brick_sums", per_brick=True)
 
@@ -195,7 +198,10 @@ class Extractor:
             self._bind((0, self._sign_words), (1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets),
                        (5, self._word_offsets), (6, self.vertex_buffer))
             self._run_over_active_bricks("mc_word_offsets", per_brick=True)
-            self._run_over_active_bricks("mc_vertices")
+            self._run_over_active_bricks("mc_vertex_jobs")
+            set_uniforms(self._passes["mc_vertices"], u_vertex_count=n_vertices)
+            dispatch_groups(self._passes["mc_vertices"], -(-n_vertices // 64))
+            self.ctx.memory_barrier()
             if n_triangles:
                 self._bind((6, self.index_buffer))
                 self._run_over_active_bricks("mc_triangles")

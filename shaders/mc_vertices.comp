@@ -1,16 +1,13 @@
 #version 430
-// Pass 6, over active bricks, one invocation per word: a vertex per sign-changing edge the
-// word owns, from the word's first vertex on, axis by axis.
-layout(local_size_x = BRICK_WORDS) in;
+// Pass 8, one invocation per vertex: replace the job that mc_vertex_jobs.comp left in the
+// vertex's slot by its position, value and outward normal.
+layout(local_size_x = 64) in;
 #include "mc_common.glsl"
-#include "mc_sign_words.glsl"
-#include "mc_active_bricks.glsl"
 
-layout(std430, binding = 3) readonly buffer WordCounts { uint word_counts[]; };
-layout(std430, binding = 5) readonly buffer WordOffsets { uvec2 word_offsets[]; };  // (vertex, triangle)
+uniform uint u_vertex_count;
 
 struct Vertex { vec4 position_value; vec4 normal; };
-layout(std430, binding = 6) writeonly buffer Vertices { Vertex vertices[]; };
+layout(std430, binding = 6) buffer Vertices { Vertex vertices[]; };
 
 vec3 gradient_at(ivec3 p) {  // central differences, one-sided at the border, physical units
     vec3 g;
@@ -43,22 +40,10 @@ Vertex edge_vertex(ivec3 p0, int axis) {
 }
 
 void main() {
-    uint brick;
-    if (!active_brick(brick)) return;
-    bool exists;
-    ivec3 word = brick_word(brick, exists);
-    if (!exists) return;
-    uint id = word_id_of(word.x, word.y, word.z);
-    if (vertex_total(word_counts[id]) == 0u) return;
-    uint next = word_offsets[id].x;
-
-    uvec3 crossing = crossing_masks(word.x, word.y, word.z);
-    for (int axis = 0; axis < 3; ++axis) {
-        uint bits = crossing[axis];
-        while (bits != 0u) {
-            int b = findLSB(bits);
-            bits &= bits - 1u;
-            vertices[next++] = edge_vertex(ivec3(word.x, word.y, 32 * word.z + b), axis);
-        }
-    }
+    uint index = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
+    if (index >= u_vertex_count) return;
+    uvec2 job = floatBitsToUint(vertices[index].position_value.xy);
+    uint w = job.x % uint(u_words), row = job.x / uint(u_words);
+    ivec3 p0 = ivec3(int(row / uint(u_dims.y)), int(row % uint(u_dims.y)), int(w) * 32 + int(job.y & 31u));
+    vertices[index] = edge_vertex(p0, int(job.y >> 5));
 }

@@ -1,0 +1,39 @@
+#version 430
+// Pass 1, one invocation per brick: does the level cut this brick's value range?
+// A brick on one side writes its constant sign words here (neighbours' cells read them)
+// and zero counts; the others are appended to the active list that every later pass
+// runs over, so an iso change costs only the bricks it can touch.  Ties count as inside.
+layout(local_size_x = 64) in;
+#include "mc_common.glsl"
+
+layout(std430, binding = 0) writeonly buffer SignWords { uint sign_words[]; };
+layout(std430, binding = 1) writeonly buffer BrickVertexCounts { uint brick_vertex_counts[]; };
+layout(std430, binding = 2) writeonly buffer BrickTriangleCounts { uint brick_triangle_counts[]; };
+layout(std430, binding = 7) buffer ActiveBricks { uint active_count; uint active_bricks[]; };
+layout(std430, binding = 8) readonly buffer BrickRanges { vec2 brick_ranges[]; };
+
+void main() {
+    uint brick = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
+    if (brick == 0u) {  // the element past the end, which the exclusive scans turn into totals
+        brick_vertex_counts[u_brick_count] = 0u;
+        brick_triangle_counts[u_brick_count] = 0u;
+    }
+    if (brick >= u_brick_count) return;
+    vec2 range = u_sign > 0.0 ? brick_ranges[brick] : -brick_ranges[brick].yx;
+    bool all_inside = range.x >= u_level, all_outside = range.y < u_level;
+    if (!all_inside && !all_outside) {
+        active_bricks[atomicAdd(active_count, 1u)] = brick;
+        return;
+    }
+    brick_vertex_counts[brick] = 0u;
+    brick_triangle_counts[brick] = 0u;
+    int w = int(brick % uint(u_words));
+    uint bits = all_inside ? point_bits(w) : 0u;
+    uint column = brick / uint(u_words);
+    int i0 = int(column / uint(u_bricks.y)) * BRICK_I, j0 = int(column % uint(u_bricks.y)) * BRICK_J;
+    for (int i = i0; i < min(i0 + BRICK_I, u_dims.x); ++i) {
+        for (int j = j0; j < min(j0 + BRICK_J, u_dims.y); ++j) {
+            sign_words[word_id_of(i, j, w)] = bits;
+        }
+    }
+}
