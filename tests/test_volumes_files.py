@@ -131,7 +131,10 @@ def test_spacing_flag_overrides_a_header_and_says_so(tmp_path, ramp):
     assert any("overrides" in note for note in volume.notes)
 
 
-@pytest.mark.parametrize("name", ["bucky.raw", "torus.nrrd", "frames.nii.gz", "gyroid.npy", "shapes.npz"])
+SHIPPED = ["bucky.raw", "torus.nrrd", "frames.nii.gz", "gyroid.npy", "shapes.npz"]
+
+
+@pytest.mark.parametrize("name", SHIPPED)
 def test_every_shipped_sample_opens(name):
     assert (volumes_dir() / name).is_file()
     volume = open_volume(f"sample:{name}")
@@ -188,3 +191,8 @@ def test_nifti_is_read_in_z_slabs_with_progress(small_slabs):
     volume = open_volume(str(path), frame=1, progress=lambda f, m: calls.append(f))
     np.testing.assert_array_equal(volume.data, np.asarray(nibabel.load(str(path)).dataobj)[..., 1])
     assert len(calls) > 3 and calls == sorted(calls) and calls[-1] == 1.0
+
+
+def test_sample_names_lists_every_shipped_volume_and_nothing_else():
+    from app.volumes import sample_names
+    assert sample_names() == sorted(f"sample:{name}" for name in SHIPPED)  # no sidecars, scripts, notes

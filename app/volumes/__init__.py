@@ -38,7 +38,7 @@ from .volume import Progress, Volume
 
 __all__ = [
     "Volume", "VolumeError", "DEFAULT_VOLUME", "open_volume", "builtin_names",
-    "describe_builtins", "add_volume_arguments", "open_volume_from_args",
+    "describe_builtins", "sample_names", "add_volume_arguments", "open_volume_from_args",
 ]
 
 # Smooth, blended blobs: a closed surface with varied curvature that looks good lit
@@ -52,6 +52,13 @@ def builtin_names() -> list[str]:
 
 def describe_builtins() -> list[tuple[str, str]]:
     return [(builtin.name, builtin.summary) for builtin in BUILTINS.values()]
+
+
+def sample_names() -> list[str]:
+    """Specs of the small files shipped in volumes/ ("sample:bucky.raw", ...), for pickers."""
+    from app.resources import volumes_dir
+    from .loaders import SAMPLE_PREFIX, is_volume_file
+    return sorted(SAMPLE_PREFIX + path.name for path in volumes_dir().iterdir() if is_volume_file(path))
 
 
 def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, frame=None,

@@ -44,6 +44,14 @@ def resolve_path(spec: str) -> tuple[Path, str | None]:
     return path, None
 
 
+VOLUME_SUFFIXES = (".nii.gz", ".nii", ".nrrd", ".nhdr", ".npy", ".npz") + RAW_SUFFIXES
+
+
+def is_volume_file(path: Path) -> bool:
+    """A file whose name says it holds a volume (sidecars, scripts and notes do not)."""
+    return path.is_file() and path.name.lower().endswith(VOLUME_SUFFIXES)
+
+
 def _format_of(path: Path, has_raw_flags: bool) -> str:
     name = path.name.lower()
     for suffix, kind in ((".nii.gz", "nifti"), (".nii", "nifti"), (".nrrd", "nrrd"), (".nhdr", "nrrd"),
