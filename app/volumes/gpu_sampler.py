@@ -55,6 +55,9 @@ def sample_on_gpu(tree, box: Box, shape: tuple[int, int, int], ctx=None,
             _set_uniform(program, "u_first", first)
             _set_uniform(program, "u_planes", count)
             program.run(groups_x, groups_y, count)
+            # The spec requires a barrier before reading SSBO writes back with glGetBufferSubData;
+            # llvmpipe forgives its absence, real drivers need not.
+            ctx.memory_barrier()
             slab_bytes = count * shape[1] * shape[2] * 4
             out[first:first + count] = np.frombuffer(buffer.read(size=slab_bytes), dtype=np.float32
                                                      ).reshape(count, shape[1], shape[2])
