@@ -66,8 +66,12 @@ def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, 
                 ctx=None) -> Volume:
     """Open a volume from a spec (see the module docstring); raise VolumeError on bad input.
 
-    backend ("auto", "gpu", "cpu") and ctx (a moderngl context) only matter for
-    expr: specs; "auto" samples on the GPU when a GL 4.3 context can be had.
+    dims/dtype/endian: raw files only; spacing overrides a header; frame picks
+    a volume of a 4-D file; resolution: built-ins and expr: only. progress, if
+    given, is called as progress(fraction 0..1, message) while a big volume
+    loads, is generated or is checked. backend ("auto", "gpu", "cpu") and ctx (a
+    moderngl context) only matter for expr: specs; "auto" samples on the GPU
+    when a GL 4.3 context can be had and says so in `notes` when it falls back.
     """
     if not isinstance(spec, str) or not spec.strip():
         raise VolumeError("no volume given; name a file, a built-in (isoscope volumes) or expr:FORMULA")
