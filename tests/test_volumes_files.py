@@ -66,6 +66,15 @@ def test_nrrd_spacings_and_gzip(tmp_path, ramp):
     assert volume.spacing == pytest.approx((0.25, 0.5, 3.0))
 
 
+def test_nhdr_with_a_detached_data_file(tmp_path, ramp):
+    ramp.ravel(order="F").astype(">i2").tofile(tmp_path / "d.raw")
+    (tmp_path / "d.nhdr").write_text("NRRD0004\ntype: short\ndimension: 3\nsizes: 4 5 6\n"
+                                     "spacings: 1 1 2.5\nencoding: raw\nendian: big\ndata file: d.raw\n")
+    volume = open_volume(str(tmp_path / "d.nhdr"))
+    np.testing.assert_array_equal(volume.data, ramp)
+    assert volume.spacing == (1.0, 1.0, 2.5)
+
+
 def test_nrrd_4d_picks_the_non_spatial_axis(tmp_path, ramp):
     nrrd.write(str(tmp_path / "t.nrrd"), np.stack([ramp, -ramp], axis=-1),
                {"kinds": ["domain", "domain", "domain", "list"]})
