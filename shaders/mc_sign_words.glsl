@@ -18,37 +18,33 @@ uvec3 crossing_masks(int i, int j, int w) {
     return uvec3(along0, along1, along2);
 }
 
-// The four sign rows around a row of cells, indexed d0 | d1 << 1, at k and at k + 1.
-struct CellRows { uint at_k[4]; uint at_k1[4]; };
+// Component `i` of `v`, by selects: llvmpipe turns indexing by a variable (of arrays or
+// vectors) into stack-memory traffic, which cost half of the triangle pass.
+uint pick(uvec4 v, uint i) { return i == 0u ? v.x : i == 1u ? v.y : i == 2u ? v.z : v.w; }
+
+// The four sign rows around a row of cells, component d0 | d1 << 1, at k and at k + 1.
+struct CellRows { uvec4 at_k; uvec4 at_k1; };
 
 CellRows cell_rows(int i, int j, int w) {
     CellRows rows;
-    for (int r = 0; r < 4; ++r) {
-        int ri = i + (r & 1), rj = j + (r >> 1);
-        rows.at_k[r] = row_word(ri, rj, w);
-        rows.at_k1[r] = next_samples(ri, rj, w, rows.at_k[r]);
-    }
+    rows.at_k = uvec4(row_word(i, j, w), row_word(i + 1, j, w), row_word(i, j + 1, w), row_word(i + 1, j + 1, w));
+    rows.at_k1 = uvec4(next_samples(i, j, w, rows.at_k.x), next_samples(i + 1, j, w, rows.at_k.y),
+                       next_samples(i, j + 1, w, rows.at_k.z), next_samples(i + 1, j + 1, w, rows.at_k.w));
     return rows;
 }
 
 // Cells of the word (i, j, w) with corners on both sides of the level.
 uint mixed_cells(CellRows rows, int w) {
-    uint any_in = 0u, all_in = 0xFFFFFFFFu;
-    for (int r = 0; r < 4; ++r) {
-        any_in |= rows.at_k[r] | rows.at_k1[r];
-        all_in &= rows.at_k[r] & rows.at_k1[r];
-    }
-    return any_in & ~all_in & axis2_edge_bits(w);
+    uvec4 any_in = rows.at_k | rows.at_k1, all_in = rows.at_k & rows.at_k1;
+    return (any_in.x | any_in.y | any_in.z | any_in.w) & ~(all_in.x & all_in.y & all_in.z & all_in.w)
+           & axis2_edge_bits(w);
 }
 
 bool has_cells(int i, int j) { return i + 1 < u_dims.x && j + 1 < u_dims.y; }
 
 // Case index of cell k: bit c = corner (c & 1, c >> 1 & 1, c >> 2 & 1), as app/case_table.py.
 uint cell_case(CellRows rows, uint k) {
-    uint c = 0u;
-    for (int r = 0; r < 4; ++r) {
-        c |= ((rows.at_k[r] >> k) & 1u) << uint(r);
-        c |= ((rows.at_k1[r] >> k) & 1u) << uint(r + 4);
-    }
-    return c;
+    uvec4 low = (rows.at_k >> k) & 1u, high = (rows.at_k1 >> k) & 1u;
+    return low.x | (low.y << 1) | (low.z << 2) | (low.w << 3)
+         | (high.x << 4) | (high.y << 5) | (high.z << 6) | (high.w << 7);
 }

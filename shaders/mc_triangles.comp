@@ -11,9 +11,10 @@ layout(std430, binding = 3) readonly buffer WordCounts { uint word_counts[]; };
 layout(std430, binding = 5) readonly buffer WordOffsets { uvec2 word_offsets[]; };  // (vertex, triangle)
 layout(std430, binding = 6) writeonly buffer Indices { uint indices[]; };
 
-// Where each axis's vertices start, in the words owning a cell row's edges: for each of the four
-// sign rows around the cells (d0 | d1 << 1), in word w and in word w + 1 (reached from cell 31).
-struct OwnerStarts { uvec3 here[4]; uvec3 next[4]; };
+// Where each axis's vertices start in the words owning a cell row's edges, per sign row around
+// the cells (component d0 | d1 << 1): in word w, and in word w + 1 (reached from cell 31, only
+// along axes 0 and 1).
+struct OwnerStarts { uvec4 along0; uvec4 along1; uvec4 along2; uvec4 next0; uvec4 next1; };
 
 uvec3 axis_starts(uint owner) {
     uint counts = word_counts[owner];
@@ -23,13 +24,22 @@ uvec3 axis_starts(uint owner) {
 }
 
 OwnerStarts owner_starts(ivec3 word, bool need_next) {
+    uvec3 s0 = axis_starts(word_id_of(word.x, word.y, word.z));
+    uvec3 s1 = axis_starts(word_id_of(word.x + 1, word.y, word.z));
+    uvec3 s2 = axis_starts(word_id_of(word.x, word.y + 1, word.z));
+    uvec3 s3 = axis_starts(word_id_of(word.x + 1, word.y + 1, word.z));
     OwnerStarts s;
-    for (int r = 0; r < 4; ++r) {
-        int i = word.x + (r & 1), j = word.y + (r >> 1);
-        s.here[r] = axis_starts(word_id_of(i, j, word.z));
-        // Only vertices on edges along axes 0 and 1 are reached in the next word; rows there may lie
-        // past the grid's last word, in which case no cell asks for them.
-        s.next[r] = need_next ? axis_starts(word_id_of(i, j, word.z + 1)) : uvec3(0u);
+    s.along0 = uvec4(s0.x, s1.x, s2.x, s3.x);
+    s.along1 = uvec4(s0.y, s1.y, s2.y, s3.y);
+    s.along2 = uvec4(s0.z, s1.z, s2.z, s3.z);
+    s.next0 = s.next1 = uvec4(0u);
+    if (need_next) {  // only when cell 31 is cut, so word w + 1 exists
+        uvec3 n0 = axis_starts(word_id_of(word.x, word.y, word.z + 1));
+        uvec3 n1 = axis_starts(word_id_of(word.x + 1, word.y, word.z + 1));
+        uvec3 n2 = axis_starts(word_id_of(word.x, word.y + 1, word.z + 1));
+        uvec3 n3 = axis_starts(word_id_of(word.x + 1, word.y + 1, word.z + 1));
+        s.next0 = uvec4(n0.x, n1.x, n2.x, n3.x);
+        s.next1 = uvec4(n0.y, n1.y, n2.y, n3.y);
     }
     return s;
 }
@@ -37,17 +47,19 @@ OwnerStarts owner_starts(ivec3 word, bool need_next) {
 // Index of the vertex on cell edge `edge` (see app/case_table.py) of cell k of the word.
 uint vertex_index(CellRows rows, OwnerStarts starts, uint k, uint edge) {
     uint axis = edge >> 2, low = edge & 3u;
-    uvec3 offset = axis == 0u ? uvec3(0u, low & 1u, low >> 1)
-                 : axis == 1u ? uvec3(low & 1u, 0u, low >> 1)
-                              : uvec3(low & 1u, low >> 1, 0u);
-    uint row = offset.x | (offset.y << 1);  // the owner's sign row among the four around the cells
-    uint bit = k + offset.z;
-    if (bit == 32u) return starts.next[row][axis];  // the next word's first point: first of its axis
-    uint here = rows.at_k[row];
-    uint crossing = axis == 0u ? here ^ rows.at_k[row | 1u]
-                  : axis == 1u ? here ^ rows.at_k[row | 2u]
+    // The owner's offset from the cell's corner 0 along the two axes other than `axis`.
+    uint d0 = axis == 0u ? 0u : low & 1u;
+    uint d1 = axis == 0u ? low & 1u : axis == 1u ? 0u : low >> 1;
+    uint d2 = axis == 2u ? 0u : low >> 1;
+    uint row = d0 | (d1 << 1);  // the owner's sign row among the four around the cells
+    uint bit = k + d2;
+    if (bit == 32u) return pick(axis == 0u ? starts.next0 : starts.next1, row);
+    uint here = pick(rows.at_k, row);
+    uint crossing = axis == 0u ? here ^ pick(rows.at_k, row | 1u)
+                  : axis == 1u ? here ^ pick(rows.at_k, row | 2u)
                                : here ^ (here >> 1);  // bits below `bit` never need the next word
-    return starts.here[row][axis] + uint(bitCount(crossing & ((1u << bit) - 1u)));
+    uint start = pick(axis == 0u ? starts.along0 : axis == 1u ? starts.along1 : starts.along2, row);
+    return start + uint(bitCount(crossing & ((1u << bit) - 1u)));
 }
 
 void main() {
@@ -57,23 +69,28 @@ void main() {
     ivec3 word = brick_word(brick, exists);
     if (!exists) return;
     uint id = word_id_of(word.x, word.y, word.z);
-    if (triangle_total(word_counts[id]) == 0u) return;
+    uint count = triangle_total(word_counts[id]);
+    if (count == 0u) return;
     uint next = word_offsets[id].y;
 
     CellRows rows = cell_rows(word.x, word.y, word.z);
     uint cells = mixed_cells(rows, word.z);
     OwnerStarts starts = owner_starts(word, (cells >> 31) != 0u);
-    while (cells != 0u) {
-        uint k = uint(findLSB(cells));
-        cells &= cells - 1u;
-        uint c = cell_case(rows, k);
-        uint triangles = triangle_count(c);
-        for (uint t = 0u; t < triangles; ++t) {
-            uint edges = triangle_edges(c, t);
-            for (uint corner = 0u; corner < 3u; ++corner) {
-                indices[3u * next + corner] = vertex_index(rows, starts, k, (edges >> (4u * corner)) & 15u);
-            }
-            next++;
+    // One iteration per triangle (not nested loops over cells and their triangles): SIMD lanes
+    // working on different words then stay in step for as long as each has triangles left.
+    uint end = next + count;
+    uint k = 0u, c = 0u, slot = 0u, cell_triangles = 0u;
+    for (; next < end; ++next) {
+        if (slot == cell_triangles) {
+            k = uint(findLSB(cells));
+            cells &= cells - 1u;
+            c = cell_case(rows, k);
+            cell_triangles = triangle_count(c);
+            slot = 0u;
         }
+        uint edges = triangle_edges(c, slot++);
+        indices[3u * next + 0u] = vertex_index(rows, starts, k, edges & 15u);
+        indices[3u * next + 1u] = vertex_index(rows, starts, k, (edges >> 4) & 15u);
+        indices[3u * next + 2u] = vertex_index(rows, starts, k, (edges >> 8) & 15u);
     }
 }

@@ -19,15 +19,18 @@ void main() {
     ivec3 word = brick_word(brick, exists);
     if (!exists) return;
     uint id = word_id_of(word.x, word.y, word.z);
-    if (vertex_total(word_counts[id]) == 0u) return;
     uint next = word_offsets[id].x;
     uvec3 crossing = crossing_masks(word.x, word.y, word.z);
-    for (uint axis = 0u; axis < 3u; ++axis) {
-        uint bits = crossing[axis];
-        while (bits != 0u) {
-            uint b = uint(findLSB(bits));
-            bits &= bits - 1u;
-            vertex_records[2u * next++] = uvec4(id, (axis << 5) | b, 0u, 0u);
+    // One iteration per vertex, axis by axis, so lanes on different words stay in step.
+    uint end = next + vertex_total(word_counts[id]);
+    uint axis = 0u, bits = crossing.x;
+    for (; next < end; ++next) {
+        while (bits == 0u) {
+            ++axis;
+            bits = axis == 1u ? crossing.y : crossing.z;
         }
+        uint b = uint(findLSB(bits));
+        bits &= bits - 1u;
+        vertex_records[2u * next] = uvec4(id, (axis << 5) | b, 0u, 0u);
     }
 }

@@ -9,20 +9,18 @@ uniform uint u_vertex_count;
 struct Vertex { vec4 position_value; vec4 normal; };
 layout(std430, binding = 6) buffer Vertices { Vertex vertices[]; };
 
-vec3 gradient_at(ivec3 p) {  // central differences, one-sided at the border, physical units
-    vec3 g;
-    for (int a = 0; a < 3; ++a) {
-        ivec3 lo = p, hi = p;
-        lo[a] = max(p[a] - 1, 0);
-        hi[a] = min(p[a] + 1, u_dims[a] - 1);
-        g[a] = (field_at(hi) - field_at(lo)) / (float(hi[a] - lo[a]) * u_spacing[a]);
-    }
-    return g;
+// Central differences, one-sided at the border, in physical units.  Written per axis without
+// indexing vectors by a variable: llvmpipe turns such indexing into scratch-memory traffic.
+vec3 gradient_at(ivec3 p) {
+    ivec3 lo = max(p - 1, ivec3(0)), hi = min(p + 1, u_dims - 1);
+    vec3 rise = vec3(field_at(ivec3(hi.x, p.y, p.z)) - field_at(ivec3(lo.x, p.y, p.z)),
+                     field_at(ivec3(p.x, hi.y, p.z)) - field_at(ivec3(p.x, lo.y, p.z)),
+                     field_at(ivec3(p.x, p.y, hi.z)) - field_at(ivec3(p.x, p.y, lo.z)));
+    return rise / (vec3(hi - lo) * u_spacing);
 }
 
 Vertex edge_vertex(ivec3 p0, int axis) {
-    ivec3 step = ivec3(0);
-    step[axis] = 1;
+    ivec3 step = ivec3(equal(ivec3(axis), ivec3(0, 1, 2)));
     ivec3 p1 = p0 + step;
     float v0 = field_at(p0), v1 = field_at(p1);
     float t = clamp((u_level - v0) / (v1 - v0), EDGE_MARGIN, 1.0 - EDGE_MARGIN);
