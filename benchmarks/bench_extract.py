@@ -1,0 +1,538 @@
+#!/usr/bin/env python3
+"""Benchmark isoscope's extraction against scikit-image, PyMCubes and VTK Flying Edges.
+
+One process, one run, so the ratios are measured under the same machine load
+(on a shared box run-to-run noise is +-10-15%: compare ratios, not absolute ms).
+For each volume of benchmarks/volumes.py and each size it times, as medians:
+
+- ours, iso change: a resident `Extractor`, alternating between two nearby levels
+  (a slider drag); only `ex.extract(level)` is timed (it returns when the GPU is done);
+- ours, first: `app.marching_cubes(vol, 0, backend="gpu")`, upload and read-back
+  included, context creation and shader compilation not (a warm-up call does them);
+- ours, numpy: `app.marching_cubes(vol, 0, backend="cpu")` (not above 256^3);
+- each peer re-run at the new level the way its users would: scikit-image
+  (lewiner), PyMCubes, and VTK vtkFlyingEdges3D on an already-built pipeline
+  (`SetValue(0, level)`, `Modified()`, `Update()`) with 2 threads (STDThread) and 1
+  (Sequential). A peer keeps nothing between levels, so its time serves both as
+  its "iso change" and as its "first".
+
+It prints a markdown table (stdout; progress goes to stderr) and can write JSON.
+Run `python benchmarks/bench_extract.py --help`; see benchmarks/README.md.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import gc
+import importlib
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+sys.path.insert(0, str(HERE))
+try:  # an installed isoscope, or the one on PYTHONPATH ...
+    import app
+except ImportError:  # ... else the checkout this script sits in
+    sys.path.insert(1, str(REPO))
+    import app
+
+from volumes import VOLUMES  # noqa: E402
+
+LEVEL_STEP = 0.005  # the second level: 0 + 0.5% of the data range, one notch of a 200-step slider
+TRIANGLE_TOLERANCE = 0.03  # peers must agree with our triangle count within 3%
+LEVEL_TOLERANCE = 1e-4  # the median vertex may be off the level by this x the data range
+CPU_MAX_SIZE = 256  # the numpy reference is skipped above this
+
+
+def log(*parts) -> None:
+    print(*parts, file=sys.stderr, flush=True)
+
+
+def off_level(volume: np.ndarray, points: np.ndarray, level: float, samples: int = 2000) -> float:
+    """Median |field - level| over up to `samples` mesh vertices read in array-index order.
+
+    The field is interpolated trilinearly, which on the grid edge a marching-cubes
+    vertex lies on is the linear interpolation that placed it: a right mesh gives
+    ~0, a mesh whose axes are swapped (VTK's x is numpy's last axis) does not.
+    The median, not the maximum: isoscope keeps vertices a margin away from the
+    grid points (so a tie never puts two vertices at one place), which moves a
+    few vertices slightly off the level by design.
+    """
+    if len(points) == 0:
+        return 0.0
+    p = np.asarray(points, np.float64)[np.linspace(0, len(points) - 1, min(samples, len(points))).astype(int)]
+    lo = np.clip(np.floor(p).astype(np.int64), 0, np.array(volume.shape) - 2)
+    t = np.clip(p - lo, 0.0, 1.0)
+    value = np.zeros(len(p))
+    for corner in np.ndindex(2, 2, 2):
+        weight = np.prod(np.where(corner, t, 1.0 - t), axis=1)
+        i, j, k = (lo + corner).T
+        value += weight * volume[i, j, k]
+    return float(np.median(np.abs(value - level)))
+
+
+# -- peers ------------------------------------------------------------------------------------
+
+class Peer:
+    """A peer library: `prepare` (untimed) builds what a user keeps; `run` is what is timed."""
+
+    key = ""
+    label = ""
+    module = ""
+
+    def __init__(self):
+        self.missing = None
+        try:
+            self.lib = importlib.import_module(self.module)
+        except Exception as exc:  # ImportError, or a broken install
+            self.missing = f"{type(exc).__name__}: {exc}"
+
+    @property
+    def version(self) -> str:
+        return getattr(self.lib, "__version__", "?")
+
+    def activate(self) -> None:
+        """Called before a series of runs (VTK: pick the threading backend)."""
+
+    def prepare(self, volume, gradient_direction):
+        return volume, gradient_direction
+
+    def run(self, state, level: float, want_points: bool = False):
+        """-> (triangle count, the vertices in array-index order if asked, else None)."""
+        raise NotImplementedError
+
+
+class SkimagePeer(Peer):
+    key, label, module = "skimage", "scikit-image (lewiner)", "skimage.measure"
+
+    @property
+    def version(self):
+        return importlib.import_module("skimage").__version__
+
+    def run(self, state, level, want_points=False):
+        volume, gradient_direction = state
+        verts, faces, _, _ = self.lib.marching_cubes(volume, level, gradient_direction=gradient_direction)
+        return len(faces), verts if want_points else None
+
+
+class MCubesPeer(Peer):
+    key, label, module = "mcubes", "PyMCubes", "mcubes"
+
+    @property
+    def version(self):
+        from importlib.metadata import version
+        return version("PyMCubes")
+
+    def run(self, state, level, want_points=False):
+        vertices, triangles = self.lib.marching_cubes(state[0], level)
+        return len(triangles), vertices if want_points else None
+
+
+class FlyingEdgesPeer(Peer):
+    module = "vtkmodules.vtkFiltersCore"
+
+    def __init__(self, threads: int):
+        self.threads = threads
+        self.backend = "STDThread" if threads > 1 else "Sequential"
+        self.key = f"fe{threads}"
+        self.label = f"VTK FlyingEdges3D {threads}T"
+        super().__init__()
+        if self.missing is None:
+            try:
+                from vtkmodules.util import numpy_support
+                from vtkmodules.vtkCommonCore import vtkSMPTools
+                from vtkmodules.vtkCommonDataModel import vtkImageData
+            except Exception as exc:
+                self.missing = f"{type(exc).__name__}: {exc}"
+            else:
+                self.numpy_support, self.smp, self.image_data = numpy_support, vtkSMPTools, vtkImageData
+
+    @property
+    def version(self):
+        from vtkmodules.vtkCommonCore import vtkVersion
+        return vtkVersion.GetVTKVersion()
+
+    def activate(self):
+        if not self.smp.SetBackend(self.backend):
+            raise RuntimeError(f"VTK has no SMP backend {self.backend}")
+        self.smp.Initialize(self.threads)  # after SetBackend: each backend keeps its own count
+        self.active_threads = self.smp.GetEstimatedNumberOfThreads()
+
+    def prepare(self, volume, gradient_direction):
+        # A C-order (n0, n1, n2) array has axis 2 varying fastest, which is VTK's x:
+        # the image is n2 x n1 x n0 and shares numpy's memory (no copy, no transpose).
+        # Its points come out as (x, y, z) = (axis 2, axis 1, axis 0).
+        volume = np.ascontiguousarray(volume)
+        n0, n1, n2 = volume.shape
+        scalars = self.numpy_support.numpy_to_vtk(volume.reshape(-1), deep=False)
+        image = self.image_data()
+        image.SetDimensions(n2, n1, n0)
+        image.GetPointData().SetScalars(scalars)
+        fe = self.lib.vtkFlyingEdges3D()  # defaults, as a user gets them: normals on
+        fe.SetInputData(image)
+        return fe, image, scalars, volume  # keep the numpy memory alive as long as VTK uses it
+
+    def run(self, state, level, want_points=False):
+        fe = state[0]
+        fe.SetValue(0, level)
+        fe.Modified()
+        fe.Update()
+        output = fe.GetOutput()
+        points = None
+        if want_points:
+            points = np.zeros((0, 3))
+            if output.GetNumberOfPoints():  # (x, y, z) -> array-index order (axis 0, 1, 2)
+                points = self.numpy_support.vtk_to_numpy(output.GetPoints().GetData())[:, ::-1]
+        return output.GetNumberOfPolys(), points
+
+
+def make_peers() -> list[Peer]:
+    return [SkimagePeer(), MCubesPeer(), FlyingEdgesPeer(2), FlyingEdgesPeer(1)]
+
+
+# -- timing -----------------------------------------------------------------------------------
+
+def timed(fn, *args):
+    start = time.perf_counter()
+    result = fn(*args)
+    return (time.perf_counter() - start) * 1000.0, result
+
+
+def level_sequence(levels, repeats):
+    """The timed levels: b, a, b, a, ... so every timed run follows a run at the other level."""
+    return [levels[(i + 1) % 2] for i in range(repeats)]
+
+
+def summary(samples: list[float]) -> dict:
+    return {"median_ms": statistics.median(samples), "min_ms": min(samples),
+            "samples_ms": [round(s, 3) for s in samples]}
+
+
+def bench_ours_first(volume, gd, level, repeats, backend):
+    samples = []
+    for _ in range(repeats):
+        ms, (verts, faces, _, _) = timed(lambda: app.marching_cubes(volume, level, gradient_direction=gd,
+                                                                     backend=backend))
+        samples.append(ms)
+    return {**summary(samples), "triangles": {"a": len(faces)}, "off_level": off_level(volume, verts, level)}
+
+
+def bench_ours_iso_change(volume, gd, levels, repeats):
+    from app.extractor import Extractor
+    ex = Extractor(volume, gradient_direction=gd)
+    try:
+        renderer = ex.ctx.info["GL_RENDERER"]
+        triangles = {"a": ex.extract(levels[0])[1]}  # untimed: allocates the mesh buffers
+        scratch = ex.scratch_bytes()
+        samples, gpu_ms = [], []
+        for level in level_sequence(levels, repeats):
+            ms, (_, n_triangles) = timed(ex.extract, level)
+            samples.append(ms)
+            triangles["a" if level == levels[0] else "b"] = n_triangles
+            scratch = max(scratch, ex.scratch_bytes())
+            if getattr(ex, "last_gpu_ms", None) is not None:
+                gpu_ms.append(float(ex.last_gpu_ms))
+        result = {**summary(samples), "triangles": triangles, "scratch_bytes": scratch,
+                  "renderer": renderer}
+        if gpu_ms:
+            result["gpu_median_ms"] = statistics.median(gpu_ms)
+        return result
+    finally:
+        ex.release()
+
+
+def bench_peer(peer, volume, gd, levels, repeats):
+    peer.activate()
+    state = peer.prepare(volume, gd)
+    try:
+        n_a, points = peer.run(state, levels[0], want_points=True)  # untimed: sets up, gives the checks
+        error = off_level(volume, points, levels[0])
+        del points
+        triangles, samples = {"a": n_a}, []
+        for level in level_sequence(levels, repeats):
+            ms, (n, _) = timed(peer.run, state, level)
+            samples.append(ms)
+            triangles["a" if level == levels[0] else "b"] = n
+        result = {**summary(samples), "triangles": triangles, "off_level": error}
+        if hasattr(peer, "active_threads"):
+            result["threads"] = peer.active_threads
+        return result
+    finally:
+        del state
+        gc.collect()
+
+
+def warm_up(peers) -> str:
+    """Create the GL context, compile the shaders and load every peer's code, on a tiny volume."""
+    tiny = VOLUMES["sphere"][0](12)
+    app.marching_cubes(tiny, 0.0, gradient_direction="ascent", backend="gpu")
+    ours = bench_ours_iso_change(tiny, "ascent", (0.0, 0.05), 2)
+    for peer in peers:
+        if peer.missing is None:
+            bench_peer(peer, tiny, "ascent", (0.0, 0.05), 1)
+    return ours["renderer"]
+
+
+# -- checks -----------------------------------------------------------------------------------
+
+def check_case(case) -> list[str]:
+    """Triangle counts against ours at each level measured; every mesh's vertices on the level set."""
+    warnings = []
+    name = f"{case['volume']} {case['size']}^3"
+    ours = case["ours"]["iso_change"]["triangles"]
+    first = case["ours"]["first"]
+    if first["triangles"]["a"] != ours["a"]:
+        warnings.append(f"{name}: app.marching_cubes gave {first['triangles']['a']} triangles, "
+                        f"the resident Extractor {ours['a']}, at the same level")
+    cpu = case["ours"].get("numpy")
+    if cpu and cpu["triangles"]["a"] != ours["a"]:
+        warnings.append(f"{name}: numpy reference {cpu['triangles']['a']} triangles, GPU {ours['a']}")
+    for key, result in case["peers"].items():
+        if "median_ms" not in result:
+            continue
+        for which, count in result["triangles"].items():
+            expected = ours.get(which)
+            if expected and abs(count - expected) > TRIANGLE_TOLERANCE * expected:
+                warnings.append(f"{name}: {result['label']} has {count} triangles at level "
+                                f"{case['levels'][which]:g}, ours {expected} "
+                                f"({100.0 * (count - expected) / expected:+.1f}%)")
+    tolerance = LEVEL_TOLERANCE * (case["value_range"][1] - case["value_range"][0])
+    runners = [("app.marching_cubes (GPU)", first), ("numpy reference", cpu)]
+    runners += [(r["label"], r) for r in case["peers"].values() if "median_ms" in r]
+    for label, result in runners:
+        if result and result["off_level"] > tolerance:
+            warnings.append(f"{name}: {label}'s vertices, read in array-index order, are off the level "
+                            f"by {result['off_level']:.3g} (median; axes swapped?)")
+    return warnings
+
+
+# -- the run ----------------------------------------------------------------------------------
+
+def plan(args) -> list[tuple[int, str]]:
+    cases = [(size, name) for size in args.sizes for name in args.volumes]
+    if args.big and (512, "sphere") not in cases:
+        cases.append((512, "sphere"))
+    return cases
+
+
+def repeats_for(size: int, args) -> int:
+    if args.repeats:
+        return args.repeats
+    return 5 if size <= 128 else 3
+
+
+def run_case(size, name, peers, args) -> dict:
+    generate, gd = VOLUMES[name]
+    repeats = repeats_for(size, args)
+    log(f"[{size}^3 {name}] generating")
+    volume = generate(size)
+    lo, hi = float(volume.min()), float(volume.max())
+    step = float(np.float32(LEVEL_STEP * (hi - lo)))
+    levels = {"a": 0.0, "b": step}
+    pair = (levels["a"], levels["b"])
+    case = {"size": size, "volume": name, "gradient_direction": gd, "repeats": repeats,
+            "levels": levels, "value_range": [lo, hi], "ours": {}, "peers": {}}
+    log(f"[{size}^3 {name}] ours: iso change")
+    case["ours"]["iso_change"] = bench_ours_iso_change(volume, gd, pair, repeats)
+    log(f"[{size}^3 {name}] ours: first (gpu)")
+    case["ours"]["first"] = bench_ours_first(volume, gd, 0.0, repeats, "gpu")
+    if size <= CPU_MAX_SIZE and not args.no_cpu:
+        log(f"[{size}^3 {name}] ours: numpy")
+        case["ours"]["numpy"] = bench_ours_first(volume, gd, 0.0, repeats, "cpu")
+    gc.collect()
+    for peer in peers:
+        if peer.missing is not None:
+            case["peers"][peer.key] = {"label": peer.label, "skipped": "not importable"}
+            continue
+        log(f"[{size}^3 {name}] {peer.label}")
+        try:
+            result = bench_peer(peer, volume, gd, pair, repeats)
+        except Exception as exc:  # a peer failing (memory, a bug) must not end the run
+            case["peers"][peer.key] = {"label": peer.label, "skipped": f"failed: {type(exc).__name__}: {exc}"}
+        else:
+            case["peers"][peer.key] = {"label": peer.label, **result}
+    del volume
+    gc.collect()
+    return case
+
+
+def git_state() -> str:
+    src = Path(app.__file__).resolve().parent.parent
+    try:
+        rev = subprocess.run(["git", "-C", str(src), "rev-parse", "--short", "HEAD"], capture_output=True,
+                             text=True, timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(src), "status", "--porcelain", "--", "app", "shaders"],
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+        return rev + (" + uncommitted changes to app/ or shaders/" if dirty else "")
+    except Exception:
+        return "not a git checkout"
+
+
+# -- report -----------------------------------------------------------------------------------
+
+def fmt_ms(ms) -> str:
+    if ms is None:
+        return "-"
+    return f"{ms:.1f}" if ms < 100 else f"{ms:.0f}"
+
+
+def fmt_ratio(peer_ms, ours_ms) -> str:
+    if peer_ms is None or not ours_ms:
+        return "n/a"
+    return f"{peer_ms / ours_ms:.2f}"
+
+
+def fmt_count(n) -> str:
+    return "-" if n is None else f"{n:,}"
+
+
+def markdown(meta, cases, peers, warnings, notes) -> str:
+    out = [f"## isoscope extraction benchmark, {meta['date']}", "",
+           f"- GL renderer: {meta['renderer']}",
+           f"- machine: {meta['cpus']} CPUs, {meta['platform']}; LP_NUM_THREADS={meta['lp_num_threads']}",
+           f"- isoscope: {meta['app']} ({meta['git']})",
+           f"- peers: " + ", ".join(f"{p.label} {p.version}" for p in peers if p.missing is None),
+           f"- volumes: FIELD-NOTES definitions (benchmarks/volumes.py), float32; levels 0 and "
+           f"0 + {LEVEL_STEP:.1%} of the data range, alternated; sphere with gradient_direction="
+           f"\"ascent\", gyroid and noise \"descent\", for us and scikit-image",
+           f"- checks: every peer's triangle count within {TRIANGLE_TOLERANCE:.0%} of ours at both levels, "
+           f"and every mesh's vertices on the level set when read in array-index order (axis order); "
+           f"failures are listed as WARNING at the end",
+           f"- times: median ms of the repeats; ratio = peer ms / our ms, > 1 means we are faster; "
+           f"a peer's time is its re-run at the new level (it keeps nothing between levels)",
+           ""]
+    out += ["### Iso change (resident volume): peer ms / our ms", ""]
+    head = ["size", "volume", "triangles", "ours ms"] + [p.label for p in peers]
+    if any("gpu_median_ms" in c["ours"]["iso_change"] for c in cases):
+        head.insert(4, "ours GPU ms")
+    out += ["| " + " | ".join(head) + " |", "|" + "---|" * 2 + "---:|" * (len(head) - 2)]
+    for c in cases:
+        ours = c["ours"]["iso_change"]
+        row = [f"{c['size']}^3", c["volume"], fmt_count(ours["triangles"]["a"]), fmt_ms(ours["median_ms"])]
+        if "ours GPU ms" in head:
+            row.append(fmt_ms(ours.get("gpu_median_ms")))
+        row += [cell_ratio(c["peers"][p.key], ours["median_ms"]) for p in peers]
+        out.append("| " + " | ".join(row) + " |")
+    out += ["", "### First extraction (upload + extract + read-back): peer ms / our ms", ""]
+    head = ["size", "volume", "ours GPU ms", "ours numpy ms"] + [p.label for p in peers]
+    out += ["| " + " | ".join(head) + " |", "|" + "---|" * 2 + "---:|" * (len(head) - 2)]
+    for c in cases:
+        first = c["ours"]["first"]
+        numpy_ms = c["ours"]["numpy"]["median_ms"] if "numpy" in c["ours"] else None
+        row = [f"{c['size']}^3", c["volume"], fmt_ms(first["median_ms"]), fmt_ms(numpy_ms)]
+        row += [cell_ratio(c["peers"][p.key], first["median_ms"]) for p in peers]
+        out.append("| " + " | ".join(row) + " |")
+    out += ["", "### Medians (ms) and triangle counts at level 0", ""]
+    head = ["size", "volume", "runner", "median ms", "min ms", "runs", "triangles", "vs ours"]
+    out += ["| " + " | ".join(head) + " |", "|---|---|---|---:|---:|---:|---:|---:|"]
+    for c in cases:
+        ours_n = c["ours"]["iso_change"]["triangles"]["a"]
+        rows = [("ours: iso change (Extractor.extract)", c["ours"]["iso_change"]),
+                ("ours: first, GPU (app.marching_cubes)", c["ours"]["first"]),
+                ("ours: first, numpy reference", c["ours"].get("numpy"))]
+        rows += [(p.label, c["peers"][p.key]) for p in peers]
+        for label, r in rows:
+            if r is None:
+                continue
+            if "median_ms" not in r:
+                out.append(f"| {c['size']}^3 | {c['volume']} | {label} | - | - | - | - | {r['skipped']} |")
+                continue
+            n = r["triangles"]["a"]
+            delta = f"{100.0 * (n - ours_n) / ours_n:+.2f}%" if ours_n else "-"
+            out.append(f"| {c['size']}^3 | {c['volume']} | {label} | {fmt_ms(r['median_ms'])} | "
+                       f"{fmt_ms(r['min_ms'])} | {len(r['samples_ms'])} | {fmt_count(n)} | {delta} |")
+    out += ["", "### Our GPU scratch (beyond the volume texture and the mesh)", ""]
+    out += ["| size | volume | peak scratch MiB | bytes per voxel |", "|---|---|---:|---:|"]
+    for c in cases:
+        scratch = c["ours"]["iso_change"]["scratch_bytes"]
+        out.append(f"| {c['size']}^3 | {c['volume']} | {scratch / 2**20:.2f} | {scratch / c['size'] ** 3:.3f} |")
+    if notes or warnings:
+        out.append("")
+    out += [f"- note: {n}" for n in notes]
+    out += [f"- WARNING: {w}" for w in warnings]
+    return "\n".join(out) + "\n"
+
+
+def cell_ratio(result, ours_ms) -> str:
+    if "median_ms" not in result:
+        return "skipped"
+    return fmt_ratio(result["median_ms"], ours_ms)
+
+
+def parse_args(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     epilog="Default: 128^3 and 256^3, three volumes, every peer.")
+    parser.add_argument("--sizes", default="128,256",
+                        help="comma-separated edge lengths (default 128,256)")
+    parser.add_argument("--volumes", default=",".join(VOLUMES),
+                        help=f"comma-separated subset of {','.join(VOLUMES)}")
+    parser.add_argument("--big", action="store_true",
+                        help="also the 512^3 sphere (about 2.5 GB of RAM, minutes on llvmpipe)")
+    parser.add_argument("--repeats", type=int, default=0,
+                        help="timed runs per measurement (default 5 up to 128^3, 3 above)")
+    parser.add_argument("--no-cpu", action="store_true", help="skip our numpy reference")
+    parser.add_argument("--json", metavar="PATH", help="also write every sample and count as JSON")
+    args = parser.parse_args(argv)
+    try:
+        args.sizes = [int(s) for s in args.sizes.split(",") if s.strip()]
+    except ValueError:
+        parser.error(f"--sizes wants integers like 128,256, not {args.sizes!r}")
+    if any(s < 8 for s in args.sizes):
+        parser.error("--sizes: every size must be at least 8")
+    args.volumes = [v.strip() for v in args.volumes.split(",") if v.strip()]
+    unknown = sorted(set(args.volumes) - set(VOLUMES))
+    if unknown:
+        parser.error(f"--volumes: unknown {', '.join(unknown)}; choose from {', '.join(VOLUMES)}")
+    if args.repeats < 0:
+        parser.error("--repeats must be positive")
+    return args
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    peers = make_peers()
+    notes = [f"{p.label} skipped: not importable ({p.missing}); `pip install -e .[bench]` installs it"
+             for p in peers if p.missing is not None]
+    for n in notes:
+        log(n)
+    started = time.perf_counter()
+    renderer = warm_up(peers)
+    meta = {"date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+            "renderer": renderer, "cpus": os.cpu_count(), "platform": platform.platform(),
+            "lp_num_threads": os.environ.get("LP_NUM_THREADS", "unset"),
+            "app": str(Path(app.__file__).resolve().parent), "git": git_state(),
+            "python": platform.python_version(), "numpy": np.__version__,
+            "peers": {p.key: (p.version if p.missing is None else None) for p in peers}}
+    cases, warnings = [], []
+    for size, name in plan(args):
+        case = run_case(size, name, peers, args)
+        case_warnings = check_case(case)
+        for w in case_warnings:
+            log("WARNING:", w)
+        warnings += case_warnings
+        cases.append(case)
+    for c in cases:
+        for key, r in c["peers"].items():
+            if r.get("skipped", "").startswith("failed"):
+                notes.append(f"{r['label']} at {c['size']}^3 {c['volume']}: {r['skipped']}")
+    meta["seconds"] = round(time.perf_counter() - started, 1)
+    notes.append(f"whole run: {meta['seconds']:.0f} s")
+    print(markdown(meta, cases, peers, warnings, notes), end="", flush=True)
+    if args.json:
+        Path(args.json).write_text(json.dumps({"meta": meta, "cases": cases, "warnings": warnings,
+                                               "notes": notes}, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,78 @@
+"""The benchmark script runs end to end on tiny volumes and reports every peer (not a timed test).
+
+PyMCubes is hidden from the run on purpose, so one run checks both paths: a
+peer that is there is measured, a peer that is missing is skipped with a note
+(in CI only the `test` extra is installed: scikit-image and scipy, no PyMCubes
+or VTK).
+"""
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+SCRIPT = Path(__file__).resolve().parent.parent / "benchmarks" / "bench_extract.py"
+PEER_COLUMNS = {  # column label -> module whose absence makes the script skip it
+    "scikit-image (lewiner)": "skimage",
+    "PyMCubes": "mcubes",
+    "VTK FlyingEdges3D 2T": "vtkmodules",
+    "VTK FlyingEdges3D 1T": "vtkmodules",
+}
+
+
+def importable(module: str) -> bool:
+    return importlib.util.find_spec(module) is not None
+
+
+def table_rows(stdout: str, title: str) -> tuple[list[str], list[list[str]]]:
+    """The header and body cells of the markdown table under `### title...`."""
+    lines = stdout.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith(f"### {title}"))
+    table = []
+    for line in lines[start + 1:]:
+        if line.startswith("|"):
+            table.append([cell.strip() for cell in line.strip("|").split("|")])
+        elif table:
+            break
+    return table[0], table[2:]
+
+
+def test_benchmark_script_prints_every_peer(tmp_path):
+    hidden = tmp_path / "hidden"
+    hidden.mkdir()
+    (hidden / "mcubes.py").write_text('raise ImportError("hidden by the smoke test")\n')
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(hidden), env.get("PYTHONPATH")]))
+    out_json = tmp_path / "bench.json"
+
+    proc = subprocess.run(
+        [sys.executable, str(SCRIPT), "--sizes", "24", "--repeats", "1", "--json", str(out_json)],
+        capture_output=True, text=True, timeout=300, env=env, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    stdout = proc.stdout
+
+    for title in ("Iso change", "First extraction"):
+        header, rows = table_rows(stdout, title)
+        assert [row[1] for row in rows] == ["sphere", "gyroid", "noise"]
+        for label, module in PEER_COLUMNS.items():
+            assert label in header, f"no {label} column in {title}: {header}"
+            cells = [row[header.index(label)] for row in rows]
+            if module != "mcubes" and importable(module):
+                assert all(float(cell) > 0 for cell in cells), (label, cells)
+            else:
+                assert cells == ["skipped"] * 3, (label, cells)
+
+    assert "PyMCubes skipped: not importable" in stdout
+    if not importable("vtkmodules"):
+        assert "VTK FlyingEdges3D 2T skipped: not importable" in stdout
+    # Every peer that ran found the same surface as ours (triangle counts, bounding boxes).
+    assert "WARNING" not in stdout, stdout
+
+    report = json.loads(out_json.read_text())
+    assert [c["volume"] for c in report["cases"]] == ["sphere", "gyroid", "noise"]
+    for case in report["cases"]:
+        assert case["ours"]["iso_change"]["triangles"]["a"] > 0
+        assert case["peers"]["mcubes"]["skipped"] == "not importable"
