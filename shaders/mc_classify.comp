@@ -16,16 +16,19 @@ void main() {
     ivec3 word = brick_word(brick, exists);
     if (!exists) return;
 
-    uvec3 crossing = crossing_masks(word.x, word.y, word.z);
+    uvec3 crossing;
     uint triangles = 0u;
     if (has_cells(word.x, word.y)) {
         CellRows rows = cell_rows(word.x, word.y, word.z);
+        crossing = crossing_from_rows(rows, word.z);
         uint cells = mixed_cells(rows, word.z);
         while (cells != 0u) {
             uint k = uint(findLSB(cells));
             cells &= cells - 1u;
             triangles += triangle_count(cell_case(rows, k));
         }
+    } else {
+        crossing = crossing_masks(word.x, word.y, word.z);  // the grid's last row along axis 0 or 1
     }
     word_counts[word_id_of(word.x, word.y, word.z)] = uint(bitCount(crossing.x))
         | (uint(bitCount(crossing.y)) << 6) | (uint(bitCount(crossing.z)) << 12) | (triangles << 18);

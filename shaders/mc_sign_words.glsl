@@ -42,6 +42,13 @@ uint mixed_cells(CellRows rows, int w) {
 
 bool has_cells(int i, int j) { return i + 1 < u_dims.x && j + 1 < u_dims.y; }
 
+// crossing_masks() of the word at rows' corner 0, from rows already loaded (needs has_cells).
+uvec3 crossing_from_rows(CellRows rows, int w) {
+    uint here = rows.at_k.x;
+    return uvec3((here ^ rows.at_k.y) & point_bits(w), (here ^ rows.at_k.z) & point_bits(w),
+                 (here ^ rows.at_k1.x) & axis2_edge_bits(w));
+}
+
 // Case index of cell k: bit c = corner (c & 1, c >> 1 & 1, c >> 2 & 1), as app/case_table.py.
 uint cell_case(CellRows rows, uint k) {
     uvec4 low = (rows.at_k >> k) & 1u, high = (rows.at_k1 >> k) & 1u;
