@@ -207,9 +207,22 @@ def timed(fn, *args):
     return (time.perf_counter() - start) * 1000.0, result
 
 
-def level_sequence(levels, repeats):
-    """The timed levels: b, a, b, a, ... so every timed run follows a run at the other level."""
-    return [levels[(i + 1) % 2] for i in range(repeats)]
+def alternate(run, levels, start, untimed, repeats, after_timed=None):
+    """Runs run(level) -> triangles at a, b, a, ... (from levels["ab"[start]]): `untimed` runs, then
+    `repeats` timed ones, so every run follows one at the other level, like a slider drag.
+
+    The untimed runs let the allocator settle: here the first two or three runs at a new size
+    in a process are up to 1.5x slower for every library alike (fresh pages for fresh outputs).
+    """
+    triangles, samples = {}, []
+    for i in range(untimed + repeats):
+        which = "ab"[(start + i) % 2]
+        ms, triangles[which] = timed(run, levels[which])
+        if i >= untimed:
+            samples.append(ms)
+            if after_timed:
+                after_timed()
+    return summary(samples), triangles
 
 
 def summary(samples: list[float]) -> dict:
@@ -217,52 +230,54 @@ def summary(samples: list[float]) -> dict:
             "samples_ms": [round(s, 3) for s in samples]}
 
 
-def bench_ours_first(volume, gd, level, repeats, backend):
-    samples = []
-    for _ in range(repeats):
-        ms, (verts, faces, _, _) = timed(lambda: app.marching_cubes(volume, level, gradient_direction=gd,
-                                                                     backend=backend))
-        samples.append(ms)
-    return {**summary(samples), "triangles": {"a": len(faces)}, "off_level": off_level(volume, verts, level)}
+def bench_ours_first(volume, gd, level, repeats, backend, untimed):
+    last = {}
+
+    def run(level):
+        last["verts"], faces, _, _ = app.marching_cubes(volume, level, gradient_direction=gd, backend=backend)
+        return len(faces)
+
+    result, triangles = alternate(run, {"a": level, "b": level}, 0, untimed, repeats)
+    return {**result, "triangles": {"a": triangles["a"]}, "off_level": off_level(volume, last.pop("verts"), level)}
 
 
-def bench_ours_iso_change(volume, gd, levels, repeats):
+def bench_ours_iso_change(volume, gd, levels, repeats, untimed):
     from app.extractor import Extractor
     ex = Extractor(volume, gradient_direction=gd)
     try:
-        renderer = ex.ctx.info["GL_RENDERER"]
-        triangles = {"a": ex.extract(levels[0])[1]}  # untimed: allocates the mesh buffers
-        scratch = ex.scratch_bytes()
-        samples, gpu_ms = [], []
-        for level in level_sequence(levels, repeats):
-            ms, (_, n_triangles) = timed(ex.extract, level)
-            samples.append(ms)
-            triangles["a" if level == levels[0] else "b"] = n_triangles
-            scratch = max(scratch, ex.scratch_bytes())
+        scratch, gpu_ms, active = [ex.scratch_bytes()], [], []
+
+        def after_timed():
+            scratch.append(ex.scratch_bytes())
+            if getattr(ex, "brick_count", 0):  # empty-space skipping: the share of bricks the level cut
+                active.append(getattr(ex, "active_bricks", 0) / ex.brick_count)
             if getattr(ex, "last_gpu_ms", None) is not None:
                 gpu_ms.append(float(ex.last_gpu_ms))
-        result = {**summary(samples), "triangles": triangles, "scratch_bytes": scratch,
-                  "renderer": renderer}
+
+        # At least one untimed run: the first extraction allocates the mesh buffers.
+        result, triangles = alternate(lambda level: ex.extract(level)[1], levels, 0, max(untimed, 1),
+                                      repeats, after_timed)
+        result.update(triangles=triangles, scratch_bytes=max(scratch), renderer=ex.ctx.info["GL_RENDERER"])
         if gpu_ms:
             result["gpu_median_ms"] = statistics.median(gpu_ms)
+        if active:
+            result["active_brick_share"] = max(active)
         return result
     finally:
         ex.release()
 
 
-def bench_peer(peer, volume, gd, levels, repeats):
+def bench_peer(peer, volume, gd, levels, repeats, untimed):
     peer.activate()
     state = peer.prepare(volume, gd)
     try:
-        n_a, points = peer.run(state, levels[0], want_points=True)  # untimed: sets up, gives the checks
-        error = off_level(volume, points, levels[0])
+        # The first run (untimed) sets the peer up and gives the axis-order check.
+        n_a, points = peer.run(state, levels["a"], want_points=True)
+        check = off_level(volume, points, levels["a"])
         del points
-        triangles, samples = {"a": n_a}, []
-        for level in level_sequence(levels, repeats):
-            ms, (n, _) = timed(peer.run, state, level)
-            samples.append(ms)
-            triangles["a" if level == levels[0] else "b"] = n
-        result = {**summary(samples), "triangles": triangles, "off_level": error}
+        result, triangles = alternate(lambda level: peer.run(state, level)[0], levels, 1,
+                                      max(untimed - 1, 0), repeats)
+        result.update(triangles={"a": n_a, **triangles}, off_level=check)
         if hasattr(peer, "active_threads"):
             result["threads"] = peer.active_threads
         return result
@@ -274,11 +289,12 @@ def bench_peer(peer, volume, gd, levels, repeats):
 def warm_up(peers) -> str:
     """Create the GL context, compile the shaders and load every peer's code, on a tiny volume."""
     tiny = VOLUMES["sphere"][0](12)
-    app.marching_cubes(tiny, 0.0, gradient_direction="ascent", backend="gpu")
-    ours = bench_ours_iso_change(tiny, "ascent", (0.0, 0.05), 2)
+    levels = {"a": 0.0, "b": 0.05}
+    bench_ours_first(tiny, "ascent", 0.0, 1, "gpu", 1)
+    ours = bench_ours_iso_change(tiny, "ascent", levels, 2, 1)
     for peer in peers:
         if peer.missing is None:
-            bench_peer(peer, tiny, "ascent", (0.0, 0.05), 1)
+            bench_peer(peer, tiny, "ascent", levels, 1, 1)
     return ours["renderer"]
 
 
@@ -338,16 +354,15 @@ def run_case(size, name, peers, args) -> dict:
     lo, hi = float(volume.min()), float(volume.max())
     step = float(np.float32(LEVEL_STEP * (hi - lo)))
     levels = {"a": 0.0, "b": step}
-    pair = (levels["a"], levels["b"])
     case = {"size": size, "volume": name, "gradient_direction": gd, "repeats": repeats,
             "levels": levels, "value_range": [lo, hi], "ours": {}, "peers": {}}
     log(f"[{size}^3 {name}] ours: iso change")
-    case["ours"]["iso_change"] = bench_ours_iso_change(volume, gd, pair, repeats)
+    case["ours"]["iso_change"] = bench_ours_iso_change(volume, gd, levels, repeats, args.warmup)
     log(f"[{size}^3 {name}] ours: first (gpu)")
-    case["ours"]["first"] = bench_ours_first(volume, gd, 0.0, repeats, "gpu")
+    case["ours"]["first"] = bench_ours_first(volume, gd, 0.0, repeats, "gpu", args.warmup)
     if size <= CPU_MAX_SIZE and not args.no_cpu:
         log(f"[{size}^3 {name}] ours: numpy")
-        case["ours"]["numpy"] = bench_ours_first(volume, gd, 0.0, repeats, "cpu")
+        case["ours"]["numpy"] = bench_ours_first(volume, gd, 0.0, repeats, "cpu", 0)
     gc.collect()
     for peer in peers:
         if peer.missing is not None:
@@ -355,7 +370,7 @@ def run_case(size, name, peers, args) -> dict:
             continue
         log(f"[{size}^3 {name}] {peer.label}")
         try:
-            result = bench_peer(peer, volume, gd, pair, repeats)
+            result = bench_peer(peer, volume, gd, levels, repeats, args.warmup)
         except Exception as exc:  # a peer failing (memory, a bug) must not end the run
             case["peers"][peer.key] = {"label": peer.label, "skipped": f"failed: {type(exc).__name__}: {exc}"}
         else:
@@ -406,7 +421,7 @@ def markdown(meta, cases, peers, warnings, notes) -> str:
            f"\"ascent\", gyroid and noise \"descent\", for us and scikit-image",
            f"- checks: every peer's triangle count within {TRIANGLE_TOLERANCE:.0%} of ours at both levels, "
            f"and every mesh's vertices on the level set when read in array-index order (axis order); "
-           f"failures are listed as WARNING at the end",
+           f"failures are listed at the end",
            f"- times: median ms of the repeats; ratio = peer ms / our ms, > 1 means we are faster; "
            f"a peer's time is its re-run at the new level (it keeps nothing between levels)",
            ""]
@@ -451,10 +466,14 @@ def markdown(meta, cases, peers, warnings, notes) -> str:
             out.append(f"| {c['size']}^3 | {c['volume']} | {label} | {fmt_ms(r['median_ms'])} | "
                        f"{fmt_ms(r['min_ms'])} | {len(r['samples_ms'])} | {fmt_count(n)} | {delta} |")
     out += ["", "### Our GPU scratch (beyond the volume texture and the mesh)", ""]
-    out += ["| size | volume | peak scratch MiB | bytes per voxel |", "|---|---|---:|---:|"]
+    out += ["| size | volume | peak scratch MiB | bytes per voxel | bricks cut by the level |",
+            "|---|---|---:|---:|---:|"]
     for c in cases:
-        scratch = c["ours"]["iso_change"]["scratch_bytes"]
-        out.append(f"| {c['size']}^3 | {c['volume']} | {scratch / 2**20:.2f} | {scratch / c['size'] ** 3:.3f} |")
+        ours = c["ours"]["iso_change"]
+        scratch = ours["scratch_bytes"]
+        share = f"{ours['active_brick_share']:.1%}" if "active_brick_share" in ours else "-"
+        out.append(f"| {c['size']}^3 | {c['volume']} | {scratch / 2**20:.2f} | {scratch / c['size'] ** 3:.3f} "
+                   f"| {share} |")
     if notes or warnings:
         out.append("")
     out += [f"- note: {n}" for n in notes]
@@ -480,6 +499,9 @@ def parse_args(argv=None):
                         help="also the 512^3 sphere (about 2.5 GB of RAM, minutes on llvmpipe)")
     parser.add_argument("--repeats", type=int, default=0,
                         help="timed runs per measurement (default 5 up to 128^3, 3 above)")
+    parser.add_argument("--warmup", type=int, default=2,
+                        help="untimed runs before the timed ones, per runner and volume (default 2; "
+                             "the numpy reference gets none)")
     parser.add_argument("--no-cpu", action="store_true", help="skip our numpy reference")
     parser.add_argument("--json", metavar="PATH", help="also write every sample and count as JSON")
     args = parser.parse_args(argv)
@@ -493,8 +515,8 @@ def parse_args(argv=None):
     unknown = sorted(set(args.volumes) - set(VOLUMES))
     if unknown:
         parser.error(f"--volumes: unknown {', '.join(unknown)}; choose from {', '.join(VOLUMES)}")
-    if args.repeats < 0:
-        parser.error("--repeats must be positive")
+    if args.repeats < 0 or args.warmup < 0:
+        parser.error("--repeats and --warmup cannot be negative")
     return args
 
 
