@@ -94,7 +94,11 @@ class Extractor:
         self.n_triangles = 0
         self.active_bricks = 0
         self.level: float | None = None
-        self.last_extract_ms = 0.0
+        self.last_extract_ms = 0.0  # wall time of extract(), read-back included
+        self.last_gpu_ms = 0.0  # GPU time of its passes, by GL timer queries (llvmpipe reports ~0)
+        # Two queries: one around counting, one around output, so the CPU's read-back of the
+        # totals between them is not counted as GPU time.
+        self._timers = (self.ctx.query(time=True), self.ctx.query(time=True))
         self._measure_brick_ranges()
 
     # -- set-up -----------------------------------------------------------------------------
@@ -174,7 +178,23 @@ class Extractor:
         start = time.perf_counter()
         self._set_common_uniforms(level)
         self._volume.use(location=0)
-        self._active_bricks.write(b"\0\0\0\0")  # the active count, appended to by mc_signs
+        self._active_bricks.write(b"\0\0\0\0")  # the active count, appended to by mc_bricks
+        with self._timers[0]:
+            n_vertices, n_triangles = self._count()
+        self._ensure_output(n_vertices, n_triangles)
+        if n_vertices:
+            with self._timers[1]:
+                self._generate(n_vertices, n_triangles)
+        self.ctx.finish()
+
+        self.n_vertices, self.n_triangles, self.level = n_vertices, n_triangles, level
+        self.active_bricks = int(np.frombuffer(self._active_bricks.read(4), np.uint32)[0])
+        self.last_extract_ms = (time.perf_counter() - start) * 1000.0
+        self.last_gpu_ms = (self._timers[0].elapsed + (self._timers[1].elapsed if n_vertices else 0)) / 1e6
+        return n_vertices, n_triangles
+
+    def _count(self) -> tuple[int, int]:
+        """Passes 1-5: skip, pack signs, classify, scan; returns the totals (the one read-back)."""
         self._bind((0, self._sign_words), (1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets),
                    (3, self._word_counts), (4, self._case_table), (7, self._active_bricks),
                    (8, self._brick_ranges), (9, self._dispatch_args))
@@ -191,26 +211,21 @@ class Extractor:
         total_at = self.brick_count * 4
         n_vertices = int(np.frombuffer(self._brick_vertex_offsets.read(4, total_at), np.uint32)[0])
         n_triangles = int(np.frombuffer(self._brick_triangle_offsets.read(4, total_at), np.uint32)[0])
-
-        self._ensure_output(n_vertices, n_triangles)
-        if n_vertices:
-            # The scan used slots 0 and 1; bind the passes' buffers again.
-            self._bind((0, self._sign_words), (1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets),
-                       (5, self._word_offsets), (6, self.vertex_buffer))
-            self._run_over_active_bricks("mc_word_offsets", per_brick=True)
-            self._run_over_active_bricks("mc_vertex_jobs")
-            set_uniforms(self._passes["mc_vertices"], u_vertex_count=n_vertices)
-            dispatch_groups(self._passes["mc_vertices"], -(-n_vertices // 64))
-            self.ctx.memory_barrier()
-            if n_triangles:
-                self._bind((6, self.index_buffer))
-                self._run_over_active_bricks("mc_triangles")
-        self.ctx.finish()
-
-        self.n_vertices, self.n_triangles, self.level = n_vertices, n_triangles, level
-        self.active_bricks = int(np.frombuffer(self._active_bricks.read(4), np.uint32)[0])
-        self.last_extract_ms = (time.perf_counter() - start) * 1000.0
         return n_vertices, n_triangles
+
+    def _generate(self, n_vertices: int, n_triangles: int) -> None:
+        """Passes 6-9: offsets per word, vertices, triangles, into the (resized) mesh buffers."""
+        # The scan used slots 0 and 1; bind the passes' buffers again.
+        self._bind((0, self._sign_words), (1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets),
+                   (5, self._word_offsets), (6, self.vertex_buffer))
+        self._run_over_active_bricks("mc_word_offsets", per_brick=True)
+        self._run_over_active_bricks("mc_vertex_jobs")
+        set_uniforms(self._passes["mc_vertices"], u_vertex_count=n_vertices)
+        dispatch_groups(self._passes["mc_vertices"], -(-n_vertices // 64))
+        self.ctx.memory_barrier()
+        if n_triangles:
+            self._bind((6, self.index_buffer))
+            self._run_over_active_bricks("mc_triangles")
 
     def read_mesh(self):
         """The last extraction as numpy arrays: verts, faces, normals, values (skimage's layout)."""
