@@ -392,6 +392,35 @@ def git_state() -> str:
         return "not a git checkout"
 
 
+class MachineLoad:
+    """How much of the machine other processes used during the run (Linux /proc/stat)."""
+
+    def __init__(self):
+        self.start = self._sample()
+
+    @staticmethod
+    def _sample():
+        import resource
+        try:
+            fields = [int(v) for v in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]]
+        except (OSError, ValueError):
+            return None
+        tick = os.sysconf("SC_CLK_TCK")
+        user, nice, system, idle, iowait, irq, softirq, steal = (fields + [0] * 8)[:8]
+        usage = resource.getrusage(resource.RUSAGE_SELF)
+        return {"busy": (user + nice + system + irq + softirq) / tick, "idle": (idle + iowait) / tick,
+                "steal": steal / tick, "ours": usage.ru_utime + usage.ru_stime, "wall": time.perf_counter()}
+
+    def describe(self) -> str | None:
+        end = self._sample()
+        if not (self.start and end):
+            return None
+        d = {k: end[k] - self.start[k] for k in end}
+        others = max(d["busy"] - d["ours"], 0.0) / d["wall"]
+        return (f"other processes used {others:.2f} of the {os.cpu_count()} cores on average during the run, "
+                f"the hypervisor stole {d['steal'] / d['wall']:.2f}; this process {d['ours'] / d['wall']:.2f}")
+
+
 # -- report -----------------------------------------------------------------------------------
 
 def fmt_ms(ms) -> str:
@@ -531,7 +560,7 @@ def main(argv=None) -> int:
              for p in peers if p.missing is not None]
     for n in notes:
         log(n)
-    started = time.perf_counter()
+    started, load = time.perf_counter(), MachineLoad()
     renderer = warm_up(peers)
     meta = {"date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
             "renderer": renderer, "cpus": os.cpu_count(), "platform": platform.platform(),
@@ -553,6 +582,9 @@ def main(argv=None) -> int:
                 notes.append(f"{r['label']} at {c['size']}^3 {c['volume']}: {r['skipped']}")
     meta["seconds"] = round(time.perf_counter() - started, 1)
     notes.append(f"whole run: {meta['seconds']:.0f} s")
+    meta["load"] = load.describe()
+    if meta["load"]:
+        notes.append(meta["load"] + " (a busy second core slows VTK's 2 threads and llvmpipe's alike)")
     print(markdown(meta, cases, peers, warnings, notes), end="", flush=True)
     if args.json:
         Path(args.json).write_text(json.dumps({"meta": meta, "cases": cases, "warnings": warnings,
