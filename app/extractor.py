@@ -3,8 +3,8 @@
 Passes (one compute shader each, as in NVIDIA's CUDA sample, but producing an
 indexed mesh and sized from the scans, so nothing is ever dropped):
 
-0. ``mc_brick_range`` once per volume: the value range of each brick (8 x 8 rows
-   x 32 samples, plus the halo its cells reach), for empty-space skipping
+0. ``mc_row_range``, ``mc_brick_range``  once per volume: the value range of each
+   brick (8 x 8 rows x 32 samples, plus the halo its cells reach), for skipping
 1. ``mc_bricks``       per brick: bricks the level cannot cut write constant signs
                        and are skipped from here on; the rest go on an active list
 2. ``mc_signs``        active bricks: pack inside bits 32 per word along axis 2
@@ -84,7 +84,7 @@ class Extractor:
         defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u",
                    "BRICK_I": BRICK_I, "BRICK_J": BRICK_J, "BRICK_WORDS": BRICK_I * BRICK_J}
         self._passes = {name: compute_program(self.ctx, f"{name}.comp", defines)
-                        for name in ("mc_brick_range", "mc_bricks", "mc_signs", "mc_dispatch_args", "mc_classify",
+                        for name in ("mc_row_range", "mc_brick_range", "mc_bricks", "mc_signs", "mc_dispatch_args", "mc_classify",
                                      "mc_brick_sums", "mc_word_offsets", "mc_vertex_jobs", "mc_vertices",
                                      "mc_triangles")}
 
@@ -124,7 +124,7 @@ class Extractor:
     def _upload(self, field: np.ndarray) -> moderngl.Texture3D:
         n0, n1, n2 = self.shape
         try:
-            texture = self.ctx.texture3d((n2, n1, n0), 1, field.tobytes(), dtype="f4")
+            texture = self.ctx.texture3d((n2, n1, n0), 1, field, dtype="f4")  # no copy: buffer protocol
         except moderngl.Error as exc:
             raise GPULimitError(f"volume {n0}x{n1}x{n2} ({field.nbytes >> 20} MiB) could not be uploaded "
                                 f"to the GPU ({exc}); crop or downsample it") from None
@@ -161,11 +161,19 @@ class Extractor:
             buffer.bind_to_storage_buffer(binding)
 
     def _measure_brick_ranges(self) -> None:
+        """Each brick's value range, via each word's row range (a buffer freed afterwards)."""
         self._set_common_uniforms(self.value_range[0])
+        set_uniforms(self._passes["mc_row_range"], u_word_count=self.word_count)
         self._volume.use(location=0)
-        self._bind((8, self._brick_ranges))
-        dispatch_groups(self._passes["mc_brick_range"], self.brick_count)
-        self.ctx.memory_barrier()
+        row_ranges = self._storage(2 * self.word_count)
+        try:
+            self._bind((8, row_ranges), (9, self._brick_ranges))
+            dispatch_groups(self._passes["mc_row_range"], -(-self.word_count // 64))
+            self.ctx.memory_barrier()
+            dispatch_groups(self._passes["mc_brick_range"], -(-self.brick_count // 64))
+            self.ctx.memory_barrier()
+        finally:
+            row_ranges.release()
 
     def _run_over_active_bricks(self, name: str, per_brick: bool = False) -> None:
         """A work group per active brick (an invocation per word), or an invocation per active brick."""
