@@ -1,0 +1,89 @@
+"""Frame time of the real viewer window while the iso slider is dragged (issue 5: < 50 ms on llvmpipe).
+
+    python benchmarks/bench_viewer.py [--volume metaballs] [--frames 60] [--size 1280x800]
+
+Opens the viewer's window (under a private Xvfb when there is no DISPLAY), then
+moves the iso value on every frame, as a slider drag does, and times whole
+frames: re-extraction, drawing, the imgui panel and the buffer swap.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+
+@contextmanager
+def display():
+    """The current X display, or a private Xvfb for the run."""
+    if os.environ.get("DISPLAY"):
+        yield os.environ["DISPLAY"]
+        return
+    if shutil.which("Xvfb") is None:
+        sys.exit("bench_viewer: no DISPLAY and no Xvfb; install xvfb or run on a desktop")
+    read_end, write_end = os.pipe()
+    server = subprocess.Popen(["Xvfb", "-displayfd", str(write_end), "-screen", "0", "1920x1080x24",
+                               "-nolisten", "tcp"], pass_fds=(write_end,),
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    os.close(write_end)
+    with os.fdopen(read_end) as ready:
+        number = ready.readline().strip()
+    os.environ["DISPLAY"] = f":{number}"
+    try:
+        yield os.environ["DISPLAY"]
+    finally:
+        server.terminate()
+        server.wait(timeout=30)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--volume", default=None, help="a volume spec (default: the viewer's default)")
+    parser.add_argument("--frames", type=int, default=60, help="frames of dragging to time")
+    parser.add_argument("--size", default="1280x800", help="window size WxH")
+    args = parser.parse_args(argv)
+    width, height = (int(v) for v in args.size.lower().split("x"))
+
+    with display():
+        from app.viewer.state import RecentFiles
+        from app.viewer.window import ViewerWindow
+        from app.volumes import DEFAULT_VOLUME, open_volume
+
+        volume = open_volume(args.volume or DEFAULT_VOLUME)
+        window = ViewerWindow(volume, size=(width, height), recent=RecentFiles(None))
+        try:
+            state = window.state
+            for _ in range(5):  # JIT of every shader and first buffer allocations
+                window.draw_frame()
+            low, high = state.value_range
+            frame_ms, extract_ms, triangles = [], [], []
+            for frame in range(args.frames):
+                # A drag across the middle of the range and back, one step per frame.
+                phase = frame / max(args.frames - 1, 1)
+                state.set_iso(low + (high - low) * (0.3 + 0.4 * (1 - abs(2 * phase - 1))))
+                start = time.perf_counter()
+                window.draw_frame()
+                frame_ms.append((time.perf_counter() - start) * 1000)
+                extract_ms.append(state.extract_ms)
+                triangles.append(state.n_triangles)
+            print(f"viewer frame while dragging the iso slider: {volume.name} {'x'.join(map(str, volume.data.shape))}, "
+                  f"window {width}x{height}, {state.gl_renderer}")
+            print(f"  frame       median {np.median(frame_ms):.1f} ms, 90th percentile {np.percentile(frame_ms, 90):.1f} ms"
+                  f" over {args.frames} frames")
+            print(f"  extraction  median {np.median(extract_ms):.1f} ms; triangles {min(triangles):,} .. {max(triangles):,}")
+        finally:
+            window.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
