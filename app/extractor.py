@@ -12,14 +12,15 @@ indexed mesh and sized from the scans, so nothing is ever dropped):
 4. ``mc_brick_sums``   per active brick: its totals
 5. ``scan``            exclusive scans of the per-brick totals -> offsets and grand totals
 6. ``mc_word_offsets`` per active brick: each word's first vertex and triangle
-7. ``mc_vertex_jobs``  active bricks: name each sign-changing edge in its vertex's slot
-8. ``mc_vertices``     per vertex: position, value and outward normal
-9. ``mc_triangles``    active bricks: triangle indices into those shared vertices
+7. ``mc_triangles``    active bricks: triangle indices into the shared vertices, and
+                       in each vertex's slot the edge it lies on (a job for pass 8)
+8. ``mc_vertices``     one invocation per vertex: position, value and outward normal
 
-Passes 2-7 and 9 are dispatched indirectly from the active count, so an iso
-change touches only the bricks whose range contains the new level.  Scratch: 16 bytes
-per 32-sample word plus 20 per brick (about 0.5 byte per voxel).  The only
-read-back is the two totals, 8 bytes, needed to size the outputs.
+Passes 2-7 are dispatched indirectly from the active count, so an iso change
+touches only the bricks whose range contains the new level.  Scratch: 16 bytes
+per 32-sample word plus 20 per brick (about 0.5 byte per voxel; 0.75 for a moment
+while the brick ranges are measured).  The only read-back is the two totals,
+8 bytes, needed to size the outputs.
 """
 from __future__ import annotations
 
@@ -85,8 +86,7 @@ class Extractor:
                    "BRICK_I": BRICK_I, "BRICK_J": BRICK_J, "BRICK_WORDS": BRICK_I * BRICK_J}
         self._passes = {name: compute_program(self.ctx, f"{name}.comp", defines)
                         for name in ("mc_row_range", "mc_brick_range", "mc_bricks", "mc_signs", "mc_dispatch_args", "mc_classify",
-                                     "mc_brick_sums", "mc_word_offsets", "mc_vertex_jobs", "mc_vertices",
-                                     "mc_triangles")}
+                                     "mc_brick_sums", "mc_word_offsets", "mc_triangles", "mc_vertices")}
 
         self.vertex_buffer = self.ctx.buffer(reserve=VERTEX_BYTES)
         self.index_buffer = self.ctx.buffer(reserve=INDEX_BYTES)
@@ -222,18 +222,17 @@ class Extractor:
         return n_vertices, n_triangles
 
     def _generate(self, n_vertices: int, n_triangles: int) -> None:
-        """Passes 6-9: offsets per word, vertices, triangles, into the (resized) mesh buffers."""
+        """Passes 6-8: offsets per word, triangles and vertex jobs, vertices, into the mesh buffers."""
         # The scan used slots 0 and 1; bind the passes' buffers again.
         self._bind((0, self._sign_words), (1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets),
                    (5, self._word_offsets), (6, self.vertex_buffer))
         self._run_over_active_bricks("mc_word_offsets", per_brick=True)
-        self._run_over_active_bricks("mc_vertex_jobs")
+        self._bind((6, self.index_buffer), (8, self.vertex_buffer))
+        self._run_over_active_bricks("mc_triangles")  # and the vertex jobs
+        self._bind((6, self.vertex_buffer))
         set_uniforms(self._passes["mc_vertices"], u_vertex_count=n_vertices)
         dispatch_groups(self._passes["mc_vertices"], -(-n_vertices // 64))
         self.ctx.memory_barrier()
-        if n_triangles:
-            self._bind((6, self.index_buffer))
-            self._run_over_active_bricks("mc_triangles")
 
     def read_mesh(self):
         """The last extraction as numpy arrays: verts, faces, normals, values (skimage's layout)."""

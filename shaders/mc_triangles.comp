@@ -1,6 +1,9 @@
 #version 430
 // Pass 7, over active bricks, one invocation per word: the triangles of the word's cells, as
-// indices of the vertices that the cells' edges own (possibly in a neighbouring word or brick).
+// indices of the vertices that the cells' edges own (possibly in a neighbouring word or brick),
+// and a job in each of the word's own vertex slots (word id, axis << 5 | bit) from which
+// mc_vertices.comp, run next with one invocation per vertex, computes the vertex.  Both need
+// the same sign rows, so one pass loads them once.
 layout(local_size_x = BRICK_WORDS) in;
 #include "mc_common.glsl"
 #include "mc_sign_words.glsl"
@@ -10,6 +13,7 @@ layout(local_size_x = BRICK_WORDS) in;
 layout(std430, binding = 3) readonly buffer WordCounts { uint word_counts[]; };
 layout(std430, binding = 5) readonly buffer WordOffsets { uvec2 word_offsets[]; };  // (vertex, triangle)
 layout(std430, binding = 6) writeonly buffer Indices { uint indices[]; };
+layout(std430, binding = 8) writeonly buffer VertexRecords { uvec4 vertex_records[]; };  // 2 per vertex
 
 // Where each axis's vertices start in the words owning a cell row's edges, per sign row around
 // the cells (component d0 | d1 << 1): in word w, and in word w + 1 (reached from cell 31, only
@@ -62,6 +66,21 @@ uint vertex_index(CellRows rows, OwnerStarts starts, uint k, uint edge) {
     return start + uint(bitCount(crossing & ((1u << bit) - 1u)));
 }
 
+// Name each vertex the word owns in its slot, one iteration per vertex, axis by axis.
+void write_vertex_jobs(uint id, uint next, uint count, uvec3 crossing) {
+    uint end = next + count;
+    uint axis = 0u, bits = crossing.x;
+    for (; next < end; ++next) {
+        while (bits == 0u) {
+            ++axis;
+            bits = axis == 1u ? crossing.y : crossing.z;
+        }
+        uint b = uint(findLSB(bits));
+        bits &= bits - 1u;
+        vertex_records[2u * next] = uvec4(id, (axis << 5) | b, 0u, 0u);
+    }
+}
+
 void main() {
     uint brick;
     if (!active_brick(brick)) return;
@@ -69,16 +88,22 @@ void main() {
     ivec3 word = brick_word(brick, exists);
     if (!exists) return;
     uint id = word_id_of(word.x, word.y, word.z);
-    uint count = triangle_total(word_counts[id]);
-    if (count == 0u) return;
-    uint next = word_offsets[id].y;
-
+    uint counts = word_counts[id];
+    uvec2 first = word_offsets[id];
+    if (!has_cells(word.x, word.y)) {  // the grid's last rows: edges but no cells
+        write_vertex_jobs(id, first.x, vertex_total(counts), crossing_masks(word.x, word.y, word.z));
+        return;
+    }
+    if (counts == 0u) return;
     CellRows rows = cell_rows(word.x, word.y, word.z);
+    write_vertex_jobs(id, first.x, vertex_total(counts), crossing_from_rows(rows, word.z));
+
+    uint next = first.y;
+    uint end = next + triangle_total(counts);
     uint cells = mixed_cells(rows, word.z);
     OwnerStarts starts = owner_starts(word, (cells >> 31) != 0u);
     // One iteration per triangle (not nested loops over cells and their triangles): SIMD lanes
     // working on different words then stay in step for as long as each has triangles left.
-    uint end = next + count;
     uint k = 0u, c = 0u, slot = 0u, cell_triangles = 0u;
     for (; next < end; ++next) {
         if (slot == cell_triangles) {

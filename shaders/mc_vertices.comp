@@ -1,5 +1,5 @@
 #version 430
-// Pass 8, one invocation per vertex: replace the job that mc_vertex_jobs.comp left in the
+// Pass 8, one invocation per vertex: replace the job that mc_triangles.comp left in the
 // vertex's slot by its position, value and outward normal.
 layout(local_size_x = 64) in;
 #include "mc_common.glsl"
