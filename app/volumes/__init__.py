@@ -25,6 +25,11 @@ Files:
                    or a JSON sidecar (file.json or file.raw.json) with keys
                    dims, dtype, endian, spacing; flags win over the sidecar.
 
+Which side is the object: built-ins and expr: declare it; files are taken as
+densities (object above the level, as CT). `--inside below` (open_volume's
+`inside="below"`) says the object is where values are below the level, as in a
+signed distance field, so normals point out of it; `--inside above` the reverse.
+
 Axis 0 of `Volume.data` is x. Integer data keeps its type and range. Every bad
 input raises `VolumeError` with one line naming the problem and the fix.
 """
@@ -61,9 +66,12 @@ def sample_names() -> list[str]:
     return sorted(SAMPLE_PREFIX + path.name for path in volumes_dir().iterdir() if is_volume_file(path))
 
 
+INSIDE_SIDES = {"above": "descent", "below": "ascent"}  # --inside -> Volume.gradient_direction
+
+
 def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, frame=None,
                 resolution=None, progress: Progress | None = None, backend: str = "auto",
-                ctx=None) -> Volume:
+                ctx=None, inside: str | None = None) -> Volume:
     """Open a volume from a spec (see the module docstring); raise VolumeError on bad input.
 
     dims/dtype/endian: raw files only; spacing overrides a header; frame picks
@@ -72,7 +80,19 @@ def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, 
     loads, is generated or is checked. backend ("auto", "gpu", "cpu") and ctx (a
     moderngl context) only matter for expr: specs; "auto" samples on the GPU
     when a GL 4.3 context can be had and says so in `notes` when it falls back.
+    inside ("above" or "below"), if given, overrides which side of the level
+    the object is on.
     """
+    if inside is not None and inside not in INSIDE_SIDES:
+        raise VolumeError(f"inside must be 'above' or 'below' the level, not {inside!r}")
+    volume = _open(spec, dims=dims, dtype=dtype, endian=endian, spacing=spacing, frame=frame,
+                   resolution=resolution, progress=progress, backend=backend, ctx=ctx)
+    if inside is not None:
+        volume.gradient_direction = INSIDE_SIDES[inside]  # in place: keeps the checked value range
+    return volume
+
+
+def _open(spec: str, *, dims, dtype, endian, spacing, frame, resolution, progress, backend, ctx) -> Volume:
     if not isinstance(spec, str) or not spec.strip():
         raise VolumeError("no volume given; name a file, a built-in (isoscope volumes) or expr:FORMULA")
     spec = spec.strip()

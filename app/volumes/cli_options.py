@@ -18,12 +18,16 @@ def add_volume_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--frame", type=int, metavar="N", help="4-D files: which volume to show (default 0)")
     group.add_argument("--resolution", type=int, metavar="N",
                        help="built-ins and expr: samples per axis")
+    group.add_argument("--inside", choices=("above", "below"),
+                       help="which side of the level the object is on, so normals point out of it: "
+                            "'above' for densities such as CT (files' default), 'below' for signed "
+                            "distances (built-ins and expr: say their own)")
 
 
 def open_volume_from_args(spec: str, args: argparse.Namespace, progress: Progress | None = None) -> Volume:
     from . import open_volume
     options = {name: getattr(args, name, None)
-               for name in ("dims", "dtype", "endian", "spacing", "frame", "resolution")}
+               for name in ("dims", "dtype", "endian", "spacing", "frame", "resolution", "inside")}
     backend = getattr(args, "backend", None)
     return open_volume(spec, progress=progress, backend=backend if backend in ("cpu", "gpu") else "auto",
                        **options)
