@@ -154,3 +154,16 @@ def test_expression_box_opens_an_implicit_function(viewer):
     assert viewer.state.open("expr:x*x + y*y + z*z - 0.25; res=24"), viewer.state.error
     assert viewer.state.volume.data.shape == (24, 24, 24)
     assert viewer.state.n_triangles > 0
+
+
+def test_object_side_toggle_reverses_the_normals_and_keeps_the_view(viewer):
+    state = viewer.state
+    serial, iso = state.volume_serial, state.iso
+    assert state.inside_below                              # the built-in sphere is a signed distance
+    _, _, outward, _ = state.extractor.read_mesh()
+    assert state.set_inside_below(False)
+    assert not state.inside_below and state.volume.gradient_direction == "descent"
+    assert (state.volume_serial, state.iso) == (serial, iso)  # no refit, same level
+    _, _, inward, _ = state.extractor.read_mesh()
+    np.testing.assert_allclose(inward, -outward, atol=1e-6)
+    assert state.set_inside_below(False) is False          # already so: nothing re-extracted

@@ -98,6 +98,12 @@ class Panel:
             imgui.text_wrapped(f"{volume.name}  {shape} {volume.data.dtype}")
             for note in volume.notes:
                 imgui.text_wrapped(note)
+            toggled, below = imgui.checkbox("object below the level", state.inside_below)
+            if imgui.is_item_hovered():
+                imgui.set_tooltip("on for signed distances (negative inside), off for densities such as CT;\n"
+                                  "normals point out of the object and ties count as inside (--inside)")
+            if toggled:
+                state.set_inside_below(below)
         current = state.volume.name if state.volume is not None else ""
         if imgui.begin_combo("built-in", current if current in builtin_names() else ""):
             for name in builtin_names():

@@ -92,24 +92,47 @@ class ViewerState:
 
     def show(self, volume: Volume, iso: float | None = None) -> bool:
         """Upload `volume` to the GPU and extract its first surface; the old volume stays on failure."""
+        if not self._upload(volume, volume.gradient_direction):
+            return False
+        low, high = self.extractor.value_range
+        first_iso = iso if iso is not None else volume.default_level
+        self.iso = (low + high) / 2 if first_iso is None else min(max(float(first_iso), low), high)
+        self.volume_serial += 1
+        self.update(0.0)
+        return self.error is None
+
+    @property
+    def inside_below(self) -> bool:
+        """True when the object is where values are below the level (a signed distance)."""
+        return self.volume is not None and self.volume.gradient_direction == "ascent"
+
+    def set_inside_below(self, below: bool) -> bool:
+        """Say which side of the level the object is on, for the volume on show: its normals turn
+        to point out of it.  Camera and iso value stay."""
+        direction = "ascent" if below else "descent"
+        if self.volume is None or direction == self.volume.gradient_direction:
+            return False
+        if not self._upload(self.volume, direction):
+            return False
+        self.volume.gradient_direction = direction
+        self.update(0.0)
+        return self.error is None
+
+    def _upload(self, volume: Volume, gradient_direction: str) -> bool:
+        """A new extractor for `volume` replaces the old one; on failure the old one stays."""
         from ..extractor import Extractor  # imported late: `isoscope --help` needs no GL code
         try:
             extractor = Extractor(volume.data, spacing=volume.spacing,
-                                  gradient_direction=volume.gradient_direction, ctx=self.ctx)
+                                  gradient_direction=gradient_direction, ctx=self.ctx)
         except USER_ERRORS as exc:
             self.error = one_line(exc)
             return False
         if self.extractor is not None:
             self.extractor.release()
         self.volume, self.extractor = volume, extractor
-        low, high = extractor.value_range
-        first_iso = iso if iso is not None else volume.default_level
-        self.iso = (low + high) / 2 if first_iso is None else min(max(float(first_iso), low), high)
         self._extracted_iso = None
-        self.volume_serial += 1
         self.error = None
-        self.update(0.0)
-        return self.error is None
+        return True
 
     # --- iso ---------------------------------------------------------------
     @property
