@@ -167,3 +167,48 @@ def test_object_side_toggle_reverses_the_normals_and_keeps_the_view(viewer):
     _, _, inward, _ = state.extractor.read_mesh()
     np.testing.assert_allclose(inward, -outward, atol=1e-6)
     assert state.set_inside_below(False) is False          # already so: nothing re-extracted
+
+
+def test_a_volume_read_in_the_background_reports_progress_then_shows(viewer, tmp_path):
+    """Files open on a worker thread: the panel's bar follows the loader; the upload happens in update()."""
+    path = tmp_path / "ramp.npy"
+    np.save(path, np.broadcast_to(np.arange(192, dtype=np.float32), (256, 256, 192)))  # 48 MiB: read in slabs
+    state = viewer.state
+    state.open_in_background(str(path))
+    pending = state.loading
+    assert pending.done(wait_s=60)
+    assert pending.message != f"opening {path}" and 0 < pending.fraction <= 1  # the loader reported
+    assert state.volume.name != "ramp"                  # not shown until the main thread takes it
+    viewer.render()                                      # a frame: update() uploads and extracts it
+    assert state.loading is None and state.error is None
+    assert state.volume.data.shape == (256, 256, 192) and state.n_triangles > 0
+    assert str(path.resolve()) in state.recent.paths
+
+
+def test_a_bad_file_read_in_the_background_keeps_the_volume(viewer, tmp_path):
+    state = viewer.state
+    before = state.volume
+    bad = tmp_path / "broken.npy"
+    bad.write_bytes(b"\x93NUMPY garbage")
+    state.open_in_background(str(bad))
+    assert state.loading.done(wait_s=60)
+    viewer.render()
+    assert state.volume is before and state.extractor is not None
+    assert state.error and "broken.npy" in state.error and "\n" not in state.error
+
+
+def test_progress_bar_is_drawn_while_loading(viewer, tmp_path):
+    """The panel draws a bar while a load is pending: pixels in the panel differ from a frame without."""
+    state = viewer.state
+    idle = viewer.render(panel=True)
+
+    class Stalled:  # a load that has not finished: what the panel sees mid-read
+        fraction, message = 0.5, "reading ramp"
+
+        def done(self, wait_s=0.0):
+            return False
+
+    state.loading = Stalled()
+    loading = viewer.render(panel=True)
+    state.loading = None
+    assert np.abs(loading.astype(int) - idle.astype(int)).max(axis=2)[:, :300].sum() > 0

@@ -92,6 +92,8 @@ class Panel:
     # --- sections ----------------------------------------------------------
     def _volume_section(self, state: ViewerState) -> None:
         imgui.separator_text("Volume")
+        if state.loading is not None:
+            imgui.progress_bar(state.loading.fraction, imgui.ImVec2(-1, 0), state.loading.message)
         if state.volume is not None:
             volume = state.volume
             shape = "x".join(str(n) for n in volume.data.shape)
@@ -108,12 +110,12 @@ class Panel:
         if imgui.begin_combo("built-in", current if current in builtin_names() else ""):
             for name in builtin_names():
                 if imgui.selectable(name, name == current)[0]:
-                    state.open(name)
+                    state.open_in_background(name)
             imgui.end_combo()
         if state.recent.paths and imgui.begin_combo("recent", ""):
             for path in state.recent.paths:
                 if imgui.selectable(Path(path).name + "##" + path, False)[0]:
-                    state.open(path)
+                    state.open_in_background(path)
                 if imgui.is_item_hovered():
                     imgui.set_tooltip(path)
             imgui.end_combo()
@@ -188,4 +190,4 @@ class Panel:
         paths = self._file_dialog.result()
         self._file_dialog = None
         if paths:
-            state.open(paths[0])
+            state.open_in_background(paths[0])

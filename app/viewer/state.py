@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import threading
 from pathlib import Path
 
 import moderngl
@@ -59,6 +60,39 @@ class RecentFiles:
                 pass  # a read-only home must not stop the viewer
 
 
+class PendingLoad:
+    """A volume being read on a worker thread, so the window keeps drawing (and shows progress).
+
+    Only reading and checking happen here: the GL upload needs the window's context,
+    which belongs to the main thread, so `ViewerState.update` shows the result.
+    """
+
+    def __init__(self, spec: str, open_options: dict):
+        self.spec = spec
+        self.fraction = 0.0
+        self.message = f"opening {spec}"
+        self.volume: Volume | None = None
+        self.error: str | None = None
+        self._thread = threading.Thread(target=self._read, args=(open_options,), daemon=True,
+                                        name=f"isoscope load {spec}")
+        self._thread.start()
+
+    def _read(self, open_options: dict) -> None:
+        try:
+            self.volume = open_volume(self.spec, progress=self._report, **open_options)
+        except USER_ERRORS as exc:
+            self.error = one_line(exc)
+        except Exception as exc:  # a loader's bug must not take the viewer down with it
+            self.error = f"could not open {self.spec}: {type(exc).__name__}: {one_line(exc)}"
+
+    def _report(self, fraction: float, message: str) -> None:
+        self.fraction, self.message = float(fraction), message
+
+    def done(self, wait_s: float = 0.0) -> bool:
+        self._thread.join(wait_s)
+        return not self._thread.is_alive()
+
+
 class ViewerState:
     def __init__(self, ctx: moderngl.Context, recent: RecentFiles | None = None):
         self.ctx = ctx                   # the context the extractor's buffers must live in (the window's)
@@ -75,6 +109,7 @@ class ViewerState:
         self.volume_serial = 0           # bumps on every new volume: the window refits its camera
         self.frame_ms = 0.0
         self.gl_renderer = ctx.info.get("GL_RENDERER", "unknown")
+        self.loading: PendingLoad | None = None  # a volume being read in the background
 
     # --- volumes -----------------------------------------------------------
     def open(self, spec: str, **open_options) -> bool:
@@ -89,6 +124,23 @@ class ViewerState:
         if shown and Path(spec).is_file():
             self.recent.add(spec)
         return shown
+
+    def open_in_background(self, spec: str, **open_options) -> None:
+        """Like `open`, but read on a worker thread: the panel shows a progress bar meanwhile, and
+        `update` puts the volume on show (or its error in the panel) when it is read.  expr:
+        volumes are sampled on the GPU, in this thread's context, so they open at once."""
+        if spec.strip().lower().startswith("expr:"):
+            self.open(spec, **open_options)
+            return
+        self.loading = PendingLoad(spec, open_options)
+        self.error = None
+
+    def _finish_loading(self) -> None:
+        pending, self.loading = self.loading, None
+        if pending.error is not None:
+            self.error = pending.error  # the volume on show stays
+        elif self.show(pending.volume) and Path(pending.spec).is_file():
+            self.recent.add(pending.spec)
 
     def show(self, volume: Volume, iso: float | None = None) -> bool:
         """Upload `volume` to the GPU and extract its first surface; the old volume stays on failure."""
@@ -159,6 +211,8 @@ class ViewerState:
     # --- per frame ---------------------------------------------------------
     def update(self, dt_seconds: float) -> bool:
         """Advance the animation and re-extract if the iso value moved; True when it re-extracted."""
+        if self.loading is not None and self.loading.done():
+            self._finish_loading()
         if self.extractor is None:
             return False
         if self.animating:

@@ -235,4 +235,4 @@ class ViewerWindow:
 
     def _on_drop(self, window, paths) -> None:
         if paths:
-            self.state.open(paths[0])
+            self.state.open_in_background(paths[0])
