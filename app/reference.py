@@ -137,8 +137,11 @@ def marching_cubes_reference(volume: np.ndarray, level: float, spacing=(1.0, 1.0
     order = np.lexsort((points[:, 2], axes, brick_order_key(points, field.shape)))
     points, axes = points[order], axes[order]
 
-    vertex_of = np.full((3, n0, n1, n2), -1, dtype=np.int64)  # (axis, owner) -> vertex index
-    vertex_of[axes, points[:, 0], points[:, 1], points[:, 2]] = np.arange(len(points))
+    # (owner point, axis) -> vertex index, through the sorted ids of the crossing edges: memory
+    # in proportion to the mesh, not the volume (a dense map is 24 bytes a voxel).
+    edge_ids = np.ravel_multi_index(points.T, field.shape) * 3 + axes
+    by_id = np.argsort(edge_ids)
+    sorted_ids = edge_ids[by_id]
     verts, normals, values = place_vertices(field, inside, lvl, points, axes, spacing, sign)
 
     # Triangles: mc_triangles.comp, cells in (brick, word, k) order, the table's triangles in order.
@@ -153,7 +156,9 @@ def marching_cubes_reference(volume: np.ndarray, level: float, spacing=(1.0, 1.0
     edges = table.triangles[cell_cases[cell_of_tri], slot].astype(np.int64)  # (M, 3)
 
     owner = cells[cell_of_tri][:, None, :] + EDGE_ORIGIN[edges]  # (M, 3 corners, 3 coords)
-    faces = vertex_of[EDGE_AXIS[edges], owner[..., 0], owner[..., 1], owner[..., 2]]
-    if faces.size and faces.min() < 0:
+    wanted = np.ravel_multi_index(np.moveaxis(owner, -1, 0), field.shape) * 3 + EDGE_AXIS[edges]
+    slot = np.searchsorted(sorted_ids, wanted)
+    if wanted.size and not np.array_equal(sorted_ids[np.minimum(slot, len(sorted_ids) - 1)], wanted):
         raise AssertionError("a triangle uses an edge with no vertex: the case table is broken")
+    faces = by_id[slot] if wanted.size else np.zeros((0, 3), np.int64)
     return verts, faces.astype(np.int32), normals, values
