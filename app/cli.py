@@ -69,6 +69,8 @@ def viewer_parser() -> argparse.ArgumentParser:
                         help="window size in screen units (default 1280x800)")
     parser.add_argument("--screenshot-dir", default=".", metavar="DIR",
                         help="where key s saves PNGs (default: the current directory)")
+    parser.add_argument("--frames", type=int, metavar="N",
+                        help="quit after drawing N frames (scripts, benchmarks, smoke tests)")
     parser.add_argument("--msaa", type=int, choices=(0, 2, 4, 8), metavar="N",
                         help="multisampling, samples per pixel: 0, 2, 4 or 8 (default 4 on a GPU, "
                              "0 on software OpenGL such as llvmpipe, where it costs 3x the frame time)")
@@ -121,6 +123,10 @@ def _checked_iso(volume, iso: float | None) -> float | None:
 
 
 def run_viewer(args) -> int:
+    # Sample expr: volumes with numpy here: a GPU sampler would make an EGL context current,
+    # and GLX then refuses the window's context in this process (X_GLXMakeCurrent BadAccess).
+    # Inside the window the panel samples on the GPU, in the window's own context.
+    args.backend = "cpu"
     volume = open_volume_from_args(args.volume, args, _progress)
     iso = _checked_iso(volume, args.iso)
     from .viewer.window import ViewerWindow, WindowUnavailable
@@ -129,7 +135,7 @@ def run_viewer(args) -> int:
     except WindowUnavailable as exc:
         print(f"isoscope: {exc}", file=sys.stderr)
         return EXIT_NO_GL
-    window.run()
+    window.run(max_frames=args.frames)
     return 0
 
 

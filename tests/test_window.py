@@ -13,6 +13,8 @@ import multiprocessing
 import os
 import shutil
 import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,6 +22,7 @@ from PIL import Image
 
 pytestmark = pytest.mark.skipif(shutil.which("Xvfb") is None, reason="Xvfb is not installed (CI installs it)")
 
+REPO = Path(__file__).resolve().parent.parent
 MAX_FRAMES_PER_STEP = 20   # X events arrive within a frame or two; bounded, not timed
 
 
@@ -142,3 +145,13 @@ def drive_window(x_display, tmp_path):
         assert any(not window.draw_frame() for _ in range(MAX_FRAMES_PER_STEP))
     finally:
         window.close()
+
+
+def test_isoscope_command_opens_the_window_on_an_expression(x_display):
+    # The CLI path end to end; an expr: volume once broke it (an EGL context made before GLX's).
+    env = dict(os.environ, DISPLAY=x_display,
+               PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    result = subprocess.run([sys.executable, "-m", "app", "expr:x^2 + y^2 - 0.3; res=24", "--frames", "3"],
+                            capture_output=True, text=True, env=env, cwd=REPO, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert result.stderr == ""

@@ -93,10 +93,11 @@ class ViewerWindow:
             self.state.show(volume, iso)
 
     # --- loop --------------------------------------------------------------
-    def run(self) -> None:
+    def run(self, max_frames: int | None = None) -> None:
+        frames = 0
         try:
-            while self.draw_frame():
-                pass
+            while self.draw_frame() and (max_frames is None or frames < max_frames):
+                frames += 1
         finally:
             self.close()
 
