@@ -48,3 +48,13 @@ def assert_clean_geometry(verts, faces):
     """No zero-area triangle and no two vertices at one position."""
     assert len(faces) == 0 or triangle_areas(verts, faces).min() > 0
     assert len(np.unique(verts, axis=0)) == len(verts), "two vertices share a position"
+
+
+def assert_holes_only_on_the_border(verts, faces, shape):
+    """Manifold with boundary: every edge in one or two triangles, and both ends of each
+    once-used edge on one plane of the volume's border (no hole inside the volume)."""
+    edges, counts = edge_use_counts(faces)
+    assert set(np.unique(counts)) <= {1, 2}
+    ends = verts[edges[counts == 1]]  # (E, 2, 3)
+    upper = (np.array(shape) - 1).astype(np.float32)
+    assert (np.isclose(ends, 0.0) | np.isclose(ends, upper)).all(axis=1).any(axis=1).all()
