@@ -11,7 +11,7 @@ import numpy as np
 
 from .errors import VolumeError
 from .frames import frame_index, frame_note, refuse_frame
-from .reading import Loaded, damaged, raise_if_corrupt_compression, read_in_slabs, reason
+from .reading import Loaded, raise_if_corrupt_compression, read_in_slabs, read_or_explain, reason
 from .volume import Progress, refuse_if_too_big, report
 
 
@@ -34,7 +34,7 @@ def load_nifti(path: Path, frame: int | None, progress: Progress | None = None) 
         # Not a volume or a series of them: read it so the common checks can say what it is.
         refuse_if_too_big(shape, itemsize, path.name)
         refuse_frame(frame, path.name, len(shape))
-        return _read(path, lambda: np.asarray(image.dataobj)), None, []
+        return read_or_explain(path, lambda: np.asarray(image.dataobj)), None, []
     refuse_if_too_big(shape[:3], itemsize, path.name)
     notes, which = [], ()
     if len(shape) >= 4:
@@ -45,19 +45,9 @@ def load_nifti(path: Path, frame: int | None, progress: Progress | None = None) 
         refuse_frame(frame, path.name, len(shape))
     report(progress, 0.0, f"reading {path.name}")
     # z is slowest in the file: z slabs keep the reads sequential, even through gzip.
-    data = _read(path, lambda: read_in_slabs(
+    data = read_or_explain(path, lambda: read_in_slabs(
         lambda slab: np.asarray(image.dataobj[slab + which]), shape[:3], 2, path.name, progress))
     return data, zooms[:3] if len(zooms) >= 3 else None, notes
-
-
-def _read(path: Path, read):
-    try:
-        return read()
-    except (OSError, EOFError, ValueError) as exc:
-        raise damaged(path, exc) from None
-    except Exception as exc:
-        raise_if_corrupt_compression(exc, path)
-        raise
 
 
 def _raise_if_broken_gzip(path: Path) -> None:

@@ -12,7 +12,7 @@ import numpy as np
 
 from .errors import VolumeError
 from .frames import select_frame
-from .reading import Loaded, damaged, raise_if_corrupt_compression, reason
+from .reading import Loaded, read_or_explain, reason
 from .volume import Progress, refuse_if_too_big, report
 
 _SPATIAL_KINDS = {"domain", "space"}
@@ -51,13 +51,7 @@ def load_nrrd(path: Path, frame: int | None, progress: Progress | None = None) -
     refuse_if_too_big([int(s) for s in header.get("sizes", [])],
                       _itemsize(str(header.get("type", "double"))), path.name)
     report(progress, 0.0, f"reading {path.name}")  # pynrrd reads in one call: no finer progress
-    try:
-        data, header = nrrd.read(str(path))
-    except (nrrd.NRRDError, OSError, EOFError, ValueError) as exc:
-        raise damaged(path, exc) from None
-    except Exception as exc:
-        raise_if_corrupt_compression(exc, path)
-        raise
+    data, header = read_or_explain(path, lambda: nrrd.read(str(path)), (nrrd.NRRDError,))
     notes: list[str] = []
     spatial_axes = list(range(data.ndim))
     if data.ndim == 4:

@@ -36,6 +36,18 @@ def read_in_slabs(read, shape, axis: int, what: str, progress: Progress | None) 
     return out
 
 
+def read_or_explain(path: Path, read, errors: tuple[type[BaseException], ...] = ()):
+    """read(), with a failure turned into a one-line VolumeError about `path`: `errors` and
+    OS/EOF/value errors say the file is damaged, cut-off compression says so."""
+    try:
+        return read()
+    except (OSError, EOFError, ValueError, *errors) as exc:
+        raise damaged(path, exc) from None
+    except Exception as exc:
+        raise_if_corrupt_compression(exc, path)
+        raise
+
+
 def raise_if_corrupt_compression(exc: Exception, path: Path) -> None:
     # zlib.error is not an OSError; it is what a corrupt deflate stream raises.
     if type(exc).__module__ in ("zlib", "_bz2", "bz2", "gzip"):
