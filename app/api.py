@@ -1,8 +1,6 @@
 """`marching_cubes`: scikit-image's call, on the GPU or in numpy."""
 from __future__ import annotations
 
-import numpy as np
-
 from . import validation
 from .reference import marching_cubes_reference
 
@@ -51,8 +49,3 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         return extractor.read_mesh()
     finally:
         extractor.release()
-
-
-def empty_mesh():
-    return (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32),
-            np.zeros((0, 3), np.float32), np.zeros((0,), np.float32))

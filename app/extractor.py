@@ -33,7 +33,7 @@ from . import validation
 from .case_table import CaseTable, montani_table
 from .gl_context import current_or_standalone
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
-from .reference import BRICK_I, BRICK_J
+from .reference import BRICK_I, BRICK_J, empty_mesh
 from .scan import ExclusiveScan
 
 VERTEX_BYTES = 32  # vec4(position, value), vec4(normal, 0): std430, drawable as "3f 1f 3f 1x4"
@@ -237,7 +237,6 @@ class Extractor:
     def read_mesh(self):
         """The last extraction as numpy arrays: verts, faces, normals, values (skimage's layout)."""
         if self.n_vertices == 0:
-            from .api import empty_mesh
             return empty_mesh()
         records = np.frombuffer(self.vertex_buffer.read(self.n_vertices * VERTEX_BYTES), np.float32)
         records = records.reshape(self.n_vertices, 8)
