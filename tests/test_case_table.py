@@ -4,8 +4,7 @@ import itertools
 import numpy as np
 import pytest
 
-from app.case_table import (CORNER_OFFSETS, EDGE_AXIS, EDGE_CORNERS, EDGE_ORIGIN, FACE_CORNERS,
-                            montani_table)
+from app.case_table import CORNER_OFFSETS, EDGE_CORNERS, FACE_CORNERS, montani_table
 
 TABLE = montani_table()
 

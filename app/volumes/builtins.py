@@ -13,7 +13,6 @@ from typing import Callable
 
 import numpy as np
 
-from .errors import VolumeError
 from .grid import LOWER_RESOLUTION, Box, pick_resolution, sample_function
 from .volume import Progress, Volume, finish_volume, refuse_if_too_big, report
 

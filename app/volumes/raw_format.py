@@ -96,7 +96,7 @@ def _check_file_size(path: Path, layout: RawLayout) -> None:
     dims = " ".join(map(str, layout.dims))
     fitting = [name for name in RAW_DTYPES if n_voxels * np.dtype(name).itemsize == actual]
     hint = (f"try --dtype {' or '.join(fitting)}" if fitting else
-            f"check --dims and --dtype")
+            "check --dims and --dtype")
     if actual < expected:
         raise VolumeError(f"{path.name} is truncated or the layout is wrong: --dims {dims} as "
                           f"{layout.dtype.name} needs {expected} bytes, the file has {actual}; {hint}")
