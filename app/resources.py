@@ -6,26 +6,28 @@ installs them into the wheel as the data packages `app._shaders` and `app._volum
 from __future__ import annotations
 
 import re
-from importlib import resources
 from pathlib import Path
 
-_CHECKOUT_ROOT = Path(__file__).resolve().parent.parent
+_PACKAGE_DIR = Path(__file__).resolve().parent
+_CHECKOUT_ROOT = _PACKAGE_DIR.parent
 _INCLUDE = re.compile(r'^\s*#include\s+"([\w./-]+)"\s*$', re.MULTILINE)
 
 
-def _data_dir(checkout_name: str, package: str) -> Path:
+def _data_dir(checkout_name: str) -> Path:
     local = _CHECKOUT_ROOT / checkout_name
     if local.is_dir():
         return local
-    return Path(str(resources.files(package)))
+    # Installed: app/_shaders, app/_volumes.  Not through importlib.resources: these folders
+    # have no __init__.py, so it hands back a MultiplexedPath whose str() is no path at all.
+    return _PACKAGE_DIR / f"_{checkout_name}"
 
 
 def shaders_dir() -> Path:
-    return _data_dir("shaders", "app._shaders")
+    return _data_dir("shaders")
 
 
 def volumes_dir() -> Path:
-    return _data_dir("volumes", "app._volumes")
+    return _data_dir("volumes")
 
 
 def shader_source(name: str, defines: dict[str, object] | None = None) -> str:

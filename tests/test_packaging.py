@@ -1,4 +1,5 @@
 """Shaders and sample volumes are found from a checkout and ship inside the wheel."""
+import os
 import subprocess
 import sys
 import zipfile
@@ -28,3 +29,15 @@ def test_wheel_contains_shaders_volumes_and_the_console_script(tmp_path):
     assert modules <= set(names), f"modules missing from the wheel: {sorted(modules - set(names))}"
     entry_points = next(n for n in names if n.endswith("entry_points.txt"))
     assert "isoscope = app.cli:main" in zipfile.ZipFile(wheel).read(entry_points).decode()
+
+    # Installed from the wheel (not editable), far from the checkout, it finds its own data.
+    site = tmp_path / "site"
+    subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(site),
+                    str(wheel)], check=True)
+    probe = ("from app import resources, volumes; "
+             "assert resources.shaders_dir().is_relative_to(sys.argv[1]), resources.shaders_dir(); "
+             "assert '#version' in resources.shader_source('mesh.vert'); "
+             "print(volumes.open_volume(volumes.sample_names()[0]).data.shape)")
+    done = subprocess.run([sys.executable, "-c", "import sys; " + probe, str(site)], cwd=tmp_path,
+                          env={**os.environ, "PYTHONPATH": str(site)}, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
