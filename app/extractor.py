@@ -21,6 +21,10 @@ touches only the bricks whose range contains the new level.  Scratch: 16 bytes
 per 32-sample word plus 20 per brick (about 0.5 byte per voxel; 0.75 for a moment
 while the brick ranges are measured).  The only read-back is the two totals,
 8 bytes, needed to size the outputs.
+
+What the passes read often (the volume, per-word signs, counts and offsets) lives in
+images and the case table in a uniform block: on llvmpipe an SSBO load costs 4-6 times
+an imageLoad (see shaders/mc_common.glsl).  SSBOs hold the mesh and per-brick lists.
 """
 from __future__ import annotations
 
@@ -38,6 +42,9 @@ from .scan import ExclusiveScan
 
 VERTEX_BYTES = 32  # vec4(position, value), vec4(normal, 0): std430, drawable as "3f 1f 3f 1x4"
 INDEX_BYTES = 12  # three uint32 per triangle
+WORD_IMAGE_SHIFT = 12  # per-word images are 4096 texels wide (shaders/mc_common.glsl word_texel)
+MAX_WORDS = 1 << 25  # a vertex job packs its word id into the top 25 bits of a uint (mc_triangles.comp)
+UPLOAD_SLAB_BYTES = 16 << 20  # a volume whose rows need padding to whole texels goes up in slabs this big
 
 
 class GPULimitError(ValueError):
@@ -71,19 +78,22 @@ class Extractor:
         self.brick_count = self.bricks[0] * self.bricks[1] * self.words_per_row
 
         self._volume = self._upload(field)
-        self._sign_words = self._storage(self.word_count)
-        self._word_counts = self._storage(self.word_count)
-        self._word_offsets = self._storage(2 * self.word_count)  # (first vertex, first triangle)
+        self._sign_words = self._word_image(1)
+        self._word_counts = self._word_image(1)
+        self._word_offsets = self._word_image(2)  # (first vertex, first triangle)
         self._brick_vertex_offsets = self._storage(self.brick_count + 1)
         self._brick_triangle_offsets = self._storage(self.brick_count + 1)
         self._brick_ranges = self._storage(2 * self.brick_count)
         self._active_bricks = self._storage(1 + self.brick_count)
         self._dispatch_args = self.ctx.buffer(reserve=24)  # groups per active brick, then per 64 bricks
-        self._case_table = self.ctx.buffer(self.table.packed_for_gpu().tobytes())
+        case_words = self.table.packed_for_gpu()
+        case_words = np.concatenate([case_words, np.zeros(-len(case_words) % 4, np.uint32)])  # whole uvec4s
+        self._case_table = self.ctx.buffer(case_words.tobytes())
         self._scan = ExclusiveScan(self.ctx)
 
-        defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u",
-                   "BRICK_I": BRICK_I, "BRICK_J": BRICK_J, "BRICK_WORDS": BRICK_I * BRICK_J}
+        defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u", "CASE_TABLE_QUADS": len(case_words) // 4,
+                   "BRICK_I": BRICK_I, "BRICK_J": BRICK_J, "BRICK_WORDS": BRICK_I * BRICK_J,
+                   "WORD_IMAGE_WIDTH": 1 << WORD_IMAGE_SHIFT, "WORD_IMAGE_SHIFT": WORD_IMAGE_SHIFT}
         self._passes = {name: compute_program(self.ctx, f"{name}.comp", defines)
                         for name in ("mc_row_range", "mc_brick_range", "mc_bricks", "mc_signs", "mc_dispatch_args", "mc_classify",
                                      "mc_brick_sums", "mc_word_offsets", "mc_triangles", "mc_vertices")}
@@ -105,10 +115,15 @@ class Extractor:
 
     def _check_texture_limits(self) -> None:
         limit = int(self.ctx.info["GL_MAX_3D_TEXTURE_SIZE"])
-        if max(self.shape) > limit:
+        n0, n1, n2 = self.shape
+        if max(n0, n1, -(-n2 // 4)) > limit:  # axis 2 is packed 4 samples per texel
             raise GPULimitError(
-                f"volume {'x'.join(map(str, self.shape))} exceeds this GPU's 3-D texture limit of "
-                f"{limit} samples per axis; crop or downsample it (e.g. volume[::2, ::2, ::2])")
+                f"volume {n0}x{n1}x{n2} exceeds this GPU's 3-D texture limit of {limit} samples along "
+                f"axes 0 and 1 ({4 * limit} along axis 2); crop or downsample it (e.g. volume[::2, ::2, ::2])")
+        if n0 * n1 * -(-n2 // 32) > MAX_WORDS:
+            raise GPULimitError(
+                f"volume {n0}x{n1}x{n2} needs more than 2^25 sign words (about 2^30 samples), the "
+                "extractor's limit; crop or downsample it (e.g. volume[::2, ::2, ::2])")
 
     def _max_storage_bytes(self) -> int:
         return int(self.ctx.info["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"])
@@ -121,16 +136,41 @@ class Extractor:
                 f"GPU's {self._max_storage_bytes() >> 20} MiB storage-block limit; crop or downsample it")
         return self.ctx.buffer(reserve=size)
 
+    def _word_image(self, components: int) -> moderngl.Texture:
+        """A uint image with one texel per word, WORD_IMAGE_SHIFT bits of word id per row."""
+        width = 1 << WORD_IMAGE_SHIFT
+        height = -(-self.word_count // width)
+        if height > int(self.ctx.info["GL_MAX_TEXTURE_SIZE"]):
+            raise GPULimitError(
+                f"volume {'x'.join(map(str, self.shape))} needs a {width}x{height} work image, above this "
+                f"GPU's {self.ctx.info['GL_MAX_TEXTURE_SIZE']}-texel limit; crop or downsample it")
+        return self.ctx.texture((width, height), components, dtype="u4")
+
     def _upload(self, field: np.ndarray) -> moderngl.Texture3D:
+        """The volume as RGBA32F texels of 4 consecutive axis-2 samples (one load packs 4 signs)."""
         n0, n1, n2 = self.shape
+        quads = -(-n2 // 4)
         try:
-            texture = self.ctx.texture3d((n2, n1, n0), 1, field, dtype="f4")  # no copy: buffer protocol
+            if n2 % 4 == 0:  # the bytes are already laid out as RGBA texels: no copy
+                texture = self.ctx.texture3d((quads, n1, n0), 4, field, dtype="f4")
+            else:  # pad each row to whole texels, a slab of planes at a time (no padded copy of it all)
+                texture = self.ctx.texture3d((quads, n1, n0), 4, dtype="f4")
+                planes = max(1, UPLOAD_SLAB_BYTES // (n1 * quads * 16))
+                for i0 in range(0, n0, planes):
+                    slab = np.zeros((min(planes, n0 - i0), n1, 4 * quads), np.float32)
+                    slab[:, :, :n2] = field[i0:i0 + planes]
+                    texture.write(slab, viewport=(0, 0, i0, quads, n1, len(slab)))
         except moderngl.Error as exc:
             raise GPULimitError(f"volume {n0}x{n1}x{n2} ({field.nbytes >> 20} MiB) could not be uploaded "
                                 f"to the GPU ({exc}); crop or downsample it") from None
-        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        texture.repeat_x = texture.repeat_y = texture.repeat_z = False
         return texture
+
+    def _bind_images(self) -> None:
+        self._volume.bind_to_image(0, read=True, write=False)
+        self._sign_words.bind_to_image(1, read=True, write=True)
+        self._word_counts.bind_to_image(2, read=True, write=True)
+        self._word_offsets.bind_to_image(3, read=True, write=True)
+        self._case_table.bind_to_uniform_block(0)
 
     def _ensure_output(self, n_vertices: int, n_triangles: int) -> None:
         """Grow the mesh buffers to fit (by half again, so dragging the slider rarely reallocates)."""
@@ -154,7 +194,7 @@ class Extractor:
         for program in self._passes.values():
             set_uniforms(program, u_dims=self.shape, u_words=self.words_per_row, u_bricks=self.bricks,
                          u_brick_count=self.brick_count, u_level=float(np.float32(sign * level)),
-                         u_sign=sign, u_spacing=self.spacing, u_volume=0)
+                         u_sign=sign, u_spacing=self.spacing)
 
     def _bind(self, *slots: tuple[int, moderngl.Buffer]) -> None:
         for binding, buffer in slots:
@@ -164,7 +204,7 @@ class Extractor:
         """Each brick's value range, via each word's row range (a buffer freed afterwards)."""
         self._set_common_uniforms(self.value_range[0])
         set_uniforms(self._passes["mc_row_range"], u_word_count=self.word_count)
-        self._volume.use(location=0)
+        self._bind_images()
         row_ranges = self._storage(2 * self.word_count)
         try:
             self._bind((8, row_ranges), (9, self._brick_ranges))
@@ -185,7 +225,7 @@ class Extractor:
         level = validation.as_level(level, self.value_range)
         start = time.perf_counter()
         self._set_common_uniforms(level)
-        self._volume.use(location=0)
+        self._bind_images()
         self._active_bricks.write(b"\0\0\0\0")  # the active count, appended to by mc_bricks
         with self._timers[0]:
             n_vertices, n_triangles = self._count()
@@ -203,8 +243,7 @@ class Extractor:
 
     def _count(self) -> tuple[int, int]:
         """Passes 1-5: skip, pack signs, classify, scan; returns the totals (the one read-back)."""
-        self._bind((0, self._sign_words), (1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets),
-                   (3, self._word_counts), (4, self._case_table), (7, self._active_bricks),
+        self._bind((1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets), (7, self._active_bricks),
                    (8, self._brick_ranges), (9, self._dispatch_args))
         dispatch_groups(self._passes["mc_bricks"], -(-(self.brick_count + 1) // 64))
         self.ctx.memory_barrier()
@@ -224,8 +263,7 @@ class Extractor:
     def _generate(self, n_vertices: int, n_triangles: int) -> None:
         """Passes 6-8: offsets per word, triangles and vertex jobs, vertices, into the mesh buffers."""
         # The scan used slots 0 and 1; bind the passes' buffers again.
-        self._bind((0, self._sign_words), (1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets),
-                   (5, self._word_offsets), (6, self.vertex_buffer))
+        self._bind((1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets))
         self._run_over_active_bricks("mc_word_offsets", per_brick=True)
         self._bind((6, self.index_buffer), (8, self.vertex_buffer))
         self._run_over_active_bricks("mc_triangles")  # and the vertex jobs
@@ -246,15 +284,19 @@ class Extractor:
 
     def scratch_bytes(self) -> int:
         """GPU memory beyond the volume texture and the mesh buffers."""
-        return sum(b.size for b in self._scratch_buffers()) + self._scan.scratch_bytes()
+        images = sum(t.width * t.height * t.components * 4 for t in self._word_images())
+        return images + sum(b.size for b in self._scratch_buffers()) + self._scan.scratch_bytes()
+
+    def _word_images(self) -> tuple[moderngl.Texture, ...]:
+        return (self._sign_words, self._word_counts, self._word_offsets)
 
     def _scratch_buffers(self) -> tuple[moderngl.Buffer, ...]:
-        return (self._sign_words, self._word_counts, self._word_offsets, self._brick_vertex_offsets,
-                self._brick_triangle_offsets, self._brick_ranges, self._active_bricks, self._dispatch_args,
-                self._case_table)
+        return (self._brick_vertex_offsets, self._brick_triangle_offsets, self._brick_ranges, self._active_bricks,
+                self._dispatch_args, self._case_table)
 
     def release(self) -> None:
-        for obj in (self._volume, self.vertex_buffer, self.index_buffer, *self._scratch_buffers()):
+        for obj in (self._volume, self.vertex_buffer, self.index_buffer, *self._word_images(),
+                    *self._scratch_buffers()):
             obj.release()
         self._scan.release()
 

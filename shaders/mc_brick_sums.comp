@@ -6,7 +6,7 @@ layout(local_size_x = 64) in;
 
 layout(std430, binding = 1) writeonly buffer BrickVertexCounts { uint brick_vertex_counts[]; };
 layout(std430, binding = 2) writeonly buffer BrickTriangleCounts { uint brick_triangle_counts[]; };
-layout(std430, binding = 3) readonly buffer WordCounts { uint word_counts[]; };
+layout(r32ui, binding = 2) readonly uniform uimage2D u_word_counts;
 
 void main() {
     uint brick;
@@ -15,7 +15,7 @@ void main() {
     for (uint local = 0u; local < WORDS_PER_BRICK; ++local) {
         uint id;
         if (word_of_brick(brick, local, id)) {
-            uint counts = word_counts[id];
+            uint counts = imageLoad(u_word_counts, word_texel(id)).x;
             vertices += vertex_total(counts);
             triangles += triangle_total(counts);
         }

@@ -6,7 +6,7 @@
 layout(local_size_x = 64) in;
 #include "mc_common.glsl"
 
-layout(std430, binding = 0) writeonly buffer SignWords { uint sign_words[]; };
+layout(r32ui, binding = 1) writeonly uniform uimage2D u_sign_words;
 layout(std430, binding = 1) writeonly buffer BrickVertexCounts { uint brick_vertex_counts[]; };
 layout(std430, binding = 2) writeonly buffer BrickTriangleCounts { uint brick_triangle_counts[]; };
 layout(std430, binding = 7) buffer ActiveBricks { uint active_count; uint active_bricks[]; };
@@ -33,7 +33,7 @@ void main() {
     int i0 = int(column / uint(u_bricks.y)) * BRICK_I, j0 = int(column % uint(u_bricks.y)) * BRICK_J;
     for (int i = i0; i < min(i0 + BRICK_I, u_dims.x); ++i) {
         for (int j = j0; j < min(j0 + BRICK_J, u_dims.y); ++j) {
-            sign_words[word_id_of(i, j, w)] = bits;
+            imageStore(u_sign_words, word_texel(word_id_of(i, j, w)), uvec4(bits));
         }
     }
 }

@@ -7,7 +7,7 @@ layout(local_size_x = BRICK_WORDS) in;
 #include "mc_active_bricks.glsl"
 #include "mc_case_table.glsl"
 
-layout(std430, binding = 3) writeonly buffer WordCounts { uint word_counts[]; };
+layout(r32ui, binding = 2) writeonly uniform uimage2D u_word_counts;
 
 void main() {
     uint brick;
@@ -30,6 +30,7 @@ void main() {
     } else {
         crossing = crossing_masks(word.x, word.y, word.z);  // the grid's last row along axis 0 or 1
     }
-    word_counts[word_id_of(word.x, word.y, word.z)] = uint(bitCount(crossing.x))
-        | (uint(bitCount(crossing.y)) << 6) | (uint(bitCount(crossing.z)) << 12) | (triangles << 18);
+    uint counts = uint(bitCount(crossing.x)) | (uint(bitCount(crossing.y)) << 6)
+                | (uint(bitCount(crossing.z)) << 12) | (triangles << 18);
+    imageStore(u_word_counts, word_texel(word_id_of(word.x, word.y, word.z)), uvec4(counts));
 }

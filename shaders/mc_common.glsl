@@ -1,8 +1,14 @@
-// Shared by the marching-cubes passes: grid and brick layout, volume sampling.
+// Shared by the marching-cubes passes: grid and brick layout, volume and word access.
 //
-// The volume is a 3-D R32F texture of size (n2, n1, n0): texel (k, j, i) holds
-// volume[i, j, k].  Signs are packed 32 per uint along axis 2: word w of row
-// (i, j) holds the inside bits of samples k = 32w .. 32w+31 (bit k - 32w).
+// The volume is an RGBA32F image of size (ceil(n2 / 4), n1, n0): texel (q, j, i) holds
+// volume[i, j, 4q .. 4q + 3].  Signs are packed 32 per uint along axis 2: word w of row
+// (i, j) holds the inside bits of samples k = 32w .. 32w+31 (bit k - 32w).  Per-word data
+// (signs, counts, offsets) lives in 2-D images WORD_IMAGE_WIDTH texels wide, word id by word id.
+//
+// Why images: on llvmpipe an imageLoad costs ~0.6-0.9 ns, a texelFetch ~1.7 and an SSBO
+// load ~3.6 (each SSBO lane is loaded and bounds-checked on its own); stores cost about
+// the same either way (benchmarks/bench_loads.py).  SSBOs remain for the output mesh, which
+// the renderer draws, and for the per-brick lists.
 //
 // Words are grouped into bricks of BRICK_I x BRICK_J rows x 1 word (injected
 // from app/reference.py).  A brick is one work group, one invocation per word;
@@ -17,7 +23,7 @@ uniform uint u_brick_count;
 uniform float u_level;     // level * u_sign
 uniform float u_sign;      // +1: object above the level ("descent"); -1: below ("ascent")
 uniform vec3 u_spacing;
-uniform sampler3D u_volume;
+layout(rgba32f, binding = 0) readonly uniform image3D u_volume;
 
 const float EDGE_MARGIN = 1.0 / 256.0;  // app/reference.py EDGE_MARGIN: vertices stay off grid points
 const uint WORDS_PER_BRICK = uint(BRICK_WORDS);  // BRICK_I * BRICK_J, injected as a literal for local_size_x
@@ -29,6 +35,9 @@ uint linear_group() {  // dispatches fold into 2-D past 65535 groups
 uint word_id_of(int i, int j, int w) {
     return (uint(i) * uint(u_dims.y) + uint(j)) * uint(u_words) + uint(w);
 }
+
+// The texel of word `id` in a per-word image.
+ivec2 word_texel(uint id) { return ivec2(id & uint(WORD_IMAGE_WIDTH - 1), id >> WORD_IMAGE_SHIFT); }
 
 // This invocation's word in brick `brick` (one invocation per word): (i, j, w), and whether it
 // lies inside the grid.
@@ -49,7 +58,14 @@ uint low_bits(int count) {
 uint point_bits(int w) { return low_bits(u_dims.z - 32 * w); }
 uint axis2_edge_bits(int w) { return low_bits(u_dims.z - 1 - 32 * w); }
 
-float sample_at(ivec3 p) { return texelFetch(u_volume, ivec3(p.z, p.y, p.x), 0).r; }
+// Component `c` of `v`, by selects: llvmpipe turns indexing by a variable (of arrays or
+// vectors) into stack-memory traffic, which once cost half of the triangle pass.
+uint pick(uvec4 v, uint c) { return c == 0u ? v.x : c == 1u ? v.y : c == 2u ? v.z : v.w; }
+float pick(vec4 v, uint c) { return c == 0u ? v.x : c == 1u ? v.y : c == 2u ? v.z : v.w; }
+
+// Samples 4q .. 4q+3 of row (i, j); past the grid's end, zeros.
+vec4 quad_at(int i, int j, int q) { return imageLoad(u_volume, ivec3(q, j, i)); }
+float sample_at(ivec3 p) { return pick(quad_at(p.x, p.y, p.z >> 2), uint(p.z & 3)); }
 float field_at(ivec3 p) { return u_sign * sample_at(p); }
 
 // Per word, packed counts: vertices it owns along axes 0, 1, 2 (6 bits each) and triangles of its cells.

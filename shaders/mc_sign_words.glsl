@@ -1,7 +1,7 @@
-// Read access to the packed inside bits written by mc_signs.comp (binding 0).
-layout(std430, binding = 0) readonly buffer SignWords { uint sign_words[]; };
+// Read access to the packed inside bits written by mc_bricks.comp and mc_signs.comp (image 1).
+layout(r32ui, binding = 1) readonly uniform uimage2D u_sign_words;
 
-uint row_word(int i, int j, int w) { return sign_words[word_id_of(i, j, w)]; }
+uint row_word(int i, int j, int w) { return imageLoad(u_sign_words, word_texel(word_id_of(i, j, w))).x; }
 
 // The row's word shifted down by one sample: bit k holds sample k + 1 (from the next word at bit 31).
 uint next_samples(int i, int j, int w, uint word) {
@@ -17,10 +17,6 @@ uvec3 crossing_masks(int i, int j, int w) {
     uint along2 = (here ^ next_samples(i, j, w, here)) & axis2_edge_bits(w);
     return uvec3(along0, along1, along2);
 }
-
-// Component `i` of `v`, by selects: llvmpipe turns indexing by a variable (of arrays or
-// vectors) into stack-memory traffic, which cost half of the triangle pass.
-uint pick(uvec4 v, uint i) { return i == 0u ? v.x : i == 1u ? v.y : i == 2u ? v.z : v.w; }
 
 // The four sign rows around a row of cells, component d0 | d1 << 1, at k and at k + 1.
 struct CellRows { uvec4 at_k; uvec4 at_k1; };

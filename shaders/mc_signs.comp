@@ -6,7 +6,7 @@ layout(local_size_x = BRICK_WORDS) in;
 #include "mc_common.glsl"
 #include "mc_active_bricks.glsl"
 
-layout(std430, binding = 0) writeonly buffer SignWords { uint sign_words[]; };
+layout(r32ui, binding = 1) writeonly uniform uimage2D u_sign_words;
 
 void main() {
     uint brick;
@@ -14,10 +14,10 @@ void main() {
     bool exists;
     ivec3 word = brick_word(brick, exists);
     if (!exists) return;
-    int count = min(32, u_dims.z - 32 * word.z);
     uint bits = 0u;
-    for (int b = 0; b < count; ++b) {
-        bits |= uint(field_at(ivec3(word.x, word.y, 32 * word.z + b)) >= u_level) << uint(b);
+    for (int q = 0; q < 8; ++q) {  // 4 samples per load
+        bvec4 inside = greaterThanEqual(u_sign * quad_at(word.x, word.y, 8 * word.z + q), vec4(u_level));
+        bits |= (uint(inside.x) | uint(inside.y) << 1 | uint(inside.z) << 2 | uint(inside.w) << 3) << uint(4 * q);
     }
-    sign_words[word_id_of(word.x, word.y, word.z)] = bits;
+    imageStore(u_sign_words, word_texel(word_id_of(word.x, word.y, word.z)), uvec4(bits & point_bits(word.z)));
 }

@@ -1,7 +1,7 @@
 #version 430
 // Pass 7, over active bricks, one invocation per word: the triangles of the word's cells, as
 // indices of the vertices that the cells' edges own (possibly in a neighbouring word or brick),
-// and a job in each of the word's own vertex slots (word id, axis << 5 | bit) from which
+// and a job in each of the word's own vertex slots (word id << 7 | axis << 5 | bit) from which
 // mc_vertices.comp, run next with one invocation per vertex, computes the vertex.  Both need
 // the same sign rows, so one pass loads them once.
 layout(local_size_x = BRICK_WORDS) in;
@@ -10,10 +10,10 @@ layout(local_size_x = BRICK_WORDS) in;
 #include "mc_active_bricks.glsl"
 #include "mc_case_table.glsl"
 
-layout(std430, binding = 3) readonly buffer WordCounts { uint word_counts[]; };
-layout(std430, binding = 5) readonly buffer WordOffsets { uvec2 word_offsets[]; };  // (vertex, triangle)
+layout(r32ui, binding = 2) readonly uniform uimage2D u_word_counts;
+layout(rg32ui, binding = 3) readonly uniform uimage2D u_word_offsets;  // (first vertex, first triangle)
 layout(std430, binding = 6) writeonly buffer Indices { uint indices[]; };
-layout(std430, binding = 8) writeonly buffer VertexRecords { uvec4 vertex_records[]; };  // 2 per vertex
+layout(std430, binding = 8) writeonly buffer VertexRecords { uint vertex_words[]; };  // 8 per vertex
 
 // Where each axis's vertices start in the words owning a cell row's edges, per sign row around
 // the cells (component d0 | d1 << 1): in word w, and in word w + 1 (reached from cell 31, only
@@ -21,8 +21,8 @@ layout(std430, binding = 8) writeonly buffer VertexRecords { uvec4 vertex_record
 struct OwnerStarts { uvec4 along0; uvec4 along1; uvec4 along2; uvec4 next0; uvec4 next1; };
 
 uvec3 axis_starts(uint owner) {
-    uint counts = word_counts[owner];
-    uint first = word_offsets[owner].x;
+    uint counts = imageLoad(u_word_counts, word_texel(owner)).x;
+    uint first = imageLoad(u_word_offsets, word_texel(owner)).x;
     uint after0 = first + vertices_along(counts, 0u);
     return uvec3(first, after0, after0 + vertices_along(counts, 1u));
 }
@@ -77,7 +77,7 @@ void write_vertex_jobs(uint id, uint next, uint count, uvec3 crossing) {
         }
         uint b = uint(findLSB(bits));
         bits &= bits - 1u;
-        vertex_records[2u * next] = uvec4(id, (axis << 5) | b, 0u, 0u);
+        vertex_words[8u * next] = (id << 7) | (axis << 5) | b;  // one uint: SSBO loads are dear
     }
 }
 
@@ -88,8 +88,8 @@ void main() {
     ivec3 word = brick_word(brick, exists);
     if (!exists) return;
     uint id = word_id_of(word.x, word.y, word.z);
-    uint counts = word_counts[id];
-    uvec2 first = word_offsets[id];
+    uint counts = imageLoad(u_word_counts, word_texel(id)).x;
+    uvec2 first = imageLoad(u_word_offsets, word_texel(id)).xy;
     if (!has_cells(word.x, word.y)) {  // the grid's last rows: edges but no cells
         write_vertex_jobs(id, first.x, vertex_total(counts), crossing_masks(word.x, word.y, word.z));
         return;

@@ -40,8 +40,9 @@ Vertex edge_vertex(ivec3 p0, int axis) {
 void main() {
     uint index = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
     if (index >= u_vertex_count) return;
-    uvec2 job = floatBitsToUint(vertices[index].position_value.xy);
-    uint w = job.x % uint(u_words), row = job.x / uint(u_words);
-    ivec3 p0 = ivec3(int(row / uint(u_dims.y)), int(row % uint(u_dims.y)), int(w) * 32 + int(job.y & 31u));
-    vertices[index] = edge_vertex(p0, int(job.y >> 5));
+    uint job = floatBitsToUint(vertices[index].position_value.x);  // word id << 7 | axis << 5 | bit
+    uint word = job >> 7;
+    uint w = word % uint(u_words), row = word / uint(u_words);
+    ivec3 p0 = ivec3(int(row / uint(u_dims.y)), int(row % uint(u_dims.y)), int(w) * 32 + int(job & 31u));
+    vertices[index] = edge_vertex(p0, int((job >> 5) & 3u));
 }

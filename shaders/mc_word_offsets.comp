@@ -7,8 +7,8 @@ layout(local_size_x = 64) in;
 
 layout(std430, binding = 1) readonly buffer BrickVertexOffsets { uint brick_vertex_offsets[]; };
 layout(std430, binding = 2) readonly buffer BrickTriangleOffsets { uint brick_triangle_offsets[]; };
-layout(std430, binding = 3) readonly buffer WordCounts { uint word_counts[]; };
-layout(std430, binding = 5) writeonly buffer WordOffsets { uvec2 word_offsets[]; };  // (vertex, triangle)
+layout(r32ui, binding = 2) readonly uniform uimage2D u_word_counts;
+layout(rg32ui, binding = 3) writeonly uniform uimage2D u_word_offsets;  // (first vertex, first triangle)
 
 void main() {
     uint brick;
@@ -17,8 +17,8 @@ void main() {
     for (uint local = 0u; local < WORDS_PER_BRICK; ++local) {
         uint id;
         if (word_of_brick(brick, local, id)) {
-            word_offsets[id] = next;
-            uint counts = word_counts[id];
+            imageStore(u_word_offsets, word_texel(id), uvec4(next, 0u, 0u));
+            uint counts = imageLoad(u_word_counts, word_texel(id)).x;
             next += uvec2(vertex_total(counts), triangle_total(counts));
         }
     }
