@@ -12,10 +12,11 @@ Each variant runs one dispatch of N invocations doing 8 dependent-free loads
 5 runs divided by the loads done.  Two access patterns: "near" (neighbouring
 lanes read neighbouring words, as the passes do) and "scattered" (hashed).
 
-    python benchmarks/bench_loads.py
+    python benchmarks/bench_loads.py [--invocations N]
 """
 from __future__ import annotations
 
+import argparse
 import sys
 import time
 from pathlib import Path
@@ -25,7 +26,6 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from app.gl_context import current_or_standalone  # noqa: E402
 
-N = 1 << 21  # invocations (and words in each data set)
 LOADS = 8
 GROUP = 64
 
@@ -39,7 +39,7 @@ void main() {
     uint id = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * %(group)du + gl_LocalInvocationIndex;
     uint acc = 0u;
     for (uint r = 0u; r < %(loads)du; ++r) {
-        uint i = (%(address)s) & %(mask)du;
+        uint i = (%(address)s) & %(mask)du;  // a word of the data; in the volume, texel (i>>2 & 127, i>>9 & 127, i>>16)
         acc ^= %(load)s;
     }
     result[id] = acc;
@@ -65,6 +65,12 @@ VARIANTS = {
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--invocations", type=int, default=1 << 21,
+                        help="a power of two, at least 2^16 (default 2^21)")
+    N = parser.parse_args().invocations
+    if N < 1 << 16 or N & (N - 1):
+        parser.error("--invocations must be a power of two, at least 65536")
     ctx = current_or_standalone()
     rng = np.random.default_rng(0)
     words = rng.integers(0, 2**32, N, dtype=np.uint32)
@@ -72,7 +78,8 @@ def main() -> None:
     table = ctx.buffer(words[:1024].tobytes())
     out = ctx.buffer(reserve=N * 4)
     image = ctx.texture((2048, N // 2048), 1, words.tobytes(), dtype="u4")
-    volume = ctx.texture3d((128, 128, 128), 4, rng.standard_normal(N * 4).astype(np.float32).tobytes(), dtype="f4")
+    samples = rng.standard_normal(N).astype(np.float32)  # N / 4 texels of 4 samples
+    volume = ctx.texture3d((128, 128, N >> 16), 4, samples.tobytes(), dtype="f4")
     print(f"GL renderer: {ctx.info['GL_RENDERER']}")
     print(f"{N} invocations x {LOADS} loads; ns per load (best of 5)\n")
     print("| load | near | scattered |\n|---|---:|---:|")

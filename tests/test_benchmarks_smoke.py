@@ -76,3 +76,16 @@ def test_benchmark_script_prints_every_peer(tmp_path):
     for case in report["cases"]:
         assert case["ours"]["iso_change"]["triangles"]["a"] > 0
         assert case["peers"]["mcubes"]["skipped"] == "not importable"
+
+
+def test_load_cost_benchmark_measures_every_kind_of_load():
+    script = SCRIPT.parent / "bench_loads.py"
+    done = subprocess.run([sys.executable, str(script), "--invocations", "65536"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    rows = [line.strip("|").split("|") for line in done.stdout.splitlines() if line.startswith("| ")]
+    kinds = [cells[0].strip() for cells in rows[1:]]
+    assert kinds == ["SSBO uint", "uniform block uvec4 (small table)", "texelFetch usampler2D r32ui",
+                     "imageLoad uimage2D r32ui", "texelFetch sampler3D rgba32f", "imageLoad image3D rgba32f"]
+    for cells in rows[1:]:
+        assert all(float(cell) > 0 for cell in cells[1:])
