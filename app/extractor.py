@@ -42,7 +42,7 @@ from .scan import ExclusiveScan
 
 VERTEX_BYTES = 32  # vec4(position, value), vec4(normal, 0): std430, drawable as "3f 1f 3f 1x4"
 INDEX_BYTES = 12  # three uint32 per triangle
-WORD_IMAGE_SHIFT = 12  # per-word images are 4096 texels wide (shaders/mc_common.glsl word_texel)
+MAX_WORD_IMAGE_SHIFT = 12  # per-word images are at most 4096 texels wide (mc_common.glsl word_texel)
 MAX_WORDS = 1 << 25  # a vertex job packs its word id into the top 25 bits of a uint (mc_triangles.comp)
 UPLOAD_SLAB_BYTES = 16 << 20  # a volume whose rows need padding to whole texels goes up in slabs this big
 
@@ -76,6 +76,9 @@ class Extractor:
         self.word_count = n0 * n1 * self.words_per_row
         self.bricks = (-(-n0 // BRICK_I), -(-n1 // BRICK_J))
         self.brick_count = self.bricks[0] * self.bricks[1] * self.words_per_row
+        # Per-word images have rows of 2^shift texels: at most 4096, and fewer than 1/8 of the
+        # words (2^(b-1) < words <= 2^b), so the last row's padding is under 1/8 of the image.
+        self._word_shift = max(0, min(MAX_WORD_IMAGE_SHIFT, (self.word_count - 1).bit_length() - 4))
 
         self._volume = self._upload(field)
         self._sign_words = self._word_image(1)
@@ -92,8 +95,7 @@ class Extractor:
         self._scan = ExclusiveScan(self.ctx)
 
         defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u", "CASE_TABLE_QUADS": len(case_words) // 4,
-                   "BRICK_I": BRICK_I, "BRICK_J": BRICK_J, "BRICK_WORDS": BRICK_I * BRICK_J,
-                   "WORD_IMAGE_WIDTH": 1 << WORD_IMAGE_SHIFT, "WORD_IMAGE_SHIFT": WORD_IMAGE_SHIFT}
+                   "BRICK_I": BRICK_I, "BRICK_J": BRICK_J, "BRICK_WORDS": BRICK_I * BRICK_J}
         self._passes = {name: compute_program(self.ctx, f"{name}.comp", defines)
                         for name in ("mc_row_range", "mc_brick_range", "mc_bricks", "mc_signs", "mc_dispatch_args", "mc_classify",
                                      "mc_brick_sums", "mc_word_offsets", "mc_triangles", "mc_vertices")}
@@ -137,8 +139,8 @@ class Extractor:
         return self.ctx.buffer(reserve=size)
 
     def _word_image(self, components: int) -> moderngl.Texture:
-        """A uint image with one texel per word, WORD_IMAGE_SHIFT bits of word id per row."""
-        width = 1 << WORD_IMAGE_SHIFT
+        """A uint image with one texel per word: the low `_word_shift` bits of a word id pick the column."""
+        width = 1 << self._word_shift
         height = -(-self.word_count // width)
         if height > int(self.ctx.info["GL_MAX_TEXTURE_SIZE"]):
             raise GPULimitError(
@@ -194,7 +196,7 @@ class Extractor:
         for program in self._passes.values():
             set_uniforms(program, u_dims=self.shape, u_words=self.words_per_row, u_bricks=self.bricks,
                          u_brick_count=self.brick_count, u_level=float(np.float32(sign * level)),
-                         u_sign=sign, u_spacing=self.spacing)
+                         u_sign=sign, u_spacing=self.spacing, u_word_shift=self._word_shift)
 
     def _bind(self, *slots: tuple[int, moderngl.Buffer]) -> None:
         for binding, buffer in slots:

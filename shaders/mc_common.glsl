@@ -3,7 +3,7 @@
 // The volume is an RGBA32F image of size (ceil(n2 / 4), n1, n0): texel (q, j, i) holds
 // volume[i, j, 4q .. 4q + 3].  Signs are packed 32 per uint along axis 2: word w of row
 // (i, j) holds the inside bits of samples k = 32w .. 32w+31 (bit k - 32w).  Per-word data
-// (signs, counts, offsets) lives in 2-D images WORD_IMAGE_WIDTH texels wide, word id by word id.
+// (signs, counts, offsets) lives in 2-D images 2^u_word_shift texels wide, word id by word id.
 //
 // Why images: on llvmpipe an imageLoad costs ~0.6-0.9 ns, a texelFetch ~1.7 and an SSBO
 // load ~3.6 (each SSBO lane is loaded and bounds-checked on its own); stores cost about
@@ -23,6 +23,7 @@ uniform uint u_brick_count;
 uniform float u_level;     // level * u_sign
 uniform float u_sign;      // +1: object above the level ("descent"); -1: below ("ascent")
 uniform vec3 u_spacing;
+uniform uint u_word_shift;  // log2 of the per-word images' width
 layout(rgba32f, binding = 0) readonly uniform image3D u_volume;
 
 const float EDGE_MARGIN = 1.0 / 256.0;  // app/reference.py EDGE_MARGIN: vertices stay off grid points
@@ -37,7 +38,7 @@ uint word_id_of(int i, int j, int w) {
 }
 
 // The texel of word `id` in a per-word image.
-ivec2 word_texel(uint id) { return ivec2(id & uint(WORD_IMAGE_WIDTH - 1), id >> WORD_IMAGE_SHIFT); }
+ivec2 word_texel(uint id) { return ivec2(id & ((1u << u_word_shift) - 1u), id >> u_word_shift); }
 
 // This invocation's word in brick `brick` (one invocation per word): (i, j, w), and whether it
 // lies inside the grid.
