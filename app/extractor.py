@@ -115,16 +115,19 @@ class Extractor:
 
     # -- set-up -----------------------------------------------------------------------------
 
+    def _dims_text(self) -> str:
+        return "x".join(map(str, self.shape))
+
     def _check_texture_limits(self) -> None:
         limit = int(self.ctx.info["GL_MAX_3D_TEXTURE_SIZE"])
         n0, n1, n2 = self.shape
         if max(n0, n1, -(-n2 // 4)) > limit:  # axis 2 is packed 4 samples per texel
             raise GPULimitError(
-                f"volume {n0}x{n1}x{n2} exceeds this GPU's 3-D texture limit of {limit} samples along "
+                f"volume {self._dims_text()} exceeds this GPU's 3-D texture limit of {limit} samples along "
                 f"axes 0 and 1 ({4 * limit} along axis 2); crop or downsample it (e.g. volume[::2, ::2, ::2])")
         if n0 * n1 * -(-n2 // 32) > MAX_WORDS:
             raise GPULimitError(
-                f"volume {n0}x{n1}x{n2} needs more than 2^25 sign words (about 2^30 samples), the "
+                f"volume {self._dims_text()} needs more than 2^25 sign words (about 2^30 samples), the "
                 "extractor's limit; crop or downsample it (e.g. volume[::2, ::2, ::2])")
 
     def _max_storage_bytes(self) -> int:
@@ -134,7 +137,7 @@ class Extractor:
         size = max(elements, 1) * 4
         if size > self._max_storage_bytes():
             raise GPULimitError(
-                f"volume {'x'.join(map(str, self.shape))} needs a {size >> 20} MiB work buffer, above this "
+                f"volume {self._dims_text()} needs a {size >> 20} MiB work buffer, above this "
                 f"GPU's {self._max_storage_bytes() >> 20} MiB storage-block limit; crop or downsample it")
         return self.ctx.buffer(reserve=size)
 
@@ -144,7 +147,7 @@ class Extractor:
         height = -(-self.word_count // width)
         if height > int(self.ctx.info["GL_MAX_TEXTURE_SIZE"]):
             raise GPULimitError(
-                f"volume {'x'.join(map(str, self.shape))} needs a {width}x{height} work image, above this "
+                f"volume {self._dims_text()} needs a {width}x{height} work image, above this "
                 f"GPU's {self.ctx.info['GL_MAX_TEXTURE_SIZE']}-texel limit; crop or downsample it")
         return self.ctx.texture((width, height), components, dtype="u4")
 
@@ -163,7 +166,7 @@ class Extractor:
                     slab[:, :, :n2] = field[i0:i0 + planes]
                     texture.write(slab, viewport=(0, 0, i0, quads, n1, len(slab)))
         except moderngl.Error as exc:
-            raise GPULimitError(f"volume {n0}x{n1}x{n2} ({field.nbytes >> 20} MiB) could not be uploaded "
+            raise GPULimitError(f"volume {self._dims_text()} ({field.nbytes >> 20} MiB) could not be uploaded "
                                 f"to the GPU ({exc}); crop or downsample it") from None
         return texture
 
