@@ -71,9 +71,9 @@ class Extractor:
         self.table = table or montani_table()
 
         n0, n1, n2 = self.shape
-        self._check_texture_limits()
         self.words_per_row = -(-n2 // 32)
         self.word_count = n0 * n1 * self.words_per_row
+        self._check_limits()
         self.bricks = (-(-n0 // BRICK_I), -(-n1 // BRICK_J))
         self.brick_count = self.bricks[0] * self.bricks[1] * self.words_per_row
         # Per-word images have rows of 2^shift texels: at most 4096, and fewer than 1/8 of the
@@ -118,14 +118,14 @@ class Extractor:
     def _dims_text(self) -> str:
         return "x".join(map(str, self.shape))
 
-    def _check_texture_limits(self) -> None:
+    def _check_limits(self) -> None:
         limit = int(self.ctx.info["GL_MAX_3D_TEXTURE_SIZE"])
         n0, n1, n2 = self.shape
         if max(n0, n1, -(-n2 // 4)) > limit:  # axis 2 is packed 4 samples per texel
             raise GPULimitError(
                 f"volume {self._dims_text()} exceeds this GPU's 3-D texture limit of {limit} samples along "
                 f"axes 0 and 1 ({4 * limit} along axis 2); crop or downsample it (e.g. volume[::2, ::2, ::2])")
-        if n0 * n1 * -(-n2 // 32) > MAX_WORDS:
+        if self.word_count > MAX_WORDS:
             raise GPULimitError(
                 f"volume {self._dims_text()} needs more than 2^25 sign words (about 2^30 samples), the "
                 "extractor's limit; crop or downsample it (e.g. volume[::2, ::2, ::2])")
