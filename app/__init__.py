@@ -1,8 +1,8 @@
 """isoscope: live GPU isosurfaces of 3-D scalar fields.
 
-    verts, faces, normals, values = app.marching_cubes(volume, level)
+    verts, faces, normals, values = isoscope.marching_cubes(volume, level)
 
-follows scikit-image's `measure.marching_cubes` conventions; `app.Extractor`
+follows scikit-image's `measure.marching_cubes` conventions; `isoscope.Extractor`
 keeps a volume resident on the GPU for repeated extraction at new levels.
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""`python -m app` is the `isoscope` command."""
+"""`python -m isoscope` is the `isoscope` command."""
 import sys
 
 from .cli import main

@@ -1,7 +1,7 @@
 """The OpenGL context the GPU code runs in.
 
 The viewer makes a window whose context is current; everything else (tests,
-`isoscope render`, `app.marching_cubes(backend="gpu")` from a script) gets a
+`isoscope render`, `isoscope.marching_cubes(backend="gpu")` from a script) gets a
 standalone EGL context, which needs no display (Mesa llvmpipe, or the NVIDIA
 driver on a GPU machine).
 """

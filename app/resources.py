@@ -1,7 +1,7 @@
 """Find the package's data files (GLSL sources, sample volumes) from a checkout or a wheel.
 
 In a checkout they sit at the top level (`shaders/`, `volumes/`); pyproject.toml
-installs them into the wheel as the data packages `app._shaders` and `app._volumes`.
+installs them into the wheel as the data packages `isoscope._shaders` and `isoscope._volumes`.
 """
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ def _data_dir(checkout_name: str) -> Path:
     local = _CHECKOUT_ROOT / checkout_name
     if local.is_dir():
         return local
-    # Installed: app/_shaders, app/_volumes.  Not through importlib.resources: these folders
+    # Installed: isoscope/_shaders, isoscope/_volumes.  Not through importlib.resources: these folders
     # have no __init__.py, so it hands back a MultiplexedPath whose str() is no path at all.
     return _PACKAGE_DIR / f"_{checkout_name}"
 

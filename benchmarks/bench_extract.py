@@ -7,9 +7,9 @@ For each volume of benchmarks/volumes.py and each size it times, as medians:
 
 - ours, iso change: a resident `Extractor`, alternating between two nearby levels
   (a slider drag); only `ex.extract(level)` is timed (it returns when the GPU is done);
-- ours, first: `app.marching_cubes(vol, 0, backend="gpu")`, upload and read-back
+- ours, first: `isoscope.marching_cubes(vol, 0, backend="gpu")`, upload and read-back
   included, context creation and shader compilation not (a warm-up call does them);
-- ours, numpy: `app.marching_cubes(vol, 0, backend="cpu")` (not above 256^3);
+- ours, numpy: `isoscope.marching_cubes(vol, 0, backend="cpu")` (not above 256^3);
 - each peer re-run at the new level the way its users would: scikit-image
   (lewiner), PyMCubes, and VTK vtkFlyingEdges3D on an already-built pipeline
   (`SetValue(0, level)`, `Modified()`, `Update()`) with 2 threads (STDThread) and 1
@@ -37,13 +37,12 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-REPO = HERE.parent
+
 sys.path.insert(0, str(HERE))
-try:  # an installed isoscope, or the one on PYTHONPATH ...
-    import app
-except ImportError:  # ... else the checkout this script sits in
-    sys.path.insert(1, str(REPO))
-    import app
+try:  # an installed isoscope (editable or not)
+    import isoscope
+except ImportError:  # the source folder is app/, so the checkout alone cannot be imported as isoscope
+    sys.exit("bench_extract.py: isoscope is not installed; run `python3 -m pip install -e .` first")
 
 from volumes import VOLUMES  # noqa: E402
 
@@ -234,7 +233,7 @@ def bench_ours_first(volume, gd, level, repeats, backend, untimed):
     last = {}
 
     def run(level):
-        last["verts"], faces, _, _ = app.marching_cubes(volume, level, gradient_direction=gd, backend=backend)
+        last["verts"], faces, _, _ = isoscope.marching_cubes(volume, level, gradient_direction=gd, backend=backend)
         return len(faces)
 
     result, triangles = alternate(run, {"a": level, "b": level}, 0, untimed, repeats)
@@ -242,7 +241,7 @@ def bench_ours_first(volume, gd, level, repeats, backend, untimed):
 
 
 def bench_ours_iso_change(volume, gd, levels, repeats, untimed):
-    from app.extractor import Extractor
+    from isoscope.extractor import Extractor
     ex = Extractor(volume, gradient_direction=gd)
     try:
         scratch, gpu_ms, active = [ex.scratch_bytes()], [], []
@@ -307,7 +306,7 @@ def check_case(case) -> list[str]:
     ours = case["ours"]["iso_change"]["triangles"]
     first = case["ours"]["first"]
     if first["triangles"]["a"] != ours["a"]:
-        warnings.append(f"{name}: app.marching_cubes gave {first['triangles']['a']} triangles, "
+        warnings.append(f"{name}: isoscope.marching_cubes gave {first['triangles']['a']} triangles, "
                         f"the resident Extractor {ours['a']}, at the same level")
     cpu = case["ours"].get("numpy")
     if cpu and cpu["triangles"]["a"] != ours["a"]:
@@ -322,7 +321,7 @@ def check_case(case) -> list[str]:
                                 f"{case['levels'][which]:g}, ours {expected} "
                                 f"({100.0 * (count - expected) / expected:+.1f}%)")
     tolerance = LEVEL_TOLERANCE * (case["value_range"][1] - case["value_range"][0])
-    runners = [("app.marching_cubes (GPU)", first), ("numpy reference", cpu)]
+    runners = [("isoscope.marching_cubes (GPU)", first), ("numpy reference", cpu)]
     runners += [(r["label"], r) for r in case["peers"].values() if "median_ms" in r]
     for label, result in runners:
         if result and result["off_level"] > tolerance:
@@ -381,7 +380,7 @@ def run_case(size, name, peers, args) -> dict:
 
 
 def git_state() -> str:
-    src = Path(app.__file__).resolve().parent.parent
+    src = Path(isoscope.__file__).resolve().parent.parent
     try:
         rev = subprocess.run(["git", "-C", str(src), "rev-parse", "--short", "HEAD"], capture_output=True,
                              text=True, timeout=10, check=True).stdout.strip()
@@ -485,7 +484,7 @@ def markdown(meta, cases, peers, warnings, notes) -> str:
     for c in cases:
         ours_n = c["ours"]["iso_change"]["triangles"]["a"]
         rows = [("ours: iso change (Extractor.extract)", c["ours"]["iso_change"]),
-                ("ours: first, GPU (app.marching_cubes)", c["ours"]["first"]),
+                ("ours: first, GPU (isoscope.marching_cubes)", c["ours"]["first"]),
                 ("ours: first, numpy reference", c["ours"].get("numpy"))]
         rows += [(p.label, c["peers"][p.key]) for p in peers]
         for label, r in rows:
@@ -565,7 +564,7 @@ def main(argv=None) -> int:
     meta = {"date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
             "renderer": renderer, "cpus": os.cpu_count(), "platform": platform.platform(),
             "lp_num_threads": os.environ.get("LP_NUM_THREADS", "unset"),
-            "app": str(Path(app.__file__).resolve().parent), "git": git_state(),
+            "app": str(Path(isoscope.__file__).resolve().parent), "git": git_state(),
             "python": platform.python_version(), "numpy": np.__version__,
             "peers": {p.key: (p.version if p.missing is None else None) for p in peers}}
     cases, warnings = [], []

@@ -23,8 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from app.gl_context import current_or_standalone  # noqa: E402
+from isoscope.gl_context import current_or_standalone
 
 LOADS = 8
 GROUP = 64

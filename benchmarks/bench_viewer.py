@@ -19,7 +19,6 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 
 @contextmanager
@@ -54,9 +53,9 @@ def main(argv=None) -> int:
     width, height = (int(v) for v in args.size.lower().split("x"))
 
     with display():
-        from app.viewer.state import RecentFiles
-        from app.viewer.window import ViewerWindow
-        from app.volumes import DEFAULT_VOLUME, open_volume
+        from isoscope.viewer.state import RecentFiles
+        from isoscope.viewer.window import ViewerWindow
+        from isoscope.volumes import DEFAULT_VOLUME, open_volume
 
         volume = open_volume(args.volume or DEFAULT_VOLUME)
         window = ViewerWindow(volume, size=(width, height), recent=RecentFiles(None))

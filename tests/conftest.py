@@ -7,7 +7,7 @@ import pytest
 
 @pytest.fixture(scope="session")
 def gl_ctx():
-    from app.gl_context import current_or_standalone
+    from isoscope.gl_context import current_or_standalone
     return current_or_standalone()
 
 

@@ -3,14 +3,14 @@ import numpy as np
 import pytest
 from skimage.draw import ellipsoid, ellipsoid_stats
 
-import app
+import isoscope
 from mesh_checks import assert_closed_manifold, euler_characteristic, signed_volume, triangle_areas
 
 
 @pytest.mark.parametrize("backend", ["cpu", "gpu"])
 def test_sphere_area_volume_and_outward_normals(sphere_sdf, backend):
     volume, radius, voxel = sphere_sdf
-    verts, faces, normals, _ = app.marching_cubes(volume, 0.0, spacing=(voxel,) * 3,
+    verts, faces, normals, _ = isoscope.marching_cubes(volume, 0.0, spacing=(voxel,) * 3,
                                                    gradient_direction="ascent", backend=backend)
     assert_closed_manifold(faces)
     assert euler_characteristic(verts, faces) == 2
@@ -32,10 +32,10 @@ def test_sphere_area_volume_and_outward_normals(sphere_sdf, backend):
 def test_scikit_image_ellipsoid_area(backend):
     _, surface = ellipsoid_stats(6, 10, 16)
     levelset = ellipsoid(6, 10, 16, levelset=True)
-    verts, faces, _, _ = app.marching_cubes(levelset, 0.0, backend=backend)
+    verts, faces, _, _ = isoscope.marching_cubes(levelset, 0.0, backend=backend)
     assert triangle_areas(verts, faces).sum() == pytest.approx(surface, rel=0.01)
 
     spacing = (1.0, 10 / 6.0, 16 / 6.0)
     levelset = ellipsoid(6, 10, 16, spacing=spacing, levelset=True)
-    verts, faces, _, _ = app.marching_cubes(levelset, 0.0, spacing=spacing, backend=backend)
+    verts, faces, _, _ = isoscope.marching_cubes(levelset, 0.0, spacing=spacing, backend=backend)
     assert triangle_areas(verts, faces).sum() == pytest.approx(surface, rel=0.015)

@@ -1,9 +1,9 @@
-"""app.marching_cubes speaks scikit-image's conventions and rejects bad input clearly."""
+"""isoscope.marching_cubes speaks scikit-image's conventions and rejects bad input clearly."""
 import numpy as np
 import pytest
 from skimage import measure
 
-import app
+import isoscope
 from mesh_checks import sign_changing_edges
 
 
@@ -21,7 +21,7 @@ def test_vertices_match_scikit_image_on_a_generic_field(backend):
     """Same vertex per crossing edge (array-index order, scaled by spacing) as skimage's marching cubes."""
     volume = sphere()
     spacing = (1.0, 0.5, 2.0)
-    verts, faces, normals, values = app.marching_cubes(volume, 0.0, spacing=spacing, backend=backend)
+    verts, faces, normals, values = isoscope.marching_cubes(volume, 0.0, spacing=spacing, backend=backend)
     sk_verts, sk_faces, _, _ = measure.marching_cubes(volume, 0.0, spacing=spacing)
     assert len(verts) == len(sk_verts) == sign_changing_edges(volume, 0.0)
     # Equal up to the 1/256-of-an-edge margin that keeps our vertices off grid points.
@@ -36,15 +36,15 @@ def test_vertices_match_scikit_image_on_a_generic_field(backend):
 def test_level_none_is_the_middle_of_the_range():
     volume = sphere()
     mid = (float(volume.min()) + float(volume.max())) / 2
-    a = app.marching_cubes(volume, backend="cpu")
-    b = app.marching_cubes(volume, mid, backend="cpu")
+    a = isoscope.marching_cubes(volume, backend="cpu")
+    b = isoscope.marching_cubes(volume, mid, backend="cpu")
     np.testing.assert_array_equal(a[1], b[1])
 
 
 def test_ascent_on_a_field_equals_descent_on_its_negation():
     volume = sphere()
-    a = app.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="gpu")
-    b = app.marching_cubes(-volume, 0.0, gradient_direction="descent", backend="gpu")
+    a = isoscope.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="gpu")
+    b = isoscope.marching_cubes(-volume, 0.0, gradient_direction="descent", backend="gpu")
     np.testing.assert_array_equal(a[1], b[1])
     np.testing.assert_allclose(a[0], b[0], atol=1e-6)
     np.testing.assert_allclose(a[2], b[2], atol=1e-6)
@@ -53,14 +53,14 @@ def test_ascent_on_a_field_equals_descent_on_its_negation():
 
 def test_auto_backend_uses_the_gpu_here():
     volume = sphere(20)
-    a = app.marching_cubes(volume, 0.0, backend="auto")
-    b = app.marching_cubes(volume, 0.0, backend="gpu")
+    a = isoscope.marching_cubes(volume, 0.0, backend="auto")
+    b = isoscope.marching_cubes(volume, 0.0, backend="gpu")
     np.testing.assert_array_equal(a[1], b[1])
 
 
 def test_integer_and_boolean_volumes_are_accepted():
     volume = (sphere(16) < 0).astype(np.uint8) * 200
-    verts, faces, _, _ = app.marching_cubes(volume, 100, backend="gpu")
+    verts, faces, _, _ = isoscope.marching_cubes(volume, 100, backend="gpu")
     assert len(verts) == sign_changing_edges(volume.astype(np.float32), 100.0)
 
 
@@ -82,6 +82,6 @@ BAD = [
 @pytest.mark.parametrize("volume, level, kwargs, words", BAD)
 def test_bad_input_raises_one_line_value_error(volume, level, kwargs, words):
     with pytest.raises(ValueError) as err:
-        app.marching_cubes(volume, level, **kwargs)
+        isoscope.marching_cubes(volume, level, **kwargs)
     message = str(err.value)
     assert words in message and "\n" not in message

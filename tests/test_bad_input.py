@@ -15,7 +15,7 @@ import nrrd
 import numpy as np
 import pytest
 
-from app.volumes import VolumeError, open_volume
+from isoscope.volumes import VolumeError, open_volume
 
 
 def refused(spec, *words, **options) -> str:

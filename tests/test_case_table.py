@@ -4,7 +4,7 @@ import itertools
 import numpy as np
 import pytest
 
-from app.case_table import CORNER_OFFSETS, EDGE_CORNERS, FACE_CORNERS, montani_table
+from isoscope.case_table import CORNER_OFFSETS, EDGE_CORNERS, FACE_CORNERS, montani_table
 
 TABLE = montani_table()
 
@@ -94,7 +94,7 @@ def test_each_case_patch_is_a_manifold_with_boundary_on_the_faces(case):
 def test_each_case_alone_in_a_volume_closes_outwards(case):
     """The case's eight corners inside an otherwise empty 4^3 volume: a closed, consistently wound
     surface enclosing positive volume (so triangles face out of the object)."""
-    from app.reference import marching_cubes_reference
+    from isoscope.reference import marching_cubes_reference
     from mesh_checks import assert_closed_manifold, signed_volume
 
     volume = np.full((4, 4, 4), -1.0, dtype=np.float32)

@@ -15,8 +15,7 @@ REPO = Path(__file__).resolve().parent.parent
 
 def isoscope(*args, env_drop=(), cwd=None):
     env = {k: v for k, v in os.environ.items() if k not in env_drop}
-    env["PYTHONPATH"] = str(REPO) + os.pathsep + env.get("PYTHONPATH", "")
-    return subprocess.run([sys.executable, "-m", "app", *map(str, args)], capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "isoscope", *map(str, args)], capture_output=True, text=True,
                           env=env, cwd=cwd or REPO, timeout=120)
 
 
@@ -40,7 +39,7 @@ def test_help_explains_commands_and_keys():
 
 
 def test_volumes_lists_the_builtins():
-    from app.volumes import builtin_names
+    from isoscope.volumes import builtin_names
     result = isoscope("volumes")
     assert result.returncode == 0
     listed = [line.split()[0] for line in result.stdout.splitlines()]
@@ -63,8 +62,8 @@ def test_render_writes_the_scene_and_the_panel(tmp_path):
 
 
 def test_export_writes_the_same_mesh_as_the_api(tmp_path):
-    from app import marching_cubes
-    from app.volumes import open_volume
+    from isoscope import marching_cubes
+    from isoscope.volumes import open_volume
     out = tmp_path / "torus.ply"
     result = isoscope("export", "torus", "--resolution", "24", "--iso", "0.05", "--out", out)
     assert result.returncode == 0, result.stderr

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.export import write_ply
+from isoscope.export import write_ply
 
 
 def read_ply(path):
@@ -27,7 +27,7 @@ def read_ply(path):
 
 
 def test_marching_cubes_mesh_round_trips(tmp_path, sphere_sdf):
-    from app import marching_cubes
+    from isoscope import marching_cubes
     field, _, _ = sphere_sdf
     verts, faces, normals, _ = marching_cubes(field[::2, ::2, ::2], 0.0, spacing=(0.5, 1, 2),
                                               gradient_direction="ascent")

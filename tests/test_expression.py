@@ -7,11 +7,11 @@ import re
 import numpy as np
 import pytest
 
-from app.volumes import VolumeError, open_volume
-from app.volumes.expression import GLSL_FUNCTIONS, evaluate, parse, to_glsl
-from app.volumes.expression_volume import split_expression_spec
-from app.volumes.gpu_sampler import sample_on_gpu
-from app.volumes.grid import Box, sample_function
+from isoscope.volumes import VolumeError, open_volume
+from isoscope.volumes.expression import GLSL_FUNCTIONS, evaluate, parse, to_glsl
+from isoscope.volumes.expression_volume import split_expression_spec
+from isoscope.volumes.gpu_sampler import sample_on_gpu
+from isoscope.volumes.grid import Box, sample_function
 
 
 def value(text, x=0.3, y=-0.7, z=1.9):
@@ -116,7 +116,7 @@ def test_gpu_sampling_agrees_with_numpy(gl_ctx, text):
 
 
 def test_gpu_sampling_in_slabs_matches_one_pass(gl_ctx, monkeypatch):
-    from app.volumes import gpu_sampler
+    from isoscope.volumes import gpu_sampler
     tree = parse("sin(5*x) + y*z")
     box, shape = Box.cube(-1.0, 1.0), (20, 16, 12)
     whole = sample_on_gpu(tree, box, shape, ctx=gl_ctx)

@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from app.extractor import VERTEX_BYTES, Extractor
-from app.reference import marching_cubes_reference
-from app.scan import ExclusiveScan
+from isoscope.extractor import VERTEX_BYTES, Extractor
+from isoscope.reference import marching_cubes_reference
+from isoscope.scan import ExclusiveScan
 from mesh_checks import (assert_clean_geometry, assert_closed_manifold, assert_holes_only_on_the_border,
                          sign_changing_edges, signed_volume)
 

@@ -3,9 +3,9 @@ row padding it does itself (4 samples per RGBA texel along axis 2)."""
 import numpy as np
 import pytest
 
-import app.extractor as extractor_module
-from app.extractor import Extractor, GPULimitError
-from app.reference import marching_cubes_reference
+import isoscope.extractor as extractor_module
+from isoscope.extractor import Extractor, GPULimitError
+from isoscope.reference import marching_cubes_reference
 from test_extractor import assert_same_mesh, gpu_mesh
 
 RNG = np.random.default_rng(7)

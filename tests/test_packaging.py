@@ -5,7 +5,7 @@ import sys
 import zipfile
 from pathlib import Path
 
-from app import resources
+from isoscope import resources
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -22,19 +22,19 @@ def test_wheel_contains_shaders_volumes_and_the_console_script(tmp_path):
                     "-w", str(tmp_path), str(ROOT)], check=True)
     wheel = next(tmp_path.glob("isoscope-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
-    shipped = {n.split("/", 2)[-1] for n in names if n.startswith("app/_shaders/")}
+    shipped = {n.split("/", 2)[-1] for n in names if n.startswith("isoscope/_shaders/")}
     in_checkout = {p.name for p in (ROOT / "shaders").iterdir() if p.is_file()}
     assert in_checkout and in_checkout <= shipped
-    modules = {str(p.relative_to(ROOT)) for p in (ROOT / "app").rglob("*.py")}
+    modules = {"isoscope/" + str(p.relative_to(ROOT / "app")) for p in (ROOT / "app").rglob("*.py")}
     assert modules <= set(names), f"modules missing from the wheel: {sorted(modules - set(names))}"
     entry_points = next(n for n in names if n.endswith("entry_points.txt"))
-    assert "isoscope = app.cli:main" in zipfile.ZipFile(wheel).read(entry_points).decode()
+    assert "isoscope = isoscope.cli:main" in zipfile.ZipFile(wheel).read(entry_points).decode()
 
     # Installed from the wheel (not editable), far from the checkout, it finds its own data.
     site = tmp_path / "site"
     subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(site),
                     str(wheel)], check=True)
-    probe = ("from app import resources, volumes; "
+    probe = ("from isoscope import resources, volumes; "
              "assert resources.shaders_dir().is_relative_to(sys.argv[1]), resources.shaders_dir(); "
              "assert '#version' in resources.shader_source('mesh.vert'); "
              "print(volumes.open_volume(volumes.sample_names()[0]).data.shape)")

@@ -6,8 +6,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from app.viewer.headless import HeadlessViewer
-from app.volumes import open_volume
+from isoscope.viewer.headless import HeadlessViewer
+from isoscope.volumes import open_volume
 
 SIZE = (160, 120)
 

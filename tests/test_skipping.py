@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from app.extractor import Extractor
-from app.reference import BRICK_I, BRICK_J, marching_cubes_reference
+from isoscope.extractor import Extractor
+from isoscope.reference import BRICK_I, BRICK_J, marching_cubes_reference
 
 
 def brick_ranges(ex):

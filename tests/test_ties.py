@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from app.api import marching_cubes
+from isoscope.api import marching_cubes
 from mesh_checks import (assert_clean_geometry, assert_closed_manifold, assert_holes_only_on_the_border,
                          sign_changing_edges)
 

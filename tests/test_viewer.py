@@ -6,9 +6,9 @@ import json
 import numpy as np
 import pytest
 
-from app.viewer.headless import HeadlessViewer
-from app.viewer.state import RecentFiles
-from app.volumes import open_volume
+from isoscope.viewer.headless import HeadlessViewer
+from isoscope.viewer.state import RecentFiles
+from isoscope.volumes import open_volume
 
 SIZE = (480, 360)
 

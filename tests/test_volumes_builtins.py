@@ -6,8 +6,8 @@ import itertools
 import numpy as np
 import pytest
 
-from app.volumes import (DEFAULT_VOLUME, VolumeError, builtin_names, describe_builtins, open_volume)
-from app.volumes.builtins import AMBIGUOUS_SHAPE, c60_atoms
+from isoscope.volumes import (DEFAULT_VOLUME, VolumeError, builtin_names, describe_builtins, open_volume)
+from isoscope.volumes.builtins import AMBIGUOUS_SHAPE, c60_atoms
 
 ISSUE_NAMES = {"sphere", "torus", "plane", "gyroid", "metaballs", "bucky", "box", "ambiguous"}
 

@@ -10,8 +10,8 @@ import nrrd
 import numpy as np
 import pytest
 
-from app.resources import volumes_dir
-from app.volumes import add_volume_arguments, open_volume, open_volume_from_args
+from isoscope.resources import volumes_dir
+from isoscope.volumes import add_volume_arguments, open_volume, open_volume_from_args
 
 NIBABEL_DATA = Path(nibabel.__file__).parent / "tests" / "data"
 
@@ -165,7 +165,7 @@ def test_cli_flags_reach_the_loader(tmp_path, ramp):
 
 
 def test_progress_is_reported_while_reading_a_raw_file(tmp_path, monkeypatch):
-    from app.volumes import raw_format as raw
+    from isoscope.volumes import raw_format as raw
     data = np.arange(64 * 64 * 64, dtype=np.float32).reshape(64, 64, 64)
     data.ravel(order="F").tofile(tmp_path / "p.raw")
     monkeypatch.setattr(raw, "_READ_CHUNK", 1 << 16)  # 16 reads instead of one, to see progress move
@@ -179,7 +179,7 @@ def test_progress_is_reported_while_reading_a_raw_file(tmp_path, monkeypatch):
 @pytest.fixture
 def small_slabs(monkeypatch):
     """Read 4 KiB at a time, so small test files take the slab path big files take."""
-    from app.volumes import npy_format, reading
+    from isoscope.volumes import npy_format, reading
     monkeypatch.setattr(reading, "SLAB_BYTES", 4096)
     monkeypatch.setattr(npy_format, "SLAB_BYTES", 4096)
 
@@ -203,5 +203,5 @@ def test_nifti_is_read_in_z_slabs_with_progress(small_slabs):
 
 
 def test_sample_names_lists_every_shipped_volume_and_nothing_else():
-    from app.volumes import sample_names
+    from isoscope.volumes import sample_names
     assert sample_names() == sorted(f"sample:{name}" for name in SHIPPED)  # no sidecars, scripts, notes

@@ -5,8 +5,8 @@ import sys
 import numpy as np
 import pytest
 
-from app.api import marching_cubes
-from app.volumes import VolumeError, open_volume
+from isoscope.api import marching_cubes
+from isoscope.volumes import VolumeError, open_volume
 
 
 @pytest.fixture
@@ -46,7 +46,7 @@ def test_bad_inside_value_is_a_one_line_error(sdf_file):
 
 
 def export(sdf_file, out, *flags):
-    return subprocess.run([sys.executable, "-m", "app", "export", str(sdf_file), "--iso", "0",
+    return subprocess.run([sys.executable, "-m", "isoscope", "export", str(sdf_file), "--iso", "0",
                            "--out", str(out), *flags], capture_output=True, text=True)
 
 

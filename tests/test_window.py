@@ -100,9 +100,9 @@ def drive_window(x_display, tmp_path):
     """The test body, run in the spawned process; any failed assert gives a non-zero exit code."""
     os.environ["DISPLAY"] = x_display
     import glfw
-    from app.viewer.state import RecentFiles
-    from app.viewer.window import ViewerWindow
-    from app.volumes import open_volume
+    from isoscope.viewer.state import RecentFiles
+    from isoscope.viewer.window import ViewerWindow
+    from isoscope.volumes import open_volume
 
     window = ViewerWindow(open_volume("sphere", resolution=32), size=(640, 400),
                           screenshot_dir=tmp_path, recent=RecentFiles(None))
@@ -149,9 +149,8 @@ def drive_window(x_display, tmp_path):
 
 def test_isoscope_command_opens_the_window_on_an_expression(x_display):
     # The CLI path end to end; an expr: volume once broke it (an EGL context made before GLX's).
-    env = dict(os.environ, DISPLAY=x_display,
-               PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    result = subprocess.run([sys.executable, "-m", "app", "expr:x^2 + y^2 - 0.3; res=24", "--frames", "3"],
+    env = dict(os.environ, DISPLAY=x_display)
+    result = subprocess.run([sys.executable, "-m", "isoscope", "expr:x^2 + y^2 - 0.3; res=24", "--frames", "3"],
                             capture_output=True, text=True, env=env, cwd=REPO, timeout=120)
     assert result.returncode == 0, result.stderr
     assert result.stderr == ""

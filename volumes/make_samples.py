@@ -1,6 +1,6 @@
 """Write the small sample files shipped in volumes/, one per format isoscope reads.
 
-    python3 volumes/make_samples.py            # rewrites them next to this script
+    python3 volumes/make_samples.py            # rewrites them next to this script (isoscope installed)
 
 Each comes from a built-in field so what it should look like is known; each
 exercises the format's header (spacing, 4-D frames, sidecar). Kept small: the
@@ -9,15 +9,13 @@ wheel ships them.
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))  # run from a checkout without installing
 
-from app.volumes import open_volume  # noqa: E402
+from isoscope.volumes import open_volume
 
 
 def field(spec: str) -> np.ndarray:

@@ -97,7 +97,7 @@ class ViewerState:
     def __init__(self, ctx: moderngl.Context, recent: RecentFiles | None = None):
         self.ctx = ctx                   # the context the extractor's buffers must live in (the window's)
         self.volume: Volume | None = None
-        self.extractor = None            # app.extractor.Extractor for `volume`
+        self.extractor = None            # isoscope.extractor.Extractor for `volume`
         self.iso = 0.0
         self._extracted_iso: float | None = None
         self.style = SurfaceStyle()

@@ -61,7 +61,7 @@ def describe_builtins() -> list[tuple[str, str]]:
 
 def sample_names() -> list[str]:
     """Specs of the small files shipped in volumes/ ("sample:bucky.raw", ...), for pickers."""
-    from app.resources import volumes_dir
+    from isoscope.resources import volumes_dir
     from .loaders import SAMPLE_PREFIX, is_volume_file
     return sorted(SAMPLE_PREFIX + path.name for path in volumes_dir().iterdir() if is_volume_file(path))
 

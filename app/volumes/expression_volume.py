@@ -74,7 +74,7 @@ def _sample(tree, box: Box, shape, backend: str, ctx, progress):
     if backend not in ("auto", "gpu", "cpu"):
         raise ValueError(f"backend must be 'auto', 'gpu' or 'cpu', not {backend!r}")
     if backend != "cpu":
-        from app.gl_context import GLUnavailable
+        from isoscope.gl_context import GLUnavailable
         try:
             from .gpu_sampler import sample_on_gpu
             return sample_on_gpu(tree, box, shape, ctx=ctx, progress=progress), []

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.resources import shader_source
+from isoscope.resources import shader_source
 
 from .expression import to_glsl
 from .grid import LOWER_RESOLUTION, Box
@@ -36,7 +36,7 @@ def sample_on_gpu(tree, box: Box, shape: tuple[int, int, int], ctx=None,
                   progress: Progress | None = None) -> np.ndarray:
     """float32 samples of the expression tree at lo + index * step, axis 0 first."""
     if ctx is None:
-        from app.gl_context import current_or_standalone
+        from isoscope.gl_context import current_or_standalone
         ctx = current_or_standalone()
     refuse_if_too_big(shape, 4, "the expression grid", fix=LOWER_RESOLUTION)
     out = np.empty(shape, dtype=np.float32)

@@ -25,7 +25,7 @@ KNOWN_FORMATS = ".npy, .npz, .nrrd, .nhdr, .nii, .nii.gz, .raw (with --dims)"
 def resolve_path(spec: str) -> tuple[Path, str | None]:
     """(path, npz array name). 'sample:NAME' looks in the package's volumes/ directory."""
     if spec.lower().startswith(SAMPLE_PREFIX):
-        from app.resources import volumes_dir
+        from isoscope.resources import volumes_dir
         spec = str(volumes_dir() / spec[len(SAMPLE_PREFIX):])
     path = Path(spec).expanduser()
     if not path.exists():
