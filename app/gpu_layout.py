@@ -1,0 +1,74 @@
+"""Every number the Python side and the shaders must agree on, in one place.
+
+The shaders receive these as `#define`s (`shader_defines()`, added after
+`#version` by `isoscope.resources.shader_source`), so a GLSL file never spells
+one of them as a literal; the numpy reference and the extractor import them
+from here.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+# --- the marching-cubes grid layout ------------------------------------------------------------
+WORD_BITS = 32
+"""Inside bits packed per uint along axis 2: word w of a row holds samples 32w .. 32w + 31."""
+
+BRICK_I = 8
+BRICK_J = 8
+"""Rows of words per brick along axes 0 and 1; a brick is one word deep along axis 2."""
+
+BRICK_WORDS = BRICK_I * BRICK_J
+"""Words per brick: one work group of the per-word passes, one invocation per word."""
+
+SAMPLES_PER_TEXEL = 4
+"""The volume image holds 4 consecutive axis-2 samples per RGBA32F texel."""
+
+EDGE_MARGIN = np.float32(1.0 / 256.0)
+"""Smallest edge parameter of a vertex: vertices stay this far (in edge lengths) off grid points."""
+
+MAX_WORD_IMAGE_SHIFT = 12
+"""Per-word images are at most 2^12 = 4096 texels wide."""
+
+MAX_WORDS = 1 << 25
+"""A vertex job packs its word id into the top 25 bits of a uint (word << 7 | axis << 5 | bit)."""
+
+# --- work-group sizes ------------------------------------------------------------------------------
+GROUP_SIZE = 64
+"""Invocations per work group of the one-invocation-per-item passes (per word, brick or vertex)."""
+
+SCAN_GROUP = 256
+SCAN_ITEMS_PER_INVOCATION = 4
+SCAN_BLOCK = SCAN_GROUP * SCAN_ITEMS_PER_INVOCATION
+"""Elements one work group of the exclusive scan sums (shaders/scan_*.comp)."""
+
+MAX_GROUPS_PER_DIMENSION = 65535
+"""GL's guaranteed work groups per dispatch dimension; longer dispatches fold into 2-D."""
+
+# --- the mesh the extractor writes and the renderer draws ------------------------------------------
+VERTEX_FLOATS = 8
+VERTEX_BYTES = 4 * VERTEX_FLOATS
+"""One vertex record, std430: vec4(position.xyz, value), vec4(normal.xyz, 0)."""
+
+VERTEX_FORMAT = "3f 1f 3f 1x4"
+"""The record as a moderngl buffer format: position, value, normal, padding."""
+
+INDEX_BYTES = 12
+"""One triangle: three uint32 vertex indices."""
+
+
+def shader_defines() -> dict[str, object]:
+    """The layout constants as GLSL `#define`s (integer literals, so usable in layout qualifiers)."""
+    return {
+        "WORD_BITS": WORD_BITS,
+        "BRICK_I": BRICK_I,
+        "BRICK_J": BRICK_J,
+        "BRICK_WORDS": BRICK_WORDS,
+        "SAMPLES_PER_TEXEL": SAMPLES_PER_TEXEL,
+        "EDGE_MARGIN": f"(1.0 / {int(round(1.0 / float(EDGE_MARGIN)))}.0)",
+        "GROUP_SIZE": GROUP_SIZE,
+        "SCAN_GROUP": SCAN_GROUP,
+        "SCAN_ITEMS_PER_INVOCATION": SCAN_ITEMS_PER_INVOCATION,
+        "SCAN_BLOCK": SCAN_BLOCK,
+        "MAX_GROUPS_PER_DIMENSION": MAX_GROUPS_PER_DIMENSION,
+        "VERTEX_FLOATS": VERTEX_FLOATS,
+    }
