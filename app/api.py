@@ -1,6 +1,8 @@
 """`marching_cubes`: scikit-image's call, on the GPU or in numpy."""
 from __future__ import annotations
 
+import numpy as np
+
 from . import validation
 from .reference import marching_cubes_reference
 
@@ -13,7 +15,8 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
 
     Parameters follow ``skimage.measure.marching_cubes``:
 
-    volume : 3-D array, every axis at least 2 long, finite values.
+    volume : 3-D array, every axis at least 2 long, finite values (or a
+        `validation.CheckedVolume`, which is not scanned again).
     level : float, default the middle of the data range; must lie within it.
     spacing : voxel size along axes 0, 1, 2; vertices are scaled by it.
     gradient_direction : "descent" when the object is where values are above
@@ -31,19 +34,19 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     """
     if backend not in BACKENDS:
         raise ValueError(f"backend {backend!r} is not one of {BACKENDS}")
-    field = validation.as_volume(volume)
+    checked = validation.check_volume(volume)
     spacing = validation.as_spacing(spacing)
     descent = validation.as_gradient_direction(gradient_direction)
-    level = validation.as_level(level, validation.value_range(field))
+    level = validation.as_level(level, checked.value_range)
 
     if backend == "auto":
         from .gl_context import gl_available
         backend = "gpu" if gl_available() else "cpu"
     if backend == "cpu":
-        return marching_cubes_reference(field, level, spacing, descent)
+        return marching_cubes_reference(checked.data.astype(np.float32, copy=False), level, spacing, descent)
 
     from .extractor import Extractor
-    extractor = Extractor(field, spacing=spacing, gradient_direction=gradient_direction)
+    extractor = Extractor(checked, spacing=spacing, gradient_direction=gradient_direction)
     try:
         extractor.extract(level)
         return extractor.read_mesh()

@@ -126,8 +126,7 @@ def run_viewer(args) -> int:
     # Sample expr: volumes with numpy here: a GPU sampler would make an EGL context current,
     # and GLX then refuses the window's context in this process (X_GLXMakeCurrent BadAccess).
     # Inside the window the panel samples on the GPU, in the window's own context.
-    args.backend = "cpu"
-    volume = open_volume_from_args(args.volume, args, _progress)
+    volume = open_volume_from_args(args.volume, args, _progress, backend="cpu")
     iso = _checked_iso(volume, args.iso)
     from .viewer.window import ViewerWindow, WindowUnavailable
     try:
@@ -154,7 +153,7 @@ def run_export(args) -> int:
     iso = _checked_iso(volume, args.iso)
     from . import marching_cubes
     from .export import write_ply
-    verts, faces, normals, _ = marching_cubes(volume.data, iso, spacing=volume.spacing,
+    verts, faces, normals, _ = marching_cubes(volume.checked, iso, spacing=volume.spacing,
                                               gradient_direction=volume.gradient_direction)
     path = write_ply(args.out, verts, faces, normals, comment=f"isoscope {volume.name} iso {iso}")
     print(f"wrote {path}: {len(verts):,} vertices, {len(faces):,} triangles")

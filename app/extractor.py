@@ -61,12 +61,12 @@ class Extractor:
 
     def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
                  ctx: moderngl.Context | None = None, table: CaseTable | None = None):
-        field = validation.as_volume(volume)
+        checked = validation.check_volume(volume)  # a CheckedVolume passes through unscanned
+        field = checked.data
         self.spacing = validation.as_spacing(spacing)
         self.descent = validation.as_gradient_direction(gradient_direction)
-        self.gradient_direction = gradient_direction
         self.shape = field.shape
-        self.value_range = validation.value_range(field)
+        self.value_range = checked.value_range
         self.ctx = ctx or current_or_standalone()
         self.table = table or montani_table()
 
@@ -156,13 +156,14 @@ class Extractor:
         n0, n1, n2 = self.shape
         quads = -(-n2 // 4)
         try:
-            if n2 % 4 == 0:  # the bytes are already laid out as RGBA texels: no copy
+            if n2 % 4 == 0 and field.dtype == np.float32:  # already laid out as RGBA texels: no copy
                 texture = self.ctx.texture3d((quads, n1, n0), 4, field, dtype="f4")
-            else:  # pad each row to whole texels, a slab of planes at a time (no padded copy of it all)
+            else:  # pad rows to whole texels and convert to float32, a slab of planes at a time
                 texture = self.ctx.texture3d((quads, n1, n0), 4, dtype="f4")
-                planes = max(1, UPLOAD_SLAB_BYTES // (n1 * quads * 16))
+                planes = min(n0, max(1, UPLOAD_SLAB_BYTES // (n1 * quads * 16)))
+                buffer = np.zeros((planes, n1, 4 * quads), np.float32)  # one, reused: its padding stays 0
                 for i0 in range(0, n0, planes):
-                    slab = np.zeros((min(planes, n0 - i0), n1, 4 * quads), np.float32)
+                    slab = buffer[:min(planes, n0 - i0)]
                     slab[:, :, :n2] = field[i0:i0 + planes]
                     texture.write(slab, viewport=(0, 0, i0, quads, n1, len(slab)))
         except moderngl.Error as exc:

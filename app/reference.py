@@ -6,9 +6,9 @@ Conventions shared with the GPU (see `app.case_table` for the cell geometry):
 
 * A sample is *inside* when ``sign * value >= sign * level``, with
   ``sign = +1`` for gradient_direction "descent" (object above the level) and
-  ``-1`` for "ascent".  Ties count as inside: the symbolic perturbation of the
-  seed's "exact zero" case, so a sample equal to the level never needs a
-  special case.
+  ``-1`` for "ascent".  Ties count as inside: a symbolic form of perturbing exact
+  zeros to a tiny non-zero (Bridson, Fluid Simulation for Computer Graphics),
+  so a sample equal to the level never needs a special case.
 * Every grid edge whose ends differ gets one vertex, owned by the edge's lower
   end, shared by all triangles that use it.  Its parameter along the edge is
   kept within ``[EDGE_MARGIN, 1 - EDGE_MARGIN]`` so that vertices from

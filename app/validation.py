@@ -1,39 +1,100 @@
 """Checks on what users pass to the extractors: one-line ValueErrors that name the problem and the fix."""
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Callable
+
 import numpy as np
 
 GRADIENT_DIRECTIONS = ("descent", "ascent")
 
 
-def as_volume(volume) -> np.ndarray:
-    """A C-contiguous float32 copy-if-needed of a finite 3-D array with every axis >= 2."""
+Progress = Callable[[float, str], None]
+
+# Checking finiteness and range in slabs keeps the temporary bool arrays small (a full-size
+# finiteness mask is a byte per voxel) and gives a progress callback something to report.
+CHECK_SLAB_BYTES = 64 << 20
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
+@dataclass(frozen=True)
+class CheckedVolume:
+    """An array that passed `check_volume`, with the value range that same scan found.
+
+    `data` is 3-D, C-contiguous, in native byte order, numeric (float16 and bool widened),
+    finite, at least 2 long on every axis, and within float32's range; its dtype is otherwise
+    kept (integers stay integers).  The extractors take one as it is, without scanning again.
+    """
+    data: np.ndarray
+    value_range: tuple[float, float]
+    notes: tuple[str, ...] = ()
+
+
+def _at_index(index) -> str:
+    return f"at index {tuple(int(i) for i in index)}; replace them (e.g. np.nan_to_num) first"
+
+
+def check_volume(volume, what: str = "volume", *, progress: Progress | None = None,
+                 where: Callable[[tuple], str] | None = None) -> CheckedVolume:
+    """The one check every volume passes, from a user's array or a file: shape, dtype, values.
+
+    Values are scanned once, a slab of planes at a time.  `what` names the volume in messages;
+    `where` words the first bad sample's place and the fix.
+    """
+    if isinstance(volume, CheckedVolume):
+        return volume
+    where = where or _at_index
+    data, notes = _numeric_3d(volume, what)
+    lo, hi = np.inf, -np.inf
+    step = max(1, CHECK_SLAB_BYTES // max(1, data[0].nbytes))
+    for start in range(0, data.shape[0], step):
+        slab = data[start:start + step]
+        if data.dtype.kind == "f":
+            bad = ~np.isfinite(slab)
+            if bad.any():
+                index = np.unravel_index(int(np.argmax(bad)), slab.shape)
+                index = (index[0] + start,) + tuple(index[1:])
+                count = sum(int(np.count_nonzero(~np.isfinite(data[s:s + step])))
+                            for s in range(0, data.shape[0], step))
+                raise ValueError(f"{what} has {count} NaN/Inf sample(s), the first ({data[index]}) "
+                                 f"{where(index)}")
+        lo, hi = min(lo, float(slab.min())), max(hi, float(slab.max()))
+        if data.shape[0] > step and progress is not None:
+            progress(min((start + step) / data.shape[0], 1.0), f"checking {what}")
+    if max(-lo, hi) > FLOAT32_MAX:
+        raise ValueError(f"{what} has values up to {max(-lo, hi):g}, beyond float32's range "
+                         f"(+-{FLOAT32_MAX:.3g}) that the GPU computes in; rescale the data")
+    return CheckedVolume(data, (lo, hi), tuple(notes))
+
+
+def _numeric_3d(volume, what: str) -> tuple[np.ndarray, list[str]]:
+    """A C-ordered, native-endian, numeric 3-D view (or copy) of `volume`, and notes on what changed."""
     try:
-        array = np.asarray(volume)
+        data = np.asarray(volume)
     except Exception as exc:  # ragged lists and the like
-        raise ValueError(f"volume is not an array ({exc}); pass a 3-D numpy array") from None
-    if array.dtype == object or not (np.issubdtype(array.dtype, np.number) or array.dtype == bool):
-        raise ValueError(f"volume has dtype {array.dtype}; pass a numeric 3-D array")
-    if np.iscomplexobj(array):
-        raise ValueError("volume is complex; pass its real part or magnitude (np.abs)")
-    if array.ndim != 3:
-        raise ValueError(f"volume must be 3-D, got {array.ndim}-D with shape {array.shape}; "
-                         "reshape it or pick one 3-D frame")
-    if min(array.shape) < 2:
-        raise ValueError(f"volume shape {array.shape} has an axis shorter than 2; "
-                         "marching cubes needs at least 2 samples along every axis")
-    field = np.ascontiguousarray(array, dtype=np.float32)
-    finite = np.isfinite(field)
-    if not finite.all():
-        bad = np.argwhere(~finite)[0]
-        count = int(field.size - np.count_nonzero(finite))
-        raise ValueError(f"volume has {count} NaN or Inf samples (first at index {tuple(int(b) for b in bad)}); "
-                         "replace them, e.g. np.nan_to_num(volume, nan=volume[np.isfinite(volume)].min())")
-    if np.issubdtype(array.dtype, np.number) and array.dtype.itemsize > 4 and array.size:
-        big = float(np.max(np.abs(array)))
-        if big > np.finfo(np.float32).max:
-            raise ValueError(f"volume values up to {big:g} overflow float32; rescale the data")
-    return field
+        raise ValueError(f"{what} is not an array ({exc}); pass a 3-D numpy array") from None
+    notes: list[str] = []
+    if data.dtype == np.bool_:
+        data = data.astype(np.uint8)
+        notes.append("boolean array shown as 0/1")
+    elif data.dtype.kind == "c":
+        raise ValueError(f"{what} holds complex numbers ({data.dtype}); use its magnitude or real "
+                         "part (np.abs(a) or a.real)")
+    elif data.dtype.kind not in "iuf":
+        raise ValueError(f"{what} holds {data.dtype} values, not numbers (dtype {data.dtype}); "
+                         "convert it to numbers (e.g. a.astype(np.float32))")
+    if data.dtype == np.float16:
+        data = data.astype(np.float32)
+    if data.ndim != 3:
+        hint = "stack the slices into one 3-D array (np.stack)" if data.ndim < 3 else "pick one 3-D volume from it"
+        shape = "x".join(str(n) for n in data.shape) or "scalar"
+        raise ValueError(f"{what} is a {data.ndim}-D array (shape {shape}); isoscope needs a 3-D array: {hint}")
+    if min(data.shape) < 2:
+        raise ValueError(f"{what} has shape {'x'.join(str(n) for n in data.shape)}, an axis shorter than 2; "
+                         "every axis needs at least 2 samples to hold a surface")
+    if not data.dtype.isnative:
+        data = data.astype(data.dtype.newbyteorder("="))
+    return np.ascontiguousarray(data), notes
 
 
 def as_spacing(spacing) -> tuple[float, float, float]:
@@ -53,10 +114,6 @@ def as_gradient_direction(direction: str) -> bool:
     if direction not in GRADIENT_DIRECTIONS:
         raise ValueError(f"gradient_direction {direction!r} is not one of {GRADIENT_DIRECTIONS}")
     return direction == "descent"
-
-
-def value_range(field: np.ndarray) -> tuple[float, float]:
-    return float(field.min()), float(field.max())
 
 
 def as_level(level, value_range: tuple[float, float]) -> float:

@@ -1,4 +1,4 @@
-"""Frame time of the real viewer window while the iso slider is dragged (issue 5: < 50 ms on llvmpipe).
+"""Frame time of the real viewer window while the iso slider is dragged (the target: < 50 ms on llvmpipe).
 
     python benchmarks/bench_viewer.py [--volume metaballs] [--frames 60] [--size 1280x800]
 

@@ -1,6 +1,6 @@
-"""Issue 4 point 4: every bad input is one VolumeError line naming the problem and the fix.
+"""Every bad input is one VolumeError line naming the problem and the fix.
 
-One test per case in the issue's list, each on a real file written here.
+One test per kind of bad input, each on a real file written here.
 """
 from __future__ import annotations
 

@@ -127,7 +127,7 @@ def test_open_surface_holes_only_at_the_volume_border(gl_ctx):
 
 @pytest.mark.parametrize("shape", [(64, 64, 64), (40, 56, 96), (33, 17, 250), (9, 130, 64), (24, 24, 64)])
 def test_scratch_stays_under_one_byte_per_voxel(gl_ctx, shape):
-    # Issue 5: GPU memory beyond the volume and the mesh stays under a byte per voxel (for rows
+    # GPU memory beyond the volume and the mesh stays under a byte per voxel (for rows
     # of a word or more: a row shorter than 32 samples still takes a whole word per scratch array).
     volume = RNG.normal(size=shape).astype(np.float32)
     with Extractor(volume, ctx=gl_ctx) as ex:

@@ -1,4 +1,4 @@
-"""Samples exactly equal to the level (the seed's zero case) never break the mesh."""
+"""Samples exactly equal to the level (Bridson's exact-zero case) never break the mesh."""
 import numpy as np
 import pytest
 
@@ -9,7 +9,7 @@ from mesh_checks import (assert_clean_geometry, assert_closed_manifold, assert_h
 BACKENDS = ["cpu", "gpu"]
 
 
-def seed_plane(n=24):
+def integer_plane(n=24):
     """x + 2y - 3z + 1 on an integer grid: every sample with x + 2y + 1 = 3z is exactly 0."""
     x, y, z = np.mgrid[:n, :n, :n].astype(np.float32) - n // 2
     return x + 2 * y - 3 * z + 1
@@ -21,8 +21,8 @@ def check_open(verts, faces, shape):
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
-def test_seed_plane_with_exact_zeros(backend):
-    volume = seed_plane()
+def test_integer_plane_with_exact_zeros(backend):
+    volume = integer_plane()
     assert np.count_nonzero(volume == 0) > 100
     verts, faces, normals, _ = marching_cubes(volume, 0.0, backend=backend)
     check_open(verts, faces, volume.shape)

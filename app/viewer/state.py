@@ -174,7 +174,7 @@ class ViewerState:
         """A new extractor for `volume` replaces the old one; on failure the old one stays."""
         from ..extractor import Extractor  # imported late: `isoscope --help` needs no GL code
         try:
-            extractor = Extractor(volume.data, spacing=volume.spacing,
+            extractor = Extractor(volume.checked, spacing=volume.spacing,
                                   gradient_direction=gradient_direction, ctx=self.ctx)
         except USER_ERRORS as exc:
             self.error = one_line(exc)

@@ -67,7 +67,8 @@ def _box(x, y, z):
 
 
 def _plane(x, y, z):
-    # The seed's implicit surface x + 2y - 3z + 1 = 0; "inside" is the negative half-space.
+    # The implicit plane x + 2y - 3z + 1 = 0 (Foley et al., Computer Graphics: Principles and Practice);
+    # "inside" is the negative half-space.
     return x + 2 * y - 3 * z + 1
 
 
@@ -82,7 +83,7 @@ def _make_gyroid(n, progress):
         GYROID_BOX.spacing(shape), []
 
 
-# --- Wyvill soft objects (the seed's reference 10): density, "descent" ------------------
+# --- Soft objects (Wyvill, McPheeters and Wyvill 1986, the first marching cubes): density, "descent" ------------------
 
 METABALL_CENTRES = 1.15 * np.array([
     (0.0, 0.0, 0.0), (0.42, 0.1, 0.05), (-0.4, 0.15, -0.1), (0.05, 0.45, 0.15),
@@ -174,7 +175,7 @@ BUILTINS: dict[str, Builtin] = {b.name: b for b in (
             "ascent", 0.0, _on_unit_box(_sphere, "sphere")),
     Builtin("torus", "signed distance to a torus, ring 0.6, tube 0.25", 64,
             "ascent", 0.0, _on_unit_box(_torus, "torus")),
-    Builtin("plane", "the seed's plane x + 2y - 3z + 1 = 0 over [-1, 1]^3", 32,
+    Builtin("plane", "the plane x + 2y - 3z + 1 = 0 over [-1, 1]^3, with samples exactly on it", 32,
             "ascent", 0.0, _on_unit_box(_plane, "plane")),
     Builtin("gyroid", "sin x cos y + sin y cos z + sin z cos x, two periods per axis", 96,
             "ascent", 0.0, _make_gyroid),

@@ -24,10 +24,9 @@ def add_volume_arguments(parser: argparse.ArgumentParser) -> None:
                             "distances (built-ins and expr: say their own)")
 
 
-def open_volume_from_args(spec: str, args: argparse.Namespace, progress: Progress | None = None) -> Volume:
+def open_volume_from_args(spec: str, args: argparse.Namespace, progress: Progress | None = None,
+                          backend: str = "auto") -> Volume:
+    """The volume the flags describe; `backend` samples expr: volumes ("auto", "gpu" or "cpu")."""
     from . import open_volume
-    options = {name: getattr(args, name, None)
-               for name in ("dims", "dtype", "endian", "spacing", "frame", "resolution", "inside")}
-    backend = getattr(args, "backend", None)
-    return open_volume(spec, progress=progress, backend=backend if backend in ("cpu", "gpu") else "auto",
-                       **options)
+    options = {name: getattr(args, name) for name in ("dims", "dtype", "endian", "spacing", "frame", "resolution", "inside")}
+    return open_volume(spec, progress=progress, backend=backend, **options)

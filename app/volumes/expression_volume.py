@@ -1,7 +1,7 @@
 """`expr:FORMULA[; box=...][; res=N]` specs: parse the spec, sample the formula, check the result.
 
 The object is where the formula is negative (an implicit surface F = 0 with
-F < 0 inside, as in the seed note), so the gradient direction is "ascent" and
+F < 0 inside, the usual convention for implicit surfaces and level sets), so the gradient direction is "ascent" and
 the first level is 0.
 """
 from __future__ import annotations

@@ -1,0 +1,69 @@
+"""One check for every volume (validation.check_volume): what it refuses, and that nothing scans twice."""
+from __future__ import annotations
+
+import tracemalloc
+import warnings
+
+import numpy as np
+import pytest
+
+import isoscope
+from isoscope.extractor import Extractor
+from isoscope.validation import check_volume
+from isoscope.volumes import VolumeError, open_volume
+
+
+def test_values_beyond_float32_are_named_as_such_without_a_numpy_warning():
+    volume = np.ones((4, 4, 4))
+    volume[1, 2, 3] = 1e39  # finite in float64, inf once cast to float32
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a RuntimeWarning from a cast would fail here
+        with pytest.raises(ValueError) as err:
+            isoscope.marching_cubes(volume, 1.0, backend="cpu")
+    message = str(err.value)
+    assert "float32" in message and "1e+39" in message and "rescale" in message
+    assert "NaN" not in message and "\n" not in message
+
+
+def test_negative_overflow_and_a_file_get_the_same_message(tmp_path):
+    volume = np.ones((4, 4, 4))
+    volume[0, 0, 0] = -3e38 * 10
+    np.save(tmp_path / "big.npy", volume)
+    with pytest.raises(VolumeError, match="beyond float32's range"):
+        open_volume(str(tmp_path / "big.npy"))
+
+
+def test_a_checked_volume_passes_through_unchanged():
+    checked = check_volume(np.arange(27, dtype=np.int16).reshape(3, 3, 3))
+    assert checked.data.dtype == np.int16  # integers stay integers
+    assert checked.value_range == (0.0, 26.0)
+    assert check_volume(checked) is checked
+
+
+def test_the_extractor_takes_a_loaded_volume_without_a_full_size_copy(gl_ctx):
+    # The viewer's path: a loader checked the volume once; the extractor must neither scan it
+    # again (a full-size finiteness mask) nor convert it whole to float32 (4x a uint8 volume).
+    volume = open_volume("bucky:256")
+    assert volume.data.dtype == np.uint8
+    tracemalloc.start()
+    try:
+        with Extractor(volume.checked, ctx=gl_ctx) as ex:
+            _, peak = tracemalloc.get_traced_memory()
+            assert ex.value_range == volume.value_range
+    finally:
+        tracemalloc.stop()
+    assert peak < 2 * volume.data.nbytes, f"{peak >> 20} MiB allocated for a {volume.data.nbytes >> 20} MiB volume"
+
+
+def test_integer_volumes_give_the_mesh_of_their_float32_values(gl_ctx):
+    volume = open_volume("bucky:40").data
+    assert volume.dtype == np.uint8
+    with Extractor(volume, ctx=gl_ctx) as ex:
+        ex.extract(128)
+        from_ints = ex.read_mesh()
+    with Extractor(volume.astype(np.float32), ctx=gl_ctx) as ex:
+        ex.extract(128)
+        from_floats = ex.read_mesh()
+    for a, b in zip(from_ints, from_floats):
+        assert np.array_equal(a, b)
+
