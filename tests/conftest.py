@@ -21,3 +21,15 @@ def sphere_sdf():
     """64^3 signed distance to a sphere of radius 0.6 in [-1, 1]^3 (negative inside): (field, radius, voxel)."""
     x, y, z = grid(64)
     return (np.sqrt(x * x + y * y + z * z) - 0.6).astype(np.float32), 0.6, 2.0 / 63
+
+
+@pytest.fixture
+def gpu_mesh(gl_ctx):
+    """extract(volume, level, **Extractor options) -> the GPU mesh as numpy arrays."""
+    from isoscope.extractor import Extractor
+
+    def extract(volume, level, **kwargs):
+        with Extractor(volume, ctx=gl_ctx, **kwargs) as ex:
+            ex.extract(level)
+            return ex.read_mesh()
+    return extract

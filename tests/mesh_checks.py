@@ -58,3 +58,31 @@ def assert_holes_only_on_the_border(verts, faces, shape):
     ends = verts[edges[counts == 1]]  # (E, 2, 3)
     upper = (np.array(shape) - 1).astype(np.float32)
     assert (np.isclose(ends, 0.0) | np.isclose(ends, upper)).all(axis=1).any(axis=1).all()
+
+
+def assert_same_mesh(gpu, cpu):
+    (gv, gf, gn, gval), (cv, cf, cn, cval) = gpu, cpu
+    assert gf.dtype == np.int32 and gv.dtype == np.float32
+    np.testing.assert_array_equal(gf, cf)
+    np.testing.assert_allclose(gv, cv, rtol=1e-6, atol=1e-5)
+    np.testing.assert_allclose(gn, cn, atol=1e-5)
+    np.testing.assert_allclose(gval, cval, rtol=1e-5, atol=1e-5)
+
+
+def read_ply(path):
+    """A minimal reader for exactly the layout write_ply promises."""
+    data = path.read_bytes()
+    header_end = data.index(b"end_header\n") + len(b"end_header\n")
+    header = data[:header_end].decode("ascii").splitlines()
+    assert header[:2] == ["ply", "format binary_little_endian 1.0"]
+    counts = {line.split()[1]: int(line.split()[2]) for line in header if line.startswith("element")}
+    assert [line for line in header if line.startswith("property")] == [
+        "property float x", "property float y", "property float z",
+        "property float nx", "property float ny", "property float nz",
+        "property list uchar int vertex_indices"]
+    vertex_bytes = counts["vertex"] * 24
+    vertices = np.frombuffer(data, "<f4", counts["vertex"] * 6, header_end).reshape(-1, 6)
+    faces = np.frombuffer(data[header_end + vertex_bytes:],
+                          np.dtype([("n", "u1"), ("i", "<i4", 3)]), counts["face"])
+    assert header_end + vertex_bytes + 13 * counts["face"] == len(data)
+    return vertices[:, :3], vertices[:, 3:], faces["n"], faces["i"]

@@ -5,25 +5,7 @@ import numpy as np
 import pytest
 
 from isoscope.export import write_ply
-
-
-def read_ply(path):
-    """A minimal reader for exactly the layout write_ply promises."""
-    data = path.read_bytes()
-    header_end = data.index(b"end_header\n") + len(b"end_header\n")
-    header = data[:header_end].decode("ascii").splitlines()
-    assert header[:2] == ["ply", "format binary_little_endian 1.0"]
-    counts = {line.split()[1]: int(line.split()[2]) for line in header if line.startswith("element")}
-    assert [line for line in header if line.startswith("property")] == [
-        "property float x", "property float y", "property float z",
-        "property float nx", "property float ny", "property float nz",
-        "property list uchar int vertex_indices"]
-    vertex_bytes = counts["vertex"] * 24
-    vertices = np.frombuffer(data, "<f4", counts["vertex"] * 6, header_end).reshape(-1, 6)
-    faces = np.frombuffer(data[header_end + vertex_bytes:],
-                          np.dtype([("n", "u1"), ("i", "<i4", 3)]), counts["face"])
-    assert header_end + vertex_bytes + 13 * counts["face"] == len(data)
-    return vertices[:, :3], vertices[:, 3:], faces["n"], faces["i"]
+from mesh_checks import read_ply
 
 
 def test_marching_cubes_mesh_round_trips(tmp_path, sphere_sdf):

@@ -5,41 +5,26 @@ import pytest
 from isoscope.extractor import VERTEX_BYTES, Extractor
 from isoscope.reference import marching_cubes_reference
 from isoscope.scan import ExclusiveScan
-from mesh_checks import (assert_clean_geometry, assert_closed_manifold, assert_holes_only_on_the_border,
+from mesh_checks import (assert_clean_geometry, assert_closed_manifold, assert_holes_only_on_the_border, assert_same_mesh,
                          sign_changing_edges, signed_volume)
 
 RNG = np.random.default_rng(20261122)
 
 
-def gpu_mesh(ctx, volume, level, **kwargs):
-    with Extractor(volume, ctx=ctx, **kwargs) as ex:
-        ex.extract(level)
-        return ex.read_mesh()
-
-
-def assert_same_mesh(gpu, cpu):
-    (gv, gf, gn, gval), (cv, cf, cn, cval) = gpu, cpu
-    assert gf.dtype == np.int32 and gv.dtype == np.float32
-    np.testing.assert_array_equal(gf, cf)
-    np.testing.assert_allclose(gv, cv, rtol=1e-6, atol=1e-5)
-    np.testing.assert_allclose(gn, cn, atol=1e-5)
-    np.testing.assert_allclose(gval, cval, rtol=1e-5, atol=1e-5)
-
-
 @pytest.mark.parametrize("shape", [(2, 2, 2), (300, 300, 2), (17, 5, 33), (3, 2, 65), (2, 31, 32), (6, 4, 97)])
-def test_any_grid_size_matches_the_reference(gl_ctx, shape):
+def test_any_grid_size_matches_the_reference(gpu_mesh, shape):
     volume = RNG.normal(size=shape).astype(np.float32)
     level = 0.05
-    gpu = gpu_mesh(gl_ctx, volume, level)
+    gpu = gpu_mesh(volume, level)
     assert_same_mesh(gpu, marching_cubes_reference(volume, level))
     assert len(gpu[0]) == sign_changing_edges(volume, level)
 
 
 @pytest.mark.parametrize("direction", ["descent", "ascent"])
-def test_ties_and_spacing_match_the_reference(gl_ctx, direction):
+def test_ties_and_spacing_match_the_reference(gpu_mesh, direction):
     volume = RNG.integers(-2, 3, size=(19, 23, 40)).astype(np.float32)  # about a fifth of samples tie
     spacing = (0.5, 2.0, 1.25)
-    gpu = gpu_mesh(gl_ctx, volume, 0.0, spacing=spacing, gradient_direction=direction)
+    gpu = gpu_mesh(volume, 0.0, spacing=spacing, gradient_direction=direction)
     cpu = marching_cubes_reference(volume, 0.0, spacing, direction == "descent")
     assert_same_mesh(gpu, cpu)
     assert len(gpu[0]) == sign_changing_edges(volume, 0.0, direction == "descent")
@@ -109,19 +94,19 @@ def test_empty_level_gives_an_empty_mesh(gl_ctx):
         assert verts.shape == (0, 3) and faces.shape == (0, 3)
 
 
-def test_closed_surfaces_from_random_padded_fields_are_watertight(gl_ctx):
+def test_closed_surfaces_from_random_padded_fields_are_watertight(gpu_mesh):
     for trial in range(6):
         shape = RNG.integers(3, 24, size=3)
         volume = np.pad(RNG.integers(-1, 2, size=shape).astype(np.float32), 1, constant_values=-1.0)
-        verts, faces, _, _ = gpu_mesh(gl_ctx, volume, 0.0)
+        verts, faces, _, _ = gpu_mesh(volume, 0.0)
         assert_closed_manifold(faces)
         assert_clean_geometry(verts, faces)
         assert signed_volume(verts, faces) > 0
 
 
-def test_open_surface_holes_only_at_the_volume_border(gl_ctx):
+def test_open_surface_holes_only_at_the_volume_border(gpu_mesh):
     volume = RNG.normal(size=(20, 25, 30)).astype(np.float32)
-    verts, faces, _, _ = gpu_mesh(gl_ctx, volume, 0.0)
+    verts, faces, _, _ = gpu_mesh(volume, 0.0)
     assert_holes_only_on_the_border(verts, faces, volume.shape)
 
 

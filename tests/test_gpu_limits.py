@@ -6,7 +6,7 @@ import pytest
 import isoscope.extractor as extractor_module
 from isoscope.extractor import Extractor, GPULimitError
 from isoscope.reference import marching_cubes_reference
-from test_extractor import assert_same_mesh, gpu_mesh
+from mesh_checks import assert_same_mesh
 
 RNG = np.random.default_rng(7)
 
@@ -15,17 +15,17 @@ def texture_limit(ctx) -> int:
     return int(ctx.info["GL_MAX_3D_TEXTURE_SIZE"])
 
 
-def test_rows_padded_to_whole_texels_go_up_in_slabs(gl_ctx, monkeypatch):
+def test_rows_padded_to_whole_texels_go_up_in_slabs(gpu_mesh, monkeypatch):
     # 13 samples per row are padded to 16; a 1-byte slab budget forces one upload per plane.
     monkeypatch.setattr(extractor_module, "UPLOAD_SLAB_BYTES", 1)
     volume = RNG.normal(size=(5, 7, 13)).astype(np.float32)
-    assert_same_mesh(gpu_mesh(gl_ctx, volume, 0.1), marching_cubes_reference(volume, 0.1))
+    assert_same_mesh(gpu_mesh(volume, 0.1), marching_cubes_reference(volume, 0.1))
 
 
-def test_axis_2_may_be_four_times_the_texture_limit(gl_ctx):
+def test_axis_2_may_be_four_times_the_texture_limit(gl_ctx, gpu_mesh):
     n2 = texture_limit(gl_ctx) + 5  # more samples than one texture axis holds, padded to whole texels
     volume = RNG.normal(size=(2, 3, n2)).astype(np.float32)
-    assert_same_mesh(gpu_mesh(gl_ctx, volume, 0.0), marching_cubes_reference(volume, 0.0))
+    assert_same_mesh(gpu_mesh(volume, 0.0), marching_cubes_reference(volume, 0.0))
 
 
 @pytest.mark.parametrize("axis", [0, 1, 2])

@@ -7,6 +7,7 @@ import pytest
 
 from isoscope.api import marching_cubes
 from isoscope.volumes import VolumeError, open_volume
+from mesh_checks import read_ply
 
 
 @pytest.fixture
@@ -51,7 +52,6 @@ def export(sdf_file, out, *flags):
 
 
 def test_cli_flag_reaches_the_exported_mesh(sdf_file, tmp_path):
-    from test_export import read_ply
 
     as_density, as_sdf = tmp_path / "density.ply", tmp_path / "sdf.ply"
     for out, flags in ((as_density, ()), (as_sdf, ("--inside", "below"))):
