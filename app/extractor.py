@@ -36,19 +36,17 @@ import numpy as np
 from . import validation
 from .case_table import CaseTable, montani_table
 from .gl_context import current_or_standalone
+from .gpu_layout import BRICK_I, BRICK_J, GROUP_SIZE, INDEX_BYTES, VERTEX_BYTES, VERTEX_FLOATS
+from .gpu_limits import GpuLimits, GPULimitError, plan_extractor
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
-from .reference import BRICK_I, BRICK_J, empty_mesh
+from .reference import empty_mesh
 from .scan import ExclusiveScan
+from .volume_texture import upload_volume
 
-VERTEX_BYTES = 32  # vec4(position, value), vec4(normal, 0): std430, drawable as "3f 1f 3f 1x4"
-INDEX_BYTES = 12  # three uint32 per triangle
-MAX_WORD_IMAGE_SHIFT = 12  # per-word images are at most 4096 texels wide (mc_common.glsl word_texel)
-MAX_WORDS = 1 << 25  # a vertex job packs its word id into the top 25 bits of a uint (mc_triangles.comp)
-UPLOAD_SLAB_BYTES = 16 << 20  # a volume whose rows need padding to whole texels goes up in slabs this big
+__all__ = ["Extractor", "GPULimitError"]
 
-
-class GPULimitError(ValueError):
-    """The volume or its mesh does not fit this GL implementation's limits."""
+PASSES = ("mc_row_range", "mc_brick_range", "mc_bricks", "mc_signs", "mc_dispatch_args", "mc_classify",
+          "mc_brick_sums", "mc_word_offsets", "mc_triangles", "mc_vertices")
 
 
 class Extractor:
@@ -57,119 +55,81 @@ class Extractor:
     >>> ex = Extractor(volume, spacing=(1, 1, 1), gradient_direction="descent")
     >>> n_vertices, n_triangles = ex.extract(0.5)   # mesh stays in ex.vertex_buffer / ex.index_buffer
     >>> verts, faces, normals, values = ex.read_mesh()
+
+    `volume` is an array, or a `validation.CheckedVolume`, which is taken without scanning it
+    again.  Construction is all or nothing: every size limit is checked before anything is
+    allocated, and whatever was allocated is released if a later step fails.  `limits`
+    overrides the GL implementation's limits (tests lower them to reach the refusals).
     """
 
     def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
-                 ctx: moderngl.Context | None = None, table: CaseTable | None = None):
-        checked = validation.check_volume(volume)  # a CheckedVolume passes through unscanned
-        field = checked.data
+                 ctx: moderngl.Context | None = None, table: CaseTable | None = None,
+                 limits: GpuLimits | None = None):
+        checked = validation.check_volume(volume)
         self.spacing = validation.as_spacing(spacing)
         self.descent = validation.as_gradient_direction(gradient_direction)
-        self.shape = field.shape
+        self.shape = checked.data.shape
         self.value_range = checked.value_range
         self.ctx = ctx or current_or_standalone()
         self.table = table or montani_table()
+        self.plan = plan_extractor(self.shape, limits or GpuLimits.of(self.ctx))  # refuses before allocating
 
-        n0, n1, n2 = self.shape
-        self.words_per_row = -(-n2 // 32)
-        self.word_count = n0 * n1 * self.words_per_row
-        self._check_limits()
-        self.bricks = (-(-n0 // BRICK_I), -(-n1 // BRICK_J))
-        self.brick_count = self.bricks[0] * self.bricks[1] * self.words_per_row
-        # Per-word images have rows of 2^shift texels: at most 4096, and fewer than 1/8 of the
-        # words (2^(b-1) < words <= 2^b), so the last row's padding is under 1/8 of the image.
-        self._word_shift = max(0, min(MAX_WORD_IMAGE_SHIFT, (self.word_count - 1).bit_length() - 4))
-
-        self._volume = self._upload(field)
-        self._sign_words = self._word_image(1)
-        self._word_counts = self._word_image(1)
-        self._word_offsets = self._word_image(2)  # (first vertex, first triangle)
-        self._brick_vertex_offsets = self._storage(self.brick_count + 1)
-        self._brick_triangle_offsets = self._storage(self.brick_count + 1)
-        self._brick_ranges = self._storage(2 * self.brick_count)
-        self._active_bricks = self._storage(1 + self.brick_count)
-        self._dispatch_args = self.ctx.buffer(reserve=24)  # groups per active brick, then per 64 bricks
         case_words = self.table.packed_for_gpu()
-        case_words = np.concatenate([case_words, np.zeros(-len(case_words) % 4, np.uint32)])  # whole uvec4s
-        self._case_table = self.ctx.buffer(case_words.tobytes())
-        self._scan = ExclusiveScan(self.ctx)
-
-        defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u", "CASE_TABLE_QUADS": len(case_words) // 4,
+        self._case_words = np.concatenate([case_words, np.zeros(-len(case_words) % 4, np.uint32)])  # whole uvec4s
+        defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u",
+                   "CASE_TABLE_QUADS": len(self._case_words) // 4,
                    "BRICK_I": BRICK_I, "BRICK_J": BRICK_J, "BRICK_WORDS": BRICK_I * BRICK_J}
-        self._passes = {name: compute_program(self.ctx, f"{name}.comp", defines)
-                        for name in ("mc_row_range", "mc_brick_range", "mc_bricks", "mc_signs", "mc_dispatch_args", "mc_classify",
-                                     "mc_brick_sums", "mc_word_offsets", "mc_triangles", "mc_vertices")}
+        self._passes = {name: compute_program(self.ctx, f"{name}.comp", defines) for name in PASSES}
 
-        self.vertex_buffer = self.ctx.buffer(reserve=VERTEX_BYTES)
-        self.index_buffer = self.ctx.buffer(reserve=INDEX_BYTES)
         self.n_vertices = 0
         self.n_triangles = 0
         self.active_bricks = 0
         self.level: float | None = None
         self.last_extract_ms = 0.0  # wall time of extract(), read-back included
         self.last_gpu_ms = 0.0  # GPU time of its passes, by GL timer queries (llvmpipe reports ~0)
-        # Two queries: one around counting, one around output, so the CPU's read-back of the
-        # totals between them is not counted as GPU time.
-        self._timers = (self.ctx.query(time=True), self.ctx.query(time=True))
-        self._measure_brick_ranges()
+        self._owned: list = []  # every GL object allocated here, released together
+        self.vertex_buffer = self.index_buffer = None  # grown by _ensure_output, so not in _owned
+        self._scan: ExclusiveScan | None = None
+        try:
+            self._allocate(checked.data)
+            self._measure_brick_ranges()
+        except BaseException:
+            self.release()
+            raise
 
     # -- set-up -----------------------------------------------------------------------------
 
-    def _dims_text(self) -> str:
-        return "x".join(map(str, self.shape))
+    @property
+    def brick_count(self) -> int:
+        return self.plan.brick_count
 
-    def _check_limits(self) -> None:
-        limit = int(self.ctx.info["GL_MAX_3D_TEXTURE_SIZE"])
-        n0, n1, n2 = self.shape
-        if max(n0, n1, -(-n2 // 4)) > limit:  # axis 2 is packed 4 samples per texel
-            raise GPULimitError(
-                f"volume {self._dims_text()} exceeds this GPU's 3-D texture limit of {limit} samples along "
-                f"axes 0 and 1 ({4 * limit} along axis 2); crop or downsample it (e.g. volume[::2, ::2, ::2])")
-        if self.word_count > MAX_WORDS:
-            raise GPULimitError(
-                f"volume {self._dims_text()} needs more than 2^25 sign words (about 2^30 samples), the "
-                "extractor's limit; crop or downsample it (e.g. volume[::2, ::2, ::2])")
+    def _own(self, gl_object):
+        self._owned.append(gl_object)
+        return gl_object
 
-    def _max_storage_bytes(self) -> int:
-        return int(self.ctx.info["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"])
+    def _allocate(self, field: np.ndarray) -> None:
+        ctx, plan = self.ctx, self.plan
+        self._volume = self._own(upload_volume(ctx, field, plan))
+        self._sign_words = self._own(ctx.texture(plan.word_image_size, 1, dtype="u4"))
+        self._word_counts = self._own(ctx.texture(plan.word_image_size, 1, dtype="u4"))
+        self._word_offsets = self._own(ctx.texture(plan.word_image_size, 2, dtype="u4"))  # (first vertex, triangle)
+        sizes = plan.storage_elements()
+        self._brick_vertex_offsets = self._storage(sizes["brick vertex offsets"])
+        self._brick_triangle_offsets = self._storage(sizes["brick triangle offsets"])
+        self._brick_ranges = self._storage(sizes["brick ranges"])
+        self._active_bricks = self._storage(sizes["active bricks"])
+        self._dispatch_args = self._own(ctx.buffer(reserve=24))  # groups per active brick, then per 64 bricks
+        self._case_table = self._own(ctx.buffer(self._case_words.tobytes()))
+        self._scan = ExclusiveScan(ctx)
+        self.vertex_buffer = ctx.buffer(reserve=VERTEX_BYTES)
+        self.index_buffer = ctx.buffer(reserve=INDEX_BYTES)
+        # Two queries: one around counting, one around output, so the CPU's read-back of the
+        # totals between them is not counted as GPU time.
+        self._timers = (ctx.query(time=True), ctx.query(time=True))
 
     def _storage(self, elements: int) -> moderngl.Buffer:
-        size = max(elements, 1) * 4
-        if size > self._max_storage_bytes():
-            raise GPULimitError(
-                f"volume {self._dims_text()} needs a {size >> 20} MiB work buffer, above this "
-                f"GPU's {self._max_storage_bytes() >> 20} MiB storage-block limit; crop or downsample it")
-        return self.ctx.buffer(reserve=size)
-
-    def _word_image(self, components: int) -> moderngl.Texture:
-        """A uint image with one texel per word: the low `_word_shift` bits of a word id pick the column."""
-        width = 1 << self._word_shift
-        height = -(-self.word_count // width)
-        if height > int(self.ctx.info["GL_MAX_TEXTURE_SIZE"]):
-            raise GPULimitError(
-                f"volume {self._dims_text()} needs a {width}x{height} work image, above this "
-                f"GPU's {self.ctx.info['GL_MAX_TEXTURE_SIZE']}-texel limit; crop or downsample it")
-        return self.ctx.texture((width, height), components, dtype="u4")
-
-    def _upload(self, field: np.ndarray) -> moderngl.Texture3D:
-        """The volume as RGBA32F texels of 4 consecutive axis-2 samples (one load packs 4 signs)."""
-        n0, n1, n2 = self.shape
-        quads = -(-n2 // 4)
-        try:
-            if n2 % 4 == 0 and field.dtype == np.float32:  # already laid out as RGBA texels: no copy
-                texture = self.ctx.texture3d((quads, n1, n0), 4, field, dtype="f4")
-            else:  # pad rows to whole texels and convert to float32, a slab of planes at a time
-                texture = self.ctx.texture3d((quads, n1, n0), 4, dtype="f4")
-                planes = min(n0, max(1, UPLOAD_SLAB_BYTES // (n1 * quads * 16)))
-                buffer = np.zeros((planes, n1, 4 * quads), np.float32)  # one, reused: its padding stays 0
-                for i0 in range(0, n0, planes):
-                    slab = buffer[:min(planes, n0 - i0)]
-                    slab[:, :, :n2] = field[i0:i0 + planes]
-                    texture.write(slab, viewport=(0, 0, i0, quads, n1, len(slab)))
-        except moderngl.Error as exc:
-            raise GPULimitError(f"volume {self._dims_text()} ({field.nbytes >> 20} MiB) could not be uploaded "
-                                f"to the GPU ({exc}); crop or downsample it") from None
-        return texture
+        """A work buffer; plan_extractor has already checked its size against the limit."""
+        return self._own(self.ctx.buffer(reserve=max(elements, 1) * 4))
 
     def _bind_images(self) -> None:
         self._volume.bind_to_image(0, read=True, write=False)
@@ -180,17 +140,15 @@ class Extractor:
 
     def _ensure_output(self, n_vertices: int, n_triangles: int) -> None:
         """Grow the mesh buffers to fit (by half again, so dragging the slider rarely reallocates)."""
+        self.plan.check_mesh(n_vertices, n_triangles, VERTEX_BYTES, INDEX_BYTES)
+        limit = self.plan.limits.max_storage_block_bytes
         for attr, needed in (("vertex_buffer", n_vertices * VERTEX_BYTES),
                              ("index_buffer", n_triangles * INDEX_BYTES)):
-            if needed > self._max_storage_bytes():
-                raise GPULimitError(
-                    f"the mesh at this level ({n_vertices} vertices, {n_triangles} triangles) needs "
-                    f"{needed >> 20} MiB in one buffer, above this GPU's {self._max_storage_bytes() >> 20} MiB "
-                    "storage-block limit; pick another level, crop the volume, or use backend='cpu'")
             buf = getattr(self, attr)
             if buf.size < needed:
-                size = min(max(needed, int(buf.size * 1.5)), self._max_storage_bytes())
+                size = min(max(needed, int(buf.size * 1.5)), limit)
                 buf.release()
+                setattr(self, attr, None)  # released: a failing allocation below must not release it twice
                 setattr(self, attr, self.ctx.buffer(reserve=size))
 
     # -- extraction -------------------------------------------------------------------------
@@ -198,9 +156,9 @@ class Extractor:
     def _set_common_uniforms(self, level: float) -> None:
         sign = 1.0 if self.descent else -1.0
         for program in self._passes.values():
-            set_uniforms(program, u_dims=self.shape, u_words=self.words_per_row, u_bricks=self.bricks,
+            set_uniforms(program, u_dims=self.shape, u_words=self.plan.words_per_row, u_bricks=self.plan.bricks,
                          u_brick_count=self.brick_count, u_level=float(np.float32(sign * level)),
-                         u_sign=sign, u_spacing=self.spacing, u_word_shift=self._word_shift)
+                         u_sign=sign, u_spacing=self.spacing, u_word_shift=self.plan.word_shift)
 
     def _bind(self, *slots: tuple[int, moderngl.Buffer]) -> None:
         for binding, buffer in slots:
@@ -208,15 +166,16 @@ class Extractor:
 
     def _measure_brick_ranges(self) -> None:
         """Each brick's value range, via each word's row range (a buffer freed afterwards)."""
+        word_count = self.plan.word_count
         self._set_common_uniforms(self.value_range[0])
-        set_uniforms(self._passes["mc_row_range"], u_word_count=self.word_count)
+        set_uniforms(self._passes["mc_row_range"], u_word_count=word_count)
         self._bind_images()
-        row_ranges = self._storage(2 * self.word_count)
+        row_ranges = self.ctx.buffer(reserve=self.plan.storage_elements()["row ranges"] * 4)
         try:
             self._bind((8, row_ranges), (9, self._brick_ranges))
-            dispatch_groups(self._passes["mc_row_range"], -(-self.word_count // 64))
+            dispatch_groups(self._passes["mc_row_range"], -(-word_count // GROUP_SIZE))
             self.ctx.memory_barrier()
-            dispatch_groups(self._passes["mc_brick_range"], -(-self.brick_count // 64))
+            dispatch_groups(self._passes["mc_brick_range"], -(-self.brick_count // GROUP_SIZE))
             self.ctx.memory_barrier()
         finally:
             row_ranges.release()
@@ -251,7 +210,7 @@ class Extractor:
         """Passes 1-5: skip, pack signs, classify, scan; returns the totals (the one read-back)."""
         self._bind((1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets), (7, self._active_bricks),
                    (8, self._brick_ranges), (9, self._dispatch_args))
-        dispatch_groups(self._passes["mc_bricks"], -(-(self.brick_count + 1) // 64))
+        dispatch_groups(self._passes["mc_bricks"], -(-(self.brick_count + 1) // GROUP_SIZE))
         self.ctx.memory_barrier()
         dispatch_groups(self._passes["mc_dispatch_args"], 1)
         self.ctx.memory_barrier()
@@ -275,7 +234,7 @@ class Extractor:
         self._run_over_active_bricks("mc_triangles")  # and the vertex jobs
         self._bind((6, self.vertex_buffer))
         set_uniforms(self._passes["mc_vertices"], u_vertex_count=n_vertices)
-        dispatch_groups(self._passes["mc_vertices"], -(-n_vertices // 64))
+        dispatch_groups(self._passes["mc_vertices"], -(-n_vertices // GROUP_SIZE))
         self.ctx.memory_barrier()
 
     def read_mesh(self):
@@ -283,7 +242,7 @@ class Extractor:
         if self.n_vertices == 0:
             return empty_mesh()
         records = np.frombuffer(self.vertex_buffer.read(self.n_vertices * VERTEX_BYTES), np.float32)
-        records = records.reshape(self.n_vertices, 8)
+        records = records.reshape(self.n_vertices, VERTEX_FLOATS)
         faces = np.frombuffer(self.index_buffer.read(self.n_triangles * INDEX_BYTES), np.uint32)
         return (np.ascontiguousarray(records[:, :3]), faces.reshape(-1, 3).astype(np.int32),
                 np.ascontiguousarray(records[:, 4:7]), np.ascontiguousarray(records[:, 3]))
@@ -301,10 +260,14 @@ class Extractor:
                 self._dispatch_args, self._case_table)
 
     def release(self) -> None:
-        for obj in (self._volume, self.vertex_buffer, self.index_buffer, *self._word_images(),
-                    *self._scratch_buffers()):
-            obj.release()
-        self._scan.release()
+        """Free every GL object this extractor made; safe to call twice, or on a half-built one."""
+        for obj in (*self._owned, self.vertex_buffer, self.index_buffer):
+            if obj is not None:
+                obj.release()
+        self._owned.clear()
+        self.vertex_buffer = self.index_buffer = None
+        if self._scan is not None:
+            self._scan.release()
 
     def __enter__(self):
         return self

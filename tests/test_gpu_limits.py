@@ -1,10 +1,14 @@
 """Volumes at and past the GL limits the extractor depends on: the 3-D texture size, and the
 row padding it does itself (4 samples per RGBA texel along axis 2)."""
+import os
+
+import moderngl
 import numpy as np
 import pytest
 
-import isoscope.extractor as extractor_module
+import isoscope.volume_texture as volume_texture
 from isoscope.extractor import Extractor, GPULimitError
+from isoscope.gpu_limits import GpuLimits
 from isoscope.reference import marching_cubes_reference
 from mesh_checks import assert_same_mesh
 
@@ -17,7 +21,7 @@ def texture_limit(ctx) -> int:
 
 def test_rows_padded_to_whole_texels_go_up_in_slabs(gpu_mesh, monkeypatch):
     # 13 samples per row are padded to 16; a 1-byte slab budget forces one upload per plane.
-    monkeypatch.setattr(extractor_module, "UPLOAD_SLAB_BYTES", 1)
+    monkeypatch.setattr(volume_texture, "UPLOAD_SLAB_BYTES", 1)
     volume = RNG.normal(size=(5, 7, 13)).astype(np.float32)
     assert_same_mesh(gpu_mesh(volume, 0.1), marching_cubes_reference(volume, 0.1))
 
@@ -39,3 +43,41 @@ def test_a_volume_past_the_texture_limit_is_refused_with_the_fix(gl_ctx, axis):
     assert "\n" not in message
     assert "x".join(map(str, shape)) in message and "3-D texture limit" in message
     assert "downsample" in message
+
+
+def resident_bytes() -> int:
+    """This process's resident memory: llvmpipe keeps textures and buffers in it."""
+    with open("/proc/self/statm") as statm:
+        return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def ramp(n=256) -> np.ndarray:
+    """A 64 MiB float32 volume whose upload is easy to see in the process's memory."""
+    return np.broadcast_to(np.arange(n, dtype=np.float32), (n, n, n)).copy()
+
+
+def test_a_volume_past_the_storage_block_limit_is_refused_before_anything_is_allocated(gl_ctx):
+    volume = ramp()
+    real = GpuLimits.of(gl_ctx)
+    # The set-up's row ranges take 8 bytes per 32-sample word: 4 MiB here, over a 2 MiB limit.
+    limits = GpuLimits(real.max_3d_texture_size, real.max_texture_size, 2 << 20)
+    Extractor(volume[:8], ctx=gl_ctx, limits=limits).release()  # a small one fits: warm-up
+    before = resident_bytes()
+    for _ in range(8):
+        with pytest.raises(GPULimitError, match="row ranges buffer, above this GPU's 2 MiB storage-block limit"):
+            Extractor(volume, ctx=gl_ctx, limits=limits)
+    assert resident_bytes() - before < 32 << 20, "failed constructions kept GPU memory"
+
+
+def test_a_failure_late_in_the_set_up_releases_what_was_allocated(gl_ctx, monkeypatch):
+    volume = ramp()
+    Extractor(volume, ctx=gl_ctx).release()  # warm-up: shaders compiled, allocator primed
+    before = resident_bytes()
+
+    def fail(self):
+        raise moderngl.Error("the last set-up step failed")
+    monkeypatch.setattr(Extractor, "_measure_brick_ranges", fail)
+    for _ in range(8):
+        with pytest.raises(moderngl.Error):
+            Extractor(volume, ctx=gl_ctx)
+    assert resident_bytes() - before < 32 << 20, "a half-built extractor kept its texture and buffers"

@@ -1,0 +1,107 @@
+"""What the extractor needs from the GL implementation, worked out and checked before it allocates.
+
+`plan_extractor` sizes every texture and buffer of an extractor for a volume shape and
+refuses, with one `GPULimitError` line, a volume that would pass one of the limits, so
+a construction that cannot succeed allocates nothing.  `GpuLimits` can be given by hand
+(tests lower the storage-block limit to reach the refusals with small volumes).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import moderngl
+
+from .gpu_layout import (BRICK_I, BRICK_J, MAX_WORD_IMAGE_SHIFT, MAX_WORDS, SAMPLES_PER_TEXEL,
+                         WORD_BITS)
+
+
+class GPULimitError(ValueError):
+    """The volume or its mesh does not fit this GL implementation's limits."""
+
+
+@dataclass(frozen=True)
+class GpuLimits:
+    max_3d_texture_size: int
+    max_texture_size: int
+    max_storage_block_bytes: int
+
+    @classmethod
+    def of(cls, ctx: moderngl.Context) -> GpuLimits:
+        return cls(int(ctx.info["GL_MAX_3D_TEXTURE_SIZE"]), int(ctx.info["GL_MAX_TEXTURE_SIZE"]),
+                   int(ctx.info["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"]))
+
+
+@dataclass(frozen=True)
+class ExtractorPlan:
+    """The sizes of one extractor's GPU objects for a volume of `shape`."""
+    shape: tuple[int, int, int]
+    limits: GpuLimits
+    words_per_row: int
+    word_count: int
+    bricks: tuple[int, int]  # along axes 0 and 1; a brick is one word deep along axis 2
+    brick_count: int
+    word_shift: int  # per-word images are 2^word_shift texels wide
+
+    @property
+    def dims_text(self) -> str:
+        return "x".join(map(str, self.shape))
+
+    @property
+    def volume_texels(self) -> tuple[int, int, int]:
+        """The volume image's size (x, y, z): axis 2 packed SAMPLES_PER_TEXEL samples per texel."""
+        n0, n1, n2 = self.shape
+        return -(-n2 // SAMPLES_PER_TEXEL), n1, n0
+
+    @property
+    def word_image_size(self) -> tuple[int, int]:
+        width = 1 << self.word_shift
+        return width, -(-self.word_count // width)
+
+    def storage_elements(self) -> dict[str, int]:
+        """The uint/float elements of each work buffer, the set-up's row ranges included."""
+        return {"brick vertex offsets": self.brick_count + 1, "brick triangle offsets": self.brick_count + 1,
+                "brick ranges": 2 * self.brick_count, "active bricks": 1 + self.brick_count,
+                "row ranges": 2 * self.word_count}
+
+    def check_mesh(self, n_vertices: int, n_triangles: int, vertex_bytes: int, index_bytes: int) -> None:
+        """Refuse a mesh whose vertex or index buffer would pass the storage-block limit."""
+        limit = self.limits.max_storage_block_bytes
+        needed = max(n_vertices * vertex_bytes, n_triangles * index_bytes)
+        if needed > limit:
+            raise GPULimitError(
+                f"the mesh at this level ({n_vertices} vertices, {n_triangles} triangles) needs "
+                f"{needed >> 20} MiB in one buffer, above this GPU's {limit >> 20} MiB "
+                "storage-block limit; pick another level, crop the volume, or use backend='cpu'")
+
+
+def plan_extractor(shape, limits: GpuLimits) -> ExtractorPlan:
+    """Every size an extractor for `shape` needs, or a GPULimitError naming the first limit passed."""
+    n0, n1, n2 = (int(n) for n in shape)
+    words_per_row = -(-n2 // WORD_BITS)
+    word_count = n0 * n1 * words_per_row
+    bricks = (-(-n0 // BRICK_I), -(-n1 // BRICK_J))
+    # Per-word images have rows of 2^shift texels: at most 4096, and fewer than 1/8 of the
+    # words (2^(b-1) < words <= 2^b), so the last row's padding is under 1/8 of the image.
+    word_shift = max(0, min(MAX_WORD_IMAGE_SHIFT, (word_count - 1).bit_length() - 4))
+    plan = ExtractorPlan((n0, n1, n2), limits, words_per_row, word_count, bricks,
+                         bricks[0] * bricks[1] * words_per_row, word_shift)
+    dims = plan.dims_text
+    fix = "crop or downsample it (e.g. volume[::2, ::2, ::2])"
+
+    if max(n0, n1, plan.volume_texels[0]) > limits.max_3d_texture_size:
+        raise GPULimitError(
+            f"volume {dims} exceeds this GPU's 3-D texture limit of {limits.max_3d_texture_size} samples "
+            f"along axes 0 and 1 ({SAMPLES_PER_TEXEL * limits.max_3d_texture_size} along axis 2); {fix}")
+    if word_count > MAX_WORDS:
+        raise GPULimitError(f"volume {dims} needs more than 2^25 sign words (about 2^30 samples), the "
+                            f"extractor's limit; {fix}")
+    width, height = plan.word_image_size
+    if height > limits.max_texture_size:
+        raise GPULimitError(f"volume {dims} needs a {width}x{height} work image, above this GPU's "
+                            f"{limits.max_texture_size}-texel limit; {fix}")
+    for name, elements in plan.storage_elements().items():
+        if elements * 4 > limits.max_storage_block_bytes:
+            raise GPULimitError(
+                f"volume {dims} needs a {(elements * 4) >> 20} MiB {name} buffer, above this GPU's "
+                f"{limits.max_storage_block_bytes >> 20} MiB storage-block limit; {fix}")
+    return plan
