@@ -1,4 +1,5 @@
 """Shaders and sample volumes are found from a checkout and ship inside the wheel."""
+import ast
 import os
 import subprocess
 import sys
@@ -15,6 +16,20 @@ def test_shaders_are_found_and_includes_expand():
     source = resources.shader_source("mc_vertices.comp", {"MAX_TRIANGLES_PER_CELL": "5u"})
     assert "#include \"" not in source and "float field_at(ivec3 p)" in source
     assert source.splitlines()[0] == "#version 430"
+
+
+def test_nothing_imports_the_source_folder_as_app():
+    # app/ is installed as isoscope; an `import app` from the checkout would load a second copy
+    # of every module (two GPULimitError classes, two shader caches).
+    offenders = []
+    for path in ROOT.rglob("*.py"):
+        if {"build", ".venv", ".git"} & set(path.relative_to(ROOT).parts):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                     [node.module or ""] if isinstance(node, ast.ImportFrom) and node.level == 0 else [])
+            offenders += [f"{path.relative_to(ROOT)}:{node.lineno}" for n in names if n.split(".")[0] == "app"]
+    assert not offenders, f"import isoscope instead: {offenders}"
 
 
 def test_wheel_contains_shaders_volumes_and_the_console_script(tmp_path):
