@@ -3,7 +3,8 @@
 
 One process, one run, so the ratios are measured under the same machine load
 (on a shared box run-to-run noise is +-10-15%: compare ratios, not absolute ms).
-For each volume of benchmarks/volumes.py and each size it times, as medians:
+For each volume of benchmarks/volumes.py and each size (or each real scan of
+volumes.REAL_VOLUMES, or a volume file, at each of its levels) it times, as medians:
 
 - ours, iso change: a resident `Extractor`, alternating between two nearby levels
   (a slider drag); only `ex.extract(level)` is timed (it returns when the GPU is done);
@@ -44,7 +45,7 @@ try:  # an installed isoscope (editable or not)
 except ImportError:  # the source folder is app/, so the checkout alone cannot be imported as isoscope
     sys.exit("bench_extract.py: isoscope is not installed; run `python3 -m pip install -e .` first")
 
-from volumes import VOLUMES  # noqa: E402
+from volumes import REAL_VOLUMES, VOLUMES, MissingVolume, load_real  # noqa: E402
 
 LEVEL_STEP = 0.005  # the second level: 0 + 0.5% of the data range, one notch of a 200-step slider
 TRIANGLE_TOLERANCE = 0.03  # peers must agree with our triangle count within 3%
@@ -302,7 +303,7 @@ def warm_up(peers) -> str:
 def check_case(case) -> list[str]:
     """Triangle counts against ours at each level measured; every mesh's vertices on the level set."""
     warnings = []
-    name = f"{case['volume']} {case['size']}^3"
+    name = f"{case_name(case)} {case['grid']}"
     ours = case["ours"]["iso_change"]["triangles"]
     first = case["ours"]["first"]
     if first["triangles"]["a"] != ours["a"]:
@@ -332,51 +333,93 @@ def check_case(case) -> list[str]:
 
 # -- the run ----------------------------------------------------------------------------------
 
-def plan(args) -> list[tuple[int, str]]:
-    cases = [(size, name) for size in args.sizes for name in args.volumes]
-    if args.big and (512, "sphere") not in cases:
-        cases.append((512, "sphere"))
+def plan(args) -> list[dict]:
+    """What to run: a synthetic volume per size at level 0; a real scan or a file at each of its levels."""
+    cases = [synthetic(size, name) for size in args.sizes for name in args.volumes if name in VOLUMES]
+    if args.big and not any(c["grid"] == "512^3" and c["volume"] == "sphere" for c in cases):
+        cases.append(synthetic(512, "sphere"))
+    for name in args.volumes:
+        if name in REAL_VOLUMES:
+            gd, levels = REAL_VOLUMES[name][2], REAL_VOLUMES[name][3]
+            cases.append({"volume": name, "load": lambda name=name: load_real(name)[0], "gd": gd,
+                          "levels": args.levels or levels})
+        elif name not in VOLUMES:  # a file, checked by parse_args
+            cases.append({"volume": Path(name).name, "load": lambda name=name: load_file(name), "gd": "descent",
+                          "levels": args.levels, "fractions": (0.25, 0.5, 0.75)})
     return cases
 
 
-def repeats_for(size: int, args) -> int:
+def synthetic(size: int, name: str) -> dict:
+    generate, gd = VOLUMES[name]
+    return {"volume": name, "load": lambda: generate(size), "gd": gd, "levels": (0.0,), "synthetic": True}
+
+
+def load_file(path: str) -> np.ndarray:
+    from isoscope.volumes import open_volume
+    return np.ascontiguousarray(open_volume(path).data)
+
+
+def repeats_for(voxels: int, args) -> int:
     if args.repeats:
         return args.repeats
-    return 5 if size <= 128 else 3
+    return 5 if voxels <= 128 ** 3 else 3
 
 
-def run_case(size, name, peers, args) -> dict:
-    generate, gd = VOLUMES[name]
-    repeats = repeats_for(size, args)
-    log(f"[{size}^3 {name}] generating")
-    volume = generate(size)
+def run_cases(spec, peers, args) -> list[dict]:
+    """One case per level of the spec, all on one loaded volume."""
+    log(f"[{spec['volume']}] loading")
+    volume = spec["load"]()
+    if args.float32:
+        volume = volume.astype(np.float32)
+    lo, hi = float(volume.min()), float(volume.max())
+    levels = spec["levels"] or [lo + f * (hi - lo) for f in spec["fractions"]]
+    cases = [run_case(volume, spec, level, peers, args) for level in levels]
+    del volume
+    gc.collect()
+    return cases
+
+
+def run_case(volume, spec, level, peers, args) -> dict:
+    name, gd = spec["volume"], spec["gd"]
+    voxels = volume.size
+    repeats = repeats_for(voxels, args)
+    n0, n1, n2 = volume.shape
+    grid = f"{n0}^3" if n0 == n1 == n2 else f"{n0}x{n1}x{n2}"
     lo, hi = float(volume.min()), float(volume.max())
     step = float(np.float32(LEVEL_STEP * (hi - lo)))
-    levels = {"a": 0.0, "b": step}
-    case = {"size": size, "volume": name, "gradient_direction": gd, "repeats": repeats,
-            "levels": levels, "value_range": [lo, hi], "ours": {}, "peers": {}}
-    log(f"[{size}^3 {name}] ours: iso change")
+    levels = {"a": float(level), "b": float(level) + step}
+    case = {"size": n0 if spec.get("synthetic") else list(volume.shape), "grid": grid, "voxels": voxels,
+            "volume": name, "level": float(level), "dtype": str(volume.dtype), "gradient_direction": gd,
+            "repeats": repeats, "levels": levels, "value_range": [lo, hi], "ours": {}, "peers": {}}
+    if not spec.get("synthetic"):
+        case["real"] = True
+    tag = f"[{grid} {case_name(case)}]"
+    log(f"{tag} ours: iso change")
     case["ours"]["iso_change"] = bench_ours_iso_change(volume, gd, levels, repeats, args.warmup)
-    log(f"[{size}^3 {name}] ours: first (gpu)")
-    case["ours"]["first"] = bench_ours_first(volume, gd, 0.0, repeats, "gpu", args.warmup)
-    if size <= CPU_MAX_SIZE and not args.no_cpu:
-        log(f"[{size}^3 {name}] ours: numpy")
-        case["ours"]["numpy"] = bench_ours_first(volume, gd, 0.0, repeats, "cpu", 0)
+    log(f"{tag} ours: first (gpu)")
+    case["ours"]["first"] = bench_ours_first(volume, gd, levels["a"], repeats, "gpu", args.warmup)
+    if voxels <= CPU_MAX_SIZE ** 3 and not args.no_cpu:
+        log(f"{tag} ours: numpy")
+        case["ours"]["numpy"] = bench_ours_first(volume, gd, levels["a"], repeats, "cpu", 0)
     gc.collect()
     for peer in peers:
         if peer.missing is not None:
             case["peers"][peer.key] = {"label": peer.label, "skipped": "not importable"}
             continue
-        log(f"[{size}^3 {name}] {peer.label}")
+        log(f"{tag} {peer.label}")
         try:
             result = bench_peer(peer, volume, gd, levels, repeats, args.warmup)
         except Exception as exc:  # a peer failing (memory, a bug) must not end the run
             case["peers"][peer.key] = {"label": peer.label, "skipped": f"failed: {type(exc).__name__}: {exc}"}
         else:
             case["peers"][peer.key] = {"label": peer.label, **result}
-    del volume
     gc.collect()
     return case
+
+
+def case_name(case) -> str:
+    """The volume column: a real scan names its level, a synthetic volume is always at 0."""
+    return f"{case['volume']} @ {case['level']:g}" if case.get("real") else case["volume"]
 
 
 def git_state() -> str:
@@ -446,7 +489,8 @@ def markdown(meta, cases, peers, warnings, notes) -> str:
            f"- peers: " + ", ".join(f"{p.label} {p.version}" for p in peers if p.missing is None),
            f"- volumes: FIELD-NOTES definitions (benchmarks/volumes.py), float32; levels 0 and "
            f"0 + {LEVEL_STEP:.1%} of the data range, alternated; sphere with gradient_direction="
-           f"\"ascent\", gyroid and noise \"descent\", for us and scikit-image",
+           f"\"ascent\", gyroid and noise \"descent\", for us and scikit-image; a real scan "
+           f"(`name @ level`, in its file's dtype, \"descent\") at level L and L + {LEVEL_STEP:.1%} of its range",
            f"- checks: every peer's triangle count within {TRIANGLE_TOLERANCE:.0%} of ours at both levels, "
            f"and every mesh's vertices on the level set when read in array-index order (axis order); "
            f"failures are listed at the end",
@@ -464,7 +508,7 @@ def markdown(meta, cases, peers, warnings, notes) -> str:
     out += ["| " + " | ".join(head) + " |", "|" + "---|" * 2 + "---:|" * (len(head) - 2)]
     for c in cases:
         ours = c["ours"]["iso_change"]
-        row = [f"{c['size']}^3", c["volume"], fmt_count(ours["triangles"]["a"]), fmt_ms(ours["median_ms"])]
+        row = [c["grid"], case_name(c), fmt_count(ours["triangles"]["a"]), fmt_ms(ours["median_ms"])]
         if "ours GPU ms" in head:
             row.append(fmt_ms(ours.get("gpu_median_ms")))
         row += [cell_ratio(c["peers"][p.key], ours["median_ms"]) for p in peers]
@@ -475,10 +519,10 @@ def markdown(meta, cases, peers, warnings, notes) -> str:
     for c in cases:
         first = c["ours"]["first"]
         numpy_ms = c["ours"]["numpy"]["median_ms"] if "numpy" in c["ours"] else None
-        row = [f"{c['size']}^3", c["volume"], fmt_ms(first["median_ms"]), fmt_ms(numpy_ms)]
+        row = [c["grid"], case_name(c), fmt_ms(first["median_ms"]), fmt_ms(numpy_ms)]
         row += [cell_ratio(c["peers"][p.key], first["median_ms"]) for p in peers]
         out.append("| " + " | ".join(row) + " |")
-    out += ["", "### Medians (ms) and triangle counts at level 0", ""]
+    out += ["", "### Medians (ms) and triangle counts at the first level (0; a real scan's L)", ""]
     head = ["size", "volume", "runner", "median ms", "min ms", "runs", "triangles", "vs ours"]
     out += ["| " + " | ".join(head) + " |", "|---|---|---|---:|---:|---:|---:|---:|"]
     for c in cases:
@@ -491,11 +535,11 @@ def markdown(meta, cases, peers, warnings, notes) -> str:
             if r is None:
                 continue
             if "median_ms" not in r:
-                out.append(f"| {c['size']}^3 | {c['volume']} | {label} | - | - | - | - | {r['skipped']} |")
+                out.append(f"| {c['grid']} | {case_name(c)} | {label} | - | - | - | - | {r['skipped']} |")
                 continue
             n = r["triangles"]["a"]
             delta = f"{100.0 * (n - ours_n) / ours_n:+.2f}%" if ours_n else "-"
-            out.append(f"| {c['size']}^3 | {c['volume']} | {label} | {fmt_ms(r['median_ms'])} | "
+            out.append(f"| {c['grid']} | {case_name(c)} | {label} | {fmt_ms(r['median_ms'])} | "
                        f"{fmt_ms(r['min_ms'])} | {len(r['samples_ms'])} | {fmt_count(n)} | {delta} |")
     out += ["", "### Our GPU scratch (beyond the volume texture and the mesh)", ""]
     out += ["| size | volume | peak scratch MiB | bytes per voxel | bricks cut by the level |",
@@ -504,7 +548,7 @@ def markdown(meta, cases, peers, warnings, notes) -> str:
         ours = c["ours"]["iso_change"]
         scratch = ours["scratch_bytes"]
         share = f"{ours['active_brick_share']:.1%}" if "active_brick_share" in ours else "-"
-        out.append(f"| {c['size']}^3 | {c['volume']} | {scratch / 2**20:.2f} | {scratch / c['size'] ** 3:.3f} "
+        out.append(f"| {c['grid']} | {case_name(c)} | {scratch / 2**20:.2f} | {scratch / c['voxels']:.3f} "
                    f"| {share} |")
     if notes or warnings:
         out.append("")
@@ -526,7 +570,11 @@ def parse_args(argv=None):
     parser.add_argument("--sizes", default="128,256",
                         help="comma-separated edge lengths (default 128,256)")
     parser.add_argument("--volumes", default=",".join(VOLUMES),
-                        help=f"comma-separated subset of {','.join(VOLUMES)}")
+                        help=f"comma-separated: synthetic {','.join(VOLUMES)} (run at every --sizes), real scans "
+                             f"{','.join(REAL_VOLUMES)} (their own size and levels), or volume files "
+                             f"(NIfTI, NRRD, .npy: at 25/50/75%% of their range)")
+    parser.add_argument("--levels", default="",
+                        help="comma-separated levels for the real scans and files, in their own units")
     parser.add_argument("--big", action="store_true",
                         help="also the 512^3 sphere (about 2.5 GB of RAM, minutes on llvmpipe)")
     parser.add_argument("--repeats", type=int, default=0,
@@ -534,6 +582,8 @@ def parse_args(argv=None):
     parser.add_argument("--warmup", type=int, default=2,
                         help="untimed runs before the timed ones, per runner and volume (default 2; "
                              "the numpy reference gets none)")
+    parser.add_argument("--float32", action="store_true",
+                        help="give every runner the real scans and files as float32 (default: their file's dtype)")
     parser.add_argument("--no-cpu", action="store_true", help="skip our numpy reference")
     parser.add_argument("--json", metavar="PATH", help="also write every sample and count as JSON")
     args = parser.parse_args(argv)
@@ -544,9 +594,14 @@ def parse_args(argv=None):
     if any(s < 8 for s in args.sizes):
         parser.error("--sizes: every size must be at least 8")
     args.volumes = [v.strip() for v in args.volumes.split(",") if v.strip()]
-    unknown = sorted(set(args.volumes) - set(VOLUMES))
+    unknown = sorted(v for v in args.volumes if v not in VOLUMES and v not in REAL_VOLUMES and not Path(v).is_file())
     if unknown:
-        parser.error(f"--volumes: unknown {', '.join(unknown)}; choose from {', '.join(VOLUMES)}")
+        parser.error(f"--volumes: unknown {', '.join(unknown)}; choose from "
+                     f"{', '.join([*VOLUMES, *REAL_VOLUMES])} or name an existing volume file")
+    try:
+        args.levels = [float(v) for v in args.levels.split(",") if v.strip()]
+    except ValueError:
+        parser.error(f"--levels wants numbers like 60,128, not {args.levels!r}")
     if args.repeats < 0 or args.warmup < 0:
         parser.error("--repeats and --warmup cannot be negative")
     return args
@@ -568,17 +623,23 @@ def main(argv=None) -> int:
             "python": platform.python_version(), "numpy": np.__version__,
             "peers": {p.key: (p.version if p.missing is None else None) for p in peers}}
     cases, warnings = [], []
-    for size, name in plan(args):
-        case = run_case(size, name, peers, args)
-        case_warnings = check_case(case)
-        for w in case_warnings:
-            log("WARNING:", w)
-        warnings += case_warnings
-        cases.append(case)
+    for spec in plan(args):
+        try:
+            spec_cases = run_cases(spec, peers, args)
+        except MissingVolume as exc:
+            log(f"skipped: {exc}")
+            notes.append(f"skipped: {exc}")
+            continue
+        for case in spec_cases:
+            case_warnings = check_case(case)
+            for w in case_warnings:
+                log("WARNING:", w)
+            warnings += case_warnings
+            cases.append(case)
     for c in cases:
         for key, r in c["peers"].items():
             if r.get("skipped", "").startswith("failed"):
-                notes.append(f"{r['label']} at {c['size']}^3 {c['volume']}: {r['skipped']}")
+                notes.append(f"{r['label']} at {c['grid']} {case_name(c)}: {r['skipped']}")
     meta["seconds"] = round(time.perf_counter() - started, 1)
     notes.append(f"whole run: {meta['seconds']:.0f} s")
     meta["load"] = load.describe()

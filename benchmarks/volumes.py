@@ -15,6 +15,8 @@ memory is a small multiple of the volume (a 512^3 float32 volume is 512 MiB).
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 
@@ -57,3 +59,42 @@ VOLUMES = {
     "gyroid": (gyroid, "descent"),
     "noise": (noise, "descent"),
 }
+
+
+# -- real scans shipped inside pip packages (no download at run time) ------------------------
+
+class MissingVolume(RuntimeError):
+    """A real volume whose package is not installed: the message names the fix."""
+
+
+# name -> (package, path inside the installed package, gradient_direction, levels, what it is).
+# Levels are in the file's own units; why these: benchmarks/README.md.
+REAL_VOLUMES = {
+    "mni-t1": ("nilearn", "datasets/data/mni_icbm152_t1_tal_nlin_sym_09a_converted.nii.gz", "descent",
+               (60.0, 128.0, 160.0, 200.0), "MNI ICBM152 2009a T1 template, 1 mm, brain only"),
+    "mni-gm": ("nilearn", "datasets/data/mni_icbm152_gm_tal_nlin_sym_09a_converted.nii.gz", "descent",
+               (64.0, 128.0, 192.0), "MNI ICBM152 2009a grey-matter probability map, 1 mm"),
+}
+
+
+def real_volume_path(name: str) -> Path:
+    """The file of a named real volume inside its installed package (the package is not imported)."""
+    import importlib.util
+    package, inner = REAL_VOLUMES[name][:2]
+    spec = importlib.util.find_spec(package)
+    if spec is None or not spec.submodule_search_locations:
+        raise MissingVolume(f"{name}: the package {package} is not installed; "
+                            f"run `pip install -e .[bench]` (it ships the file {inner})")
+    path = Path(spec.submodule_search_locations[0]) / inner
+    if not path.is_file():
+        raise MissingVolume(f"{name}: {package} is installed but has no {inner}; "
+                            f"install the version named in benchmarks/README.md")
+    return path
+
+
+def load_real(name: str) -> tuple[np.ndarray, tuple[float, float, float]]:
+    """A named real volume as (C-order array in the file's dtype, voxel spacing per axis)."""
+    import nibabel
+    image = nibabel.load(real_volume_path(name))
+    data = np.ascontiguousarray(np.asanyarray(image.dataobj))
+    return data, tuple(float(z) for z in image.header.get_zooms()[:3])
