@@ -241,11 +241,13 @@ class Extractor:
         """The last extraction as numpy arrays: verts, faces, normals, values (skimage's layout)."""
         if self.n_vertices == 0:
             return empty_mesh()
-        records = np.frombuffer(self.vertex_buffer.read(self.n_vertices * VERTEX_BYTES), np.float32)
-        records = records.reshape(self.n_vertices, VERTEX_FLOATS)
-        faces = np.frombuffer(self.index_buffer.read(self.n_triangles * INDEX_BYTES), np.uint32)
-        return (np.ascontiguousarray(records[:, :3]), faces.reshape(-1, 3).astype(np.int32),
-                np.ascontiguousarray(records[:, 4:7]), np.ascontiguousarray(records[:, 3]))
+        # Straight into numpy arrays (no bytes object in between); indices are below 2^31, so the
+        # GPU's uint32 triangles are read as the int32 faces they are.
+        records = np.empty((self.n_vertices, VERTEX_FLOATS), np.float32)
+        self.vertex_buffer.read_into(records, self.n_vertices * VERTEX_BYTES)
+        faces = np.empty((self.n_triangles, 3), np.int32)
+        self.index_buffer.read_into(faces, self.n_triangles * INDEX_BYTES)
+        return records[:, :3].copy(), faces, records[:, 4:7].copy(), records[:, 3].copy()
 
     def scratch_bytes(self) -> int:
         """GPU memory beyond the volume texture and the mesh buffers."""
