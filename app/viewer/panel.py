@@ -53,10 +53,6 @@ class ImguiLayer:
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
 
     @property
-    def wants_mouse(self) -> bool:
-        return imgui.get_io().want_capture_mouse
-
-    @property
     def wants_keyboard(self) -> bool:
         return imgui.get_io().want_capture_keyboard
 
@@ -74,6 +70,7 @@ class Panel:
         self.expr_text = ""
         self._file_dialog = None       # a pending portable_file_dialogs.open_file
         self.covered_width = 0.0       # panel's right edge in imgui units (0 when collapsed)
+        self.iso_slider_box = None     # the iso slider's ((left, top), (right, bottom)), imgui units
 
     def draw(self, state: ViewerState) -> None:
         self._collect_file_dialog(state)
@@ -133,6 +130,7 @@ class Panel:
         low, high = state.value_range
         imgui.set_next_item_width(-1)
         changed, value = imgui.slider_float("##iso", state.iso, low, high, "%.5g")
+        self.iso_slider_box = (tuple(imgui.get_item_rect_min()), tuple(imgui.get_item_rect_max()))
         if changed:
             state.set_iso(value)
         # Typing an exact value: applied on Enter, so half-typed numbers do not extract.
