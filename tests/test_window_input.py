@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 import pytest
-from test_window import MAX_FRAMES_PER_STEP, frames_until, run_spawned, x_display  # noqa: F401 -- fixture
+from test_window import MAX_FRAMES_PER_STEP, frames_until, press_key, run_spawned, x_display  # noqa: F401 -- fixture
 
 pytestmark = pytest.mark.skipif(ctypes.util.find_library("Xtst") is None, reason="libXtst is not installed")
 
@@ -120,3 +120,49 @@ def press_routing(window, pointer):
     for _ in range(MAX_FRAMES_PER_STEP):
         window.draw_frame()
     assert camera.distance == distance, "the wheel over the panel zoomed"
+
+
+def test_the_panel_stays_reachable_and_key_r_brings_it_home(x_display):
+    run_spawned(open_window_and_run, x_display, panel_placement)
+
+
+def panel_placement(window, pointer):
+    import glfw
+    from imgui_bundle import imgui
+    from isoscope.viewer.camera import HOME_AZIMUTH
+    from isoscope.viewer.panel import PANEL_HOME, PANEL_KEEP_VISIBLE, PANEL_TITLE
+
+    def panel_box():
+        panel = imgui.internal.find_window_by_name(PANEL_TITLE)
+        return panel.pos.x, panel.pos.y, panel.size.x
+
+    def assert_title_bar_inside():
+        x, y, width = panel_box()
+        window_width, window_height = glfw.get_window_size(window.window)
+        assert x + width >= PANEL_KEEP_VISIBLE and x + PANEL_KEEP_VISIBLE <= window_width, (x, width)
+        assert 0 <= y and y + imgui.get_frame_height() <= window_height, y
+
+    assert panel_box()[:2] == PANEL_HOME
+    title_y = PANEL_HOME[1] + imgui.get_frame_height() / 2
+    # Dragged by its title bar far past the bottom-right corner: the pointer leaves the window.
+    pointer.drag(window, (150, title_y), (1000, 740))
+    assert panel_box()[0] > 300, "the drag did not move the panel"
+    assert_title_bar_inside()
+    # The window shrinks under it.
+    glfw.set_window_size(window.window, 400, 250)
+    assert frames_until(window, lambda: glfw.get_window_size(window.window) == (400, 250))
+    window.draw_frame()
+    assert_title_bar_inside()
+    # Dragged past the top-left corner, twice, by the right end of what shows of its title bar.
+    for _ in range(2):
+        x, y, width = panel_box()
+        pointer.drag(window, (min(x + width, 400) - 10, y + imgui.get_frame_height() / 2), (0, 0))
+    assert panel_box()[0] < -200, "the drag did not move the panel"
+    assert_title_bar_inside()
+
+    # Key r: the panel goes home, and the camera too.
+    pointer.drag(window, (380, 200), (390, 230))
+    assert window.camera.azimuth != pytest.approx(HOME_AZIMUTH)
+    press_key(window, "r")
+    assert frames_until(window, lambda: panel_box()[:2] == PANEL_HOME)
+    assert window.camera.azimuth == pytest.approx(HOME_AZIMUTH)

@@ -215,12 +215,17 @@ class ViewerWindow:
             " ": state.toggle_animation,
             "w": lambda: setattr(state.style, "wireframe", not state.style.wireframe),
             "l": lambda: setattr(state.style, "lighting", not state.style.lighting),
-            "r": self.camera.reset,
+            "r": self._reset_view,
             "s": self.request_screenshot,
         }
         action = actions.get(character.lower() if character.isalpha() else character)
         if action is not None:
             action()
+
+    def _reset_view(self) -> None:
+        """Key r: the camera's home view, and the panel back in its corner."""
+        self.camera.reset()
+        self.panel.go_home()
 
     def request_screenshot(self) -> None:
         self._screenshot_requested = True
