@@ -20,9 +20,10 @@ keys in the window:
   +  _      up / down by 10%
   space     animate the iso value through the range (again to stop)
   w         wireframe overlay          l   lighting on/off
-  r         reset the view             s   screenshot to a PNG (path printed and shown)
+  r         reset the view and panel   s   screenshot to a PNG (path printed and shown)
   Esc       quit
-mouse: left drag orbits, right/middle (or shift+left) drag pans, wheel zooms.
+mouse: left drag orbits, right/middle (or shift+left) drag pans, wheel zooms;
+  drag the panel by its title bar or an empty spot (it stays in reach; r puts it back).
 Drop a volume file on the window to open it.
 
 other commands (each has --help):

@@ -86,13 +86,18 @@ def frames_until(viewer_window, condition) -> bool:
     return False
 
 
-def test_window_draws_takes_keys_and_saves_a_screenshot(x_display, tmp_path):
-    child = multiprocessing.get_context("spawn").Process(target=drive_window, args=(x_display, tmp_path))
+def run_spawned(target, *args) -> None:
+    """Run a test body in a fresh process (a GLX context needs a thread without the tests' EGL one)."""
+    child = multiprocessing.get_context("spawn").Process(target=target, args=args)
     child.start()
     child.join(timeout=300)
     if child.is_alive():
         child.kill()
     assert child.exitcode == 0, "the window process failed: its traceback is in the captured stderr"
+
+
+def test_window_draws_takes_keys_and_saves_a_screenshot(x_display, tmp_path):
+    run_spawned(drive_window, x_display, tmp_path)
     assert len(list(tmp_path.glob("isoscope-*.png"))) == 2
 
 

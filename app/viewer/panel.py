@@ -16,7 +16,10 @@ from imgui_bundle import imgui
 from ..volumes import builtin_names
 from .state import ViewerState
 
+PANEL_TITLE = "isoscope"
 PANEL_WIDTH = 330
+PANEL_HOME = (8.0, 8.0)     # top-left corner, imgui units
+PANEL_KEEP_VISIBLE = 64.0   # of the panel's width, kept inside the window with its whole title bar
 ERROR_COLOR = imgui.ImVec4(1.0, 0.45, 0.40, 1.0)
 NOTE_COLOR = imgui.ImVec4(0.60, 0.85, 0.60, 1.0)
 VOLUME_FILE_FILTERS = ["Volumes", "*.npy *.npz *.nii *.nii.gz *.nrrd *.nhdr *.raw *.vol *.mhd *.tif *.tiff",
@@ -53,10 +56,6 @@ class ImguiLayer:
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
 
     @property
-    def wants_mouse(self) -> bool:
-        return imgui.get_io().want_capture_mouse
-
-    @property
     def wants_keyboard(self) -> bool:
         return imgui.get_io().want_capture_keyboard
 
@@ -74,12 +73,14 @@ class Panel:
         self.expr_text = ""
         self._file_dialog = None       # a pending portable_file_dialogs.open_file
         self.covered_width = 0.0       # panel's right edge in imgui units (0 when collapsed)
+        self.iso_slider_box = None     # the iso slider's ((left, top), (right, bottom)), imgui units
+        self._go_home = False
 
     def draw(self, state: ViewerState) -> None:
         self._collect_file_dialog(state)
-        imgui.set_next_window_pos(imgui.ImVec2(8, 8), imgui.Cond_.first_use_ever)
+        self._place()
         imgui.set_next_window_size(imgui.ImVec2(PANEL_WIDTH, 0), imgui.Cond_.first_use_ever)
-        expanded, _ = imgui.begin("isoscope")
+        expanded, _ = imgui.begin(PANEL_TITLE)
         self.covered_width = imgui.get_window_pos().x + imgui.get_window_size().x if expanded else 0.0
         if expanded:
             self._messages(state)   # first: an error must be seen, even in a short window
@@ -88,6 +89,26 @@ class Panel:
             self._display_section(state)
             self._stats_section(state)
         imgui.end()
+
+    def go_home(self) -> None:
+        """Back to the top-left corner, expanded, on the next frame (key r)."""
+        self._go_home = True
+
+    def _place(self) -> None:
+        """Home on first use and after go_home(); otherwise however the panel was dragged and the
+        window resized, its title bar stays inside the window, where it can be dragged back."""
+        panel = imgui.internal.find_window_by_name(PANEL_TITLE)
+        if panel is None or self._go_home:
+            imgui.set_next_window_pos(imgui.ImVec2(*PANEL_HOME))
+            imgui.set_next_window_collapsed(False)
+            self._go_home = False
+            return
+        display = imgui.get_io().display_size
+        keep = min(PANEL_KEEP_VISIBLE, panel.size.x)
+        x = max(min(panel.pos.x, display.x - keep), keep - panel.size.x)
+        y = max(min(panel.pos.y, display.y - imgui.get_frame_height()), 0.0)
+        if (x, y) != (panel.pos.x, panel.pos.y):
+            imgui.set_next_window_pos(imgui.ImVec2(x, y))
 
     # --- sections ----------------------------------------------------------
     def _volume_section(self, state: ViewerState) -> None:
@@ -133,6 +154,7 @@ class Panel:
         low, high = state.value_range
         imgui.set_next_item_width(-1)
         changed, value = imgui.slider_float("##iso", state.iso, low, high, "%.5g")
+        self.iso_slider_box = (tuple(imgui.get_item_rect_min()), tuple(imgui.get_item_rect_max()))
         if changed:
             state.set_iso(value)
         # Typing an exact value: applied on Enter, so half-typed numbers do not extract.

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import ctypes
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import imgui_bundle  # noqa: F401  -- before glfw: pyGLFW then loads the libglfw imgui-bundle ships
@@ -26,6 +27,19 @@ glfw.ERROR_REPORTING = "ignore"
 
 FRAME_MS_SMOOTHING = 0.1   # exponential moving average: a readable number, not a flicker
 MINIMISED_WAIT_S = 0.1
+WHEEL = -1                 # MouseEvent.action of a wheel turn
+ROUTE_WAIT_FRAMES = 4      # imgui handles a mouse event within a frame or two of its arrival
+
+
+@dataclass
+class MouseEvent:
+    """A press, release or wheel turn, kept until imgui has handled it (see _route_mouse_events)."""
+    button: int | None          # None: the wheel
+    action: int                 # glfw.PRESS, glfw.RELEASE, or WHEEL
+    mods: int
+    cursor: tuple[float, float]
+    wheel: float = 0.0          # notches, positive away from the user
+    frames_waited: int = 0
 
 
 class WindowUnavailable(RuntimeError):
@@ -85,6 +99,7 @@ class ViewerWindow:
         self._scale_ui_to_monitor()
         self.panel = Panel(can_browse=True)
         self._drag_button: int | None = None
+        self._mouse_events: list[MouseEvent] = []   # waiting for imgui to say whether they are its
         self._last_cursor = glfw.get_cursor_pos(self.window)
         self._screenshot_requested = False
         self._last_frame_start: float | None = None
@@ -119,6 +134,7 @@ class ViewerWindow:
         self._last_frame_start = now
 
         self.imgui.new_frame()
+        self._route_mouse_events()
         self.panel.draw(self.state)
         self.state.update(dt)
         if self.state.volume_serial != self._framed_serial:
@@ -199,12 +215,17 @@ class ViewerWindow:
             " ": state.toggle_animation,
             "w": lambda: setattr(state.style, "wireframe", not state.style.wireframe),
             "l": lambda: setattr(state.style, "lighting", not state.style.lighting),
-            "r": self.camera.reset,
+            "r": self._reset_view,
             "s": self.request_screenshot,
         }
         action = actions.get(character.lower() if character.isalpha() else character)
         if action is not None:
             action()
+
+    def _reset_view(self) -> None:
+        """Key r: the camera's home view, and the panel back in its corner."""
+        self.camera.reset()
+        self.panel.go_home()
 
     def request_screenshot(self) -> None:
         self._screenshot_requested = True
@@ -214,13 +235,45 @@ class ViewerWindow:
             glfw.set_window_should_close(window, True)
 
     def _on_mouse_button(self, window, button, action, mods) -> None:
-        if action == glfw.PRESS and not self.imgui.wants_mouse:
-            # Shift+left pans too, for one-button touchpads.
-            self._drag_button = glfw.MOUSE_BUTTON_RIGHT if (
-                button == glfw.MOUSE_BUTTON_LEFT and mods & glfw.MOD_SHIFT) else button
-            self._last_cursor = glfw.get_cursor_pos(window)
-        elif action == glfw.RELEASE:
-            self._drag_button = None
+        # Routed after imgui.new_frame(), not here: want_capture_mouse read here describes the previous
+        # frame, so a press that came with the cursor's arrival over the panel went to the camera and
+        # the slider both.
+        if button <= glfw.MOUSE_BUTTON_MIDDLE:
+            self._mouse_events.append(MouseEvent(button, action, mods, self._last_cursor))
+
+    def _route_mouse_events(self) -> None:
+        """After imgui.new_frame(): the camera gets each press and wheel turn that imgui did not take.
+
+        imgui may hold an event over to a later frame (its input trickling: one change per button
+        and frame, no move after a press or a wheel turn), so events wait, in order, for the frame
+        in which imgui handled them; ROUTE_WAIT_FRAMES bounds the wait should imgui drop one."""
+        from imgui_bundle import imgui
+        io = imgui.get_io()
+        handled = {(button, glfw.PRESS) for button in range(3) if io.mouse_clicked[button]}
+        handled |= {(button, glfw.RELEASE) for button in range(3) if io.mouse_released[button]}
+        if io.mouse_wheel or io.mouse_wheel_h:
+            handled.add((None, WHEEL))
+        waiting = []
+        for event in self._mouse_events:
+            key = (event.button, event.action)
+            if waiting or (key not in handled and event.frames_waited < ROUTE_WAIT_FRAMES):
+                event.frames_waited += 1
+                waiting.append(event)
+                continue
+            if event.button is not None:
+                handled.discard(key)   # one change per button and frame
+            if event.action == glfw.RELEASE:
+                self._drag_button = None
+            elif io.want_capture_mouse:
+                continue
+            elif event.button is None:
+                self.camera.zoom(event.wheel)
+            else:
+                # Shift+left pans too, for one-button touchpads.
+                self._drag_button = glfw.MOUSE_BUTTON_RIGHT if (
+                    event.button == glfw.MOUSE_BUTTON_LEFT and event.mods & glfw.MOD_SHIFT) else event.button
+                self._last_cursor = event.cursor   # the next move drags from where the press was
+        self._mouse_events = waiting
 
     def _on_cursor(self, window, x: float, y: float) -> None:
         dx, dy = x - self._last_cursor[0], y - self._last_cursor[1]
@@ -231,8 +284,7 @@ class ViewerWindow:
             self.camera.pan(dx, dy, glfw.get_window_size(window)[1])
 
     def _on_scroll(self, window, x_offset: float, y_offset: float) -> None:
-        if not self.imgui.wants_mouse:
-            self.camera.zoom(y_offset)
+        self._mouse_events.append(MouseEvent(None, WHEEL, 0, self._last_cursor, y_offset))
 
     def _on_drop(self, window, paths) -> None:
         if paths:
