@@ -16,11 +16,12 @@ indexed mesh and sized from the scans, so nothing is ever dropped):
                        in each vertex's slot the edge it lies on (a job for pass 8)
 8. ``mc_vertices``     one invocation per vertex: position, value and outward normal
 
-Passes 2-7 are dispatched indirectly from the active count, so an iso change
-touches only the bricks whose range contains the new level.  Scratch: 16 bytes
-per 32-sample word plus 20 per brick (about 0.5 byte per voxel; 0.75 for a moment
-while the brick ranges are measured).  The only read-back is the two totals,
-8 bytes, needed to size the outputs.
+Between passes 1 and 2, ``mc_dispatch_args`` turns the active count into the indirect
+dispatch sizes of passes 2-7, so an iso change touches only the bricks whose range
+contains the new level.  Scratch: 16 bytes per 32-sample word plus 20 per brick (about
+0.5 byte per voxel; 0.75 for a moment while the brick ranges are measured).  Read-backs
+per extraction: the two totals (8 bytes), which size the outputs, and after the passes
+the active-brick count (4 bytes), for the stats.
 
 What the passes read often (the volume, per-word signs, counts and offsets) lives in
 images and the case table in a uniform block: on llvmpipe an SSBO load costs 4-6 times
@@ -36,7 +37,7 @@ import numpy as np
 from . import validation
 from .case_table import CaseTable, montani_table
 from .gl_context import current_or_standalone
-from .gpu_layout import BRICK_I, BRICK_J, GROUP_SIZE, INDEX_BYTES, VERTEX_BYTES, VERTEX_FLOATS
+from .gpu_layout import GROUP_SIZE, INDEX_BYTES, VERTEX_BYTES, VERTEX_FLOATS
 from .gpu_limits import GpuLimits, GPULimitError, plan_extractor
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .reference import empty_mesh
@@ -76,9 +77,8 @@ class Extractor:
 
         case_words = self.table.packed_for_gpu()
         self._case_words = np.concatenate([case_words, np.zeros(-len(case_words) % 4, np.uint32)])  # whole uvec4s
-        defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u",
-                   "CASE_TABLE_QUADS": len(self._case_words) // 4,
-                   "BRICK_I": BRICK_I, "BRICK_J": BRICK_J, "BRICK_WORDS": BRICK_I * BRICK_J}
+        defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u",  # the layout's come with every program
+                   "CASE_TABLE_QUADS": len(self._case_words) // 4}
         self._passes = {name: compute_program(self.ctx, f"{name}.comp", defines) for name in PASSES}
 
         self.n_vertices = 0
@@ -207,7 +207,7 @@ class Extractor:
         return n_vertices, n_triangles
 
     def _count(self) -> tuple[int, int]:
-        """Passes 1-5: skip, pack signs, classify, scan; returns the totals (the one read-back)."""
+        """Passes 1-5: skip, pack signs, classify, brick sums, scan; returns the totals (read back)."""
         self._bind((1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets), (7, self._active_bricks),
                    (8, self._brick_ranges), (9, self._dispatch_args))
         dispatch_groups(self._passes["mc_bricks"], -(-(self.brick_count + 1) // GROUP_SIZE))

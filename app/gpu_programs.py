@@ -5,19 +5,21 @@ import weakref
 
 import moderngl
 
+from .gpu_layout import MAX_GROUPS_PER_DIMENSION, shader_defines
 from .resources import shader_source
-
-MAX_GROUPS_PER_DIMENSION = 65535
 
 _cache: "weakref.WeakKeyDictionary[moderngl.Context, dict]" = weakref.WeakKeyDictionary()
 
 
 def compute_program(ctx: moderngl.Context, name: str, defines: dict | None = None) -> moderngl.ComputeShader:
-    """shaders/NAME compiled for ctx, cached: llvmpipe spends tens of ms compiling each one."""
+    """shaders/NAME compiled for ctx, cached: llvmpipe spends tens of ms compiling each one.
+
+    Every program gets gpu_layout's #defines, then `defines` (the case table's sizes and the like).
+    """
     programs = _cache.setdefault(ctx, {})
     key = (name, tuple(sorted((defines or {}).items())))
     if key not in programs:
-        programs[key] = ctx.compute_shader(shader_source(name, defines))
+        programs[key] = ctx.compute_shader(shader_source(name, {**shader_defines(), **(defines or {})}))
     return programs[key]
 
 

@@ -26,12 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from .case_table import EDGE_AXIS, EDGE_ORIGIN, CaseTable, montani_table
-
-EDGE_MARGIN = np.float32(1.0 / 256.0)
-"""Smallest edge parameter of a vertex; shaders/mc_common.glsl holds the same number."""
-
-WORD_BITS = 32
-BRICK_I = BRICK_J = 8  # rows of words per brick along axes 0 and 1: one GPU work group each
+from .gpu_layout import BRICK_I, BRICK_J, EDGE_MARGIN, WORD_BITS
 
 
 def brick_order_key(points: np.ndarray, shape) -> np.ndarray:

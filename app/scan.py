@@ -3,13 +3,12 @@ from __future__ import annotations
 
 import moderngl
 
+from .gpu_layout import SCAN_BLOCK
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
-
-BLOCK = 1024  # elements per work group: 256 invocations x 4 (shaders/scan_*.comp)
 
 
 class ExclusiveScan:
-    """Scans buffers of up to `capacity` elements; keeps one scratch buffer per level."""
+    """Scans uint32 buffers of any length in place; keeps one scratch buffer of block sums per level."""
 
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
@@ -28,7 +27,7 @@ class ExclusiveScan:
 
     def __call__(self, data: moderngl.Buffer, count: int, level: int = 0) -> None:
         """data[i] <- sum(data[:i]) for i < count."""
-        blocks = -(-count // BLOCK)
+        blocks = -(-count // SCAN_BLOCK)
         if blocks <= 1:
             data.bind_to_storage_buffer(0)
             set_uniforms(self._apply, u_count=count, u_blocks=1, u_has_offsets=False)

@@ -1,4 +1,5 @@
-// Passes dispatched indirectly over the bricks that the signs pass found active.
+// Passes dispatched indirectly over the active bricks: those whose value range the level cuts,
+// listed by mc_bricks.comp (pass 1).
 // No pass here uses barrier(): on llvmpipe a work group with barriers runs its invocations as
 // coroutines and costs two to four times as much, so per-brick sums and offsets are serial loops
 // in one invocation per brick (mc_brick_sums.comp, mc_word_offsets.comp).
@@ -22,10 +23,7 @@ bool active_brick_of_invocation(out uint brick) {
 
 // The grid word id of word `local` (0 .. WORDS_PER_BRICK-1) of `brick`, or false outside the grid.
 bool word_of_brick(uint brick, uint local, out uint word_id) {
-    int w = int(brick % uint(u_words));
-    uint column = brick / uint(u_words);
-    int i = int(column / uint(u_bricks.y)) * BRICK_I + int(local) / BRICK_J;
-    int j = int(column % uint(u_bricks.y)) * BRICK_J + int(local) % BRICK_J;
-    word_id = word_id_of(i, j, w);
-    return i < u_dims.x && j < u_dims.y;
+    ivec3 word = brick_origin(brick) + ivec3(int(local) / BRICK_J, int(local) % BRICK_J, 0);
+    word_id = word_id_of(word.x, word.y, word.z);
+    return word.x < u_dims.x && word.y < u_dims.y;
 }

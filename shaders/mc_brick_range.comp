@@ -2,7 +2,7 @@
 // Once per volume, step 2 of 2, one invocation per brick: the value range of every sample the
 // brick's words' edges and cells touch: its rows plus one more row along axes 0 and 1.
 // A level outside this range cannot cut the brick, whatever the level before it was.
-layout(local_size_x = 64) in;
+layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
 
 layout(std430, binding = 8) readonly buffer RowRanges { vec2 row_ranges[]; };
@@ -11,13 +11,11 @@ layout(std430, binding = 9) writeonly buffer BrickRanges { vec2 brick_ranges[]; 
 void main() {
     uint brick = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
     if (brick >= u_brick_count) return;
-    int w = int(brick % uint(u_words));
-    uint column = brick / uint(u_words);
-    int i0 = int(column / uint(u_bricks.y)) * BRICK_I, j0 = int(column % uint(u_bricks.y)) * BRICK_J;
+    ivec3 origin = brick_origin(brick);
     vec2 range = vec2(1.0 / 0.0, -1.0 / 0.0);
-    for (int i = i0; i <= min(i0 + BRICK_I, u_dims.x - 1); ++i) {
-        for (int j = j0; j <= min(j0 + BRICK_J, u_dims.y - 1); ++j) {
-            vec2 r = row_ranges[word_id_of(i, j, w)];
+    for (int i = origin.x; i <= min(origin.x + BRICK_I, u_dims.x - 1); ++i) {
+        for (int j = origin.y; j <= min(origin.y + BRICK_J, u_dims.y - 1); ++j) {
+            vec2 r = row_ranges[word_id_of(i, j, origin.z)];
             range = vec2(min(range.x, r.x), max(range.y, r.y));
         }
     }

@@ -1,6 +1,6 @@
 #version 430
-// Pass 3, one invocation per active brick: the brick's vertex and triangle totals, for the scans.
-layout(local_size_x = 64) in;
+// Pass 4, one invocation per active brick: the brick's vertex and triangle totals, for the scans.
+layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
 #include "mc_active_bricks.glsl"
 

@@ -3,7 +3,7 @@
 // A brick on one side writes its constant sign words here (neighbours' cells read them)
 // and zero counts; the others are appended to the active list that every later pass
 // runs over, so an iso change costs only the bricks it can touch.  Ties count as inside.
-layout(local_size_x = 64) in;
+layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
 
 layout(r32ui, binding = 1) writeonly uniform uimage2D u_sign_words;
@@ -27,13 +27,11 @@ void main() {
     }
     brick_vertex_counts[brick] = 0u;
     brick_triangle_counts[brick] = 0u;
-    int w = int(brick % uint(u_words));
-    uint bits = all_inside ? point_bits(w) : 0u;
-    uint column = brick / uint(u_words);
-    int i0 = int(column / uint(u_bricks.y)) * BRICK_I, j0 = int(column % uint(u_bricks.y)) * BRICK_J;
-    for (int i = i0; i < min(i0 + BRICK_I, u_dims.x); ++i) {
-        for (int j = j0; j < min(j0 + BRICK_J, u_dims.y); ++j) {
-            imageStore(u_sign_words, word_texel(word_id_of(i, j, w)), uvec4(bits));
+    ivec3 origin = brick_origin(brick);
+    uint bits = all_inside ? point_bits(origin.z) : 0u;
+    for (int i = origin.x; i < min(origin.x + BRICK_I, u_dims.x); ++i) {
+        for (int j = origin.y; j < min(origin.y + BRICK_J, u_dims.y); ++j) {
+            imageStore(u_sign_words, word_texel(word_id_of(i, j, origin.z)), uvec4(bits));
         }
     }
 }

@@ -1,5 +1,5 @@
 #version 430
-// Pass 2, over active bricks, one invocation per word: the vertices the word owns (per axis)
+// Pass 3, over active bricks, one invocation per word: the vertices the word owns (per axis)
 // and the triangles of its cells, packed into one uint for the passes that follow.
 layout(local_size_x = BRICK_WORDS) in;
 #include "mc_common.glsl"

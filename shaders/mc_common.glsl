@@ -10,14 +10,17 @@
 // the same either way (benchmarks/bench_loads.py).  SSBOs remain for the output mesh, which
 // the renderer draws, and for the per-brick lists.
 //
-// Words are grouped into bricks of BRICK_I x BRICK_J rows x 1 word (injected
-// from app/reference.py).  A brick is one work group, one invocation per word;
+// Every layout number (WORD_BITS, BRICK_I, BRICK_J, BRICK_WORDS, SAMPLES_PER_TEXEL, EDGE_MARGIN,
+// GROUP_SIZE, ...) is a #define injected from app/gpu_layout.py, the one place it is written.
+//
+// Words are grouped into bricks of BRICK_I x BRICK_J rows x 1 word.  A brick is one work group
+// of the per-word passes, one invocation per word;
 // brick id = (bi * bricks_j + bj) * u_words + w.  Each brick has the value range
 // of every sample its words' edges and cells touch, so a level outside it means
 // the brick has no surface, whatever the level was before.
 
 uniform ivec3 u_dims;      // n0, n1, n2: samples per axis
-uniform int u_words;       // words per row: ceil(n2 / 32)
+uniform int u_words;       // words per row: ceil(n2 / WORD_BITS)
 uniform ivec2 u_bricks;    // bricks along axes 0 and 1 (a brick is one word deep along axis 2)
 uniform uint u_brick_count;
 uniform float u_level;     // level * u_sign
@@ -26,8 +29,8 @@ uniform vec3 u_spacing;
 uniform uint u_word_shift;  // log2 of the per-word images' width
 layout(rgba32f, binding = 0) readonly uniform image3D u_volume;
 
-const float EDGE_MARGIN = 1.0 / 256.0;  // app/reference.py EDGE_MARGIN: vertices stay off grid points
 const uint WORDS_PER_BRICK = uint(BRICK_WORDS);  // BRICK_I * BRICK_J, injected as a literal for local_size_x
+const int QUADS_PER_WORD = WORD_BITS / SAMPLES_PER_TEXEL;  // volume texels (4 samples each) per sign word
 
 uint linear_group() {  // dispatches fold into 2-D past 65535 groups
     return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
@@ -37,27 +40,47 @@ uint word_id_of(int i, int j, int w) {
     return (uint(i) * uint(u_dims.y) + uint(j)) * uint(u_words) + uint(w);
 }
 
+// The inverse of word_id_of: (i, j, w) of word `id`.
+ivec3 word_of_id(uint id) {
+    uint row = id / uint(u_words);
+    return ivec3(int(row / uint(u_dims.y)), int(row % uint(u_dims.y)), int(id % uint(u_words)));
+}
+
+// Brick `brick`'s first word (i0, j0, w): brick id = (bi * bricks_j + bj) * u_words + w.
+ivec3 brick_origin(uint brick) {
+    uint column = brick / uint(u_words);
+    return ivec3(int(column / uint(u_bricks.y)) * BRICK_I, int(column % uint(u_bricks.y)) * BRICK_J,
+                 int(brick % uint(u_words)));
+}
+
+// A vertex job, left in the vertex's slot by mc_triangles.comp for mc_vertices.comp: the owning
+// word's id, the edge's axis and the bit of its start sample, in one uint (word id << 7 | axis << 5
+// | bit: 5 bits for a bit of WORD_BITS = 32, so at most 2^25 words, gpu_layout.MAX_WORDS).
+uint vertex_job(uint word_id, uint axis, uint bit) { return (word_id << 7) | (axis << 5) | bit; }
+ivec3 job_start(uint job) {  // the edge's start sample
+    ivec3 word = word_of_id(job >> 7);
+    return ivec3(word.xy, word.z * WORD_BITS + int(job & uint(WORD_BITS - 1)));
+}
+int job_axis(uint job) { return int((job >> 5) & 3u); }
+
 // The texel of word `id` in a per-word image.
 ivec2 word_texel(uint id) { return ivec2(id & ((1u << u_word_shift) - 1u), id >> u_word_shift); }
 
 // This invocation's word in brick `brick` (one invocation per word): (i, j, w), and whether it
 // lies inside the grid.
 ivec3 brick_word(uint brick, out bool exists) {
-    int w = int(brick % uint(u_words));
-    uint column = brick / uint(u_words);
-    int bi = int(column / uint(u_bricks.y)), bj = int(column % uint(u_bricks.y));
     int local = int(gl_LocalInvocationIndex);
-    ivec3 word = ivec3(bi * BRICK_I + local / BRICK_J, bj * BRICK_J + local % BRICK_J, w);
+    ivec3 word = brick_origin(brick) + ivec3(local / BRICK_J, local % BRICK_J, 0);
     exists = word.x < u_dims.x && word.y < u_dims.y;
     return word;
 }
 
 // Bits of a word whose samples exist (k < n2) and whose axis-2 edge exists (k < n2 - 1).
 uint low_bits(int count) {
-    return count >= 32 ? 0xFFFFFFFFu : (count <= 0 ? 0u : (1u << uint(count)) - 1u);
+    return count >= WORD_BITS ? 0xFFFFFFFFu : (count <= 0 ? 0u : (1u << uint(count)) - 1u);
 }
-uint point_bits(int w) { return low_bits(u_dims.z - 32 * w); }
-uint axis2_edge_bits(int w) { return low_bits(u_dims.z - 1 - 32 * w); }
+uint point_bits(int w) { return low_bits(u_dims.z - WORD_BITS * w); }
+uint axis2_edge_bits(int w) { return low_bits(u_dims.z - 1 - WORD_BITS * w); }
 
 // Component `c` of `v`, by selects: llvmpipe turns indexing by a variable (of arrays or
 // vectors) into stack-memory traffic, which once cost half of the triangle pass.
@@ -66,7 +89,9 @@ float pick(vec4 v, uint c) { return c == 0u ? v.x : c == 1u ? v.y : c == 2u ? v.
 
 // Samples 4q .. 4q+3 of row (i, j); past the grid's end, zeros.
 vec4 quad_at(int i, int j, int q) { return imageLoad(u_volume, ivec3(q, j, i)); }
-float sample_at(ivec3 p) { return pick(quad_at(p.x, p.y, p.z >> 2), uint(p.z & 3)); }
+float sample_at(ivec3 p) {
+    return pick(quad_at(p.x, p.y, p.z / SAMPLES_PER_TEXEL), uint(p.z % SAMPLES_PER_TEXEL));
+}
 float field_at(ivec3 p) { return u_sign * sample_at(p); }
 
 // Per word, packed counts: vertices it owns along axes 0, 1, 2 (6 bits each) and triangles of its cells.

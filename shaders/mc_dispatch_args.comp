@@ -1,14 +1,14 @@
 #version 430
-// Between passes: turn the active-brick count into indirect dispatch sizes, folded into
-// 2-D because one dimension holds at most 65535 work groups.
+// Between passes 1 and 2: turn the active-brick count into indirect dispatch sizes, folded into
+// 2-D because one dimension holds at most MAX_GROUPS_PER_DIMENSION work groups.
 layout(local_size_x = 1) in;
 
 layout(std430, binding = 7) readonly buffer ActiveBricks { uint active_count; uint active_bricks[]; };
-// Two sets: one work group per active brick, and one invocation per active brick (64 a group).
+// Two sets: one work group per active brick, and one invocation per active brick (GROUP_SIZE a group).
 layout(std430, binding = 9) writeonly buffer DispatchArgs { uint groups[6]; };
 
 void fold(uint count, uint at) {
-    uint x = min(count, 65535u);
+    uint x = min(count, uint(MAX_GROUPS_PER_DIMENSION));
     groups[at] = max(x, 1u);
     groups[at + 1u] = x == 0u ? 0u : (count + x - 1u) / x;
     groups[at + 2u] = 1u;
@@ -16,5 +16,5 @@ void fold(uint count, uint at) {
 
 void main() {
     fold(active_count, 0u);
-    fold((active_count + 63u) / 64u, 3u);
+    fold((active_count + uint(GROUP_SIZE) - 1u) / uint(GROUP_SIZE), 3u);
 }

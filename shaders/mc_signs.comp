@@ -1,7 +1,7 @@
 #version 430
 // Pass 2, over active bricks, one invocation per word: pack the inside bit of each of its
-// 32 samples along axis 2.  Ties count as inside: the seed's perturbation of exact zeros,
-// done symbolically, so no later pass needs a special case.
+// WORD_BITS samples along axis 2.  Ties count as inside (a symbolic perturbation: a sample equal
+// to the level is taken as just above it), so no later pass needs a special case.
 layout(local_size_x = BRICK_WORDS) in;
 #include "mc_common.glsl"
 #include "mc_active_bricks.glsl"
@@ -15,9 +15,10 @@ void main() {
     ivec3 word = brick_word(brick, exists);
     if (!exists) return;
     uint bits = 0u;
-    for (int q = 0; q < 8; ++q) {  // 4 samples per load
-        bvec4 inside = greaterThanEqual(u_sign * quad_at(word.x, word.y, 8 * word.z + q), vec4(u_level));
-        bits |= (uint(inside.x) | uint(inside.y) << 1 | uint(inside.z) << 2 | uint(inside.w) << 3) << uint(4 * q);
+    for (int q = 0; q < QUADS_PER_WORD; ++q) {  // SAMPLES_PER_TEXEL (4) samples per load
+        bvec4 inside = greaterThanEqual(u_sign * quad_at(word.x, word.y, QUADS_PER_WORD * word.z + q), vec4(u_level));
+        bits |= (uint(inside.x) | uint(inside.y) << 1 | uint(inside.z) << 2 | uint(inside.w) << 3)
+                << uint(SAMPLES_PER_TEXEL * q);
     }
     imageStore(u_sign_words, word_texel(word_id_of(word.x, word.y, word.z)), uvec4(bits & point_bits(word.z)));
 }

@@ -13,7 +13,7 @@ layout(local_size_x = BRICK_WORDS) in;
 layout(r32ui, binding = 2) readonly uniform uimage2D u_word_counts;
 layout(rg32ui, binding = 3) readonly uniform uimage2D u_word_offsets;  // (first vertex, first triangle)
 layout(std430, binding = 6) writeonly buffer Indices { uint indices[]; };
-layout(std430, binding = 8) writeonly buffer VertexRecords { uint vertex_words[]; };  // 8 per vertex
+layout(std430, binding = 8) writeonly buffer VertexRecords { uint vertex_words[]; };  // VERTEX_FLOATS per vertex
 
 // Where each axis's vertices start in the words owning a cell row's edges, per sign row around
 // the cells (component d0 | d1 << 1): in word w, and in word w + 1 (reached from cell 31, only
@@ -37,7 +37,7 @@ OwnerStarts owner_starts(ivec3 word, bool need_next) {
     s.along1 = uvec4(s0.y, s1.y, s2.y, s3.y);
     s.along2 = uvec4(s0.z, s1.z, s2.z, s3.z);
     s.next0 = s.next1 = uvec4(0u);
-    if (need_next) {  // only when cell 31 is cut, so word w + 1 exists
+    if (need_next) {  // only when the word's last cell is cut, so word w + 1 exists
         uvec3 n0 = axis_starts(word_id_of(word.x, word.y, word.z + 1));
         uvec3 n1 = axis_starts(word_id_of(word.x + 1, word.y, word.z + 1));
         uvec3 n2 = axis_starts(word_id_of(word.x, word.y + 1, word.z + 1));
@@ -57,7 +57,7 @@ uint vertex_index(CellRows rows, OwnerStarts starts, uint k, uint edge) {
     uint d2 = axis == 2u ? 0u : low >> 1;
     uint row = d0 | (d1 << 1);  // the owner's sign row among the four around the cells
     uint bit = k + d2;
-    if (bit == 32u) return pick(axis == 0u ? starts.next0 : starts.next1, row);
+    if (bit == uint(WORD_BITS)) return pick(axis == 0u ? starts.next0 : starts.next1, row);
     uint here = pick(rows.at_k, row);
     uint crossing = axis == 0u ? here ^ pick(rows.at_k, row | 1u)
                   : axis == 1u ? here ^ pick(rows.at_k, row | 2u)
@@ -77,7 +77,7 @@ void write_vertex_jobs(uint id, uint next, uint count, uvec3 crossing) {
         }
         uint b = uint(findLSB(bits));
         bits &= bits - 1u;
-        vertex_words[8u * next] = (id << 7) | (axis << 5) | b;  // one uint: SSBO loads are dear
+        vertex_words[uint(VERTEX_FLOATS) * next] = vertex_job(id, axis, b);  // one uint: SSBO loads are dear
     }
 }
 
@@ -101,7 +101,7 @@ void main() {
     uint next = first.y;
     uint end = next + triangle_total(counts);
     uint cells = mixed_cells(rows, word.z);
-    OwnerStarts starts = owner_starts(word, (cells >> 31) != 0u);
+    OwnerStarts starts = owner_starts(word, (cells >> uint(WORD_BITS - 1)) != 0u);
     // One iteration per triangle (not nested loops over cells and their triangles): SIMD lanes
     // working on different words then stay in step for as long as each has triangles left.
     uint k = 0u, c = 0u, slot = 0u, cell_triangles = 0u;

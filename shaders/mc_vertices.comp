@@ -1,7 +1,7 @@
 #version 430
 // Pass 8, one invocation per vertex: replace the job that mc_triangles.comp left in the
 // vertex's slot by its position, value and outward normal.
-layout(local_size_x = 64) in;
+layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
 
 uniform uint u_vertex_count;
@@ -40,9 +40,6 @@ Vertex edge_vertex(ivec3 p0, int axis) {
 void main() {
     uint index = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
     if (index >= u_vertex_count) return;
-    uint job = floatBitsToUint(vertices[index].position_value.x);  // word id << 7 | axis << 5 | bit
-    uint word = job >> 7;
-    uint w = word % uint(u_words), row = word / uint(u_words);
-    ivec3 p0 = ivec3(int(row / uint(u_dims.y)), int(row % uint(u_dims.y)), int(w) * 32 + int(job & 31u));
-    vertices[index] = edge_vertex(p0, int((job >> 5) & 3u));
+    uint job = floatBitsToUint(vertices[index].position_value.x);  // see vertex_job() in mc_common.glsl
+    vertices[index] = edge_vertex(job_start(job), job_axis(job));
 }

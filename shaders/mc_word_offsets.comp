@@ -1,7 +1,7 @@
 #version 430
-// Pass 5, one invocation per active brick: each word's first vertex and first triangle, from
+// Pass 6, one invocation per active brick: each word's first vertex and first triangle, from
 // the brick's scanned offsets plus the words before it in the brick.
-layout(local_size_x = 64) in;
+layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
 #include "mc_active_bricks.glsl"
 
