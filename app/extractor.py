@@ -37,10 +37,10 @@ import numpy as np
 from . import validation
 from .case_table import CaseTable, montani_table
 from .gl_context import current_or_standalone
-from .gpu_layout import GROUP_SIZE, INDEX_BYTES, VERTEX_BYTES, VERTEX_FLOATS
+from .gpu_layout import GROUP_SIZE, INDEX_BYTES, VERTEX_BYTES
 from .gpu_limits import GpuLimits, GPULimitError, plan_extractor
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
-from .reference import empty_mesh
+from .mesh import GpuMesh
 from .scan import ExclusiveScan
 from .volume_texture import upload_volume
 
@@ -237,17 +237,14 @@ class Extractor:
         dispatch_groups(self._passes["mc_vertices"], -(-n_vertices // GROUP_SIZE))
         self.ctx.memory_barrier()
 
+    @property
+    def mesh(self) -> GpuMesh:
+        """The last extraction, in this extractor's buffers (valid until the next extract or release)."""
+        return GpuMesh(self.vertex_buffer, self.index_buffer, self.n_vertices, self.n_triangles)
+
     def read_mesh(self):
         """The last extraction as numpy arrays: verts, faces, normals, values (skimage's layout)."""
-        if self.n_vertices == 0:
-            return empty_mesh()
-        # Straight into numpy arrays (no bytes object in between); indices are below 2^31, so the
-        # GPU's uint32 triangles are read as the int32 faces they are.
-        records = np.empty((self.n_vertices, VERTEX_FLOATS), np.float32)
-        self.vertex_buffer.read_into(records, self.n_vertices * VERTEX_BYTES)
-        faces = np.empty((self.n_triangles, 3), np.int32)
-        self.index_buffer.read_into(faces, self.n_triangles * INDEX_BYTES)
-        return records[:, :3].copy(), faces, records[:, 4:7].copy(), records[:, 3].copy()
+        return self.mesh.read()
 
     def scratch_bytes(self) -> int:
         """GPU memory beyond the volume texture and the mesh buffers."""

@@ -45,12 +45,21 @@ MAX_GROUPS_PER_DIMENSION = 65535
 """GL's guaranteed work groups per dispatch dimension; longer dispatches fold into 2-D."""
 
 # --- the mesh the extractor writes and the renderer draws ------------------------------------------
-VERTEX_FLOATS = 8
-VERTEX_BYTES = 4 * VERTEX_FLOATS
-"""One vertex record, std430: vec4(position.xyz, value), vec4(normal.xyz, 0)."""
+VERTEX_FIELDS = (("position", 3), ("value", 1), ("normal", 3), ("", 1))
+"""One vertex record, std430: vec4(position.xyz, value), vec4(normal.xyz, 0); floats per field."""
 
-VERTEX_FORMAT = "3f 1f 3f 1x4"
-"""The record as a moderngl buffer format: position, value, normal, padding."""
+VERTEX_FLOATS = sum(n for _, n in VERTEX_FIELDS)
+VERTEX_BYTES = 4 * VERTEX_FLOATS
+
+
+def vertex_format(*names: str) -> str:
+    """A moderngl buffer format reading the named fields of the record and skipping the others,
+    e.g. vertex_format("position", "normal") == "3f 1x4 3f 1x4"."""
+    return " ".join(f"{n}f" if field and field in names else f"{n}x4" for field, n in VERTEX_FIELDS)
+
+
+VERTEX_FORMAT = vertex_format("position", "value", "normal")
+"""The whole record as a moderngl buffer format."""
 
 INDEX_BYTES = 12
 """One triangle: three uint32 vertex indices."""

@@ -109,12 +109,6 @@ def place_vertices(field, inside, level, points, axes, spacing, sign):
     return positions, normals.astype(np.float32), values.astype(np.float32)
 
 
-def empty_mesh():
-    """verts, faces, normals, values of a level with no surface."""
-    return (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32),
-            np.zeros((0, 3), np.float32), np.zeros((0,), np.float32))
-
-
 def marching_cubes_reference(volume: np.ndarray, level: float, spacing=(1.0, 1.0, 1.0),
                              descent: bool = True, table: CaseTable | None = None):
     """verts (N,3) float32, faces (M,3) int32, normals (N,3) float32, values (N,) float32.

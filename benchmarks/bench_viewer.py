@@ -53,7 +53,7 @@ def main(argv=None) -> int:
     width, height = (int(v) for v in args.size.lower().split("x"))
 
     with display():
-        from isoscope.viewer.state import RecentFiles
+        from isoscope.viewer.recent import RecentFiles
         from isoscope.viewer.window import ViewerWindow
         from isoscope.volumes import DEFAULT_VOLUME, open_volume
 

@@ -107,3 +107,52 @@ def test_bounding_box_is_drawn(viewer):
     with_box = viewer.render()
     changed = np.abs(with_box.astype(int) - without_box.astype(int)).max(axis=2) > 30
     assert changed.sum() > 200
+
+
+def cube_records(centre, half=0.3) -> tuple[np.ndarray, np.ndarray]:
+    """A closed cube as the extractor's vertex records (position, value, normal, pad) and
+    outward, counter-clockwise triangles: made here, by hand, not by any extractor."""
+    corners = np.array([[(i >> k) & 1 for k in range(3)] for i in range(8)], np.float32) * 2 - 1
+    quads = [(0, 1, 3, 2), (4, 5, 7, 6), (0, 1, 5, 4), (2, 3, 7, 6), (0, 2, 6, 4), (1, 3, 7, 5)]
+    faces = []
+    for a, b, c, d in quads:
+        for tri in ((a, b, c), (a, c, d)):
+            p = corners[list(tri)]
+            if np.dot(np.cross(p[1] - p[0], p[2] - p[0]), p.mean(axis=0)) < 0:  # wind it outwards
+                tri = tri[::-1]
+            faces.append(tri)
+    records = np.zeros((8, 8), np.float32)
+    records[:, :3] = np.asarray(centre, np.float32) + half * corners
+    records[:, 3] = 42.0  # a value the renderer must skip
+    records[:, 4:7] = corners / np.linalg.norm(corners, axis=1, keepdims=True)
+    return records, np.array(faces, np.uint32)
+
+
+def test_the_renderer_draws_any_gpu_mesh_record(viewer, gl_ctx):
+    from isoscope.mesh import GpuMesh
+    viewer.show(small_sphere(), iso=0.0, azimuth=0, elevation=0)  # only for the camera framing
+    viewer.state.style.lighting = False                            # flat colours: exact pixel facts
+    style, camera = viewer.state.style, viewer.camera
+    owned, meshes = [], []
+    for dz in (-0.45, 0.45):  # one below the other about the view's centre: z is up on the screen
+        records, faces = cube_records(camera.target + (0, 0, dz))
+        vbo, ibo = gl_ctx.buffer(records.tobytes()), gl_ctx.buffer(faces.tobytes())
+        owned += [vbo, ibo]
+        meshes.append(GpuMesh(vbo, ibo, len(records), len(faces)))
+
+    def draw(drawn):
+        viewer.target.use()
+        viewer.renderer.draw(drawn, camera, viewer.target.viewport, style)
+        return viewer.target.read_rgb()
+    try:
+        nothing, low, both = draw([]), draw(meshes[:1]), draw(meshes)
+    finally:
+        for buffer in owned:
+            buffer.release()
+    front = np.round(255 * np.array(style.front_color)).astype(int)
+    assert not surface_mask(nothing, style.background).any()
+    low_rows = np.nonzero((np.abs(low.astype(int) - front) <= 2).all(axis=2))[0]
+    both_rows = np.nonzero((np.abs(both.astype(int) - front) <= 2).all(axis=2))[0]
+    assert len(low_rows) > 200                                      # outward winding: front colour
+    assert len(both_rows) == pytest.approx(2 * len(low_rows), rel=0.05)
+    assert low_rows.min() > SIZE[1] / 2 > both_rows.min()           # the second cube is above the first

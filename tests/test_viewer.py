@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from isoscope.viewer.headless import HeadlessViewer
-from isoscope.viewer.state import RecentFiles
+from isoscope.viewer.recent import RecentFiles
+from isoscope.viewer.style import SurfaceStyle
 from isoscope.volumes import open_volume
 
 SIZE = (480, 360)
@@ -60,15 +61,36 @@ def test_animation_sweeps_the_iso_through_the_range(viewer):
     assert state.iso == frozen
 
 
-def test_panel_draws_over_its_corner_only(viewer):
-    without_panel = viewer.render(panel=False)
-    with_panel = viewer.render(panel=True)
+BACKGROUND = np.round(255 * np.array(SurfaceStyle().background)).astype(int)
+
+
+def scene_pixels(image):
+    """Where something other than the background colour is drawn."""
+    return (np.abs(image.astype(int) - BACKGROUND) > 3).any(axis=2)
+
+
+def test_panel_draws_over_its_corner_only(gl_ctx):
+    size = (960, 600)  # wide enough that the scene fits beside the panel
+    viewer = HeadlessViewer(size, ctx=gl_ctx)
+    try:
+        viewer.show(open_volume("sphere", resolution=32), iso=0.0)
+        without_panel = viewer.render(panel=False)
+        with_panel = viewer.render(panel=True)
+        x, y, width, height = (int(round(v)) for v in viewer._panel.box)
+    finally:
+        viewer.release()
+    assert (x, y) == (8, 8) and 200 < width < size[0] // 2 and 100 < height <= size[1]
+    inside = np.zeros(size[::-1], bool)
+    inside[y:y + height, x:x + width] = True
     changed = np.abs(with_panel.astype(int) - without_panel.astype(int)).max(axis=2) > 0
-    rows, cols = np.nonzero(changed)
-    # The panel sits at the top left; the scene moves right to make room for it.
-    panel_right = int(viewer._panel.covered_width)
-    assert 200 < panel_right < SIZE[0]
-    assert changed[:100, :panel_right].mean() > 0.2
+    assert changed[inside].mean() > 0.5, "the panel is not drawn in its box"
+    # Outside its box the panel draws nothing: the scene is all there, moved right to centre in
+    # the uncovered part of the window.
+    scene_before, scene_after = scene_pixels(without_panel), scene_pixels(with_panel)
+    assert scene_after[~inside].sum() == pytest.approx(scene_before.sum(), rel=0.1)
+    left = x + width
+    centre_after = np.nonzero(scene_after[:, left:])[1].mean() + left
+    assert centre_after == pytest.approx((left + size[0]) / 2, abs=0.05 * size[0])
 
 
 def find_slider_grab(image):
@@ -212,3 +234,54 @@ def test_progress_bar_is_drawn_while_loading(viewer, tmp_path):
     loading = viewer.render(panel=True)
     state.loading = None
     assert np.abs(loading.astype(int) - idle.astype(int)).max(axis=2)[:, :300].sum() > 0
+
+
+def test_a_dragged_value_shows_a_coarse_preview_then_the_full_mesh_at_rest(gl_ctx, monkeypatch):
+    import isoscope.viewer.surface as surface_module
+    from isoscope.reference import marching_cubes_reference
+    from isoscope.viewer.state import REST_S, ViewerState
+    from mesh_checks import assert_same_mesh
+
+    monkeypatch.setattr(surface_module, "PREVIEW_TRIANGLES", 3000)  # a small volume's mesh is "big"
+    state = ViewerState(gl_ctx, level_of_detail=True)
+    try:
+        volume = open_volume("gyroid", resolution=48)
+        assert state.show(volume, iso=0.0)
+        full = state.n_triangles
+        assert full > 4 * 3000 and state.preview_step == 1
+        low, high = state.value_range
+        drag = [low + f * (high - low) for f in (0.45, 0.47, 0.49, 0.51)]
+
+        state.set_iso(drag[0])
+        state.update(0.04)                 # one change alone (a key, a typed value): full mesh
+        assert state.preview_step == 1 and state.extractor.level == drag[0]
+        for value in drag[1:]:             # changing frame after frame: a drag
+            state.set_iso(value)
+            assert state.update(0.04)
+            step = state.preview_step
+            assert step > 1 and state.n_triangles < full / 2
+        # The preview is exactly the mesh of every step-th sample, in the same world units.
+        sign = 1.0 if volume.gradient_direction == "descent" else -1.0
+        coarse = volume.data[::step, ::step, ::step].astype(np.float32)
+        assert_same_mesh(state.meshes[0].read(),
+                         marching_cubes_reference(coarse, drag[-1], tuple(s * step for s in volume.spacing),
+                                                  descent=sign > 0))
+
+        assert state.update(REST_S / 2) is False and state.preview_step == step  # not rested yet
+        assert state.update(REST_S / 2) is True and state.preview_step == 1      # rested: full mesh
+        assert state.extractor.level == drag[-1]
+        assert state.n_triangles == len(marching_cubes_reference(volume.data.astype(np.float32), drag[-1],
+                                                                 volume.spacing, descent=sign > 0)[1])
+        assert state.update(1.0) is False                                        # and stays
+    finally:
+        state.release()
+
+
+def test_headless_renders_never_show_a_preview(viewer, monkeypatch):
+    import isoscope.viewer.surface as surface_module
+    monkeypatch.setattr(surface_module, "PREVIEW_TRIANGLES", 10)
+    state = viewer.state
+    for value in (0.1, 0.2, 0.3):
+        state.set_iso(value)
+        viewer.render()
+        assert state.preview_step == 1 and state.extractor.level == pytest.approx(value)

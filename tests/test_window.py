@@ -105,7 +105,7 @@ def drive_window(x_display, tmp_path):
     """The test body, run in the spawned process; any failed assert gives a non-zero exit code."""
     os.environ["DISPLAY"] = x_display
     import glfw
-    from isoscope.viewer.state import RecentFiles
+    from isoscope.viewer.recent import RecentFiles
     from isoscope.viewer.window import ViewerWindow
     from isoscope.volumes import open_volume
 

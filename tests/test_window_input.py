@@ -72,7 +72,7 @@ def camera_pose(camera):
 
 def open_window_and_run(x_display, body):
     os.environ["DISPLAY"] = x_display
-    from isoscope.viewer.state import RecentFiles
+    from isoscope.viewer.recent import RecentFiles
     from isoscope.viewer.window import ViewerWindow
     from isoscope.volumes import open_volume
 

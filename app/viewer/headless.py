@@ -42,7 +42,7 @@ class HeadlessViewer:
             self._layout_panel()   # the panel may change the state, as in the window
         self.state.update(0.0)
         self.target.use()
-        self.renderer.draw(self.state.extractor, self.camera, self.target.viewport, self.state.style,
+        self.renderer.draw(self.state.meshes, self.camera, self.target.viewport, self.state.style,
                            covered_left=int(self._panel.covered_width) if panel else 0)
         if panel:
             self._imgui.render()

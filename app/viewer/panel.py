@@ -19,6 +19,7 @@ from .state import ViewerState
 PANEL_TITLE = "isoscope"
 PANEL_WIDTH = 330
 PANEL_HOME = (8.0, 8.0)     # top-left corner, imgui units
+PANEL_LEFT_SLACK = 24.0     # a panel this close to its home's x still counts as covering the left
 PANEL_KEEP_VISIBLE = 64.0   # of the panel's width, kept inside the window with its whole title bar
 ERROR_COLOR = imgui.ImVec4(1.0, 0.45, 0.40, 1.0)
 NOTE_COLOR = imgui.ImVec4(0.60, 0.85, 0.60, 1.0)
@@ -55,10 +56,6 @@ class ImguiLayer:
         imgui.render()
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
 
-    @property
-    def wants_keyboard(self) -> bool:
-        return imgui.get_io().want_capture_keyboard
-
     def shutdown(self) -> None:
         imgui.set_current_context(self.context)
         imgui.backends.opengl3_shutdown()
@@ -72,7 +69,7 @@ class Panel:
         self.can_browse = can_browse   # headless renders have no desktop to open a dialog on
         self.expr_text = ""
         self._file_dialog = None       # a pending portable_file_dialogs.open_file
-        self.covered_width = 0.0       # panel's right edge in imgui units (0 when collapsed)
+        self.box = None                # the expanded panel's (x, y, width, height), imgui units
         self.iso_slider_box = None     # the iso slider's ((left, top), (right, bottom)), imgui units
         self._go_home = False
 
@@ -81,7 +78,8 @@ class Panel:
         self._place()
         imgui.set_next_window_size(imgui.ImVec2(PANEL_WIDTH, 0), imgui.Cond_.first_use_ever)
         expanded, _ = imgui.begin(PANEL_TITLE)
-        self.covered_width = imgui.get_window_pos().x + imgui.get_window_size().x if expanded else 0.0
+        pos, size = imgui.get_window_pos(), imgui.get_window_size()
+        self.box = (pos.x, pos.y, size.x, size.y) if expanded else None
         if expanded:
             self._messages(state)   # first: an error must be seen, even in a short window
             self._volume_section(state)
@@ -89,6 +87,14 @@ class Panel:
             self._display_section(state)
             self._stats_section(state)
         imgui.end()
+
+    @property
+    def covered_width(self) -> float:
+        """How much of the window's left the panel hides (imgui units), so the scene centres in
+        the rest: its right edge while it sits at the left edge, else 0 (dragged away or collapsed)."""
+        if self.box is None or self.box[0] > PANEL_HOME[0] + PANEL_LEFT_SLACK:
+            return 0.0
+        return self.box[0] + self.box[2]
 
     def go_home(self) -> None:
         """Back to the top-left corner, expanded, on the next frame (key r)."""
@@ -181,6 +187,8 @@ class Panel:
         imgui.separator_text("Stats")
         imgui.text(f"vertices   {state.n_vertices:,}")
         imgui.text(f"triangles  {state.n_triangles:,}")
+        if state.preview_step > 1:
+            imgui.text_colored(NOTE_COLOR, f"preview: 1/{state.preview_step} resolution while the value moves")
         imgui.text(f"extraction {state.extract_ms:.1f} ms")
         imgui.text(f"frame      {state.frame_ms:.1f} ms" if state.frame_ms else "frame      -")
         imgui.text_wrapped(f"GL: {state.gl_renderer}")

@@ -1,38 +1,25 @@
-"""Draws the scene: the lit isosurface, its wireframe overlay and the volume's bounding box.
+"""Draws the scene: lit isosurface meshes, their wireframe overlay and the volume's bounding box.
 
-The mesh is drawn straight from the extractor's GPU buffers (no read-back).
+Meshes are `GpuMesh` records, drawn straight from their GPU buffers (no read-back).
 This module owns the scene's GL objects: programs, VAOs, the box's vertex
 buffer, and the multisampled offscreen target used by headless renders.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
 
 import moderngl
 import numpy as np
 
+from ..gpu_layout import VERTEX_FORMAT, vertex_format
+from ..mesh import GpuMesh
 from ..resources import shader_source
-
-# The extractor's 32-byte vertex record: vec4(position.xyz, value), vec4(normal.xyz, 0).
-MESH_FORMAT = "3f 1x4 3f 1x4"
-MESH_POSITION_ONLY_FORMAT = "3f 1x4 4x4"
+from .style import SurfaceStyle
 WIRE_COLOR = (0.02, 0.02, 0.05)
 WIRE_OPACITY = 0.45
 
 # The 12 edges of a box as pairs of corner indices; corner i has bit k set when axis k is at `upper`.
 _BOX_EDGES = [(a, b) for a in range(8) for b in range(8) if a < b and bin(a ^ b).count("1") == 1]
-
-
-@dataclass
-class SurfaceStyle:
-    """How the surface looks: what the panel's toggles and colour pickers edit."""
-    front_color: tuple[float, float, float] = (0.55, 0.70, 0.90)
-    back_color: tuple[float, float, float] = (0.90, 0.45, 0.25)   # distinct, so holes/inside-out show
-    background: tuple[float, float, float] = (0.11, 0.12, 0.14)
-    box_color: tuple[float, float, float] = (0.65, 0.65, 0.65)
-    lighting: bool = True
-    wireframe: bool = False
-    show_box: bool = True
 
 
 class SceneRenderer:
@@ -44,41 +31,39 @@ class SceneRenderer:
         self.box_program = ctx.program(vertex_shader=shader_source("box.vert"), fragment_shader=shader_source("flat.frag"))
         self.box_buffer = ctx.buffer(reserve=len(_BOX_EDGES) * 2 * 3 * 4)
         self.box_vao = ctx.vertex_array(self.box_program, [(self.box_buffer, "3f", "in_position")])
-        self._mesh_vao = self._wire_vao = None
-        self._bound_buffers: tuple[object, object] = (None, None)
+        # (vertex buffer, index buffer) -> (lit VAO, wireframe VAO), for the meshes drawn last frame.
+        self._vaos: dict[tuple[moderngl.Buffer, moderngl.Buffer], tuple[moderngl.VertexArray, ...]] = {}
 
     def set_box(self, lower, upper) -> None:
         """The bounding box to draw, in world units."""
         corners = np.array([[(upper if (i >> k) & 1 else lower)[k] for k in range(3)] for i in range(8)], "f4")
         self.box_buffer.write(corners[np.array(_BOX_EDGES).ravel()].tobytes())
 
-    def _bind_mesh(self, mesh) -> None:
-        # extract() may reallocate its buffers when the mesh grows: rebind only then.
-        buffers = (mesh.vertex_buffer, mesh.index_buffer)
-        if buffers[0] is self._bound_buffers[0] and buffers[1] is self._bound_buffers[1]:
-            return
-        self._release_mesh_vaos()
-        vbo, ibo = buffers
-        self._mesh_vao = self.ctx.vertex_array(
-            self.mesh_program, [(vbo, MESH_FORMAT, "in_position", "in_normal")],
-            index_buffer=ibo, index_element_size=4)
-        self._wire_vao = self.ctx.vertex_array(
-            self.wire_program, [(vbo, MESH_POSITION_ONLY_FORMAT, "in_position")],
-            index_buffer=ibo, index_element_size=4)
-        self._bound_buffers = buffers
+    def _vaos_for(self, mesh: GpuMesh) -> tuple[moderngl.VertexArray, moderngl.VertexArray]:
+        # An extractor may reallocate its buffers when its mesh grows: VAOs are made per buffer pair.
+        key = (mesh.vertex_buffer, mesh.index_buffer)
+        if key not in self._vaos:
+            if mesh.vertex_format != VERTEX_FORMAT:
+                raise ValueError(f"the renderer cannot draw vertex records of format {mesh.vertex_format!r}")
+            vbo, ibo = key
+            self._vaos[key] = (
+                self.ctx.vertex_array(self.mesh_program, [(vbo, vertex_format("position", "normal"),
+                                                           "in_position", "in_normal")],
+                                      index_buffer=ibo, index_element_size=4),
+                self.ctx.vertex_array(self.wire_program, [(vbo, vertex_format("position"), "in_position")],
+                                      index_buffer=ibo, index_element_size=4))
+        return self._vaos[key]
 
-    def _release_mesh_vaos(self) -> None:
-        for vao in (self._mesh_vao, self._wire_vao):
-            if vao is not None:
+    def _release_vaos(self, keep=()) -> None:
+        """Release the VAOs of buffer pairs not in `keep` (their buffers may be gone)."""
+        for key in [k for k in self._vaos if k not in keep]:
+            for vao in self._vaos.pop(key):
                 vao.release()
-        self._mesh_vao = self._wire_vao = None
-        self._bound_buffers = (None, None)
 
-    def draw(self, mesh, camera, viewport: tuple[int, int, int, int], style: SurfaceStyle,
+    def draw(self, meshes: Sequence[GpuMesh], camera, viewport: tuple[int, int, int, int], style: SurfaceStyle,
              covered_left: int = 0) -> None:
-        """Clear `viewport` of the bound framebuffer and draw the scene into it.
+        """Clear `viewport` of the bound framebuffer and draw the box and `meshes` into it.
 
-        `mesh` has the extractor's `vertex_buffer`, `index_buffer` and `n_triangles` (or is None).
         `covered_left`: pixels at the left hidden by the panel; the scene centres in the rest.
         """
         ctx = self.ctx
@@ -104,17 +89,18 @@ class SceneRenderer:
             self.box_program["u_opacity"].value = 1.0
             self.box_vao.render(moderngl.LINES)
 
-        if mesh is None or mesh.n_triangles == 0:
+        meshes = [mesh for mesh in meshes if mesh.n_triangles]
+        self._release_vaos(keep={(m.vertex_buffer, m.index_buffer) for m in meshes})
+        if not meshes:
             return
-        self._bind_mesh(mesh)
-        n_indices = mesh.n_triangles * 3
         self.mesh_program["u_front_color"].value = style.front_color
         self.mesh_program["u_back_color"].value = style.back_color
         self.mesh_program["u_lighting"].value = style.lighting
         if style.wireframe:
             # Push the filled surface back a little so its own edges win the depth test.
             ctx.polygon_offset = (1.0, 1.0)
-        self._mesh_vao.render(moderngl.TRIANGLES, vertices=n_indices)
+        for mesh in meshes:
+            self._vaos_for(mesh)[0].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
         if style.wireframe:
             ctx.polygon_offset = (0.0, 0.0)
             ctx.wireframe = True
@@ -123,12 +109,13 @@ class SceneRenderer:
             ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
             self.wire_program["u_color"].value = WIRE_COLOR
             self.wire_program["u_opacity"].value = WIRE_OPACITY
-            self._wire_vao.render(moderngl.TRIANGLES, vertices=n_indices)
+            for mesh in meshes:
+                self._vaos_for(mesh)[1].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
             ctx.disable(moderngl.BLEND)
             ctx.wireframe = False
 
     def release(self) -> None:
-        self._release_mesh_vaos()
+        self._release_vaos()
         for obj in (self.box_vao, self.box_buffer, self.mesh_program, self.wire_program, self.box_program):
             obj.release()
 

@@ -1,108 +1,68 @@
-"""The viewer's state: the volume on show, its GPU extractor, the iso value, display flags, messages.
+"""The viewer's state: the volume on show, its surface on the GPU, the iso value, display flags, messages.
 
 The panel, the keys and the tests all change the viewer through this object;
 the window loop calls `update()` once a frame, which re-extracts whenever the
 iso value changed since the last extraction (so dragging the slider re-extracts
-on every frame in which the value moved, and never when it did not).
+on every frame in which the value moved, and never when it did not).  With
+`level_of_detail` on (the window), a value that keeps moving is extracted from a
+coarser copy of the volume when the full mesh is big, and the full mesh comes back
+once the value has rested for `REST_S` (see surface.py).
 """
 from __future__ import annotations
 
-import json
 import math
-import os
-import threading
 from pathlib import Path
 
 import moderngl
 
+from ..mesh import GpuMesh
 from ..volumes import Volume, open_volume
-from .renderer import SurfaceStyle
+from .loading import USER_ERRORS, PendingLoad, one_line
+from .recent import RecentFiles
+from .style import SurfaceStyle
+from .surface import GpuSurface
 
 ANIMATION_PERIOD_S = 6.0          # one sweep up and back down
 ANIMATION_SPAN = (0.02, 0.98)     # fractions of the range; the very ends give empty surfaces
-MAX_RECENT = 8
-
-# What a bad volume or extraction can raise: one-line messages meant for the user.
-USER_ERRORS = (ValueError, OSError, moderngl.Error)
+REST_S = 0.25                     # a value unchanged this long gets its full-resolution mesh
 
 
-def one_line(exc: Exception) -> str:
-    """The panel shows one line: GL driver errors (shader logs) come with several."""
-    return " ".join(str(exc).split()) or type(exc).__name__
+class IsoAnimation:
+    """The space key's sweep of the iso value up and down the range, eased at the ends."""
 
+    def __init__(self):
+        self.running = False
+        self._phase = 0.0
 
-class RecentFiles:
-    """Files the user opened, newest first, kept in a small JSON file across sessions."""
+    def start(self, iso: float, value_range: tuple[float, float]) -> None:
+        # Start the sweep from the current value so the surface does not jump.
+        low, high = value_range
+        start, end = ANIMATION_SPAN
+        fraction = ((iso - low) / (high - low) - start) / (end - start) if high > low else 0.0
+        self._phase = math.acos(1 - 2 * min(max(fraction, 0.0), 1.0)) / (2 * math.pi)
+        self.running = True
 
-    def __init__(self, path: Path | None):
-        self.path = path
-        self.paths: list[str] = []
-        if path is not None:
-            try:
-                loaded = json.loads(Path(path).read_text())
-                self.paths = [p for p in loaded if isinstance(p, str)][:MAX_RECENT]
-            except (OSError, ValueError):
-                pass  # no history yet, or an unreadable one: start afresh
-
-    @staticmethod
-    def default_path() -> Path:
-        config = os.environ.get("XDG_CONFIG_HOME") or os.path.join(os.path.expanduser("~"), ".config")
-        return Path(config) / "isoscope" / "recent.json"
-
-    def add(self, path: str) -> None:
-        path = str(Path(path).resolve())
-        self.paths = [path] + [p for p in self.paths if p != path][:MAX_RECENT - 1]
-        if self.path is not None:
-            try:
-                self.path.parent.mkdir(parents=True, exist_ok=True)
-                self.path.write_text(json.dumps(self.paths, indent=1))
-            except OSError:
-                pass  # a read-only home must not stop the viewer
-
-
-class PendingLoad:
-    """A volume being read on a worker thread, so the window keeps drawing (and shows progress).
-
-    Only reading and checking happen here: the GL upload needs the window's context,
-    which belongs to the main thread, so `ViewerState.update` shows the result.
-    """
-
-    def __init__(self, spec: str, open_options: dict):
-        self.spec = spec
-        self.fraction = 0.0
-        self.message = f"opening {spec}"
-        self.volume: Volume | None = None
-        self.error: str | None = None
-        self._thread = threading.Thread(target=self._read, args=(open_options,), daemon=True,
-                                        name=f"isoscope load {spec}")
-        self._thread.start()
-
-    def _read(self, open_options: dict) -> None:
-        try:
-            self.volume = open_volume(self.spec, progress=self._report, **open_options)
-        except USER_ERRORS as exc:
-            self.error = one_line(exc)
-        except Exception as exc:  # a loader's bug must not take the viewer down with it
-            self.error = f"could not open {self.spec}: {type(exc).__name__}: {one_line(exc)}"
-
-    def _report(self, fraction: float, message: str) -> None:
-        self.fraction, self.message = float(fraction), message
-
-    def done(self, wait_s: float = 0.0) -> bool:
-        self._thread.join(wait_s)
-        return not self._thread.is_alive()
+    def advance(self, dt_seconds: float, value_range: tuple[float, float]) -> float:
+        """The iso value `dt_seconds` further along the sweep."""
+        self._phase = (self._phase + dt_seconds / ANIMATION_PERIOD_S) % 1.0
+        low, high = value_range
+        start, end = ANIMATION_SPAN
+        sweep = (1 - math.cos(2 * math.pi * self._phase)) / 2  # 0 -> 1 -> 0, eased at the ends
+        return low + (high - low) * (start + (end - start) * sweep)
 
 
 class ViewerState:
-    def __init__(self, ctx: moderngl.Context, recent: RecentFiles | None = None):
-        self.ctx = ctx                   # the context the extractor's buffers must live in (the window's)
+    def __init__(self, ctx: moderngl.Context, recent: RecentFiles | None = None, level_of_detail: bool = False):
+        self.ctx = ctx                   # the context the surface's buffers must live in (the window's)
         self.volume: Volume | None = None
-        self.extractor = None            # isoscope.extractor.Extractor for `volume`
+        self.surface: GpuSurface | None = None  # the GL side of `volume`
         self.iso = 0.0
         self._extracted_iso: float | None = None
+        self.level_of_detail = level_of_detail  # coarse meshes while the value moves (the window)
+        self._moved_last_frame = False
+        self._rest_s = 0.0               # how long the value has not moved
         self.style = SurfaceStyle()
-        self.animating = False
-        self._animation_phase = 0.0
+        self.animation = IsoAnimation()
         self.error: str | None = None    # shown in the panel until the next successful action
         self.message: str | None = None  # e.g. where the last screenshot went
         self.recent = recent if recent is not None else RecentFiles(None)
@@ -146,7 +106,7 @@ class ViewerState:
         """Upload `volume` to the GPU and extract its first surface; the old volume stays on failure."""
         if not self._upload(volume, volume.gradient_direction):
             return False
-        low, high = self.extractor.value_range
+        low, high = self.value_range
         first_iso = iso if iso is not None else volume.default_level
         self.iso = (low + high) / 2 if first_iso is None else min(max(float(first_iso), low), high)
         self.volume_serial += 1
@@ -171,17 +131,15 @@ class ViewerState:
         return self.error is None
 
     def _upload(self, volume: Volume, gradient_direction: str) -> bool:
-        """A new extractor for `volume` replaces the old one; on failure the old one stays."""
-        from ..extractor import Extractor  # imported late: `isoscope --help` needs no GL code
+        """A new GPU surface for `volume` replaces the old one; on failure the old one stays."""
         try:
-            extractor = Extractor(volume.checked, spacing=volume.spacing,
-                                  gradient_direction=gradient_direction, ctx=self.ctx)
+            surface = GpuSurface(self.ctx, volume, gradient_direction)
         except USER_ERRORS as exc:
             self.error = one_line(exc)
             return False
-        if self.extractor is not None:
-            self.extractor.release()
-        self.volume, self.extractor = volume, extractor
+        if self.surface is not None:
+            self.surface.release()
+        self.volume, self.surface = volume, surface
         self._extracted_iso = None
         self.error = None
         return True
@@ -189,7 +147,7 @@ class ViewerState:
     # --- iso ---------------------------------------------------------------
     @property
     def value_range(self) -> tuple[float, float]:
-        return self.extractor.value_range if self.extractor is not None else (0.0, 1.0)
+        return self.surface.value_range if self.surface is not None else (0.0, 1.0)
 
     def set_iso(self, value: float) -> None:
         low, high = self.value_range
@@ -199,50 +157,73 @@ class ViewerState:
         low, high = self.value_range
         self.set_iso(self.iso + fraction_of_range * (high - low))
 
+    @property
+    def animating(self) -> bool:
+        return self.animation.running
+
     def toggle_animation(self) -> None:
-        self.animating = not self.animating
-        if self.animating:
-            # Start the sweep from the current value so the surface does not jump.
-            low, high = self.value_range
-            start, end = ANIMATION_SPAN
-            fraction = ((self.iso - low) / (high - low) - start) / (end - start) if high > low else 0.0
-            self._animation_phase = math.acos(1 - 2 * min(max(fraction, 0.0), 1.0)) / (2 * math.pi)
+        if self.animation.running:
+            self.animation.running = False
+        else:
+            self.animation.start(self.iso, self.value_range)
 
     # --- per frame ---------------------------------------------------------
     def update(self, dt_seconds: float) -> bool:
-        """Advance the animation and re-extract if the iso value moved; True when it re-extracted."""
+        """Advance the animation and re-extract if the iso value moved (or the full mesh is due
+        after a preview); True when it re-extracted."""
         if self.loading is not None and self.loading.done():
             self._finish_loading()
-        if self.extractor is None:
+        if self.surface is None:
             return False
-        if self.animating:
-            self._animation_phase = (self._animation_phase + dt_seconds / ANIMATION_PERIOD_S) % 1.0
-            low, high = self.value_range
-            start, end = ANIMATION_SPAN
-            sweep = (1 - math.cos(2 * math.pi * self._animation_phase)) / 2  # 0 -> 1 -> 0, eased at the ends
-            self.iso = low + (high - low) * (start + (end - start) * sweep)
-        if self.iso == self._extracted_iso:
-            return False
+        if self.animation.running:
+            self.iso = self.animation.advance(dt_seconds, self.value_range)
+        moved = self.iso != self._extracted_iso
+        if moved:
+            # A value that moved in the last frame too is being dragged (or animated): a preview
+            # will do.  A single change (a key, a typed value, a new volume) gets the full mesh.
+            preview = self.level_of_detail and self._moved_last_frame
+            self._rest_s = 0.0
+        else:
+            self._rest_s += dt_seconds
+            if self.surface.shown_step == 1 or self._rest_s < REST_S:
+                self._moved_last_frame = False
+                return False
+            preview = False  # rested long enough: back to full resolution
+        self._moved_last_frame = moved and self._extracted_iso is not None  # a new volume's first is no move
         try:
-            self.extractor.extract(self.iso)
+            self.surface.extract(self.iso, preview=preview)
         except USER_ERRORS as exc:
             self.error = one_line(exc)
-            self.animating = False
+            self.animation.running = False
         self._extracted_iso = self.iso  # also on failure: do not retry the same value every frame
         return True
 
-    # --- stats for the panel ----------------------------------------------
+    # --- what the renderer draws, and stats for the panel ---------------------
+    @property
+    def meshes(self) -> list[GpuMesh]:
+        return [self.surface.mesh] if self.surface is not None else []
+
+    @property
+    def extractor(self):
+        """The full-resolution extractor of the volume on show (None before one is shown)."""
+        return self.surface.extractor if self.surface is not None else None
+
+    @property
+    def preview_step(self) -> int:
+        """1 when the full-resolution mesh is on show, else the sample step of the preview."""
+        return self.surface.shown_step if self.surface is not None else 1
+
     @property
     def n_vertices(self) -> int:
-        return self.extractor.n_vertices if self.extractor is not None else 0
+        return self.surface.shown.n_vertices if self.surface is not None else 0
 
     @property
     def n_triangles(self) -> int:
-        return self.extractor.n_triangles if self.extractor is not None else 0
+        return self.surface.shown.n_triangles if self.surface is not None else 0
 
     @property
     def extract_ms(self) -> float:
-        return self.extractor.last_extract_ms if self.extractor is not None else 0.0
+        return self.surface.shown.last_extract_ms if self.surface is not None else 0.0
 
     def bounds(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
         """The volume's box in world units: [0, (n-1) * spacing] along each axis."""
@@ -252,6 +233,6 @@ class ViewerState:
         return (0.0, 0.0, 0.0), upper
 
     def release(self) -> None:
-        if self.extractor is not None:
-            self.extractor.release()
-            self.extractor = None
+        if self.surface is not None:
+            self.surface.release()
+            self.surface = None

@@ -20,7 +20,8 @@ from .camera import OrbitCamera
 from .panel import ImguiLayer, Panel
 from .renderer import SceneRenderer, read_rgb
 from .screenshot import next_screenshot_path, save_png
-from .state import RecentFiles, ViewerState
+from .recent import RecentFiles
+from .state import ViewerState
 
 # GLFW errors reach the user through WindowUnavailable's one line, not as Python warnings.
 glfw.ERROR_REPORTING = "ignore"
@@ -90,7 +91,8 @@ class ViewerWindow:
             glfw.destroy_window(self.window)
             self.window, self.ctx = _open_gl_window(size, title, 0)
         self.screenshot_dir = Path(screenshot_dir)
-        self.state = ViewerState(self.ctx, recent if recent is not None else RecentFiles(RecentFiles.default_path()))
+        self.state = ViewerState(self.ctx, recent if recent is not None else RecentFiles(RecentFiles.default_path()),
+                                 level_of_detail=True)
         self.renderer = SceneRenderer(self.ctx)
         self.camera = OrbitCamera()
         self._framed_serial = -1
@@ -142,7 +144,7 @@ class ViewerWindow:
 
         self.ctx.screen.use()
         pixels_per_unit = fb_width / max(glfw.get_window_size(self.window)[0], 1)  # framebuffer scale
-        self.renderer.draw(self.state.extractor, self.camera, (0, 0, fb_width, fb_height), self.state.style,
+        self.renderer.draw(self.state.meshes, self.camera, (0, 0, fb_width, fb_height), self.state.style,
                            covered_left=int(self.panel.covered_width * pixels_per_unit))
         self.imgui.render()
         if self._screenshot_requested:

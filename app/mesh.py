@@ -1,0 +1,54 @@
+"""The mesh contract between what makes meshes on the GPU and what draws or reads them.
+
+An extractor produces a `GpuMesh`; the renderer draws any number of them, and
+`read()` brings one back as numpy arrays.  Nothing else about its maker is assumed,
+so several meshes per volume (levels, labels, chunks, a coarse preview) are just
+several records.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from .gpu_layout import INDEX_BYTES, VERTEX_BYTES, VERTEX_FIELDS, VERTEX_FLOATS, VERTEX_FORMAT
+
+
+def empty_mesh():
+    """verts, faces, normals, values of a level with no surface."""
+    return (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32),
+            np.zeros((0, 3), np.float32), np.zeros((0,), np.float32))
+
+
+@dataclass(frozen=True)
+class GpuMesh:
+    """An indexed triangle mesh in GPU buffers.
+
+    `vertex_buffer` holds `n_vertices` records of `vertex_format` (see gpu_layout.VERTEX_FIELDS:
+    position, value, normal), `index_buffer` `n_triangles` triples of uint32 vertex indices.
+    The buffers belong to the mesh's maker, which may reuse them for its next mesh.
+    """
+    vertex_buffer: moderngl.Buffer
+    index_buffer: moderngl.Buffer
+    n_vertices: int
+    n_triangles: int
+    vertex_format: str = VERTEX_FORMAT
+
+    def read(self):
+        """verts (N, 3), faces (M, 3) int32, normals (N, 3), values (N,): scikit-image's layout."""
+        if self.vertex_format != VERTEX_FORMAT:
+            raise ValueError(f"cannot read vertex records of format {self.vertex_format!r}")
+        if self.n_vertices == 0:
+            return empty_mesh()
+        # Straight into numpy arrays (no bytes object in between); indices are below 2^31, so the
+        # GPU's uint32 triangles are read as the int32 faces they are.
+        records = np.empty((self.n_vertices, VERTEX_FLOATS), np.float32)
+        self.vertex_buffer.read_into(records, self.n_vertices * VERTEX_BYTES)
+        faces = np.empty((self.n_triangles, 3), np.int32)
+        self.index_buffer.read_into(faces, self.n_triangles * INDEX_BYTES)
+        fields, start = {}, 0
+        for name, width in VERTEX_FIELDS:
+            fields[name] = records[:, start:start + width]
+            start += width
+        return fields["position"].copy(), faces, fields["normal"].copy(), fields["value"][:, 0].copy()

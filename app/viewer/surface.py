@@ -1,0 +1,87 @@
+"""The viewer's GL side of one volume: its extractors, in the window's context, and the mesh on show.
+
+While the iso value moves, a mesh with hundreds of thousands of triangles costs
+llvmpipe 100+ ms a frame to draw: its vertex work is single-threaded (130-250 ms
+per million triangles, measured on a brain MRI; the window's size hardly matters).
+So, as ParaView does while interacting, a moving value is extracted from a coarser
+copy of the volume (every `step`-th sample along each axis, resident beside the full
+one) whose mesh stays under `PREVIEW_TRIANGLES`, and the full mesh comes back once
+the value rests (`ViewerState` decides when).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..extractor import Extractor
+from ..mesh import GpuMesh
+from ..validation import CheckedVolume
+from ..volumes import Volume
+
+PREVIEW_TRIANGLES = 120_000
+"""Triangles a preview mesh aims to stay under: llvmpipe draws about that many in 20-30 ms."""
+
+MAX_PREVIEW_STEP = 4
+
+
+def preview_step(full_triangles: int, shape, budget: int | None = None) -> int:
+    """The sample step whose mesh should stay under `budget` (default PREVIEW_TRIANGLES): a
+    surface's triangle count falls with the square of the step.  1 when the full mesh is already
+    small enough, or the volume too thin to subsample."""
+    budget = PREVIEW_TRIANGLES if budget is None else budget
+    step = 1
+    while full_triangles > budget * step * step and step < MAX_PREVIEW_STEP:
+        step += 1
+    while step > 1 and min(shape) <= step:  # every axis keeps at least two samples
+        step -= 1
+    return step
+
+
+class GpuSurface:
+    """Owns the extractors of one volume: the full-resolution one and coarser previews."""
+
+    def __init__(self, ctx, volume: Volume, gradient_direction: str):
+        self.ctx = ctx
+        self.volume = volume
+        self.gradient_direction = gradient_direction
+        self.extractor = Extractor(volume.checked, spacing=volume.spacing,
+                                   gradient_direction=gradient_direction, ctx=ctx)
+        self._previews: dict[int, Extractor] = {}  # sample step -> extractor of the subsampled volume
+        self.shown_step = 1  # the step of the mesh on show: 1 is full resolution
+        self.full_triangles = 0  # of the last full-resolution extraction: sizes the preview step
+
+    @property
+    def value_range(self) -> tuple[float, float]:
+        return self.extractor.value_range
+
+    @property
+    def shown(self) -> Extractor:
+        """The extractor whose mesh is on show."""
+        return self.extractor if self.shown_step == 1 else self._previews[self.shown_step]
+
+    @property
+    def mesh(self) -> GpuMesh:
+        return self.shown.mesh
+
+    def extract(self, iso: float, preview: bool = False) -> None:
+        """Extract at `iso`: the full mesh, or with `preview` a coarse one if the full one is big."""
+        step = preview_step(self.full_triangles, self.volume.data.shape) if preview else 1
+        if step == 1:
+            self.extractor.extract(iso)
+            self.full_triangles = self.extractor.n_triangles
+        else:
+            if step not in self._previews:
+                self._previews[step] = self._make_preview(step)
+            self._previews[step].extract(iso)
+        self.shown_step = step
+
+    def _make_preview(self, step: int) -> Extractor:
+        data = np.ascontiguousarray(self.volume.data[::step, ::step, ::step])
+        # The full volume's range bounds the samples kept, and keeps every level of the slider valid.
+        checked = CheckedVolume(data, self.volume.value_range)
+        return Extractor(checked, spacing=tuple(s * step for s in self.volume.spacing),
+                         gradient_direction=self.gradient_direction, ctx=self.ctx)
+
+    def release(self) -> None:
+        for extractor in (self.extractor, *self._previews.values()):
+            extractor.release()
+        self._previews.clear()
