@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -141,7 +141,7 @@ def _loops(case: int) -> list[list[int]]:
 
 def _triangulations(n: int):
     """All triangulations of a convex n-gon with vertices 0..n-1, as lists of index triples."""
-    @lru_cache(maxsize=None)
+    @cache
     def tri(i: int, j: int) -> tuple[tuple[tuple[int, int, int], ...], ...]:
         if j - i < 2:
             return ((),)
@@ -204,7 +204,7 @@ class CaseTable:
         return np.concatenate([packed.ravel(), self.counts.astype(np.uint32)])
 
 
-@lru_cache(maxsize=None)
+@cache
 def montani_table() -> CaseTable:
     per_case = []
     for case in range(256):

@@ -38,7 +38,7 @@ from . import validation
 from .case_table import CaseTable, montani_table
 from .gl_context import current_or_standalone
 from .gpu_layout import GROUP_SIZE, INDEX_BYTES, VERTEX_BYTES
-from .gpu_limits import GpuLimits, GPULimitError, plan_extractor
+from .gpu_limits import GPULimitError, GpuLimits, plan_extractor
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
 from .scan import ExclusiveScan

@@ -11,8 +11,7 @@ from dataclasses import dataclass
 
 import moderngl
 
-from .gpu_layout import (BRICK_I, BRICK_J, MAX_WORD_IMAGE_SHIFT, MAX_WORDS, SAMPLES_PER_TEXEL,
-                         WORD_BITS)
+from .gpu_layout import BRICK_I, BRICK_J, MAX_WORD_IMAGE_SHIFT, MAX_WORDS, SAMPLES_PER_TEXEL, WORD_BITS
 
 
 class GPULimitError(ValueError):

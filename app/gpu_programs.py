@@ -8,7 +8,7 @@ import moderngl
 from .gpu_layout import MAX_GROUPS_PER_DIMENSION, shader_defines
 from .resources import shader_source
 
-_cache: "weakref.WeakKeyDictionary[moderngl.Context, dict]" = weakref.WeakKeyDictionary()
+_cache: weakref.WeakKeyDictionary[moderngl.Context, dict] = weakref.WeakKeyDictionary()
 
 
 def compute_program(ctx: moderngl.Context, name: str, defines: dict | None = None) -> moderngl.ComputeShader:

@@ -1,8 +1,8 @@
 """Checks on what users pass to the extractors: one-line ValueErrors that name the problem and the fix."""
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 

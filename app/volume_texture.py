@@ -4,8 +4,8 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from .gpu_limits import ExtractorPlan, GPULimitError
 from .gpu_layout import SAMPLES_PER_TEXEL
+from .gpu_limits import ExtractorPlan, GPULimitError
 
 UPLOAD_SLAB_BYTES = 16 << 20
 """A volume that needs padding or a cast to float32 goes up a slab of this many bytes at a time."""

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import functools
 import gc
 import importlib
 import json
@@ -267,6 +268,11 @@ def bench_ours_iso_change(volume, gd, levels, repeats, untimed):
         ex.release()
 
 
+def run_peer_once(peer, state, level):
+    """The peer's triangle count at `level` (its points are not wanted)."""
+    return peer.run(state, level)[0]
+
+
 def bench_peer(peer, volume, gd, levels, repeats, untimed):
     peer.activate()
     state = peer.prepare(volume, gd)
@@ -275,7 +281,7 @@ def bench_peer(peer, volume, gd, levels, repeats, untimed):
         n_a, points = peer.run(state, levels["a"], want_points=True)
         check = off_level(volume, points, levels["a"])
         del points
-        result, triangles = alternate(lambda level: peer.run(state, level)[0], levels, 1,
+        result, triangles = alternate(functools.partial(run_peer_once, peer, state), levels, 1,
                                       max(untimed - 1, 0), repeats)
         result.update(triangles={"a": n_a, **triangles}, off_level=check)
         if hasattr(peer, "active_threads"):
@@ -312,7 +318,7 @@ def check_case(case) -> list[str]:
     cpu = case["ours"].get("numpy")
     if cpu and cpu["triangles"]["a"] != ours["a"]:
         warnings.append(f"{name}: numpy reference {cpu['triangles']['a']} triangles, GPU {ours['a']}")
-    for key, result in case["peers"].items():
+    for result in case["peers"].values():
         if "median_ms" not in result:
             continue
         for which, count in result["triangles"].items():
@@ -486,7 +492,7 @@ def markdown(meta, cases, peers, warnings, notes) -> str:
            f"- GL renderer: {meta['renderer']}",
            f"- machine: {meta['cpus']} CPUs, {meta['platform']}; LP_NUM_THREADS={meta['lp_num_threads']}",
            f"- isoscope: {meta['app']} ({meta['git']})",
-           f"- peers: " + ", ".join(f"{p.label} {p.version}" for p in peers if p.missing is None),
+           "- peers: " + ", ".join(f"{p.label} {p.version}" for p in peers if p.missing is None),
            f"- volumes: FIELD-NOTES definitions (benchmarks/volumes.py), float32; levels 0 and "
            f"0 + {LEVEL_STEP:.1%} of the data range, alternated; sphere with gradient_direction="
            f"\"ascent\", gyroid and noise \"descent\", for us and scikit-image; a real scan "
@@ -494,8 +500,8 @@ def markdown(meta, cases, peers, warnings, notes) -> str:
            f"- checks: every peer's triangle count within {TRIANGLE_TOLERANCE:.0%} of ours at both levels, "
            f"and every mesh's vertices on the level set when read in array-index order (axis order); "
            f"failures are listed at the end",
-           f"- times: median ms of the repeats; ratio = peer ms / our ms, > 1 means we are faster; "
-           f"a peer's time is its re-run at the new level (it keeps nothing between levels)",
+           "- times: median ms of the repeats; ratio = peer ms / our ms, > 1 means we are faster; "
+           "a peer's time is its re-run at the new level (it keeps nothing between levels)",
            ""]
     out += ["### Iso change (resident volume): peer ms / our ms", ""]
     head = ["size", "volume", "triangles", "ours ms"] + [p.label for p in peers]
@@ -637,7 +643,7 @@ def main(argv=None) -> int:
             warnings += case_warnings
             cases.append(case)
     for c in cases:
-        for key, r in c["peers"].items():
+        for r in c["peers"].values():
             if r.get("skipped", "").startswith("failed"):
                 notes.append(f"{r['label']} at {c['grid']} {case_name(c)}: {r['skipped']}")
     meta["seconds"] = round(time.perf_counter() - started, 1)

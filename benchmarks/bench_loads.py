@@ -17,9 +17,7 @@ lanes read neighbouring words, as the passes do) and "scattered" (hashed).
 from __future__ import annotations
 
 import argparse
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -56,10 +54,12 @@ VARIANTS = {
                                     "texelFetch(u_words, ivec2(i & 2047u, i >> 11), 0).x"),
     "imageLoad uimage2D r32ui": ("layout(r32ui, binding = 0) readonly uniform uimage2D u_image;",
                                  "imageLoad(u_image, ivec2(i & 2047u, i >> 11)).x"),
-    "texelFetch sampler3D rgba32f": ("uniform sampler3D u_volume;",
-                                     "floatBitsToUint(texelFetch(u_volume, ivec3((i >> 2) & 127u, (i >> 9) & 127u, i >> 16), 0).x)"),
-    "imageLoad image3D rgba32f": ("layout(rgba32f, binding = 0) readonly uniform image3D u_volume_image;",
-                                  "floatBitsToUint(imageLoad(u_volume_image, ivec3((i >> 2) & 127u, (i >> 9) & 127u, i >> 16)).x)"),
+    "texelFetch sampler3D rgba32f": (
+        "uniform sampler3D u_volume;",
+        "floatBitsToUint(texelFetch(u_volume, ivec3((i >> 2) & 127u, (i >> 9) & 127u, i >> 16), 0).x)"),
+    "imageLoad image3D rgba32f": (
+        "layout(rgba32f, binding = 0) readonly uniform image3D u_volume_image;",
+        "floatBitsToUint(imageLoad(u_volume_image, ivec3((i >> 2) & 127u, (i >> 9) & 127u, i >> 16)).x)"),
 }
 
 

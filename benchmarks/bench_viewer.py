@@ -15,10 +15,8 @@ import subprocess
 import sys
 import time
 from contextlib import contextmanager
-from pathlib import Path
 
 import numpy as np
-
 
 
 @contextmanager
@@ -74,11 +72,13 @@ def main(argv=None) -> int:
                 frame_ms.append((time.perf_counter() - start) * 1000)
                 extract_ms.append(state.extract_ms)
                 triangles.append(state.n_triangles)
-            print(f"viewer frame while dragging the iso slider: {volume.name} {'x'.join(map(str, volume.data.shape))}, "
+            shape = "x".join(map(str, volume.data.shape))
+            print(f"viewer frame while dragging the iso slider: {volume.name} {shape}, "
                   f"window {width}x{height}, {state.gl_renderer}")
-            print(f"  frame       median {np.median(frame_ms):.1f} ms, 90th percentile {np.percentile(frame_ms, 90):.1f} ms"
-                  f" over {args.frames} frames")
-            print(f"  extraction  median {np.median(extract_ms):.1f} ms; triangles {min(triangles):,} .. {max(triangles):,}")
+            print(f"  frame       median {np.median(frame_ms):.1f} ms, "
+                  f"90th percentile {np.percentile(frame_ms, 90):.1f} ms over {args.frames} frames")
+            print(f"  extraction  median {np.median(extract_ms):.1f} ms; "
+                  f"triangles {min(triangles):,} .. {max(triangles):,}")
         finally:
             window.close()
     return 0

@@ -1,6 +1,9 @@
 """Shared fixtures: one real EGL (llvmpipe) context for the session, and small fields."""
 from __future__ import annotations
 
+import os
+import subprocess
+
 import numpy as np
 import pytest
 
@@ -33,3 +36,20 @@ def gpu_mesh(gl_ctx):
             ex.extract(level)
             return ex.read_mesh()
     return extract
+
+
+@pytest.fixture(scope="module")
+def x_display():
+    """A private Xvfb server; -displayfd makes it pick a free display number and say when it is ready."""
+    read_end, write_end = os.pipe()
+    server = subprocess.Popen(["Xvfb", "-displayfd", str(write_end), "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
+                              pass_fds=(write_end,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    os.close(write_end)
+    with os.fdopen(read_end) as ready:
+        number = ready.readline().strip()
+    if not number:
+        server.kill()
+        pytest.fail("Xvfb did not start")
+    yield f":{number}"
+    server.terminate()
+    server.wait(timeout=30)

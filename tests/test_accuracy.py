@@ -4,6 +4,7 @@ import pytest
 from skimage.draw import ellipsoid, ellipsoid_stats
 
 import isoscope
+
 from mesh_checks import assert_closed_manifold, euler_characteristic, signed_volume, triangle_areas
 
 

@@ -4,6 +4,7 @@ import pytest
 from skimage import measure
 
 import isoscope
+
 from mesh_checks import sign_changing_edges
 
 

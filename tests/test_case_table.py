@@ -95,6 +95,7 @@ def test_each_case_alone_in_a_volume_closes_outwards(case):
     """The case's eight corners inside an otherwise empty 4^3 volume: a closed, consistently wound
     surface enclosing positive volume (so triangles face out of the object)."""
     from isoscope.reference import marching_cubes_reference
+
     from mesh_checks import assert_closed_manifold, signed_volume
 
     volume = np.full((4, 4, 4), -1.0, dtype=np.float32)

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from isoscope.export import write_ply
+
 from mesh_checks import read_ply
 
 

@@ -5,8 +5,15 @@ import pytest
 from isoscope.extractor import VERTEX_BYTES, Extractor
 from isoscope.reference import marching_cubes_reference
 from isoscope.scan import ExclusiveScan
-from mesh_checks import (assert_clean_geometry, assert_closed_manifold, assert_holes_only_on_the_border, assert_same_mesh,
-                         sign_changing_edges, signed_volume)
+
+from mesh_checks import (
+    assert_clean_geometry,
+    assert_closed_manifold,
+    assert_holes_only_on_the_border,
+    assert_same_mesh,
+    sign_changing_edges,
+    signed_volume,
+)
 
 RNG = np.random.default_rng(20261122)
 
@@ -95,7 +102,7 @@ def test_empty_level_gives_an_empty_mesh(gl_ctx):
 
 
 def test_closed_surfaces_from_random_padded_fields_are_watertight(gpu_mesh):
-    for trial in range(6):
+    for _ in range(6):
         shape = RNG.integers(3, 24, size=3)
         volume = np.pad(RNG.integers(-1, 2, size=shape).astype(np.float32), 1, constant_values=-1.0)
         verts, faces, _, _ = gpu_mesh(volume, 0.0)

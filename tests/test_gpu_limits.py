@@ -10,6 +10,7 @@ import isoscope.volume_texture as volume_texture
 from isoscope.extractor import Extractor, GPULimitError
 from isoscope.gpu_limits import GpuLimits
 from isoscope.reference import marching_cubes_reference
+
 from mesh_checks import assert_same_mesh
 
 RNG = np.random.default_rng(7)

@@ -3,8 +3,13 @@ import numpy as np
 import pytest
 
 from isoscope.api import marching_cubes
-from mesh_checks import (assert_clean_geometry, assert_closed_manifold, assert_holes_only_on_the_border,
-                         sign_changing_edges)
+
+from mesh_checks import (
+    assert_clean_geometry,
+    assert_closed_manifold,
+    assert_holes_only_on_the_border,
+    sign_changing_edges,
+)
 
 BACKENDS = ["cpu", "gpu"]
 

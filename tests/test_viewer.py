@@ -113,7 +113,7 @@ def test_panel_slider_follows_the_iso_value(viewer):
 
 
 def test_dragging_the_panel_slider_with_the_mouse_re_extracts(viewer):
-    from imgui_bundle import imgui   # the headless panel gets its mouse from imgui's io, as GLFW feeds it
+    from imgui_bundle import imgui  # the headless panel gets its mouse from imgui's io, as GLFW feeds it
 
     low, high = viewer.state.value_range
     viewer.state.set_iso(low + 0.5 * (high - low))
@@ -240,6 +240,7 @@ def test_a_dragged_value_shows_a_coarse_preview_then_the_full_mesh_at_rest(gl_ct
     import isoscope.viewer.surface as surface_module
     from isoscope.reference import marching_cubes_reference
     from isoscope.viewer.state import REST_S, ViewerState
+
     from mesh_checks import assert_same_mesh
 
     monkeypatch.setattr(surface_module, "PREVIEW_TRIANGLES", 3000)  # a small volume's mesh is "big"

@@ -6,7 +6,7 @@ import itertools
 import numpy as np
 import pytest
 
-from isoscope.volumes import (DEFAULT_VOLUME, VolumeError, builtin_names, describe_builtins, open_volume)
+from isoscope.volumes import DEFAULT_VOLUME, VolumeError, builtin_names, describe_builtins, open_volume
 from isoscope.volumes.builtins import AMBIGUOUS_SHAPE, c60_atoms
 
 DOCUMENTED_BUILTINS = {"sphere", "torus", "plane", "gyroid", "metaballs", "bucky", "box", "ambiguous"}

@@ -7,6 +7,7 @@ import pytest
 
 from isoscope.api import marching_cubes
 from isoscope.volumes import VolumeError, open_volume
+
 from mesh_checks import read_ply
 
 

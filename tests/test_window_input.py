@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 import pytest
-from test_window import MAX_FRAMES_PER_STEP, frames_until, press_key, run_spawned, x_display  # noqa: F401 -- fixture
+from x_window import MAX_FRAMES_PER_STEP, frames_until, press_key, run_spawned
 
 pytestmark = pytest.mark.skipif(ctypes.util.find_library("Xtst") is None, reason="libXtst is not installed")
 
@@ -129,6 +129,7 @@ def test_the_panel_stays_reachable_and_key_r_brings_it_home(x_display):
 def panel_placement(window, pointer):
     import glfw
     from imgui_bundle import imgui
+
     from isoscope.viewer.camera import HOME_AZIMUTH
     from isoscope.viewer.panel import PANEL_HOME, PANEL_KEEP_VISIBLE, PANEL_TITLE
 

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-HERE = Path(__file__).resolve().parent
-
 from isoscope.volumes import open_volume
+
+HERE = Path(__file__).resolve().parent
 
 
 def field(spec: str) -> np.ndarray:

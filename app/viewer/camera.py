@@ -84,5 +84,6 @@ class OrbitCamera:
         projection = matrix44.create_perspective_projection(self.fov_degrees, max(aspect, 1e-6), near, far, dtype="f4")
         if shift_x:
             # pyrr composes left to right: project first, then translate in clip space.
-            projection = matrix44.multiply(projection, matrix44.create_from_translation([shift_x, 0.0, 0.0], dtype="f4"))
+            shift = matrix44.create_from_translation([shift_x, 0.0, 0.0], dtype="f4")
+            projection = matrix44.multiply(projection, shift)
         return projection

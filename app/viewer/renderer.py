@@ -15,6 +15,7 @@ from ..gpu_layout import VERTEX_FORMAT, vertex_format
 from ..mesh import GpuMesh
 from ..resources import shader_source
 from .style import SurfaceStyle
+
 WIRE_COLOR = (0.02, 0.02, 0.05)
 WIRE_OPACITY = 0.45
 
@@ -28,7 +29,8 @@ class SceneRenderer:
         mesh_vert = shader_source("mesh.vert")
         self.mesh_program = ctx.program(vertex_shader=mesh_vert, fragment_shader=shader_source("mesh.frag"))
         self.wire_program = ctx.program(vertex_shader=mesh_vert, fragment_shader=shader_source("flat.frag"))
-        self.box_program = ctx.program(vertex_shader=shader_source("box.vert"), fragment_shader=shader_source("flat.frag"))
+        self.box_program = ctx.program(vertex_shader=shader_source("box.vert"),
+                                       fragment_shader=shader_source("flat.frag"))
         self.box_buffer = ctx.buffer(reserve=len(_BOX_EDGES) * 2 * 3 * 4)
         self.box_vao = ctx.vertex_array(self.box_program, [(self.box_buffer, "3f", "in_position")])
         # (vertex buffer, index buffer) -> (lit VAO, wireframe VAO), for the meshes drawn last frame.

@@ -11,16 +11,16 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import imgui_bundle  # noqa: F401  -- before glfw: pyGLFW then loads the libglfw imgui-bundle ships
 import glfw
+import imgui_bundle  # noqa: F401  -- before glfw: pyGLFW then loads the libglfw imgui-bundle ships
 import moderngl
 
 from ..volumes import Volume
 from .camera import OrbitCamera
 from .panel import ImguiLayer, Panel
+from .recent import RecentFiles
 from .renderer import SceneRenderer, read_rgb
 from .screenshot import next_screenshot_path, save_png
-from .recent import RecentFiles
 from .state import ViewerState
 
 # GLFW errors reach the user through WindowUnavailable's one line, not as Python warnings.

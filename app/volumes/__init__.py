@@ -37,7 +37,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .builtins import BUILTINS, split_builtin_spec, open_builtin
+from .builtins import BUILTINS, open_builtin, split_builtin_spec
 from .errors import VolumeError
 from .volume import Progress, Volume
 
@@ -62,6 +62,7 @@ def describe_builtins() -> list[tuple[str, str]]:
 def sample_names() -> list[str]:
     """Specs of the small files shipped in volumes/ ("sample:bucky.raw", ...), for pickers."""
     from isoscope.resources import volumes_dir
+
     from .loaders import SAMPLE_PREFIX, is_volume_file
     return sorted(SAMPLE_PREFIX + path.name for path in volumes_dir().iterdir() if is_volume_file(path))
 

@@ -8,8 +8,8 @@ point out of the object and the first frame looks right.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -204,6 +204,6 @@ def open_builtin(spec: str, resolution=None, progress: Progress | None = None) -
     n = pick_resolution(spec_resolution, resolution, builtin.default_resolution, builtin.name)
     data, spacing, notes = builtin.make(n, progress)
     report(progress, 1.0, f"{builtin.name} ready")
-    return finish_volume(data, spacing=spacing, name=builtin.name if n == builtin.default_resolution else f"{builtin.name}:{n}",
-                         source=spec, gradient_direction=builtin.gradient_direction,
+    name = builtin.name if n == builtin.default_resolution else f"{builtin.name}:{n}"
+    return finish_volume(data, spacing=spacing, name=name, source=spec, gradient_direction=builtin.gradient_direction,
                          default_level=builtin.default_level, notes=notes)

@@ -28,5 +28,6 @@ def open_volume_from_args(spec: str, args: argparse.Namespace, progress: Progres
                           backend: str = "auto") -> Volume:
     """The volume the flags describe; `backend` samples expr: volumes ("auto", "gpu" or "cpu")."""
     from . import open_volume
-    options = {name: getattr(args, name) for name in ("dims", "dtype", "endian", "spacing", "frame", "resolution", "inside")}
+    names = ("dims", "dtype", "endian", "spacing", "frame", "resolution", "inside")
+    options = {name: getattr(args, name) for name in names}
     return open_volume(spec, progress=progress, backend=backend, **options)

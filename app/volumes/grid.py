@@ -5,8 +5,8 @@ sample (i, j, k) at exactly the same point:  lo + index * (hi - lo) / (n - 1).
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -25,11 +25,11 @@ class Box:
     hi: tuple[float, float, float]
 
     @classmethod
-    def cube(cls, lo: float, hi: float) -> "Box":
+    def cube(cls, lo: float, hi: float) -> Box:
         return cls((lo, lo, lo), (hi, hi, hi))
 
     def spacing(self, shape) -> tuple[float, float, float]:
-        return tuple((h - l) / (n - 1) for l, h, n in zip(self.lo, self.hi, shape))
+        return tuple((high - low) / (n - 1) for low, high, n in zip(self.lo, self.hi, shape))
 
     def axis(self, axis: int, n: int) -> np.ndarray:
         """The coordinates of the n samples along one axis, in float64."""

@@ -34,6 +34,7 @@ def resolve_path(spec: str) -> tuple[Path, str | None]:
         if sep and head.lower().endswith(".npz") and Path(head).expanduser().is_file():
             return Path(head).expanduser(), array_name
         from difflib import get_close_matches
+
         from .builtins import BUILTINS
         close = get_close_matches(spec.lower(), list(BUILTINS), n=1)
         hint = f"did you mean {close[0]}? " if close else ""

@@ -7,8 +7,8 @@ and the viewer can trust any Volume they are handed.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
