@@ -62,7 +62,7 @@ def main(argv=None) -> int:
             for _ in range(5):  # JIT of every shader and first buffer allocations
                 window.draw_frame()
             low, high = state.value_range
-            frame_ms, extract_ms, triangles = [], [], []
+            frame_ms, extract_ms, triangles, steps = [], [], [], []
             for frame in range(args.frames):
                 # A drag across the middle of the range and back, one step per frame.
                 phase = frame / max(args.frames - 1, 1)
@@ -72,6 +72,12 @@ def main(argv=None) -> int:
                 frame_ms.append((time.perf_counter() - start) * 1000)
                 extract_ms.append(state.extract_ms)
                 triangles.append(state.n_triangles)
+                steps.append(state.preview_step)
+            # The value rests: frames go on until the full-resolution mesh is back on show.
+            released = time.perf_counter()
+            while state.preview_step > 1 and time.perf_counter() - released < 5.0:
+                window.draw_frame()
+            full_after_ms = (time.perf_counter() - released) * 1000
             shape = "x".join(map(str, volume.data.shape))
             print(f"viewer frame while dragging the iso slider: {volume.name} {shape}, "
                   f"window {width}x{height}, {state.gl_renderer}")
@@ -79,6 +85,10 @@ def main(argv=None) -> int:
                   f"90th percentile {np.percentile(frame_ms, 90):.1f} ms over {args.frames} frames")
             print(f"  extraction  median {np.median(extract_ms):.1f} ms; "
                   f"triangles {min(triangles):,} .. {max(triangles):,}")
+            previews = [s for s in steps if s > 1]
+            print(f"  preview     {len(previews)} of {args.frames} frames drew a coarse preview"
+                  + (f" (sample step {min(previews)}..{max(previews)})" if previews else "")
+                  + f"; full mesh back {full_after_ms:.0f} ms after the last move")
         finally:
             window.close()
     return 0

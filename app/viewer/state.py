@@ -24,7 +24,7 @@ from .surface import GpuSurface
 
 ANIMATION_PERIOD_S = 6.0          # one sweep up and back down
 ANIMATION_SPAN = (0.02, 0.98)     # fractions of the range; the very ends give empty surfaces
-REST_S = 0.25                     # a value unchanged this long gets its full-resolution mesh
+REST_S = 0.15                     # a value unchanged this long gets its full-resolution mesh
 
 
 class IsoAnimation:

@@ -47,7 +47,9 @@ class GpuSurface:
                                    gradient_direction=gradient_direction, ctx=ctx)
         self._previews: dict[int, Extractor] = {}  # sample step -> extractor of the subsampled volume
         self.shown_step = 1  # the step of the mesh on show: 1 is full resolution
-        self.full_triangles = 0  # of the last full-resolution extraction: sizes the preview step
+        # The full mesh's triangle count, estimated from the last mesh of any step (a surface's
+        # count grows with the square of the resolution): sizes the next preview's step.
+        self.full_triangles = 0
 
     @property
     def value_range(self) -> tuple[float, float]:
@@ -65,14 +67,12 @@ class GpuSurface:
     def extract(self, iso: float, preview: bool = False) -> None:
         """Extract at `iso`: the full mesh, or with `preview` a coarse one if the full one is big."""
         step = preview_step(self.full_triangles, self.volume.data.shape) if preview else 1
-        if step == 1:
-            self.extractor.extract(iso)
-            self.full_triangles = self.extractor.n_triangles
-        else:
-            if step not in self._previews:
-                self._previews[step] = self._make_preview(step)
-            self._previews[step].extract(iso)
+        if step > 1 and step not in self._previews:
+            self._previews[step] = self._make_preview(step)
+        extractor = self.extractor if step == 1 else self._previews[step]
+        extractor.extract(iso)
         self.shown_step = step
+        self.full_triangles = extractor.n_triangles * step * step
 
     def _make_preview(self, step: int) -> Extractor:
         data = np.ascontiguousarray(self.volume.data[::step, ::step, ::step])
