@@ -37,7 +37,7 @@ import numpy as np
 from . import validation
 from .case_table import CaseTable, montani_table
 from .gl_context import current_or_standalone
-from .gpu_layout import GROUP_SIZE, INDEX_BYTES, VERTEX_BYTES
+from .gpu_layout import GROUP_SIZE, INDEX_BYTES, VERTEX_BYTES, volume_texel_format
 from .gpu_limits import GPULimitError, GpuLimits, plan_extractor
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
@@ -77,8 +77,10 @@ class Extractor:
 
         case_words = self.table.packed_for_gpu()
         self._case_words = np.concatenate([case_words, np.zeros(-len(case_words) % 4, np.uint32)])  # whole uvec4s
+        _, volume_format, volume_image = volume_texel_format(checked.data.dtype)
         defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u",  # the layout's come with every program
-                   "CASE_TABLE_QUADS": len(self._case_words) // 4}
+                   "CASE_TABLE_QUADS": len(self._case_words) // 4,
+                   "VOLUME_FORMAT": volume_format, "VOLUME_IMAGE": volume_image}
         self._passes = {name: compute_program(self.ctx, f"{name}.comp", defines) for name in PASSES}
 
         self.n_vertices = 0

@@ -21,10 +21,28 @@ BRICK_WORDS = BRICK_I * BRICK_J
 """Words per brick: one work group of the per-word passes, one invocation per word."""
 
 SAMPLES_PER_TEXEL = 4
-"""The volume image holds 4 consecutive axis-2 samples per RGBA32F texel."""
+"""The volume image holds 4 consecutive axis-2 samples per RGBA texel."""
 
 EDGE_MARGIN = np.float32(1.0 / 256.0)
 """Smallest edge parameter of a vertex: vertices stay this far (in edge lengths) off grid points."""
+
+VOLUME_TEXEL_FORMATS = {
+    # sample dtype: (moderngl texture dtype, GLSL image format, GLSL image type)
+    "uint8": ("u1", "rgba8ui", "uimage3D"),
+    "int8": ("i1", "rgba8i", "iimage3D"),
+    "uint16": ("u2", "rgba16ui", "uimage3D"),
+    "int16": ("i2", "rgba16i", "iimage3D"),
+    "float32": ("f4", "rgba32f", "image3D"),
+}
+"""How each sample type is kept on the GPU.  Scans come as 8- and 16-bit integers, which go up
+as they are (a quarter or half of float32's upload and memory) and read back exactly as floats;
+every other type is converted to float32 on upload."""
+
+
+def volume_texel_format(dtype) -> tuple[str, str, str]:
+    """(moderngl dtype, GLSL format, GLSL image type) of the volume image for samples of `dtype`."""
+    return VOLUME_TEXEL_FORMATS.get(str(dtype), VOLUME_TEXEL_FORMATS["float32"])
+
 
 MAX_WORD_IMAGE_SHIFT = 12
 """Per-word images are at most 2^12 = 4096 texels wide."""

@@ -1,29 +1,42 @@
-"""The volume's upload: RGBA32F texels of 4 consecutive axis-2 samples, so one image load reads 4."""
+"""The volume's upload: RGBA texels of 4 consecutive axis-2 samples, so one image load reads 4.
+
+8- and 16-bit integer samples stay integers (gpu_layout.VOLUME_TEXEL_FORMATS); anything else
+becomes float32.  A volume whose rows fill whole texels and whose type needs no conversion
+goes up as it is, without a copy; otherwise a slab of planes at a time is padded or converted.
+"""
 from __future__ import annotations
 
 import moderngl
 import numpy as np
 
-from .gpu_layout import SAMPLES_PER_TEXEL
+from .gpu_layout import SAMPLES_PER_TEXEL, volume_texel_format
 from .gpu_limits import ExtractorPlan, GPULimitError
 
 UPLOAD_SLAB_BYTES = 16 << 20
-"""A volume that needs padding or a cast to float32 goes up a slab of this many bytes at a time."""
+"""A volume that needs padding or conversion goes up a slab of about this many bytes at a time."""
+
+
+def texel_dtype(field: np.ndarray) -> np.dtype:
+    """The numpy type of the samples as the volume image holds them."""
+    texture_dtype = volume_texel_format(field.dtype)[0]
+    return np.dtype({"u1": np.uint8, "i1": np.int8, "u2": np.uint16, "i2": np.int16}.get(texture_dtype, np.float32))
 
 
 def upload_volume(ctx: moderngl.Context, field: np.ndarray, plan: ExtractorPlan) -> moderngl.Texture3D:
-    """`field` (checked, any numeric dtype) as the extractor's volume image; texel (q, j, i) holds
-    field[i, j, 4q .. 4q + 3], rows padded with zeros to whole texels."""
+    """`field` (checked) as the extractor's volume image; texel (q, j, i) holds field[i, j, 4q .. 4q + 3],
+    rows padded with zeros to whole texels."""
     n0, n1, n2 = plan.shape
     quads = plan.volume_texels[0]
+    texture_dtype = volume_texel_format(field.dtype)[0]
+    stored = texel_dtype(field)
     texture = None
     try:
-        if n2 % SAMPLES_PER_TEXEL == 0 and field.dtype == np.float32:  # already RGBA texels: no copy
-            return ctx.texture3d(plan.volume_texels, 4, field, dtype="f4")
-        texture = ctx.texture3d(plan.volume_texels, 4, dtype="f4")
-        texel_plane_bytes = n1 * quads * 4 * SAMPLES_PER_TEXEL
+        if n2 % SAMPLES_PER_TEXEL == 0 and field.dtype == stored:  # already RGBA texels: no copy
+            return ctx.texture3d(plan.volume_texels, 4, field, dtype=texture_dtype)
+        texture = ctx.texture3d(plan.volume_texels, 4, dtype=texture_dtype)
+        texel_plane_bytes = n1 * quads * SAMPLES_PER_TEXEL * stored.itemsize
         planes = min(n0, max(1, UPLOAD_SLAB_BYTES // texel_plane_bytes))
-        buffer = np.zeros((planes, n1, SAMPLES_PER_TEXEL * quads), np.float32)  # one, reused: padding stays 0
+        buffer = np.zeros((planes, n1, SAMPLES_PER_TEXEL * quads), stored)  # one, reused: padding stays 0
         for i0 in range(0, n0, planes):
             slab = buffer[:min(planes, n0 - i0)]
             slab[:, :, :n2] = field[i0:i0 + planes]

@@ -1,6 +1,6 @@
 // Shared by the marching-cubes passes: grid and brick layout, volume and word access.
 //
-// The volume is an RGBA32F image of size (ceil(n2 / 4), n1, n0): texel (q, j, i) holds
+// The volume is an RGBA image of size (ceil(n2 / 4), n1, n0): texel (q, j, i) holds
 // volume[i, j, 4q .. 4q + 3].  Signs are packed 32 per uint along axis 2: word w of row
 // (i, j) holds the inside bits of samples k = 32w .. 32w+31 (bit k - 32w).  Per-word data
 // (signs, counts, offsets) lives in 2-D images 2^u_word_shift texels wide, word id by word id.
@@ -27,7 +27,9 @@ uniform float u_level;     // level * u_sign
 uniform float u_sign;      // +1: object above the level ("descent"); -1: below ("ascent")
 uniform vec3 u_spacing;
 uniform uint u_word_shift;  // log2 of the per-word images' width
-layout(rgba32f, binding = 0) readonly uniform image3D u_volume;
+// VOLUME_FORMAT/VOLUME_IMAGE: rgba32f image3D, or for 8- and 16-bit scans their integer formats
+// (gpu_layout.VOLUME_TEXEL_FORMATS), read as exact floats.
+layout(VOLUME_FORMAT, binding = 0) readonly uniform VOLUME_IMAGE u_volume;
 
 const uint WORDS_PER_BRICK = uint(BRICK_WORDS);  // BRICK_I * BRICK_J, injected as a literal for local_size_x
 const int QUADS_PER_WORD = WORD_BITS / SAMPLES_PER_TEXEL;  // volume texels (4 samples each) per sign word
@@ -88,7 +90,7 @@ uint pick(uvec4 v, uint c) { return c == 0u ? v.x : c == 1u ? v.y : c == 2u ? v.
 float pick(vec4 v, uint c) { return c == 0u ? v.x : c == 1u ? v.y : c == 2u ? v.z : v.w; }
 
 // Samples 4q .. 4q+3 of row (i, j); past the grid's end, zeros.
-vec4 quad_at(int i, int j, int q) { return imageLoad(u_volume, ivec3(q, j, i)); }
+vec4 quad_at(int i, int j, int q) { return vec4(imageLoad(u_volume, ivec3(q, j, i))); }
 float sample_at(ivec3 p) {
     return pick(quad_at(p.x, p.y, p.z / SAMPLES_PER_TEXEL), uint(p.z % SAMPLES_PER_TEXEL));
 }
