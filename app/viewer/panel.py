@@ -188,7 +188,7 @@ class Panel:
         imgui.text(f"vertices   {state.n_vertices:,}")
         imgui.text(f"triangles  {state.n_triangles:,}")
         if state.preview_step > 1:
-            imgui.text_colored(NOTE_COLOR, f"preview: 1/{state.preview_step} resolution while the value moves")
+            imgui.text_colored(NOTE_COLOR, f"preview at 1/{state.preview_step} resolution")
         imgui.text(f"extraction {state.extract_ms:.1f} ms")
         imgui.text(f"frame      {state.frame_ms:.1f} ms" if state.frame_ms else "frame      -")
         imgui.text_wrapped(f"GL: {state.gl_renderer}")
