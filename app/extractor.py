@@ -37,7 +37,7 @@ import numpy as np
 from . import validation
 from .case_table import CaseTable, montani_table
 from .gl_context import current_or_standalone
-from .gpu_layout import GROUP_SIZE, INDEX_BYTES, VERTEX_BYTES, volume_texel_format
+from .gpu_layout import GROUP_SIZE, INDEX_BYTES, VERTEX_BYTES, divisor_magic, volume_texel_format
 from .gpu_limits import GPULimitError, GpuLimits, plan_extractor
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
@@ -160,7 +160,9 @@ class Extractor:
         for program in self._passes.values():
             set_uniforms(program, u_dims=self.shape, u_words=self.plan.words_per_row, u_bricks=self.plan.bricks,
                          u_brick_count=self.brick_count, u_level=float(np.float32(sign * level)),
-                         u_sign=sign, u_spacing=self.spacing, u_word_shift=self.plan.word_shift)
+                         u_sign=sign, u_spacing=self.spacing, u_word_shift=self.plan.word_shift,
+                         u_div_words=divisor_magic(self.plan.words_per_row),
+                         u_div_rows=divisor_magic(self.shape[1]), u_div_bricks_j=divisor_magic(self.plan.bricks[1]))
 
     def _bind(self, *slots: tuple[int, moderngl.Buffer]) -> None:
         for binding, buffer in slots:

@@ -83,6 +83,16 @@ INDEX_BYTES = 12
 """One triangle: three uint32 vertex indices."""
 
 
+def divisor_magic(d: int) -> tuple[int, int, int]:
+    """(multiplier, shift 1, shift 2) with which mc_common.glsl's divide(n, magic) is n // d for
+    every 32-bit n: Granlund and Montgomery, "Division by invariant integers using multiplication"
+    (PLDI 1994), figure 4.1.  1 <= d < 2^32."""
+    if not 1 <= d < 1 << 32:
+        raise ValueError(f"divisor {d} is outside 1 .. 2^32 - 1")
+    bits = (d - 1).bit_length()  # ceil(log2 d)
+    return ((1 << 32) * ((1 << bits) - d)) // d + 1, min(bits, 1), max(bits - 1, 0)
+
+
 def shader_defines() -> dict[str, object]:
     """The layout constants as GLSL `#define`s (integer literals, so usable in layout qualifiers)."""
     return {

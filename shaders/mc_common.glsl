@@ -27,6 +27,10 @@ uniform float u_level;     // level * u_sign
 uniform float u_sign;      // +1: object above the level ("descent"); -1: below ("ascent")
 uniform vec3 u_spacing;
 uniform uint u_word_shift;  // log2 of the per-word images' width
+// Multiply-and-shift constants dividing by u_words, u_dims.y and u_bricks.y (see divide()).
+uniform uvec3 u_div_words;
+uniform uvec3 u_div_rows;
+uniform uvec3 u_div_bricks_j;
 // VOLUME_FORMAT/VOLUME_IMAGE: rgba32f image3D, or for 8- and 16-bit scans their integer formats
 // (gpu_layout.VOLUME_TEXEL_FORMATS), read as exact floats.
 layout(VOLUME_FORMAT, binding = 0) readonly uniform VOLUME_IMAGE u_volume;
@@ -38,21 +42,32 @@ uint linear_group() {  // dispatches fold into 2-D past 65535 groups
     return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
 }
 
+// n / d for the divisor d whose constants `magic` gpu_layout.divisor_magic() made: exact for every
+// 32-bit n (Granlund and Montgomery 1994, fig. 4.1).  llvmpipe divides integers lane by lane; these
+// divisions, one set per vertex, once took a fifth of the whole extraction.
+uint divide(uint n, uvec3 magic) {
+    uint high, low;
+    umulExtended(n, magic.x, high, low);
+    return (high + ((n - high) >> magic.y)) >> magic.z;
+}
+
 uint word_id_of(int i, int j, int w) {
     return (uint(i) * uint(u_dims.y) + uint(j)) * uint(u_words) + uint(w);
 }
 
 // The inverse of word_id_of: (i, j, w) of word `id`.
 ivec3 word_of_id(uint id) {
-    uint row = id / uint(u_words);
-    return ivec3(int(row / uint(u_dims.y)), int(row % uint(u_dims.y)), int(id % uint(u_words)));
+    uint row = divide(id, u_div_words);
+    uint i = divide(row, u_div_rows);
+    return ivec3(int(i), int(row - i * uint(u_dims.y)), int(id - row * uint(u_words)));
 }
 
 // Brick `brick`'s first word (i0, j0, w): brick id = (bi * bricks_j + bj) * u_words + w.
 ivec3 brick_origin(uint brick) {
-    uint column = brick / uint(u_words);
-    return ivec3(int(column / uint(u_bricks.y)) * BRICK_I, int(column % uint(u_bricks.y)) * BRICK_J,
-                 int(brick % uint(u_words)));
+    uint column = divide(brick, u_div_words);
+    uint bi = divide(column, u_div_bricks_j);
+    return ivec3(int(bi) * BRICK_I, int(column - bi * uint(u_bricks.y)) * BRICK_J,
+                 int(brick - column * uint(u_words)));
 }
 
 // A vertex job, left in the vertex's slot by mc_triangles.comp for mc_vertices.comp: the owning

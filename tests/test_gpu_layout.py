@@ -52,3 +52,23 @@ def test_every_program_sees_the_layout_as_python_has_it(gl_ctx, tmp_path, monkey
     out.release()
     assert dict(zip(names, data[:-1].tolist())) == {name: getattr(gpu_layout, name) for name in names}
     assert data[-1:].view(np.float32)[0] == gpu_layout.EDGE_MARGIN
+
+
+def emulated_divide(n: np.ndarray, magic) -> np.ndarray:
+    """mc_common.glsl's divide(), in uint64 arithmetic: (high + ((n - high) >> s1)) >> s2."""
+    m, s1, s2 = (np.uint64(v) for v in magic)
+    high = (n * m) >> np.uint64(32)
+    return (high + ((n - high) >> s1)) >> s2
+
+
+def test_divisor_magic_divides_every_32_bit_number_exactly():
+    rng = np.random.default_rng(11)
+    divisors = list(range(1, 2049)) + [2**k + e for k in range(11, 32) for e in (-1, 0, 1)] + [2**32 - 1]
+    for d in divisors:
+        multiples = rng.integers(0, 2**32 // d, 1000, dtype=np.uint64) * np.uint64(d)
+        n = np.concatenate([multiples, multiples + np.uint64(d - 1), rng.integers(0, 2**32, 500, dtype=np.uint64),
+                            np.array([0, 1, 2**31, 2**32 - 1], np.uint64)])
+        n = n[n < 2**32]
+        assert np.array_equal(emulated_divide(n, gpu_layout.divisor_magic(d)), n // np.uint64(d)), d
+    with pytest.raises(ValueError):
+        gpu_layout.divisor_magic(0)
