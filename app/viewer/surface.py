@@ -17,8 +17,8 @@ from ..mesh import GpuMesh
 from ..validation import CheckedVolume
 from ..volumes import Volume
 
-PREVIEW_TRIANGLES = 120_000
-"""Triangles a preview mesh aims to stay under: llvmpipe draws about that many in 20-30 ms."""
+PREVIEW_TRIANGLES = 60_000
+"""Triangles a preview mesh aims to stay under: llvmpipe draws about that many in 10-15 ms."""
 
 MAX_PREVIEW_STEP = 4
 
