@@ -7,10 +7,11 @@ from . import validation
 from .reference import marching_cubes_reference
 
 BACKENDS = ("auto", "gpu", "cpu")
+METHODS = ("lewiner", "lorensen")
 
 
 def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
-                   backend="auto"):
+                   step_size=1, allow_degenerate=True, method="lewiner", backend="auto"):
     """Extract the isosurface ``volume == level`` as an indexed, watertight triangle mesh.
 
     Parameters follow ``skimage.measure.marching_cubes``:
@@ -23,6 +24,14 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         the level (densities, CT), "ascent" when below (signed distances).
         Normals point out of the object and triangles wind counter-clockwise
         seen from outside.
+    step_size : sample every step_size-th grid point along each axis (a coarser,
+        faster mesh in the same units); 1 is every sample.
+    allow_degenerate : accepted for scikit-image's sake; this mesh never has
+        degenerate (zero-area) triangles, so either value gives the same mesh.
+    method : "lewiner" or "lorensen", accepted for scikit-image's sake; both give
+        this extractor's mesh, whose case table resolves ambiguous faces from their
+        four corners (Montani et al. 1994), so it is watertight as "lewiner" is, and
+        unlike "lorensen" never has holes.
     backend : "gpu" (OpenGL 4.3 compute shaders; a standalone EGL context when
         none is current), "cpu" (the numpy reference), or "auto" (GPU when an
         OpenGL 4.3 context can be had).
@@ -34,10 +43,16 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     """
     if backend not in BACKENDS:
         raise ValueError(f"backend {backend!r} is not one of {BACKENDS}")
+    if method not in METHODS:
+        raise ValueError(f"method {method!r} is not one of {METHODS}")
     checked = validation.check_volume(volume)
     spacing = validation.as_spacing(spacing)
     descent = validation.as_gradient_direction(gradient_direction)
     level = validation.as_level(level, checked.value_range)
+    step = validation.as_step_size(step_size)
+    if step > 1:
+        checked = validation.subsampled(checked, step)
+        spacing = tuple(s * step for s in spacing)
 
     if backend == "auto":
         from .gl_context import gl_available

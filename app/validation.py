@@ -30,6 +30,22 @@ class CheckedVolume:
     notes: tuple[str, ...] = ()
 
 
+def subsampled(checked: CheckedVolume, step: int) -> CheckedVolume:
+    """Every `step`-th sample along each axis (scikit-image's step_size).  Its value range is the
+    full volume's, a bound on the samples kept, so every level of the full volume stays valid."""
+    data = checked.data[::step, ::step, ::step]
+    if min(data.shape) < 2:
+        raise ValueError(f"step_size {step} leaves the volume {'x'.join(map(str, checked.data.shape))} "
+                         f"with an axis shorter than 2 samples; use a smaller step_size")
+    return CheckedVolume(np.ascontiguousarray(data), checked.value_range, checked.notes)
+
+
+def as_step_size(step_size) -> int:
+    if isinstance(step_size, bool) or not isinstance(step_size, (int, np.integer)) or step_size < 1:
+        raise ValueError(f"step_size must be a whole number of voxels, 1 or more; got {step_size!r}")
+    return int(step_size)
+
+
 def _at_index(index) -> str:
     return f"at index {tuple(int(i) for i in index)}; replace them (e.g. np.nan_to_num) first"
 

@@ -4,6 +4,7 @@ import pytest
 from skimage import measure
 
 import isoscope
+from isoscope.gpu_layout import EDGE_MARGIN
 
 from mesh_checks import sign_changing_edges
 
@@ -83,6 +84,10 @@ BAD = [
     (np.arange(27.0).reshape(3, 3, 3), 5.0, {"gradient_direction": "up"}, "gradient_direction"),
     (np.arange(27.0).reshape(3, 3, 3), 5.0, {"backend": "cuda"}, "backend"),
     (np.array([["a"] * 2] * 2 * 2).reshape(2, 2, 2), 0.0, {}, "dtype"),
+    (np.arange(27.0).reshape(3, 3, 3), 5.0, {"step_size": 0}, "step_size"),
+    (np.arange(27.0).reshape(3, 3, 3), 5.0, {"step_size": 1.5}, "step_size"),
+    (np.arange(27.0).reshape(3, 3, 3), 5.0, {"step_size": 3}, "shorter than 2"),
+    (np.arange(27.0).reshape(3, 3, 3), 5.0, {"method": "dual"}, "method"),
 ]
 
 
@@ -92,3 +97,35 @@ def test_bad_input_raises_one_line_value_error(volume, level, kwargs, words):
         isoscope.marching_cubes(volume, level, **kwargs)
     message = str(err.value)
     assert words in message and "\n" not in message
+
+
+@pytest.mark.parametrize("step", [2, 3])
+def test_step_size_gives_scikit_image_s_coarse_mesh(step):
+    from scipy.spatial import cKDTree
+    from skimage import measure
+    volume = sphere(64)
+    spacing = (0.5, 1.0, 2.0)
+    gpu = isoscope.marching_cubes(volume, 0.0, spacing=spacing, step_size=step, gradient_direction="ascent",
+                                  backend="gpu")
+    cpu = isoscope.marching_cubes(volume, 0.0, spacing=spacing, step_size=step, gradient_direction="ascent",
+                                  backend="cpu")
+    theirs = measure.marching_cubes(volume, 0.0, spacing=spacing, step_size=step, gradient_direction="ascent")
+    np.testing.assert_array_equal(gpu[1], cpu[1])
+    np.testing.assert_allclose(gpu[0], cpu[0], atol=1e-5)
+    assert len(gpu[0]) == len(theirs[0]) and len(gpu[1]) == len(theirs[1])
+    distance, _ = cKDTree(theirs[0]).query(gpu[0])
+    # The same vertices, in the same (full-grid) units, but for ours kept EDGE_MARGIN of an edge
+    # (step * spacing long) off grid points where scikit-image's come closer.
+    assert np.mean(distance < 1e-4) > 0.98
+    assert distance.max() <= float(EDGE_MARGIN) * step * max(spacing) + 1e-5
+    full = isoscope.marching_cubes(volume, 0.0, spacing=spacing, gradient_direction="ascent", backend="cpu")
+    assert len(gpu[1]) < len(full[1]) / (step * step) * 1.2
+
+
+def test_allow_degenerate_and_method_are_accepted_and_change_nothing():
+    volume = sphere(20)
+    base = isoscope.marching_cubes(volume, 0.0, backend="cpu")
+    for kwargs in ({"allow_degenerate": False}, {"method": "lorensen"}, {"method": "lewiner"}):
+        other = isoscope.marching_cubes(volume, 0.0, backend="cpu", **kwargs)
+        for a, b in zip(base, other):
+            np.testing.assert_array_equal(a, b)

@@ -10,11 +10,9 @@ the value rests (`ViewerState` decides when).
 """
 from __future__ import annotations
 
-import numpy as np
-
 from ..extractor import Extractor
 from ..mesh import GpuMesh
-from ..validation import CheckedVolume
+from ..validation import subsampled
 from ..volumes import Volume
 
 PREVIEW_TRIANGLES = 60_000
@@ -75,10 +73,7 @@ class GpuSurface:
         self.full_triangles = extractor.n_triangles * step * step
 
     def _make_preview(self, step: int) -> Extractor:
-        data = np.ascontiguousarray(self.volume.data[::step, ::step, ::step])
-        # The full volume's range bounds the samples kept, and keeps every level of the slider valid.
-        checked = CheckedVolume(data, self.volume.value_range)
-        return Extractor(checked, spacing=tuple(s * step for s in self.volume.spacing),
+        return Extractor(subsampled(self.volume.checked, step), spacing=tuple(s * step for s in self.volume.spacing),
                          gradient_direction=self.gradient_direction, ctx=self.ctx)
 
     def release(self) -> None:
