@@ -141,17 +141,23 @@ class Extractor:
         self._case_table.bind_to_uniform_block(0)
 
     def _ensure_output(self, n_vertices: int, n_triangles: int) -> None:
-        """Grow the mesh buffers to fit (by half again, so dragging the slider rarely reallocates)."""
-        self.plan.check_mesh(n_vertices, n_triangles, VERTEX_BYTES, INDEX_BYTES)
-        limit = self.plan.limits.max_storage_block_bytes
+        """Grow the mesh buffers to fit (by half again, so dragging the slider rarely reallocates).
+
+        They may outgrow one storage block: the passes then write them a window at a time."""
         for attr, needed in (("vertex_buffer", n_vertices * VERTEX_BYTES),
                              ("index_buffer", n_triangles * INDEX_BYTES)):
             buf = getattr(self, attr)
             if buf.size < needed:
-                size = min(max(needed, int(buf.size * 1.5)), limit)
+                size = max(needed, int(buf.size * 1.5))
                 buf.release()
                 setattr(self, attr, None)  # released: a failing allocation below must not release it twice
-                setattr(self, attr, self.ctx.buffer(reserve=size))
+                try:
+                    setattr(self, attr, self.ctx.buffer(reserve=size))
+                except moderngl.Error as exc:
+                    raise GPULimitError(
+                        f"the mesh at this level ({n_vertices} vertices, {n_triangles} triangles) needs a "
+                        f"{size >> 20} MiB buffer that this GPU could not allocate ({exc}); pick another "
+                        "level, crop or downsample the volume, or use backend='cpu'") from None
 
     # -- extraction -------------------------------------------------------------------------
 
@@ -234,12 +240,25 @@ class Extractor:
         # The scan used slots 0 and 1; bind the passes' buffers again.
         self._bind((1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets))
         self._run_over_active_bricks("mc_word_offsets", per_brick=True)
-        self._bind((6, self.index_buffer), (8, self.vertex_buffer))
-        self._run_over_active_bricks("mc_triangles")  # and the vertex jobs
-        self._bind((6, self.vertex_buffer))
-        set_uniforms(self._passes["mc_vertices"], u_vertex_count=n_vertices)
-        dispatch_groups(self._passes["mc_vertices"], -(-n_vertices // GROUP_SIZE))
+        vertex_windows, triangle_windows = self.plan.mesh_windows(n_vertices, n_triangles)
+        triangles, vertices = self._passes["mc_triangles"], self._passes["mc_vertices"]
+        for vertex_window, triangle_window in zip(vertex_windows, triangle_windows):
+            # Each run writes only the triangles and vertex jobs inside its windows (usually one).
+            self._bind_window(6, self.index_buffer, triangle_window, INDEX_BYTES)
+            self._bind_window(8, self.vertex_buffer, vertex_window, VERTEX_BYTES)
+            set_uniforms(triangles, u_vertex_window=vertex_window, u_triangle_window=triangle_window)
+            self._run_over_active_bricks("mc_triangles")
+        for window in vertex_windows:
+            self._bind_window(6, self.vertex_buffer, window, VERTEX_BYTES)
+            set_uniforms(vertices, u_vertex_count=window[1])
+            dispatch_groups(vertices, -(-window[1] // GROUP_SIZE))
         self.ctx.memory_barrier()
+
+    @staticmethod
+    def _bind_window(binding: int, buffer: moderngl.Buffer, window: tuple[int, int], record_bytes: int) -> None:
+        """Bind records first .. first + count of `buffer` (one record for an empty window)."""
+        first, count = window
+        buffer.bind_to_storage_buffer(binding, offset=first * record_bytes, size=max(count, 1) * record_bytes)
 
     @property
     def mesh(self) -> GpuMesh:

@@ -82,6 +82,10 @@ VERTEX_FORMAT = vertex_format("position", "value", "normal")
 INDEX_BYTES = 12
 """One triangle: three uint32 vertex indices."""
 
+STORAGE_OFFSET_ALIGNMENT = 256
+"""Offsets at which a window of a mesh buffer is bound as a storage block: a multiple of every
+GL_SHADER_STORAGE_BUFFER_OFFSET_ALIGNMENT seen (16 to 256; moderngl does not report it)."""
+
 
 def divisor_magic(d: int) -> tuple[int, int, int]:
     """(multiplier, shift 1, shift 2) with which mc_common.glsl's divide(n, magic) is n // d for

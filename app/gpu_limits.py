@@ -7,11 +7,22 @@ a construction that cannot succeed allocates nothing.  `GpuLimits` can be given 
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import moderngl
 
-from .gpu_layout import BRICK_I, BRICK_J, MAX_WORD_IMAGE_SHIFT, MAX_WORDS, SAMPLES_PER_TEXEL, WORD_BITS
+from .gpu_layout import (
+    BRICK_I,
+    BRICK_J,
+    INDEX_BYTES,
+    MAX_WORD_IMAGE_SHIFT,
+    MAX_WORDS,
+    SAMPLES_PER_TEXEL,
+    STORAGE_OFFSET_ALIGNMENT,
+    VERTEX_BYTES,
+    WORD_BITS,
+)
 
 
 class GPULimitError(ValueError):
@@ -62,15 +73,21 @@ class ExtractorPlan:
                 "brick ranges": 2 * self.brick_count, "active bricks": 1 + self.brick_count,
                 "row ranges": 2 * self.word_count}
 
-    def check_mesh(self, n_vertices: int, n_triangles: int, vertex_bytes: int, index_bytes: int) -> None:
-        """Refuse a mesh whose vertex or index buffer would pass the storage-block limit."""
-        limit = self.limits.max_storage_block_bytes
-        needed = max(n_vertices * vertex_bytes, n_triangles * index_bytes)
-        if needed > limit:
-            raise GPULimitError(
-                f"the mesh at this level ({n_vertices} vertices, {n_triangles} triangles) needs "
-                f"{needed >> 20} MiB in one buffer, above this GPU's {limit >> 20} MiB "
-                "storage-block limit; pick another level, crop the volume, or use backend='cpu'")
+    def windows(self, count: int, record_bytes: int) -> list[tuple[int, int]]:
+        """`count` records cut into (first, count) windows that a shader can bind as one storage
+        block each: at most the storage-block limit, starting at aligned offsets.  A mesh buffer
+        may be larger than one block; the passes write it a window at a time."""
+        unit = math.lcm(record_bytes, STORAGE_OFFSET_ALIGNMENT)
+        per_window = max(unit, self.limits.max_storage_block_bytes // unit * unit) // record_bytes
+        return [(first, min(per_window, count - first)) for first in range(0, count, per_window)] or [(0, 0)]
+
+    def mesh_windows(self, n_vertices: int, n_triangles: int):
+        """The vertex buffer's and the index buffer's windows, paired: as many pairs as the longer
+        list, the shorter padded with empty windows."""
+        vertex = self.windows(n_vertices, VERTEX_BYTES)
+        triangle = self.windows(n_triangles, INDEX_BYTES)
+        pairs = max(len(vertex), len(triangle))
+        return vertex + [(0, 0)] * (pairs - len(vertex)), triangle + [(0, 0)] * (pairs - len(triangle))
 
 
 def plan_extractor(shape, limits: GpuLimits) -> ExtractorPlan:

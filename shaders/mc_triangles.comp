@@ -14,6 +14,10 @@ layout(r32ui, binding = 2) readonly uniform uimage2D u_word_counts;
 layout(rg32ui, binding = 3) readonly uniform uimage2D u_word_offsets;  // (first vertex, first triangle)
 layout(std430, binding = 6) writeonly buffer Indices { uint indices[]; };
 layout(std430, binding = 8) writeonly buffer VertexRecords { uint vertex_words[]; };  // VERTEX_FLOATS per vertex
+// The (first, count) of the vertices and triangles bound above: a mesh larger than one storage
+// block is written a window at a time, each run writing only what falls in its windows.
+uniform uvec2 u_vertex_window;
+uniform uvec2 u_triangle_window;
 
 // Where each axis's vertices start in the words owning a cell row's edges, per sign row around
 // the cells (component d0 | d1 << 1): in word w, and in word w + 1 (reached from cell 31, only
@@ -77,7 +81,8 @@ void write_vertex_jobs(uint id, uint next, uint count, uvec3 crossing) {
         }
         uint b = uint(findLSB(bits));
         bits &= bits - 1u;
-        vertex_words[uint(VERTEX_FLOATS) * next] = vertex_job(id, axis, b);  // one uint: SSBO loads are dear
+        uint slot = next - u_vertex_window.x;  // wraps past the window's count when next is before it
+        if (slot < u_vertex_window.y) vertex_words[uint(VERTEX_FLOATS) * slot] = vertex_job(id, axis, b);
     }
 }
 
@@ -114,8 +119,10 @@ void main() {
             slot = 0u;
         }
         uint edges = triangle_edges(c, slot++);
-        indices[3u * next + 0u] = vertex_index(rows, starts, k, edges & 15u);
-        indices[3u * next + 1u] = vertex_index(rows, starts, k, (edges >> 4) & 15u);
-        indices[3u * next + 2u] = vertex_index(rows, starts, k, (edges >> 8) & 15u);
+        uint at = next - u_triangle_window.x;
+        if (at >= u_triangle_window.y) continue;
+        indices[3u * at + 0u] = vertex_index(rows, starts, k, edges & 15u);
+        indices[3u * at + 1u] = vertex_index(rows, starts, k, (edges >> 4) & 15u);
+        indices[3u * at + 2u] = vertex_index(rows, starts, k, (edges >> 8) & 15u);
     }
 }

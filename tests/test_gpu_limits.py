@@ -8,7 +8,8 @@ import pytest
 
 import isoscope.volume_texture as volume_texture
 from isoscope.extractor import Extractor, GPULimitError
-from isoscope.gpu_limits import GpuLimits
+from isoscope.gpu_layout import STORAGE_OFFSET_ALIGNMENT
+from isoscope.gpu_limits import GpuLimits, plan_extractor
 from isoscope.reference import marching_cubes_reference
 
 from mesh_checks import assert_same_mesh
@@ -82,3 +83,29 @@ def test_a_failure_late_in_the_set_up_releases_what_was_allocated(gl_ctx, monkey
         with pytest.raises(moderngl.Error):
             Extractor(volume, ctx=gl_ctx)
     assert resident_bytes() - before < 32 << 20, "a half-built extractor kept its texture and buffers"
+
+
+@pytest.mark.parametrize("block_kib", [16, 41])
+def test_a_mesh_larger_than_one_storage_block_is_written_a_window_at_a_time(gl_ctx, block_kib):
+    volume = RNG.normal(size=(30, 33, 45)).astype(np.float32)  # noise: a mesh of tens of thousands of triangles
+    real = GpuLimits.of(gl_ctx)
+    small = GpuLimits(real.max_3d_texture_size, real.max_texture_size, block_kib << 10)
+    with Extractor(volume, ctx=gl_ctx, limits=small) as ex:
+        n_vertices, n_triangles = ex.extract(0.1)
+        vertex_windows, triangle_windows = ex.plan.mesh_windows(n_vertices, n_triangles)
+        assert len(vertex_windows) > 10 and n_triangles * 12 > 10 * (block_kib << 10)
+        windowed = ex.read_mesh()
+        ex.extract(0.3)   # and again at another level, into the same (grown) buffers
+        windowed_again = ex.read_mesh()
+    assert_same_mesh(windowed, marching_cubes_reference(volume, 0.1))
+    assert_same_mesh(windowed_again, marching_cubes_reference(volume, 0.3))
+
+
+def test_windows_cover_every_record_once_at_aligned_offsets(gl_ctx):
+    real = GpuLimits.of(gl_ctx)
+    plan = plan_extractor((8, 8, 40), GpuLimits(real.max_3d_texture_size, real.max_texture_size, 10_000))
+    for count, record in ((0, 12), (1, 32), (12_345, 12), (7_777, 32)):
+        windows = plan.windows(count, record)
+        covered = [i for first, n in windows for i in range(first, first + n)]
+        assert covered == list(range(count))
+        assert all(first * record % STORAGE_OFFSET_ALIGNMENT == 0 and n * record <= 10_000 for first, n in windows)
