@@ -286,3 +286,51 @@ def test_headless_renders_never_show_a_preview(viewer, monkeypatch):
         state.set_iso(value)
         viewer.render()
         assert state.preview_step == 1 and state.extractor.level == pytest.approx(value)
+
+
+def test_value_histogram_counts_every_sample_on_a_log_scale():
+    from isoscope.viewer.histogram import BINS, value_histogram
+    data = np.zeros((10, 10, 10), np.uint8)
+    data[:5] = 200                                   # 500 samples at 200, 500 at 0
+    data[0, 0, 0] = 100
+    counts = np.expm1(value_histogram(data, (0.0, 200.0)).astype(np.float64))
+    assert len(counts) == BINS and round(counts.sum()) == 1000
+    assert round(counts[0]) == 500 and round(counts[-1]) == 499 and round(counts[BINS // 2]) == 1
+
+
+def marker_columns(image, box, colour):
+    """Columns inside the histogram's box drawn in the level marker's colour."""
+    (left, top), (right, bottom) = (tuple(int(round(v)) for v in corner) for corner in box)
+    region = image[top:bottom, left:right].astype(int)
+    hits = (np.abs(region - np.round(255 * np.array(colour))) <= 3).all(axis=2).sum(axis=0)
+    return left + np.nonzero(hits > (bottom - top) // 2)[0]
+
+
+def test_histogram_marks_the_level_and_a_click_on_it_sets_the_level(gl_ctx):
+    from imgui_bundle import imgui
+
+    from isoscope.viewer.histogram import fraction_of
+    viewer = HeadlessViewer((900, 700), ctx=gl_ctx)
+    try:
+        viewer.show(open_volume("bucky"), iso=64)
+        state, colour = viewer.state, viewer.state.style.front_color
+        image = viewer.render(panel=True)
+        box = viewer._panel.histogram_box
+        (left, top), (right, bottom) = box
+        for level in (64.0, 190.0):
+            state.set_iso(level)
+            image = viewer.render(panel=True)
+            columns = marker_columns(image, box, colour)
+            expected = left + fraction_of(level, state.value_range) * (right - left)
+            assert len(columns) and abs(columns.mean() - expected) <= 2, (level, columns)
+        # A press on the histogram a quarter of the way across sets the level there.
+        io = imgui.get_io()
+        io.add_mouse_pos_event(left + 0.25 * (right - left), (top + bottom) / 2)
+        for down in (True, True, False):
+            io.add_mouse_button_event(0, down)
+            viewer.render(panel=True)
+        low, high = state.value_range
+        assert state.iso == pytest.approx(low + 0.25 * (high - low), abs=0.01 * (high - low))
+        assert state.extractor.level == pytest.approx(state.iso)
+    finally:
+        viewer.release()

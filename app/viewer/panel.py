@@ -14,6 +14,7 @@ from pathlib import Path
 from imgui_bundle import imgui
 
 from ..volumes import builtin_names
+from .histogram import fraction_of, level_at
 from .state import ViewerState
 
 PANEL_TITLE = "isoscope"
@@ -21,6 +22,7 @@ PANEL_WIDTH = 330
 PANEL_HOME = (8.0, 8.0)     # top-left corner, imgui units
 PANEL_LEFT_SLACK = 24.0     # a panel this close to its home's x still counts as covering the left
 PANEL_KEEP_VISIBLE = 64.0   # of the panel's width, kept inside the window with its whole title bar
+HISTOGRAM_HEIGHT = 56.0
 ERROR_COLOR = imgui.ImVec4(1.0, 0.45, 0.40, 1.0)
 NOTE_COLOR = imgui.ImVec4(0.60, 0.85, 0.60, 1.0)
 VOLUME_FILE_FILTERS = ["Volumes", "*.npy *.npz *.nii *.nii.gz *.nrrd *.nhdr *.raw *.vol *.mhd *.tif *.tiff",
@@ -71,6 +73,7 @@ class Panel:
         self._file_dialog = None       # a pending portable_file_dialogs.open_file
         self.box = None                # the expanded panel's (x, y, width, height), imgui units
         self.iso_slider_box = None     # the iso slider's ((left, top), (right, bottom)), imgui units
+        self.histogram_box = None      # the value histogram's ((left, top), (right, bottom)), likewise
         self._go_home = False
 
     def draw(self, state: ViewerState) -> None:
@@ -163,6 +166,8 @@ class Panel:
         self.iso_slider_box = (tuple(imgui.get_item_rect_min()), tuple(imgui.get_item_rect_max()))
         if changed:
             state.set_iso(value)
+        if state.histogram is not None:
+            self._histogram(state, (low, high))
         # Typing an exact value: applied on Enter, so half-typed numbers do not extract.
         typed, value = imgui.input_double("exact", state.iso, 0.0, 0.0, "%.6g",
                                           imgui.InputTextFlags_.enter_returns_true)
@@ -172,6 +177,24 @@ class Panel:
         toggled, animate = imgui.checkbox("animate (space)", state.animating)
         if toggled and animate != state.animating:
             state.toggle_animation()
+
+    def _histogram(self, state: ViewerState, value_range: tuple[float, float]) -> None:
+        """The values' histogram (log counts) with the level marked; a click or drag on it sets the level."""
+        top_left = imgui.get_cursor_screen_pos()
+        size = imgui.ImVec2(imgui.get_content_region_avail().x, HISTOGRAM_HEIGHT)
+        self.histogram_box = ((top_left.x, top_left.y), (top_left.x + size.x, top_left.y + size.y))
+        # The button first: of overlapping items, the first submitted takes the mouse.
+        imgui.invisible_button("##histogram_pick", size)
+        if imgui.is_item_active():
+            state.set_iso(level_at((imgui.get_io().mouse_pos.x - top_left.x) / size.x, value_range))
+        elif imgui.is_item_hovered():
+            imgui.set_tooltip("values in the volume (log counts): click or drag to set the level")
+        imgui.set_cursor_screen_pos(top_left)
+        imgui.plot_histogram("##histogram", state.histogram, graph_size=size)
+        x = top_left.x + fraction_of(state.iso, value_range) * size.x
+        colour = imgui.get_color_u32(imgui.ImVec4(*state.style.front_color, 1.0))
+        imgui.get_window_draw_list().add_line(imgui.ImVec2(x, top_left.y), imgui.ImVec2(x, top_left.y + size.y),
+                                              colour, 2.0)
 
     def _display_section(self, state: ViewerState) -> None:
         imgui.separator_text("Display")

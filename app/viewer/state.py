@@ -17,6 +17,7 @@ import moderngl
 
 from ..mesh import GpuMesh
 from ..volumes import Volume, open_volume
+from .histogram import value_histogram
 from .loading import USER_ERRORS, PendingLoad, one_line
 from .recent import RecentFiles
 from .style import SurfaceStyle
@@ -56,6 +57,7 @@ class ViewerState:
         self.ctx = ctx                   # the context the surface's buffers must live in (the window's)
         self.volume: Volume | None = None
         self.surface: GpuSurface | None = None  # the GL side of `volume`
+        self.histogram = None            # log counts of `volume`'s values, for the panel (histogram.py)
         self.iso = 0.0
         self._extracted_iso: float | None = None
         self.level_of_detail = level_of_detail  # coarse meshes while the value moves (the window)
@@ -106,6 +108,7 @@ class ViewerState:
         """Upload `volume` to the GPU and extract its first surface; the old volume stays on failure."""
         if not self._upload(volume, volume.gradient_direction):
             return False
+        self.histogram = value_histogram(volume.data, volume.value_range)
         low, high = self.value_range
         first_iso = iso if iso is not None else volume.default_level
         self.iso = (low + high) / 2 if first_iso is None else min(max(float(first_iso), low), high)
