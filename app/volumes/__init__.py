@@ -24,6 +24,10 @@ Files:
                    --dtype (default uint8), --endian little|big, --spacing X Y Z,
                    or a JSON sidecar (file.json or file.raw.json) with keys
                    dims, dtype, endian, spacing; flags win over the sidecar.
+    a folder       a DICOM series (pydicom): slices sorted along their normal,
+                   rescaled (CT in HU), spacing from the slice positions and
+                   PixelSpacing; axes (slice, row, column); --series N|UID picks
+                   one of several series.
 
 Which side is the object: built-ins and expr: declare it; files are taken as
 densities (object above the level, as CT). `--inside below` (open_volume's
@@ -71,12 +75,12 @@ INSIDE_SIDES = {"above": "descent", "below": "ascent"}  # --inside -> Volume.gra
 
 
 def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, frame=None,
-                resolution=None, progress: Progress | None = None, backend: str = "auto",
+                series=None, resolution=None, progress: Progress | None = None, backend: str = "auto",
                 ctx=None, inside: str | None = None) -> Volume:
     """Open a volume from a spec (see the module docstring); raise VolumeError on bad input.
 
     dims/dtype/endian: raw files only; spacing overrides a header; frame picks
-    a volume of a 4-D file; resolution: built-ins and expr: only. progress, if
+    a volume of a 4-D file; series picks a DICOM folder's series; resolution: built-ins and expr: only. progress, if
     given, is called as progress(fraction 0..1, message) while a big volume
     loads, is generated or is checked. backend ("auto", "gpu", "cpu") and ctx (a
     moderngl context) only matter for expr: specs; "auto" samples on the GPU
@@ -86,18 +90,19 @@ def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, 
     """
     if inside is not None and inside not in INSIDE_SIDES:
         raise VolumeError(f"inside must be 'above' or 'below' the level, not {inside!r}")
-    volume = _open(spec, dims=dims, dtype=dtype, endian=endian, spacing=spacing, frame=frame,
+    volume = _open(spec, dims=dims, dtype=dtype, endian=endian, spacing=spacing, frame=frame, series=series,
                    resolution=resolution, progress=progress, backend=backend, ctx=ctx)
     if inside is not None:
         volume.gradient_direction = INSIDE_SIDES[inside]  # in place: keeps the checked value range
     return volume
 
 
-def _open(spec: str, *, dims, dtype, endian, spacing, frame, resolution, progress, backend, ctx) -> Volume:
+def _open(spec: str, *, dims, dtype, endian, spacing, frame, series, resolution, progress, backend,
+          ctx) -> Volume:
     if not isinstance(spec, str) or not spec.strip():
         raise VolumeError("no volume given; name a file, a built-in (isoscope volumes) or expr:FORMULA")
     spec = spec.strip()
-    file_only = dict(dims=dims, dtype=dtype, endian=endian, frame=frame)
+    file_only = dict(dims=dims, dtype=dtype, endian=endian, frame=frame, series=series)
     if spec.lower().startswith("expr:"):
         _refuse_options(spec, "an expression", **file_only, spacing=spacing)
         from .expression_volume import open_expression

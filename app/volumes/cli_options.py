@@ -16,6 +16,8 @@ def add_volume_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--spacing", nargs=3, type=float, metavar=("X", "Y", "Z"),
                        help="voxel size along x, y, z (overrides the header)")
     group.add_argument("--frame", type=int, metavar="N", help="4-D files: which volume to show (default 0)")
+    group.add_argument("--series", metavar="N|UID",
+                       help="DICOM folders holding several series: which one (its number in the listing, or its UID)")
     group.add_argument("--resolution", type=int, metavar="N",
                        help="built-ins and expr: samples per axis")
     group.add_argument("--inside", choices=("above", "below"),
@@ -28,6 +30,6 @@ def open_volume_from_args(spec: str, args: argparse.Namespace, progress: Progres
                           backend: str = "auto") -> Volume:
     """The volume the flags describe; `backend` samples expr: volumes ("auto", "gpu" or "cpu")."""
     from . import open_volume
-    names = ("dims", "dtype", "endian", "spacing", "frame", "resolution", "inside")
+    names = ("dims", "dtype", "endian", "spacing", "frame", "series", "resolution", "inside")
     options = {name: getattr(args, name) for name in names}
     return open_volume(spec, progress=progress, backend=backend, **options)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from .dicom_format import load_dicom_folder
 from .errors import VolumeError
 from .frames import select_frame
 from .nifti_format import load_nifti
@@ -19,7 +20,7 @@ from .volume import Progress, Volume, finish_volume, shape_text
 
 SAMPLE_PREFIX = "sample:"
 RAW_SUFFIXES = (".raw", ".bin", ".dat")
-KNOWN_FORMATS = ".npy, .npz, .nrrd, .nhdr, .nii, .nii.gz, .raw (with --dims)"
+KNOWN_FORMATS = ".npy, .npz, .nrrd, .nhdr, .nii, .nii.gz, .raw (with --dims), a folder of DICOM files"
 
 
 def resolve_path(spec: str) -> tuple[Path, str | None]:
@@ -40,8 +41,6 @@ def resolve_path(spec: str) -> tuple[Path, str | None]:
         hint = f"did you mean {close[0]}? " if close else ""
         raise VolumeError(f"no such file or built-in volume: {spec} ({hint}check the path; "
                           f"`isoscope volumes` lists the built-ins)")
-    if path.is_dir():
-        raise VolumeError(f"{spec} is a directory; give one volume file inside it")
     return path, None
 
 
@@ -54,6 +53,8 @@ def is_volume_file(path: Path) -> bool:
 
 
 def _format_of(path: Path, has_raw_flags: bool) -> str:
+    if path.is_dir():
+        return "dicom"
     name = path.name.lower()
     for suffix, kind in ((".nii.gz", "nifti"), (".nii", "nifti"), (".nrrd", "nrrd"), (".nhdr", "nrrd"),
                          (".npy", "npy"), (".npz", "npz")):
@@ -68,9 +69,11 @@ def _format_of(path: Path, has_raw_flags: bool) -> str:
 
 
 def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, frame=None,
-              progress: Progress | None = None) -> Volume:
+              series=None, progress: Progress | None = None) -> Volume:
     path, array_name = resolve_path(spec)
     kind = _format_of(path, dims is not None)
+    if series is not None and kind != "dicom":
+        raise VolumeError(f"--series picks a series of a DICOM folder, and {path.name} is not one; drop it")
     if kind != "raw":
         for flag, value in (("--dtype", dtype), ("--endian", endian)):
             if value is not None:
@@ -78,7 +81,9 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, fr
     if spacing is not None:
         spacing = three_positive(spacing, "--spacing", float, path.name)
     try:
-        if kind == "raw":
+        if kind == "dicom":
+            data, header_spacing, notes = load_dicom_folder(path, None if series is None else str(series), progress)
+        elif kind == "raw":
             data, header_spacing, notes = load_raw(path, dims, dtype, endian, spacing, progress)
         elif kind == "npy":
             data, header_spacing, notes = load_npy(path, progress)

@@ -1,0 +1,148 @@
+"""A DICOM series from a folder, with pydicom: slices sorted along their normal, rescaled, spaced.
+
+The folder's files are read header-first and grouped by SeriesInstanceUID; with more
+than one series, `series` picks one (a number from the listing, or the UID).  Slices
+are sorted by ImagePositionPatient along the slice normal (the cross product of the
+ImageOrientationPatient directions), which is right for any orientation and either
+slice direction; their positions give the slice spacing, and PixelSpacing the rest.
+RescaleSlope and RescaleIntercept are applied (CT comes out in Hounsfield units).
+The array's axes are (slice, row, column), as the slices are stored.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .errors import VolumeError
+from .volume import Progress, report, shape_text
+
+MAX_FILES = 20_000
+GAP_TOLERANCE = 0.01  # of the slice spacing: how far apart positions may differ from even steps
+
+
+def _read_header(path: Path):
+    import pydicom
+    from pydicom.errors import InvalidDicomError
+    try:
+        return pydicom.dcmread(path, stop_before_pixels=True)
+    except (InvalidDicomError, OSError, EOFError, ValueError, TypeError, AttributeError):
+        return None  # not DICOM (a DICOMDIR's neighbours, notes, thumbnails): skipped
+
+
+def _series_files(folder: Path, progress: Progress | None):
+    """SeriesInstanceUID -> [(path, header)] of every image in the folder (and below)."""
+    paths = sorted(p for p in folder.rglob("*") if p.is_file())
+    if len(paths) > MAX_FILES:
+        raise VolumeError(f"{folder.name} holds {len(paths)} files, more than {MAX_FILES}; "
+                          "point isoscope at the series' own folder")
+    series: dict[str, list] = {}
+    for number, path in enumerate(paths, 1):
+        header = _read_header(path)
+        if header is not None and "Rows" in header:  # an image, not a report or a DICOMDIR
+            series.setdefault(str(header.get("SeriesInstanceUID", "")), []).append((path, header))
+        if number % 50 == 0:
+            report(progress, 0.3 * number / len(paths), f"reading DICOM headers in {folder.name}")
+    if not series:
+        raise VolumeError(f"{folder.name} holds no DICOM images; point isoscope at a folder of .dcm files")
+    return series
+
+
+def _pick_series(folder: Path, series: dict[str, list], wanted: str | None):
+    listing = sorted(series.items(), key=lambda item: (str(item[1][0][1].get("SeriesNumber", "")), item[0]))
+    if wanted is None:
+        if len(listing) == 1:
+            return listing[0][1]
+        rows = "; ".join(f"{i}: {uid} ({_describe(files)})" for i, (uid, files) in enumerate(listing, 1))
+        raise VolumeError(f"{folder.name} holds {len(listing)} DICOM series ({rows}); pick one with "
+                          f"--series N or --series UID")
+    for i, (uid, files) in enumerate(listing, 1):
+        if wanted in (str(i), uid):
+            return files
+    raise VolumeError(f"{folder.name} has no series {wanted!r}; it has "
+                      f"{', '.join(f'{i}: {uid}' for i, (uid, _) in enumerate(listing, 1))}")
+
+
+def _describe(files) -> str:
+    header = files[0][1]
+    text = " ".join(str(header.get(key, "")).strip() for key in ("Modality", "SeriesDescription")).strip()
+    return f"{text + ', ' if text else ''}{len(files)} slices"
+
+
+def _geometry(folder: Path, files):
+    """Sorted files, slice spacing, pixel spacing; refuses what would give a wrong volume."""
+    sizes = {(int(h.Rows), int(h.Columns)) for _, h in files}
+    if len(sizes) > 1:
+        raise VolumeError(f"{folder.name}: the series mixes image sizes "
+                          f"({', '.join(f'{r}x{c}' for r, c in sorted(sizes))}); export it again as one series")
+    try:
+        orientation = np.array([float(v) for v in files[0][1].ImageOrientationPatient])
+        positions = np.array([[float(v) for v in h.ImagePositionPatient] for _, h in files])
+        pixel_spacing = tuple(float(v) for v in files[0][1].PixelSpacing)
+    except (AttributeError, ValueError, TypeError):
+        raise VolumeError(f"{folder.name}: the slices lack ImagePositionPatient, ImageOrientationPatient "
+                          "or PixelSpacing, so their order and spacing are unknown; export the series "
+                          "with its geometry") from None
+    if len(files) < 2:
+        raise VolumeError(f"{folder.name} holds one DICOM slice; a volume needs at least 2")
+    normal = np.cross(orientation[:3], orientation[3:])
+    along = positions @ normal
+    order = np.argsort(along, kind="stable")
+    along = along[order]
+    steps = np.diff(along)
+    if np.any(steps <= 1e-6 * max(1.0, float(np.abs(along).max()))):
+        raise VolumeError(f"{folder.name}: two slices share a position ({along[np.argmin(steps)]:.4g} mm along "
+                          "the slice normal); the folder mixes series or holds duplicates")
+    spacing = float(np.median(steps))
+    uneven = np.abs(steps - spacing) > GAP_TOLERANCE * spacing
+    if uneven.any():
+        at = int(np.argmax(uneven))
+        what = "a missing slice" if abs(steps[at] / spacing - round(steps[at] / spacing)) < GAP_TOLERANCE \
+            and steps[at] > spacing else "uneven slice spacing"
+        raise VolumeError(f"{folder.name}: {what} between slices {at + 1} and {at + 2} "
+                          f"({steps[at]:.4g} mm apart where the others are {spacing:.4g} mm); "
+                          "export the complete, evenly spaced series")
+    return [files[i] for i in order], (spacing, pixel_spacing[0], pixel_spacing[1])
+
+
+def _pixels(path: Path) -> np.ndarray:
+    import pydicom
+    dataset = pydicom.dcmread(path)
+    try:
+        pixels = dataset.pixel_array
+    except (RuntimeError, NotImplementedError, ValueError) as exc:
+        syntax = getattr(getattr(dataset, "file_meta", None), "TransferSyntaxUID", None)
+        name = getattr(syntax, "name", str(syntax))
+        raise VolumeError(f"{path.name} is compressed as {name}, which pydicom cannot decode here "
+                          f"({str(exc).splitlines()[0][:120]}); install a decoder: "
+                          "pip install pylibjpeg pylibjpeg-libjpeg pylibjpeg-openjpeg") from None
+    slope = float(getattr(dataset, "RescaleSlope", 1) or 1)
+    intercept = float(getattr(dataset, "RescaleIntercept", 0) or 0)
+    if slope != 1 or intercept != 0:
+        pixels = pixels * np.float32(slope) + np.float32(intercept)
+    return pixels
+
+
+def load_dicom_folder(folder: Path, series: str | None = None, progress: Progress | None = None):
+    """(array (slices, rows, columns), spacing, notes) of the folder's DICOM series."""
+    try:
+        import pydicom  # noqa: F401
+    except ImportError:
+        raise VolumeError(f"{folder.name} is a folder: reading DICOM needs pydicom; "
+                          "pip install pydicom") from None
+    all_series = _series_files(folder, progress)
+    files, spacing = _geometry(folder, _pick_series(folder, all_series, series))
+    slices = []
+    for number, (path, _) in enumerate(files, 1):
+        slices.append(_pixels(path))
+        if number % 10 == 0:
+            report(progress, 0.3 + 0.7 * number / len(files), f"reading {folder.name} slices")
+    data = np.stack(slices)  # stored integers stay integers unless a slice was rescaled
+    if data.dtype.kind == "f":
+        data = data.astype(np.float32, copy=False)
+    header = files[0][1]
+    notes = [f"DICOM series {_describe(files)}, {shape_text(data.shape)} "
+             f"(slice, row, column), {spacing[0]:.4g} x {spacing[1]:.4g} x {spacing[2]:.4g} mm"]
+    if len(all_series) > 1:
+        notes.append(f"{folder.name} holds {len(all_series)} series; showing {header.get('SeriesInstanceUID', '')}")
+    return data, spacing, notes
