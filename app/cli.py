@@ -28,7 +28,7 @@ Drop a volume file on the window to open it.
 
 other commands (each has --help):
   isoscope render VOLUME --out shot.png [--iso V] [--size WxH] [--azimuth A] [--elevation E] [--panel]
-  isoscope export VOLUME --out mesh.ply [--iso V]
+  isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V]
   isoscope volumes          list the built-in volumes
 """
 
@@ -98,10 +98,12 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--panel", action="store_true", help="draw the imgui panel over the scene")
     else:
         parser = OneLineParser(prog="isoscope export",
-                               description="Extract the isosurface and write it as a binary PLY mesh.")
+                               description="Extract the isosurface and write it as a mesh file: binary PLY, OBJ, "
+                                           "binary STL, GLB (glTF) or OFF, by the extension of --out.")
         parser.add_argument("volume", metavar="VOLUME", help=VOLUME_HELP)
         _add_iso(parser)
-        parser.add_argument("--out", required=True, metavar="PLY", help="the .ply file to write")
+        parser.add_argument("--out", required=True, metavar="MESH",
+                            help="the file to write: .ply, .obj, .stl, .glb or .off (replaced only once complete)")
     add_volume_arguments(parser)
     return parser
 
@@ -150,13 +152,14 @@ def run_render(args) -> int:
 
 
 def run_export(args) -> int:
+    from . import marching_cubes
+    from .export import mesh_format, write_mesh
+    mesh_format(args.out)  # an unknown extension is refused before any work
     volume = open_volume_from_args(args.volume, args, _progress)
     iso = _checked_iso(volume, args.iso)
-    from . import marching_cubes
-    from .export import write_ply
     verts, faces, normals, _ = marching_cubes(volume.checked, iso, spacing=volume.spacing,
                                               gradient_direction=volume.gradient_direction)
-    path = write_ply(args.out, verts, faces, normals, comment=f"isoscope {volume.name} iso {iso}")
+    path = write_mesh(args.out, verts, faces, normals)
     print(f"wrote {path}: {len(verts):,} vertices, {len(faces):,} triangles")
     return 0
 

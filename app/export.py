@@ -1,50 +1,68 @@
-"""Write a triangle mesh to disk: binary little-endian PLY.
+"""Write a triangle mesh to disk in the format its file name says, through trimesh.
 
-PLY is what MeshLab, Blender, ParaView and trimesh all open; binary keeps a
-multi-million-triangle mesh to a quick write and a compact file.
-Layout: per vertex float32 x y z nx ny nz; per face a uchar count (3) and
-three int32 vertex indices.
+PLY (binary), OBJ, STL (binary), GLB (binary glTF) and OFF: what MeshLab, Blender,
+ParaView, 3D Slicer, slicers for 3-D printing and web viewers open.  trimesh writes
+them (a maintained library, not a hand-written writer); isoscope hands it the mesh
+as it is (no merging or reordering), with its per-vertex normals where the format
+carries them (PLY, OBJ, GLB; STL has face normals, OFF none).
+
+A file is written to a temporary name beside the target and renamed over it only
+once complete, so a failure never leaves half a file or harms an existing one.
 """
 from __future__ import annotations
 
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
-_VERTEX_DTYPE = np.dtype([("position", "<f4", 3), ("normal", "<f4", 3)])
-_FACE_DTYPE = np.dtype([("count", "u1"), ("indices", "<i4", 3)])  # packed: 13 bytes a face
+FORMATS = {".ply": "ply", ".obj": "obj", ".stl": "stl", ".glb": "glb", ".off": "off"}
 
 
-def write_ply(path, verts, faces, normals, comment: str = "written by isoscope") -> Path:
-    """Write `verts` (N,3), `faces` (M,3) and `normals` (N,3) to `path`; returns the path."""
+def mesh_format(path) -> str:
+    """trimesh's file type for `path`'s extension; a one-line ValueError for any other."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in FORMATS:
+        given = f"'{suffix}'" if suffix else "no extension"
+        raise ValueError(f"{Path(path).name}: {given} is not a mesh format isoscope writes; "
+                         f"end the name in one of {', '.join(FORMATS)}")
+    return FORMATS[suffix]
+
+
+def mesh_bytes(file_type: str, verts, faces, normals) -> bytes:
+    """The mesh encoded as `file_type` by trimesh."""
+    import trimesh
     verts = np.asarray(verts, np.float32).reshape(-1, 3)
     normals = np.asarray(normals, np.float32).reshape(-1, 3)
     faces = np.asarray(faces).reshape(-1, 3)
+    if not len(faces):
+        raise ValueError("the mesh is empty (no surface at this level); nothing written: pick a level "
+                         "between the values inside and outside the object")
     if len(normals) != len(verts):
         raise ValueError(f"{len(verts)} vertices but {len(normals)} normals; pass one normal per vertex")
     if len(faces) and (faces.min() < 0 or faces.max() >= len(verts)):
         raise ValueError(f"face indices must lie in [0, {len(verts)}); got {faces.min()}..{faces.max()}")
+    mesh = trimesh.Trimesh(vertices=verts, faces=faces, vertex_normals=normals, process=False, validate=False)
+    options = {"ply": {"encoding": "binary", "vertex_normal": True}, "obj": {"include_normals": True},
+               "glb": {"include_normals": True}}.get(file_type, {})
+    data = mesh.export(file_type=file_type, **options)
+    return data.encode() if isinstance(data, str) else data
 
-    vertex_records = np.empty(len(verts), _VERTEX_DTYPE)
-    vertex_records["position"] = verts
-    vertex_records["normal"] = normals
-    face_records = np.empty(len(faces), _FACE_DTYPE)
-    face_records["count"] = 3
-    face_records["indices"] = faces
 
-    header = "\n".join([
-        "ply",
-        "format binary_little_endian 1.0",
-        f"comment {comment}",
-        f"element vertex {len(verts)}",
-        *(f"property float {name}" for name in ("x", "y", "z", "nx", "ny", "nz")),
-        f"element face {len(faces)}",
-        "property list uchar int vertex_indices",
-        "end_header",
-    ]) + "\n"
+def write_mesh(path, verts, faces, normals) -> Path:
+    """Write the mesh to `path` in the format of its extension, atomically; returns the path."""
     path = Path(path)
-    with open(path, "wb") as out:
-        out.write(header.encode("ascii"))
-        out.write(vertex_records.tobytes())
-        out.write(face_records.tobytes())
+    data = mesh_bytes(mesh_format(path), verts, faces, normals)
+    directory = path.parent if str(path.parent) else Path(".")
+    handle, temporary = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".partial")
+    try:
+        with os.fdopen(handle, "wb") as out:
+            out.write(data)
+            out.flush()
+            os.fsync(out.fileno())
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
     return path

@@ -70,7 +70,7 @@ def assert_same_mesh(gpu, cpu):
 
 
 def read_ply(path):
-    """A minimal reader for exactly the layout write_ply promises."""
+    """A minimal reader of binary little-endian PLY with float x y z nx ny nz and uchar-int faces."""
     data = path.read_bytes()
     header_end = data.index(b"end_header\n") + len(b"end_header\n")
     header = data[:header_end].decode("ascii").splitlines()
