@@ -104,6 +104,9 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         _add_iso(parser)
         parser.add_argument("--out", required=True, metavar="MESH",
                             help="the file to write: .ply, .obj, .stl, .glb or .off (replaced only once complete)")
+        parser.add_argument("--decimate", type=float, metavar="FRACTION",
+                            help="keep about this fraction of the triangles (quadric decimation, 0 < F <= 1); "
+                                 "prints how far the result strays from the level set")
     add_volume_arguments(parser)
     return parser
 
@@ -154,14 +157,34 @@ def run_render(args) -> int:
 def run_export(args) -> int:
     from . import marching_cubes
     from .export import mesh_format, write_mesh
-    mesh_format(args.out)  # an unknown extension is refused before any work
+    mesh_format(args.out)  # an unknown extension or fraction is refused before any work
+    if args.decimate is not None:
+        from .decimate import check_fraction
+        check_fraction(args.decimate)
     volume = open_volume_from_args(args.volume, args, _progress)
     iso = _checked_iso(volume, args.iso)
     verts, faces, normals, _ = marching_cubes(volume.checked, iso, spacing=volume.spacing,
                                               gradient_direction=volume.gradient_direction)
+    if args.decimate is not None:
+        verts, faces, normals = _decimated(volume, iso, verts, faces, args.decimate)
     path = write_mesh(args.out, verts, faces, normals)
     print(f"wrote {path}: {len(verts):,} vertices, {len(faces):,} triangles")
     return 0
+
+
+def _decimated(volume, iso, verts, faces, fraction):
+    from .decimate import decimate, distance_off_level_set, open_edges
+    level = volume.value_range[0] + (volume.value_range[1] - volume.value_range[0]) / 2 if iso is None else iso
+    full_triangles, full_open = len(faces), open_edges(faces)
+    verts, faces, normals = decimate(verts, faces, fraction)
+    off = distance_off_level_set(volume.data, volume.spacing, level, verts)
+    print(f"decimated {full_triangles:,} -> {len(faces):,} triangles; distance off the level set: "
+          f"max {off.max():.3g}, mean {off.mean():.3g} (world units; voxel {min(volume.spacing):.3g})")
+    now_open = open_edges(faces)
+    if now_open > full_open:
+        print(f"note: the decimated mesh has {now_open} open edges where the full mesh had {full_open}",
+              file=sys.stderr)
+    return verts, faces, normals
 
 
 def run_volumes(args) -> int:
