@@ -104,6 +104,10 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         _add_iso(parser)
         parser.add_argument("--out", required=True, metavar="MESH",
                             help="the file to write: .ply, .obj, .stl, .glb or .off (replaced only once complete)")
+        parser.add_argument("--space", choices=("world", "voxel"), default="world",
+                            help="world (default): the file's own world coordinates where it defines them "
+                                 "(NIfTI: RAS; NRRD and DICOM: LPS, as 3D Slicer saves models), so the mesh "
+                                 "overlays the scan; voxel: array index x spacing")
         parser.add_argument("--decimate", type=float, metavar="FRACTION",
                             help="keep about this fraction of the triangles (quadric decimation, 0 < F <= 1); "
                                  "prints how far the result strays from the level set")
@@ -156,7 +160,7 @@ def run_render(args) -> int:
 
 def run_export(args) -> int:
     from . import marching_cubes
-    from .export import mesh_format, write_mesh
+    from .export import mesh_format, to_world, write_mesh
     mesh_format(args.out)  # an unknown extension or fraction is refused before any work
     if args.decimate is not None:
         from .decimate import check_fraction
@@ -167,8 +171,12 @@ def run_export(args) -> int:
                                               gradient_direction=volume.gradient_direction)
     if args.decimate is not None:
         verts, faces, normals = _decimated(volume, iso, verts, faces, args.decimate)
+    space = "index x spacing"
+    if args.space == "world" and volume.world is not None:
+        matrix, space = volume.world
+        verts, faces, normals = to_world(verts, faces, normals, volume.spacing, matrix)
     path = write_mesh(args.out, verts, faces, normals)
-    print(f"wrote {path}: {len(verts):,} vertices, {len(faces):,} triangles")
+    print(f"wrote {path}: {len(verts):,} vertices, {len(faces):,} triangles, in {space} coordinates")
     return 0
 
 

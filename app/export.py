@@ -50,6 +50,23 @@ def mesh_bytes(file_type: str, verts, faces, normals) -> bytes:
     return data.encode() if isinstance(data, str) else data
 
 
+def to_world(verts, faces, normals, spacing, index_to_world: np.ndarray):
+    """The mesh moved from isoscope's units (array index x spacing) into a file's world space.
+
+    Positions by the 4x4 index -> world matrix; normals by the inverse transpose of its linear
+    part (so they stay perpendicular to the surface and point out of it); and where the matrix
+    mirrors, each triangle's winding reversed, so triangles stay counter-clockwise seen from outside."""
+    linear = np.asarray(index_to_world, np.float64)[:3, :3] / np.asarray(spacing, np.float64)
+    offset = np.asarray(index_to_world, np.float64)[:3, 3]
+    world_verts = (np.asarray(verts, np.float64) @ linear.T + offset).astype(np.float32)
+    world_normals = np.asarray(normals, np.float64) @ np.linalg.inv(linear)
+    world_normals /= np.maximum(np.linalg.norm(world_normals, axis=1, keepdims=True), 1e-30)
+    faces = np.asarray(faces)
+    if np.linalg.det(linear) < 0:
+        faces = faces[:, ::-1]
+    return world_verts, np.ascontiguousarray(faces), world_normals.astype(np.float32)
+
+
 def write_mesh(path, verts, faces, normals) -> Path:
     """Write the mesh to `path` in the format of its extension, atomically; returns the path."""
     path = Path(path)

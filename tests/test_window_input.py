@@ -15,6 +15,7 @@ import time
 
 import numpy as np
 import pytest
+
 from x_window import MAX_FRAMES_PER_STEP, frames_until, press_key, run_spawned
 
 pytestmark = pytest.mark.skipif(ctypes.util.find_library("Xtst") is None, reason="libXtst is not installed")

@@ -102,7 +102,14 @@ def _geometry(folder: Path, files):
         raise VolumeError(f"{folder.name}: {what} between slices {at + 1} and {at + 2} "
                           f"({steps[at]:.4g} mm apart where the others are {spacing:.4g} mm); "
                           "export the complete, evenly spaced series")
-    return [files[i] for i in order], (spacing, pixel_spacing[0], pixel_spacing[1])
+    # Array index (slice, row, column) -> LPS: a row steps down the image (the column direction,
+    # ImageOrientationPatient[3:]), a column across it (the row direction, [:3]).
+    world = np.eye(4)
+    world[:3, 0] = spacing * normal
+    world[:3, 1] = pixel_spacing[0] * orientation[3:]
+    world[:3, 2] = pixel_spacing[1] * orientation[:3]
+    world[:3, 3] = positions[order[0]]
+    return [files[i] for i in order], (spacing, pixel_spacing[0], pixel_spacing[1]), world
 
 
 def _pixels(path: Path) -> np.ndarray:
@@ -124,14 +131,14 @@ def _pixels(path: Path) -> np.ndarray:
 
 
 def load_dicom_folder(folder: Path, series: str | None = None, progress: Progress | None = None):
-    """(array (slices, rows, columns), spacing, notes) of the folder's DICOM series."""
+    """(array (slices, rows, columns), spacing, notes, (index -> LPS matrix, "LPS")) of the DICOM series."""
     try:
         import pydicom  # noqa: F401
     except ImportError:
         raise VolumeError(f"{folder.name} is a folder: reading DICOM needs pydicom; "
                           "pip install pydicom") from None
     all_series = _series_files(folder, progress)
-    files, spacing = _geometry(folder, _pick_series(folder, all_series, series))
+    files, spacing, world = _geometry(folder, _pick_series(folder, all_series, series))
     slices = []
     for number, (path, _) in enumerate(files, 1):
         slices.append(_pixels(path))
@@ -145,4 +152,4 @@ def load_dicom_folder(folder: Path, series: str | None = None, progress: Progres
              f"(slice, row, column), {spacing[0]:.4g} x {spacing[1]:.4g} x {spacing[2]:.4g} mm"]
     if len(all_series) > 1:
         notes.append(f"{folder.name} holds {len(all_series)} series; showing {header.get('SeriesInstanceUID', '')}")
-    return data, spacing, notes
+    return data, spacing, notes, (world, "LPS")

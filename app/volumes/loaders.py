@@ -12,9 +12,9 @@ from pathlib import Path
 from .dicom_format import load_dicom_folder
 from .errors import VolumeError
 from .frames import select_frame
-from .nifti_format import load_nifti
+from .nifti_format import load_nifti, nifti_world
 from .npy_format import load_npy, load_npz
-from .nrrd_format import load_nrrd
+from .nrrd_format import load_nrrd, nrrd_world
 from .raw_format import load_raw, sidecar_path, three_positive
 from .volume import Progress, Volume, finish_volume, shape_text
 
@@ -81,8 +81,10 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, fr
     if spacing is not None:
         spacing = three_positive(spacing, "--spacing", float, path.name)
     try:
+        world = None  # (4x4 array index -> world mm, its space), for files that define one
         if kind == "dicom":
-            data, header_spacing, notes = load_dicom_folder(path, None if series is None else str(series), progress)
+            data, header_spacing, notes, world = load_dicom_folder(path, None if series is None else str(series),
+                                                                   progress)
         elif kind == "raw":
             data, header_spacing, notes = load_raw(path, dims, dtype, endian, spacing, progress)
         elif kind == "npy":
@@ -91,8 +93,10 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, fr
             data, header_spacing, notes = load_npz(path, array_name, progress)
         elif kind == "nrrd":
             data, header_spacing, notes = load_nrrd(path, frame, progress)
+            world = nrrd_world(path)
         else:
             data, header_spacing, notes = load_nifti(path, frame, progress)
+            world = nifti_world(path)
     except MemoryError:
         raise VolumeError(f"{path.name} does not fit in memory; crop or downsample it first") from None
     except PermissionError:
@@ -105,7 +109,10 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, fr
                           f"says {shape_text(data.shape)}; drop --dims (it is only for raw files)")
     if spacing is not None and header_spacing is not None and tuple(header_spacing) != spacing:
         notes.append(f"--spacing overrides the header's {tuple(round(s, 6) for s in header_spacing)}")
+    if spacing is not None and world is not None:
+        notes.append("--spacing given: the file's world coordinates are dropped (index x spacing)")
+        world = None
     chosen = spacing or header_spacing or (1.0, 1.0, 1.0)
     return finish_volume(data, spacing=chosen, name=path.name if array_name is None else f"{path.name}:{array_name}",
                          source=spec, gradient_direction="descent", default_level=None,
-                         notes=notes, what=path.name, progress=progress)
+                         notes=notes, what=path.name, progress=progress, world=world)

@@ -50,6 +50,12 @@ def load_nifti(path: Path, frame: int | None, progress: Progress | None = None) 
     return data, zooms[:3] if len(zooms) >= 3 else None, notes
 
 
+def nifti_world(path: Path):
+    """(4x4 array index -> RAS millimetres, "RAS") from the header's sform (else qform)."""
+    import nibabel
+    return np.asarray(nibabel.load(str(path)).affine, np.float64), "RAS"
+
+
 def _raise_if_broken_gzip(path: Path) -> None:
     """nibabel reports a cut-off .gz as an unknown file type; say what is really wrong."""
     if not path.name.lower().endswith(".gz"):

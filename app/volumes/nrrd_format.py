@@ -40,6 +40,30 @@ def _spacing(header: dict, spatial_axes: list[int]):
     return tuple(values) if all(np.isfinite(v) and v > 0 for v in values) else None
 
 
+_TO_LPS = {"left-posterior-superior": (1, 1, 1), "lps": (1, 1, 1),
+           "right-anterior-superior": (-1, -1, 1), "ras": (-1, -1, 1),
+           "left-anterior-superior": (1, -1, 1), "las": (1, -1, 1)}
+
+
+def nrrd_world(path: Path):
+    """(4x4 array index -> LPS millimetres, "LPS") from "space directions" and "space origin",
+    or None when the header has no anatomical space (then index x spacing is all there is)."""
+    import nrrd
+    header = nrrd.read_header(str(path))
+    flip = _TO_LPS.get(str(header.get("space", "")).lower())
+    directions, origin = header.get("space directions"), header.get("space origin")
+    if flip is None or directions is None or origin is None:
+        return None
+    rows = [np.asarray(d, np.float64) for d in directions]
+    spatial = [d for d in rows if np.all(np.isfinite(d))]  # a frame axis has "none"
+    if len(spatial) != 3:
+        return None
+    world = np.eye(4)
+    world[:3, :3] = np.array(spatial).T * np.array(flip)[:, None]
+    world[:3, 3] = np.asarray(origin, np.float64) * np.array(flip)
+    return world, "LPS"
+
+
 def load_nrrd(path: Path, frame: int | None, progress: Progress | None = None) -> Loaded:
     import nrrd
     try:

@@ -26,6 +26,9 @@ class Volume:
     default_level: float | None  # a good first iso value; None -> middle of the range
     value_range: tuple[float, float]  # (min, max) of the data, from finish_volume's one scan
     notes: list[str] = field(default_factory=list)  # things to tell the user
+    # (4x4 array index (i, j, k, 1) -> world millimetres, "RAS" or "LPS") where the file defines
+    # it (NIfTI, NRRD, DICOM); None: world units are index x spacing.
+    world: tuple[np.ndarray, str] | None = None
 
     @property
     def checked(self) -> CheckedVolume:
@@ -88,7 +91,8 @@ def refuse_if_too_big(shape, itemsize: int, what: str, *, copies: int = 1,
 def finish_volume(data: np.ndarray, *, spacing, name: str, source: str, gradient_direction: str,
                   default_level: float | None, notes: list[str] | None = None,
                   what: str | None = None, progress: Progress | None = None,
-                  where: Callable[[tuple], str] | None = None) -> Volume:
+                  where: Callable[[tuple], str] | None = None,
+                  world: tuple[np.ndarray, str] | None = None) -> Volume:
     """The single gate: shape, dtype and value checks (validation.check_volume), then the record."""
     what = what or name
     try:
@@ -108,4 +112,5 @@ def finish_volume(data: np.ndarray, *, spacing, name: str, source: str, gradient
         raise ValueError(f"gradient_direction must be 'descent' or 'ascent', not {gradient_direction!r}")
     return Volume(data=checked.data, spacing=spacing, name=name, source=source,
                   gradient_direction=gradient_direction, default_level=default_level,
-                  value_range=checked.value_range, notes=list(notes or []) + list(checked.notes))
+                  value_range=checked.value_range, notes=list(notes or []) + list(checked.notes),
+                  world=world)
