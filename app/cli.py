@@ -32,7 +32,7 @@ other commands (each has --help):
   isoscope volumes          list the built-in volumes
 """
 
-VOLUME_HELP = ("a built-in name (isoscope volumes), a file (.npy .npz .nrrd .nii .nii.gz .raw), a DICOM folder, "
+VOLUME_HELP = ("a built-in name (isoscope volumes), a file (.npy .npz .nrrd .nii .nii.gz .tif .raw), a DICOM folder, "
                "or expr:FORMULA, e.g. 'expr:x^2+y^2+z^2-0.5'")
 
 

@@ -24,6 +24,8 @@ Files:
                    --dtype (default uint8), --endian little|big, --spacing X Y Z,
                    or a JSON sidecar (file.json or file.raw.json) with keys
                    dims, dtype, endian, spacing; flags win over the sidecar.
+    .tif / .tiff   a stack (tifffile), z y x; spacing from ImageJ or OME metadata;
+                   a time axis is the frames (--frame N).
     a folder       a DICOM series (pydicom): slices sorted along their normal,
                    rescaled (CT in HU), spacing from the slice positions and
                    PixelSpacing; axes (slice, row, column); --series N|UID picks

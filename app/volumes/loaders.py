@@ -16,11 +16,12 @@ from .nifti_format import load_nifti, nifti_world
 from .npy_format import load_npy, load_npz
 from .nrrd_format import load_nrrd, nrrd_world
 from .raw_format import load_raw, sidecar_path, three_positive
+from .tiff_format import TIFF_SUFFIXES, load_tiff
 from .volume import Progress, Volume, finish_volume, shape_text
 
 SAMPLE_PREFIX = "sample:"
 RAW_SUFFIXES = (".raw", ".bin", ".dat")
-KNOWN_FORMATS = ".npy, .npz, .nrrd, .nhdr, .nii, .nii.gz, .raw (with --dims), a folder of DICOM files"
+KNOWN_FORMATS = ".npy, .npz, .nrrd, .nhdr, .nii, .nii.gz, .tif/.tiff stacks, .raw (with --dims), a DICOM folder"
 
 
 def resolve_path(spec: str) -> tuple[Path, str | None]:
@@ -44,7 +45,7 @@ def resolve_path(spec: str) -> tuple[Path, str | None]:
     return path, None
 
 
-VOLUME_SUFFIXES = (".nii.gz", ".nii", ".nrrd", ".nhdr", ".npy", ".npz") + RAW_SUFFIXES
+VOLUME_SUFFIXES = (".nii.gz", ".nii", ".nrrd", ".nhdr", ".npy", ".npz") + TIFF_SUFFIXES + RAW_SUFFIXES
 
 
 def is_volume_file(path: Path) -> bool:
@@ -57,7 +58,7 @@ def _format_of(path: Path, has_raw_flags: bool) -> str:
         return "dicom"
     name = path.name.lower()
     for suffix, kind in ((".nii.gz", "nifti"), (".nii", "nifti"), (".nrrd", "nrrd"), (".nhdr", "nrrd"),
-                         (".npy", "npy"), (".npz", "npz")):
+                         (".npy", "npy"), (".npz", "npz"), (".tiff", "tiff"), (".tif", "tiff")):
         if name.endswith(suffix):
             return kind
     if name.endswith(RAW_SUFFIXES) or has_raw_flags:
@@ -89,6 +90,8 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, fr
             data, header_spacing, notes = load_raw(path, dims, dtype, endian, spacing, progress)
         elif kind == "npy":
             data, header_spacing, notes = load_npy(path, progress)
+        elif kind == "tiff":
+            data, header_spacing, notes = load_tiff(path, frame, progress)
         elif kind == "npz":
             data, header_spacing, notes = load_npz(path, array_name, progress)
         elif kind == "nrrd":

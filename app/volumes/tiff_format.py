@@ -1,0 +1,73 @@
+"""TIFF stacks (microscopy) through tifffile: the first series as (z, y, x), spacing from its metadata.
+
+ImageJ hyperstacks give the z step as "spacing" and x/y by the XResolution/YResolution
+tags (pixels per unit); OME-TIFF gives PhysicalSizeX/Y/Z.  A time axis is the frames
+(--frame N); colour channels are refused with the fix.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from .errors import VolumeError
+from .frames import select_frame
+from .reading import read_or_explain
+from .volume import Progress, report
+
+TIFF_SUFFIXES = (".tif", ".tiff")
+
+
+def _resolution_spacing(page, tag: str) -> float | None:
+    value = page.tags.get(tag)
+    if value is None:
+        return None
+    numerator, denominator = value.value
+    return denominator / numerator if numerator and numerator != denominator else None
+
+
+def _spacing(tif, axes: str):
+    """(z, y, x) from OME PhysicalSize* or ImageJ's spacing and resolution tags; None if absent."""
+    if tif.is_ome and tif.ome_metadata:
+        pixels = re.search(r"<Pixels\b[^>]*>", tif.ome_metadata)
+        sizes = {axis: re.search(rf'PhysicalSize{axis}="([0-9.eE+-]+)"', pixels.group(0)) if pixels else None
+                 for axis in "ZYX"}
+        if all(sizes.values()):
+            return tuple(float(sizes[axis].group(1)) for axis in "ZYX")
+    if tif.is_imagej and tif.imagej_metadata:
+        page = tif.pages[0]
+        z = tif.imagej_metadata.get("spacing")
+        y, x = _resolution_spacing(page, "YResolution"), _resolution_spacing(page, "XResolution")
+        if z and y and x:
+            return float(z), float(y), float(x)
+    return None
+
+
+def load_tiff(path: Path, frame: int | None, progress: Progress | None = None):
+    """(array (z, y, x), spacing or None, notes)."""
+    import tifffile
+    report(progress, 0.0, f"reading {path.name}")
+
+    def read():
+        with tifffile.TiffFile(path) as tif:
+            if not tif.series:
+                raise ValueError("no image in it")
+            series = tif.series[0]
+            return series.asarray(), series.axes.upper(), _spacing(tif, series.axes.upper())
+    data, axes, spacing = read_or_explain(path, read, (tifffile.TiffFileError,))
+    keep = [a for a, n in zip(axes, data.shape) if n > 1 or a in "ZYX"]
+    data = data.reshape([n for a, n in zip(axes, data.shape) if a in keep])
+    axes = "".join(keep)
+    if any(a in axes for a in "CS"):
+        raise VolumeError(f"{path.name} holds colour channels (axes {axes}); save one channel as a grey "
+                          "stack (ImageJ: Image > Color > Split Channels)")
+    notes: list[str] = []
+    if "T" in axes:
+        data, notes = select_frame(data, axes.index("T"), frame, path.name)
+        axes = axes.replace("T", "")
+    else:
+        data, notes = select_frame(data, 0, frame, path.name)  # refuses --frame on a 3-D stack
+    if axes != "ZYX" and data.ndim == 3:
+        notes.append(f"{path.name}: axes {axes} read as z, y, x")
+    return np.ascontiguousarray(data), spacing, notes
