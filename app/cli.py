@@ -28,6 +28,7 @@ Drop a volume file on the window to open it.
 
 other commands (each has --help):
   isoscope render VOLUME --out shot.png [--iso V] [--size WxH] [--azimuth A] [--elevation E] [--panel]
+                [--transparent]
   isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V]
   isoscope volumes          list the built-in volumes
 """
@@ -96,6 +97,8 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--elevation", type=float, metavar="DEG",
                             help="camera angle above the x-y plane, degrees, -89..89 (default 25)")
         parser.add_argument("--panel", action="store_true", help="draw the imgui panel over the scene")
+        parser.add_argument("--transparent", action="store_true",
+                            help="a transparent background: an RGBA PNG, for slides and figures")
     else:
         parser = OneLineParser(prog="isoscope export",
                                description="Extract the isosurface and write it as a mesh file: binary PLY, OBJ, "
@@ -153,7 +156,7 @@ def run_render(args) -> int:
     iso = _checked_iso(volume, args.iso)
     from .viewer.headless import render_png
     path = render_png(volume, args.out, iso, size=args.size, azimuth=args.azimuth,
-                      elevation=args.elevation, panel=args.panel)
+                      elevation=args.elevation, panel=args.panel, transparent=args.transparent)
     print(f"wrote {path} ({args.size[0]}x{args.size[1]})")
     return 0
 

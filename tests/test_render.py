@@ -156,3 +156,53 @@ def test_the_renderer_draws_any_gpu_mesh_record(viewer, gl_ctx):
     assert len(low_rows) > 200                                      # outward winding: front colour
     assert len(both_rows) == pytest.approx(2 * len(low_rows), rel=0.05)
     assert low_rows.min() > SIZE[1] / 2 > both_rows.min()           # the second cube is above the first
+
+
+def test_a_transparent_background_gives_alpha_only_where_the_scene_is(gl_ctx, tmp_path):
+    from PIL import Image
+
+    from isoscope.viewer.headless import render_png
+    volume = small_sphere()
+    opaque = HeadlessViewer(SIZE, ctx=gl_ctx)
+    try:
+        opaque.show(volume, iso=0.0)
+        scene = surface_mask(opaque.render(), opaque.state.style.background)
+    finally:
+        opaque.release()
+    path = render_png(volume, tmp_path / "clear.png", iso=0.0, size=SIZE, transparent=True)
+    image = Image.open(path)
+    assert image.mode == "RGBA"
+    rgba = np.asarray(image)
+    drawn = rgba[:, :, 3] > 0
+    assert (drawn & scene).sum() / (drawn | scene).sum() > 0.97     # the same pixels, no background
+    assert rgba[0, 0, 3] == 0 and rgba[-1, -1, 3] == 0
+    inner = rgba[rgba[:, :, 3] == 255][:, :3].astype(int)            # straight alpha: lit surface colours
+    assert len(inner) > 100 and inner.mean(axis=0)[2] > inner.mean(axis=0)[0]   # bluish front colour
+
+
+def test_screenshots_may_be_larger_than_any_window(gl_ctx):
+    viewer = HeadlessViewer((2560, 1440), ctx=gl_ctx)
+    try:
+        viewer.show(small_sphere(), iso=0.0)
+        image = viewer.render()
+    finally:
+        viewer.release()
+    assert image.shape == (1440, 2560, 3)
+    assert surface_mask(image, viewer.state.style.background).mean() > 0.02
+
+
+def test_a_failed_png_write_keeps_the_old_file(tmp_path, monkeypatch):
+    from PIL import Image
+
+    from isoscope.viewer.screenshot import save_png
+    target = tmp_path / "shot.png"
+    target.write_bytes(b"the good screenshot")
+
+    def half_written(self, fp, *args, **kwargs):
+        fp.write(b"\x89PNG half")
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(Image.Image, "save", half_written)
+    with pytest.raises(OSError):
+        save_png(np.zeros((4, 4, 3), np.uint8), target)
+    assert target.read_bytes() == b"the good screenshot"
+    assert [p.name for p in tmp_path.iterdir()] == ["shot.png"]

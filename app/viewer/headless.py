@@ -37,7 +37,8 @@ class HeadlessViewer:
         self.renderer.set_box(lower, upper)
 
     def render(self, panel: bool = False) -> np.ndarray:
-        """Re-extract if the iso value changed, draw, and return (height, width, 3) uint8 pixels."""
+        """Re-extract if the iso value changed, draw, and return (height, width, 3) uint8 pixels
+        (4, straight alpha, when the style's background is transparent)."""
         if panel:
             self._layout_panel()   # the panel may change the state, as in the window
         self.state.update(0.0)
@@ -46,7 +47,7 @@ class HeadlessViewer:
                            covered_left=int(self._panel.covered_width) if panel else 0)
         if panel:
             self._imgui.render()
-        return self.target.read_rgb()
+        return self.target.read_rgba() if self.state.style.transparent_background else self.target.read_rgb()
 
     def _layout_panel(self) -> None:
         if self._imgui is None:
@@ -67,10 +68,11 @@ class HeadlessViewer:
 
 
 def render_png(volume: Volume, out, iso: float | None = None, size=(800, 600),
-               azimuth=None, elevation=None, panel: bool = False):
-    """Render one view of `volume` to the PNG file `out`; returns its path."""
+               azimuth=None, elevation=None, panel: bool = False, transparent: bool = False):
+    """Render one view of `volume` to the PNG file `out` (RGBA with `transparent`); returns its path."""
     viewer = HeadlessViewer(size)
     try:
+        viewer.state.style.transparent_background = transparent
         viewer.show(volume, iso, azimuth, elevation)
         return save_png(viewer.render(panel=panel), out)
     finally:

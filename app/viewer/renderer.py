@@ -76,7 +76,10 @@ class SceneRenderer:
         ctx.depth_func = "<="
         ctx.wireframe = False
         ctx.polygon_offset = (0.0, 0.0)
-        ctx.clear(*style.background, 1.0, depth=1.0, viewport=viewport)
+        if style.transparent_background:  # premultiplied: read_rgba() turns it into straight alpha
+            ctx.clear(0.0, 0.0, 0.0, 0.0, depth=1.0, viewport=viewport)
+        else:
+            ctx.clear(*style.background, 1.0, depth=1.0, viewport=viewport)
 
         width, height = viewport[2], viewport[3]
         view = camera.view_matrix().tobytes()
@@ -151,6 +154,16 @@ class OffscreenTarget:
     def read_rgb(self) -> np.ndarray:
         self.ctx.copy_framebuffer(self.resolved, self.multisampled)
         return read_rgb(self.resolved, self.size)
+
+    def read_rgba(self) -> np.ndarray:
+        """(height, width, 4) uint8, straight alpha, for a scene drawn over a transparent background."""
+        self.ctx.copy_framebuffer(self.resolved, self.multisampled)
+        width, height = self.size
+        data = self.resolved.read(viewport=(0, 0, width, height), components=4, alignment=1)
+        rgba = np.frombuffer(data, np.uint8).reshape(height, width, 4)[::-1].astype(np.float32)
+        alpha = rgba[:, :, 3:]
+        rgba[:, :, :3] = np.where(alpha > 0, rgba[:, :, :3] * 255.0 / np.maximum(alpha, 1.0), 0.0)
+        return np.clip(np.round(rgba), 0, 255).astype(np.uint8)
 
     def release(self) -> None:
         for framebuffer in (self.multisampled, self.resolved):

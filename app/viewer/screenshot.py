@@ -1,6 +1,8 @@
 """Save rendered pixels as PNG files, and pick unclobbered names for key `s`."""
 from __future__ import annotations
 
+import os
+import tempfile
 import time
 from pathlib import Path
 
@@ -8,12 +10,25 @@ import numpy as np
 from PIL import Image
 
 
-def save_png(rgb: np.ndarray, path) -> Path:
-    """Write an (height, width, 3) uint8 array, top row first, to `path`."""
+def save_png(pixels: np.ndarray, path) -> Path:
+    """Write an (height, width, 3 or 4) uint8 array, top row first, to `path` as an RGB or RGBA PNG.
+
+    Written to a temporary name beside it and renamed over it once complete, so a failure never
+    leaves half an image or harms an existing one."""
     path = Path(path)
     if path.parent != Path(""):
         path.parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(np.ascontiguousarray(rgb, dtype=np.uint8), "RGB").save(path)
+    pixels = np.ascontiguousarray(pixels, dtype=np.uint8)
+    image = Image.fromarray(pixels, "RGBA" if pixels.shape[2] == 4 else "RGB")
+    handle, temporary = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".",
+                                         prefix=f".{path.name}.", suffix=".partial")
+    try:
+        with os.fdopen(handle, "wb") as out:
+            image.save(out, format="PNG")
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
     return path
 
 

@@ -14,3 +14,4 @@ class SurfaceStyle:
     lighting: bool = True
     wireframe: bool = False
     show_box: bool = True
+    transparent_background: bool = False   # screenshots: background alpha 0 (RGBA PNG)
