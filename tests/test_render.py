@@ -206,3 +206,23 @@ def test_a_failed_png_write_keeps_the_old_file(tmp_path, monkeypatch):
         save_png(np.zeros((4, 4, 3), np.uint8), target)
     assert target.read_bytes() == b"the good screenshot"
     assert [p.name for p in tmp_path.iterdir()] == ["shot.png"]
+
+
+def test_a_headless_render_leaves_the_shared_context_working(gl_ctx, tmp_path):
+    # render_png once made a second standalone context, which stayed current: programs the
+    # shared context had compiled then ran in the wrong one and found no triangles.
+    from isoscope.extractor import Extractor
+    from isoscope.reference import marching_cubes_reference
+    from isoscope.viewer.headless import render_png
+    field = small_sphere().data
+    expected = marching_cubes_reference(field, 0.0, descent=False)[1]
+
+    def extract():
+        with Extractor(field, ctx=gl_ctx, gradient_direction="ascent") as ex:
+            ex.extract(0.0)
+            return ex.read_mesh()[1]
+    np.testing.assert_array_equal(extract(), expected)              # the shared context's programs
+    render_png(small_sphere(), tmp_path / "first.png", iso=0.0, size=(64, 48))
+    faces = extract()
+    assert len(faces) == len(expected) > 1000
+    np.testing.assert_array_equal(faces, expected)

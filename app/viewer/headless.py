@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..gl_context import standalone
+from ..gl_context import current_or_standalone
 from ..volumes import Volume
 from .camera import OrbitCamera
 from .panel import ImguiLayer, Panel
@@ -20,7 +20,9 @@ from .state import ViewerState
 class HeadlessViewer:
     def __init__(self, size=(800, 600), ctx=None):
         self.size = (int(size[0]), int(size[1]))
-        self.ctx = ctx if ctx is not None else standalone()
+        # The process's one headless context (the API's too): a second standalone context would
+        # become current and leave the first one's compiled programs running in the wrong context.
+        self.ctx = ctx if ctx is not None else current_or_standalone()
         self.state = ViewerState(self.ctx)
         self.camera = OrbitCamera()
         self.renderer = SceneRenderer(self.ctx)
