@@ -11,11 +11,11 @@ once complete, so a failure never leaves half a file or harms an existing one.
 """
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from .atomic import write_atomically
 
 FORMATS = {".ply": "ply", ".obj": "obj", ".stl": "stl", ".glb": "glb", ".off": "off"}
 
@@ -69,17 +69,5 @@ def to_world(verts, faces, normals, spacing, index_to_world: np.ndarray):
 
 def write_mesh(path, verts, faces, normals) -> Path:
     """Write the mesh to `path` in the format of its extension, atomically; returns the path."""
-    path = Path(path)
     data = mesh_bytes(mesh_format(path), verts, faces, normals)
-    directory = path.parent if str(path.parent) else Path(".")
-    handle, temporary = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".partial")
-    try:
-        with os.fdopen(handle, "wb") as out:
-            out.write(data)
-            out.flush()
-            os.fsync(out.fileno())
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-    return path
+    return write_atomically(path, lambda out: out.write(data))

@@ -1,13 +1,13 @@
 """Save rendered pixels as PNG files, and pick unclobbered names for key `s`."""
 from __future__ import annotations
 
-import os
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
+
+from ..atomic import write_atomically
 
 
 def save_png(pixels: np.ndarray, path) -> Path:
@@ -20,16 +20,7 @@ def save_png(pixels: np.ndarray, path) -> Path:
         path.parent.mkdir(parents=True, exist_ok=True)
     pixels = np.ascontiguousarray(pixels, dtype=np.uint8)
     image = Image.fromarray(pixels, "RGBA" if pixels.shape[2] == 4 else "RGB")
-    handle, temporary = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".",
-                                         prefix=f".{path.name}.", suffix=".partial")
-    try:
-        with os.fdopen(handle, "wb") as out:
-            image.save(out, format="PNG")
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-    return path
+    return write_atomically(path, lambda out: image.save(out, format="PNG"))
 
 
 def next_screenshot_path(directory, stem: str = "isoscope") -> Path:
