@@ -334,3 +334,18 @@ def test_histogram_marks_the_level_and_a_click_on_it_sets_the_level(gl_ctx):
         assert state.extractor.level == pytest.approx(state.iso)
     finally:
         viewer.release()
+
+
+def test_save_mesh_writes_the_surface_on_show_in_the_format_of_its_name(viewer, tmp_path):
+    from mesh_checks import assert_closed_manifold, read_ply
+    state = viewer.state
+    assert state.save_mesh(tmp_path / "shown.ply")
+    verts, normals, _, faces = read_ply(tmp_path / "shown.ply")
+    assert len(faces) == state.n_triangles > 100 and len(verts) == state.n_vertices
+    np.testing.assert_array_equal(faces, state.extractor.read_mesh()[1])
+    assert_closed_manifold(faces)
+    assert "mesh saved" in state.message and str(tmp_path / "shown.ply") in state.message
+    # A bad name: one line in the panel, nothing written, the viewer as it was.
+    assert not state.save_mesh(tmp_path / "shown.vtk")
+    assert ".ply, .obj, .stl, .glb, .off" in state.error and "\n" not in state.error
+    assert not (tmp_path / "shown.vtk").exists()

@@ -27,6 +27,7 @@ ERROR_COLOR = imgui.ImVec4(1.0, 0.45, 0.40, 1.0)
 NOTE_COLOR = imgui.ImVec4(0.60, 0.85, 0.60, 1.0)
 VOLUME_FILE_FILTERS = ["Volumes", "*.npy *.npz *.nii *.nii.gz *.nrrd *.nhdr *.raw *.vol *.mhd *.tif *.tiff",
                        "All files", "*"]
+MESH_FILE_FILTERS = ["Meshes", "*.stl *.ply *.obj *.glb *.off", "All files", "*"]
 LINUX_DIALOG_TOOLS = ("zenity", "kdialog", "qarma", "matedialog")
 EXPR_HINT = "x^2 + y^2 + z^2 - 0.5"   # the volumes grammar; inside is where it is < 0
 
@@ -71,6 +72,7 @@ class Panel:
         self.can_browse = can_browse   # headless renders have no desktop to open a dialog on
         self.expr_text = ""
         self._file_dialog = None       # a pending portable_file_dialogs.open_file
+        self._save_dialog = None       # a pending portable_file_dialogs.save_file
         self.box = None                # the expanded panel's (x, y, width, height), imgui units
         self.iso_slider_box = None     # the iso slider's ((left, top), (right, bottom)), imgui units
         self.histogram_box = None      # the value histogram's ((left, top), (right, bottom)), likewise
@@ -151,6 +153,10 @@ class Panel:
             imgui.end_combo()
         if self.can_browse and imgui.button("Open file...") and self._file_dialog is None:
             self._open_file_dialog(state)
+        if self.can_browse and state.surface is not None:
+            imgui.same_line()
+            if imgui.button("Save mesh...") and self._save_dialog is None:
+                self._open_save_dialog(state)
         entered, self.expr_text = imgui.input_text_with_hint(
             "expr", EXPR_HINT, self.expr_text, imgui.InputTextFlags_.enter_returns_true)
         if (entered or imgui.button("Show expr")) and self.expr_text.strip():
@@ -226,21 +232,36 @@ class Panel:
             imgui.text_colored(NOTE_COLOR, state.message)
             imgui.pop_text_wrap_pos()
 
-    def _open_file_dialog(self, state: ViewerState) -> None:
+    @staticmethod
+    def _dialogs(state: ViewerState, instead: str):
+        """portable_file_dialogs, or None (with the error set) where the desktop has no dialog tool."""
         # On Linux portable_file_dialogs runs zenity or kdialog; without one it returns
         # no file at once, which would look like a dead button.
         if sys.platform.startswith("linux") and not any(shutil.which(tool) for tool in LINUX_DIALOG_TOOLS):
-            state.error = ("no file dialog on this desktop (install zenity or kdialog); "
-                           "drop the file on the window or pass it on the command line")
-            return
+            state.error = f"no file dialog on this desktop (install zenity or kdialog); {instead}"
+            return None
         import imgui_bundle.portable_file_dialogs as pfd  # only on demand: it spawns a process
-        self._file_dialog = pfd.open_file("Open volume", str(Path.cwd()), VOLUME_FILE_FILTERS)
+        return pfd
+
+    def _open_file_dialog(self, state: ViewerState) -> None:
+        pfd = self._dialogs(state, "drop the file on the window or pass it on the command line")
+        if pfd is not None:
+            self._file_dialog = pfd.open_file("Open volume", str(Path.cwd()), VOLUME_FILE_FILTERS)
+
+    def _open_save_dialog(self, state: ViewerState) -> None:
+        pfd = self._dialogs(state, "use `isoscope export` on the command line")
+        if pfd is not None:
+            self._save_dialog = pfd.save_file("Save mesh", str(Path.cwd() / "isoscope-mesh.stl"), MESH_FILE_FILTERS)
 
     def _collect_file_dialog(self, state: ViewerState) -> None:
-        # The dialog runs in another process; poll it so the UI keeps drawing meanwhile.
-        if self._file_dialog is None or not self._file_dialog.ready(0):
-            return
-        paths = self._file_dialog.result()
-        self._file_dialog = None
-        if paths:
-            state.open_in_background(paths[0])
+        # The dialogs run in other processes; poll them so the UI keeps drawing meanwhile.
+        if self._file_dialog is not None and self._file_dialog.ready(0):
+            paths = self._file_dialog.result()
+            self._file_dialog = None
+            if paths:
+                state.open_in_background(paths[0])
+        if self._save_dialog is not None and self._save_dialog.ready(0):
+            path = self._save_dialog.result()
+            self._save_dialog = None
+            if path:
+                state.save_mesh(path)

@@ -201,6 +201,30 @@ class ViewerState:
         self._extracted_iso = self.iso  # also on failure: do not retry the same value every frame
         return True
 
+    # --- saving ------------------------------------------------------------
+    def save_mesh(self, path) -> bool:
+        """Write the surface on show (at full resolution) to `path`, in the format of its extension
+        and the volume's world coordinates where its file defines them; False with `error` set."""
+        from ..export import to_world, write_mesh
+        if self.surface is None:
+            self.error = "no surface to save yet; open a volume first"
+            return False
+        try:
+            if self.surface.shown_step != 1:  # a preview is on show: save the full mesh at its level
+                self.surface.extract(self.iso)
+            verts, faces, normals, _ = self.surface.extractor.read_mesh()
+            space = "index x spacing"
+            if self.volume.world is not None:
+                matrix, space = self.volume.world
+                verts, faces, normals = to_world(verts, faces, normals, self.volume.spacing, matrix)
+            write_mesh(path, verts, faces, normals)
+        except USER_ERRORS as exc:
+            self.error = one_line(exc)
+            return False
+        self.error = None
+        self.message = f"mesh saved: {path} ({len(faces):,} triangles, {space} coordinates)"
+        return True
+
     # --- what the renderer draws, and stats for the panel ---------------------
     @property
     def meshes(self) -> list[GpuMesh]:
