@@ -17,9 +17,10 @@ indexed mesh and sized from the scans, so nothing is ever dropped):
 8. ``mc_vertices``     one invocation per vertex: position, value and outward normal
 
 Between passes 1 and 2, ``mc_dispatch_args`` turns the active count into the indirect
-dispatch sizes of passes 2-7, so an iso change touches only the bricks whose range
-contains the new level.  Scratch: 16 bytes per 32-sample word plus 20 per brick (about
-0.5 byte per voxel; 0.75 for a moment while the brick ranges are measured).  Read-backs
+dispatch sizes of passes 2-4, 6 and 7, so those touch only the bricks whose range
+contains the new level (pass 1 and the scans still visit every brick, cheaply).
+Scratch: 16 bytes per 32-sample word plus 20 per brick (about 0.5 byte per voxel;
+0.75 for a moment while the brick ranges are measured).  Read-backs
 per extraction: the two totals (8 bytes), which size the outputs, and after the passes
 the active-brick count (4 bytes), for the stats.
 
@@ -74,6 +75,12 @@ class Extractor:
         self.ctx = ctx or current_or_standalone()
         self.table = table or montani_table()
         self.plan = plan_extractor(self.shape, limits or GpuLimits.of(self.ctx))  # refuses before allocating
+        # What every pass is told about the grid, the same at every level (the division constants too).
+        self._grid_uniforms = dict(
+            u_dims=self.shape, u_words=self.plan.words_per_row, u_bricks=self.plan.bricks,
+            u_brick_count=self.plan.brick_count, u_spacing=self.spacing, u_word_shift=self.plan.word_shift,
+            u_div_words=divisor_magic(self.plan.words_per_row), u_div_rows=divisor_magic(self.shape[1]),
+            u_div_bricks_j=divisor_magic(self.plan.bricks[1]))
 
         case_words = self.table.packed_for_gpu()
         self._case_words = np.concatenate([case_words, np.zeros(-len(case_words) % 4, np.uint32)])  # whole uvec4s
@@ -163,12 +170,9 @@ class Extractor:
 
     def _set_common_uniforms(self, level: float) -> None:
         sign = 1.0 if self.descent else -1.0
+        values = dict(self._grid_uniforms, u_level=float(np.float32(sign * level)), u_sign=sign)
         for program in self._passes.values():
-            set_uniforms(program, u_dims=self.shape, u_words=self.plan.words_per_row, u_bricks=self.plan.bricks,
-                         u_brick_count=self.brick_count, u_level=float(np.float32(sign * level)),
-                         u_sign=sign, u_spacing=self.spacing, u_word_shift=self.plan.word_shift,
-                         u_div_words=divisor_magic(self.plan.words_per_row),
-                         u_div_rows=divisor_magic(self.shape[1]), u_div_bricks_j=divisor_magic(self.plan.bricks[1]))
+            set_uniforms(program, **values)
 
     def _bind(self, *slots: tuple[int, moderngl.Buffer]) -> None:
         for binding, buffer in slots:
