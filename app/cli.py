@@ -163,7 +163,7 @@ def run_render(args) -> int:
 
 def run_export(args) -> int:
     from . import marching_cubes
-    from .export import mesh_format, to_world, write_mesh
+    from .export import in_volume_space, mesh_format, write_mesh
     mesh_format(args.out)  # an unknown extension or fraction is refused before any work
     if args.decimate is not None:
         from .decimate import check_fraction
@@ -174,10 +174,7 @@ def run_export(args) -> int:
                                               gradient_direction=volume.gradient_direction)
     if args.decimate is not None:
         verts, faces, normals = _decimated(volume, iso, verts, faces, args.decimate)
-    space = "index x spacing"
-    if args.space == "world" and volume.world is not None:
-        matrix, space = volume.world
-        verts, faces, normals = to_world(verts, faces, normals, volume.spacing, matrix)
+    verts, faces, normals, space = in_volume_space(volume, verts, faces, normals, world=args.space == "world")
     path = write_mesh(args.out, verts, faces, normals)
     print(f"wrote {path}: {len(verts):,} vertices, {len(faces):,} triangles, in {space} coordinates")
     return 0

@@ -67,6 +67,15 @@ def to_world(verts, faces, normals, spacing, index_to_world: np.ndarray):
     return world_verts, np.ascontiguousarray(faces), world_normals.astype(np.float32)
 
 
+def in_volume_space(volume, verts, faces, normals, world: bool = True):
+    """(verts, faces, normals, space name): the mesh in `volume`'s world coordinates where its file
+    defines them and `world` is asked for, else as extracted (array index x spacing)."""
+    if world and volume.world is not None:
+        matrix, space = volume.world
+        return (*to_world(verts, faces, normals, volume.spacing, matrix), space)
+    return verts, faces, normals, "index x spacing"
+
+
 def write_mesh(path, verts, faces, normals) -> Path:
     """Write the mesh to `path` in the format of its extension, atomically; returns the path."""
     data = mesh_bytes(mesh_format(path), verts, faces, normals)

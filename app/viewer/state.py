@@ -205,7 +205,7 @@ class ViewerState:
     def save_mesh(self, path) -> bool:
         """Write the surface on show (at full resolution) to `path`, in the format of its extension
         and the volume's world coordinates where its file defines them; False with `error` set."""
-        from ..export import to_world, write_mesh
+        from ..export import in_volume_space, write_mesh
         if self.surface is None:
             self.error = "no surface to save yet; open a volume first"
             return False
@@ -213,10 +213,7 @@ class ViewerState:
             if self.surface.shown_step != 1:  # a preview is on show: save the full mesh at its level
                 self.surface.extract(self.iso)
             verts, faces, normals, _ = self.surface.extractor.read_mesh()
-            space = "index x spacing"
-            if self.volume.world is not None:
-                matrix, space = self.volume.world
-                verts, faces, normals = to_world(verts, faces, normals, self.volume.spacing, matrix)
+            verts, faces, normals, space = in_volume_space(self.volume, verts, faces, normals)
             write_mesh(path, verts, faces, normals)
         except USER_ERRORS as exc:
             self.error = one_line(exc)
