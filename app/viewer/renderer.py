@@ -125,11 +125,11 @@ class SceneRenderer:
             obj.release()
 
 
-def read_rgb(framebuffer: moderngl.Framebuffer, size: tuple[int, int]) -> np.ndarray:
-    """The framebuffer's pixels as an (height, width, 3) uint8 array, top row first (as in a PNG)."""
+def read_rgb(framebuffer: moderngl.Framebuffer, size: tuple[int, int], components: int = 3) -> np.ndarray:
+    """The framebuffer's pixels as an (height, width, components) uint8 array, top row first (as in a PNG)."""
     width, height = size
-    data = framebuffer.read(viewport=(0, 0, width, height), components=3, alignment=1)
-    return np.frombuffer(data, np.uint8).reshape(height, width, 3)[::-1].copy()
+    data = framebuffer.read(viewport=(0, 0, width, height), components=components, alignment=1)
+    return np.frombuffer(data, np.uint8).reshape(height, width, components)[::-1].copy()
 
 
 class OffscreenTarget:
@@ -158,9 +158,7 @@ class OffscreenTarget:
     def read_rgba(self) -> np.ndarray:
         """(height, width, 4) uint8, straight alpha, for a scene drawn over a transparent background."""
         self.ctx.copy_framebuffer(self.resolved, self.multisampled)
-        width, height = self.size
-        data = self.resolved.read(viewport=(0, 0, width, height), components=4, alignment=1)
-        rgba = np.frombuffer(data, np.uint8).reshape(height, width, 4)[::-1].astype(np.float32)
+        rgba = read_rgb(self.resolved, self.size, components=4).astype(np.float32)
         alpha = rgba[:, :, 3:]
         rgba[:, :, :3] = np.where(alpha > 0, rgba[:, :, :3] * 255.0 / np.maximum(alpha, 1.0), 0.0)
         return np.clip(np.round(rgba), 0, 255).astype(np.uint8)
