@@ -57,12 +57,16 @@ class OrbitCamera:
     def pan(self, dx_pixels: float, dy_pixels: float, viewport_height: int) -> None:
         """Move the target in the view plane so the point under the cursor follows it."""
         world_per_pixel = 2 * self.distance * math.tan(math.radians(self.fov_degrees) / 2) / max(viewport_height, 1)
+        right, up = self.screen_axes()
+        self.target = self.target + (-dx_pixels * right + dy_pixels * up) * world_per_pixel
+
+    def screen_axes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Unit vectors (scene space) pointing to the screen's right and up."""
         forward = self.target - self.eye()
         forward /= np.linalg.norm(forward)
         right = np.cross(forward, WORLD_UP)
         right /= np.linalg.norm(right)
-        up = np.cross(right, forward)
-        self.target = self.target + (-dx_pixels * right + dy_pixels * up) * world_per_pixel
+        return right, np.cross(right, forward)
 
     # --- matrices ----------------------------------------------------------
     def eye(self) -> np.ndarray:

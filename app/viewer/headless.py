@@ -43,6 +43,7 @@ class HeadlessViewer:
         (4, straight alpha, when the style's background is transparent)."""
         if panel:
             self._layout_panel()   # the panel may change the state, as in the window
+            self._panel.draw_view_labels(self.state, self.camera)
         self.state.update(0.0)
         self.target.use()
         self.renderer.draw(self.state.meshes, self.camera, self.target.viewport, self.state.style,

@@ -15,6 +15,7 @@ from imgui_bundle import imgui
 
 from ..volumes import builtin_names
 from .histogram import fraction_of, level_at
+from .orientation import draw_orientation
 from .state import ViewerState
 
 PANEL_TITLE = "isoscope"
@@ -92,6 +93,13 @@ class Panel:
             self._display_section(state)
             self._stats_section(state)
         imgui.end()
+
+    def draw_view_labels(self, state: ViewerState, camera) -> None:
+        """The anatomical letters (R/L, A/P, S/I) around the part of the window the panel leaves
+        to the scene, for a volume whose file defines its orientation."""
+        display = imgui.get_io().display_size
+        left = self.covered_width
+        draw_orientation(state.volume, camera, (left, 0.0, display.x - left, display.y))
 
     @property
     def covered_width(self) -> float:

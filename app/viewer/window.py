@@ -141,6 +141,7 @@ class ViewerWindow:
         self.state.update(dt)
         if self.state.volume_serial != self._framed_serial:
             self._frame_volume()
+        self.panel.draw_view_labels(self.state, self.camera)
 
         self.ctx.screen.use()
         pixels_per_unit = fb_width / max(glfw.get_window_size(self.window)[0], 1)  # framebuffer scale
