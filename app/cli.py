@@ -28,7 +28,8 @@ Drop a volume file on the window to open it.
 
 other commands (each has --help):
   isoscope render VOLUME --out shot.png [--iso V] [--size WxH] [--azimuth A] [--elevation E] [--panel]
-                [--transparent]
+                [--transparent] [--slice AXIS=INDEX ...] [--clip AXIS=POS[:+|-]] [--window W] [--level L]
+                [--colormap NAME]
   isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V]
   isoscope volumes          list the built-in volumes
 """
@@ -99,6 +100,8 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--panel", action="store_true", help="draw the imgui panel over the scene")
         parser.add_argument("--transparent", action="store_true",
                             help="a transparent background: an RGBA PNG, for slides and figures")
+        from .viewer.slice_options import add_slice_arguments
+        add_slice_arguments(parser)
     else:
         parser = OneLineParser(prog="isoscope export",
                                description="Extract the isosurface and write it as a mesh file: binary PLY, OBJ, "
@@ -155,8 +158,10 @@ def run_render(args) -> int:
     volume = open_volume_from_args(args.volume, args, _progress)
     iso = _checked_iso(volume, args.iso)
     from .viewer.headless import render_png
+    from .viewer.slice_options import apply_slice_arguments
     path = render_png(volume, args.out, iso, size=args.size, azimuth=args.azimuth,
-                      elevation=args.elevation, panel=args.panel, transparent=args.transparent)
+                      elevation=args.elevation, panel=args.panel, transparent=args.transparent,
+                      prepare=lambda state: apply_slice_arguments(state, args))
     print(f"wrote {path} ({args.size[0]}x{args.size[1]})")
     return 0
 

@@ -15,6 +15,7 @@ from imgui_bundle import imgui
 
 from ..volumes import builtin_names
 from .histogram import fraction_of, level_at
+from .slice_panel import SlicePanel
 from .state import ViewerState
 
 PANEL_TITLE = "isoscope"
@@ -77,6 +78,7 @@ class Panel:
         self.iso_slider_box = None     # the iso slider's ((left, top), (right, bottom)), imgui units
         self.histogram_box = None      # the value histogram's ((left, top), (right, bottom)), likewise
         self._go_home = False
+        self.slices = SlicePanel()     # the Slices section (slice_panel.py)
 
     def draw(self, state: ViewerState) -> None:
         self._collect_file_dialog(state)
@@ -90,6 +92,7 @@ class Panel:
             self._volume_section(state)
             self._iso_section(state)
             self._display_section(state)
+            self.slices.draw(state)
             self._stats_section(state)
         imgui.end()
 
