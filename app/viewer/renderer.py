@@ -105,10 +105,12 @@ class SceneRenderer:
         self.mesh_program["u_front_color"].value = style.front_color
         self.mesh_program["u_back_color"].value = style.back_color
         self.mesh_program["u_lighting"].value = style.lighting
+        # mesh.vert's gl_ClipDistance[0] >= 0 is kept.  Set even with no clip: llvmpipe was seen to
+        # clip by it while GL_CLIP_DISTANCE0 was disabled.
         clip = slices.settings.clip if slices is not None else None
-        if clip is not None:   # mesh.vert's gl_ClipDistance[0] >= 0 is kept
-            for program in (self.mesh_program, self.wire_program):
-                program["u_clip_plane"].value = clip.plane(slices.spacing)
+        for program in (self.mesh_program, self.wire_program):
+            program["u_clip_plane"].value = clip.plane(slices.spacing) if clip is not None else (0.0, 0.0, 0.0, 1.0)
+        if clip is not None:
             ctx.enable_direct(GL_CLIP_DISTANCE0)
         if style.wireframe:
             # Push the filled surface back a little so its own edges win the depth test.
