@@ -20,6 +20,7 @@ uniform bool u_cap;              // the clip's cut: drawn only inside the object
 out vec4 frag_color;
 
 const float CURVE_HALF_WIDTH = 0.9;   // pixels
+const float HALO_DARKNESS = 0.6;
 
 float sample_at(ivec2 p) {
     return texelFetch(u_slice, p.yx, 0).r;
@@ -86,6 +87,8 @@ void main() {
         }
     }
     float coverage = clamp(CURVE_HALF_WIDTH + 0.5 - distance, 0.0, 1.0);
+    float halo = clamp(CURVE_HALF_WIDTH + 1.5 - distance, 0.0, 1.0);   // a dark rim: the curve reads on light data too
+    color = mix(mix(color, vec3(0.0), HALO_DARKNESS * halo), u_curve_color, coverage);
     if (u_cap && coverage == 0.0 && !inside(value)) discard;
-    frag_color = vec4(mix(color, u_curve_color, coverage), 1.0);
+    frag_color = vec4(color, 1.0);
 }
