@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from .viewer.slice_options import add_slice_arguments, apply_slice_arguments
 from .volumes import DEFAULT_VOLUME, VolumeError, add_volume_arguments, open_volume_from_args
 
 EXIT_BAD_INPUT = 2
@@ -77,6 +78,7 @@ def viewer_parser() -> argparse.ArgumentParser:
     parser.add_argument("--msaa", type=int, choices=(0, 2, 4, 8), metavar="N",
                         help="multisampling, samples per pixel: 0, 2, 4 or 8 (default 4 on a GPU, "
                              "0 on software OpenGL such as llvmpipe, where it costs 3x the frame time)")
+    add_slice_arguments(parser)
     add_volume_arguments(parser)
     return parser
 
@@ -100,7 +102,6 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--panel", action="store_true", help="draw the imgui panel over the scene")
         parser.add_argument("--transparent", action="store_true",
                             help="a transparent background: an RGBA PNG, for slides and figures")
-        from .viewer.slice_options import add_slice_arguments
         add_slice_arguments(parser)
     else:
         parser = OneLineParser(prog="isoscope export",
@@ -150,6 +151,11 @@ def run_viewer(args) -> int:
     except WindowUnavailable as exc:
         print(f"isoscope: {exc}", file=sys.stderr)
         return EXIT_NO_GL
+    try:
+        apply_slice_arguments(window.state, args)
+    except ValueError:
+        window.close()
+        raise
     window.run(max_frames=args.frames)
     return 0
 
@@ -158,7 +164,6 @@ def run_render(args) -> int:
     volume = open_volume_from_args(args.volume, args, _progress)
     iso = _checked_iso(volume, args.iso)
     from .viewer.headless import render_png
-    from .viewer.slice_options import apply_slice_arguments
     path = render_png(volume, args.out, iso, size=args.size, azimuth=args.azimuth,
                       elevation=args.elevation, panel=args.panel, transparent=args.transparent,
                       prepare=lambda state: apply_slice_arguments(state, args))

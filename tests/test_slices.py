@@ -215,12 +215,12 @@ needs_x = pytest.mark.skipif(shutil.which("Xvfb") is None or ctypes.util.find_li
 
 
 @needs_x
-def test_a_click_on_the_panel_shows_a_slice_in_the_window(x_display):
+def test_a_click_on_the_panel_shows_a_slice_in_the_window(x_display, tmp_path):
     from x_window import run_spawned
-    run_spawned(click_slice_checkbox, x_display)
+    run_spawned(click_slice_checkbox, x_display, tmp_path)
 
 
-def click_slice_checkbox(x_display):
+def click_slice_checkbox(x_display, tmp_path):
     os.environ["DISPLAY"] = x_display
     from test_window_input import Pointer
 
@@ -230,7 +230,8 @@ def click_slice_checkbox(x_display):
 
     from x_window import frames_until
 
-    window = ViewerWindow(open_volume("sphere", resolution=32), size=(720, 760), recent=RecentFiles(None))
+    window = ViewerWindow(open_volume("sphere", resolution=32), size=(720, 760), recent=RecentFiles(None),
+                          screenshot_dir=tmp_path)
     try:
         for _ in range(3):
             assert window.draw_frame()
@@ -244,5 +245,14 @@ def click_slice_checkbox(x_display):
         pointer.send(("release", 1))
         assert frames_until(window, lambda: state.slices.shown[2]), "the click did not show the z slice"
         assert state.slices.inset_axis() == 2
+        window.request_screenshot()
+        assert frames_until(window, lambda: window.last_screenshot is not None)
+        shot = np.asarray(Image.open(window.last_screenshot).convert("RGB")).astype(int)
+        height, width = shot.shape[:2]
+        x, y, w, h = inset_box((32, 32, 32), state.volume.spacing, 2, (0, 0, width, height))
+        inset = shot[height - y - h:height - y, x:x + w]
+        # The 2-D view: the slice's grey values around the circle where the sphere crosses it.
+        grey = np.abs(inset - inset.mean(axis=2, keepdims=True)).max(axis=2) < 3
+        assert grey.mean() > 0.8 and np.ptp(inset[grey][:, 0]) > 100
     finally:
         window.close()
