@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from .viewer.slice_options import add_slice_arguments, apply_slice_arguments
 from .volumes import DEFAULT_VOLUME, VolumeError, add_volume_arguments, open_volume_from_args
 
 EXIT_BAD_INPUT = 2
@@ -28,7 +29,8 @@ Drop a volume file on the window to open it.
 
 other commands (each has --help):
   isoscope render VOLUME --out shot.png [--iso V] [--size WxH] [--azimuth A] [--elevation E] [--panel]
-                [--transparent]
+                [--transparent] [--slice AXIS=INDEX ...] [--clip AXIS=POS[:+|-]] [--window W] [--level L]
+                [--colormap NAME]
   isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V]
   isoscope volumes          list the built-in volumes
 """
@@ -76,6 +78,7 @@ def viewer_parser() -> argparse.ArgumentParser:
     parser.add_argument("--msaa", type=int, choices=(0, 2, 4, 8), metavar="N",
                         help="multisampling, samples per pixel: 0, 2, 4 or 8 (default 4 on a GPU, "
                              "0 on software OpenGL such as llvmpipe, where it costs 3x the frame time)")
+    add_slice_arguments(parser)
     add_volume_arguments(parser)
     return parser
 
@@ -99,6 +102,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--panel", action="store_true", help="draw the imgui panel over the scene")
         parser.add_argument("--transparent", action="store_true",
                             help="a transparent background: an RGBA PNG, for slides and figures")
+        add_slice_arguments(parser)
     else:
         parser = OneLineParser(prog="isoscope export",
                                description="Extract the isosurface and write it as a mesh file: binary PLY, OBJ, "
@@ -147,6 +151,11 @@ def run_viewer(args) -> int:
     except WindowUnavailable as exc:
         print(f"isoscope: {exc}", file=sys.stderr)
         return EXIT_NO_GL
+    try:
+        apply_slice_arguments(window.state, args)
+    except ValueError:
+        window.close()
+        raise
     window.run(max_frames=args.frames)
     return 0
 
@@ -156,7 +165,8 @@ def run_render(args) -> int:
     iso = _checked_iso(volume, args.iso)
     from .viewer.headless import render_png
     path = render_png(volume, args.out, iso, size=args.size, azimuth=args.azimuth,
-                      elevation=args.elevation, panel=args.panel, transparent=args.transparent)
+                      elevation=args.elevation, panel=args.panel, transparent=args.transparent,
+                      prepare=lambda state: apply_slice_arguments(state, args))
     print(f"wrote {path} ({args.size[0]}x{args.size[1]})")
     return 0
 

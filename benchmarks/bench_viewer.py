@@ -1,6 +1,6 @@
 """Frame time of the real viewer window while the iso slider is dragged (the target: < 50 ms on llvmpipe).
 
-    python benchmarks/bench_viewer.py [--volume metaballs] [--frames 60] [--size 1280x800]
+    python benchmarks/bench_viewer.py [--volume metaballs] [--frames 60] [--size 1280x800] [--slice z=40 ...]
 
 Opens the viewer's window (under a private Xvfb when there is no DISPLAY), then
 moves the iso value on every frame, as a slider drag does, and times whole
@@ -47,7 +47,11 @@ def main(argv=None) -> int:
     parser.add_argument("--volume", default=None, help="a volume spec (default: the viewer's default)")
     parser.add_argument("--frames", type=int, default=60, help="frames of dragging to time")
     parser.add_argument("--size", default="1280x800", help="window size WxH")
+    parser.add_argument("--slice", action="append", default=[], metavar="AXIS=INDEX",
+                        help="show this slice (with its isocurve and the 2-D view) while dragging; repeatable")
     args = parser.parse_args(argv)
+    from isoscope.viewer.slice_options import slice_spec
+    slices = [slice_spec(text) for text in args.slice]
     width, height = (int(v) for v in args.size.lower().split("x"))
 
     with display():
@@ -59,6 +63,9 @@ def main(argv=None) -> int:
         window = ViewerWindow(volume, size=(width, height), recent=RecentFiles(None))
         try:
             state = window.state
+            for axis, index in slices:
+                if not state.show_slice(axis, True, index):
+                    sys.exit(f"bench_viewer: {state.error}")
             for _ in range(5):  # JIT of every shader and first buffer allocations
                 window.draw_frame()
             low, high = state.value_range
@@ -79,8 +86,9 @@ def main(argv=None) -> int:
                 window.draw_frame()
             full_after_ms = (time.perf_counter() - released) * 1000
             shape = "x".join(map(str, volume.data.shape))
+            shown = ", ".join(args.slice) or "none"
             print(f"viewer frame while dragging the iso slider: {volume.name} {shape}, "
-                  f"window {width}x{height}, {state.gl_renderer}")
+                  f"window {width}x{height}, slices {shown}, {state.gl_renderer}")
             print(f"  frame       median {np.median(frame_ms):.1f} ms, "
                   f"90th percentile {np.percentile(frame_ms, 90):.1f} ms over {args.frames} frames")
             print(f"  extraction  median {np.median(extract_ms):.1f} ms; "

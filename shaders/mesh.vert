@@ -7,6 +7,9 @@ in vec3 in_normal;
 
 uniform mat4 u_view;
 uniform mat4 u_projection;
+uniform vec4 u_clip_plane;   // the clip plane (slices.py): kept where dot(plane, (p, 1)) >= 0
+
+out float gl_ClipDistance[1];   // used only while the renderer enables GL_CLIP_DISTANCE0
 
 out vec3 v_view_position;
 out vec3 v_view_normal;
@@ -17,4 +20,5 @@ void main() {
     // The view matrix is a rigid motion, so its 3x3 part transforms normals.
     v_view_normal = mat3(u_view) * in_normal;
     gl_Position = u_projection * view_position;
+    gl_ClipDistance[0] = dot(u_clip_plane, vec4(in_position, 1.0));
 }

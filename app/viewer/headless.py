@@ -47,7 +47,9 @@ class HeadlessViewer:
         self.state.update(0.0)
         self.target.use()
         self.renderer.draw(self.state.meshes, self.camera, self.target.viewport, self.state.style,
-                           covered_left=int(self._panel.covered_width) if panel else 0)
+                           covered_left=int(self._panel.covered_width) if panel else 0,
+                           slices=self.state.slice_scene)
+        self.renderer.draw_inset(self.state.slice_scene, self.target.viewport)
         if panel:
             self._imgui.render()
         return self.target.read_rgba() if self.state.style.transparent_background else self.target.read_rgb()
@@ -71,12 +73,15 @@ class HeadlessViewer:
 
 
 def render_png(volume: Volume, out, iso: float | None = None, size=(800, 600),
-               azimuth=None, elevation=None, panel: bool = False, transparent: bool = False):
-    """Render one view of `volume` to the PNG file `out` (RGBA with `transparent`); returns its path."""
+               azimuth=None, elevation=None, panel: bool = False, transparent: bool = False, prepare=None):
+    """Render one view of `volume` to the PNG file `out` (RGBA with `transparent`); returns its path.
+    `prepare(state)`, if given, sets up the ViewerState once the volume is shown (slices, clip)."""
     viewer = HeadlessViewer(size)
     try:
         viewer.state.style.transparent_background = transparent
         viewer.show(volume, iso, azimuth, elevation)
+        if prepare is not None:
+            prepare(viewer.state)
         return save_png(viewer.render(panel=panel), out)
     finally:
         viewer.release()

@@ -16,6 +16,7 @@ from imgui_bundle import imgui
 from ..volumes import builtin_names
 from .histogram import fraction_of, level_at
 from .orientation import draw_orientation
+from .slice_panel import SlicePanel
 from .state import ViewerState
 
 PANEL_TITLE = "isoscope"
@@ -78,6 +79,7 @@ class Panel:
         self.iso_slider_box = None     # the iso slider's ((left, top), (right, bottom)), imgui units
         self.histogram_box = None      # the value histogram's ((left, top), (right, bottom)), likewise
         self._go_home = False
+        self.slices = SlicePanel()     # the Slices section (slice_panel.py)
 
     def draw(self, state: ViewerState) -> None:
         self._collect_file_dialog(state)
@@ -91,6 +93,7 @@ class Panel:
             self._volume_section(state)
             self._iso_section(state)
             self._display_section(state)
+            self.slices.draw(state)
             self._stats_section(state)
         imgui.end()
 

@@ -14,6 +14,7 @@ import numpy as np
 from ..gpu_layout import VERTEX_FORMAT, vertex_format
 from ..mesh import GpuMesh
 from ..resources import shader_source
+from .slices import GL_CLIP_DISTANCE0, SliceRenderer, SliceScene
 from .style import SurfaceStyle
 
 WIRE_COLOR = (0.02, 0.02, 0.05)
@@ -35,6 +36,7 @@ class SceneRenderer:
         self.box_vao = ctx.vertex_array(self.box_program, [(self.box_buffer, "3f", "in_position")])
         # (vertex buffer, index buffer) -> (lit VAO, wireframe VAO), for the meshes drawn last frame.
         self._vaos: dict[tuple[moderngl.Buffer, moderngl.Buffer], tuple[moderngl.VertexArray, ...]] = {}
+        self.slices = SliceRenderer(ctx)   # slice planes, the clip's cut and the 2-D view (slices.py)
 
     def set_box(self, lower, upper) -> None:
         """The bounding box to draw, in world units."""
@@ -63,10 +65,11 @@ class SceneRenderer:
                 vao.release()
 
     def draw(self, meshes: Sequence[GpuMesh], camera, viewport: tuple[int, int, int, int], style: SurfaceStyle,
-             covered_left: int = 0) -> None:
-        """Clear `viewport` of the bound framebuffer and draw the box and `meshes` into it.
+             covered_left: int = 0, slices: SliceScene | None = None) -> None:
+        """Clear `viewport` of the bound framebuffer and draw the box, the slices and `meshes` into it.
 
         `covered_left`: pixels at the left hidden by the panel; the scene centres in the rest.
+        `slices`: ViewerState.slice_scene; its clip plane hides the meshes on one side.
         """
         ctx = self.ctx
         # imgui's C++ renderer changes GL state behind moderngl's back: set all we rely on.
@@ -93,6 +96,7 @@ class SceneRenderer:
             self.box_program["u_color"].value = style.box_color
             self.box_program["u_opacity"].value = 1.0
             self.box_vao.render(moderngl.LINES)
+        self.slices.draw(slices, view, projection)
 
         meshes = [mesh for mesh in meshes if mesh.n_triangles]
         self._release_vaos(keep={(m.vertex_buffer, m.index_buffer) for m in meshes})
@@ -101,6 +105,13 @@ class SceneRenderer:
         self.mesh_program["u_front_color"].value = style.front_color
         self.mesh_program["u_back_color"].value = style.back_color
         self.mesh_program["u_lighting"].value = style.lighting
+        # mesh.vert's gl_ClipDistance[0] >= 0 is kept.  Set even with no clip: llvmpipe was seen to
+        # clip by it while GL_CLIP_DISTANCE0 was disabled.
+        clip = slices.settings.clip if slices is not None else None
+        for program in (self.mesh_program, self.wire_program):
+            program["u_clip_plane"].value = clip.plane(slices.spacing) if clip is not None else (0.0, 0.0, 0.0, 1.0)
+        if clip is not None:
+            ctx.enable_direct(GL_CLIP_DISTANCE0)
         if style.wireframe:
             # Push the filled surface back a little so its own edges win the depth test.
             ctx.polygon_offset = (1.0, 1.0)
@@ -118,9 +129,15 @@ class SceneRenderer:
                 self._vaos_for(mesh)[1].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
             ctx.disable(moderngl.BLEND)
             ctx.wireframe = False
+        ctx.disable_direct(GL_CLIP_DISTANCE0)   # imgui's shaders write no clip distance
+
+    def draw_inset(self, slices: SliceScene | None, viewport: tuple[int, int, int, int]) -> None:
+        """After `draw`: the 2-D view of the active slice, over the scene's bottom-right corner."""
+        self.slices.draw_inset(slices, viewport)
 
     def release(self) -> None:
         self._release_vaos()
+        self.slices.release()
         for obj in (self.box_vao, self.box_buffer, self.mesh_program, self.wire_program, self.box_program):
             obj.release()
 

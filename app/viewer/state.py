@@ -20,6 +20,7 @@ from ..volumes import Volume, open_volume
 from .histogram import value_histogram
 from .loading import USER_ERRORS, PendingLoad, one_line
 from .recent import RecentFiles
+from .slices import SliceScene, SliceSettings
 from .style import SurfaceStyle
 from .surface import GpuSurface
 
@@ -64,6 +65,7 @@ class ViewerState:
         self._moved_last_frame = False
         self._rest_s = 0.0               # how long the value has not moved
         self.style = SurfaceStyle()
+        self.slices = SliceSettings()    # slice planes, window/level, colour map, clip (slices.py)
         self.animation = IsoAnimation()
         self.error: str | None = None    # shown in the panel until the next successful action
         self.message: str | None = None  # e.g. where the last screenshot went
@@ -109,6 +111,7 @@ class ViewerState:
         if not self._upload(volume, volume.gradient_direction):
             return False
         self.histogram = value_histogram(volume.data, volume.value_range)
+        self.slices.fit(volume.data, self.value_range)
         low, high = self.value_range
         first_iso = iso if iso is not None else volume.default_level
         self.iso = (low + high) / 2 if first_iso is None else min(max(float(first_iso), low), high)
@@ -200,6 +203,39 @@ class ViewerState:
             self.animation.running = False
         self._extracted_iso = self.iso  # also on failure: do not retry the same value every frame
         return True
+
+    # --- slices, window/level, colour map, clip (slices.py) ------------------
+    def show_slice(self, axis: int, shown: bool = True, index: int | None = None) -> bool:
+        """Show or hide the slice across array axis `axis` (0, 1, 2 = x, y, z), at `index` if given."""
+        return self._change_slices(self.slices.show, axis, shown, index)
+
+    def set_clip(self, axis: int | None, position: float | None = None, hide_above: bool = True) -> bool:
+        """Hide the surface beyond index `position` along `axis` (None: no clip); the cut shows the slice."""
+        return self._change_slices(self.slices.set_clip, axis, position, hide_above)
+
+    def set_window_level(self, window: float | None = None, level: float | None = None) -> bool:
+        return self._change_slices(self.slices.set_window_level, window, level)
+
+    def set_colormap(self, name: str) -> bool:
+        return self._change_slices(self.slices.set_colormap, name)
+
+    def _change_slices(self, change, *args) -> bool:
+        """Apply a SliceSettings change; a bad value sets `error` and leaves what is shown."""
+        try:
+            change(*args)
+        except ValueError as exc:
+            self.error = one_line(exc)
+            return False
+        self.error = None
+        return True
+
+    @property
+    def slice_scene(self) -> SliceScene | None:
+        """What the renderer needs to draw the slices (None before a volume is shown)."""
+        if self.volume is None:
+            return None
+        return SliceScene(self.volume.data, self.volume.spacing, self.slices, self.iso,
+                          not self.inside_below, self.style.front_color)
 
     # --- saving ------------------------------------------------------------
     def save_mesh(self, path) -> bool:

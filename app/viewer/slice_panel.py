@@ -1,0 +1,82 @@
+"""The panel's Slices section: the three slice planes, window/level, colour map and the clip plane.
+
+Every change goes through ViewerState's methods, which check it against the volume.
+"""
+from __future__ import annotations
+
+from imgui_bundle import imgui
+
+from .slices import AXES, COLORMAPS, default_window
+from .state import ViewerState
+
+CLIP_SIDES = ("hide above", "hide below")
+
+
+class SlicePanel:
+    def __init__(self):
+        self.checkbox_boxes: dict[int, tuple[tuple[float, float], tuple[float, float]]] = {}  # axis -> rect
+
+    def draw(self, state: ViewerState) -> None:
+        imgui.separator_text("Slices")
+        if state.volume is None:
+            return
+        settings = state.slices
+        for axis in range(3):
+            toggled, shown = imgui.checkbox(f"{AXES[axis]}##slice", settings.shown[axis])
+            self.checkbox_boxes[axis] = (tuple(imgui.get_item_rect_min()), tuple(imgui.get_item_rect_max()))
+            if toggled:
+                state.show_slice(axis, shown)
+            imgui.same_line()
+            imgui.set_next_item_width(-1)
+            moved, index = imgui.slider_int(f"##slice{axis}", settings.index[axis], 0, settings.shape[axis] - 1)
+            if moved:   # moving a slice shows it, in the 2-D view too
+                state.show_slice(axis, True, index)
+        settings.inset = imgui.checkbox("2-D view of the last moved slice", settings.inset)[1]
+
+        low, high = state.value_range
+        span = max(high - low, 1e-12)
+        changed_w, window = imgui.drag_float("window", settings.window, span / 400, span * 1e-4, span * 4, "%.4g")
+        changed_l, level = imgui.drag_float("level", settings.level, span / 400, low - span, high + span, "%.4g")
+        if changed_w or changed_l:
+            state.set_window_level(window, level)
+        if imgui.is_item_hovered():
+            imgui.set_tooltip("values level -+ window/2 span the colour map (drag, or ctrl+click to type)")
+        if imgui.button("auto window"):
+            state.set_window_level(*default_window(state.volume.data, state.value_range))
+        imgui.same_line()
+        imgui.set_next_item_width(-1)
+        if imgui.begin_combo("##colormap", settings.colormap):
+            for name in COLORMAPS:
+                if imgui.selectable(name, name == settings.colormap)[0]:
+                    state.set_colormap(name)
+            imgui.end_combo()
+        self._clip(state)
+
+    @staticmethod
+    def _clip(state: ViewerState) -> None:
+        clip = state.slices.clip
+        toggled, on = imgui.checkbox("clip", clip is not None)
+        if toggled:
+            state.set_clip(2 if on else None)
+        if clip is None:
+            return
+        imgui.same_line()
+        imgui.set_next_item_width(50)
+        if imgui.begin_combo("##clip_axis", AXES[clip.axis]):
+            for axis in range(3):
+                if imgui.selectable(AXES[axis], axis == clip.axis)[0]:
+                    state.set_clip(axis, None, clip.hide_above)
+            imgui.end_combo()
+        imgui.same_line()
+        imgui.set_next_item_width(-1)
+        side = CLIP_SIDES[0 if clip.hide_above else 1]
+        if imgui.begin_combo("##clip_side", side):
+            for name in CLIP_SIDES:
+                if imgui.selectable(name, name == side)[0]:
+                    state.set_clip(clip.axis, clip.position, name == CLIP_SIDES[0])
+            imgui.end_combo()
+        imgui.set_next_item_width(-1)
+        moved, position = imgui.slider_float("##clip_position", clip.position, 0.0,
+                                             float(state.slices.shape[clip.axis] - 1), "%.1f")
+        if moved:
+            state.set_clip(clip.axis, position, clip.hide_above)
