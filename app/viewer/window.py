@@ -145,7 +145,7 @@ class ViewerWindow:
         self.ctx.screen.use()
         pixels_per_unit = fb_width / max(glfw.get_window_size(self.window)[0], 1)  # framebuffer scale
         self.renderer.draw(self.state.meshes, self.camera, (0, 0, fb_width, fb_height), self.state.style,
-                           covered_left=int(self.panel.covered_width * pixels_per_unit))
+                           covered_left=int(self.panel.covered_width * pixels_per_unit), looks=self.state.looks)
         self.imgui.render()
         if self._screenshot_requested:
             self._save_screenshot((fb_width, fb_height))
