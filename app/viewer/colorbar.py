@@ -16,18 +16,18 @@ TEXT_COLOR = (235, 235, 235)
 
 
 def draw_colorbar(pixels: np.ndarray, color_by: ColorBy) -> np.ndarray:
-    """A copy of (height, width, 3 or 4) uint8 `pixels` with the bar (high value at the top), its
-    end values and the scalar's name."""
+    """A copy of (height, width, 3 or 4) uint8 `pixels` with the bar (high value at the top) in the
+    BAR_WIDTH columns MARGIN pixels from the right edge, its end values and the scalar's name."""
     height, width, channels = pixels.shape
     image = Image.fromarray(np.ascontiguousarray(pixels), "RGBA" if channels == 4 else "RGB")
     draw = ImageDraw.Draw(image)
     font = ImageFont.load_default()
     low, high = color_by.value_range
     labels = [f"{high:.4g}", f"{low:.4g}", color_by.source]
-    text_width = max(draw.textbbox((0, 0), text, font=font)[2] for text in labels)
+    widths = [draw.textbbox((0, 0), text, font=font)[2] for text in labels]
     top, bottom = MARGIN + 14, height - MARGIN - 14
-    left = width - MARGIN - max(BAR_WIDTH, text_width)
-    if bottom - top < 8 or left < 0:
+    left = width - MARGIN - BAR_WIDTH
+    if bottom - top < 8 or left - widths[2] - 4 < 0:
         return pixels   # too small an image for a bar
     fractions = np.linspace(1.0, 0.0, bottom - top)
     rows = np.round(color_by.lut[np.minimum((fractions * len(color_by.lut)).astype(int), len(color_by.lut) - 1)]
@@ -37,8 +37,8 @@ def draw_colorbar(pixels: np.ndarray, color_by: ColorBy) -> np.ndarray:
         bar = np.concatenate([bar, np.full(bar.shape[:2] + (1,), 255, np.uint8)], axis=2)
     image.paste(Image.fromarray(bar, image.mode), (left, top))
     fill = TEXT_COLOR + ((255,) if channels == 4 else ())
-    draw.text((left, top - 13), labels[0], fill=fill, font=font)
-    draw.text((left, bottom + 2), labels[1], fill=fill, font=font)
-    draw.text((left - draw.textbbox((0, 0), labels[2], font=font)[2] - 4, (top + bottom) // 2 - 6), labels[2],
-              fill=fill, font=font)
+    right = width - MARGIN
+    draw.text((right - widths[0], top - 13), labels[0], fill=fill, font=font)
+    draw.text((right - widths[1], bottom + 2), labels[1], fill=fill, font=font)
+    draw.text((left - widths[2] - 4, (top + bottom) // 2 - 6), labels[2], fill=fill, font=font)
     return np.asarray(image)
