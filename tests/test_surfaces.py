@@ -168,3 +168,28 @@ def test_bad_levels_and_looks_are_one_line_errors(tmp_path, args, words):
     result = isoscope("render", "sphere", "--resolution", "32", *args, "--out", tmp_path / "x.png")
     assert_one_line_error(result, *words)
     assert not (tmp_path / "x.png").exists()
+
+
+def test_a_drag_previews_the_moving_level_within_what_the_other_levels_leave_of_the_budget(gl_ctx, monkeypatch):
+    import isoscope.viewer.surface as surface_module
+    from isoscope.viewer.state import ViewerState
+
+    state = ViewerState(gl_ctx, level_of_detail=True)
+    try:
+        assert state.show(open_volume("gyroid", resolution=48), iso=0.0)
+        alone = state.n_triangles
+        monkeypatch.setattr(surface_module, "PREVIEW_TRIANGLES", int(alone * 1.5))  # one level: no preview
+
+        def drag():
+            for value in (0.02, 0.04, 0.06):
+                state.set_iso(value)
+                state.update(0.04)
+            return state.preview_step
+        assert drag() == 1
+        assert state.add_level(0.3) and state.select_level(0)   # the other level takes most of the budget
+        other = state.levels[1].n_triangles
+        assert other > alone // 2
+        assert drag() > 1
+        assert state.meshes[1].n_triangles == other   # the level not dragged stays in full
+    finally:
+        state.release()

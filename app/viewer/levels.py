@@ -20,10 +20,12 @@ import moderngl
 from ..gpu_layout import INDEX_BYTES, VERTEX_BYTES
 from ..mesh import GpuMesh
 from ..volumes import open_volume
+from . import surface as surface_module
 from .colorby import DEFAULT_COLORMAP, SOURCES, ColorBy, make_color_by
 from .loading import USER_ERRORS, one_line
 
 MAX_LEVELS = 4
+MIN_PREVIEW_SHARE = 8   # the moving level's preview keeps at least 1/8 of the frame's triangle budget
 # Colours of added levels (the first level takes the style's front colour): far apart in hue.
 PALETTE = ((0.95, 0.80, 0.45), (0.55, 0.85, 0.55), (0.85, 0.55, 0.85), (0.95, 0.55, 0.45))
 
@@ -118,6 +120,14 @@ class SurfaceLevels:
     def looks(self) -> list[SurfaceLook]:
         """How to draw each of `meshes`, in the same order."""
         return [look for _, look in self._shown_levels()]
+
+    def preview_budget(self) -> int:
+        """Triangles the moving level's preview may have: the frame's budget less what the other
+        visible levels draw (full meshes), so a drag's frame time stays bounded with several."""
+        others = sum(level.n_triangles for i, level in enumerate(self.levels)
+                     if i != self.selected and level.visible and level.opacity > 0)
+        budget = surface_module.PREVIEW_TRIANGLES
+        return max(budget - others, budget // MIN_PREVIEW_SHARE)
 
     # --- changing ----------------------------------------------------------
     def _reset_levels(self) -> None:

@@ -49,8 +49,8 @@ class OitTargets:
         self._release_targets()
         ctx = self.ctx
         colour, accum, weights = (ctx.texture(size, 4, dtype="f1", samples=samples),
-                                  ctx.texture(size, 4, dtype="f4", samples=samples),
-                                  ctx.texture(size, 4, dtype="f4", samples=samples))
+                                  ctx.texture(size, 4, dtype="f2", samples=samples),
+                                  ctx.texture(size, 1, dtype="f2", samples=samples))
         depth = ctx.depth_renderbuffer(size, samples=samples)
         self.textures = (colour, accum, weights)
         self.scene = ctx.framebuffer([colour], depth)

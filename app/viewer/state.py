@@ -200,7 +200,7 @@ class ViewerState(SurfaceLevels):
             preview = False  # rested long enough: back to full resolution
         self._moved_last_frame = moved and self._extracted_iso is not None  # a new volume's first is no move
         try:
-            self.surface.extract(self.iso, preview=preview)
+            self.surface.extract(self.iso, preview=preview, budget=self.preview_budget())
         except USER_ERRORS as exc:
             self.error = one_line(exc)
             self.animation.running = False
