@@ -142,11 +142,12 @@ def test_render_draws_a_colour_bar_and_export_writes_one_file_per_level(tmp_path
     image = np.asarray(Image.open(out).convert("RGB")).astype(int)
     from isoscope.viewer.colorby import colormap_lut
     lut = np.round(colormap_lut("viridis") * 255)
-    from isoscope.viewer.colorbar import BAR_WIDTH, MARGIN
+    from isoscope.viewer.colorbar import BAR_WIDTH, LINE, MARGIN, MAX_BAR_SHARE
     bar = image[:, 320 - MARGIN - BAR_WIDTH // 2]   # the map from top (high) to bottom (low), at the right
-    drawn = np.flatnonzero(np.abs(bar - image[0, 0]).max(axis=1) > 20)
-    assert np.abs(bar[drawn[0] + 1] - lut[-1]).max() <= 3 and np.abs(bar[drawn[-1] - 1] - lut[0]).max() <= 3
-    assert drawn[-1] - drawn[0] > 150
+    top = MARGIN + 2 * LINE
+    bottom = top + int(MAX_BAR_SHARE * 240)
+    assert np.abs(bar[top + 1] - lut[-1]).max() <= 3 and np.abs(bar[bottom - 2] - lut[0]).max() <= 3
+    assert np.abs(bar[(top + bottom) // 2] - lut[len(lut) // 2]).max() <= 8
 
     mesh_out = tmp_path / "head.ply"
     result = isoscope("export", "sphere", "--resolution", "32", "--iso", "0", "--iso", "-0.3", "--out", mesh_out)
@@ -193,3 +194,30 @@ def test_a_drag_previews_the_moving_level_within_what_the_other_levels_leave_of_
         assert state.meshes[1].n_triangles == other   # the level not dragged stays in full
     finally:
         state.release()
+
+
+def test_the_histogram_marks_every_level_and_a_click_sets_only_the_selected_one(gl_ctx):
+    from imgui_bundle import imgui
+    from test_viewer import marker_columns
+
+    from isoscope.viewer.histogram import fraction_of
+    viewer = HeadlessViewer((900, 760), ctx=gl_ctx)
+    try:
+        viewer.show_levels(open_volume("bucky"), [64.0, 190.0])
+        state = viewer.state
+        image = viewer.render(panel=True)
+        (left, top), (right, bottom) = box = viewer._panel.histogram_box
+        for i, level in enumerate((64.0, 190.0)):
+            columns = marker_columns(image, box, state.level_color(i))
+            expected = left + fraction_of(level, state.value_range) * (right - left)
+            assert len(columns) and abs(columns.mean() - expected) <= 2, (level, columns)
+        state.select_level(1)
+        io = imgui.get_io()
+        io.add_mouse_pos_event(left + 0.25 * (right - left), (top + bottom) / 2)
+        for down in (True, True, False):
+            io.add_mouse_button_event(0, down)
+            viewer.render(panel=True)
+        low, high = state.value_range
+        assert state.level_values() == pytest.approx([64.0, low + 0.25 * (high - low)], abs=0.01 * (high - low))
+    finally:
+        viewer.release()

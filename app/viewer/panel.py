@@ -204,7 +204,7 @@ class Panel:
             x = top_left.x + fraction_of(level, value_range) * size.x
             colour = imgui.get_color_u32(imgui.ImVec4(*state.level_color(i), 1.0))
             imgui.get_window_draw_list().add_line(imgui.ImVec2(x, top_left.y), imgui.ImVec2(x, top_left.y + size.y),
-                                                  colour, 2.0 if i == state.selected else 1.0)
+                                                  colour, 3.0 if i == state.selected else 2.0)
 
     def _display_section(self, state: ViewerState) -> None:
         imgui.separator_text("Display")
