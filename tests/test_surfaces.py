@@ -2,6 +2,8 @@
 colour by a scalar through a colour map, and the CLI's several --iso.  Pixel facts from real renders."""
 from __future__ import annotations
 
+import shutil
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -9,6 +11,8 @@ from test_cli import assert_one_line_error, isoscope
 
 from isoscope.viewer.headless import HeadlessViewer
 from isoscope.volumes import open_volume
+
+from x_window import frames_until, run_spawned
 
 SIZE = (160, 120)
 CENTRE = (60, 80)        # (row, column) of the image centre
@@ -221,3 +225,37 @@ def test_the_histogram_marks_every_level_and_a_click_sets_only_the_selected_one(
         assert state.level_values() == pytest.approx([64.0, low + 0.25 * (high - low)], abs=0.01 * (high - low))
     finally:
         viewer.release()
+
+
+@pytest.mark.skipif(shutil.which("Xvfb") is None, reason="Xvfb is not installed (CI installs it)")
+def test_the_real_window_blends_a_translucent_shell_over_an_opaque_one(x_display, tmp_path):
+    # The window draws to its default framebuffer without multisampling: the single-sample resolve.
+    run_spawned(drive_window_with_two_surfaces, x_display, tmp_path)
+
+
+def drive_window_with_two_surfaces(x_display, tmp_path):
+    import os
+    os.environ["DISPLAY"] = x_display
+    from isoscope.viewer.recent import RecentFiles
+    from isoscope.viewer.window import ViewerWindow
+
+    window = ViewerWindow(sphere(), iso=OUTER, size=(640, 400), screenshot_dir=tmp_path, recent=RecentFiles(None))
+    try:
+        state, opacity = window.state, 0.4
+        state.style.lighting = state.style.show_box = False
+        assert state.add_level(INNER) and state.set_level_color(1, INNER_RGB)
+        assert state.set_level_color(0, OUTER_RGB) and state.set_level_opacity(0, opacity)
+
+        def matching(rgb):
+            window.request_screenshot()
+            assert frames_until(window, lambda: window.last_screenshot is not None)
+            shot = np.asarray(Image.open(window.last_screenshot).convert("RGB")).astype(float)
+            window.last_screenshot = None
+            return int((np.abs(shot - 255 * rgb).max(axis=2) <= 2).sum())
+
+        blend = opacity * OUTER_RGB + (1 - opacity) * INNER_RGB
+        assert matching(blend) > 200          # the inner shell's disc, seen through the outer one
+        state.set_level_opacity(0, 1.0)
+        assert matching(blend) == 0 and matching(OUTER_RGB) > 200
+    finally:
+        window.close()
