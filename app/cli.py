@@ -29,9 +29,9 @@ Drop a volume file on the window to open it.
 
 other commands (each has --help):
   isoscope render VOLUME --out shot.png [--iso V] [--size WxH] [--azimuth A] [--elevation E] [--panel]
-                [--transparent] [--slice AXIS=INDEX ...] [--clip AXIS=POS[:+|-]] [--window W] [--level L]
-                [--colormap NAME]
-  isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V]
+                [--transparent] [--iso V2 ...] [--opacity A,B] [--color-by value|gradient|FILE] [--color-by-map NAME]
+                [--slice AXIS=INDEX ...] [--clip AXIS=POS[:+|-]] [--window W] [--level L] [--colormap NAME]
+  isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V [--iso V2 ...]]
   isoscope volumes          list the built-in volumes
 """
 
@@ -56,9 +56,35 @@ def window_size(text: str) -> tuple[int, int]:
     return width, height
 
 
-def _add_iso(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--iso", type=float, metavar="V",
-                        help="iso value (default: the volume's suggested level, else mid-range)")
+def _add_iso(parser: argparse.ArgumentParser, several: str = "") -> None:
+    """--iso V; with `several` (what several levels give) it may be repeated, up to MAX_LEVELS times."""
+    parser.add_argument("--iso", type=float, metavar="V", action="append" if several else "store",
+                        help="iso value (default: the volume's suggested level, else mid-range)" + several)
+
+
+def opacities(text: str) -> list[float]:
+    """--opacity A[,B,...]: one opacity 0..1 per level, in --iso order."""
+    try:
+        values = [float(part) for part in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"opacity {text!r} is not numbers, e.g. 0.3 or 0.3,1") from None
+    if not all(0.0 <= value <= 1.0 for value in values):
+        raise argparse.ArgumentTypeError(f"opacity {text!r} must lie in 0..1 (1 opaque, 0 invisible)")
+    return values
+
+
+def _add_levels_look(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--opacity", type=opacities, action="append", metavar="A[,B..]",
+                        help="opacity of each level in --iso order, repeatable or comma-separated, e.g. "
+                             "--opacity 0.3,1 (default 1: opaque); translucent shells are drawn "
+                             "order-independently (weighted blended OIT)")
+    parser.add_argument("--color-by", metavar="value|gradient|FILE",
+                        help="colour the surfaces by a colour map of: the level's value, the volume's "
+                             "|gradient|, or a second volume FILE of the same shape (e.g. PET or dose); "
+                             "a colour bar is drawn at the right")
+    parser.add_argument("--color-by-map", metavar="NAME",
+                        help="colour map of the cmap library for --color-by (default viridis; e.g. magma, "
+                             "turbo, gray)")
 
 
 def viewer_parser() -> argparse.ArgumentParser:
@@ -91,7 +117,8 @@ def command_parser(command: str) -> argparse.ArgumentParser:
             prog="isoscope render",
             description="Render the viewer's scene to a PNG with no window or display (EGL).")
         parser.add_argument("volume", metavar="VOLUME", help=VOLUME_HELP)
-        _add_iso(parser)
+        _add_iso(parser, "; repeat for several surfaces (up to 4)")
+        _add_levels_look(parser)
         parser.add_argument("--out", required=True, metavar="PNG", help="the PNG file to write")
         parser.add_argument("--size", type=window_size, default=(800, 600), metavar="WxH",
                             help="image size in pixels (default 800x600)")
@@ -108,7 +135,8 @@ def command_parser(command: str) -> argparse.ArgumentParser:
                                description="Extract the isosurface and write it as a mesh file: binary PLY, OBJ, "
                                            "binary STL, GLB (glTF) or OFF, by the extension of --out.")
         parser.add_argument("volume", metavar="VOLUME", help=VOLUME_HELP)
-        _add_iso(parser)
+        _add_iso(parser, "; repeat for several levels (up to 4): one file per level, named "
+                         "STEM_iso<V>.EXT after --out (e.g. head_iso0.5.ply)")
         parser.add_argument("--out", required=True, metavar="MESH",
                             help="the file to write: .ply, .obj, .stl, .glb or .off (replaced only once complete)")
         parser.add_argument("--space", choices=("world", "voxel"), default="world",
@@ -139,6 +167,26 @@ def _checked_iso(volume, iso: float | None) -> float | None:
     return iso
 
 
+def _checked_levels(volume, isos: list[float] | None, opacity_lists=None) -> list[float | None]:
+    """The --iso values (one None: the default level), each in range, at most MAX_LEVELS; and
+    no more --opacity values than levels."""
+    from .viewer.levels import MAX_LEVELS
+    isos = isos or [None]
+    if len(isos) > MAX_LEVELS:
+        raise VolumeError(f"--iso given {len(isos)} times; at most {MAX_LEVELS} surfaces at once")
+    given = sum(len(values) for values in opacity_lists or [])
+    if given > len(isos):
+        raise VolumeError(f"{given} opacities for {len(isos)} levels; give one per --iso, in order")
+    return [_checked_iso(volume, iso) for iso in isos]
+
+
+def level_path(out, level: float) -> str:
+    """Where export writes `level` when given several: STEM_iso<V>.EXT beside `out`."""
+    from pathlib import Path
+    out = Path(out)
+    return str(out.with_name(f"{out.stem}_iso{level:g}{out.suffix}"))
+
+
 def run_viewer(args) -> int:
     # Sample expr: volumes with numpy here: a GPU sampler would make an EGL context current,
     # and GLX then refuses the window's context in this process (X_GLXMakeCurrent BadAccess).
@@ -161,11 +209,16 @@ def run_viewer(args) -> int:
 
 
 def run_render(args) -> int:
+    from .viewer.colorby import colormap_lut
+    if args.color_by_map:
+        colormap_lut(args.color_by_map)  # an unknown map is refused before any work
     volume = open_volume_from_args(args.volume, args, _progress)
-    iso = _checked_iso(volume, args.iso)
+    isos = _checked_levels(volume, args.iso, args.opacity)
     from .viewer.headless import render_png
-    path = render_png(volume, args.out, iso, size=args.size, azimuth=args.azimuth,
+    path = render_png(volume, args.out, isos, size=args.size, azimuth=args.azimuth,
                       elevation=args.elevation, panel=args.panel, transparent=args.transparent,
+                      opacities=[a for values in args.opacity or [] for a in values],
+                      color_by=args.color_by, colormap=args.color_by_map,
                       prepare=lambda state: apply_slice_arguments(state, args))
     print(f"wrote {path} ({args.size[0]}x{args.size[1]})")
     return 0
@@ -179,14 +232,16 @@ def run_export(args) -> int:
         from .decimate import check_fraction
         check_fraction(args.decimate)
     volume = open_volume_from_args(args.volume, args, _progress)
-    iso = _checked_iso(volume, args.iso)
-    verts, faces, normals, _ = marching_cubes(volume.checked, iso, spacing=volume.spacing,
-                                              gradient_direction=volume.gradient_direction)
-    if args.decimate is not None:
-        verts, faces, normals = _decimated(volume, iso, verts, faces, args.decimate)
-    verts, faces, normals, space = in_volume_space(volume, verts, faces, normals, world=args.space == "world")
-    path = write_mesh(args.out, verts, faces, normals)
-    print(f"wrote {path}: {len(verts):,} vertices, {len(faces):,} triangles, in {space} coordinates")
+    isos = _checked_levels(volume, args.iso)
+    for iso in isos:
+        verts, faces, normals, _ = marching_cubes(volume.checked, iso, spacing=volume.spacing,
+                                                  gradient_direction=volume.gradient_direction)
+        if args.decimate is not None:
+            verts, faces, normals = _decimated(volume, iso, verts, faces, args.decimate)
+        verts, faces, normals, space = in_volume_space(volume, verts, faces, normals, world=args.space == "world")
+        out = args.out if len(isos) == 1 else level_path(args.out, iso)
+        path = write_mesh(out, verts, faces, normals)
+        print(f"wrote {path}: {len(verts):,} vertices, {len(faces):,} triangles, in {space} coordinates")
     return 0
 
 

@@ -1,10 +1,12 @@
 """Frame time of the real viewer window while the iso slider is dragged (the target: < 50 ms on llvmpipe).
 
     python benchmarks/bench_viewer.py [--volume metaballs] [--frames 60] [--size 1280x800] [--slice z=40 ...]
+                                      [--surfaces 2] [--opacity 0.4]
 
 Opens the viewer's window (under a private Xvfb when there is no DISPLAY), then
 moves the iso value on every frame, as a slider drag does, and times whole
-frames: re-extraction, drawing, the imgui panel and the buffer swap.
+frames: re-extraction, drawing, the imgui panel and the buffer swap.  With --surfaces N, N-1
+more levels stay on show (below the dragged range, at --opacity) while the first is dragged.
 """
 from __future__ import annotations
 
@@ -49,6 +51,9 @@ def main(argv=None) -> int:
     parser.add_argument("--size", default="1280x800", help="window size WxH")
     parser.add_argument("--slice", action="append", default=[], metavar="AXIS=INDEX",
                         help="show this slice (with its isocurve and the 2-D view) while dragging; repeatable")
+    parser.add_argument("--surfaces", type=int, default=1, help="levels on show, 1..4 (the first is dragged)")
+    parser.add_argument("--opacity", type=float, default=1.0,
+                        help="opacity of the levels not dragged (below 1: drawn by weighted blended OIT)")
     args = parser.parse_args(argv)
     from isoscope.viewer.slice_options import slice_spec
     slices = [slice_spec(text) for text in args.slice]
@@ -66,6 +71,11 @@ def main(argv=None) -> int:
             for axis, index in slices:
                 if not state.show_slice(axis, True, index):
                     sys.exit(f"bench_viewer: {state.error}")
+            low, high = state.value_range
+            for k in range(1, args.surfaces):   # outer shells (on a density) around the dragged level
+                state.add_level(low + (high - low) * (0.25 - 0.05 * k))
+                state.set_level_opacity(k, args.opacity)
+            state.select_level(0)
             for _ in range(5):  # JIT of every shader and first buffer allocations
                 window.draw_frame()
             low, high = state.value_range
@@ -78,7 +88,7 @@ def main(argv=None) -> int:
                 window.draw_frame()
                 frame_ms.append((time.perf_counter() - start) * 1000)
                 extract_ms.append(state.extract_ms)
-                triangles.append(state.n_triangles)
+                triangles.append(sum(mesh.n_triangles for mesh in state.meshes))
                 steps.append(state.preview_step)
             # The value rests: frames go on until the full-resolution mesh is back on show.
             released = time.perf_counter()
@@ -88,11 +98,12 @@ def main(argv=None) -> int:
             shape = "x".join(map(str, volume.data.shape))
             shown = ", ".join(args.slice) or "none"
             print(f"viewer frame while dragging the iso slider: {volume.name} {shape}, "
-                  f"window {width}x{height}, slices {shown}, {state.gl_renderer}")
+                  f"window {width}x{height}, slices {shown}, {state.gl_renderer}, {len(state.levels)} surface(s)"
+                  + (f", the others at opacity {args.opacity:g}" if len(state.levels) > 1 else ""))
             print(f"  frame       median {np.median(frame_ms):.1f} ms, "
                   f"90th percentile {np.percentile(frame_ms, 90):.1f} ms over {args.frames} frames")
             print(f"  extraction  median {np.median(extract_ms):.1f} ms; "
-                  f"triangles {min(triangles):,} .. {max(triangles):,}")
+                  f"triangles drawn {min(triangles):,} .. {max(triangles):,}")
             previews = [s for s in steps if s > 1]
             print(f"  preview     {len(previews)} of {args.frames} frames drew a coarse preview"
                   + (f" (sample step {min(previews)}..{max(previews)})" if previews else "")

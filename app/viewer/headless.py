@@ -11,6 +11,7 @@ import numpy as np
 from ..gl_context import current_or_standalone
 from ..volumes import Volume
 from .camera import OrbitCamera
+from .colorbar import draw_colorbar
 from .panel import ImguiLayer, Panel
 from .renderer import OffscreenTarget, SceneRenderer
 from .screenshot import save_png
@@ -38,6 +39,21 @@ class HeadlessViewer:
         self.camera.fit(lower, upper, azimuth, elevation)
         self.renderer.set_box(lower, upper)
 
+    def show_levels(self, volume: Volume, isos, opacities=(), color_by=None, colormap=None,
+                    azimuth=None, elevation=None) -> None:
+        """`show` with several levels (the first selected), their opacities in order, and colour by;
+        raises ValueError with the state's one-line error on a bad value."""
+        self.show(volume, isos[0], azimuth, elevation)
+        state = self.state
+        ok = all(state.add_level(value) for value in isos[1:])
+        ok = ok and all(state.set_level_opacity(i, a) for i, a in enumerate(opacities))
+        ok = ok and (color_by is None and colormap is None or state.set_color_by(color_by or "value", colormap))
+        if not ok:
+            raise ValueError(state.error)
+        if len(isos) > 1:
+            state.select_level(0)
+        state.update(0.0)
+
     def render(self, panel: bool = False) -> np.ndarray:
         """Re-extract if the iso value changed, draw, and return (height, width, 3) uint8 pixels
         (4, straight alpha, when the style's background is transparent)."""
@@ -47,7 +63,7 @@ class HeadlessViewer:
         self.state.update(0.0)
         self.target.use()
         self.renderer.draw(self.state.meshes, self.camera, self.target.viewport, self.state.style,
-                           covered_left=int(self._panel.covered_width) if panel else 0,
+                           covered_left=int(self._panel.covered_width) if panel else 0, looks=self.state.looks,
                            slices=self.state.slice_scene)
         self.renderer.draw_inset(self.state.slice_scene, self.target.viewport)
         if panel:
@@ -72,16 +88,25 @@ class HeadlessViewer:
         self.target.release()
 
 
-def render_png(volume: Volume, out, iso: float | None = None, size=(800, 600),
-               azimuth=None, elevation=None, panel: bool = False, transparent: bool = False, prepare=None):
+def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, elevation=None,
+               panel: bool = False, transparent: bool = False, opacities=(), color_by=None, colormap=None,
+               prepare=None):
     """Render one view of `volume` to the PNG file `out` (RGBA with `transparent`); returns its path.
-    `prepare(state)`, if given, sets up the ViewerState once the volume is shown (slices, clip)."""
+
+    `iso`: a level, or a list of up to 4 (several surfaces, `opacities` in the same order);
+    `color_by`: "value", "gradient" or a volume spec of the same shape, through `colormap`, with a
+    colour bar at the right (in the panel with `panel`); `prepare(state)`, if given, sets up the
+    ViewerState once the volume is shown (slices, clip)."""
     viewer = HeadlessViewer(size)
     try:
         viewer.state.style.transparent_background = transparent
-        viewer.show(volume, iso, azimuth, elevation)
+        isos = list(iso) if isinstance(iso, (list, tuple)) else [iso]
+        viewer.show_levels(volume, isos, opacities, color_by, colormap, azimuth, elevation)
         if prepare is not None:
             prepare(viewer.state)
-        return save_png(viewer.render(panel=panel), out)
+        pixels = viewer.render(panel=panel)
+        if viewer.state.color_by is not None and not panel:
+            pixels = draw_colorbar(pixels, viewer.state.color_by)
+        return save_png(pixels, out)
     finally:
         viewer.release()

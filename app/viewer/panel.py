@@ -15,6 +15,7 @@ from imgui_bundle import imgui
 
 from ..volumes import builtin_names
 from .histogram import fraction_of, level_at
+from .levels_panel import LevelsSection
 from .orientation import draw_orientation
 from .slice_panel import SlicePanel
 from .state import ViewerState
@@ -80,6 +81,7 @@ class Panel:
         self.histogram_box = None      # the value histogram's ((left, top), (right, bottom)), likewise
         self._go_home = False
         self.slices = SlicePanel()     # the Slices section (slice_panel.py)
+        self.levels_section = LevelsSection()
 
     def draw(self, state: ViewerState) -> None:
         self._collect_file_dialog(state)
@@ -92,6 +94,7 @@ class Panel:
             self._messages(state)   # first: an error must be seen, even in a short window
             self._volume_section(state)
             self._iso_section(state)
+            self.levels_section.draw(state)
             self._display_section(state)
             self.slices.draw(state)
             self._stats_section(state)
@@ -208,10 +211,11 @@ class Panel:
             imgui.set_tooltip("values in the volume (log counts): click or drag to set the level")
         imgui.set_cursor_screen_pos(top_left)
         imgui.plot_histogram("##histogram", state.histogram, graph_size=size)
-        x = top_left.x + fraction_of(state.iso, value_range) * size.x
-        colour = imgui.get_color_u32(imgui.ImVec4(*state.style.front_color, 1.0))
-        imgui.get_window_draw_list().add_line(imgui.ImVec2(x, top_left.y), imgui.ImVec2(x, top_left.y + size.y),
-                                              colour, 2.0)
+        for i, level in enumerate(state.level_values()):   # every level, the selected one thicker
+            x = top_left.x + fraction_of(level, value_range) * size.x
+            colour = imgui.get_color_u32(imgui.ImVec4(*state.level_color(i), 1.0))
+            imgui.get_window_draw_list().add_line(imgui.ImVec2(x, top_left.y), imgui.ImVec2(x, top_left.y + size.y),
+                                                  colour, 3.0 if i == state.selected else 2.0)
 
     def _display_section(self, state: ViewerState) -> None:
         imgui.separator_text("Display")
@@ -230,6 +234,10 @@ class Panel:
         if state.preview_step > 1:
             imgui.text_colored(NOTE_COLOR, f"preview at 1/{state.preview_step} resolution")
         imgui.text(f"extraction {state.extract_ms:.1f} ms")
+        if len(state.levels) > 1:
+            for i in range(len(state.levels)):
+                triangles, ms = state.level_stats(i)
+                imgui.text(f"surface {i + 1}  {triangles:,} triangles, {ms:.1f} ms")
         imgui.text(f"frame      {state.frame_ms:.1f} ms" if state.frame_ms else "frame      -")
         imgui.text_wrapped(f"GL: {state.gl_renderer}")
 

@@ -1,4 +1,7 @@
-"""Draws the scene: lit isosurface meshes, their wireframe overlay and the volume's bounding box.
+"""Draws the scene: lit isosurface meshes, their wireframe overlay, the slices and the volume's bounding box.
+
+Each mesh has a look (levels.SurfaceLook): its colour, opacity and colour map; translucent
+ones go through weighted blended OIT (oit.py) after the opaque scene.
 
 Meshes are `GpuMesh` records, drawn straight from their GPU buffers (no read-back).
 This module owns the scene's GL objects: programs, VAOs, the box's vertex
@@ -14,11 +17,14 @@ import numpy as np
 from ..gpu_layout import VERTEX_FORMAT, vertex_format
 from ..mesh import GpuMesh
 from ..resources import shader_source
+from .levels import SurfaceLook
+from .oit import OitTargets
 from .slices import GL_CLIP_DISTANCE0, SliceRenderer, SliceScene
 from .style import SurfaceStyle
 
 WIRE_COLOR = (0.02, 0.02, 0.05)
 WIRE_OPACITY = 0.45
+COLORMAP_UNIT, SCALAR_UNIT = 3, 4   # texture units of a look's colour map and scalar volume
 
 # The 12 edges of a box as pairs of corner indices; corner i has bit k set when axis k is at `upper`.
 _BOX_EDGES = [(a, b) for a in range(8) for b in range(8) if a < b and bin(a ^ b).count("1") == 1]
@@ -30,6 +36,12 @@ class SceneRenderer:
         mesh_vert = shader_source("mesh.vert")
         self.mesh_program = ctx.program(vertex_shader=mesh_vert, fragment_shader=shader_source("mesh.frag"))
         self.wire_program = ctx.program(vertex_shader=mesh_vert, fragment_shader=shader_source("flat.frag"))
+        self.oit_program = ctx.program(vertex_shader=mesh_vert,
+                                       fragment_shader=shader_source("mesh.frag", {"OIT": 1}))
+        for program in (self.mesh_program, self.oit_program):
+            program["u_colormap"].value = COLORMAP_UNIT
+            program["u_scalar"].value = SCALAR_UNIT
+        self.oit = OitTargets(ctx)
         self.box_program = ctx.program(vertex_shader=shader_source("box.vert"),
                                        fragment_shader=shader_source("flat.frag"))
         self.box_buffer = ctx.buffer(reserve=len(_BOX_EDGES) * 2 * 3 * 4)
@@ -43,19 +55,19 @@ class SceneRenderer:
         corners = np.array([[(upper if (i >> k) & 1 else lower)[k] for k in range(3)] for i in range(8)], "f4")
         self.box_buffer.write(corners[np.array(_BOX_EDGES).ravel()].tobytes())
 
-    def _vaos_for(self, mesh: GpuMesh) -> tuple[moderngl.VertexArray, moderngl.VertexArray]:
+    def _vaos_for(self, mesh: GpuMesh) -> tuple[moderngl.VertexArray, ...]:
         # An extractor may reallocate its buffers when its mesh grows: VAOs are made per buffer pair.
         key = (mesh.vertex_buffer, mesh.index_buffer)
         if key not in self._vaos:
             if mesh.vertex_format != VERTEX_FORMAT:
                 raise ValueError(f"the renderer cannot draw vertex records of format {mesh.vertex_format!r}")
             vbo, ibo = key
+            lit = [(vbo, VERTEX_FORMAT, "in_position", "in_value", "in_normal")]
             self._vaos[key] = (
-                self.ctx.vertex_array(self.mesh_program, [(vbo, vertex_format("position", "normal"),
-                                                           "in_position", "in_normal")],
-                                      index_buffer=ibo, index_element_size=4),
+                self.ctx.vertex_array(self.mesh_program, lit, index_buffer=ibo, index_element_size=4),
                 self.ctx.vertex_array(self.wire_program, [(vbo, vertex_format("position"), "in_position")],
-                                      index_buffer=ibo, index_element_size=4))
+                                      index_buffer=ibo, index_element_size=4),
+                self.ctx.vertex_array(self.oit_program, lit, index_buffer=ibo, index_element_size=4))
         return self._vaos[key]
 
     def _release_vaos(self, keep=()) -> None:
@@ -65,13 +77,23 @@ class SceneRenderer:
                 vao.release()
 
     def draw(self, meshes: Sequence[GpuMesh], camera, viewport: tuple[int, int, int, int], style: SurfaceStyle,
-             covered_left: int = 0, slices: SliceScene | None = None) -> None:
+             covered_left: int = 0, looks: Sequence[SurfaceLook] | None = None,
+             slices: SliceScene | None = None) -> None:
         """Clear `viewport` of the bound framebuffer and draw the box, the slices and `meshes` into it.
 
         `covered_left`: pixels at the left hidden by the panel; the scene centres in the rest.
+        `looks`: each mesh's colour, opacity and colour map (default: opaque, the style's colour).
         `slices`: ViewerState.slice_scene; its clip plane hides the meshes on one side.
         """
         ctx = self.ctx
+        if looks is None:
+            looks = [SurfaceLook(style.front_color, 1.0)] * len(meshes)
+        drawn = [(mesh, look) for mesh, look in zip(meshes, looks) if mesh.n_triangles and look.opacity > 0]
+        translucent = [(mesh, look) for mesh, look in drawn if look.opacity < 1]
+        destination = ctx.fbo
+        if translucent:   # the opaque scene goes to the OIT targets first (oit.py)
+            self.oit.prepare((viewport[0] + viewport[2], viewport[1] + viewport[3]), destination.samples)
+            self.oit.scene.use()
         # imgui's C++ renderer changes GL state behind moderngl's back: set all we rely on.
         ctx.viewport = viewport
         ctx.scissor = None
@@ -88,7 +110,7 @@ class SceneRenderer:
         view = camera.view_matrix().tobytes()
         shift_x = min(max(covered_left, 0), width // 2) / max(width, 1)
         projection = camera.projection_matrix(width / max(height, 1), shift_x).tobytes()
-        for program in (self.mesh_program, self.wire_program, self.box_program):
+        for program in (self.mesh_program, self.wire_program, self.box_program, self.oit_program):
             program["u_view"].write(view)
             program["u_projection"].write(projection)
 
@@ -96,27 +118,28 @@ class SceneRenderer:
             self.box_program["u_color"].value = style.box_color
             self.box_program["u_opacity"].value = 1.0
             self.box_vao.render(moderngl.LINES)
-        self.slices.draw(slices, view, projection)
+        self.slices.draw(slices, view, projection)   # opaque: with translucent meshes, into the OIT scene
 
-        meshes = [mesh for mesh in meshes if mesh.n_triangles]
-        self._release_vaos(keep={(m.vertex_buffer, m.index_buffer) for m in meshes})
-        if not meshes:
+        self._release_vaos(keep={(m.vertex_buffer, m.index_buffer) for m, _ in drawn})
+        if not drawn:
             return
-        self.mesh_program["u_front_color"].value = style.front_color
-        self.mesh_program["u_back_color"].value = style.back_color
-        self.mesh_program["u_lighting"].value = style.lighting
+        for program in (self.mesh_program, self.oit_program):
+            program["u_lighting"].value = style.lighting
         # mesh.vert's gl_ClipDistance[0] >= 0 is kept.  Set even with no clip: llvmpipe was seen to
         # clip by it while GL_CLIP_DISTANCE0 was disabled.
         clip = slices.settings.clip if slices is not None else None
-        for program in (self.mesh_program, self.wire_program):
+        for program in (self.mesh_program, self.wire_program, self.oit_program):
             program["u_clip_plane"].value = clip.plane(slices.spacing) if clip is not None else (0.0, 0.0, 0.0, 1.0)
         if clip is not None:
             ctx.enable_direct(GL_CLIP_DISTANCE0)
         if style.wireframe:
             # Push the filled surface back a little so its own edges win the depth test.
             ctx.polygon_offset = (1.0, 1.0)
-        for mesh in meshes:
-            self._vaos_for(mesh)[0].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
+        for mesh, look in drawn:
+            if look.opacity >= 1:
+                self._use_look(self.mesh_program, look, style.back_color)
+                self._vaos_for(mesh)[0].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
+        meshes = [mesh for mesh, _ in drawn]
         if style.wireframe:
             ctx.polygon_offset = (0.0, 0.0)
             ctx.wireframe = True
@@ -129,16 +152,48 @@ class SceneRenderer:
                 self._vaos_for(mesh)[1].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
             ctx.disable(moderngl.BLEND)
             ctx.wireframe = False
+        if translucent:
+            self._draw_translucent(translucent, viewport, destination)
         ctx.disable_direct(GL_CLIP_DISTANCE0)   # imgui's shaders write no clip distance
 
     def draw_inset(self, slices: SliceScene | None, viewport: tuple[int, int, int, int]) -> None:
         """After `draw`: the 2-D view of the active slice, over the scene's bottom-right corner."""
         self.slices.draw_inset(slices, viewport)
 
+    def _draw_translucent(self, translucent, viewport, destination) -> None:
+        """OIT's steps 2 and 3 (oit.py)."""
+        self.ctx.polygon_offset = (0.0, 0.0)
+        self.oit.begin_translucent()
+        self.ctx.viewport = viewport
+        for mesh, look in translucent:
+            self._use_look(self.oit_program, look)
+            self._vaos_for(mesh)[2].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
+        self.ctx.disable_direct(GL_CLIP_DISTANCE0)   # the resolve's full-screen quad writes no clip distance
+        self.oit.resolve(destination, viewport)
+
+    @staticmethod
+    def _use_look(program: moderngl.Program, look: SurfaceLook, back_color=None) -> None:
+        program["u_front_color"].value = look.color
+        if back_color is not None:   # opaque only: a translucent shell's inside takes its front colour
+            program["u_back_color"].value = back_color
+        if "u_opacity" in program:
+            program["u_opacity"].value = look.opacity
+        color_by = look.color_by
+        program["u_color_source"].value = 0 if color_by is None else 1 if color_by.scalar_texture is None else 2
+        if color_by is not None:
+            color_by.lut_texture.use(COLORMAP_UNIT)
+            program["u_scalar_range"].value = color_by.value_range
+            if color_by.scalar_texture is not None:
+                color_by.scalar_texture.use(SCALAR_UNIT)
+                program["u_spacing"].value = color_by.spacing
+                program["u_dims"].value = color_by.shape
+
     def release(self) -> None:
         self._release_vaos()
+        self.oit.release()
         self.slices.release()
-        for obj in (self.box_vao, self.box_buffer, self.mesh_program, self.wire_program, self.box_program):
+        for obj in (self.box_vao, self.box_buffer, self.mesh_program, self.wire_program, self.box_program,
+                    self.oit_program):
             obj.release()
 
 

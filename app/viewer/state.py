@@ -18,6 +18,7 @@ import moderngl
 from ..mesh import GpuMesh
 from ..volumes import Volume, open_volume
 from .histogram import value_histogram
+from .levels import SurfaceLevels
 from .loading import USER_ERRORS, PendingLoad, one_line
 from .recent import RecentFiles
 from .slices import SliceScene, SliceSettings
@@ -53,7 +54,7 @@ class IsoAnimation:
         return low + (high - low) * (start + (end - start) * sweep)
 
 
-class ViewerState:
+class ViewerState(SurfaceLevels):
     def __init__(self, ctx: moderngl.Context, recent: RecentFiles | None = None, level_of_detail: bool = False):
         self.ctx = ctx                   # the context the surface's buffers must live in (the window's)
         self.volume: Volume | None = None
@@ -74,6 +75,8 @@ class ViewerState:
         self.frame_ms = 0.0
         self.gl_renderer = ctx.info.get("GL_RENDERER", "unknown")
         self.loading: PendingLoad | None = None  # a volume being read in the background
+        self.levels, self.selected = [], 0      # the surfaces on show, and the one the slider moves (levels.py)
+        self.color_by = None                     # colour by a scalar through a colour map (colorby.py)
 
     # --- volumes -----------------------------------------------------------
     def open(self, spec: str, **open_options) -> bool:
@@ -115,6 +118,8 @@ class ViewerState:
         low, high = self.value_range
         first_iso = iso if iso is not None else volume.default_level
         self.iso = (low + high) / 2 if first_iso is None else min(max(float(first_iso), low), high)
+        self._reset_levels()
+        self._release_color_by()
         self.volume_serial += 1
         self.update(0.0)
         return self.error is None
@@ -133,6 +138,7 @@ class ViewerState:
         if not self._upload(self.volume, direction):
             return False
         self.volume.gradient_direction = direction
+        self._refresh_levels()
         self.update(0.0)
         return self.error is None
 
@@ -197,7 +203,7 @@ class ViewerState:
             preview = False  # rested long enough: back to full resolution
         self._moved_last_frame = moved and self._extracted_iso is not None  # a new volume's first is no move
         try:
-            self.surface.extract(self.iso, preview=preview)
+            self.surface.extract(self.iso, preview=preview, budget=self.preview_budget())
         except USER_ERRORS as exc:
             self.error = one_line(exc)
             self.animation.running = False
@@ -261,7 +267,8 @@ class ViewerState:
     # --- what the renderer draws, and stats for the panel ---------------------
     @property
     def meshes(self) -> list[GpuMesh]:
-        return [self.surface.mesh] if self.surface is not None else []
+        """The visible levels' meshes (their looks: `looks`)."""
+        return [mesh for mesh, _ in self._shown_levels()]
 
     @property
     def extractor(self):
@@ -293,6 +300,8 @@ class ViewerState:
         return (0.0, 0.0, 0.0), upper
 
     def release(self) -> None:
+        self._release_levels()
+        self._release_color_by()
         if self.surface is not None:
             self.surface.release()
             self.surface = None

@@ -62,9 +62,10 @@ class GpuSurface:
     def mesh(self) -> GpuMesh:
         return self.shown.mesh
 
-    def extract(self, iso: float, preview: bool = False) -> None:
-        """Extract at `iso`: the full mesh, or with `preview` a coarse one if the full one is big."""
-        step = preview_step(self.full_triangles, self.volume.data.shape) if preview else 1
+    def extract(self, iso: float, preview: bool = False, budget: int | None = None) -> None:
+        """Extract at `iso`: the full mesh, or with `preview` a coarse one if the full one is big
+        (more than `budget` triangles, default PREVIEW_TRIANGLES)."""
+        step = preview_step(self.full_triangles, self.volume.data.shape, budget) if preview else 1
         if step > 1 and step not in self._previews:
             self._previews[step] = self._make_preview(step)
         extractor = self.extractor if step == 1 else self._previews[step]

@@ -146,7 +146,7 @@ class ViewerWindow:
         self.ctx.screen.use()
         pixels_per_unit = fb_width / max(glfw.get_window_size(self.window)[0], 1)  # framebuffer scale
         self.renderer.draw(self.state.meshes, self.camera, (0, 0, fb_width, fb_height), self.state.style,
-                           covered_left=int(self.panel.covered_width * pixels_per_unit),
+                           covered_left=int(self.panel.covered_width * pixels_per_unit), looks=self.state.looks,
                            slices=self.state.slice_scene)
         self.renderer.draw_inset(self.state.slice_scene, (0, 0, fb_width, fb_height))
         self.imgui.render()

@@ -1,0 +1,108 @@
+"""The panel's Surfaces section: the levels (select, show, colour, opacity, remove, add), colour by
+and its colour bar.  Every change goes through `ViewerState` (levels.py)."""
+from __future__ import annotations
+
+from imgui_bundle import imgui
+
+from .colorby import SOURCES
+from .levels import MAX_LEVELS
+from .state import ViewerState
+
+COLORMAPS = ("viridis", "magma", "inferno", "plasma", "cividis", "turbo", "gray", "hot")
+NEW_LEVEL_STEP = 0.1    # an added level starts this fraction of the range above the selected one
+COLORBAR_HEIGHT = 14.0
+COLORBAR_SEGMENTS = 64
+
+
+class LevelsSection:
+    def __init__(self):
+        self.volume_text = ""   # the second volume to colour by
+
+    def draw(self, state: ViewerState) -> None:
+        imgui.separator_text("Surfaces")
+        if state.surface is None:
+            return
+        values = state.level_values()
+        for i, level in enumerate(list(state.levels)):
+            imgui.push_id(i)
+            if imgui.radio_button("##selected", state.selected == i):
+                state.select_level(i)
+            _tooltip("the slider and histogram edit this level")
+            imgui.same_line()
+            toggled, visible = imgui.checkbox("##visible", level.visible)
+            if toggled:
+                state.set_level_visible(i, visible)
+            _tooltip("show / hide")
+            imgui.same_line()
+            changed, color = imgui.color_edit3("##color", list(state.level_color(i)),
+                                               imgui.ColorEditFlags_.no_inputs)
+            if changed:
+                state.set_level_color(i, color)
+            imgui.same_line()
+            imgui.set_next_item_width(110)
+            changed, opacity = imgui.slider_float("##opacity", level.opacity, 0.0, 1.0, "opacity %.2f")
+            if changed:
+                state.set_level_opacity(i, opacity)
+            imgui.same_line()
+            imgui.text(f"{values[i]:.4g}")
+            if len(state.levels) > 1:
+                imgui.same_line()
+                if imgui.small_button("x"):
+                    state.remove_level(i)
+            imgui.pop_id()
+        if len(state.levels) < MAX_LEVELS and imgui.button("Add surface"):
+            low, high = state.value_range
+            state.add_level(min(state.iso + NEW_LEVEL_STEP * (high - low), high))
+        self._color_by(state)
+
+    def _color_by(self, state: ViewerState) -> None:
+        current = state.color_by.source if state.color_by is not None else "off"
+        imgui.set_next_item_width(150)
+        if imgui.begin_combo("colour by", current):
+            for choice in ("off", *SOURCES):
+                if imgui.selectable(choice, choice == current)[0]:
+                    state.set_color_by(None if choice == "off" else choice)
+            imgui.end_combo()
+        imgui.set_next_item_width(-imgui.calc_text_size("Colour by it").x - 2 * imgui.get_style().frame_padding.x
+                                  - imgui.get_style().item_spacing.x)
+        entered, self.volume_text = imgui.input_text_with_hint(
+            "##second", "a volume of the same shape", self.volume_text, imgui.InputTextFlags_.enter_returns_true)
+        imgui.same_line()
+        if (imgui.button("Colour by it") or entered) and self.volume_text.strip():
+            state.set_color_by(self.volume_text.strip())
+        if state.color_by is None:
+            return
+        imgui.set_next_item_width(150)
+        if imgui.begin_combo("colour map", state.color_by.colormap):
+            for name in COLORMAPS:
+                if imgui.selectable(name, name == state.color_by.colormap)[0]:
+                    state.set_color_by(state.color_by.spec, name)
+            imgui.end_combo()
+        _colorbar(state.color_by)
+
+
+def _tooltip(text: str) -> None:
+    if imgui.is_item_hovered():
+        imgui.set_tooltip(text)
+
+
+def _colorbar(color_by) -> None:
+    """The map as a horizontal bar, its end values under it."""
+    left_top = imgui.get_cursor_screen_pos()
+    width = imgui.get_content_region_avail().x
+    draw = imgui.get_window_draw_list()
+    lut = color_by.lut
+    for k in range(COLORBAR_SEGMENTS):
+        r, g, b = lut[min(k * len(lut) // COLORBAR_SEGMENTS, len(lut) - 1)]
+        x0 = left_top.x + width * k / COLORBAR_SEGMENTS
+        x1 = left_top.x + width * (k + 1) / COLORBAR_SEGMENTS
+        draw.add_rect_filled(imgui.ImVec2(x0, left_top.y), imgui.ImVec2(x1 + 1, left_top.y + COLORBAR_HEIGHT),
+                             imgui.get_color_u32(imgui.ImVec4(float(r), float(g), float(b), 1.0)))
+    imgui.dummy(imgui.ImVec2(width, COLORBAR_HEIGHT))
+    low, high = color_by.value_range
+    start_x = imgui.get_cursor_pos_x()
+    imgui.text(f"{low:.4g}")
+    for text, at in ((color_by.source, 0.5), (f"{high:.4g}", 1.0)):
+        imgui.same_line(start_x + max((width - imgui.calc_text_size(text).x) * at, 0.0))
+        imgui.text(text)
+
