@@ -70,12 +70,17 @@ class HeadlessViewer:
 
 
 def render_png(volume: Volume, out, iso: float | None = None, size=(800, 600),
-               azimuth=None, elevation=None, panel: bool = False, transparent: bool = False):
-    """Render one view of `volume` to the PNG file `out` (RGBA with `transparent`); returns its path."""
+               azimuth=None, elevation=None, panel: bool = False, transparent: bool = False,
+               tetrahedra: bool = False):
+    """Render one view of `volume` to the PNG file `out` (RGBA with `transparent`; marching
+    tetrahedra's surface with `tetrahedra`); returns its path."""
     viewer = HeadlessViewer(size)
     try:
         viewer.state.style.transparent_background = transparent
         viewer.show(volume, iso, azimuth, elevation)
+        if tetrahedra:
+            viewer.state.surface.cells = "tetrahedra"
+            viewer.state.surface.extract(viewer.state.iso)
         return save_png(viewer.render(panel=panel), out)
     finally:
         viewer.release()
