@@ -59,6 +59,11 @@ void write_vertex_jobs(uint id, uint next, CellRows rows, ivec3 word) {
     }
 }
 
+// Whether records first .. first + count - 1 meet the window (first, count) this run writes.
+bool meets(uint first, uint count, uvec2 window) {
+    return count > 0u && first < window.x + window.y && window.x < first + count;
+}
+
 void main() {
     uint brick;
     if (!active_brick(brick)) return;
@@ -68,10 +73,13 @@ void main() {
     uint id = word_id_of(word.x, word.y, word.z);
     uvec4 counts = imageLoad(u_word_counts, word_texel(id));
     uvec2 first = imageLoad(u_word_offsets, word_texel(id)).xy;
-    if (mt_vertex_total(counts) == 0u && counts.z == 0u) return;
+    // A mesh larger than one storage block takes a run per window: words outside it leave at once.
+    bool vertices = meets(first.x, mt_vertex_total(counts), u_vertex_window);
+    bool triangles = meets(first.y, counts.z, u_triangle_window);
+    if (!vertices && !triangles) return;
     CellRows rows = border_rows(word.x, word.y, word.z);
-    write_vertex_jobs(id, first.x, rows, word);
-    if (counts.z == 0u) return;
+    if (vertices) write_vertex_jobs(id, first.x, rows, word);
+    if (!triangles) return;
 
     uint cells = mixed_cells(rows, word.z);
     Owners here = owners_at(word, word.z);
