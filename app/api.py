@@ -81,7 +81,7 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     cell, so they meet face to face across cells (see `isoscope.reference_tetra`).  Inside a
     tetrahedron the field is linear, so no cell is ambiguous: the surface is the level set
     of the piecewise-linear interpolant, watertight and 2-manifold by construction, at the
-    price of about twice marching cubes' vertices and triangles.
+    price of about three times marching cubes' triangles and vertices.
 
     Arguments, returns and conventions are `marching_cubes`'s (ties count as inside,
     normals point out of the object, triangles wind counter-clockwise seen from outside).

@@ -62,7 +62,7 @@ def _add_iso(parser: argparse.ArgumentParser) -> None:
 def _add_tetrahedra(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--tetrahedra", action="store_true",
                         help="march tetrahedra (6 per cell) instead of cubes: no ambiguous cells, "
-                             "about twice the triangles")
+                             "about three times the triangles")
 
 
 def viewer_parser() -> argparse.ArgumentParser:

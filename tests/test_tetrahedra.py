@@ -2,6 +2,7 @@
 import itertools
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,6 +27,7 @@ from mesh_checks import (
 )
 
 RNG = np.random.default_rng(20261125)
+REPO = Path(__file__).resolve().parent.parent
 
 
 def tetrahedral_grid_crossings(volume, level, descent=True):
@@ -245,3 +247,15 @@ def test_cli_exports_and_renders_tetrahedra(tmp_path):
     # The same scene, a different surface: many pixels change, the background corner does not.
     changed = np.abs(pictures[0] - pictures[1]).max(axis=2) > 30
     assert changed.mean() > 0.01 and not changed[:5, :5].any()
+
+
+def test_bench_modes_reports_tetrahedra_against_cubes():
+    script = REPO / "benchmarks" / "bench_modes.py"
+    result = subprocess.run([sys.executable, str(script), "--sizes", "16", "--repeats", "1", "--warmup", "0"],
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    rows = [line.split("|")[1:-1] for line in result.stdout.splitlines() if line.startswith("| 16^3")]
+    assert [(r[1].strip(), r[2].strip()) for r in rows] == [
+        (v, m) for v in ("sphere", "gyroid", "noise") for m in ("cubes", "tetrahedra")]
+    for cubes, tetra in zip(rows[::2], rows[1::2]):  # tetrahedra: more triangles than cubes on every volume
+        assert int(tetra[5].replace(",", "")) > int(cubes[5].replace(",", "")) > 0
