@@ -3,8 +3,9 @@
 
 For each volume of benchmarks/volumes.py at each size, one resident `Extractor` holds
 the volume; every mode extracts from it, alternating between level 0 and 0 + 0.5% of
-the data range (a slider drag, as bench_extract.py's "iso change"), and only the
-`extract(level)` call is timed (it returns when the GPU is done).  Modes:
+the data range (a slider drag, as bench_extract.py's "iso change"), the modes' runs
+interleaved so that the machine's load hits them alike, and only the `extract(level)`
+call is timed (it returns when the GPU is done).  Modes:
 
 - cubes: `Extractor.extract`, plain marching cubes;
 - tetrahedra: `TetraExtractor(extractor).extract`, marching tetrahedra on the same
@@ -29,7 +30,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from bench_extract import LEVEL_STEP, alternate, fmt_ms, log  # noqa: E402
+from bench_extract import LEVEL_STEP, fmt_ms, log, summary, timed  # noqa: E402
 
 from isoscope.extractor import Extractor  # noqa: E402
 from isoscope.tetra_extractor import TetraExtractor  # noqa: E402
@@ -44,20 +45,28 @@ TARGETS = {"tetrahedra": 2.5}  # at most this many times cubes' iso change
 
 
 def bench_volume(volume, gd, repeats, warmup) -> dict:
+    """Runs interleaved (cubes, tetrahedra, cubes, ...), so a change in the machine's load hits
+    every mode alike; each mode's own runs alternate between the two levels."""
     lo, hi = float(volume.min()), float(volume.max())
-    levels = {"a": 0.0, "b": float(np.float32(LEVEL_STEP * (hi - lo)))}
-    results = {}
+    levels = (0.0, float(np.float32(LEVEL_STEP * (hi - lo))))
     with Extractor(volume, gradient_direction=gd) as cubes:
-        for name, make in MODES.items():
-            mode = make(cubes)
-            try:
-                result, triangles = alternate(lambda level, mode=mode: mode.extract(level)[1], levels, 0,
-                                              max(warmup, 1), repeats)
-                results[name] = {**result, "triangles": triangles["a"], "scratch_bytes": mode.scratch_bytes()}
-            finally:
+        modes = {name: make(cubes) for name, make in MODES.items()}
+        try:
+            samples = {name: [] for name in modes}
+            triangles = {}
+            for i in range(max(warmup, 1) + repeats):  # at least one untimed run: it allocates the mesh buffers
+                for name, mode in modes.items():
+                    ms, (_, n) = timed(mode.extract, levels[i % 2])
+                    if i % 2 == 0:
+                        triangles[name] = n
+                    if i >= max(warmup, 1):
+                        samples[name].append(ms)
+            return {name: {**summary(samples[name]), "triangles": triangles[name],
+                           "scratch_bytes": mode.scratch_bytes()} for name, mode in modes.items()}
+        finally:
+            for mode in modes.values():
                 if mode is not cubes:
                     mode.release()
-    return results
 
 
 def main(argv=None) -> int:
