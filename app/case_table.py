@@ -191,15 +191,16 @@ class CaseTable:
 
     triangles: np.ndarray  # (256, max_triangles, 3) int8
     counts: np.ndarray  # (256,) uint8
+    code_bits = 4  # bits per edge in packed_for_gpu (a class constant, not a field)
 
     @property
     def max_triangles(self) -> int:
         return self.triangles.shape[1]
 
     def packed_for_gpu(self) -> np.ndarray:
-        """uint32 per (case, slot): edges e0 | e1 << 4 | e2 << 8, then 256 counts."""
-        t = self.triangles.astype(np.int64)
-        packed = (t[..., 0] | t[..., 1] << 4 | t[..., 2] << 8).astype(np.uint32)
+        """uint32 per (case, slot): edges e0 | e1 << 4 | e2 << 8 (code_bits apart), then 256 counts."""
+        t, bits = self.triangles.astype(np.int64), self.code_bits
+        packed = (t[..., 0] | t[..., 1] << bits | t[..., 2] << 2 * bits).astype(np.uint32)
         packed[t[..., 0] < 0] = 0
         return np.concatenate([packed.ravel(), self.counts.astype(np.uint32)])
 

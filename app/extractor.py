@@ -112,6 +112,19 @@ class Extractor:
     def brick_count(self) -> int:
         return self.plan.brick_count
 
+    # Read-only views of what an extractor sharing this resident volume borrows (app/tetra_extractor.py).
+    @property
+    def volume_image(self) -> moderngl.Texture3D:
+        return self._volume
+
+    @property
+    def brick_ranges(self) -> moderngl.Buffer:
+        return self._brick_ranges
+
+    @property
+    def grid_uniforms(self) -> dict:
+        return dict(self._grid_uniforms)
+
     def _own(self, gl_object):
         self._owned.append(gl_object)
         return gl_object

@@ -83,9 +83,12 @@ def gradient_at(field: np.ndarray, points: np.ndarray, spacing: np.ndarray) -> n
     return grad
 
 
-def place_vertices(field, inside, level, points, axes, spacing, sign):
-    """mc_vertices.comp: position, outward normal and value of each edge's vertex."""
-    step = np.eye(3, dtype=np.int64)[axes]
+def place_vertices(field, inside, level, points, axes, spacing, sign, steps=None):
+    """mc_vertices.comp: position, outward normal and value of each edge's vertex.
+
+    `steps` (N, 3) of 0/1 replaces `axes` for edges that are not along one axis (the tetrahedra's
+    diagonals, app/reference_tetra.py)."""
+    step = np.eye(3, dtype=np.int64)[axes] if steps is None else steps
     ends = points + step
     v0 = field[tuple(points.T)]
     v1 = field[tuple(ends.T)]
@@ -105,7 +108,9 @@ def place_vertices(field, inside, level, points, axes, spacing, sign):
     normals[ok] = -grad[ok] / length[ok, None]  # the field grows into the object: out is downhill
     # A flat field gives no gradient: point along the edge, from its inside end to its outside end.
     start_inside = inside[tuple(points.T)]
-    normals[~ok] = np.where(start_inside[~ok, None], 1.0, -1.0) * step[~ok]
+    along = step * spacing32
+    along /= np.linalg.norm(along, axis=1, keepdims=True)  # exactly `step` for an axis edge
+    normals[~ok] = np.where(start_inside[~ok, None], 1.0, -1.0) * along[~ok]
     return positions, normals.astype(np.float32), values.astype(np.float32)
 
 

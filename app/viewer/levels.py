@@ -241,7 +241,8 @@ class SurfaceLevels:
         moves on to another level."""
         level = self.levels[self.selected]
         level.iso = self.iso
-        if self.surface.shown_step != 1 or self.surface.extractor.level != self.iso:
+        if self.surface.shown_step != 1 or self.surface.shown_cells != self.surface.cells \
+                or self.surface.shown.level != self.iso:
             self.surface.extract(self.iso)
         if level.copy is None:
             level.copy = MeshCopy(self.ctx)

@@ -23,7 +23,7 @@ from .loading import USER_ERRORS, PendingLoad, one_line
 from .recent import RecentFiles
 from .slices import SliceScene, SliceSettings
 from .style import SurfaceStyle
-from .surface import GpuSurface
+from .surface import CELLS, GpuSurface
 
 ANIMATION_PERIOD_S = 6.0          # one sweep up and back down
 ANIMATION_SPAN = (0.02, 0.98)     # fractions of the range; the very ends give empty surfaces
@@ -75,6 +75,7 @@ class ViewerState(SurfaceLevels):
         self.frame_ms = 0.0
         self.gl_renderer = ctx.info.get("GL_RENDERER", "unknown")
         self.loading: PendingLoad | None = None  # a volume being read in the background
+        self.cells = "cubes"             # what the extractors march: "cubes" or "tetrahedra"
         self.levels, self.selected = [], 0      # the surfaces on show, and the one the slider moves (levels.py)
         self.color_by = None                     # colour by a scalar through a colour map (colorby.py)
 
@@ -142,6 +143,18 @@ class ViewerState(SurfaceLevels):
         self.update(0.0)
         return self.error is None
 
+    def set_cells(self, cells: str) -> bool:
+        """March "cubes" or "tetrahedra" (every level, from the same resident volume: no re-upload)."""
+        if cells not in CELLS:
+            self.error = f"unknown cells {cells!r}; use one of {', '.join(CELLS)}"
+            return False
+        self.cells = cells
+        if self.surface is not None and self.surface.cells != cells:
+            self.surface.cells = cells
+            self._refresh_levels()
+            self.update(0.0)
+        return self.error is None
+
     def _upload(self, volume: Volume, gradient_direction: str) -> bool:
         """A new GPU surface for `volume` replaces the old one; on failure the old one stays."""
         try:
@@ -149,6 +162,7 @@ class ViewerState(SurfaceLevels):
         except USER_ERRORS as exc:
             self.error = one_line(exc)
             return False
+        surface.cells = self.cells
         if self.surface is not None:
             self.surface.release()
         self.volume, self.surface = volume, surface
@@ -254,7 +268,7 @@ class ViewerState(SurfaceLevels):
         try:
             if self.surface.shown_step != 1:  # a preview is on show: save the full mesh at its level
                 self.surface.extract(self.iso)
-            verts, faces, normals, _ = self.surface.extractor.read_mesh()
+            verts, faces, normals, _ = self.surface.shown.read_mesh()   # cubes' or tetrahedra's
             verts, faces, normals, space = in_volume_space(self.volume, verts, faces, normals)
             write_mesh(path, verts, faces, normals)
         except USER_ERRORS as exc:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from ..extractor import Extractor
 from ..mesh import GpuMesh
+from ..tetra_extractor import TetraExtractor
 from ..validation import subsampled
 from ..volumes import Volume
 
@@ -19,6 +20,7 @@ PREVIEW_TRIANGLES = 60_000
 """Triangles a preview mesh aims to stay under: llvmpipe draws about that many in 10-15 ms."""
 
 MAX_PREVIEW_STEP = 4
+CELLS = ("cubes", "tetrahedra")   # what a surface's extractors can march
 
 
 def preview_step(full_triangles: int, shape, budget: int | None = None) -> int:
@@ -45,6 +47,11 @@ class GpuSurface:
                                    gradient_direction=gradient_direction, ctx=ctx)
         self._previews: dict[int, Extractor] = {}  # sample step -> extractor of the subsampled volume
         self.shown_step = 1  # the step of the mesh on show: 1 is full resolution
+        # "cubes" or "tetrahedra": which cells the next extraction marches.  Tetrahedra borrow the
+        # cubes extractor's resident volume of the same step (app/tetra_extractor.py): no re-upload.
+        self.cells = "cubes"
+        self.shown_cells = "cubes"
+        self._tetrahedra: dict[int, TetraExtractor] = {}  # sample step -> its tetrahedra extractor
         # The full mesh's triangle count, estimated from the last mesh of any step (a surface's
         # count grows with the square of the resolution): sizes the next preview's step.
         self.full_triangles = 0
@@ -56,6 +63,8 @@ class GpuSurface:
     @property
     def shown(self) -> Extractor:
         """The extractor whose mesh is on show."""
+        if self.shown_cells == "tetrahedra":
+            return self._tetrahedra[self.shown_step]
         return self.extractor if self.shown_step == 1 else self._previews[self.shown_step]
 
     @property
@@ -69,8 +78,12 @@ class GpuSurface:
         if step > 1 and step not in self._previews:
             self._previews[step] = self._make_preview(step)
         extractor = self.extractor if step == 1 else self._previews[step]
+        if self.cells == "tetrahedra":
+            if step not in self._tetrahedra:
+                self._tetrahedra[step] = TetraExtractor(extractor)
+            extractor = self._tetrahedra[step]
         extractor.extract(iso)
-        self.shown_step = step
+        self.shown_step, self.shown_cells = step, self.cells
         self.full_triangles = extractor.n_triangles * step * step
 
     def _make_preview(self, step: int) -> Extractor:
@@ -78,6 +91,7 @@ class GpuSurface:
                          gradient_direction=self.gradient_direction, ctx=self.ctx)
 
     def release(self) -> None:
-        for extractor in (self.extractor, *self._previews.values()):
+        for extractor in (*self._tetrahedra.values(), self.extractor, *self._previews.values()):
             extractor.release()
         self._previews.clear()
+        self._tetrahedra.clear()

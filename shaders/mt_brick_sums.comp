@@ -1,0 +1,26 @@
+#version 430
+// Tetrahedra pass 4, one invocation per active brick: the brick's vertex and triangle totals, for the scans.
+layout(local_size_x = GROUP_SIZE) in;
+#include "mc_common.glsl"
+#include "mc_sign_words.glsl"
+#include "mc_active_bricks.glsl"
+#include "mt_common.glsl"
+
+layout(std430, binding = 1) writeonly buffer BrickVertexCounts { uint brick_vertex_counts[]; };
+layout(std430, binding = 2) writeonly buffer BrickTriangleCounts { uint brick_triangle_counts[]; };
+layout(rgba32ui, binding = 2) readonly uniform uimage2D u_word_counts;  // see mt_common.glsl
+
+void main() {
+    uint brick;
+    if (!active_brick_of_invocation(brick)) return;
+    uvec2 total = uvec2(0u);
+    for (uint local = 0u; local < WORDS_PER_BRICK; ++local) {
+        uint id;
+        if (word_of_brick(brick, local, id)) {
+            uvec4 counts = imageLoad(u_word_counts, word_texel(id));
+            total += uvec2(mt_vertex_total(counts), counts.z);
+        }
+    }
+    brick_vertex_counts[brick] = total.x;
+    brick_triangle_counts[brick] = total.y;
+}

@@ -1,0 +1,106 @@
+#version 430
+// Tetrahedra pass 7, over active bricks, one invocation per word: the triangles of the tetrahedra
+// of the word's cells, as indices of the vertices their edges' owners hold (the four sign rows
+// around the cells, at k or k + 1, possibly in word w + 1), and a job in each of the word's own
+// vertex slots (word id, then kind << 5 | bit) from which mt_vertices.comp computes the vertex.
+layout(local_size_x = BRICK_WORDS) in;
+#include "mc_common.glsl"
+#include "mc_sign_words.glsl"
+#include "mc_active_bricks.glsl"
+#include "mt_common.glsl"
+
+layout(rgba32ui, binding = 2) readonly uniform uimage2D u_word_counts;  // see mt_common.glsl
+layout(rg32ui, binding = 3) readonly uniform uimage2D u_word_offsets;   // (first vertex, first triangle)
+layout(std430, binding = 6) writeonly buffer Indices { uint indices[]; };
+layout(std430, binding = 8) writeonly buffer VertexRecords { uint vertex_words[]; };  // VERTEX_FLOATS per vertex
+// The (first, count) of the vertices and triangles bound above (see mc_triangles.comp).
+uniform uvec2 u_vertex_window;
+uniform uvec2 u_triangle_window;
+
+// Per sign row around the cells (component d0 | d1 << 1), its word's first vertex and kind starts.
+struct Owners { uvec4 first; uvec4 starts_x; uvec4 starts_y; };
+
+uvec3 owner(int i, int j, int w) {  // (first vertex, starts_x, starts_y) of word (i, j, w)
+    uint id = word_id_of(i, j, w);
+    return uvec3(imageLoad(u_word_offsets, word_texel(id)).x, imageLoad(u_word_counts, word_texel(id)).xy);
+}
+
+Owners owners_at(ivec3 word, int w) {
+    uvec3 a = owner(word.x, word.y, w), b = owner(word.x + 1, word.y, w);
+    uvec3 c = owner(word.x, word.y + 1, w), d = owner(word.x + 1, word.y + 1, w);
+    return Owners(uvec4(a.x, b.x, c.x, d.x), uvec4(a.y, b.y, c.y, d.y), uvec4(a.z, b.z, c.z, d.z));
+}
+
+uint first_of_kind(Owners o, uint row, uint kind) {
+    return pick(o.first, row) + kind_start(pick(o.starts_x, row), pick(o.starts_y, row), kind);
+}
+
+// Index of the vertex on the tetrahedron edge `code` (corner | kind << 3) of cell k of the word.
+uint vertex_index(CellRows rows, Owners here, Owners next, uint k, uint code) {
+    uint corner = code & 7u, kind = code >> 3;
+    uint row = corner & 3u, bit = k + (corner >> 2);
+    if (bit == uint(WORD_BITS)) return first_of_kind(next, row, kind);
+    return first_of_kind(here, row, kind) + uint(bitCount(kind_crossing(rows, row, kind) & ((1u << bit) - 1u)));
+}
+
+// Name each vertex the word owns in its slot.
+void write_vertex_jobs(uint id, uint next, CellRows rows, ivec3 word) {
+    for (uint kind = 0u; kind < KINDS; ++kind) {
+        uint bits = owned_crossings(rows, word, kind);
+        for (; bits != 0u; ++next) {
+            uint b = uint(findLSB(bits));
+            bits &= bits - 1u;
+            uint slot = next - u_vertex_window.x;  // wraps past the window's count when next is before it
+            if (slot < u_vertex_window.y) {
+                vertex_words[uint(VERTEX_FLOATS) * slot] = id;
+                vertex_words[uint(VERTEX_FLOATS) * slot + 1u] = (kind << 5) | b;
+            }
+        }
+    }
+}
+
+// Whether records first .. first + count - 1 meet the window (first, count) this run writes.
+bool meets(uint first, uint count, uvec2 window) {
+    return count > 0u && first < window.x + window.y && window.x < first + count;
+}
+
+void main() {
+    uint brick;
+    if (!active_brick(brick)) return;
+    bool exists;
+    ivec3 word = brick_word(brick, exists);
+    if (!exists) return;
+    uint id = word_id_of(word.x, word.y, word.z);
+    uvec4 counts = imageLoad(u_word_counts, word_texel(id));
+    uvec2 first = imageLoad(u_word_offsets, word_texel(id)).xy;
+    // A mesh larger than one storage block takes a run per window: words outside it leave at once.
+    bool vertices = meets(first.x, mt_vertex_total(counts), u_vertex_window);
+    bool triangles = meets(first.y, counts.z, u_triangle_window);
+    if (!vertices && !triangles) return;
+    CellRows rows = border_rows(word.x, word.y, word.z);
+    if (vertices) write_vertex_jobs(id, first.x, rows, word);
+    if (!triangles) return;
+
+    uint cells = mixed_cells(rows, word.z);
+    Owners here = owners_at(word, word.z);
+    Owners next = here;
+    if ((cells >> uint(WORD_BITS - 1)) != 0u) next = owners_at(word, word.z + 1);  // word w + 1 exists then
+    // One iteration per triangle, as in mc_triangles.comp.
+    uint at_triangle = first.y, end = first.y + counts.z;
+    uint k = 0u, c = 0u, slot = 0u, cell_triangles = 0u;
+    for (; at_triangle < end; ++at_triangle) {
+        if (slot == cell_triangles) {
+            k = uint(findLSB(cells));
+            cells &= cells - 1u;
+            c = cell_case(rows, k);
+            cell_triangles = triangle_count(c);
+            slot = 0u;
+        }
+        uint codes = triangle_codes(c, slot++);
+        uint at = at_triangle - u_triangle_window.x;
+        if (at >= u_triangle_window.y) continue;
+        indices[3u * at + 0u] = vertex_index(rows, here, next, k, codes & 63u);
+        indices[3u * at + 1u] = vertex_index(rows, here, next, k, (codes >> 6) & 63u);
+        indices[3u * at + 2u] = vertex_index(rows, here, next, k, (codes >> 12) & 63u);
+    }
+}

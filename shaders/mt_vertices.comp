@@ -1,0 +1,42 @@
+#version 430
+// Tetrahedra pass 8, one invocation per vertex: replace the job that mt_triangles.comp left in the
+// vertex's slot by its position, value and outward normal, as mc_vertices.comp does for an axis edge.
+layout(local_size_x = GROUP_SIZE) in;
+#include "mc_common.glsl"
+
+uniform uint u_vertex_count;
+
+struct Vertex { vec4 position_value; vec4 normal; };
+layout(std430, binding = 6) buffer Vertices { Vertex vertices[]; };
+
+// Central differences, one-sided at the border, in physical units (as mc_vertices.comp).
+vec3 gradient_at(ivec3 p) {
+    ivec3 lo = max(p - 1, ivec3(0)), hi = min(p + 1, u_dims - 1);
+    vec3 rise = vec3(field_at(ivec3(hi.x, p.y, p.z)) - field_at(ivec3(lo.x, p.y, p.z)),
+                     field_at(ivec3(p.x, hi.y, p.z)) - field_at(ivec3(p.x, lo.y, p.z)),
+                     field_at(ivec3(p.x, p.y, hi.z)) - field_at(ivec3(p.x, p.y, lo.z)));
+    return rise / (vec3(hi - lo) * u_spacing);
+}
+
+void main() {
+    uint index = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
+    if (index >= u_vertex_count) return;
+    ivec3 word = word_of_id(floatBitsToUint(vertices[index].position_value.x));
+    uint job = floatBitsToUint(vertices[index].position_value.y);  // kind << 5 | bit
+    uint dir = (0x7653421u >> (4u * (job >> 5))) & 7u;  // mt_common.glsl's kind_dir()
+    ivec3 step = ivec3(int(dir & 1u), int((dir >> 1) & 1u), int(dir >> 2));
+    ivec3 p0 = ivec3(word.xy, word.z * WORD_BITS + int(job & uint(WORD_BITS - 1)));
+    float v0 = field_at(p0), v1 = field_at(p0 + step);
+    float t = clamp((u_level - v0) / (v1 - v0), EDGE_MARGIN, 1.0 - EDGE_MARGIN);
+
+    vec3 g0 = gradient_at(p0), g1 = gradient_at(p0 + step);
+    vec3 g = g0 + t * (g1 - g0);
+    float len = length(g);
+    // Out is downhill; a flat field points along the edge, from its inside end to its outside end.
+    vec3 normal = len > 0.0 ? -g / len : (v0 >= u_level ? 1.0 : -1.0) * normalize(vec3(step) * u_spacing);
+
+    Vertex v;
+    v.position_value = vec4((vec3(p0) + t * vec3(step)) * u_spacing, (v0 + t * (v1 - v0)) * u_sign);
+    v.normal = vec4(normal, 0.0);
+    vertices[index] = v;
+}
