@@ -16,20 +16,15 @@ import moderngl
 import numpy as np
 
 from ..volumes import Volume
+from .colormaps import LUT_SIZE, colormap_rgba
 
 SOURCES = ("value", "gradient")
 DEFAULT_COLORMAP = "viridis"
-LUT_SIZE = 256
 
 
 def colormap_lut(name: str) -> np.ndarray:
     """(LUT_SIZE, 3) float32 RGB of the `cmap` colour map `name`; a one-line ValueError for an unknown one."""
-    from cmap import Colormap
-    try:
-        lut = Colormap(name).lut(LUT_SIZE)
-    except (ValueError, KeyError, TypeError):
-        raise ValueError(f"unknown colour map {name!r}; try viridis, magma, inferno, plasma, gray or turbo") from None
-    return np.ascontiguousarray(lut[:, :3], np.float32)
+    return np.ascontiguousarray(colormap_rgba(name)[:, :3], np.float32)
 
 
 def gradient_magnitude(data: np.ndarray, spacing) -> np.ndarray:

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 from imgui_bundle import imgui
 
-from .slices import AXES, COLORMAPS, default_window
+from .colormaps import COLORMAPS
+from .slices import AXES, default_window
 from .state import ViewerState
 
 CLIP_SIDES = ("hide above", "hide below")

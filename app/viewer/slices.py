@@ -28,11 +28,9 @@ import numpy as np
 
 from ..gpu_layout import EDGE_MARGIN
 from ..resources import shader_source
+from .colormaps import LUT_SIZE, colormap_rgba
 from .slice_options import AXES
 
-COLORMAPS = ("gray", "bone", "viridis", "magma", "inferno", "plasma", "cividis", "turbo", "hot")
-"""The panel's choice of colour maps; any name the `cmap` library knows works from the command line."""
-LUT_SIZE = 256
 INSET_FRACTION = 0.34     # the 2-D view's longer side, as a fraction of the scene's shorter side
 INSET_MARGIN = 10         # pixels from the scene's bottom-right corner
 INSET_BORDER = 2          # pixels of frame around it
@@ -43,17 +41,7 @@ GL_CLIP_DISTANCE0 = 0x3000
 
 def colormap_lut(name: str) -> np.ndarray:
     """(LUT_SIZE, 4) uint8 RGBA of the `cmap` colour map `name`; ValueError for an unknown name."""
-    import warnings
-
-    from cmap import Colormap
-    try:
-        with warnings.catch_warnings():   # an alias known under two namespaces warns; either is fine
-            warnings.simplefilter("ignore")
-            lut = Colormap(name).lut(LUT_SIZE)
-    except (ValueError, KeyError, TypeError):
-        raise ValueError(f"unknown colour map {name!r}; try one of {', '.join(COLORMAPS)} "
-                         "(any name of the cmap library)") from None
-    return np.clip(np.round(np.asarray(lut) * 255), 0, 255).astype(np.uint8)
+    return np.clip(np.round(colormap_rgba(name) * 255), 0, 255).astype(np.uint8)
 
 
 def default_window(data: np.ndarray, value_range: tuple[float, float]) -> tuple[float, float]:
