@@ -201,26 +201,16 @@ def test_a_drag_previews_the_moving_level_within_what_the_other_levels_leave_of_
 
 
 def test_the_histogram_marks_every_level_and_a_click_sets_only_the_selected_one(gl_ctx):
-    from imgui_bundle import imgui
-    from test_viewer import marker_columns
-
-    from isoscope.viewer.histogram import fraction_of
+    from test_viewer import assert_marker_at, click_histogram
     viewer = HeadlessViewer((900, 760), ctx=gl_ctx)
     try:
         viewer.show_levels(open_volume("bucky"), [64.0, 190.0])
         state = viewer.state
         image = viewer.render(panel=True)
-        (left, top), (right, bottom) = box = viewer._panel.histogram_box
         for i, level in enumerate((64.0, 190.0)):
-            columns = marker_columns(image, box, state.level_color(i))
-            expected = left + fraction_of(level, state.value_range) * (right - left)
-            assert len(columns) and abs(columns.mean() - expected) <= 2, (level, columns)
+            assert_marker_at(image, viewer._panel.histogram_box, state.level_color(i), level, state.value_range)
         state.select_level(1)
-        io = imgui.get_io()
-        io.add_mouse_pos_event(left + 0.25 * (right - left), (top + bottom) / 2)
-        for down in (True, True, False):
-            io.add_mouse_button_event(0, down)
-            viewer.render(panel=True)
+        click_histogram(viewer, 0.25)
         low, high = state.value_range
         assert state.level_values() == pytest.approx([64.0, low + 0.25 * (high - low)], abs=0.01 * (high - low))
     finally:

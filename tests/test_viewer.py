@@ -306,29 +306,36 @@ def marker_columns(image, box, colour):
     return left + np.nonzero(hits > (bottom - top) // 2)[0]
 
 
-def test_histogram_marks_the_level_and_a_click_on_it_sets_the_level(gl_ctx):
-    from imgui_bundle import imgui
-
+def assert_marker_at(image, box, colour, level, value_range):
+    """The histogram shows a marker in `colour` where `level` falls in `value_range`."""
     from isoscope.viewer.histogram import fraction_of
+    (left, _), (right, _) = box
+    columns = marker_columns(image, box, colour)
+    expected = left + fraction_of(level, value_range) * (right - left)
+    assert len(columns) and abs(columns.mean() - expected) <= 2, (level, columns)
+
+
+def click_histogram(viewer, fraction):
+    """A press and release on the panel's histogram, `fraction` of the way across, over three frames."""
+    from imgui_bundle import imgui
+    (left, top), (right, bottom) = viewer._panel.histogram_box
+    io = imgui.get_io()
+    io.add_mouse_pos_event(left + fraction * (right - left), (top + bottom) / 2)
+    for down in (True, True, False):
+        io.add_mouse_button_event(0, down)
+        viewer.render(panel=True)
+
+
+def test_histogram_marks_the_level_and_a_click_on_it_sets_the_level(gl_ctx):
     viewer = HeadlessViewer((900, 700), ctx=gl_ctx)
     try:
         viewer.show(open_volume("bucky"), iso=64)
         state, colour = viewer.state, viewer.state.style.front_color
-        image = viewer.render(panel=True)
-        box = viewer._panel.histogram_box
-        (left, top), (right, bottom) = box
         for level in (64.0, 190.0):
             state.set_iso(level)
             image = viewer.render(panel=True)
-            columns = marker_columns(image, box, colour)
-            expected = left + fraction_of(level, state.value_range) * (right - left)
-            assert len(columns) and abs(columns.mean() - expected) <= 2, (level, columns)
-        # A press on the histogram a quarter of the way across sets the level there.
-        io = imgui.get_io()
-        io.add_mouse_pos_event(left + 0.25 * (right - left), (top + bottom) / 2)
-        for down in (True, True, False):
-            io.add_mouse_button_event(0, down)
-            viewer.render(panel=True)
+            assert_marker_at(image, viewer._panel.histogram_box, colour, level, state.value_range)
+        click_histogram(viewer, 0.25)   # a press a quarter of the way across sets the level there
         low, high = state.value_range
         assert state.iso == pytest.approx(low + 0.25 * (high - low), abs=0.01 * (high - low))
         assert state.extractor.level == pytest.approx(state.iso)
