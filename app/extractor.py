@@ -85,6 +85,7 @@ class Extractor:
         case_words = self.table.packed_for_gpu()
         self._case_words = np.concatenate([case_words, np.zeros(-len(case_words) % 4, np.uint32)])  # whole uvec4s
         _, volume_format, volume_image = volume_texel_format(checked.data.dtype)
+        self.volume_defines = {"VOLUME_FORMAT": volume_format, "VOLUME_IMAGE": volume_image}  # for other passes
         defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u",  # the layout's come with every program
                    "CASE_TABLE_QUADS": len(self._case_words) // 4,
                    "VOLUME_FORMAT": volume_format, "VOLUME_IMAGE": volume_image}
@@ -111,6 +112,16 @@ class Extractor:
     @property
     def brick_count(self) -> int:
         return self.plan.brick_count
+
+    @property
+    def volume_texture(self) -> moderngl.Texture3D:
+        """The resident volume image (see mc_common.glsl), for passes that sample it (app/smoothing.py)."""
+        return self._volume
+
+    @property
+    def grid_uniforms(self) -> dict:
+        """The grid uniforms of mc_common.glsl (not the level), for passes that include it."""
+        return dict(self._grid_uniforms)
 
     def _own(self, gl_object):
         self._owned.append(gl_object)
