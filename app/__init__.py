@@ -9,7 +9,7 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-__all__ = ["marching_cubes", "find_contours", "Extractor", "__version__"]
+__all__ = ["marching_cubes", "smooth_mesh", "find_contours", "Extractor", "__version__"]
 
 
 def __getattr__(name):
@@ -17,6 +17,9 @@ def __getattr__(name):
     if name == "marching_cubes":
         from .api import marching_cubes
         return marching_cubes
+    if name == "smooth_mesh":
+        from .api import smooth_mesh
+        return smooth_mesh
     if name == "find_contours":
         from .contours import find_contours
         return find_contours

@@ -28,8 +28,8 @@ Drop a volume file on the window to open it.
 
 other commands (each has --help):
   isoscope render VOLUME --out shot.png [--iso V] [--size WxH] [--azimuth A] [--elevation E] [--panel]
-                [--transparent]
-  isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V]
+                [--transparent] [--smooth N]
+  isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V] [--smooth N]
   isoscope volumes          list the built-in volumes
 """
 
@@ -57,6 +57,22 @@ def window_size(text: str) -> tuple[int, int]:
 def _add_iso(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--iso", type=float, metavar="V",
                         help="iso value (default: the volume's suggested level, else mid-range)")
+
+
+def _add_smooth(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--smooth", type=smooth_iterations, default=0, metavar="N",
+                        help="N iterations of smoothing, each projected back onto the level set: evens out "
+                             "sliver triangles without moving the surface (default 0: none)")
+
+
+def smooth_iterations(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"--smooth {text!r} must be a whole number of iterations, 0 or more")
+    return value
 
 
 def viewer_parser() -> argparse.ArgumentParser:
@@ -99,6 +115,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--panel", action="store_true", help="draw the imgui panel over the scene")
         parser.add_argument("--transparent", action="store_true",
                             help="a transparent background: an RGBA PNG, for slides and figures")
+        _add_smooth(parser)
     else:
         parser = OneLineParser(prog="isoscope export",
                                description="Extract the isosurface and write it as a mesh file: binary PLY, OBJ, "
@@ -114,6 +131,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--decimate", type=float, metavar="FRACTION",
                             help="keep about this fraction of the triangles (quadric decimation, 0 < F <= 1); "
                                  "prints how far the result strays from the level set")
+        _add_smooth(parser)
     add_volume_arguments(parser)
     return parser
 
@@ -156,7 +174,8 @@ def run_render(args) -> int:
     iso = _checked_iso(volume, args.iso)
     from .viewer.headless import render_png
     path = render_png(volume, args.out, iso, size=args.size, azimuth=args.azimuth,
-                      elevation=args.elevation, panel=args.panel, transparent=args.transparent)
+                      elevation=args.elevation, panel=args.panel, transparent=args.transparent,
+                      smooth=args.smooth)
     print(f"wrote {path} ({args.size[0]}x{args.size[1]})")
     return 0
 
@@ -171,7 +190,7 @@ def run_export(args) -> int:
     volume = open_volume_from_args(args.volume, args, _progress)
     iso = _checked_iso(volume, args.iso)
     verts, faces, normals, _ = marching_cubes(volume.checked, iso, spacing=volume.spacing,
-                                              gradient_direction=volume.gradient_direction)
+                                              gradient_direction=volume.gradient_direction, smooth=args.smooth)
     if args.decimate is not None:
         verts, faces, normals = _decimated(volume, iso, verts, faces, args.decimate)
     verts, faces, normals, space = in_volume_space(volume, verts, faces, normals, world=args.space == "world")

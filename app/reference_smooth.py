@@ -40,6 +40,17 @@ BORDER = 1e-3
 F32 = np.float32
 
 
+def check_iterations(iterations) -> int:
+    """`iterations` as an int >= 0, or a one-line ValueError."""
+    try:
+        whole = not isinstance(iterations, bool) and float(iterations).is_integer() and iterations >= 0
+    except (TypeError, ValueError):
+        whole = False
+    if not whole:
+        raise ValueError(f"smooth={iterations!r} must be a whole number of iterations, 0 or more (e.g. smooth=5)")
+    return int(iterations)
+
+
 def half_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(from, to) of every half-edge a->b, b->c, c->a of the triangles."""
     faces = np.asarray(faces, np.int64)
@@ -138,7 +149,7 @@ def smooth_projected(verts, faces, volume, level, iterations, spacing=(1.0, 1.0,
     x = (np.asarray(verts, F32) / spacing).astype(F32)
     free = free_axes(x, field.shape)
     starts, ends = half_edges(faces)
-    for _ in range(int(iterations)):
+    for _ in range(check_iterations(iterations)):
         projected = project(field, lvl, umbrella(x, free, starts, ends), free, spacing)
         value, _ = trilinear(field, projected)
         x = np.where((np.abs(value - lvl) <= tolerance)[:, None], projected, x).astype(F32)

@@ -26,17 +26,10 @@ from .gpu_layout import GROUP_SIZE, VERTEX_BYTES
 from .gpu_limits import GPULimitError, GpuLimits
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
-from .reference_smooth import ACCEPT, BORDER, NEWTON_STEPS, UMBRELLA_WEIGHT
+from .reference_smooth import ACCEPT, BORDER, NEWTON_STEPS, UMBRELLA_WEIGHT, check_iterations
 from .scan import ExclusiveScan
 
 PASSES = ("smooth_valence", "smooth_fill", "smooth_load", "smooth_step", "smooth_store")
-
-
-def check_iterations(iterations) -> int:
-    """`iterations` as an int >= 0, or a one-line ValueError."""
-    if isinstance(iterations, bool) or not float(iterations).is_integer() or iterations < 0:
-        raise ValueError(f"smooth={iterations!r} must be a whole number of iterations, 0 or more (e.g. smooth=5)")
-    return int(iterations)
 
 
 class Smoother:
@@ -64,8 +57,8 @@ class Smoother:
             buf = self._buffers[name] = self.ctx.buffer(reserve=max(size, 4))
         return buf
 
-    def smooth(self, mesh: GpuMesh, iterations: int) -> None:
-        """`iterations` rounds of smoothing, each projected onto the extractor's current level."""
+    def smooth(self, mesh: GpuMesh, iterations: int, level: float | None = None) -> None:
+        """`iterations` rounds of smoothing, each projected onto `level` (default: the extractor's last)."""
         iterations = check_iterations(iterations)
         if iterations == 0 or mesh.n_vertices == 0:
             return
@@ -76,9 +69,10 @@ class Smoother:
                                 f"{self._block_bytes >> 20} MiB; crop or downsample the volume, or smooth less "
                                 "of it (backend='cpu' has no such limit)")
         sign = 1.0 if ex.descent else -1.0
+        level = ex.level if level is None else level
         low, high = ex.value_range
         for program in self._programs.values():
-            set_uniforms(program, **ex.grid_uniforms, u_level=sign * ex.level, u_sign=sign,
+            set_uniforms(program, **ex.grid_uniforms, u_level=sign * level, u_sign=sign,
                          u_vertex_count=n_v, u_triangle_count=n_t, u_tolerance=ACCEPT * (high - low))
         ends = self._buffer("ends", (n_v + 1) * 4)
         neighbours = self._buffer("neighbours", n_t * 12)

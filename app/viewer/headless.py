@@ -70,11 +70,13 @@ class HeadlessViewer:
 
 
 def render_png(volume: Volume, out, iso: float | None = None, size=(800, 600),
-               azimuth=None, elevation=None, panel: bool = False, transparent: bool = False):
-    """Render one view of `volume` to the PNG file `out` (RGBA with `transparent`); returns its path."""
+               azimuth=None, elevation=None, panel: bool = False, transparent: bool = False, smooth: int = 0):
+    """Render one view of `volume` to the PNG file `out` (RGBA with `transparent`); returns its path.
+    `smooth`: iterations of smoothing projected onto the level set."""
     viewer = HeadlessViewer(size)
     try:
         viewer.state.style.transparent_background = transparent
+        viewer.state.smooth = smooth
         viewer.show(volume, iso, azimuth, elevation)
         return save_png(viewer.render(panel=panel), out)
     finally:

@@ -60,6 +60,7 @@ class ViewerState:
         self.histogram = None            # log counts of `volume`'s values, for the panel (histogram.py)
         self.iso = 0.0
         self._extracted_iso: float | None = None
+        self.smooth = 0                  # smoothing iterations, projected onto the level set (re-extracts)
         self.level_of_detail = level_of_detail  # coarse meshes while the value moves (the window)
         self._moved_last_frame = False
         self._rest_s = 0.0               # how long the value has not moved
@@ -180,7 +181,7 @@ class ViewerState:
             return False
         if self.animation.running:
             self.iso = self.animation.advance(dt_seconds, self.value_range)
-        moved = self.iso != self._extracted_iso
+        moved = self.iso != self._extracted_iso or self.smooth != self.surface.smooth
         if moved:
             # A value that moved in the last frame too is being dragged (or animated): a preview
             # will do.  A single change (a key, a typed value, a new volume) gets the full mesh.
@@ -193,6 +194,7 @@ class ViewerState:
                 return False
             preview = False  # rested long enough: back to full resolution
         self._moved_last_frame = moved and self._extracted_iso is not None  # a new volume's first is no move
+        self.surface.smooth = self.smooth
         try:
             self.surface.extract(self.iso, preview=preview)
         except USER_ERRORS as exc:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from ..extractor import Extractor
 from ..mesh import GpuMesh
+from ..smoothing import Smoother
 from ..validation import subsampled
 from ..volumes import Volume
 
@@ -48,6 +49,8 @@ class GpuSurface:
         # The full mesh's triangle count, estimated from the last mesh of any step (a surface's
         # count grows with the square of the resolution): sizes the next preview's step.
         self.full_triangles = 0
+        self.smooth = 0  # smoothing iterations applied after each extraction (app/smoothing.py)
+        self._smoothers: dict[int, Smoother] = {}  # sample step -> its extractor's smoother
 
     @property
     def value_range(self) -> tuple[float, float]:
@@ -69,6 +72,10 @@ class GpuSurface:
             self._previews[step] = self._make_preview(step)
         extractor = self.extractor if step == 1 else self._previews[step]
         extractor.extract(iso)
+        if self.smooth:
+            if step not in self._smoothers:
+                self._smoothers[step] = Smoother(extractor)
+            self._smoothers[step].smooth(extractor.mesh, self.smooth)
         self.shown_step = step
         self.full_triangles = extractor.n_triangles * step * step
 
@@ -77,6 +84,7 @@ class GpuSurface:
                          gradient_direction=self.gradient_direction, ctx=self.ctx)
 
     def release(self) -> None:
-        for extractor in (self.extractor, *self._previews.values()):
-            extractor.release()
+        for gl_owner in (*self._smoothers.values(), self.extractor, *self._previews.values()):
+            gl_owner.release()
         self._previews.clear()
+        self._smoothers.clear()
