@@ -32,6 +32,8 @@ UMBRELLA_WEIGHT = 0.5
 """Fraction of the way to the neighbours' average moved per iteration (0.5 damps every mode)."""
 NEWTON_STEPS = 4
 """Newton steps per projection (quadratic convergence: 4 reach float precision from < 1 cell)."""
+CONVERGED = 0.01
+"""Newton stops stepping a vertex once it is within this fraction of ACCEPT x the range of the level."""
 ACCEPT = 1e-4
 """A projection ending further off the level than this fraction of the value range is discarded."""
 BORDER = 1e-3
@@ -83,21 +85,25 @@ def trilinear(field: np.ndarray, x: np.ndarray):
     return lerp(d0, d1, f0), grad
 
 
-def project(field, level, x, free, spacing):
-    """Newton steps from x toward F = level, inside 3 cells around x's cell; the end points."""
+def project(field, level, x, free, spacing, tolerance):
+    """Newton steps from x toward F = level, inside 3 cells around x's cell: the end points, and
+    whether each ended within `tolerance` of the level."""
     top = np.array(field.shape, F32) - 1
     x = np.clip(x, 0, top)
     lo = np.maximum(np.floor(x) - 1, 0).astype(F32)
     hi = np.minimum(np.floor(x) + 2, top).astype(F32)
-    for _ in range(NEWTON_STEPS):
+    for step in range(NEWTON_STEPS + 1):
         value, grad = trilinear(field, x)
+        residual = value - level
+        if step == NEWTON_STEPS:
+            break
         g = grad / spacing * free  # the physical gradient, along the free axes
         gg = np.sum(g * g, axis=1)
-        ok = gg > 0
+        moving = (gg > 0) & (np.abs(residual) > F32(CONVERGED) * tolerance)
         step = np.zeros_like(x)
-        step[ok] = ((value - level)[ok] / gg[ok])[:, None] * g[ok] / spacing
+        step[moving] = (residual[moving] / gg[moving])[:, None] * g[moving] / spacing
         x = np.clip(x - step, lo, hi)
-    return x
+    return x, np.abs(residual) <= tolerance
 
 
 def umbrella(x, free, starts, ends):
@@ -150,9 +156,8 @@ def smooth_projected(verts, faces, volume, level, iterations, spacing=(1.0, 1.0,
     free = free_axes(x, field.shape)
     starts, ends = half_edges(faces)
     for _ in range(check_iterations(iterations)):
-        projected = project(field, lvl, umbrella(x, free, starts, ends), free, spacing)
-        value, _ = trilinear(field, projected)
-        x = np.where((np.abs(value - lvl) <= tolerance)[:, None], projected, x).astype(F32)
+        projected, on_level = project(field, lvl, umbrella(x, free, starts, ends), free, spacing, tolerance)
+        x = np.where(on_level[:, None], projected, x).astype(F32)
     value, _ = trilinear(field, x)
     fallback = np.zeros_like(x) if normals is None else normals
     return (x * spacing).astype(F32), faces, field_normals(field, x, spacing, fallback), (value * sign).astype(F32)

@@ -16,7 +16,8 @@ fixed-point atomics every iteration: the topology is the same in every iteration
 is built once (two passes over the triangles) and each iteration is one pass that reads each
 vertex's ~6 neighbours, with no atomics, no clearing pass and no fixed-point rounding; the
 projection fits in the same pass, so an iteration is one dispatch.
-Scratch: 4 bytes per vertex (+1), 12 per triangle, 32 per vertex (two position buffers).
+Positions (two, ping-pong) and neighbour lists live in 2-D images, the per-vertex list ends in a
+buffer (it is scanned): 36 bytes of scratch per vertex and 12 per triangle.
 """
 from __future__ import annotations
 
@@ -26,8 +27,11 @@ from .gpu_layout import GROUP_SIZE, VERTEX_BYTES
 from .gpu_limits import GPULimitError, GpuLimits
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
-from .reference_smooth import ACCEPT, BORDER, NEWTON_STEPS, UMBRELLA_WEIGHT, check_iterations
+from .reference_smooth import ACCEPT, BORDER, CONVERGED, NEWTON_STEPS, UMBRELLA_WEIGHT, check_iterations
 from .scan import ExclusiveScan
+
+IMAGE_SHIFT = 12
+"""Position and neighbour images are 2^12 = 4096 texels wide."""
 
 PASSES = ("smooth_valence", "smooth_fill", "smooth_load", "smooth_step", "smooth_store")
 
@@ -44,10 +48,11 @@ class Smoother:
         self.ctx = extractor.ctx
         self._programs = {name: compute_program(self.ctx, f"{name}.comp", {
             **extractor.volume_defines, "UMBRELLA_WEIGHT": f"{UMBRELLA_WEIGHT!r}",
-            "NEWTON_STEPS": NEWTON_STEPS, "BORDER": f"{BORDER!r}"}) for name in PASSES}
+            "NEWTON_STEPS": NEWTON_STEPS, "CONVERGED": f"{CONVERGED!r}", "BORDER": f"{BORDER!r}",
+            "IMAGE_SHIFT": IMAGE_SHIFT}) for name in PASSES}
         self._scan = ExclusiveScan(self.ctx)
-        self._buffers: dict[str, moderngl.Buffer] = {}
-        self._block_bytes = GpuLimits.of(self.ctx).max_storage_block_bytes
+        self._buffers: dict[str, moderngl.Buffer | moderngl.Texture] = {}
+        self._limits = GpuLimits.of(self.ctx)
 
     def _buffer(self, name: str, size: int) -> moderngl.Buffer:
         buf = self._buffers.get(name)
@@ -57,6 +62,17 @@ class Smoother:
             buf = self._buffers[name] = self.ctx.buffer(reserve=max(size, 4))
         return buf
 
+    def _image(self, name: str, items: int, components: int, dtype: str) -> moderngl.Texture:
+        """A 2-D image of at least `items` texels, 2^IMAGE_SHIFT wide (grown by half again)."""
+        rows = -(-items >> IMAGE_SHIFT) or 1
+        image = self._buffers.get(name)
+        if image is None or image.height < rows:
+            if image is not None:
+                image.release()
+            rows = min(max(rows, int((image.height if image else 0) * 1.5)), self._limits.max_texture_size)
+            image = self._buffers[name] = self.ctx.texture((1 << IMAGE_SHIFT, rows), components, dtype=dtype)
+        return image
+
     def smooth(self, mesh: GpuMesh, iterations: int, level: float | None = None) -> None:
         """`iterations` rounds of smoothing, each projected onto `level` (default: the extractor's last)."""
         iterations = check_iterations(iterations)
@@ -64,10 +80,11 @@ class Smoother:
             return
         ex = self.extractor
         n_v, n_t = mesh.n_vertices, mesh.n_triangles
-        if max(n_v * VERTEX_BYTES, n_t * 12) > self._block_bytes:
-            raise GPULimitError(f"smoothing needs the whole mesh ({n_v:,} vertices) in one storage block of "
-                                f"{self._block_bytes >> 20} MiB; crop or downsample the volume, or smooth less "
-                                "of it (backend='cpu' has no such limit)")
+        block, rows = self._limits.max_storage_block_bytes, self._limits.max_texture_size
+        if max(n_v * VERTEX_BYTES, n_t * 12) > block or 3 * n_t > rows << IMAGE_SHIFT:
+            raise GPULimitError(f"smoothing needs the whole mesh ({n_v:,} vertices, {n_t:,} triangles) in one "
+                                f"storage block of {block >> 20} MiB; crop or downsample the volume, or use "
+                                "backend='cpu', which has no such limit")
         sign = 1.0 if ex.descent else -1.0
         level = ex.level if level is None else level
         low, high = ex.value_range
@@ -75,8 +92,8 @@ class Smoother:
             set_uniforms(program, **ex.grid_uniforms, u_level=sign * level, u_sign=sign,
                          u_vertex_count=n_v, u_triangle_count=n_t, u_tolerance=ACCEPT * (high - low))
         ends = self._buffer("ends", (n_v + 1) * 4)
-        neighbours = self._buffer("neighbours", n_t * 12)
-        positions = [self._buffer("positions", n_v * 16), self._buffer("positions 2", n_v * 16)]
+        neighbours = self._image("neighbours", 3 * n_t, 1, "u4")
+        positions = [self._image("positions", n_v, 4, "f4"), self._image("positions 2", n_v, 4, "f4")]
         ex.volume_texture.bind_to_image(0, read=True, write=False)
         mesh.index_buffer.bind_to_storage_buffer(6, size=max(n_t, 1) * 12)
         mesh.vertex_buffer.bind_to_storage_buffer(8, size=n_v * VERTEX_BYTES)
@@ -86,15 +103,15 @@ class Smoother:
         self._run("smooth_valence", n_t)
         self._scan(ends, n_v + 1)
         ends.bind_to_storage_buffer(2)
-        neighbours.bind_to_storage_buffer(3)
+        neighbours.bind_to_image(3, read=True, write=True)
         self._run("smooth_fill", n_t)
-        positions[0].bind_to_storage_buffer(4)
+        positions[0].bind_to_image(1, read=True, write=True)
         self._run("smooth_load", n_v)
         for i in range(iterations):
-            positions[i % 2].bind_to_storage_buffer(4)
-            positions[(i + 1) % 2].bind_to_storage_buffer(5)
+            positions[i % 2].bind_to_image(1, read=True, write=False)
+            positions[(i + 1) % 2].bind_to_image(2, read=False, write=True)
             self._run("smooth_step", n_v)
-        positions[iterations % 2].bind_to_storage_buffer(4)
+        positions[iterations % 2].bind_to_image(1, read=True, write=False)
         self._run("smooth_store", n_v)
         self.ctx.finish()
 
@@ -103,7 +120,9 @@ class Smoother:
         self.ctx.memory_barrier()
 
     def scratch_bytes(self) -> int:
-        return sum(b.size for b in self._buffers.values()) + self._scan.scratch_bytes()
+        sizes = [b.size if isinstance(b, moderngl.Buffer) else b.width * b.height * b.components * 4
+                 for b in self._buffers.values()]
+        return sum(sizes) + self._scan.scratch_bytes()
 
     def release(self) -> None:
         for buf in self._buffers.values():

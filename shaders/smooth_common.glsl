@@ -3,7 +3,9 @@
 // Positions are kept in index units (position / spacing) as vec4(x, free axes), where w holds
 // bits 1, 2, 4: the axes along which the vertex may move (0 where it lies on the volume's border).
 // Neighbour lists: vertex v's neighbours are neighbours[ends[v - 1] .. ends[v]) (ends[-1] = 0),
-// the far ends of its outgoing half-edges.  UMBRELLA_WEIGHT, NEWTON_STEPS and BORDER are
+// the far ends of its outgoing half-edges.  Positions and neighbour lists live in 2-D images
+// 2^IMAGE_SHIFT texels wide, item i at texel (i mod width, i / width): on llvmpipe an imageLoad
+// costs a fraction of an SSBO load (see mc_common.glsl), and the gather is most of an iteration.  UMBRELLA_WEIGHT, NEWTON_STEPS and BORDER are
 // #defines from app/reference_smooth.py.
 #include "mc_common.glsl"
 
@@ -15,6 +17,8 @@ vec3 free_axes(float bits) {
     uint b = uint(bits);
     return vec3(uvec3(b & 1u, (b >> 1) & 1u, (b >> 2) & 1u));
 }
+
+ivec2 item_texel(uint i) { return ivec2(i & ((1u << IMAGE_SHIFT) - 1u), i >> IMAGE_SHIFT); }
 
 uint vertex_index() { return linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex; }
 

@@ -8,13 +8,15 @@ layout(local_size_x = GROUP_SIZE) in;
 
 uniform uint u_triangle_count;
 layout(std430, binding = 6) readonly buffer Triangles { uint corners[]; };
-layout(std430, binding = 3) writeonly buffer Neighbours { uint neighbours[]; };
+layout(r32ui, binding = 3) writeonly uniform uimage2D u_neighbours;
+
+void place(uint from, uint to) { imageStore(u_neighbours, item_texel(atomicAdd(ends[from], 1u)), uvec4(to)); }
 
 void main() {
     uint t = vertex_index();
     if (t >= u_triangle_count) return;
     uvec3 tri = uvec3(corners[3u * t], corners[3u * t + 1u], corners[3u * t + 2u]);
-    neighbours[atomicAdd(ends[tri.x], 1u)] = tri.y;
-    neighbours[atomicAdd(ends[tri.y], 1u)] = tri.z;
-    neighbours[atomicAdd(ends[tri.z], 1u)] = tri.x;
+    place(tri.x, tri.y);
+    place(tri.y, tri.z);
+    place(tri.z, tri.x);
 }

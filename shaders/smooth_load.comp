@@ -6,7 +6,7 @@ layout(local_size_x = GROUP_SIZE) in;
 
 struct Vertex { vec4 position_value; vec4 normal; };
 layout(std430, binding = 8) readonly buffer Vertices { Vertex vertices[]; };
-layout(std430, binding = 4) writeonly buffer Positions { vec4 positions[]; };
+layout(rgba32f, binding = 1) writeonly uniform image2D u_positions;
 
 void main() {
     uint v = vertex_index();
@@ -14,5 +14,5 @@ void main() {
     vec3 x = vertices[v].position_value.xyz / u_spacing;
     bvec3 free = bvec3(uvec3(greaterThan(x, vec3(BORDER))) & uvec3(lessThan(x, vec3(u_dims - 1) - BORDER)));
     uvec3 bits = uvec3(free) * uvec3(1u, 2u, 4u);
-    positions[v] = vec4(x, float(bits.x | bits.y | bits.z));
+    imageStore(u_positions, item_texel(v), vec4(x, float(bits.x | bits.y | bits.z)));
 }

@@ -7,7 +7,7 @@ layout(local_size_x = GROUP_SIZE) in;
 
 struct Vertex { vec4 position_value; vec4 normal; };
 layout(std430, binding = 8) buffer Vertices { Vertex vertices[]; };
-layout(std430, binding = 4) readonly buffer Positions { vec4 positions[]; };
+layout(rgba32f, binding = 1) readonly uniform image2D u_positions;
 
 vec3 corner_gradient(ivec3 p) {
     ivec3 lo = max(p - 1, ivec3(0)), hi = min(p + 1, u_dims - 1);
@@ -19,7 +19,7 @@ vec3 corner_gradient(ivec3 p) {
 void main() {
     uint v = vertex_index();
     if (v >= u_vertex_count) return;
-    vec3 x = positions[v].xyz;
+    vec3 x = imageLoad(u_positions, item_texel(v)).xyz;
     ivec3 c = clamp(ivec3(floor(x)), ivec3(0), u_dims - 2);
     vec3 f = x - vec3(c);
     vec3 g = vec3(0.0);
