@@ -76,9 +76,12 @@ class Smoother:
     def smooth(self, mesh: GpuMesh, iterations: int, level: float | None = None) -> None:
         """`iterations` rounds of smoothing, each projected onto `level` (default: the extractor's last)."""
         iterations = check_iterations(iterations)
+        ex = self.extractor
+        level = ex.level if level is None else level
+        if level is None:
+            raise ValueError("smoothing needs a level: extract one first, or pass level=")
         if iterations == 0 or mesh.n_vertices == 0:
             return
-        ex = self.extractor
         n_v, n_t = mesh.n_vertices, mesh.n_triangles
         block, rows = self._limits.max_storage_block_bytes, self._limits.max_texture_size
         if max(n_v * VERTEX_BYTES, n_t * 12) > block or 3 * n_t > rows << IMAGE_SHIFT:
@@ -86,7 +89,6 @@ class Smoother:
                                 f"storage block of {block >> 20} MiB; crop or downsample the volume, or use "
                                 "backend='cpu', which has no such limit")
         sign = 1.0 if ex.descent else -1.0
-        level = ex.level if level is None else level
         low, high = ex.value_range
         for program in self._programs.values():
             set_uniforms(program, **ex.grid_uniforms, u_level=sign * level, u_sign=sign,

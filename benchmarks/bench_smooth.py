@@ -12,7 +12,8 @@ benchmarks/volumes.py at each size, as medians of --repeats:
 
 Quality, on every mesh (plain MC, ours, VTK's): how far vertices lie off the level set, in
 voxels (|F - level| / |grad F|, F trilinear, on up to 20,000 vertices), and the histogram of
-each triangle's smallest angle (on up to a million triangles, evenly picked).  Prints markdown; see benchmarks/README.md.
+each triangle's smallest angle (on up to a million triangles, evenly picked).
+Prints markdown; see benchmarks/README.md.
 """
 from __future__ import annotations
 

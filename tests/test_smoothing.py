@@ -152,6 +152,22 @@ def test_gpu_matches_the_numpy_reference(gl_ctx, direction):
         smoother.release()
 
 
+def test_an_empty_mesh_and_zero_iterations_change_nothing(gl_ctx):
+    volume = smooth_noise((12, 12, 12))
+    with Extractor(volume, ctx=gl_ctx) as ex:
+        smoother = Smoother(ex)
+        with pytest.raises(ValueError, match="extract one first"):
+            smoother.smooth(ex.mesh, 1, None)
+        assert ex.extract(float(volume.min())) == (0, 0)  # every sample is inside: no surface
+        smoother.smooth(ex.mesh, 3)
+        ex.extract(0.0)
+        before = ex.read_mesh()
+        smoother.smooth(ex.mesh, 0)
+        for a, b in zip(before, ex.read_mesh()):
+            assert a.tobytes() == b.tobytes()
+        smoother.release()
+
+
 def test_smooth_mesh_smooths_another_extractors_mesh():
     from skimage.measure import marching_cubes as skimage_mc
     volume = smooth_noise()
