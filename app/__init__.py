@@ -9,7 +9,7 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-__all__ = ["marching_cubes", "marching_tetrahedra", "find_contours", "Extractor", "__version__"]
+__all__ = ["marching_cubes", "marching_tetrahedra", "smooth_mesh", "find_contours", "Extractor", "__version__"]
 
 
 def __getattr__(name):
@@ -20,6 +20,9 @@ def __getattr__(name):
     if name == "marching_tetrahedra":
         from .api import marching_tetrahedra
         return marching_tetrahedra
+    if name == "smooth_mesh":
+        from .api import smooth_mesh
+        return smooth_mesh
     if name == "find_contours":
         from .contours import find_contours
         return find_contours

@@ -4,7 +4,9 @@ from __future__ import annotations
 import numpy as np
 
 from . import validation
+from .gpu_layout import VERTEX_FLOATS
 from .reference import marching_cubes_reference
+from .reference_smooth import check_iterations, smooth_projected
 from .reference_tetra import marching_tetrahedra_reference
 
 BACKENDS = ("auto", "gpu", "cpu")
@@ -12,7 +14,7 @@ METHODS = ("lewiner", "lorensen")
 
 
 def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
-                   step_size=1, allow_degenerate=True, method="lewiner", backend="auto"):
+                   step_size=1, allow_degenerate=True, method="lewiner", backend="auto", smooth=0):
     """Extract the isosurface ``volume == level`` as an indexed, watertight triangle mesh.
 
     Parameters follow ``skimage.measure.marching_cubes``:
@@ -36,14 +38,17 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     backend : "gpu" (OpenGL 4.3 compute shaders; a standalone EGL context when
         none is current), "cpu" (the numpy reference), or "auto" (GPU when an
         OpenGL 4.3 context can be had).
+    smooth : iterations of smoothing, each projected back onto the level set
+        (`smooth_mesh`); 0 (default) is the plain marching-cubes mesh.  A few
+        iterations remove the sliver triangles; the faces stay the same.
 
     Returns ``verts`` (N, 3) float32 in array-index order times spacing,
     ``faces`` (M, 3) int32, ``normals`` (N, 3) float32 unit vectors, ``values``
     (N,) float32.  Every grid edge whose ends lie on different sides of the
     level has exactly one vertex, shared by the triangles that use it.
     """
-    if backend not in BACKENDS:
-        raise ValueError(f"backend {backend!r} is not one of {BACKENDS}")
+    iterations = check_iterations(smooth)
+    backend = _backend(backend)
     if method not in METHODS:
         raise ValueError(f"method {method!r} is not one of {METHODS}")
     checked = validation.check_volume(volume)
@@ -55,19 +60,9 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         checked = validation.subsampled(checked, step)
         spacing = tuple(s * step for s in spacing)
 
-    if backend == "auto":
-        from .gl_context import gl_available
-        backend = "gpu" if gl_available() else "cpu"
     if backend == "cpu":
-        return marching_cubes_reference(checked.data.astype(np.float32, copy=False), level, spacing, descent)
-
-    from .extractor import Extractor
-    extractor = Extractor(checked, spacing=spacing, gradient_direction=gradient_direction)
-    try:
-        extractor.extract(level)
-        return extractor.read_mesh()
-    finally:
-        extractor.release()
+        return _on_cpu(marching_cubes_reference, checked, level, spacing, descent, iterations)
+    return _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra=False)
 
 
 TETRA_BACKENDS = ("auto", "gpu", "cpu", "numpy")
@@ -88,31 +83,98 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     Every edge of the tetrahedral grid (the three axes, the three face diagonals and the
     body diagonal of each cell) whose ends lie on different sides of the level has exactly
     one vertex.  backend: "gpu", "cpu" (or "numpy": the numpy reference), or "auto".
-    smooth: smoothing iterations; only 0 (none) for now.
+    smooth: iterations of smoothing projected back onto the level set, as in `marching_cubes`.
     """
-    if backend not in TETRA_BACKENDS:
-        raise ValueError(f"backend {backend!r} is not one of {TETRA_BACKENDS}")
-    if isinstance(smooth, bool) or not isinstance(smooth, (int, np.integer)) or smooth < 0:
-        raise ValueError(f"smooth must be a whole number of iterations, 0 or more; got {smooth!r}")
-    if smooth:  # the hook for smoothing projected onto the level set (issue 9), once it exists
-        raise ValueError(f"smooth={smooth} is not available for marching_tetrahedra yet; pass smooth=0")
+    iterations = check_iterations(smooth)
+    backend = _backend(backend, TETRA_BACKENDS)
     checked = validation.check_volume(volume)
     spacing = validation.as_spacing(spacing)
     descent = validation.as_gradient_direction(gradient_direction)
     level = validation.as_level(level, checked.value_range)
+    if backend == "cpu":
+        return _on_cpu(marching_tetrahedra_reference, checked, level, spacing, descent, iterations)
+    return _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra=True)
 
-    if backend == "auto":
-        from .gl_context import gl_available
-        backend = "gpu" if gl_available() else "cpu"
-    if backend in ("cpu", "numpy"):
-        return marching_tetrahedra_reference(checked.data.astype(np.float32, copy=False), level, spacing, descent)
 
+def _on_cpu(reference, checked, level, spacing, descent, iterations):
+    """The numpy reference's mesh, smoothed `iterations` times."""
+    field = checked.data.astype(np.float32, copy=False)
+    verts, faces, normals, values = reference(field, level, spacing, descent)
+    if iterations:
+        return smooth_projected(verts, faces, field, level, iterations, spacing, descent=descent,
+                                normals=normals, value_range=checked.value_range)
+    return verts, faces, normals, values
+
+
+def _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra):
+    """Upload, extract (cubes, or tetrahedra from the same resident volume), smooth, read back."""
     from .extractor import Extractor
+    from .smoothing import Smoother
     from .tetra_extractor import TetraExtractor
     with Extractor(checked, spacing=spacing, gradient_direction=gradient_direction) as cubes:
-        tetra = TetraExtractor(cubes)
+        extractor = TetraExtractor(cubes) if tetrahedra else cubes
+        smoother = None
         try:
-            tetra.extract(level)
-            return tetra.read_mesh()
+            extractor.extract(level)
+            if iterations:
+                smoother = Smoother(extractor)
+                smoother.smooth(extractor.mesh, iterations)
+            return extractor.read_mesh()
         finally:
-            tetra.release()
+            if smoother is not None:
+                smoother.release()
+            if tetrahedra:
+                extractor.release()
+
+
+def _backend(backend: str, allowed=BACKENDS) -> str:
+    if backend not in allowed:
+        raise ValueError(f"backend {backend!r} is not one of {allowed}")
+    if backend == "auto":
+        from .gl_context import gl_available
+        return "gpu" if gl_available() else "cpu"
+    return "cpu" if backend == "numpy" else backend
+
+
+def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0, 1.0),
+                gradient_direction="descent", normals=None, backend="auto"):
+    """Smooth a mesh on ``volume == level`` (e.g. from `marching_cubes`) and project it back onto the level set.
+
+    Each of `iterations` rounds moves every vertex half-way to the average of its mesh
+    neighbours, then pulls it back onto the level set of the volume's trilinear interpolant
+    by Newton steps along the gradient (see `isoscope.reference_smooth`).  Sliver triangles
+    even out; the surface stays where the volume puts it (no shrinking), the faces are kept.
+    verts are in array-index order times spacing.  Returns verts, faces, normals, values
+    (normals from the field's gradient at the new positions; `normals` are kept where it is flat).
+    """
+    iterations = check_iterations(iterations)
+    backend = _backend(backend)
+    checked = validation.check_volume(volume)
+    spacing = validation.as_spacing(spacing)
+    descent = validation.as_gradient_direction(gradient_direction)
+    level = validation.as_level(level, checked.value_range)
+    verts = np.ascontiguousarray(verts, np.float32).reshape(-1, 3)
+    faces = np.ascontiguousarray(faces, np.int32).reshape(-1, 3)
+    if faces.size and (faces.min() < 0 or faces.max() >= len(verts)):
+        raise ValueError(f"faces index vertices 0 .. {faces.max()}, but there are {len(verts)} vertices; "
+                         "pass the faces of this mesh")
+    normals = np.zeros_like(verts) if normals is None else np.ascontiguousarray(normals, np.float32).reshape(-1, 3)
+    if backend == "cpu" or not len(faces):
+        return smooth_projected(verts, faces, checked.data.astype(np.float32, copy=False), level, iterations,
+                                spacing, descent=descent, normals=normals, value_range=checked.value_range)
+
+    from .extractor import Extractor
+    from .mesh import GpuMesh
+    from .smoothing import Smoother
+    records = np.zeros((len(verts), VERTEX_FLOATS), np.float32)
+    records[:, 0:3], records[:, 4:7] = verts, normals
+    with Extractor(checked, spacing=spacing, gradient_direction=gradient_direction) as extractor:
+        mesh = GpuMesh(extractor.ctx.buffer(records), extractor.ctx.buffer(faces), len(verts), len(faces))
+        smoother = Smoother(extractor)
+        try:
+            smoother.smooth(mesh, iterations, level)
+            return mesh.read()
+        finally:
+            smoother.release()
+            mesh.vertex_buffer.release()
+            mesh.index_buffer.release()

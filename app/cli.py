@@ -31,8 +31,8 @@ other commands (each has --help):
   isoscope render VOLUME --out shot.png [--iso V] [--size WxH] [--azimuth A] [--elevation E] [--panel]
                 [--transparent] [--iso V2 ...] [--opacity A,B] [--color-by value|gradient|FILE] [--color-by-map NAME]
                 [--slice AXIS=INDEX ...] [--clip AXIS=POS[:+|-]] [--window W] [--level L] [--colormap NAME]
-                [--tetrahedra]
-  isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V [--iso V2 ...]] [--tetrahedra]
+                [--tetrahedra] [--smooth N]
+  isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V [--iso V2 ...]] [--tetrahedra] [--smooth N]
   isoscope volumes          list the built-in volumes
 """
 
@@ -94,6 +94,22 @@ def _add_tetrahedra(parser: argparse.ArgumentParser) -> None:
                              "about three times the triangles")
 
 
+def _add_smooth(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--smooth", type=smooth_iterations, default=0, metavar="N",
+                        help="N iterations of smoothing, each projected back onto the level set: evens out "
+                             "sliver triangles without moving the surface (default 0: none)")
+
+
+def smooth_iterations(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"--smooth {text!r} must be a whole number of iterations, 0 or more")
+    return value
+
+
 def viewer_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(
         prog="isoscope",
@@ -138,6 +154,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
                             help="a transparent background: an RGBA PNG, for slides and figures")
         add_slice_arguments(parser)
         _add_tetrahedra(parser)
+        _add_smooth(parser)
     else:
         parser = OneLineParser(prog="isoscope export",
                                description="Extract the isosurface and write it as a mesh file: binary PLY, OBJ, "
@@ -155,6 +172,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
                             help="keep about this fraction of the triangles (quadric decimation, 0 < F <= 1); "
                                  "prints how far the result strays from the level set")
         _add_tetrahedra(parser)
+        _add_smooth(parser)
     add_volume_arguments(parser)
     return parser
 
@@ -228,7 +246,8 @@ def run_render(args) -> int:
                       elevation=args.elevation, panel=args.panel, transparent=args.transparent,
                       opacities=[a for values in args.opacity or [] for a in values],
                       color_by=args.color_by, colormap=args.color_by_map,
-                      tetrahedra=args.tetrahedra, prepare=lambda state: apply_slice_arguments(state, args))
+                      tetrahedra=args.tetrahedra, smooth=args.smooth,
+                      prepare=lambda state: apply_slice_arguments(state, args))
     print(f"wrote {path} ({args.size[0]}x{args.size[1]})")
     return 0
 
@@ -245,7 +264,7 @@ def run_export(args) -> int:
     march = marching_tetrahedra if args.tetrahedra else marching_cubes
     for iso in isos:
         verts, faces, normals, _ = march(volume.checked, iso, spacing=volume.spacing,
-                                         gradient_direction=volume.gradient_direction)
+                                         gradient_direction=volume.gradient_direction, smooth=args.smooth)
         if args.decimate is not None:
             verts, faces, normals = _decimated(volume, iso, verts, faces, args.decimate)
         verts, faces, normals, space = in_volume_space(volume, verts, faces, normals, world=args.space == "world")

@@ -85,9 +85,9 @@ class Extractor:
         case_words = self.table.packed_for_gpu()
         self._case_words = np.concatenate([case_words, np.zeros(-len(case_words) % 4, np.uint32)])  # whole uvec4s
         _, volume_format, volume_image = volume_texel_format(checked.data.dtype)
+        self.volume_defines = {"VOLUME_FORMAT": volume_format, "VOLUME_IMAGE": volume_image}  # for other passes
         defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u",  # the layout's come with every program
-                   "CASE_TABLE_QUADS": len(self._case_words) // 4,
-                   "VOLUME_FORMAT": volume_format, "VOLUME_IMAGE": volume_image}
+                   "CASE_TABLE_QUADS": len(self._case_words) // 4, **self.volume_defines}
         self._passes = {name: compute_program(self.ctx, f"{name}.comp", defines) for name in PASSES}
 
         self.n_vertices = 0
@@ -112,9 +112,10 @@ class Extractor:
     def brick_count(self) -> int:
         return self.plan.brick_count
 
-    # Read-only views of what an extractor sharing this resident volume borrows (app/tetra_extractor.py).
+    # Read-only views for passes that share this resident volume (app/tetra_extractor.py, app/smoothing.py).
     @property
-    def volume_image(self) -> moderngl.Texture3D:
+    def volume_texture(self) -> moderngl.Texture3D:
+        """The resident volume image (see mc_common.glsl); `volume_defines` say its format."""
         return self._volume
 
     @property
@@ -123,6 +124,7 @@ class Extractor:
 
     @property
     def grid_uniforms(self) -> dict:
+        """The grid uniforms of mc_common.glsl (not the level), for passes that include it."""
         return dict(self._grid_uniforms)
 
     def _own(self, gl_object):

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .extractor import Extractor
-from .gpu_layout import INDEX_BYTES, VERTEX_BYTES, VOLUME_TEXEL_FORMATS
+from .gpu_layout import INDEX_BYTES, VERTEX_BYTES
 from .gpu_programs import compute_program
 from .reference_tetra import tetra_table
 from .scan import ExclusiveScan
@@ -43,16 +43,14 @@ class TetraExtractor(Extractor):
         self.value_range, self.ctx, self.plan = source.value_range, source.ctx, source.plan
         self.table = tetra_table()
         self._grid_uniforms = source.grid_uniforms
-        self._volume = source.volume_image
+        self._volume = source.volume_texture
+        self.volume_defines = source.volume_defines
         self._brick_ranges = source.brick_ranges
 
         case_words = self.table.packed_for_gpu()
         self._case_words = np.concatenate([case_words, np.zeros(-len(case_words) % 4, np.uint32)])
-        volume_format, volume_image = next(formats[1:] for formats in VOLUME_TEXEL_FORMATS.values()
-                                           if formats[0] == self._volume.dtype)
         defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u",
-                   "CASE_TABLE_QUADS": len(self._case_words) // 4,
-                   "VOLUME_FORMAT": volume_format, "VOLUME_IMAGE": volume_image}
+                   "CASE_TABLE_QUADS": len(self._case_words) // 4, **self.volume_defines}
         self._passes = {name: compute_program(self.ctx, f"{shader}.comp", defines) for name, shader in PASSES.items()}
 
         self.n_vertices = self.n_triangles = self.active_bricks = 0

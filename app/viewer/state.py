@@ -16,6 +16,7 @@ from pathlib import Path
 import moderngl
 
 from ..mesh import GpuMesh
+from ..reference_smooth import check_iterations
 from ..volumes import Volume, open_volume
 from .histogram import value_histogram
 from .levels import SurfaceLevels
@@ -62,6 +63,7 @@ class ViewerState(SurfaceLevels):
         self.histogram = None            # log counts of `volume`'s values, for the panel (histogram.py)
         self.iso = 0.0
         self._extracted_iso: float | None = None
+        self.smooth = 0                  # smoothing iterations, projected onto the level set (re-extracts)
         self.level_of_detail = level_of_detail  # coarse meshes while the value moves (the window)
         self._moved_last_frame = False
         self._rest_s = 0.0               # how long the value has not moved
@@ -149,8 +151,21 @@ class ViewerState(SurfaceLevels):
             self.error = f"unknown cells {cells!r}; use one of {', '.join(CELLS)}"
             return False
         self.cells = cells
-        if self.surface is not None and self.surface.cells != cells:
-            self.surface.cells = cells
+        return self._apply_mesh_options()
+
+    def set_smooth(self, iterations) -> bool:
+        """Smooth every level's mesh `iterations` times, each projected back onto the level set."""
+        try:
+            self.smooth = check_iterations(iterations)
+        except ValueError as exc:
+            self.error = one_line(exc)
+            return False
+        return self._apply_mesh_options()
+
+    def _apply_mesh_options(self) -> bool:
+        """The surface's extractions follow `cells` and `smooth`: every level is extracted again."""
+        if self.surface is not None and (self.surface.cells, self.surface.smooth) != (self.cells, self.smooth):
+            self.surface.cells, self.surface.smooth = self.cells, self.smooth
             self._refresh_levels()
             self.update(0.0)
         return self.error is None
@@ -162,7 +177,7 @@ class ViewerState(SurfaceLevels):
         except USER_ERRORS as exc:
             self.error = one_line(exc)
             return False
-        surface.cells = self.cells
+        surface.cells, surface.smooth = self.cells, self.smooth
         if self.surface is not None:
             self.surface.release()
         self.volume, self.surface = volume, surface
@@ -203,7 +218,7 @@ class ViewerState(SurfaceLevels):
             return False
         if self.animation.running:
             self.iso = self.animation.advance(dt_seconds, self.value_range)
-        moved = self.iso != self._extracted_iso
+        moved = self.iso != self._extracted_iso or self.smooth != self.surface.smooth
         if moved:
             # A value that moved in the last frame too is being dragged (or animated): a preview
             # will do.  A single change (a key, a typed value, a new volume) gets the full mesh.
@@ -216,6 +231,7 @@ class ViewerState(SurfaceLevels):
                 return False
             preview = False  # rested long enough: back to full resolution
         self._moved_last_frame = moved and self._extracted_iso is not None  # a new volume's first is no move
+        self.surface.smooth = self.smooth
         try:
             self.surface.extract(self.iso, preview=preview, budget=self.preview_budget())
         except USER_ERRORS as exc:

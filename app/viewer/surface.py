@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from ..extractor import Extractor
 from ..mesh import GpuMesh
+from ..smoothing import Smoother
 from ..tetra_extractor import TetraExtractor
 from ..validation import subsampled
 from ..volumes import Volume
@@ -55,6 +56,8 @@ class GpuSurface:
         # The full mesh's triangle count, estimated from the last mesh of any step (a surface's
         # count grows with the square of the resolution): sizes the next preview's step.
         self.full_triangles = 0
+        self.smooth = 0  # smoothing iterations applied after each extraction (app/smoothing.py)
+        self._smoothers: dict[tuple[str, int], Smoother] = {}  # (cells, sample step) -> its extractor's smoother
 
     @property
     def value_range(self) -> tuple[float, float]:
@@ -83,6 +86,11 @@ class GpuSurface:
                 self._tetrahedra[step] = TetraExtractor(extractor)
             extractor = self._tetrahedra[step]
         extractor.extract(iso)
+        if self.smooth:
+            key = (self.cells, step)
+            if key not in self._smoothers:
+                self._smoothers[key] = Smoother(extractor)
+            self._smoothers[key].smooth(extractor.mesh, self.smooth)
         self.shown_step, self.shown_cells = step, self.cells
         self.full_triangles = extractor.n_triangles * step * step
 
@@ -91,7 +99,10 @@ class GpuSurface:
                          gradient_direction=self.gradient_direction, ctx=self.ctx)
 
     def release(self) -> None:
-        for extractor in (*self._tetrahedra.values(), self.extractor, *self._previews.values()):
-            extractor.release()
+        # Smoothers and tetrahedra borrow their extractor's volume: released first.
+        for gl_owner in (*self._smoothers.values(), *self._tetrahedra.values(), self.extractor,
+                         *self._previews.values()):
+            gl_owner.release()
         self._previews.clear()
         self._tetrahedra.clear()
+        self._smoothers.clear()

@@ -1,0 +1,163 @@
+"""Smoothing projected back onto the level set, in numpy: the mirror of shaders/smooth_*.comp.
+
+Per iteration every vertex moves toward the average of its mesh neighbours (the umbrella
+operator, weight UMBRELLA_WEIGHT), then Newton steps on the trilinear interpolant F of the
+volume pull it back onto F = level along F's gradient, inside a box of 3 cells around where
+the move took it.  Umbrella rather than Taubin's lambda/mu pair: Taubin's second (inflating)
+step exists to undo the shrinking of plain smoothing, and the projection already undoes it
+exactly, so one gather per iteration does the job of two.  What is left of the move is its
+tangential part: the triangles even out while the surface stays where the volume puts it.
+
+* Neighbours: for each triangle (a, b, c) the half-edges a->b, b->c, c->a; a vertex's
+  neighbours are the ends of its outgoing half-edges, so on a closed, consistently wound
+  mesh each one-ring neighbour counts once.  Any indexed mesh works (cubes, tetrahedra).
+* A vertex on the volume's border keeps its coordinate along that axis (the mesh's open
+  edges stay on the border instead of creeping inward).
+* A projection that ends further than ACCEPT x the value range off the level keeps the
+  vertex where it was, so every vertex stays as close to the level set as it started.
+* Normals come from the field's gradient at the new position: central differences at the
+  8 corners of its cell, blended trilinearly (on a grid edge that is the extractor's normal).
+
+Work is in index units (position / spacing); the Newton step follows the gradient in
+physical units, so spacing changes the direction as it should.  Float32 throughout, in the
+shaders' order of operations.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .reference import gradient_at
+
+UMBRELLA_WEIGHT = 0.5
+"""Fraction of the way to the neighbours' average moved per iteration (0.5 damps every mode)."""
+NEWTON_STEPS = 4
+"""Newton steps per projection (quadratic convergence: 4 reach float precision from < 1 cell)."""
+CONVERGED = 0.01
+"""Newton stops stepping a vertex once it is within this fraction of ACCEPT x the range of the level."""
+ACCEPT = 1e-4
+"""A projection ending further off the level than this fraction of the value range is discarded."""
+BORDER = 1e-3
+"""A coordinate within this many cells of the volume's first or last sample lies on the border."""
+
+F32 = np.float32
+
+
+def check_iterations(iterations) -> int:
+    """`iterations` as an int >= 0, or a one-line ValueError."""
+    try:
+        whole = not isinstance(iterations, bool) and float(iterations).is_integer() and iterations >= 0
+    except (TypeError, ValueError):
+        whole = False
+    if not whole:
+        raise ValueError(f"smooth={iterations!r} must be a whole number of iterations, 0 or more (e.g. smooth=5)")
+    return int(iterations)
+
+
+def half_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(from, to) of every half-edge a->b, b->c, c->a of the triangles."""
+    faces = np.asarray(faces, np.int64)
+    return faces.ravel(), faces[:, [1, 2, 0]].ravel()
+
+
+def free_axes(x: np.ndarray, shape) -> np.ndarray:
+    """1.0 per coordinate a vertex may move along, 0.0 where it lies on the volume's border."""
+    top = np.array(shape, F32) - 1
+    return ((x > BORDER) & (x < top - BORDER)).astype(F32)
+
+
+def trilinear(field: np.ndarray, x: np.ndarray):
+    """F and its gradient (index units) at points x (N, 3) inside the grid: the trilinear interpolant."""
+    top = np.array(field.shape) - 2
+    cell = np.clip(np.floor(x).astype(np.int64), 0, top)
+    f = (x - cell).astype(F32)
+    i, j, k = cell.T
+    v = {(a, b, c): field[i + a, j + b, k + c] for a in (0, 1) for b in (0, 1) for c in (0, 1)}
+    f0, f1, f2 = f.T
+
+    def lerp(lo, hi, t):
+        return lo + t * (hi - lo)
+    c00, c01 = lerp(v[0, 0, 0], v[0, 0, 1], f2), lerp(v[0, 1, 0], v[0, 1, 1], f2)
+    c10, c11 = lerp(v[1, 0, 0], v[1, 0, 1], f2), lerp(v[1, 1, 0], v[1, 1, 1], f2)
+    d0, d1 = lerp(c00, c01, f1), lerp(c10, c11, f1)
+    e0 = lerp(v[0, 0, 1] - v[0, 0, 0], v[0, 1, 1] - v[0, 1, 0], f1)
+    e1 = lerp(v[1, 0, 1] - v[1, 0, 0], v[1, 1, 1] - v[1, 1, 0], f1)
+    grad = np.stack([d1 - d0, lerp(c01 - c00, c11 - c10, f0), lerp(e0, e1, f0)], axis=1)
+    return lerp(d0, d1, f0), grad
+
+
+def project(field, level, x, free, spacing, tolerance):
+    """Newton steps from x toward F = level, inside 3 cells around x's cell: the end points, and
+    whether each ended within `tolerance` of the level."""
+    top = np.array(field.shape, F32) - 1
+    x = np.clip(x, 0, top)
+    lo = np.maximum(np.floor(x) - 1, 0).astype(F32)
+    hi = np.minimum(np.floor(x) + 2, top).astype(F32)
+    for step in range(NEWTON_STEPS + 1):
+        value, grad = trilinear(field, x)
+        residual = value - level
+        if step == NEWTON_STEPS:
+            break
+        g = grad / spacing * free  # the physical gradient, along the free axes
+        gg = np.sum(g * g, axis=1)
+        moving = (gg > 0) & (np.abs(residual) > F32(CONVERGED) * tolerance)
+        step = np.zeros_like(x)
+        step[moving] = (residual[moving] / gg[moving])[:, None] * g[moving] / spacing
+        x = np.clip(x - step, lo, hi)
+    return x, np.abs(residual) <= tolerance
+
+
+def umbrella(x, free, starts, ends):
+    """x moved UMBRELLA_WEIGHT of the way to the average of its neighbours (along half-edges), on free axes."""
+    n = len(x)
+    count = np.bincount(starts, minlength=n).astype(F32)
+    offset = np.stack([np.bincount(starts, (x[ends, a] - x[starts, a]).astype(np.float64), minlength=n)
+                       for a in range(3)], axis=1).astype(F32)
+    has = count > 0
+    moved = x.copy()
+    moved[has] += F32(UMBRELLA_WEIGHT) * (offset[has] / count[has, None]) * free[has]
+    return moved
+
+
+def field_normals(field, x, spacing, fallback):
+    """Outward unit normals from the gradient of the (sign-adjusted) field: central differences at the
+    cell's corners, blended trilinearly; `fallback` where the gradient vanishes."""
+    cell = np.clip(np.floor(x).astype(np.int64), 0, np.array(field.shape) - 2)
+    f = (x - cell).astype(F32)
+    grad = np.zeros(x.shape, F32)
+    for a in (0, 1):
+        for b in (0, 1):
+            for c in (0, 1):
+                weight = ((f[:, 0] if a else 1 - f[:, 0]) * (f[:, 1] if b else 1 - f[:, 1])
+                          * (f[:, 2] if c else 1 - f[:, 2]))
+                grad += weight[:, None] * gradient_at(field, cell + [a, b, c], spacing)
+    length = np.linalg.norm(grad, axis=1)
+    ok = length > 0
+    normals = np.asarray(fallback, F32).copy()
+    normals[ok] = -grad[ok] / length[ok, None]
+    return normals
+
+
+def smooth_projected(verts, faces, volume, level, iterations, spacing=(1.0, 1.0, 1.0), *,
+                     descent=True, normals=None, value_range=None):
+    """`iterations` rounds of umbrella smoothing, each projected back onto ``volume == level``.
+
+    verts (N, 3) in array-index order times spacing, faces (M, 3): any indexed triangle mesh
+    on this volume's level set.  Returns verts, faces (the same), normals, values like
+    marching_cubes.  `normals` are kept where the field is flat (default: none there).
+    """
+    sign = F32(1.0 if descent else -1.0)
+    field = np.asarray(volume, F32) * sign
+    lvl = F32(level) * sign
+    spacing = np.asarray(spacing, F32)
+    if value_range is None:
+        value_range = (float(volume.min()), float(volume.max()))
+    tolerance = F32(ACCEPT * (value_range[1] - value_range[0]))
+    x = (np.asarray(verts, F32) / spacing).astype(F32)
+    free = free_axes(x, field.shape)
+    starts, ends = half_edges(faces)
+    for _ in range(check_iterations(iterations)):
+        projected, on_level = project(field, lvl, umbrella(x, free, starts, ends), free, spacing, tolerance)
+        x = np.where(on_level[:, None], projected, x).astype(F32)
+    value, _ = trilinear(field, x)
+    fallback = np.zeros_like(x) if normals is None else normals
+    return (x * spacing).astype(F32), faces, field_normals(field, x, spacing, fallback), (value * sign).astype(F32)

@@ -1,0 +1,39 @@
+// Shared by the smoothing passes (app/smoothing.py; numpy mirror: app/reference_smooth.py).
+//
+// Positions are kept in index units (position / spacing) as vec4(x, free axes), where w holds
+// bits 1, 2, 4: the axes along which the vertex may move (0 where it lies on the volume's border).
+// Neighbour lists: vertex v's neighbours are neighbours[ends[v - 1] .. ends[v]) (ends[-1] = 0),
+// the far ends of its outgoing half-edges.  Positions and neighbour lists live in 2-D images
+// 2^IMAGE_SHIFT texels wide, item i at texel (i mod width, i / width): on llvmpipe an imageLoad
+// costs a fraction of an SSBO load (see mc_common.glsl), and the gather is most of an iteration.  UMBRELLA_WEIGHT, NEWTON_STEPS and BORDER are
+// #defines from app/reference_smooth.py.
+#include "mc_common.glsl"
+
+uniform uint u_vertex_count;
+
+layout(std430, binding = 2) buffer Ends { uint ends[]; };
+
+vec3 free_axes(float bits) {
+    uint b = uint(bits);
+    return vec3(uvec3(b & 1u, (b >> 1) & 1u, (b >> 2) & 1u));
+}
+
+ivec2 item_texel(uint i) { return ivec2(i & ((1u << IMAGE_SHIFT) - 1u), i >> IMAGE_SHIFT); }
+
+uint vertex_index() { return linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex; }
+
+// The trilinear interpolant of the (sign-adjusted) field at x (index units, inside the grid) and
+// its gradient in index units: returns vec4(gradient, value).
+vec4 trilinear(vec3 x) {
+    ivec3 c = clamp(ivec3(floor(x)), ivec3(0), u_dims - 2);
+    vec3 f = x - vec3(c);
+    float v000 = field_at(c), v001 = field_at(c + ivec3(0, 0, 1));
+    float v010 = field_at(c + ivec3(0, 1, 0)), v011 = field_at(c + ivec3(0, 1, 1));
+    float v100 = field_at(c + ivec3(1, 0, 0)), v101 = field_at(c + ivec3(1, 0, 1));
+    float v110 = field_at(c + ivec3(1, 1, 0)), v111 = field_at(c + ivec3(1, 1, 1));
+    float c00 = mix(v000, v001, f.z), c01 = mix(v010, v011, f.z);
+    float c10 = mix(v100, v101, f.z), c11 = mix(v110, v111, f.z);
+    float d0 = mix(c00, c01, f.y), d1 = mix(c10, c11, f.y);
+    float e0 = mix(v001 - v000, v011 - v010, f.y), e1 = mix(v101 - v100, v111 - v110, f.y);
+    return vec4(d1 - d0, mix(c01 - c00, c11 - c10, f.x), mix(e0, e1, f.x), mix(d0, d1, f.x));
+}
