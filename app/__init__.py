@@ -9,7 +9,7 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-__all__ = ["marching_cubes", "find_contours", "Extractor", "__version__"]
+__all__ = ["marching_cubes", "find_contours", "label_surfaces", "Extractor", "__version__"]
 
 
 def __getattr__(name):
@@ -20,6 +20,9 @@ def __getattr__(name):
     if name == "find_contours":
         from .contours import find_contours
         return find_contours
+    if name == "label_surfaces":
+        from .labels import label_surfaces
+        return label_surfaces
     if name == "Extractor":
         from .extractor import Extractor
         return Extractor
