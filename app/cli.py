@@ -30,6 +30,7 @@ other commands (each has --help):
   isoscope render VOLUME --out shot.png [--iso V] [--size WxH] [--azimuth A] [--elevation E] [--panel]
                 [--transparent]
   isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V]
+  isoscope export SEGMENTATION --labels --out seg.stl      one mesh per label: seg_label<N>.stl
   isoscope volumes          list the built-in volumes
 """
 
@@ -99,6 +100,9 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--panel", action="store_true", help="draw the imgui panel over the scene")
         parser.add_argument("--transparent", action="store_true",
                             help="a transparent background: an RGBA PNG, for slides and figures")
+        parser.add_argument("--labels", action="store_true",
+                            help="VOLUME is a label map (a segmentation): draw each non-zero label's surface "
+                                 "in its own colour")
     else:
         parser = OneLineParser(prog="isoscope export",
                                description="Extract the isosurface and write it as a mesh file: binary PLY, OBJ, "
@@ -114,6 +118,13 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--decimate", type=float, metavar="FRACTION",
                             help="keep about this fraction of the triangles (quadric decimation, 0 < F <= 1); "
                                  "prints how far the result strays from the level set")
+        parser.add_argument("--labels", action="store_true",
+                            help="VOLUME is a label map (a segmentation): one closed surface per non-zero label, "
+                                 "neighbours sharing their boundary vertices, written to STEM_label<N>.EXT "
+                                 "beside --out (e.g. seg.stl -> seg_label1.stl, seg_label2.stl)")
+        parser.add_argument("--one-file", action="store_true",
+                            help="with --labels: all labels in the one --out file (.ply or .glb), each vertex "
+                                 "in its label's colour")
     add_volume_arguments(parser)
     return parser
 
@@ -151,7 +162,23 @@ def run_viewer(args) -> int:
     return 0
 
 
+def _check_label_options(args, *options: str) -> None:
+    """--labels draws or writes every label's boundary: refuse the options that have no meaning there."""
+    for option in options:
+        if getattr(args, option.strip("-").replace("-", "_"), None) not in (None, False):
+            raise ValueError(f"{option} does not apply with --labels (each label's surface is its boundary); "
+                             f"leave out {option}" if args.labels else f"{option} needs --labels; add --labels")
+
+
 def run_render(args) -> int:
+    if args.labels:
+        _check_label_options(args, "--iso", "--panel")
+        from .viewer.label_scene import render_labels_png
+        volume = open_volume_from_args(args.volume, args, _progress)
+        path = render_labels_png(volume, args.out, size=args.size, azimuth=args.azimuth, elevation=args.elevation,
+                                 transparent=args.transparent)
+        print(f"wrote {path} ({args.size[0]}x{args.size[1]})")
+        return 0
     volume = open_volume_from_args(args.volume, args, _progress)
     iso = _checked_iso(volume, args.iso)
     from .viewer.headless import render_png
@@ -162,6 +189,9 @@ def run_render(args) -> int:
 
 
 def run_export(args) -> int:
+    if args.labels:
+        return _export_labels(args)
+    _check_label_options(args, "--one-file")
     from . import marching_cubes
     from .export import in_volume_space, mesh_format, write_mesh
     mesh_format(args.out)  # an unknown extension or fraction is refused before any work
@@ -177,6 +207,19 @@ def run_export(args) -> int:
     verts, faces, normals, space = in_volume_space(volume, verts, faces, normals, world=args.space == "world")
     path = write_mesh(args.out, verts, faces, normals)
     print(f"wrote {path}: {len(verts):,} vertices, {len(faces):,} triangles, in {space} coordinates")
+    return 0
+
+
+def _export_labels(args) -> int:
+    from .export import mesh_format
+    from .labels import write_label_meshes
+    _check_label_options(args, "--iso", "--decimate")
+    mesh_format(args.out)
+    volume = open_volume_from_args(args.volume, args, _progress)
+    written = write_label_meshes(volume, args.out, one_file=args.one_file, world=args.space == "world")
+    space = volume.world[1] if args.space == "world" and volume.world is not None else "index x spacing"
+    for path, n_vertices, n_triangles in written:
+        print(f"wrote {path}: {n_vertices:,} vertices, {n_triangles:,} triangles, in {space} coordinates")
     return 0
 
 

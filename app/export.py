@@ -30,8 +30,11 @@ def mesh_format(path) -> str:
     return FORMATS[suffix]
 
 
-def mesh_bytes(file_type: str, verts, faces, normals) -> bytes:
-    """The mesh encoded as `file_type` by trimesh."""
+COLOR_FORMATS = (".ply", ".glb")  # the formats here that carry a colour per vertex
+
+
+def mesh_bytes(file_type: str, verts, faces, normals, colors=None) -> bytes:
+    """The mesh encoded as `file_type` by trimesh; `colors`: (N, 4) uint8 RGBA per vertex, or None."""
     import trimesh
     verts = np.asarray(verts, np.float32).reshape(-1, 3)
     normals = np.asarray(normals, np.float32).reshape(-1, 3)
@@ -43,7 +46,8 @@ def mesh_bytes(file_type: str, verts, faces, normals) -> bytes:
         raise ValueError(f"{len(verts)} vertices but {len(normals)} normals; pass one normal per vertex")
     if len(faces) and (faces.min() < 0 or faces.max() >= len(verts)):
         raise ValueError(f"face indices must lie in [0, {len(verts)}); got {faces.min()}..{faces.max()}")
-    mesh = trimesh.Trimesh(vertices=verts, faces=faces, vertex_normals=normals, process=False, validate=False)
+    mesh = trimesh.Trimesh(vertices=verts, faces=faces, vertex_normals=normals, vertex_colors=colors,
+                           process=False, validate=False)
     options = {"ply": {"encoding": "binary", "vertex_normal": True}, "obj": {"include_normals": True},
                "glb": {"include_normals": True}}.get(file_type, {})
     data = mesh.export(file_type=file_type, **options)
@@ -76,7 +80,7 @@ def in_volume_space(volume, verts, faces, normals, world: bool = True):
     return verts, faces, normals, "index x spacing"
 
 
-def write_mesh(path, verts, faces, normals) -> Path:
+def write_mesh(path, verts, faces, normals, colors=None) -> Path:
     """Write the mesh to `path` in the format of its extension, atomically; returns the path."""
-    data = mesh_bytes(mesh_format(path), verts, faces, normals)
+    data = mesh_bytes(mesh_format(path), verts, faces, normals, colors)
     return write_atomically(path, lambda out: out.write(data))

@@ -22,6 +22,8 @@ across, 0.6% at 20, 2.4% at 10 (zmesh, with another table: 1.8% at 10).
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from . import validation
@@ -112,10 +114,59 @@ def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), backend="auto"):
     return surfaces
 
 
+def labels_of(volume) -> np.ndarray:
+    """A loaded `Volume`'s data as labels: integers as they are, floats only when every value is whole
+    (readers such as nibabel hand back scaled segmentations as floats)."""
+    data = volume.data
+    if data.dtype.kind == "f":
+        fractional = data != np.round(data)
+        if fractional.any():
+            first = tuple(int(i) for i in np.argwhere(fractional)[0])
+            raise ValueError(f"{volume.name} is not a label map: it has fractional values (e.g. {data[first]:g} at "
+                             f"index {first}); leave out --labels to draw an isosurface")
+        data = data.astype(np.int64)
+    return data
+
+
 def label_colors(count: int) -> np.ndarray:
     """(count, 3) float RGB in 0..1, distinct colours for `count` labels, from the cmap library:
-    the qualitative 'tab20' map for up to 20 labels, 'glasbey' (255 distinct colours) beyond,
+    the qualitative 'tab20' map for up to 20 labels (its ten strong hues first, then their light
+    partners, so neighbouring label numbers differ in hue), 'glasbey' (255 distinct colours) beyond,
     then round again."""
     from cmap import Colormap
-    table = Colormap("tab20").lut()[:, :3] if count <= 20 else Colormap("glasbey").lut()[1:, :3]  # skip white
+    if count <= 20:
+        table = Colormap("tab20").lut()[np.r_[0:20:2, 1:20:2], :3]
+    else:
+        table = Colormap("glasbey").lut()[1:, :3]  # glasbey starts with white: skip it
     return table[np.arange(count) % len(table)]
+
+
+def label_file(path, label) -> Path:
+    """Where `export --labels` writes one label's mesh: `stem_label<N>.ext` beside `path`."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}_label{label}{path.suffix}")
+
+
+def write_label_meshes(volume, path, *, one_file: bool = False, world: bool = True) -> list[tuple[Path, int, int]]:
+    """Write `volume`'s label surfaces: a file per label (`label_file`), or with `one_file` one PLY/GLB
+    holding them all, each vertex in its label's colour.  Returns (path, vertices, triangles) per file.
+    Each file is written atomically; the mesh is in the volume's world space where it has one."""
+    from .export import COLOR_FORMATS, in_volume_space, mesh_format, write_mesh
+    mesh_format(path)
+    if one_file and Path(path).suffix.lower() not in COLOR_FORMATS:
+        raise ValueError(f"--one-file needs a format that carries vertex colours ({', '.join(COLOR_FORMATS)}); "
+                         f"rename {Path(path).name}, or leave out --one-file for a file per label")
+    surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing)
+    if not surfaces:
+        raise ValueError(f"{volume.name} has no non-zero labels, so no surface to write; leave out --labels "
+                         "to export an isosurface")
+    meshes = {label: in_volume_space(volume, *mesh, world=world)[:3] for label, mesh in surfaces.items()}
+    if not one_file:
+        return [(write_mesh(label_file(path, label), *mesh), len(mesh[0]), len(mesh[1]))
+                for label, mesh in meshes.items()]
+    colors = np.round(label_colors(len(meshes)) * 255).astype(np.uint8)
+    starts = np.cumsum([0] + [len(verts) for verts, _, _ in meshes.values()])
+    verts, faces, normals = (np.concatenate(parts) for parts in zip(*meshes.values()))
+    faces = np.concatenate([mesh[1] + start for mesh, start in zip(meshes.values(), starts)])
+    rgba = np.repeat(np.column_stack([colors, np.full(len(colors), 255, np.uint8)]), np.diff(starts), axis=0)
+    return [(write_mesh(path, verts, faces, normals, rgba), len(verts), len(faces))]

@@ -3,8 +3,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import trimesh
+from PIL import Image
 
 from isoscope import label_surfaces
+from isoscope.cli import main
 from isoscope.labels import label_colors
 
 from mesh_checks import assert_closed_manifold, signed_volume
@@ -129,3 +132,72 @@ def test_label_colours_are_distinct():
         colors = label_colors(count)
         assert colors.shape == (count, 3)
         assert len(np.unique(np.round(colors, 3), axis=0)) == count
+
+
+# -- the command line: isoscope render/export --labels -------------------------------------------
+
+@pytest.fixture
+def segmentation(tmp_path):
+    """Two touching balls (labels 1 and 2) and a label-4 ball apart, saved as an .npy file."""
+    labels = np.zeros((36, 36, 36), np.uint8)
+    labels[ball(labels.shape, (11, 12, 12), 7)] = 1
+    labels[ball(labels.shape, (24, 12, 12), 7)] = 2
+    labels[ball(labels.shape, (18, 26, 24), 6)] = 4
+    path = tmp_path / "seg.npy"
+    np.save(path, labels)
+    return path, labels
+
+
+def test_export_writes_one_closed_mesh_per_label(tmp_path, segmentation, capsys):
+    path, labels = segmentation
+    assert main(["export", str(path), "--labels", "--out", str(tmp_path / "seg.stl")]) == 0
+    assert "seg_label4.stl" in capsys.readouterr().out
+    meshes = {n: trimesh.load(tmp_path / f"seg_label{n}.stl", process=True) for n in (1, 2, 4)}
+    assert not (tmp_path / "seg.stl").exists() and not list(tmp_path.glob("*.partial"))
+    for n, mesh in meshes.items():
+        assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
+        assert abs(mesh.volume / np.count_nonzero(labels == n) - 1) < 0.02
+    shared = set(map(tuple, meshes[1].vertices)) & set(map(tuple, meshes[2].vertices))
+    assert len(shared) == touching_edges(labels, 1, 2) > 0
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".glb"])
+def test_export_one_file_colours_each_vertex_by_its_label(tmp_path, segmentation, suffix):
+    path, labels = segmentation
+    out = tmp_path / f"seg{suffix}"
+    assert main(["export", str(path), "--labels", "--one-file", "--out", str(out)]) == 0
+    mesh = trimesh.load(out, force="mesh", process=False)
+    counts = {n: len(surface[0]) for n, surface in label_surfaces(labels).items()}
+    assert len(mesh.vertices) == sum(counts.values())
+    colors, per_color = np.unique(mesh.visual.vertex_colors[:, :3], axis=0, return_counts=True)
+    assert sorted(per_color) == sorted(counts.values())
+    expected = np.round(label_colors(3) * 255)
+    assert {tuple(c) for c in colors} == {tuple(c) for c in expected.astype(np.uint8)}
+
+
+def test_render_draws_each_label_in_its_colour(tmp_path, segmentation):
+    path, _ = segmentation
+    out = tmp_path / "seg.png"
+    assert main(["render", str(path), "--labels", "--out", str(out), "--size", "160x120"]) == 0
+    pixels = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    r, g, b = pixels[..., 0], pixels[..., 1], pixels[..., 2]
+    # The labels in order (1, 2, 4) get tab20's blue, orange and green: each hue covers some pixels.
+    assert np.count_nonzero(b > r + 60) > 100
+    assert np.count_nonzero((r > b + 100) & (g > b + 40)) > 100   # orange
+    assert np.count_nonzero((g > r + 50) & (g > b + 50)) > 100  # green
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["export", "{seg}", "--labels", "--one-file", "--out", "{tmp}/seg.stl"], "--one-file needs a format"),
+    (["export", "{seg}", "--one-file", "--out", "{tmp}/seg.ply"], "--one-file needs --labels"),
+    (["export", "{seg}", "--labels", "--iso", "1", "--out", "{tmp}/seg.ply"], "--iso does not apply"),
+    (["export", "{seg}", "--labels", "--decimate", "0.5", "--out", "{tmp}/seg.ply"], "--decimate does not apply"),
+    (["render", "{seg}", "--labels", "--panel", "--out", "{tmp}/seg.png"], "--panel does not apply"),
+    (["export", "sphere", "--resolution", "16", "--labels", "--out", "{tmp}/s.ply"], "not a label map"),
+])
+def test_label_options_that_do_not_fit_are_one_line_errors(tmp_path, segmentation, capsys, argv, words):
+    argv = [a.format(seg=segmentation[0], tmp=tmp_path) for a in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert words in err and err.count("\n") == 1
+    assert not list(tmp_path.glob("seg*.ply")) and not list(tmp_path.glob("*.png"))

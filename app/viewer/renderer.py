@@ -63,10 +63,11 @@ class SceneRenderer:
                 vao.release()
 
     def draw(self, meshes: Sequence[GpuMesh], camera, viewport: tuple[int, int, int, int], style: SurfaceStyle,
-             covered_left: int = 0) -> None:
+             covered_left: int = 0, colors: Sequence | None = None) -> None:
         """Clear `viewport` of the bound framebuffer and draw the box and `meshes` into it.
 
         `covered_left`: pixels at the left hidden by the panel; the scene centres in the rest.
+        `colors`: an RGB front colour per mesh (label maps); default the style's front colour.
         """
         ctx = self.ctx
         # imgui's C++ renderer changes GL state behind moderngl's back: set all we rely on.
@@ -94,17 +95,18 @@ class SceneRenderer:
             self.box_program["u_opacity"].value = 1.0
             self.box_vao.render(moderngl.LINES)
 
+        front = dict(zip(map(id, meshes), colors)) if colors is not None else {}
         meshes = [mesh for mesh in meshes if mesh.n_triangles]
         self._release_vaos(keep={(m.vertex_buffer, m.index_buffer) for m in meshes})
         if not meshes:
             return
-        self.mesh_program["u_front_color"].value = style.front_color
         self.mesh_program["u_back_color"].value = style.back_color
         self.mesh_program["u_lighting"].value = style.lighting
         if style.wireframe:
             # Push the filled surface back a little so its own edges win the depth test.
             ctx.polygon_offset = (1.0, 1.0)
         for mesh in meshes:
+            self.mesh_program["u_front_color"].value = tuple(front.get(id(mesh), style.front_color))
             self._vaos_for(mesh)[0].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
         if style.wireframe:
             ctx.polygon_offset = (0.0, 0.0)
