@@ -9,12 +9,13 @@ that level every vertex lies at the midpoint of a grid edge whose two ends diffe
 labels at its ends: where labels A and B touch, A's surface and B's surface put a vertex at the
 midpoint of the same edges, so they share those vertices.  Positions are rebuilt from the
 grid edge (twice the index is an integer) with the same arithmetic for every label, so shared
-vertices are bit-identical, not merely close.
+vertices are bit-identical, not merely close.  This runs on our pipeline rather than a
+separate multi-label mesher, so the GPU and numpy give the same meshes and share the case table.
 
 Each label is extracted from its bounding box grown by one voxel of outside on every side,
 so the surface closes at the volume's border too, and only the voxels near a label are sent
-to the extractor.  Finding the labels and their boxes is numpy (a bincount per plane): one
-pass over the volume, with no scipy at run time.
+to the extractor.  The labels and their boxes are found in one pass by scipy's find_objects
+(numpy alone needed a bincount per plane per axis: 6x slower, and longer code).
 
 Marching cubes at 0.5 cuts the corners of the voxel staircase, so a label's enclosed volume is
 a little below its voxel count times the voxel volume: by about 1.6% for a ball 11 voxels
@@ -28,9 +29,9 @@ import numpy as np
 
 from . import validation
 
-# Labels with values spread over at most this range are counted with a lookup table; wider ones
-# (e.g. 32-bit ids) are found by sorting.
-LUT_RANGE = 1 << 16
+# Labels from 1 up to this are their own ids for scipy's find_objects; others (negative, or
+# wide such as 32-bit ids) are numbered 1.. first, by sorting.
+DIRECT_LABELS = 1 << 16
 
 
 def check_labels(labels) -> np.ndarray:
@@ -52,38 +53,20 @@ def check_labels(labels) -> np.ndarray:
     return labels
 
 
-def label_ids(labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(values, ids): the distinct non-zero label values, sorted, and an array of labels' shape
-    holding 0 for background and k + 1 for values[k]."""
+def label_boxes(labels: np.ndarray) -> tuple[np.ndarray, list[tuple[int, int, tuple[slice, ...]]]]:
+    """(ids, [(label, its id in ids, its index box as slices), ...] in label order) for every non-zero
+    label, the boxes found in one pass (scipy's find_objects).  `ids` is `labels` itself when its
+    labels are small and positive; otherwise the labels numbered 1, 2, ... in order."""
+    from scipy.ndimage import find_objects
     low, high = int(labels.min()), int(labels.max())
-    if high - low < LUT_RANGE:
-        shifted = labels.astype(np.int64) - low if low else labels
-        present = np.bincount(shifted.ravel(), minlength=high - low + 1) > 0
-        values = np.flatnonzero(present) + low
-        values = values[values != 0]
-        lookup = np.zeros(high - low + 1, np.int32)
-        lookup[values - low] = np.arange(1, len(values) + 1)
-        return values, lookup[shifted]
+    if low >= 0 and high <= DIRECT_LABELS:
+        boxes = find_objects(labels, max_label=high) if high else []
+        return labels, [(k + 1, k + 1, box) for k, box in enumerate(boxes) if box is not None]
     values = np.unique(labels)
     values = values[values != 0]
     ids = np.searchsorted(values, labels).astype(np.int32) + 1
     ids[labels == 0] = 0
-    return values, ids
-
-
-def label_boxes(ids: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
-    """(lower, upper) (count, 3) int arrays: the index box holding each id 1..count, upper exclusive."""
-    n0, n1, n2 = ids.shape
-    present = [np.zeros((n, count + 1), bool) for n in ids.shape]  # per axis: plane x id
-    rows = (np.arange(n1) * (count + 1))[:, None]
-    columns = (np.arange(n2) * (count + 1))[None, :]
-    for i, plane in enumerate(ids):  # a plane at a time: the temporaries stay small
-        present[0][i] = np.bincount(plane.ravel(), minlength=count + 1) > 0
-        present[1] |= np.bincount((plane + rows).ravel(), minlength=n1 * (count + 1)).reshape(n1, -1) > 0
-        present[2] |= np.bincount((plane + columns).ravel(), minlength=n2 * (count + 1)).reshape(n2, -1) > 0
-    lower = np.stack([there[:, 1:].argmax(axis=0) for there in present], axis=1)
-    upper = np.stack([len(there) - there[::-1, 1:].argmax(axis=0) for there in present], axis=1)
-    return lower, upper
+    return ids, [(value.item(), k + 1, box) for k, (value, box) in enumerate(zip(values, find_objects(ids)))]
 
 
 def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), backend="auto"):
@@ -95,22 +78,20 @@ def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), backend="auto"):
     array-index order times `spacing`, `faces` (M, 3) int32, `normals` (N, 3) float32.
     `backend` as for `marching_cubes` ("auto", "gpu", "cpu"); both give the same meshes.
     """
-    from .api import marching_cubes
     labels = check_labels(labels)
+    extract = _extractor(backend)
     spacing = np.asarray(validation.as_spacing(spacing), np.float64)
-    values, ids = label_ids(labels)
-    lower, upper = label_boxes(ids, len(values))
+    ids, boxes = label_boxes(labels)
     surfaces = {}
-    for k, value in enumerate(values):
-        box = tuple(slice(a, b) for a, b in zip(lower[k], upper[k]))
-        indicator = np.pad((ids[box] == k + 1).view(np.uint8), 1)
-        local, faces, normals, _ = marching_cubes(indicator, 0.5, backend=backend)
+    for value, key, box in boxes:
+        indicator = np.pad((ids[box] == key).view(np.uint8), 1)
+        local, faces, normals = extract(indicator)
         # Twice a midpoint's index is a whole number: exact in float32 at spacing 1.
-        doubled = np.rint(local * 2).astype(np.int64) + 2 * (lower[k] - 1)
+        doubled = np.rint(local * 2).astype(np.int64) + 2 * (np.array([b.start for b in box]) - 1)
         verts = (doubled * (spacing / 2)).astype(np.float32)
         normals = normals / spacing  # a gradient in index units, into physical units
         normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-        surfaces[value.item()] = (verts, faces, normals.astype(np.float32))
+        surfaces[value] = (verts, faces, normals.astype(np.float32))
     return surfaces
 
 
@@ -126,6 +107,26 @@ def labels_of(volume) -> np.ndarray:
                              f"index {first}); leave out --labels to draw an isosurface")
         data = data.astype(np.int64)
     return data
+
+
+def _extractor(backend: str):
+    """indicator -> (verts, faces, normals) at level 0.5: one GL context found once for all labels
+    (asking for the current context costs a few ms each time), else the numpy reference."""
+    from .api import BACKENDS
+    from .gl_context import current_or_standalone, gl_available
+    if backend not in BACKENDS:
+        raise ValueError(f"backend {backend!r} is not one of {BACKENDS}")
+    if backend == "cpu" or (backend == "auto" and not gl_available()):
+        from .reference import marching_cubes_reference
+        return lambda indicator: marching_cubes_reference(indicator.astype(np.float32), 0.5)[:3]
+    from .extractor import Extractor
+    ctx = current_or_standalone()
+
+    def extract(indicator):
+        with Extractor(indicator, ctx=ctx) as extractor:
+            extractor.extract(0.5)
+            return extractor.read_mesh()[:3]
+    return extract
 
 
 def label_colors(count: int) -> np.ndarray:

@@ -27,6 +27,21 @@ def three_labels():
     return labels
 
 
+def assert_vertex_manifold(faces):
+    """Around every vertex its triangles form one fan that closes (a disc, not two cones touching)."""
+    for vertex in np.unique(faces):
+        around = faces[(faces == vertex).any(axis=1)]
+        # Each triangle's edge opposite the vertex, in winding order: they must chain into one cycle.
+        opposite = [tuple(np.roll(t, -list(t).index(vertex))[1:]) for t in around]
+        successor = dict(opposite)
+        assert len(successor) == len(opposite), vertex
+        start, steps = opposite[0][0], 1
+        current = successor[start]
+        while current != start:
+            current, steps = successor[current], steps + 1
+        assert steps == len(opposite), vertex
+
+
 def touching_edges(labels, a, b):
     """Grid edges with label a at one end and b at the other: counted from the array alone."""
     count = 0
@@ -45,6 +60,7 @@ def test_each_label_is_closed_manifold_and_wound_outward(backend):
     for label, (verts, faces, normals) in surfaces.items():
         assert verts.dtype == np.float32 and faces.dtype == np.int32 and normals.shape == verts.shape
         assert_closed_manifold(faces)
+        assert_vertex_manifold(faces)
         assert len(np.unique(faces)) == len(verts)
         assert signed_volume(verts, faces) > 0, label  # counter-clockwise from outside
         # Normals point out: along the face normals around them, and away from the label's voxels.
