@@ -205,7 +205,7 @@ def run_export(args) -> int:
     if args.decimate is not None:
         verts, faces, normals = _decimated(volume, iso, verts, faces, args.decimate)
     verts, faces, normals, space = in_volume_space(volume, verts, faces, normals, world=args.space == "world")
-    path = write_mesh(args.out, verts, faces, normals)
+    path = write_mesh(args.out, verts, faces, normals, space=space)
     print(f"wrote {path}: {len(verts):,} vertices, {len(faces):,} triangles, in {space} coordinates")
     return 0
 

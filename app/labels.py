@@ -161,13 +161,15 @@ def write_label_meshes(volume, path, *, one_file: bool = False, world: bool = Tr
     if not surfaces:
         raise ValueError(f"{volume.name} has no non-zero labels, so no surface to write; leave out --labels "
                          "to export an isosurface")
-    meshes = {label: in_volume_space(volume, *mesh, world=world)[:3] for label, mesh in surfaces.items()}
+    placed = {label: in_volume_space(volume, *mesh, world=world) for label, mesh in surfaces.items()}
+    meshes = {label: mesh[:3] for label, mesh in placed.items()}
+    space = next(iter(placed.values()))[3]
     if not one_file:
-        return [(write_mesh(label_file(path, label), *mesh), len(mesh[0]), len(mesh[1]))
+        return [(write_mesh(label_file(path, label), *mesh, space=space), len(mesh[0]), len(mesh[1]))
                 for label, mesh in meshes.items()]
     colors = np.round(label_colors(len(meshes)) * 255).astype(np.uint8)
     starts = np.cumsum([0] + [len(verts) for verts, _, _ in meshes.values()])
     verts, faces, normals = (np.concatenate(parts) for parts in zip(*meshes.values()))
     faces = np.concatenate([mesh[1] + start for mesh, start in zip(meshes.values(), starts)])
     rgba = np.repeat(np.column_stack([colors, np.full(len(colors), 255, np.uint8)]), np.diff(starts), axis=0)
-    return [(write_mesh(path, verts, faces, normals, rgba), len(verts), len(faces))]
+    return [(write_mesh(path, verts, faces, normals, rgba, space=space), len(verts), len(faces))]

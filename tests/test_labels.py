@@ -217,3 +217,27 @@ def test_label_options_that_do_not_fit_are_one_line_errors(tmp_path, segmentatio
     err = capsys.readouterr().err
     assert words in err and err.count("\n") == 1
     assert not list(tmp_path.glob("seg*.ply")) and not list(tmp_path.glob("*.png"))
+
+
+def test_label_files_name_their_space_and_a_nifti_map_lands_in_world_space(tmp_path, capsys):
+    import nibabel
+    labels = np.zeros((20, 20, 20), np.int16)
+    labels[ball(labels.shape, (9.5, 9.5, 9.5), 6)] = 3
+    affine = np.diag([2.0, 2.0, 2.0, 1.0])
+    affine[:3, 3] = (-10, 20, 30)
+    nibabel.save(nibabel.Nifti1Image(labels, affine), tmp_path / "seg.nii.gz")
+    for suffix in (".ply", ".obj"):
+        out = tmp_path / f"mesh{suffix}"
+        assert main(["export", str(tmp_path / "seg.nii.gz"), "--labels", "--out", str(out)]) == 0
+        written = tmp_path / f"mesh_label3{suffix}"
+        assert b"isoscope mesh; vertex coordinates: RAS millimetres (world)" in written.read_bytes()[:200]
+        mesh = trimesh.load(written, process=True)
+        assert mesh.is_watertight and mesh.volume > 0
+        assert abs(mesh.volume / (np.count_nonzero(labels == 3) * 8) - 1) < 0.02
+        np.testing.assert_allclose(mesh.vertices.mean(axis=0), (9, 39, 49), atol=0.5)
+    assert main(["export", str(tmp_path / "seg.nii.gz"), "--labels", "--space", "voxel",
+                 "--out", str(tmp_path / "v.ply")]) == 0
+    assert b"vertex coordinates: index x spacing\n" in (tmp_path / "v_label3.ply").read_bytes()[:200]
+    # The isosurface export names its space too.
+    assert main(["export", str(tmp_path / "seg.nii.gz"), "--iso", "1", "--out", str(tmp_path / "iso.obj")]) == 0
+    assert (tmp_path / "iso.obj").read_text().startswith("# isoscope mesh; vertex coordinates: RAS millimetres")
