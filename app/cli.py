@@ -72,6 +72,9 @@ def viewer_parser() -> argparse.ArgumentParser:
                         help="window size in screen units (default 1280x800)")
     parser.add_argument("--screenshot-dir", default=".", metavar="DIR",
                         help="where key s saves PNGs (default: the current directory)")
+    parser.add_argument("--screenshot-scale", type=int, default=1, choices=range(1, 9), metavar="N",
+                        help="key s saves the scene at N times the window's pixels, 1-8 (default 1: the "
+                             "window as shown, panel included; above 1 the scene alone, for print)")
     parser.add_argument("--frames", type=int, metavar="N",
                         help="quit after drawing N frames (scripts, benchmarks, smoke tests)")
     parser.add_argument("--msaa", type=int, choices=(0, 2, 4, 8), metavar="N",
@@ -154,7 +157,8 @@ def run_viewer(args) -> int:
     iso = _checked_iso(volume, args.iso)
     from .viewer.window import ViewerWindow, WindowUnavailable
     try:
-        window = ViewerWindow(volume, iso, size=args.size, screenshot_dir=args.screenshot_dir, msaa=args.msaa)
+        window = ViewerWindow(volume, iso, size=args.size, screenshot_dir=args.screenshot_dir, msaa=args.msaa,
+                              screenshot_scale=args.screenshot_scale)
     except WindowUnavailable as exc:
         print(f"isoscope: {exc}", file=sys.stderr)
         return EXIT_NO_GL
