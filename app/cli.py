@@ -215,10 +215,9 @@ def run_export(args) -> int:
 
 
 def _export_labels(args) -> int:
-    from .export import mesh_format
-    from .labels import write_label_meshes
+    from .labels import check_label_output, write_label_meshes
     _check_label_options(args, "--iso", "--decimate")
-    mesh_format(args.out)
+    check_label_output(args.out, args.one_file)
     volume = open_volume_from_args(args.volume, args, _progress)
     written = write_label_meshes(volume, args.out, one_file=args.one_file, world=args.space == "world")
     space = volume.world[1] if args.space == "world" and volume.world is not None else "index x spacing"

@@ -148,15 +148,21 @@ def label_file(path, label) -> Path:
     return path.with_name(f"{path.stem}_label{label}{path.suffix}")
 
 
-def write_label_meshes(volume, path, *, one_file: bool = False, world: bool = True) -> list[tuple[Path, int, int]]:
-    """Write `volume`'s label surfaces: a file per label (`label_file`), or with `one_file` one PLY/GLB
-    holding them all, each vertex in its label's colour.  Returns (path, vertices, triangles) per file.
-    Each file is written atomically; the mesh is in the volume's world space where it has one."""
-    from .export import COLOR_FORMATS, in_volume_space, mesh_format, write_mesh
+def check_label_output(path, one_file: bool) -> None:
+    """A one-line ValueError, before any work, for a name `write_label_meshes` cannot write."""
+    from .export import COLOR_FORMATS, mesh_format
     mesh_format(path)
     if one_file and Path(path).suffix.lower() not in COLOR_FORMATS:
         raise ValueError(f"--one-file needs a format that carries vertex colours ({', '.join(COLOR_FORMATS)}); "
                          f"rename {Path(path).name}, or leave out --one-file for a file per label")
+
+
+def write_label_meshes(volume, path, *, one_file: bool = False, world: bool = True) -> list[tuple[Path, int, int]]:
+    """Write `volume`'s label surfaces: a file per label (`label_file`), or with `one_file` one PLY/GLB
+    holding them all, each vertex in its label's colour.  Returns (path, vertices, triangles) per file.
+    Each file is written atomically; the mesh is in the volume's world space where it has one."""
+    from .export import in_volume_space, write_mesh
+    check_label_output(path, one_file)
     surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing)
     if not surfaces:
         raise ValueError(f"{volume.name} has no non-zero labels, so no surface to write; leave out --labels "
