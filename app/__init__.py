@@ -9,7 +9,8 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-__all__ = ["marching_cubes", "marching_tetrahedra", "smooth_mesh", "find_contours", "Extractor", "__version__"]
+__all__ = ["marching_cubes", "marching_tetrahedra", "smooth_mesh", "find_contours", "label_surfaces", "Extractor",
+           "__version__"]
 
 
 def __getattr__(name):
@@ -26,6 +27,9 @@ def __getattr__(name):
     if name == "find_contours":
         from .contours import find_contours
         return find_contours
+    if name == "label_surfaces":
+        from .labels import label_surfaces
+        return label_surfaces
     if name == "Extractor":
         from .extractor import Extractor
         return Extractor

@@ -33,6 +33,7 @@ other commands (each has --help):
                 [--slice AXIS=INDEX ...] [--clip AXIS=POS[:+|-]] [--window W] [--level L] [--colormap NAME]
                 [--tetrahedra] [--smooth N]
   isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V [--iso V2 ...]] [--tetrahedra] [--smooth N]
+  isoscope export SEGMENTATION --labels --out seg.stl      one mesh per label: seg_label<N>.stl
   isoscope volumes          list the built-in volumes
 """
 
@@ -122,6 +123,9 @@ def viewer_parser() -> argparse.ArgumentParser:
                         help="window size in screen units (default 1280x800)")
     parser.add_argument("--screenshot-dir", default=".", metavar="DIR",
                         help="where key s saves PNGs (default: the current directory)")
+    parser.add_argument("--screenshot-scale", type=int, default=1, choices=range(1, 9), metavar="N",
+                        help="key s saves the scene at N times the window's pixels, 1-8 (default 1: the "
+                             "window as shown, panel included; above 1 the scene alone, for print)")
     parser.add_argument("--frames", type=int, metavar="N",
                         help="quit after drawing N frames (scripts, benchmarks, smoke tests)")
     parser.add_argument("--msaa", type=int, choices=(0, 2, 4, 8), metavar="N",
@@ -155,6 +159,9 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         add_slice_arguments(parser)
         _add_tetrahedra(parser)
         _add_smooth(parser)
+        parser.add_argument("--labels", action="store_true",
+                            help="VOLUME is a label map (a segmentation): draw each non-zero label's surface "
+                                 "in its own colour")
     else:
         parser = OneLineParser(prog="isoscope export",
                                description="Extract the isosurface and write it as a mesh file: binary PLY, OBJ, "
@@ -173,6 +180,13 @@ def command_parser(command: str) -> argparse.ArgumentParser:
                                  "prints how far the result strays from the level set")
         _add_tetrahedra(parser)
         _add_smooth(parser)
+        parser.add_argument("--labels", action="store_true",
+                            help="VOLUME is a label map (a segmentation): one closed surface per non-zero label, "
+                                 "neighbours sharing their boundary vertices, written to STEM_label<N>.EXT "
+                                 "beside --out (e.g. seg.stl -> seg_label1.stl, seg_label2.stl)")
+        parser.add_argument("--one-file", action="store_true",
+                            help="with --labels: all labels in the one --out file (.ply or .glb), each vertex "
+                                 "in its label's colour")
     add_volume_arguments(parser)
     return parser
 
@@ -222,7 +236,8 @@ def run_viewer(args) -> int:
     iso = _checked_iso(volume, args.iso)
     from .viewer.window import ViewerWindow, WindowUnavailable
     try:
-        window = ViewerWindow(volume, iso, size=args.size, screenshot_dir=args.screenshot_dir, msaa=args.msaa)
+        window = ViewerWindow(volume, iso, size=args.size, screenshot_dir=args.screenshot_dir, msaa=args.msaa,
+                              screenshot_scale=args.screenshot_scale)
     except WindowUnavailable as exc:
         print(f"isoscope: {exc}", file=sys.stderr)
         return EXIT_NO_GL
@@ -235,7 +250,23 @@ def run_viewer(args) -> int:
     return 0
 
 
+def _check_label_options(args, *options: str) -> None:
+    """--labels draws or writes every label's boundary: refuse the options that have no meaning there."""
+    for option in options:
+        if getattr(args, option.strip("-").replace("-", "_"), None) not in (None, False):
+            raise ValueError(f"{option} does not apply with --labels (each label's surface is its boundary); "
+                             f"leave out {option}" if args.labels else f"{option} needs --labels; add --labels")
+
+
 def run_render(args) -> int:
+    if args.labels:
+        _check_label_options(args, "--iso", "--panel")
+        from .viewer.label_scene import render_labels_png
+        volume = open_volume_from_args(args.volume, args, _progress)
+        path = render_labels_png(volume, args.out, size=args.size, azimuth=args.azimuth, elevation=args.elevation,
+                                 transparent=args.transparent)
+        print(f"wrote {path} ({args.size[0]}x{args.size[1]})")
+        return 0
     from .viewer.colorby import colormap_lut
     if args.color_by_map:
         colormap_lut(args.color_by_map)  # an unknown map is refused before any work
@@ -253,6 +284,9 @@ def run_render(args) -> int:
 
 
 def run_export(args) -> int:
+    if args.labels:
+        return _export_labels(args)
+    _check_label_options(args, "--one-file")
     from . import marching_cubes, marching_tetrahedra
     from .export import in_volume_space, mesh_format, write_mesh
     mesh_format(args.out)  # an unknown extension or fraction is refused before any work
@@ -269,8 +303,20 @@ def run_export(args) -> int:
             verts, faces, normals = _decimated(volume, iso, verts, faces, args.decimate)
         verts, faces, normals, space = in_volume_space(volume, verts, faces, normals, world=args.space == "world")
         out = args.out if len(isos) == 1 else level_path(args.out, iso)
-        path = write_mesh(out, verts, faces, normals)
+        path = write_mesh(out, verts, faces, normals, space=space)
         print(f"wrote {path}: {len(verts):,} vertices, {len(faces):,} triangles, in {space} coordinates")
+    return 0
+
+
+def _export_labels(args) -> int:
+    from .labels import check_label_output, write_label_meshes
+    _check_label_options(args, "--iso", "--decimate")
+    check_label_output(args.out, args.one_file)
+    volume = open_volume_from_args(args.volume, args, _progress)
+    written = write_label_meshes(volume, args.out, one_file=args.one_file, world=args.space == "world")
+    space = volume.world[1] if args.space == "world" and volume.world is not None else "index x spacing"
+    for path, n_vertices, n_triangles in written:
+        print(f"wrote {path}: {n_vertices:,} vertices, {n_triangles:,} triangles, in {space} coordinates")
     return 0
 
 

@@ -30,8 +30,18 @@ def mesh_format(path) -> str:
     return FORMATS[suffix]
 
 
-def mesh_bytes(file_type: str, verts, faces, normals) -> bytes:
-    """The mesh encoded as `file_type` by trimesh."""
+COLOR_FORMATS = (".ply", ".glb")  # the formats here that carry a colour per vertex
+
+
+def space_comment(space: str) -> str:
+    """The line that names a file's coordinate space (`in_volume_space`'s name for it)."""
+    unit = " millimetres (world)" if space in ("RAS", "LPS") else ""
+    return f"isoscope mesh; vertex coordinates: {space}{unit}"
+
+
+def mesh_bytes(file_type: str, verts, faces, normals, colors=None, comment: str | None = None) -> bytes:
+    """The mesh encoded as `file_type` by trimesh; `colors`: (N, 4) uint8 RGBA per vertex, or None;
+    `comment`: a line for the header of the formats that have comments (PLY, OBJ)."""
     import trimesh
     verts = np.asarray(verts, np.float32).reshape(-1, 3)
     normals = np.asarray(normals, np.float32).reshape(-1, 3)
@@ -43,11 +53,18 @@ def mesh_bytes(file_type: str, verts, faces, normals) -> bytes:
         raise ValueError(f"{len(verts)} vertices but {len(normals)} normals; pass one normal per vertex")
     if len(faces) and (faces.min() < 0 or faces.max() >= len(verts)):
         raise ValueError(f"face indices must lie in [0, {len(verts)}); got {faces.min()}..{faces.max()}")
-    mesh = trimesh.Trimesh(vertices=verts, faces=faces, vertex_normals=normals, process=False, validate=False)
+    mesh = trimesh.Trimesh(vertices=verts, faces=faces, vertex_normals=normals, vertex_colors=colors,
+                           process=False, validate=False)
     options = {"ply": {"encoding": "binary", "vertex_normal": True}, "obj": {"include_normals": True},
                "glb": {"include_normals": True}}.get(file_type, {})
+    if comment and file_type == "obj":
+        options["header"] = comment
     data = mesh.export(file_type=file_type, **options)
-    return data.encode() if isinstance(data, str) else data
+    data = data.encode() if isinstance(data, str) else data
+    if comment and file_type == "ply":  # a comment line may stand anywhere in the header: after `format`
+        end_of_format = data.index(b"\n", data.index(b"\nformat ") + 1) + 1
+        data = data[:end_of_format] + f"comment {comment}\n".encode("ascii") + data[end_of_format:]
+    return data
 
 
 def to_world(verts, faces, normals, spacing, index_to_world: np.ndarray):
@@ -76,7 +93,8 @@ def in_volume_space(volume, verts, faces, normals, world: bool = True):
     return verts, faces, normals, "index x spacing"
 
 
-def write_mesh(path, verts, faces, normals) -> Path:
-    """Write the mesh to `path` in the format of its extension, atomically; returns the path."""
-    data = mesh_bytes(mesh_format(path), verts, faces, normals)
+def write_mesh(path, verts, faces, normals, colors=None, space: str | None = None) -> Path:
+    """Write the mesh to `path` in the format of its extension, atomically; returns the path.
+    `space` (RAS, LPS, index x spacing) is named in the header where the format has comments."""
+    data = mesh_bytes(mesh_format(path), verts, faces, normals, colors, space and space_comment(space))
     return write_atomically(path, lambda out: out.write(data))

@@ -286,7 +286,7 @@ class ViewerState(SurfaceLevels):
                 self.surface.extract(self.iso)
             verts, faces, normals, _ = self.surface.shown.read_mesh()   # cubes' or tetrahedra's
             verts, faces, normals, space = in_volume_space(self.volume, verts, faces, normals)
-            write_mesh(path, verts, faces, normals)
+            write_mesh(path, verts, faces, normals, space=space)
         except USER_ERRORS as exc:
             self.error = one_line(exc)
             return False

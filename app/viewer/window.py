@@ -14,12 +14,13 @@ from pathlib import Path
 import glfw
 import imgui_bundle  # noqa: F401  -- before glfw: pyGLFW then loads the libglfw imgui-bundle ships
 import moderngl
+import numpy as np
 
 from ..volumes import Volume
 from .camera import OrbitCamera
 from .panel import ImguiLayer, Panel
 from .recent import RecentFiles
-from .renderer import SceneRenderer, read_rgb
+from .renderer import OffscreenTarget, SceneRenderer, read_rgb
 from .screenshot import next_screenshot_path, save_png
 from .state import ViewerState
 
@@ -78,8 +79,9 @@ def _is_software_renderer(ctx: moderngl.Context) -> bool:
 class ViewerWindow:
     def __init__(self, volume: Volume | None = None, iso: float | None = None, size=(1280, 800),
                  screenshot_dir=".", recent: RecentFiles | None = None, title="isoscope",
-                 msaa: int | None = None):
-        """msaa: samples per pixel; None = 4 on a GPU, 0 on a software renderer."""
+                 msaa: int | None = None, screenshot_scale: int = 1):
+        """msaa: samples per pixel; None = 4 on a GPU, 0 on a software renderer.
+        screenshot_scale: key `s` saves the scene at this many times the window's pixels (no panel)."""
         if not glfw.init():
             raise WindowUnavailable(f"cannot open a window ({_glfw_error_text() or 'no display'}); "
                                     "run it on a desktop, or under xvfb-run, or use `isoscope render` for a PNG")
@@ -91,6 +93,7 @@ class ViewerWindow:
             glfw.destroy_window(self.window)
             self.window, self.ctx = _open_gl_window(size, title, 0)
         self.screenshot_dir = Path(screenshot_dir)
+        self.screenshot_scale = int(screenshot_scale)
         self.state = ViewerState(self.ctx, recent if recent is not None else RecentFiles(RecentFiles.default_path()),
                                  level_of_detail=True)
         self.renderer = SceneRenderer(self.ctx)
@@ -168,13 +171,29 @@ class ViewerWindow:
         self._screenshot_requested = False
         path = next_screenshot_path(self.screenshot_dir)
         try:
-            save_png(read_rgb(self.ctx.screen, size), path)
+            save_png(read_rgb(self.ctx.screen, size) if self.screenshot_scale == 1 else self._scaled_scene(size), path)
+        except moderngl.Error as exc:
+            self.state.error = (f"cannot render a {self.screenshot_scale}x screenshot ({exc}); "
+                                "use a smaller --screenshot-scale")
+            return
         except OSError as exc:
             self.state.error = f"cannot save the screenshot to {path}: {exc.strerror}; pick a writable --screenshot-dir"
             return
         self.last_screenshot = path
         self.state.message = f"screenshot saved: {path}"
         print(self.state.message, flush=True)
+
+    def _scaled_scene(self, size) -> np.ndarray:
+        """The scene (not the panel) drawn offscreen at screenshot_scale times `size`, as `render` draws it."""
+        scaled = (size[0] * self.screenshot_scale, size[1] * self.screenshot_scale)
+        target = OffscreenTarget(self.ctx, scaled)
+        try:
+            target.use()
+            self.renderer.draw(self.state.meshes, self.camera, target.viewport, self.state.style)
+            return target.read_rgba() if self.state.style.transparent_background else target.read_rgb()
+        finally:
+            target.release()
+            self.ctx.screen.use()
 
     def _scale_ui_to_monitor(self) -> None:
         scale = max(glfw.get_window_content_scale(self.window))

@@ -1,0 +1,181 @@
+"""One closed surface per label of an integer label volume (a segmentation), neighbours sharing vertices.
+
+    surfaces = isoscope.label_surfaces(labels, spacing=(1, 1, 1))   # {label: (verts, faces, normals)}
+
+How, and why so: each label's inside is ``labels == label``.  Its surface is our marching cubes
+(GPU, or the byte-identical numpy reference) run on that label's indicator field (1 inside, 0
+outside) at the fixed level 0.5, as VTK's discrete flying edges and the zmesh package do.  At
+that level every vertex lies at the midpoint of a grid edge whose two ends differ, whichever the
+labels at its ends: where labels A and B touch, A's surface and B's surface put a vertex at the
+midpoint of the same edges, so they share those vertices.  Positions are rebuilt from the
+grid edge (twice the index is an integer) with the same arithmetic for every label, so shared
+vertices are bit-identical, not merely close.  This runs on our pipeline rather than a
+separate multi-label mesher, so the GPU and numpy give the same meshes and share the case table.
+
+Each label is extracted from its bounding box grown by one voxel of outside on every side,
+so the surface closes at the volume's border too, and only the voxels near a label are sent
+to the extractor.  The labels and their boxes are found in one pass by scipy's find_objects
+(numpy alone needed a bincount per plane per axis: 6x slower, and longer code).
+
+Marching cubes at 0.5 cuts the corners of the voxel staircase, so a label's enclosed volume is
+a little below its voxel count times the voxel volume: by about 1.6% for a ball 11 voxels
+across, 0.6% at 20, 2.4% at 10 (zmesh, with another table: 1.8% at 10).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from . import validation
+
+# Labels from 1 up to this are their own ids for scipy's find_objects; others (negative, or
+# wide such as 32-bit ids) are numbered 1.. first, by sorting.
+DIRECT_LABELS = 1 << 16
+
+
+def check_labels(labels) -> np.ndarray:
+    """`labels` as a 3-D integer array; a one-line ValueError naming the problem and the fix."""
+    if not isinstance(labels, np.ndarray):
+        try:
+            labels = np.asarray(labels)
+        except Exception as exc:
+            raise ValueError(f"labels must be a 3-D integer array; got {type(labels).__name__} ({exc})") from None
+    if labels.dtype == bool:
+        labels = labels.view(np.uint8)
+    if labels.dtype.kind not in "iu":
+        raise ValueError(f"labels must be an integer array (one whole number per voxel); got {labels.dtype}: "
+                         "cast it, e.g. labels.astype(np.int32), if its values are whole numbers")
+    if labels.ndim != 3:
+        raise ValueError(f"labels must be 3-D; got shape {labels.shape}")
+    if 0 in labels.shape:
+        raise ValueError(f"labels has an empty axis (shape {labels.shape}); pass at least one voxel per axis")
+    return labels
+
+
+def label_boxes(labels: np.ndarray) -> tuple[np.ndarray, list[tuple[int, int, tuple[slice, ...]]]]:
+    """(ids, [(label, its id in ids, its index box as slices), ...] in label order) for every non-zero
+    label, the boxes found in one pass (scipy's find_objects).  `ids` is `labels` itself when its
+    labels are small and positive; otherwise the labels numbered 1, 2, ... in order."""
+    from scipy.ndimage import find_objects
+    low, high = int(labels.min()), int(labels.max())
+    if low >= 0 and high <= DIRECT_LABELS:
+        boxes = find_objects(labels, max_label=high) if high else []
+        return labels, [(k + 1, k + 1, box) for k, box in enumerate(boxes) if box is not None]
+    values = np.unique(labels)
+    values = values[values != 0]
+    ids = np.searchsorted(values, labels).astype(np.int32) + 1
+    ids[labels == 0] = 0
+    return ids, [(value.item(), k + 1, box) for k, (value, box) in enumerate(zip(values, find_objects(ids)))]
+
+
+def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), backend="auto"):
+    """``{label: (verts, faces, normals)}`` for every non-zero label of the 3-D integer array `labels`.
+
+    Each surface is closed and 2-manifold, wound counter-clockwise seen from outside with
+    normals pointing out of its label; where two labels touch, their surfaces share the
+    vertices on the common boundary (identical positions).  `verts` (N, 3) float32 in
+    array-index order times `spacing`, `faces` (M, 3) int32, `normals` (N, 3) float32.
+    `backend` as for `marching_cubes` ("auto", "gpu", "cpu"); both give the same meshes.
+    """
+    labels = check_labels(labels)
+    extract = _extractor(backend)
+    spacing = np.asarray(validation.as_spacing(spacing), np.float64)
+    ids, boxes = label_boxes(labels)
+    surfaces = {}
+    for value, key, box in boxes:
+        indicator = np.pad((ids[box] == key).view(np.uint8), 1)
+        local, faces, normals = extract(indicator)
+        # Twice a midpoint's index is a whole number: exact in float32 at spacing 1.
+        doubled = np.rint(local * 2).astype(np.int64) + 2 * (np.array([b.start for b in box]) - 1)
+        verts = (doubled * (spacing / 2)).astype(np.float32)
+        normals = normals / spacing  # a gradient in index units, into physical units
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        surfaces[value] = (verts, faces, normals.astype(np.float32))
+    return surfaces
+
+
+def labels_of(volume) -> np.ndarray:
+    """A loaded `Volume`'s data as labels: integers as they are, floats only when every value is whole
+    (readers such as nibabel hand back scaled segmentations as floats)."""
+    data = volume.data
+    if data.dtype.kind == "f":
+        fractional = data != np.round(data)
+        if fractional.any():
+            first = tuple(int(i) for i in np.argwhere(fractional)[0])
+            raise ValueError(f"{volume.name} is not a label map: it has fractional values (e.g. {data[first]:g} at "
+                             f"index {first}); leave out --labels to draw an isosurface")
+        data = data.astype(np.int64)
+    return data
+
+
+def _extractor(backend: str):
+    """indicator -> (verts, faces, normals) at level 0.5: one GL context found once for all labels
+    (asking for the current context costs a few ms each time), else the numpy reference."""
+    from .api import BACKENDS
+    from .gl_context import current_or_standalone, gl_available
+    if backend not in BACKENDS:
+        raise ValueError(f"backend {backend!r} is not one of {BACKENDS}")
+    if backend == "cpu" or (backend == "auto" and not gl_available()):
+        from .reference import marching_cubes_reference
+        return lambda indicator: marching_cubes_reference(indicator.astype(np.float32), 0.5)[:3]
+    from .extractor import Extractor
+    ctx = current_or_standalone()
+
+    def extract(indicator):
+        with Extractor(indicator, ctx=ctx) as extractor:
+            extractor.extract(0.5)
+            return extractor.read_mesh()[:3]
+    return extract
+
+
+def label_colors(count: int) -> np.ndarray:
+    """(count, 3) float RGB in 0..1, distinct colours for `count` labels, from the cmap library:
+    the qualitative 'tab20' map for up to 20 labels (its ten strong hues first, then their light
+    partners, so neighbouring label numbers differ in hue), 'glasbey' (255 distinct colours) beyond,
+    then round again."""
+    from cmap import Colormap
+    if count <= 20:
+        table = Colormap("tab20").lut()[np.r_[0:20:2, 1:20:2], :3]
+    else:
+        table = Colormap("glasbey").lut()[1:, :3]  # glasbey starts with white: skip it
+    return table[np.arange(count) % len(table)]
+
+
+def label_file(path, label) -> Path:
+    """Where `export --labels` writes one label's mesh: `stem_label<N>.ext` beside `path`."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}_label{label}{path.suffix}")
+
+
+def check_label_output(path, one_file: bool) -> None:
+    """A one-line ValueError, before any work, for a name `write_label_meshes` cannot write."""
+    from .export import COLOR_FORMATS, mesh_format
+    mesh_format(path)
+    if one_file and Path(path).suffix.lower() not in COLOR_FORMATS:
+        raise ValueError(f"--one-file needs a format that carries vertex colours ({', '.join(COLOR_FORMATS)}); "
+                         f"rename {Path(path).name}, or leave out --one-file for a file per label")
+
+
+def write_label_meshes(volume, path, *, one_file: bool = False, world: bool = True) -> list[tuple[Path, int, int]]:
+    """Write `volume`'s label surfaces: a file per label (`label_file`), or with `one_file` one PLY/GLB
+    holding them all, each vertex in its label's colour.  Returns (path, vertices, triangles) per file.
+    Each file is written atomically; the mesh is in the volume's world space where it has one."""
+    from .export import in_volume_space, write_mesh
+    check_label_output(path, one_file)
+    surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing)
+    if not surfaces:
+        raise ValueError(f"{volume.name} has no non-zero labels, so no surface to write; leave out --labels "
+                         "to export an isosurface")
+    placed = {label: in_volume_space(volume, *mesh, world=world) for label, mesh in surfaces.items()}
+    meshes = {label: mesh[:3] for label, mesh in placed.items()}
+    space = next(iter(placed.values()))[3]
+    if not one_file:
+        return [(write_mesh(label_file(path, label), *mesh, space=space), len(mesh[0]), len(mesh[1]))
+                for label, mesh in meshes.items()]
+    colors = np.round(label_colors(len(meshes)) * 255).astype(np.uint8)
+    starts = np.cumsum([0] + [len(verts) for verts, _, _ in meshes.values()])
+    verts, faces, normals = (np.concatenate(parts) for parts in zip(*meshes.values()))
+    faces = np.concatenate([mesh[1] + start for mesh, start in zip(meshes.values(), starts)])
+    rgba = np.repeat(np.column_stack([colors, np.full(len(colors), 255, np.uint8)]), np.diff(starts), axis=0)
+    return [(write_mesh(path, verts, faces, normals, rgba, space=space), len(verts), len(faces))]

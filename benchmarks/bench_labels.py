@@ -1,0 +1,128 @@
+#!/usr/bin/env python3
+"""Benchmark `isoscope.label_surfaces` against zmesh's multi-label marching cubes.
+
+Both mesh every non-zero label of an integer volume as its own closed surface with
+vertices at grid-edge midpoints, so their vertex and triangle counts should agree
+label by label; the table says whether they do.  Timed, as medians of --repeats:
+
+- ours gpu / ours numpy: `label_surfaces(labels, backend=...)`, from the array to the
+  dict of numpy meshes (finding the labels and their boxes included; a warm-up call
+  first, so the GL context and shader compilation are not counted);
+- zmesh: `Mesher((1, 1, 1)).mesh(labels)` then `mesher.get(label, normals=False)` for
+  every label (zmesh's default output; no simplification).
+
+Volumes: `blobs` (16 ellipsoids of 8-30 voxels radius in 256^3 uint32, seeded, later
+ones overwriting earlier ones where they overlap, so many pairs share a boundary)
+and `mni-tissue` (grey and white matter of the MNI ICBM152 2009a template, labels 1
+and 2 where that tissue's probability is at least 50% and above the other's: a real,
+folded two-label segmentation; needs nilearn, see benchmarks/README.md).
+Markdown on stdout, progress on stderr.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib.metadata
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import isoscope  # noqa: E402
+
+from volumes import MissingVolume, real_volume_path  # noqa: E402
+
+
+def blobs(n: int = 256, count: int = 16, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    labels = np.zeros((n, n, n), np.uint32)
+    axes = np.ogrid[:n, :n, :n]
+    for label in range(1, count + 1):
+        radii = rng.uniform(8, 30, 3) * n / 256
+        centre = rng.uniform(radii.max() + 2, n - radii.max() - 2, 3)
+        inside = sum(((axes[a] - centre[a]) / radii[a]) ** 2 for a in range(3)) <= 1
+        labels[inside] = label
+    return labels
+
+
+def mni_tissue() -> np.ndarray:
+    import nibabel
+    grey_path = real_volume_path("mni-gm")
+    white_path = grey_path.with_name(grey_path.name.replace("_gm_", "_wm_"))
+    grey, white = (np.asarray(nibabel.load(p).dataobj) for p in (grey_path, white_path))
+    labels = np.zeros(grey.shape, np.uint8)
+    labels[(grey >= 128) & (grey >= white)] = 1
+    labels[(white >= 128) & (white > grey)] = 2
+    return labels
+
+
+def ours(labels, backend):
+    surfaces = isoscope.label_surfaces(labels, backend=backend)
+    return {label: (len(v), len(f)) for label, (v, f, _) in surfaces.items()}
+
+
+def zmesh_run(labels):
+    import zmesh
+    mesher = zmesh.Mesher((1, 1, 1))
+    mesher.mesh(labels)
+    counts = {}
+    for label in mesher.ids():
+        mesh = mesher.get(label, normals=False)
+        counts[int(label)] = (len(mesh.vertices), len(mesh.faces))
+    return counts
+
+
+def median_ms(run, labels, repeats):
+    result, samples = None, []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        result = run(labels)
+        samples.append((time.perf_counter() - start) * 1000)
+    return statistics.median(samples), result
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--volumes", default="blobs,mni-tissue", help="comma-separated: blobs, mni-tissue")
+    parser.add_argument("--size", type=int, default=256, help="edge of the blobs volume (default 256)")
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    runners = {"ours gpu": lambda labels: ours(labels, "gpu"), "ours numpy": lambda labels: ours(labels, "cpu")}
+    try:
+        zmesh_version = importlib.metadata.version("zmesh")
+        runners["zmesh"] = zmesh_run
+    except importlib.metadata.PackageNotFoundError:
+        zmesh_version = "not installed (pip install zmesh)"
+    ours(np.pad(np.ones((2, 2, 2), np.uint8), 1), "gpu")  # warm-up: context and shaders
+    print(f"### label_surfaces vs zmesh {zmesh_version} (median ms of {args.repeats})\n")
+    print("| volume | labels | vertices | triangles | " + " | ".join(runners) + " | counts vs zmesh, per label |")
+    print("|---|---:|---:|---:|" + "---:|" * len(runners) + "---|")
+    for name in args.volumes.split(","):
+        try:
+            labels = blobs(args.size) if name == "blobs" else mni_tissue()
+        except MissingVolume as exc:
+            print(f"skipped {name}: {exc}", file=sys.stderr)
+            continue
+        title = f"{name} {'x'.join(map(str, labels.shape))} {labels.dtype}"
+        print(f"running {title}", file=sys.stderr, flush=True)
+        times, counts = {}, {}
+        for runner, run in runners.items():
+            times[runner], counts[runner] = median_ms(run, labels, args.repeats)
+        mine = counts["ours gpu"]
+        assert counts["ours numpy"] == mine, "the GPU and numpy meshes differ"
+        same = "no zmesh"
+        if "zmesh" in counts:
+            theirs = counts["zmesh"]
+            vertices = all(theirs.get(k, (0, 0))[0] == v for k, (v, _) in mine.items()) and theirs.keys() == mine.keys()
+            extra = sum(t for _, t in mine.values()) - sum(t for _, t in theirs.values())
+            same = f"vertices {'equal' if vertices else 'differ'}; triangles ours - zmesh: {extra:+,}"
+        print(f"| {title} | {len(mine)} | {sum(v for v, _ in mine.values()):,} | "
+              f"{sum(t for _, t in mine.values()):,} | " + " | ".join(f"{times[r]:.0f}" for r in runners)
+              + f" | {same} |", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
