@@ -12,6 +12,7 @@ from .volumes import DEFAULT_VOLUME, VolumeError, add_volume_arguments, open_vol
 
 EXIT_BAD_INPUT = 2
 EXIT_NO_GL = 1
+EXIT_CLUSTER_FAILED = 1
 COMMANDS = ("render", "export", "volumes")
 
 KEYS_HELP = """\
@@ -30,10 +31,12 @@ other commands (each has --help):
   isoscope render VOLUME --out shot.png [--iso V] [--size WxH] [--azimuth A] [--elevation E] [--panel]
                 [--transparent]
   isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V]
+                [--chunk N] [--workers N] [--scheduler ADDRESS]   big volumes, a chunk at a time
   isoscope volumes          list the built-in volumes
 """
 
 VOLUME_HELP = ("a built-in name (isoscope volumes), a file (.npy .npz .nrrd .nii .nii.gz .tif .raw), a DICOM folder, "
+               "a Zarr or OME-Zarr folder, "
                "or expr:FORMULA, e.g. 'expr:x^2+y^2+z^2-0.5'")
 
 
@@ -114,6 +117,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--decimate", type=float, metavar="FRACTION",
                             help="keep about this fraction of the triangles (quadric decimation, 0 < F <= 1); "
                                  "prints how far the result strays from the level set")
+        add_big_volume_arguments(parser)
     add_volume_arguments(parser)
     return parser
 
@@ -161,8 +165,40 @@ def run_render(args) -> int:
     return 0
 
 
+def add_big_volume_arguments(parser) -> None:
+    parser.add_argument("--chunk", type=int, metavar="N",
+                        help="extract N^3-cell chunks one at a time and stitch them (the same mesh, in memory "
+                             "bounded by the chunk); the default for Zarr volumes (128)")
+    parser.add_argument("--workers", type=int, metavar="N",
+                        help="run the chunks on a local dask cluster of N worker processes (pip install "
+                             "'isoscope[big]')")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="run the chunks on the dask cluster whose scheduler is at ADDRESS "
+                             "(e.g. tcp://10.0.0.5:8786); its workers must reach the volume's path")
+
+
+def _extract_for_export(volume, iso, args):
+    """The export's mesh: whole, a chunk at a time here, or a chunk per task on a dask cluster."""
+    from .lazy_arrays import is_lazy
+    distributed = args.scheduler is not None or args.workers is not None
+    if args.chunk is None and not distributed and not is_lazy(volume.data):
+        from . import marching_cubes
+        return marching_cubes(volume.checked, iso, spacing=volume.spacing, gradient_direction=volume.gradient_direction)
+    from .chunked import DEFAULT_CHUNK, as_chunks, marching_cubes_chunked
+    from .validation import as_level
+    chunks = as_chunks(DEFAULT_CHUNK if args.chunk is None else args.chunk, volume.data.shape)
+    level = as_level(iso, volume.value_range)
+    descent = volume.gradient_direction == "descent"
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers {args.workers}: give 1 or more worker processes")
+    if distributed:
+        from .cluster import marching_cubes_on_cluster
+        return marching_cubes_on_cluster(volume.data, level, volume.spacing, descent, chunks,
+                                         scheduler=args.scheduler, workers=args.workers, progress=_progress)
+    return marching_cubes_chunked(volume.data, level, volume.spacing, descent, chunks, progress=_progress)
+
+
 def run_export(args) -> int:
-    from . import marching_cubes
     from .export import in_volume_space, mesh_format, write_mesh
     mesh_format(args.out)  # an unknown extension or fraction is refused before any work
     if args.decimate is not None:
@@ -170,8 +206,7 @@ def run_export(args) -> int:
         check_fraction(args.decimate)
     volume = open_volume_from_args(args.volume, args, _progress)
     iso = _checked_iso(volume, args.iso)
-    verts, faces, normals, _ = marching_cubes(volume.checked, iso, spacing=volume.spacing,
-                                              gradient_direction=volume.gradient_direction)
+    verts, faces, normals, _ = _extract_for_export(volume, iso, args)
     if args.decimate is not None:
         verts, faces, normals = _decimated(volume, iso, verts, faces, args.decimate)
     verts, faces, normals, space = in_volume_space(volume, verts, faces, normals, world=args.space == "world")
@@ -215,9 +250,13 @@ def main(argv: list[str] | None = None) -> int:
         args, runner = command_parser(command).parse_args(rest), RUNNERS[command]
     else:
         args, runner = viewer_parser().parse_args(argv), run_viewer
+    from .cluster import ClusterError
     from .gl_context import GLUnavailable
     try:
         return runner(args)
+    except ClusterError as exc:
+        print(f"isoscope: error: {exc}", file=sys.stderr)
+        return EXIT_CLUSTER_FAILED
     except (VolumeError, ValueError) as exc:
         # VolumeError and the extractor's ValueErrors carry one-line, user-facing messages.
         print(f"isoscope: error: {exc}", file=sys.stderr)

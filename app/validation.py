@@ -65,7 +65,7 @@ def check_volume(volume, what: str = "volume", *, progress: Progress | None = No
     where = where or _at_index
     data, notes = _numeric_3d(volume, what)
     lo, hi = np.inf, -np.inf
-    step = max(1, CHECK_SLAB_BYTES // max(1, data[0].nbytes))
+    step = max(1, CHECK_SLAB_BYTES // max(1, data.shape[1] * data.shape[2] * data.dtype.itemsize))
     for start in range(0, data.shape[0], step):
         slab = np.asarray(data[start:start + step])
         release_pages(data)  # a memory-mapped file: keep only one slab resident

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..lazy_arrays import is_lazy
 from ..validation import CheckedVolume, Progress, check_volume
 from .errors import VolumeError
 
@@ -32,7 +33,14 @@ class Volume:
 
     @property
     def checked(self) -> CheckedVolume:
-        """The data as the extractors take it, already checked: they do not scan it again."""
+        """The data as the extractors take it, already checked: they do not scan it again.
+
+        A lazy volume (Zarr, a raw file's map) is read whole here: chunked.py reads it a box at a time."""
+        if is_lazy(self.data):
+            refuse_if_too_big(self.data.shape, self.data.dtype.itemsize, self.name,
+                              fix="export it a chunk at a time (isoscope export --chunk 128), or downsample it")
+            data = np.asarray(self.data)
+            return CheckedVolume(data.astype(data.dtype.newbyteorder("=")), self.value_range)
         return CheckedVolume(self.data, self.value_range)
 
 
