@@ -45,10 +45,11 @@ def load_npy(path: Path, progress: Progress | None = None) -> Loaded:
         shape, dtype = read_header(fp, path.name, path.stat().st_size)
     report(progress, 0.0, f"reading {path.name}")
     try:
-        if len(shape) < 3 or np.prod(shape, dtype=np.float64) * dtype.itemsize < SLAB_BYTES:
+        n_bytes = np.prod(shape, dtype=np.float64) * dtype.itemsize
+        if len(shape) < 3 or n_bytes < min(SLAB_BYTES, MAP_BYTES):
             return np.load(path, allow_pickle=False), None, []
         mapped = np.load(path, mmap_mode="r", allow_pickle=False)
-        if mapped.flags.c_contiguous and mapped.nbytes >= MAP_BYTES:
+        if mapped.flags.c_contiguous and n_bytes >= MAP_BYTES:
             return mapped, None, [f"{path.name} is memory-mapped: read from disk as needed"]
         # Fortran order: copy it slab by slab into C order, so the progress bar moves.
         slab_axis = len(shape) - 1 if mapped.flags.f_contiguous and not mapped.flags.c_contiguous else 0

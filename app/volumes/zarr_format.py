@@ -7,7 +7,7 @@ larger than memory.  Axes stay as stored (OME-Zarr: z, y, x), as for TIFF stacks
 A path is a Zarr array, or a group: an OME-Zarr image (its "multiscales" metadata, under
 attrs["ome"] from OME-Zarr 0.5) opens its full-resolution level with the spacing of its
 "scale" coordinate transformations (the dataset's times the image's); any other group opens
-its first array.  Leading non-spatial axes (time, channel) are taken at --frame (default 0).
+its first array.  Leading non-spatial axes (time, channel): --frame N picks along the first one longer than 1.
 """
 from __future__ import annotations
 
@@ -49,16 +49,19 @@ def load_zarr(path: Path, frame: int | None, progress: Progress | None = None):
     if len(shape) < 3 or spatial < 3:
         raise VolumeError(f"{path.name} holds a {len(shape)}-D array ({shape_text(shape)}) with "
                           f"{min(spatial, len(shape))} spatial axes; isoscope needs 3 spatial axes")
-    lead = len(shape) - 3
-    index = 0 if frame is None else int(frame)
-    if lead and not all(0 <= index < n for n in shape[:lead]):
-        raise VolumeError(f"--frame {index} is outside {path.name}'s leading axes {shape_text(shape[:lead])}; "
-                          f"pick 0 .. {min(shape[:lead]) - 1}")
-    if lead and any(n > 1 for n in shape[:lead]):
-        notes.append(f"{path.name} is {shape_text(shape)}: showing index {index} of its leading axes (--frame N)")
-    notes.append(f"Zarr {shape_text(shape[lead:])} {node.dtype} in {shape_text(node.chunks[-3:])} chunks, "
+    lead = [0] * (len(shape) - 3)
+    if lead:  # --frame indexes the first leading axis longer than 1 (OME-Zarr's t, else c); the others take 0
+        axis = next((a for a, n in enumerate(shape[:len(lead)]) if n > 1), 0)
+        index = 0 if frame is None else int(frame)
+        if not 0 <= index < shape[axis]:
+            raise VolumeError(f"--frame {index} is outside {path.name}'s {shape[axis]} frames; "
+                              f"pick 0 .. {shape[axis] - 1}")
+        lead[axis] = index
+        if shape[axis] > 1:
+            notes.append(f"{path.name} is {shape_text(shape)}: showing frame {index} of {shape[axis]} (--frame N)")
+    notes.append(f"Zarr {shape_text(shape[-3:])} {node.dtype} in {shape_text(node.chunks[-3:])} chunks, "
                  "read on demand")
-    return Block3D(node, (index,) * lead), spacing, [n for n in notes if n]
+    return Block3D(node, tuple(lead)), spacing, [n for n in notes if n]
 
 
 def _ome_level(group, multiscale: dict, path: Path):
