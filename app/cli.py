@@ -6,13 +6,14 @@ exit status 2; no traceback reaches the user.
 from __future__ import annotations
 
 import argparse
+import errno
 import sys
 
 from .volumes import DEFAULT_VOLUME, VolumeError, add_volume_arguments, open_volume_from_args
 
 EXIT_BAD_INPUT = 2
 EXIT_NO_GL = 1
-EXIT_CLUSTER_FAILED = 1
+EXIT_CLUSTER_FAILED = 1  # the machine, not the input: a cluster failed, the disk is full
 COMMANDS = ("render", "export", "volumes")
 
 KEYS_HELP = """\
@@ -262,6 +263,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"isoscope: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except OSError as exc:
+        if exc.errno in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT):  # the disk (or a size limit) is full
+            print(f"isoscope: error: {exc.strerror}: the output did not fit, and no partial file was left; "
+                  "free disk space or write it elsewhere", file=sys.stderr)
+            return EXIT_CLUSTER_FAILED
         print(f"isoscope: error: {exc.strerror or exc}: {exc.filename or ''}; check the path and its permissions",
               file=sys.stderr)
         return EXIT_BAD_INPUT
