@@ -97,7 +97,7 @@ def extract_box(source, box, level: float, spacing, descent: bool, ctx=None, sha
     start, stop = box
     origin = np.array([max(a - 1, 0) for a in start], np.int64)
     block = read_block(source, tuple(slice(o, min(b + 2, n)) for o, b, n in zip(origin, stop, shape)))
-    checked = validation.check_volume(block, "volume")
+    checked = validation.check_volume(block, "volume", where=lambda index: validation._at_index(np.add(index, origin)))
     lo, hi = checked.value_range
     if not lo <= level <= hi:
         return None  # every sample on one side: no edge of this box crosses the level

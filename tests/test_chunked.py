@@ -103,3 +103,10 @@ def test_peak_memory_is_bounded_by_the_chunk_not_the_volume(tmp_path):
     measured = json.loads(result.stdout.strip().splitlines()[-1])
     assert measured["triangles"] > 50_000
     assert measured["grew_kib"] < 16 * 1024, measured  # the whole volume would be 65,536 KiB
+
+
+def test_a_nan_is_reported_at_its_place_in_the_whole_volume():
+    volume = smooth_noise((30, 30, 30))
+    volume[21, 17, 25] = np.nan
+    with pytest.raises(ValueError, match=r"at index \(21, 17, 25\)"):
+        isoscope.marching_cubes(volume, 0.0, chunks=8)
