@@ -7,7 +7,7 @@ only the triangles of the box's own cells are kept.  Every vertex lies on a grid
 its GLOBAL edge id (owning sample's flat index x 3 + axis) names it, so a vertex that
 two boxes both make (on their shared face) is merged into one, and the stitched mesh is
 watertight across the seams.  Vertex attributes are placed by the numpy reference on
-the haloed block in whole-volume coordinates (reference.place_vertices with `origin`),
+the haloed block in whole-volume coordinates (reference.vertex_positions with `origin`),
 which the GPU matches byte for byte; normals and values are the GPU's (the halo gives
 them the whole volume's neighbours); vertices and triangles are then put in the order
 a whole-volume extraction gives.  So the result equals `marching_cubes(volume)` array
@@ -16,14 +16,15 @@ for array, not only up to order.
 Memory: one block at a time, (c + 3)^3 samples for chunks of c cells: the block, its
 float32 copy and inside mask in numpy, the same on the GPU (texture + scratch of about
 0.5 byte a voxel) - about 10 bytes a voxel of the block for a float32 source - plus the
-mesh made so far (about 48 bytes a vertex and 36 a triangle while merging).  The
+mesh made so far (about 100 bytes a triangle at the merge's peak, where the mesh itself is about
+26: 12 for its triangle, 14 for its half of a vertex).  The
 volume itself is never in memory: a memory-mapped file or a Zarr array is read a
 block at a time (lazy_arrays.read_block).
 """
 from __future__ import annotations
 
 import itertools
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,7 +32,7 @@ import numpy as np
 from . import validation
 from .lazy_arrays import read_block
 from .mesh import empty_mesh
-from .reference import brick_order_key, place_vertices
+from .reference import brick_order_key, vertex_positions
 
 DEFAULT_CHUNK = 128  # cells per axis: a 131^3 float32 block is 8.6 MiB
 
@@ -43,9 +44,18 @@ class ChunkMesh:
     verts: np.ndarray  # (V, 3) float32, whole-volume positions
     normals: np.ndarray  # (V, 3) float32
     values: np.ndarray  # (V,) float32
-    triangles: np.ndarray  # (T, 3) int64 global edge ids of the corners
-    cells: np.ndarray  # (T, 3) int64 global cell of each triangle
-    rank: np.ndarray  # (T,) int64 position in the box's own output (the table's order within a cell)
+    faces: np.ndarray  # (T, 3) int32 indices into this box's vertices
+    cell_keys: np.ndarray  # (T,) int64 whole-volume order of each triangle's cell (cell_key)
+
+
+def cell_key(cells: np.ndarray, shape) -> np.ndarray:
+    """The order reference.py (and the GPU) puts cells in: (brick, word in brick, k), as one int64."""
+    return brick_order_key(cells, shape) * shape[2] + cells[:, 2]
+
+
+def vertex_key(owners: np.ndarray, axes: np.ndarray, shape) -> np.ndarray:
+    """The order of vertices: (brick, word in brick, axis, k), as one int64."""
+    return (brick_order_key(owners, shape) * 3 + axes) * shape[2] + owners[:, 2]
 
 
 def as_chunks(chunks, shape) -> tuple[int, int, int]:
@@ -114,37 +124,41 @@ def extract_box(source, box, level: float, spacing, descent: bool, ctx=None, sha
     # table lies in a cell's far face, tests/test_chunked.py checks it).
     cells = points[faces].min(axis=1) + origin
     keep = np.all((cells >= start) & (cells < stop), axis=1)
-    faces, cells, rank = faces[keep], cells[keep], np.flatnonzero(keep)
+    faces, cells = faces[keep], cells[keep]
     used, corners = np.unique(faces, return_inverse=True)
     field = checked.data.astype(np.float32) if descent else -checked.data.astype(np.float32)
     lvl = np.float32(level if descent else -level)
-    positions, _, _ = place_vertices(field, field >= lvl, lvl, points[used], axes[used],
-                                                np.asarray(spacing, np.float64), 1.0 if descent else -1.0, origin)
+    positions = vertex_positions(field, lvl, points[used], axes[used], np.asarray(spacing, np.float64), origin)
     edge_ids = np.ravel_multi_index((points[used] + origin).T, shape) * 3 + axes[used]
-    return ChunkMesh(edge_ids, positions, gpu_normals[used], gpu_values[used], edge_ids[corners.reshape(-1, 3)],
-                     cells, rank)
+    return ChunkMesh(edge_ids, positions, gpu_normals[used], gpu_values[used],
+                     corners.reshape(-1, 3).astype(np.int32), cell_key(cells, shape))
 
 
-def merge(parts: Iterable[ChunkMesh], shape):
-    """verts, faces, normals, values of the boxes' meshes joined at shared edges, in whole-volume order."""
+def merge(parts: list[ChunkMesh | None], shape):
+    """verts, faces, normals, values of the boxes' meshes joined at shared edges, in whole-volume order.
+
+    Consumes `parts`: each box's arrays are dropped once copied, to keep the peak near two copies of the mesh."""
     parts = [p for p in parts if p is not None]
     if not parts:
         return empty_mesh()
-    ids = np.concatenate([p.edge_ids for p in parts])
-    unique, first = np.unique(ids, return_index=True)
+    first_vertex = np.cumsum([0] + [len(p.edge_ids) for p in parts])
+    faces = np.concatenate([p.faces + np.int64(offset) for p, offset in zip(parts, first_vertex)])
+    cell_keys = np.concatenate([p.cell_keys for p in parts])
+    columns = {}
+    for name in ("edge_ids", "verts", "normals", "values"):
+        columns[name] = np.concatenate([getattr(p, name) for p in parts])
+        for p in parts:
+            setattr(p, name, None)
+    unique, first, inverse = np.unique(columns.pop("edge_ids"), return_index=True, return_inverse=True)
     owners = np.stack(np.unravel_index(unique // 3, shape), axis=1)
-    axes = unique % 3
-    order = np.lexsort((owners[:, 2], axes, brick_order_key(owners, shape)))  # as reference.py orders them
+    order = np.argsort(vertex_key(owners, unique % 3, shape))
+    del owners
     index_of = np.empty(len(unique), np.int64)
     index_of[order] = np.arange(len(unique))
     pick = first[order]
-    verts, normals, values = (np.concatenate([getattr(p, name) for p in parts])[pick]
-                              for name in ("verts", "normals", "values"))
-    triangles = np.concatenate([p.triangles for p in parts])
-    cells = np.concatenate([p.cells for p in parts])
-    rank = np.concatenate([p.rank for p in parts])
-    faces = index_of[np.searchsorted(unique, triangles)]
-    faces = faces[np.lexsort((rank, cells[:, 2], brick_order_key(cells, shape)))]
+    verts, normals, values = (columns.pop(name)[pick] for name in ("verts", "normals", "values"))
+    # Within a cell the table's order: each cell lies in one box, whose triangles keep their order.
+    faces = index_of[inverse.reshape(-1)[faces]][np.argsort(cell_keys, kind="stable")]
     return verts, faces.astype(np.int32), normals, values
 
 

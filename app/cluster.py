@@ -80,10 +80,12 @@ def marching_cubes_on_cluster(source, level: float, spacing, descent: bool, chun
         remote = client.scatter(shippable(source), broadcast=True)
         futures = [client.submit(_extract_task, remote, box, level, spacing, descent, pure=False)
                    for box in boxes]
-        parts = []
-        for done, future in enumerate(as_completed(futures), 1):
+        parts, pending = [], as_completed(futures)
+        del futures  # each result is held by the cluster only until this client has it
+        for done, future in enumerate(pending, 1):
             try:
                 parts.append(future.result())
+                future.release()
             except Exception as exc:  # KilledWorker, a worker's GL failure, a lost connection
                 raise ClusterError(f"a dask worker failed on a chunk ({type(exc).__name__}: "
                                    f"{str(exc).splitlines()[0] if str(exc) else ''}); nothing was written") from None

@@ -83,21 +83,26 @@ def gradient_at(field: np.ndarray, points: np.ndarray, spacing: np.ndarray) -> n
     return grad
 
 
-def place_vertices(field, inside, level, points, axes, spacing, sign, origin=(0, 0, 0)):
-    """mc_vertices.comp: position, outward normal and value of each edge's vertex.
+def vertex_positions(field, level, points, axes, spacing, origin=(0, 0, 0), parameters=False):
+    """mc_vertices.comp's position of each edge's vertex (and with `parameters`, t and the ends' values).
 
     `field` may be a block of a larger volume whose sample 0 is sample `origin` of the whole:
     positions are then the whole volume's (chunked.py)."""
     step = np.eye(3, dtype=np.int64)[axes]
-    ends = points + step
     v0 = field[tuple(points.T)]
-    v1 = field[tuple(ends.T)]
+    v1 = field[tuple((points + step).T)]
     t = (np.float32(level) - v0) / (v1 - v0)
     t = np.clip(t, EDGE_MARGIN, np.float32(1) - EDGE_MARGIN).astype(np.float32)
-
-    spacing32 = spacing.astype(np.float32)
     start = (points + np.asarray(origin, np.int64)).astype(np.float32)
-    positions = (start + t[:, None] * step.astype(np.float32)) * spacing32
+    positions = (start + t[:, None] * step.astype(np.float32)) * spacing.astype(np.float32)
+    return (positions, t, v0, v1) if parameters else positions
+
+
+def place_vertices(field, inside, level, points, axes, spacing, sign):
+    """mc_vertices.comp: position, outward normal and value of each edge's vertex."""
+    positions, t, v0, v1 = vertex_positions(field, level, points, axes, spacing, parameters=True)
+    step = np.eye(3, dtype=np.int64)[axes]
+    ends = points + step
     values = (v0 + t * (v1 - v0)) * np.float32(sign)
 
     g0 = gradient_at(field, points, spacing)
