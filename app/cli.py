@@ -221,7 +221,7 @@ def _decimated(volume, iso, verts, faces, fraction):
     level = volume.value_range[0] + (volume.value_range[1] - volume.value_range[0]) / 2 if iso is None else iso
     full_triangles, full_open = len(faces), open_edges(faces)
     verts, faces, normals = decimate(verts, faces, fraction)
-    off = distance_off_level_set(volume.data, volume.spacing, level, verts)
+    off = distance_off_level_set(volume.checked.data, volume.spacing, level, verts)  # a lazy volume read whole
     print(f"decimated {full_triangles:,} -> {len(faces):,} triangles; distance off the level set: "
           f"max {off.max():.3g}, mean {off.mean():.3g} (world units; voxel {min(volume.spacing):.3g})")
     now_open = open_edges(faces)
