@@ -27,7 +27,8 @@ def test_zarr_array_opens_lazily_with_its_values(tmp_path, field, zarr_format):
     assert is_lazy(volume.data) and volume.data.shape == field.shape
     assert volume.value_range == (float(field.min()), float(field.max()))
     np.testing.assert_array_equal(np.asarray(volume.data), field)
-    np.testing.assert_array_equal(volume.checked.data, field)  # read whole for the viewer
+    np.testing.assert_array_equal(volume.checked.data, field)  # read whole for the viewer, once
+    assert volume.checked.data is volume.checked.data
 
 
 def _ome(tmp_path, field, zarr_format, scale, leading=()):

@@ -29,8 +29,10 @@ def test_two_worker_local_cluster_writes_the_single_process_file(noise_zarr):
     single = isoscope("export", folder / "v.npy", "--iso", "0", "--out", folder / "single.ply")
     spread = isoscope("export", folder / "v.zarr", "--iso", "0", "--out", folder / "spread.ply",
                       "--workers", "2", "--chunk", "12")
-    assert single.returncode == 0 and spread.returncode == 0, spread.stderr
+    chunked = isoscope("export", folder / "v.zarr", "--iso", "0", "--out", folder / "chunked.ply")  # Zarr: chunked
+    assert single.returncode == 0 and spread.returncode == 0 and chunked.returncode == 0, spread.stderr
     assert (folder / "spread.ply").read_bytes() == (folder / "single.ply").read_bytes()
+    assert (folder / "chunked.ply").read_bytes() == (folder / "single.ply").read_bytes()
 
 
 class DiesOnRead:
