@@ -75,6 +75,7 @@ else:
     else:
         verts, faces, normals, _ = marching_cubes_chunked(volume.data, level, volume.spacing, True, chunk)
     result["extract_s"] = time.perf_counter() - t
+    result["peak_before_write_mib"] = peak_mib()
     t = time.perf_counter()
     write_mesh(out, verts, faces, normals)
     result["write_s"] = time.perf_counter() - t
