@@ -14,7 +14,8 @@ METHODS = ("lewiner", "lorensen")
 
 
 def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
-                   step_size=1, allow_degenerate=True, method="lewiner", backend="auto", smooth=0):
+                   step_size=1, allow_degenerate=True, method="lewiner", backend="auto", smooth=0,
+                   chunks=None):
     """Extract the isosurface ``volume == level`` as an indexed, watertight triangle mesh.
 
     Parameters follow ``skimage.measure.marching_cubes``:
@@ -41,6 +42,11 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     smooth : iterations of smoothing, each projected back onto the level set
         (`smooth_mesh`); 0 (default) is the plain marching-cubes mesh.  A few
         iterations remove the sliver triangles; the faces stay the same.
+    chunks : None (the whole volume at once), or N or (a, b, c): extract boxes of at most
+        that many cells per axis on the GPU, one at a time, and stitch them by global
+        edge id into the same mesh (see isoscope.chunked).  Memory then grows with the box,
+        not the volume: use it for volumes larger than the GPU or RAM (a memory-mapped
+        array, np.load(path, mmap_mode="r"), or a Zarr array is read a box at a time).
 
     Returns ``verts`` (N, 3) float32 in array-index order times spacing,
     ``faces`` (M, 3) int32, ``normals`` (N, 3) float32 unit vectors, ``values``
@@ -51,6 +57,12 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     backend = _backend(backend)
     if method not in METHODS:
         raise ValueError(f"method {method!r} is not one of {METHODS}")
+    if chunks is not None:
+        if iterations:
+            raise ValueError("smooth= works on a whole-volume mesh, not a chunked one; drop chunks or smooth")
+        return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks)
+    if chunks is not None:
+        return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks)
     checked = validation.check_volume(volume)
     spacing = validation.as_spacing(spacing)
     descent = validation.as_gradient_direction(gradient_direction)
@@ -178,3 +190,21 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
             smoother.release()
             mesh.vertex_buffer.release()
             mesh.index_buffer.release()
+
+
+def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks):
+    from .chunked import as_chunks, marching_cubes_chunked, value_range
+    from .lazy_arrays import is_lazy
+    if backend == "cpu" or step_size != 1:
+        raise ValueError("chunks= runs on the GPU at step_size 1; drop chunks, or use backend='gpu' and step_size=1")
+    source = volume.data if isinstance(volume, validation.CheckedVolume) else volume
+    if not is_lazy(source):
+        source = validation._numeric_3d(source, "volume")[0]  # shape and dtype only: no scan of the values
+    as_chunks(chunks, source.shape)
+    spacing = validation.as_spacing(spacing)
+    descent = validation.as_gradient_direction(gradient_direction)
+    known = volume.value_range if isinstance(volume, validation.CheckedVolume) else None
+    if known is None and level is not None:
+        known = (-np.inf, np.inf)  # not scanned for a range: boxes the level misses give no surface
+    level = validation.as_level(level, known or value_range(source, chunks))
+    return marching_cubes_chunked(source, level, spacing, descent, chunks)

@@ -6,6 +6,7 @@ exit status 2; no traceback reaches the user.
 from __future__ import annotations
 
 import argparse
+import errno
 import sys
 
 from .viewer.slice_options import add_slice_arguments, apply_slice_arguments
@@ -13,6 +14,7 @@ from .volumes import DEFAULT_VOLUME, VolumeError, add_volume_arguments, open_vol
 
 EXIT_BAD_INPUT = 2
 EXIT_NO_GL = 1
+EXIT_CLUSTER_FAILED = 1  # the machine, not the input: a cluster failed, the disk is full
 COMMANDS = ("render", "export", "volumes")
 
 KEYS_HELP = """\
@@ -34,10 +36,12 @@ other commands (each has --help):
                 [--tetrahedra] [--smooth N]
   isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V [--iso V2 ...]] [--tetrahedra] [--smooth N]
   isoscope export SEGMENTATION --labels --out seg.stl      one mesh per label: seg_label<N>.stl
+                [--chunk N] [--workers N] [--scheduler ADDRESS]   big volumes, a chunk at a time
   isoscope volumes          list the built-in volumes
 """
 
 VOLUME_HELP = ("a built-in name (isoscope volumes), a file (.npy .npz .nrrd .nii .nii.gz .tif .raw), a DICOM folder, "
+               "a Zarr or OME-Zarr folder, "
                "or expr:FORMULA, e.g. 'expr:x^2+y^2+z^2-0.5'")
 
 
@@ -187,6 +191,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--one-file", action="store_true",
                             help="with --labels: all labels in the one --out file (.ply or .glb), each vertex "
                                  "in its label's colour")
+        add_big_volume_arguments(parser)
     add_volume_arguments(parser)
     return parser
 
@@ -283,11 +288,48 @@ def run_render(args) -> int:
     return 0
 
 
+def add_big_volume_arguments(parser) -> None:
+    parser.add_argument("--chunk", type=int, metavar="N",
+                        help="extract N^3-cell chunks one at a time and stitch them (the same mesh, in memory "
+                             "bounded by the chunk); the default for Zarr volumes (128)")
+    parser.add_argument("--workers", type=int, metavar="N",
+                        help="run the chunks on a local dask cluster of N worker processes (pip install "
+                             "'isoscope[big]')")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="run the chunks on the dask cluster whose scheduler is at ADDRESS "
+                             "(e.g. tcp://10.0.0.5:8786); its workers must reach the volume's path")
+
+
+def _extract_for_export(volume, iso, args):
+    """The export's mesh: whole, a chunk at a time here, or a chunk per task on a dask cluster."""
+    from .lazy_arrays import is_lazy
+    distributed = args.scheduler is not None or args.workers is not None
+    if args.chunk is None and not distributed and not is_lazy(volume.data):
+        from . import marching_cubes, marching_tetrahedra
+        march = marching_tetrahedra if args.tetrahedra else marching_cubes
+        return march(volume.checked, iso, spacing=volume.spacing, gradient_direction=volume.gradient_direction,
+                     smooth=args.smooth)
+    if args.tetrahedra or args.smooth:
+        raise ValueError("a chunked export (--chunk, --workers, --scheduler, or a Zarr/memory-mapped volume) "
+                         "makes plain marching cubes; drop --tetrahedra and --smooth")
+    from .chunked import DEFAULT_CHUNK, as_chunks, marching_cubes_chunked
+    from .validation import as_level
+    chunks = as_chunks(DEFAULT_CHUNK if args.chunk is None else args.chunk, volume.data.shape)
+    level = as_level(iso, volume.value_range)
+    descent = volume.gradient_direction == "descent"
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers {args.workers}: give 1 or more worker processes")
+    if distributed:
+        from .cluster import marching_cubes_on_cluster
+        return marching_cubes_on_cluster(volume.data, level, volume.spacing, descent, chunks,
+                                         scheduler=args.scheduler, workers=args.workers, progress=_progress)
+    return marching_cubes_chunked(volume.data, level, volume.spacing, descent, chunks, progress=_progress)
+
+
 def run_export(args) -> int:
     if args.labels:
         return _export_labels(args)
     _check_label_options(args, "--one-file")
-    from . import marching_cubes, marching_tetrahedra
     from .export import in_volume_space, mesh_format, write_mesh
     mesh_format(args.out)  # an unknown extension or fraction is refused before any work
     if args.decimate is not None:
@@ -295,10 +337,8 @@ def run_export(args) -> int:
         check_fraction(args.decimate)
     volume = open_volume_from_args(args.volume, args, _progress)
     isos = _checked_levels(volume, args.iso)
-    march = marching_tetrahedra if args.tetrahedra else marching_cubes
     for iso in isos:
-        verts, faces, normals, _ = march(volume.checked, iso, spacing=volume.spacing,
-                                         gradient_direction=volume.gradient_direction, smooth=args.smooth)
+        verts, faces, normals, _ = _extract_for_export(volume, iso, args)
         if args.decimate is not None:
             verts, faces, normals = _decimated(volume, iso, verts, faces, args.decimate)
         verts, faces, normals, space = in_volume_space(volume, verts, faces, normals, world=args.space == "world")
@@ -325,7 +365,7 @@ def _decimated(volume, iso, verts, faces, fraction):
     level = volume.value_range[0] + (volume.value_range[1] - volume.value_range[0]) / 2 if iso is None else iso
     full_triangles, full_open = len(faces), open_edges(faces)
     verts, faces, normals = decimate(verts, faces, fraction)
-    off = distance_off_level_set(volume.data, volume.spacing, level, verts)
+    off = distance_off_level_set(volume.checked.data, volume.spacing, level, verts)  # a lazy volume read whole
     print(f"decimated {full_triangles:,} -> {len(faces):,} triangles; distance off the level set: "
           f"max {off.max():.3g}, mean {off.mean():.3g} (world units; voxel {min(volume.spacing):.3g})")
     now_open = open_edges(faces)
@@ -355,14 +395,22 @@ def main(argv: list[str] | None = None) -> int:
         args, runner = command_parser(command).parse_args(rest), RUNNERS[command]
     else:
         args, runner = viewer_parser().parse_args(argv), run_viewer
+    from .cluster import ClusterError
     from .gl_context import GLUnavailable
     try:
         return runner(args)
+    except ClusterError as exc:
+        print(f"isoscope: error: {exc}", file=sys.stderr)
+        return EXIT_CLUSTER_FAILED
     except (VolumeError, ValueError) as exc:
         # VolumeError and the extractor's ValueErrors carry one-line, user-facing messages.
         print(f"isoscope: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except OSError as exc:
+        if exc.errno in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT):  # the disk (or a size limit) is full
+            print(f"isoscope: error: {exc.strerror}: the output did not fit, and no partial file was left; "
+                  "free disk space or write it elsewhere", file=sys.stderr)
+            return EXIT_CLUSTER_FAILED
         print(f"isoscope: error: {exc.strerror or exc}: {exc.filename or ''}; check the path and its permissions",
               file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -83,20 +83,28 @@ def gradient_at(field: np.ndarray, points: np.ndarray, spacing: np.ndarray) -> n
     return grad
 
 
-def place_vertices(field, inside, level, points, axes, spacing, sign, steps=None):
-    """mc_vertices.comp: position, outward normal and value of each edge's vertex.
+def vertex_positions(field, level, points, axes, spacing, origin=(0, 0, 0), parameters=False, steps=None):
+    """mc_vertices.comp's position of each edge's vertex (and with `parameters`, t and the ends' values).
 
-    `steps` (N, 3) of 0/1 replaces `axes` for edges that are not along one axis (the tetrahedra's
-    diagonals, app/reference_tetra.py)."""
+    `field` may be a block of a larger volume whose sample 0 is sample `origin` of the whole:
+    positions are then the whole volume's (chunked.py).  `steps` (N, 3) of 0/1 replaces `axes`
+    for edges that are not along one axis (the tetrahedra's diagonals, app/reference_tetra.py)."""
     step = np.eye(3, dtype=np.int64)[axes] if steps is None else steps
-    ends = points + step
     v0 = field[tuple(points.T)]
-    v1 = field[tuple(ends.T)]
+    v1 = field[tuple((points + step).T)]
     t = (np.float32(level) - v0) / (v1 - v0)
     t = np.clip(t, EDGE_MARGIN, np.float32(1) - EDGE_MARGIN).astype(np.float32)
+    start = (points + np.asarray(origin, np.int64)).astype(np.float32)
+    positions = (start + t[:, None] * step.astype(np.float32)) * spacing.astype(np.float32)
+    return (positions, t, v0, v1) if parameters else positions
 
-    spacing32 = spacing.astype(np.float32)
-    positions = (points.astype(np.float32) + t[:, None] * step.astype(np.float32)) * spacing32
+
+def place_vertices(field, inside, level, points, axes, spacing, sign, steps=None):
+    """mc_vertices.comp: position, outward normal and value of each edge's vertex (`steps`: as in
+    `vertex_positions`)."""
+    positions, t, v0, v1 = vertex_positions(field, level, points, axes, spacing, parameters=True, steps=steps)
+    step = np.eye(3, dtype=np.int64)[axes] if steps is None else steps
+    ends = points + step
     values = (v0 + t * (v1 - v0)) * np.float32(sign)
 
     g0 = gradient_at(field, points, spacing)
@@ -108,7 +116,7 @@ def place_vertices(field, inside, level, points, axes, spacing, sign, steps=None
     normals[ok] = -grad[ok] / length[ok, None]  # the field grows into the object: out is downhill
     # A flat field gives no gradient: point along the edge, from its inside end to its outside end.
     start_inside = inside[tuple(points.T)]
-    along = step * spacing32
+    along = step * spacing.astype(np.float32)
     along /= np.linalg.norm(along, axis=1, keepdims=True)  # exactly `step` for an axis edge
     normals[~ok] = np.where(start_inside[~ok, None], 1.0, -1.0) * along[~ok]
     return positions, normals.astype(np.float32), values.astype(np.float32)

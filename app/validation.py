@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .lazy_arrays import is_lazy, release_pages
+
 GRADIENT_DIRECTIONS = ("descent", "ascent")
 
 
@@ -24,6 +26,7 @@ class CheckedVolume:
     `data` is 3-D, C-contiguous, in native byte order, numeric (float16 and bool widened),
     finite, at least 2 long on every axis, and within float32's range; its dtype is otherwise
     kept (integers stay integers).  The extractors take one as it is, without scanning again.
+    A lazy array (Zarr: see lazy_arrays) is checked block by block and kept lazy; chunked.py reads it.
     """
     data: np.ndarray
     value_range: tuple[float, float]
@@ -62,15 +65,16 @@ def check_volume(volume, what: str = "volume", *, progress: Progress | None = No
     where = where or _at_index
     data, notes = _numeric_3d(volume, what)
     lo, hi = np.inf, -np.inf
-    step = max(1, CHECK_SLAB_BYTES // max(1, data[0].nbytes))
+    step = max(1, CHECK_SLAB_BYTES // max(1, data.shape[1] * data.shape[2] * data.dtype.itemsize))
     for start in range(0, data.shape[0], step):
-        slab = data[start:start + step]
+        slab = np.asarray(data[start:start + step])
+        release_pages(data)  # a memory-mapped file: keep only one slab resident
         if data.dtype.kind == "f":
             bad = ~np.isfinite(slab)
             if bad.any():
                 index = np.unravel_index(int(np.argmax(bad)), slab.shape)
                 index = (index[0] + start,) + tuple(index[1:])
-                count = sum(int(np.count_nonzero(~np.isfinite(data[s:s + step])))
+                count = sum(int(np.count_nonzero(~np.isfinite(np.asarray(data[s:s + step]))))
                             for s in range(0, data.shape[0], step))
                 raise ValueError(f"{what} has {count} NaN/Inf sample(s), the first ({data[index]}) "
                                  f"{where(index)}")
@@ -85,6 +89,9 @@ def check_volume(volume, what: str = "volume", *, progress: Progress | None = No
 
 def _numeric_3d(volume, what: str) -> tuple[np.ndarray, list[str]]:
     """A C-ordered, native-endian, numeric 3-D view (or copy) of `volume`, and notes on what changed."""
+    if is_lazy(volume) and volume.dtype.kind in "iuf" and volume.dtype != np.float16 and len(volume.shape) == 3 \
+            and min(volume.shape) >= 2:
+        return volume, []  # read on demand, a block at a time; never as a whole
     try:
         data = np.asarray(volume)
     except Exception as exc:  # ragged lists and the like

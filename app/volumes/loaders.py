@@ -18,10 +18,12 @@ from .nrrd_format import load_nrrd, nrrd_world
 from .raw_format import load_raw, sidecar_path, three_positive
 from .tiff_format import TIFF_SUFFIXES, load_tiff
 from .volume import Progress, Volume, finish_volume, shape_text
+from .zarr_format import is_zarr, load_zarr
 
 SAMPLE_PREFIX = "sample:"
 RAW_SUFFIXES = (".raw", ".bin", ".dat")
-KNOWN_FORMATS = ".npy, .npz, .nrrd, .nhdr, .nii, .nii.gz, .tif/.tiff stacks, .raw (with --dims), a DICOM folder"
+KNOWN_FORMATS = (".npy, .npz, .nrrd, .nhdr, .nii, .nii.gz, .tif/.tiff stacks, .raw (with --dims), a DICOM folder, "
+                 "a Zarr or OME-Zarr folder")
 
 
 def resolve_path(spec: str) -> tuple[Path, str | None]:
@@ -54,6 +56,8 @@ def is_volume_file(path: Path) -> bool:
 
 
 def _format_of(path: Path, has_raw_flags: bool) -> str:
+    if is_zarr(path):
+        return "zarr"
     if path.is_dir():
         return "dicom"
     name = path.name.lower()
@@ -88,6 +92,8 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, fr
                                                                    progress)
         elif kind == "raw":
             data, header_spacing, notes = load_raw(path, dims, dtype, endian, spacing, progress)
+        elif kind == "zarr":
+            data, header_spacing, notes = load_zarr(path, frame, progress)
         elif kind == "npy":
             data, header_spacing, notes = load_npy(path, progress)
         elif kind == "tiff":

@@ -12,36 +12,46 @@ from pathlib import Path
 import numpy as np
 
 from .errors import VolumeError
-from .reading import SLAB_BYTES, Loaded, damaged, read_in_slabs
+from .reading import MAP_BYTES, SLAB_BYTES, Loaded, damaged, read_in_slabs
 from .volume import Progress, refuse_if_too_big, report
 
 _RESAVE = "save it again with np.save"
 
 
-def read_header(fp, what: str) -> tuple[tuple[int, ...], np.dtype]:
-    """Shape and dtype from an .npy header; refuses pickles and monsters."""
+def read_header(fp, what: str, file_bytes: int | None = None) -> tuple[tuple[int, ...], np.dtype]:
+    """Shape and dtype from an .npy header; refuses pickles and monsters.
+
+    With `file_bytes` (the file's size), a C-ordered array the file wholly holds may be larger
+    than memory: load_npy maps it instead of reading it."""
     try:
         version = np.lib.format.read_magic(fp)
         read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
-        shape, _fortran_order, dtype = read(fp)
+        shape, fortran_order, dtype = read(fp)
     except ValueError as exc:
         raise VolumeError(f"{what} is not a valid .npy file ({exc}); {_RESAVE}") from None
     if dtype.hasobject:
         raise VolumeError(f"{what} holds Python objects (a pickled array), which isoscope never "
                           f"loads; save a numeric array with np.save(path, a.astype(np.float32))")
-    refuse_if_too_big(shape, dtype.itemsize, what)
+    whole = file_bytes is not None and fp.tell() + np.prod(shape, dtype=np.float64) * dtype.itemsize <= file_bytes
+    if not (whole and not fortran_order and len(shape) >= 3):
+        refuse_if_too_big(shape, dtype.itemsize, what)
     return shape, dtype
 
 
 def load_npy(path: Path, progress: Progress | None = None) -> Loaded:
+    """Small files are read; a C-ordered one of MAP_BYTES or more is memory-mapped, read on demand (it may
+    exceed RAM)."""
     with open(path, "rb") as fp:
-        shape, dtype = read_header(fp, path.name)
+        shape, dtype = read_header(fp, path.name, path.stat().st_size)
     report(progress, 0.0, f"reading {path.name}")
     try:
-        if len(shape) < 3 or np.prod(shape, dtype=np.float64) * dtype.itemsize < SLAB_BYTES:
+        n_bytes = np.prod(shape, dtype=np.float64) * dtype.itemsize
+        if len(shape) < 3 or n_bytes < min(SLAB_BYTES, MAP_BYTES):
             return np.load(path, allow_pickle=False), None, []
-        # Big: map the file and copy it slab by slab, so the progress bar moves.
         mapped = np.load(path, mmap_mode="r", allow_pickle=False)
+        if mapped.flags.c_contiguous and n_bytes >= MAP_BYTES:
+            return mapped, None, [f"{path.name} is memory-mapped: read from disk as needed"]
+        # Fortran order: copy it slab by slab into C order, so the progress bar moves.
         slab_axis = len(shape) - 1 if mapped.flags.f_contiguous and not mapped.flags.c_contiguous else 0
         return read_in_slabs(lambda index: mapped[index], shape, slab_axis, path.name, progress), None, []
     except (ValueError, EOFError, OSError) as exc:

@@ -11,7 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..lazy_arrays import Block3D
 from .errors import VolumeError
+from .reading import MAP_BYTES
 from .volume import Progress, refuse_if_too_big, report, shape_text, size_text
 
 RAW_DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64")
@@ -107,11 +109,18 @@ def _check_file_size(path: Path, layout: RawLayout) -> None:
 
 def load_raw(path: Path, dims=None, dtype=None, endian=None, spacing=None,
              progress: Progress | None = None):
+    """The array, axes transposed to x first: read whole when small, memory-mapped (read from disk a
+    block at a time, so it may exceed RAM) from MAP_BYTES up."""
     layout = raw_layout(path, dims, dtype, endian, spacing)
-    # Two copies live at once: the file order (z, y, x) and the transposed result.
-    refuse_if_too_big(layout.dims, layout.dtype.itemsize, path.name, copies=2)
+    n_bytes = int(np.prod(layout.dims, dtype=np.int64)) * layout.dtype.itemsize
+    if path.stat().st_size < n_bytes:
+        refuse_if_too_big(layout.dims, layout.dtype.itemsize, path.name)  # a header-less monster, or truncated
     _check_file_size(path, layout)
     x, y, z = layout.dims
+    layout.notes.append(f"raw {shape_text(layout.dims)} {layout.dtype.name}")
+    if n_bytes >= MAP_BYTES:
+        mapped = np.memmap(path, dtype=layout.dtype, mode="r", shape=(z, y, x))
+        return Block3D(mapped, reverse=True), layout.spacing, layout.notes
     file_order = np.empty((z, y, x), dtype=layout.dtype)
     buffer = file_order.reshape(-1).view(np.uint8)
     with open(path, "rb") as fp:
@@ -123,6 +132,5 @@ def load_raw(path: Path, dims=None, dtype=None, endian=None, spacing=None,
             done += count
             report(progress, done / buffer.size,
                    f"reading {path.name} ({size_text(done)} of {size_text(buffer.size)})")
-    data = np.ascontiguousarray(file_order.transpose(2, 1, 0))
-    layout.notes.append(f"raw {shape_text(layout.dims)} {layout.dtype.name}")
-    return data, layout.spacing, layout.notes
+    return np.ascontiguousarray(file_order.transpose(2, 1, 0)), layout.spacing, layout.notes
+

@@ -13,6 +13,7 @@ from .volume import Progress, report
 Loaded = tuple[np.ndarray, "tuple[float, float, float] | None", list[str]]
 
 SLAB_BYTES = 32 << 20  # per read: big enough to be fast, small enough for a moving bar
+MAP_BYTES = 256 << 20  # .npy and raw files this big are memory-mapped, not read: they may not fit in memory
 
 
 def read_in_slabs(read, shape, axis: int, what: str, progress: Progress | None) -> np.ndarray:

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..lazy_arrays import is_lazy
 from ..validation import CheckedVolume, Progress, check_volume
 from .errors import VolumeError
 
@@ -29,10 +30,20 @@ class Volume:
     # (4x4 array index (i, j, k, 1) -> world millimetres, "RAS" or "LPS") where the file defines
     # it (NIfTI, NRRD, DICOM); None: world units are index x spacing.
     world: tuple[np.ndarray, str] | None = None
+    _in_memory: np.ndarray | None = field(default=None, repr=False, compare=False)  # a lazy volume, once read
 
     @property
     def checked(self) -> CheckedVolume:
-        """The data as the extractors take it, already checked: they do not scan it again."""
+        """The data as the extractors take it, already checked: they do not scan it again.
+
+        A lazy volume (Zarr, a raw file's map) is read whole here: chunked.py reads it a box at a time."""
+        if is_lazy(self.data):
+            if self._in_memory is None:  # read once: the viewer asks for it again for each preview
+                refuse_if_too_big(self.data.shape, self.data.dtype.itemsize, self.name,
+                                  fix="export it a chunk at a time (isoscope export --chunk 128), or downsample it")
+                data = np.asarray(self.data)
+                self._in_memory = data.astype(data.dtype.newbyteorder("="), copy=False)
+            return CheckedVolume(self._in_memory, self.value_range)
         return CheckedVolume(self.data, self.value_range)
 
 

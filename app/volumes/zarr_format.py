@@ -1,0 +1,85 @@
+"""Zarr arrays (format v2 and v3) and OME-Zarr multiscale images, opened lazily with the `zarr` library.
+
+Nothing is read at open but metadata: the Volume's data is a lazy view (lazy_arrays.Block3D)
+that the checks and the chunked extractor read a block at a time, so the volume may be far
+larger than memory.  Axes stay as stored (OME-Zarr: z, y, x), as for TIFF stacks.
+
+A path is a Zarr array, or a group: an OME-Zarr image (its "multiscales" metadata, under
+attrs["ome"] from OME-Zarr 0.5) opens its full-resolution level with the spacing of its
+"scale" coordinate transformations (the dataset's times the image's); any other group opens
+its first array.  Leading non-spatial axes (time, channel): --frame N picks along the first one longer than 1.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..lazy_arrays import Block3D
+from .errors import VolumeError
+from .reading import damaged, reason
+from .volume import Progress, report, shape_text
+
+MARKERS = (".zarray", ".zgroup", "zarr.json")
+
+
+def is_zarr(path: Path) -> bool:
+    return path.is_dir() and (path.name.lower().endswith(".zarr") or any((path / m).is_file() for m in MARKERS))
+
+
+def load_zarr(path: Path, frame: int | None, progress: Progress | None = None):
+    """(lazy 3-D array, spacing or None, notes)."""
+    import zarr
+    report(progress, 0.0, f"opening {path.name}")
+    try:
+        node = zarr.open(store=str(path), mode="r")
+    except Exception as exc:  # zarr raises many kinds for a damaged store
+        raise damaged(path, exc, "check that it is a Zarr array or an OME-Zarr image") from None
+    spacing, notes, spatial = None, [], 3
+    if isinstance(node, zarr.Group):
+        multiscales = node.attrs.get("multiscales") or dict(node.attrs.get("ome") or {}).get("multiscales")
+        if multiscales:
+            node, spacing, spatial, notes = _ome_level(node, multiscales[0], path)
+        else:
+            arrays = sorted(node.array_keys())
+            if not arrays:
+                raise VolumeError(f"{path.name} is a Zarr group with no arrays; open the array's folder itself")
+            notes.append(f"{path.name}: showing array {arrays[0]!r} of {len(arrays)}"
+                         f" (open {path.name}/NAME for another)" if len(arrays) > 1 else "")
+            node = node[arrays[0]]
+    shape = tuple(node.shape)
+    if len(shape) < 3 or spatial < 3:
+        raise VolumeError(f"{path.name} holds a {len(shape)}-D array ({shape_text(shape)}) with "
+                          f"{min(spatial, len(shape))} spatial axes; isoscope needs 3 spatial axes")
+    lead = [0] * (len(shape) - 3)
+    if lead:  # --frame indexes the first leading axis longer than 1 (OME-Zarr's t, else c); the others take 0
+        axis = next((a for a, n in enumerate(shape[:len(lead)]) if n > 1), 0)
+        index = 0 if frame is None else int(frame)
+        if not 0 <= index < shape[axis]:
+            raise VolumeError(f"--frame {index} is outside {path.name}'s {shape[axis]} frames; "
+                              f"pick 0 .. {shape[axis] - 1}")
+        lead[axis] = index
+        if shape[axis] > 1:
+            notes.append(f"{path.name} is {shape_text(shape)}: showing frame {index} of {shape[axis]} (--frame N)")
+    notes.append(f"Zarr {shape_text(shape[-3:])} {node.dtype} in {shape_text(node.chunks[-3:])} chunks, "
+                 "read on demand")
+    return Block3D(node, tuple(lead)), spacing, [n for n in notes if n]
+
+
+def _ome_level(group, multiscale: dict, path: Path):
+    """(array of the full-resolution level, its (z, y, x) spacing or None, spatial axis count, notes)."""
+    try:
+        datasets = multiscale["datasets"]
+        level = group[datasets[0]["path"]]
+    except (KeyError, IndexError, TypeError) as exc:
+        raise VolumeError(f"{path.name}: its OME-Zarr multiscales metadata names no readable level "
+                          f"({reason(exc)}); write it again") from None
+    axes = multiscale.get("axes") or [{"name": n, "type": "space"} for n in "zyx"[-len(level.shape):]]
+    axes = [{"name": a, "type": "space" if a in "zyx" else ""} if isinstance(a, str) else a for a in axes]
+    spatial = sum(1 for a in axes if a.get("type") == "space")
+    scale = [1.0] * len(level.shape)
+    for transforms in (datasets[0].get("coordinateTransformations", []),
+                       multiscale.get("coordinateTransformations", [])):
+        for transform in transforms:
+            if transform.get("type") == "scale" and len(transform.get("scale", [])) == len(scale):
+                scale = [a * float(b) for a, b in zip(scale, transform["scale"])]
+    notes = [f"OME-Zarr level {datasets[0]['path']!r} of {len(datasets)} (full resolution)"]
+    return level, tuple(scale[-3:]), spatial, notes
