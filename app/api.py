@@ -5,13 +5,15 @@ import numpy as np
 
 from . import validation
 from .reference import marching_cubes_reference
+from .reference_sharp import check_feature_angle, sharpen_extracted
 
 BACKENDS = ("auto", "gpu", "cpu")
 METHODS = ("lewiner", "lorensen")
 
 
 def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
-                   step_size=1, allow_degenerate=True, method="lewiner", backend="auto"):
+                   step_size=1, allow_degenerate=True, method="lewiner", backend="auto",
+                   sharp_features=None):
     """Extract the isosurface ``volume == level`` as an indexed, watertight triangle mesh.
 
     Parameters follow ``skimage.measure.marching_cubes``:
@@ -36,6 +38,13 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         none is current), "cpu" (the numpy reference), or "auto" (GPU when an
         OpenGL 4.3 context can be had).
 
+    sharp_features : None for plain marching cubes, or a feature angle in degrees
+        (0 < angle < 180, e.g. 30): Extended Marching Cubes (Kobbelt et al. 2001,
+        `app.reference_sharp`) adds a vertex on the sharp edge or corner of each cell
+        whose normals open wider than the angle, so boxes keep their edges.  The
+        extra vertices come after the plain ones; the mesh stays watertight.  The
+        plain mesh is made on the chosen backend, the feature step in numpy.
+
     Returns ``verts`` (N, 3) float32 in array-index order times spacing,
     ``faces`` (M, 3) int32, ``normals`` (N, 3) float32 unit vectors, ``values``
     (N,) float32.  Every grid edge whose ends lie on different sides of the
@@ -45,6 +54,7 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         raise ValueError(f"backend {backend!r} is not one of {BACKENDS}")
     if method not in METHODS:
         raise ValueError(f"method {method!r} is not one of {METHODS}")
+    angle = check_feature_angle(sharp_features)
     checked = validation.check_volume(volume)
     spacing = validation.as_spacing(spacing)
     descent = validation.as_gradient_direction(gradient_direction)
@@ -58,12 +68,15 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         from .gl_context import gl_available
         backend = "gpu" if gl_available() else "cpu"
     if backend == "cpu":
-        return marching_cubes_reference(checked.data.astype(np.float32, copy=False), level, spacing, descent)
-
-    from .extractor import Extractor
-    extractor = Extractor(checked, spacing=spacing, gradient_direction=gradient_direction)
-    try:
-        extractor.extract(level)
-        return extractor.read_mesh()
-    finally:
-        extractor.release()
+        mesh = marching_cubes_reference(checked.data.astype(np.float32, copy=False), level, spacing, descent)
+    else:
+        from .extractor import Extractor
+        extractor = Extractor(checked, spacing=spacing, gradient_direction=gradient_direction)
+        try:
+            extractor.extract(level)
+            mesh = extractor.read_mesh()
+        finally:
+            extractor.release()
+    if angle is None:
+        return mesh
+    return sharpen_extracted(mesh, checked.data, level, spacing, descent, angle)[:4]
