@@ -28,8 +28,8 @@ Drop a volume file on the window to open it.
 
 other commands (each has --help):
   isoscope render VOLUME --out shot.png [--iso V] [--size WxH] [--azimuth A] [--elevation E] [--panel]
-                [--transparent]
-  isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V]
+                [--transparent] [--sharp DEG]
+  isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V] [--sharp DEG]
   isoscope volumes          list the built-in volumes
 """
 
@@ -57,6 +57,21 @@ def window_size(text: str) -> tuple[int, int]:
 def _add_iso(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--iso", type=float, metavar="V",
                         help="iso value (default: the volume's suggested level, else mid-range)")
+
+
+def feature_angle(text: str) -> float:
+    from .reference_sharp import check_feature_angle
+    try:
+        return check_feature_angle(float(text))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--sharp {text} must be a feature angle in degrees between 0 and 180 "
+                                         "(exclusive), e.g. 30") from None
+
+
+def _add_sharp(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--sharp", type=feature_angle, metavar="DEG",
+                        help="sharp edges and corners (Extended Marching Cubes) where normals open wider than DEG "
+                             "degrees, e.g. 30")
 
 
 def viewer_parser() -> argparse.ArgumentParser:
@@ -99,6 +114,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--panel", action="store_true", help="draw the imgui panel over the scene")
         parser.add_argument("--transparent", action="store_true",
                             help="a transparent background: an RGBA PNG, for slides and figures")
+        _add_sharp(parser)
     else:
         parser = OneLineParser(prog="isoscope export",
                                description="Extract the isosurface and write it as a mesh file: binary PLY, OBJ, "
@@ -114,6 +130,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--decimate", type=float, metavar="FRACTION",
                             help="keep about this fraction of the triangles (quadric decimation, 0 < F <= 1); "
                                  "prints how far the result strays from the level set")
+        _add_sharp(parser)
     add_volume_arguments(parser)
     return parser
 
@@ -154,6 +171,12 @@ def run_viewer(args) -> int:
 def run_render(args) -> int:
     volume = open_volume_from_args(args.volume, args, _progress)
     iso = _checked_iso(volume, args.iso)
+    if args.sharp is not None:
+        from .sharp_features import render_sharp_png
+        path = render_sharp_png(volume, args.out, iso, args.sharp, size=args.size, azimuth=args.azimuth,
+                                elevation=args.elevation, transparent=args.transparent)
+        print(f"wrote {path} ({args.size[0]}x{args.size[1]})")
+        return 0
     from .viewer.headless import render_png
     path = render_png(volume, args.out, iso, size=args.size, azimuth=args.azimuth,
                       elevation=args.elevation, panel=args.panel, transparent=args.transparent)
@@ -171,7 +194,8 @@ def run_export(args) -> int:
     volume = open_volume_from_args(args.volume, args, _progress)
     iso = _checked_iso(volume, args.iso)
     verts, faces, normals, _ = marching_cubes(volume.checked, iso, spacing=volume.spacing,
-                                              gradient_direction=volume.gradient_direction)
+                                              gradient_direction=volume.gradient_direction,
+                                              sharp_features=args.sharp)
     if args.decimate is not None:
         verts, faces, normals = _decimated(volume, iso, verts, faces, args.decimate)
     verts, faces, normals, space = in_volume_space(volume, verts, faces, normals, world=args.space == "world")

@@ -33,7 +33,8 @@ from .case_table import CaseTable, montani_table
 from .reference import cells_in_triangle_order, inside_mask
 
 SINGULAR_CUTOFF = 0.1  # singular values below this fraction of the largest are treated as zero
-MAX_PATCH_VERTICES = 12  # a cell has 12 edges
+MAX_PATCH_VERTICES = 12
+CLUSTER_ANGLE = 10.0  # degrees: normals this close to a side's own normal count as that side's  # a cell has 12 edges
 
 
 def check_feature_angle(sharp_features) -> float | None:
@@ -50,25 +51,35 @@ def check_feature_angle(sharp_features) -> float | None:
     return angle
 
 
-def triangle_cells(field: np.ndarray, level: float, n_faces: int, table: CaseTable | None = None) -> np.ndarray:
-    """The cell (i, j, k) of every face of the plain mesh of `field` (already sign-adjusted) at `level`."""
-    table = table or montani_table()
-    cells, _, n_tri = cells_in_triangle_order(inside_mask(field, level), table)
+def cell_runs(field: np.ndarray, level: float, n_faces: int, table: CaseTable | None = None):
+    """The plain mesh's faces come cell by cell: the cells (C, 3) of `field` (sign-adjusted) at `level`
+    that have faces, and their face counts."""
+    cells, _, n_tri = cells_in_triangle_order(inside_mask(field, level), table or montani_table())
     if n_tri.sum() != n_faces:
         raise AssertionError("the mesh's faces do not come from this field's cells")
-    return np.repeat(cells, n_tri, axis=0)
+    return cells, n_tri
 
 
-def _patches(faces: np.ndarray, face_cells: np.ndarray) -> np.ndarray:
+def _candidate_cells(faces, normals, n_tri, cos_half):
+    """Cells where some vertex normal is more than half the feature angle from the cell's mean normal:
+    only there can a patch's normals open wider than the angle (a cheap test over the whole mesh)."""
+    starts = np.cumsum(n_tri) - n_tri
+    corner_normals = normals[faces]
+    sums = np.add.reduceat(corner_normals.sum(axis=1, dtype=np.float32), starts)
+    mean = sums / np.maximum(np.linalg.norm(sums, axis=1, keepdims=True), 1e-30)
+    dots = np.einsum("fck,fk->fc", corner_normals, np.repeat(mean.astype(np.float32), n_tri, axis=0)).min(axis=1)
+    return np.minimum.reduceat(dots, starts) < cos_half
+
+
+def _patches(faces: np.ndarray, face_cell: np.ndarray) -> np.ndarray:
     """A patch id per face: faces of one cell that share a vertex (transitively) share a patch."""
     n = len(faces)
-    cell_key = np.unique(face_cells, axis=0, return_inverse=True)[1].reshape(-1)
     # (cell, vertex) pairs: one per face corner; a vertex lies in one loop of its cell.
-    pair_ids = np.unique(np.stack([np.repeat(cell_key, 3), faces.reshape(-1)], axis=1),
-                         axis=0, return_inverse=True)[1].reshape(n, 3)
+    pair_ids = np.unique(np.repeat(face_cell, 3) * (faces.max() + 1) + faces.reshape(-1),
+                         return_inverse=True)[1].reshape(n, 3)
     label = np.arange(n)
     while True:
-        pair_label = np.full(pair_ids.max() + 1 if n else 0, n)
+        pair_label = np.full(pair_ids.max() + 1, n)
         np.minimum.at(pair_label, pair_ids.reshape(-1), np.repeat(label, 3))
         new = pair_label[pair_ids].min(axis=1)
         if np.array_equal(new, label):
@@ -76,9 +87,22 @@ def _patches(faces: np.ndarray, face_cells: np.ndarray) -> np.ndarray:
         label = new
 
 
+def _row_counts(*columns):
+    """For each row of the columns, how many rows equal it."""
+    order = np.lexsort(columns[::-1])
+    stacked = np.stack(columns, axis=1)[order]
+    starts = np.flatnonzero(np.concatenate([[True], (stacked[1:] != stacked[:-1]).any(axis=1)]))
+    sizes = np.diff(np.append(starts, len(order)))
+    counts = np.empty(len(order), np.int64)
+    counts[order] = np.repeat(sizes, sizes)
+    return counts
+
+
 def _padded(groups, members, n_groups, width=None):
     """(G, width) unique members of each group, ascending, padded with -1."""
-    pairs = np.unique(np.stack([groups, members], axis=1), axis=0)
+    base = members.max() + 1
+    pairs = np.unique(groups * base + members)
+    pairs = np.stack([pairs // base, pairs % base], axis=1)
     first = np.searchsorted(pairs[:, 0], np.arange(n_groups))
     slot = np.arange(len(pairs)) - first[pairs[:, 0]]
     out = np.full((n_groups, width or slot.max() + 1), -1, np.int64)
@@ -89,6 +113,9 @@ def _padded(groups, members, n_groups, width=None):
 def _one_ring(faces, members):
     """(P, W) the vertices of each row of `members` (padded with -1) and their neighbours in the mesh."""
     edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    wanted = np.zeros(faces.max() + 2, bool)
+    wanted[members[members >= 0]] = True
+    edges = edges[wanted[edges[:, 0]]]
     edges = edges[np.argsort(edges[:, 0], kind="stable")]
     starts = np.searchsorted(edges[:, 0], np.arange(faces.max() + 2))
     rows, cols = np.nonzero(members >= 0)
@@ -98,55 +125,100 @@ def _one_ring(faces, members):
     return _padded(np.concatenate([rows, np.repeat(rows, count)]), np.concatenate([v, nbr]), len(members))
 
 
-def feature_points(positions, normals, valid, lower, upper, want_rank=None):
-    """Where the tangent planes of each patch (P, 12, 3) meet, and whether that is inside its cell.
+def feature_points(positions, normals, valid, lower, upper):
+    """Where the tangent planes of each patch (P, W, 3) meet: (points, ok, corners).
 
     The quadric is solved relative to the mass point by SVD, singular values under SINGULAR_CUTOFF x the
-    largest dropped.  Two kept (an edge): the planes meet in a line; the point on it nearest the mass point,
-    slid along the line into the cell.  Three (a corner): the point itself.  One (no feature after all): the
-    mass point moved onto the plane, clamped into the cell.  A line or point that misses the cell: not ok."""
+    largest dropped.  Three kept and the point inside the cell: a corner, that point.  Otherwise, with two
+    planes' worth (the smallest dropped if need be): an edge, the line where they meet; the point on it
+    nearest the mass point, slid along it into the cell.  Not ok: one plane's worth (no feature after all)
+    or a line that misses the cell.  `corners`: the rank-3 points, unclamped (nan where rank < 3)."""
     w = valid[..., None].astype(np.float64)
     mass = (positions * w).sum(axis=1) / w.sum(axis=1)
     a = normals * w
     b = np.einsum("pvk,pvk->pv", a, positions - mass[:, None, :])
     u, s, vt = np.linalg.svd(a, full_matrices=False)
+    ub = np.einsum("pvj,pv->pj", u, b)
     keep = s > SINGULAR_CUTOFF * s[:, :1]
-    inv = np.where(keep, 1.0 / np.where(keep, s, 1.0), 0.0)
-    x = mass + np.einsum("pji,pj->pi", vt, inv * np.einsum("pvj,pv->pj", u, b))
     rank = keep.sum(axis=1)
-    slack = 1e-6 * (upper - lower)
-    ok = np.where(rank == 3, ((x >= lower - slack) & (x <= upper + slack)).all(axis=1), True)
-    # Rank 2: clip the line x + t d to the cell's slabs and take the t in range nearest 0.
+    inv = np.where(keep, 1.0 / np.where(keep, s, 1.0), 0.0)
+    corner = mass + np.einsum("pji,pj->pi", vt, inv * ub)
+    corner = np.where(rank[:, None] == 3, corner, np.nan)
+    inv[:, 2] = 0.0
+    x = mass + np.einsum("pji,pj->pi", vt, inv * ub)  # on the line x + t d
     d = vt[:, 2]
-    safe = np.where(np.abs(d) > 1e-12, d, 1.0)
+    slack = 1e-6 * (upper - lower)
+    moving = np.abs(d) > 1e-12
+    safe = np.where(moving, d, 1.0)
     t0, t1 = (lower - x) / safe, (upper - x) / safe
-    lo = np.where(np.abs(d) > 1e-12, np.minimum(t0, t1), -np.inf).max(axis=1)
-    hi = np.where(np.abs(d) > 1e-12, np.maximum(t0, t1), np.inf).min(axis=1)
-    flat_ok = ((x >= lower - slack) & (x <= upper + slack)) | (np.abs(d) > 1e-12)
-    line = rank == 2
-    ok &= ~line | ((lo <= hi) & flat_ok.all(axis=1))
-    t = np.clip(0.0, lo, hi)
-    x = np.where(line[:, None], x + np.where(np.isfinite(t), t, 0.0)[:, None] * d, x)
-    if want_rank is not None:
-        ok &= rank == want_rank
-    return np.clip(x, lower, upper), ok
+    lo = np.where(moving, np.minimum(t0, t1), -np.inf).max(axis=1)
+    hi = np.where(moving, np.maximum(t0, t1), np.inf).min(axis=1)
+    ok = (rank >= 2) & (lo <= hi) & (moving | ((x >= lower - slack) & (x <= upper + slack))).all(axis=1)
+    x = x + np.where(ok, np.clip(0.0, lo, hi), 0.0)[:, None] * d
+    inside = (corner >= lower - slack).all(axis=1) & (corner <= upper + slack).all(axis=1)
+    x = np.where(inside[:, None], corner, x)
+    return np.clip(x, lower, upper), ok | inside, corner
 
 
-def _solve(verts, normals, members, lower, upper, rank=None):
-    """feature_points of the vertices `members` (P, W, padded with -1); with `rank`, ok only at that rank."""
-    valid = members >= 0
+def _extreme_normals(n, valid, cos_angle):
+    """Which of the normals (P, W, 3) are near one of the two or three most different ones.
+
+    Gradients by central differences blend the two sides of an edge in the samples next to it; the
+    normals at the ends of the spread are the sides' own.  Seeds: the normal least like the first, the
+    one least like that, and, when it is more than the feature angle from both, the one least like
+    either.  A normal is kept when it lies within CLUSTER_ANGLE of a seed."""
+    rows = np.arange(len(n))
+
+    def dots_with(seed):  # (P, W): each normal's dot with the seed normal; 2 for padding
+        return np.where(valid, np.einsum("pwk,pk->pw", n, n[rows, seed]), 2.0)
+
+    d1 = dots_with(dots_with(np.zeros(len(n), np.int64)).argmin(axis=1))
+    d2 = dots_with(d1.argmin(axis=1))
+    to_both = np.maximum(d1, d2)
+    s3 = to_both.argmin(axis=1)
+    d3 = dots_with(s3)
+    near = np.cos(np.radians(CLUSTER_ANGLE))
+    keep = (d1 > near) | (d2 > near) | ((d3 > near) & (to_both[rows, s3] < cos_angle)[:, None])
+    return keep & valid
+
+
+def _solve(verts, normals, members, lower, upper, cos_angle):
+    """feature_points of the vertices `members` (P, W, padded with -1), only those with extreme normals."""
     picked = np.maximum(members, 0)
-    return feature_points(verts[picked].astype(np.float64), normals[picked].astype(np.float64) * valid[..., None],
-                          valid, lower, upper, rank)
+    n = normals[picked].astype(np.float64)
+    valid = _extreme_normals(n, members >= 0, cos_angle)
+    return feature_points(verts[picked].astype(np.float64), n * valid[..., None], valid, lower, upper)
 
 
-def _flip_edges(faces, fan_rows, apex):
+def _corner_in_empty_cell(corner, face_cells, shape, lower, upper, spacing):
+    """Which patches take their corner point (P, 3; nan where none) that lies in a neighbouring cell.
+
+    A corner that pokes less than a cell into a cell leaves all of that cell's samples outside: the cell
+    has no patch to place it.  The nearest neighbouring patch whose planes meet there takes it instead,
+    one patch per such cell."""
+    found = np.isfinite(corner).all(axis=1)
+    target = np.floor(np.where(found[:, None], corner, 0) / spacing).astype(np.int64)
+    gap = np.maximum(np.maximum(lower - corner, corner - upper), 0).max(axis=1)
+    found &= (gap > 0) & (gap <= spacing.min()) & (target >= 0).all(axis=1)
+    found &= (target < np.array(shape) - 1).all(axis=1)
+    occupied = np.unique(np.ravel_multi_index(face_cells.T, np.array(shape) - 1))
+    key = np.ravel_multi_index(np.where(found[:, None], target, 0).T, np.array(shape) - 1)
+    found &= ~np.isin(key, occupied)
+    takes = np.zeros(len(corner), bool)
+    candidates = np.flatnonzero(found)
+    order = candidates[np.lexsort((gap[candidates], key[candidates]))]
+    _, first = np.unique(key[order], return_index=True)
+    takes[order[first]] = True
+    return takes
+
+
+def _flip_edges(faces, fan_rows):
     """Flip the edges joining two fans' bases toward their apexes (feature vertices), in place.
 
     `fan_rows`: the rows of `faces` that are fan triangles (a, b, apex) with base a -> b."""
     base = faces[fan_rows, :2]
-    key = base[:, 0] * (apex.max() + 1 + faces.max()) + base[:, 1]
-    rkey = base[:, 1] * (apex.max() + 1 + faces.max()) + base[:, 0]
+    stride = faces.max() + 1
+    key, rkey = base[:, 0] * stride + base[:, 1], base[:, 1] * stride + base[:, 0]
     order = np.argsort(key)
     at = np.searchsorted(key[order], rkey)
     at = np.minimum(at, len(key) - 1)
@@ -155,9 +227,7 @@ def _flip_edges(faces, fan_rows, apex):
     first, second = np.flatnonzero(matched), partner[matched]
     f1, f2 = faces[fan_rows[first], 2], faces[fan_rows[second], 2]
     # A pair of feature vertices joined through two different edges would get one edge twice.
-    joined = np.stack([np.minimum(f1, f2), np.maximum(f1, f2)], axis=1)
-    _, inverse, counts = np.unique(joined, axis=0, return_inverse=True, return_counts=True)
-    ok = (counts[inverse.reshape(-1)] == 1) & (f1 != f2)
+    ok = (_row_counts(np.minimum(f1, f2), np.maximum(f1, f2)) == 1) & (f1 != f2)
     first, second, f1, f2 = first[ok], second[ok], f1[ok], f2[ok]
     a, b = base[first, 0], base[first, 1]
     # (a, b, f1) and (b, a, f2) bound the quad a -> f2 -> b -> f1; split it along f1 - f2 instead.
@@ -185,28 +255,37 @@ def sharpen(mesh, field, level, spacing, angle, table: CaseTable | None = None):
     if len(faces) == 0:
         return (*mesh, n_plain)
     spacing = np.asarray(spacing, np.float64)
-    face_cells = triangle_cells(field, level, len(faces), table)
-    patch = _patches(faces, face_cells)
+    cos_angle = np.cos(np.radians(angle))
+    all_cells, n_tri = cell_runs(field, level, len(faces), table)
+    candidate = np.repeat(_candidate_cells(faces, normals, n_tri, np.cos(np.radians(angle / 2))), n_tri)
+    if not candidate.any():
+        return (*mesh, n_plain)
+    face_cell = np.repeat(np.arange(len(all_cells)), n_tri)[candidate]
+    sub = faces[candidate].astype(np.int64)
+    patch = _patches(sub, face_cell)
     n_patches = patch.max() + 1
-    members = _padded(np.repeat(patch, 3), faces.reshape(-1), n_patches, MAX_PATCH_VERTICES)
+    members = _padded(np.repeat(patch, 3), sub.reshape(-1), n_patches, MAX_PATCH_VERTICES)
     valid = members >= 0
     n = normals[np.maximum(members, 0)].astype(np.float64) * valid[..., None]
     cos_open = np.einsum("pik,pjk->pij", n, n)
     both = valid[:, :, None] & valid[:, None, :]
-    is_feature = (np.where(both, cos_open, 1.0).min(axis=(1, 2)) < np.cos(np.radians(angle)))
+    is_feature = np.where(both, cos_open, 1.0).min(axis=(1, 2)) < cos_angle
     if not is_feature.any():
         return (*mesh, n_plain)
 
     feature_ids = np.flatnonzero(is_feature)
-    cell_of_patch = np.zeros((n_patches, 3), np.int64)
-    cell_of_patch[patch] = face_cells
-    cells = cell_of_patch[feature_ids]
+    cell_of_patch = np.zeros(n_patches, np.int64)
+    cell_of_patch[patch] = face_cell
+    cells = all_cells[cell_of_patch[feature_ids]]
     lower, upper = cells * spacing, (cells + 1) * spacing
-    new_points, ok = _solve(verts, normals, members[feature_ids], lower, upper)
-    # A corner shows in the normals around the patch more often than in the patch's own: where the one-ring's
-    # planes meet in a point inside the cell, take it.
-    corner, corner_ok = _solve(verts, normals, _one_ring(faces, members[feature_ids]), lower, upper, rank=3)
-    new_points[corner_ok], ok = corner[corner_ok], ok | corner_ok
+    new_points, ok, _ = _solve(verts, normals, members[feature_ids], lower, upper, cos_angle)
+    # The sides' own normals show purer around the patch than in it (central differences blend the sides
+    # in the samples next to an edge), and a corner's third side shows more often: where the planes of the
+    # patch's vertices and their neighbours meet inside the cell, take that point.
+    ring, ring_ok, corner = _solve(verts, normals, _one_ring(faces, members[feature_ids]), lower, upper, cos_angle)
+    new_points[ring_ok], ok = ring[ring_ok], ok | ring_ok
+    takes = _corner_in_empty_cell(corner, all_cells, field.shape, lower, upper, spacing)
+    new_points[takes], ok = corner[takes], ok | takes
     is_feature[feature_ids[~ok]] = False  # the planes meet outside the cell: keep its plain patch
     feature_ids, cells, new_points = feature_ids[ok], cells[ok], new_points[ok]
     if not len(feature_ids):
@@ -215,20 +294,19 @@ def sharpen(mesh, field, level, spacing, angle, table: CaseTable | None = None):
     new_index[feature_ids] = n_plain + np.arange(len(feature_ids))
 
     # Fans: each feature patch's boundary edges (a directed edge whose reverse is not in the patch).
-    in_feature = is_feature[patch]
-    rows = np.flatnonzero(in_feature)
-    edges = np.stack([faces[rows][:, [0, 1]], faces[rows][:, [1, 2]], faces[rows][:, [2, 0]]], axis=1).reshape(-1, 2)
+    in_feature = np.zeros(len(faces), bool)
+    in_feature[np.flatnonzero(candidate)[is_feature[patch]]] = True
+    rows = np.flatnonzero(is_feature[patch])
+    edges = np.stack([sub[rows][:, [0, 1]], sub[rows][:, [1, 2]], sub[rows][:, [2, 0]]], axis=1).reshape(-1, 2)
     edge_patch = np.repeat(patch[rows], 3)
-    undirected = np.concatenate([edge_patch[:, None], np.sort(edges, axis=1)], axis=1)
-    _, inverse, counts = np.unique(undirected, axis=0, return_inverse=True, return_counts=True)
-    boundary = counts[inverse.reshape(-1)] == 1
+    boundary = _row_counts(edge_patch, edges.min(axis=1), edges.max(axis=1)) == 1
     edges, edge_patch = edges[boundary], edge_patch[boundary]
     order = np.argsort(edge_patch, kind="stable")
     fans = np.concatenate([edges[order], new_index[edge_patch[order], None]], axis=1)
 
     out_faces = np.concatenate([faces[~in_feature].astype(np.int64), fans])
     fan_rows = np.arange(len(out_faces) - len(fans), len(out_faces))
-    _flip_edges(out_faces, fan_rows, new_index[feature_ids])
+    _flip_edges(out_faces, fan_rows)
 
     out_verts = np.concatenate([verts, new_points.astype(np.float32)])
     new_normals = vertex_normals_from_faces(out_verts, out_faces, np.arange(n_plain, len(out_verts)))
