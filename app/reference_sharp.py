@@ -126,13 +126,14 @@ def _one_ring(faces, members):
 
 
 def feature_points(positions, normals, valid, lower, upper):
-    """Where the tangent planes of each patch (P, W, 3) meet: (points, ok, corners).
+    """Where the tangent planes of each patch (P, W, 3) meet: (points, ok, corners, kinds).
 
     The quadric is solved relative to the mass point by SVD, singular values under SINGULAR_CUTOFF x the
     largest dropped.  Three kept and the point inside the cell: a corner, that point.  Otherwise, with two
     planes' worth (the smallest dropped if need be): an edge, the line where they meet; the point on it
     nearest the mass point, slid along it into the cell.  Not ok: one plane's worth (no feature after all)
-    or a line that misses the cell.  `corners`: the rank-3 points, unclamped (nan where rank < 3)."""
+    or a line that misses the cell.  `corners`: the rank-3 points, unclamped (nan where rank < 3); `kinds`:
+    3 where the point is such a corner, 2 where it is on a line."""
     w = valid[..., None].astype(np.float64)
     mass = (positions * w).sum(axis=1) / w.sum(axis=1)
     a = normals * w
@@ -157,7 +158,7 @@ def feature_points(positions, normals, valid, lower, upper):
     x = x + np.where(ok, np.clip(0.0, lo, hi), 0.0)[:, None] * d
     inside = (corner >= lower - slack).all(axis=1) & (corner <= upper + slack).all(axis=1)
     x = np.where(inside[:, None], corner, x)
-    return np.clip(x, lower, upper), ok | inside, corner
+    return np.clip(x, lower, upper), ok | inside, corner, np.where(inside, 3, np.minimum(rank, 2))
 
 
 def _extreme_normals(n, valid, cos_angle):
@@ -165,20 +166,25 @@ def _extreme_normals(n, valid, cos_angle):
 
     Gradients by central differences blend the two sides of an edge in the samples next to it; the
     normals at the ends of the spread are the sides' own.  Seeds: the normal least like the first, the
-    one least like that, and, when it is more than the feature angle from both, the one least like
-    either.  A normal is kept when it lies within CLUSTER_ANGLE of a seed."""
+    one least like that, and the one farthest out of the plane of those two, when it is more than the
+    feature angle out.  A normal is kept when it lies within CLUSTER_ANGLE of a seed."""
     rows = np.arange(len(n))
 
     def dots_with(seed):  # (P, W): each normal's dot with the seed normal; 2 for padding
         return np.where(valid, np.einsum("pwk,pk->pw", n, n[rows, seed]), 2.0)
 
-    d1 = dots_with(dots_with(np.zeros(len(n), np.int64)).argmin(axis=1))
-    d2 = dots_with(d1.argmin(axis=1))
-    to_both = np.maximum(d1, d2)
-    s3 = to_both.argmin(axis=1)
-    d3 = dots_with(s3)
+    s1 = dots_with(np.zeros(len(n), np.int64)).argmin(axis=1)
+    d1 = dots_with(s1)
+    s2 = d1.argmin(axis=1)
+    d2 = dots_with(s2)
+    # The third side's normal leaves the plane of the first two (a blend of those two stays in it).
+    axis = np.cross(n[rows, s1], n[rows, s2])
+    axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-30)
+    out_of_plane = np.where(valid, np.abs(np.einsum("pwk,pk->pw", n, axis)), -1.0)
+    s3 = out_of_plane.argmax(axis=1)
+    third = out_of_plane[rows, s3] > np.sqrt(1 - cos_angle ** 2)
     near = np.cos(np.radians(CLUSTER_ANGLE))
-    keep = (d1 > near) | (d2 > near) | ((d3 > near) & (to_both[rows, s3] < cos_angle)[:, None])
+    keep = (d1 > near) | (d2 > near) | ((dots_with(s3) > near) & third[:, None])
     return keep & valid
 
 
@@ -278,11 +284,14 @@ def sharpen(mesh, field, level, spacing, angle, table: CaseTable | None = None):
     cell_of_patch[patch] = face_cell
     cells = all_cells[cell_of_patch[feature_ids]]
     lower, upper = cells * spacing, (cells + 1) * spacing
-    new_points, ok, _ = _solve(verts, normals, members[feature_ids], lower, upper, cos_angle)
+    new_points, ok = _solve(verts, normals, members[feature_ids], lower, upper, cos_angle)[:2]
     # The sides' own normals show purer around the patch than in it (central differences blend the sides
     # in the samples next to an edge), and a corner's third side shows more often: where the planes of the
-    # patch's vertices and their neighbours meet inside the cell, take that point.
-    ring, ring_ok, corner = _solve(verts, normals, _one_ring(faces, members[feature_ids]), lower, upper, cos_angle)
+    # patch's vertices and their neighbours meet in a line through the cell, or in a point inside it, take
+    # that.  (Three sides meeting outside the cell: the patch's own line is the better guess.)
+    ring, ring_ok, corner, kind = _solve(verts, normals, _one_ring(faces, members[feature_ids]), lower, upper,
+                                         cos_angle)
+    ring_ok &= (kind == 3) | ~np.isfinite(corner).all(axis=1)
     new_points[ring_ok], ok = ring[ring_ok], ok | ring_ok
     takes = _corner_in_empty_cell(corner, all_cells, field.shape, lower, upper, spacing)
     new_points[takes], ok = corner[takes], ok | takes
