@@ -34,6 +34,7 @@ from .reference import cells_in_triangle_order, inside_mask
 
 SINGULAR_CUTOFF = 0.1  # singular values below this fraction of the largest are treated as zero
 MAX_PATCH_VERTICES = 12
+LINE_MARGIN = 0.25  # cells: how far an edge line may pass outside a cell and still count as the cell's
 CLUSTER_ANGLE = 10.0  # degrees: normals this close to a side's own normal count as that side's  # a cell has 12 edges
 
 
@@ -188,6 +189,41 @@ def _extreme_normals(n, valid, cos_angle):
     return keep & valid
 
 
+def eno_gradient(field, points, spacing):
+    """The field's gradient at grid points (N, 3), each axis by the one-sided difference whose side is
+    smoother (smaller second difference: ENO, Harten and Osher 1987).  Central differences straddle an
+    edge and blend its two sides; a one-sided difference from the flat side does not."""
+    shape = np.array(field.shape)
+    grad = np.empty(points.shape, np.float64)
+    for axis in range(3):
+        samples = []
+        for offset in (0, 1, -1, 2, -2):
+            q = points.copy()
+            q[:, axis] = np.clip(points[:, axis] + offset, 0, shape[axis] - 1)
+            samples.append(field[tuple(q.T)].astype(np.float64))
+        f0, fp, fm, fpp, fmm = samples
+        k = points[:, axis]
+        rough_fwd = np.where(k + 2 < shape[axis], np.abs(fpp - 2 * fp + f0), np.inf)
+        rough_bwd = np.where(k - 2 >= 0, np.abs(f0 - 2 * fm + fmm), np.inf)
+        use_fwd = (k == 0) | ((k + 1 < shape[axis]) & (rough_fwd < rough_bwd))
+        grad[:, axis] = np.where(use_fwd, fp - f0, f0 - fm) / spacing[axis]
+    return grad
+
+
+def eno_normals(field, verts, ids, spacing):
+    """Outward unit normals of vertices `ids` from ENO gradients at their edge's ends, interpolated along it
+    as mc_vertices.comp interpolates central differences.  The edge comes from the position: a vertex
+    lies strictly inside its edge along one axis and on grid planes along the other two."""
+    g = verts[ids].astype(np.float64) / spacing
+    along = np.abs(g - np.rint(g)) > 1e-3
+    start = np.where(along, np.floor(g), np.rint(g)).astype(np.int64)
+    t = (g - start)[along]
+    grad = (eno_gradient(field, start, spacing) * (1 - t)[:, None]
+            + eno_gradient(field, start + along, spacing) * t[:, None])
+    length = np.linalg.norm(grad, axis=1, keepdims=True)
+    return np.where(length > 0, -grad / np.where(length > 0, length, 1), 0.0)
+
+
 def _solve(verts, normals, members, lower, upper, cos_angle):
     """feature_points of the vertices `members` (P, W, padded with -1), only those with extreme normals."""
     picked = np.maximum(members, 0)
@@ -284,14 +320,25 @@ def sharpen(mesh, field, level, spacing, angle, table: CaseTable | None = None):
     cell_of_patch[patch] = face_cell
     cells = all_cells[cell_of_patch[feature_ids]]
     lower, upper = cells * spacing, (cells + 1) * spacing
-    new_points, ok = _solve(verts, normals, members[feature_ids], lower, upper, cos_angle)[:2]
+    ring_members = _one_ring(faces, members[feature_ids])
+    needed = np.unique(ring_members[ring_members >= 0])
+    plane_normals = normals.astype(np.float64)
+    plane_normals[needed] = eno_normals(field, verts, needed, spacing)
+    new_points, ok = _solve(verts, plane_normals, members[feature_ids], lower, upper, cos_angle)[:2]
     # The sides' own normals show purer around the patch than in it (central differences blend the sides
     # in the samples next to an edge), and a corner's third side shows more often: where the planes of the
     # patch's vertices and their neighbours meet in a line through the cell, or in a point inside it, take
     # that.  (Three sides meeting outside the cell: the patch's own line is the better guess.)
-    ring, ring_ok, corner, kind = _solve(verts, normals, _one_ring(faces, members[feature_ids]), lower, upper,
-                                         cos_angle)
-    ring_ok &= (kind == 3) | ~np.isfinite(corner).all(axis=1)
+    ring, ring_ok, corner, kind = _solve(verts, plane_normals, ring_members, lower, upper, cos_angle)
+    two_sides = ~np.isfinite(corner).all(axis=1) & (kind == 2)
+    ring_ok &= (kind == 3) | two_sides
+    # The two sides' line passes near the cell but not through it (edge vertices next to an edge sit off
+    # it, where linear interpolation crossed the field's kink): the point of it nearest the cell.
+    margin = LINE_MARGIN * spacing
+    near, near_ok = _solve(verts, plane_normals, ring_members, lower - margin, upper + margin, cos_angle)[:2]
+    near_ok &= two_sides & ~ring_ok
+    ring[near_ok], ring_ok = np.clip(near[near_ok], lower[near_ok], upper[near_ok]), ring_ok | near_ok
+    ok &= ring_ok | ~two_sides  # the line misses the cell by more: a blend made the patch look bent
     new_points[ring_ok], ok = ring[ring_ok], ok | ring_ok
     takes = _corner_in_empty_cell(corner, all_cells, field.shape, lower, upper, spacing)
     new_points[takes], ok = corner[takes], ok | takes
