@@ -366,26 +366,33 @@ def sharpen(mesh, field, level, spacing, angle, table: CaseTable | None = None):
 
     out_verts = np.concatenate([verts, new_points.astype(np.float32)])
     new_normals = vertex_normals_from_faces(out_verts, out_faces, np.arange(n_plain, len(out_verts)))
-    out_normals = np.concatenate([normals, new_normals])
+    # Around features the sides' own (ENO) normals, which do not blend across the edge.
+    side_normals = normals.copy()
+    pure = np.linalg.norm(plane_normals[needed], axis=1) > 0.5
+    side_normals[needed[pure]] = plane_normals[needed[pure]]
+    out_normals = np.concatenate([side_normals, new_normals])
     out_values = np.concatenate([values, np.full(len(feature_ids), values.dtype.type(np.mean(values)))])
     return out_verts, out_faces.astype(np.int32), out_normals, out_values, n_plain
 
 
 def crisp_normals(verts, faces, normals, values, n_plain):
     """A mesh for drawing: every triangle touching a feature vertex (index >= n_plain) gets its own three
-    vertices with its face normal, so shading does not smear across the edge; the rest is unchanged."""
+    vertices; at its feature corners the mean normal of its other corners (the side it lies on), so
+    shading does not smear across the edge.  The rest is unchanged."""
     flat = (faces >= n_plain).any(axis=1)
     if not flat.any():
         return verts, faces, normals, values
     rows = faces[flat]
-    tri = verts[rows].astype(np.float64)
-    face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    face_n /= np.maximum(np.linalg.norm(face_n, axis=1, keepdims=True), 1e-30)
+    plain = (rows < n_plain)[..., None]
+    corner_normals = normals[rows].astype(np.float64)
+    side = (corner_normals * plain).sum(axis=1)
+    side /= np.maximum(np.linalg.norm(side, axis=1, keepdims=True), 1e-30)
+    corner_normals = np.where(plain, corner_normals, side[:, None, :])
     start = len(verts)
     out_faces = faces.copy()
     out_faces[flat] = start + np.arange(3 * len(rows)).reshape(-1, 3)
     return (np.concatenate([verts, verts[rows.reshape(-1)]]), out_faces,
-            np.concatenate([normals, np.repeat(face_n, 3, axis=0).astype(np.float32)]),
+            np.concatenate([normals, corner_normals.reshape(-1, 3).astype(np.float32)]),
             np.concatenate([values, values[rows.reshape(-1)]]))
 
 
