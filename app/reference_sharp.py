@@ -3,16 +3,27 @@
 Starts from the plain marching-cubes mesh (`app.reference`) and changes it in two steps:
 
 1. Feature vertices.  A cell's triangles form one patch per loop of edge
-   vertices.  When the normals at a patch's edge vertices open wider than the
-   feature angle theta (some pair meets at more than theta), the patch is a
-   piece of an edge or corner: one extra vertex goes where the tangent planes
-   (through each edge vertex, normal to its normal) meet in the least-squares
-   sense.  That quadric is solved by SVD relative to the patch's mass point,
-   with singular values under SINGULAR_CUTOFF times the largest dropped (two
-   planes meet in a line: the point nearest the mass point on it), and the
-   point is clamped into the cell.  The patch is replaced by a fan from that
-   vertex to the patch's boundary loop, which keeps every boundary edge, so
-   the mesh stays watertight and wound as before.
+   vertices.  When the normals at a patch's edge vertices (the mesh's normals,
+   as Kobbelt) open wider than the feature angle theta (some pair meets at
+   more than theta), the patch is a piece of an edge or corner: one extra
+   vertex goes where the tangent planes (through each edge vertex, normal to
+   its normal) meet in the least-squares sense.  That quadric is solved by SVD
+   relative to the mass point, with singular values under SINGULAR_CUTOFF
+   times the largest dropped (two planes meet in a line: the point on it
+   nearest the mass point, slid along it into the cell); the point is clamped
+   into the cell.  The patch is replaced by a fan from that vertex to the
+   patch's boundary loop, which keeps every boundary edge, so the mesh stays
+   watertight and wound as before.  Where this departs from the paper, to cope
+   with sampled fields (central differences blend the two sides of an edge in
+   the samples next to it, and edge vertices there sit off the surface):
+   - the planes use ENO normals (one-sided differences from the smoother
+     side), and only those near the two or three most different normals
+     (`_extreme_normals`), taken over the patch and its one-ring when those
+     meet inside the cell (or near it, LINE_MARGIN), else over the patch;
+   - a patch whose one-ring's two sides meet in a line that misses the cell
+     by more than LINE_MARGIN is no feature (it only looked bent);
+   - a corner that pokes into a cell with no patch is placed by the nearest
+     neighbouring patch whose planes meet there (`_corner_in_empty_cell`).
 2. Edge flips.  Where an edge between two edge vertices has a feature vertex
    on both sides (fans of two neighbouring cells), it is flipped to join the
    two feature vertices, so the feature line runs straight from cell to cell.
