@@ -79,4 +79,4 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
             extractor.release()
     if angle is None:
         return mesh
-    return sharpen_extracted(mesh, checked.data, level, spacing, descent, angle)[:4]
+    return sharpen_extracted(mesh, checked.data, spacing, descent, angle)[:4]

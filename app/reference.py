@@ -109,17 +109,6 @@ def place_vertices(field, inside, level, points, axes, spacing, sign):
     return positions, normals.astype(np.float32), values.astype(np.float32)
 
 
-def cells_in_triangle_order(inside: np.ndarray, table: CaseTable):
-    """mc_triangles.comp's order: the cells that have triangles (C, 3), their cases and triangle counts.
-
-    The faces come cell by cell in this order, `counts[c]` of them for cell `c`."""
-    cases = cube_cases(inside)
-    cells = np.argwhere(table.counts[cases] > 0)
-    cells = cells[np.lexsort((cells[:, 2], brick_order_key(cells, inside.shape)))]
-    cell_cases = cases[tuple(cells.T)]
-    return cells, cell_cases, table.counts[cell_cases].astype(np.int64)
-
-
 def marching_cubes_reference(volume: np.ndarray, level: float, spacing=(1.0, 1.0, 1.0),
                              descent: bool = True, table: CaseTable | None = None):
     """verts (N,3) float32, faces (M,3) int32, normals (N,3) float32, values (N,) float32.
@@ -151,7 +140,12 @@ def marching_cubes_reference(volume: np.ndarray, level: float, spacing=(1.0, 1.0
     verts, normals, values = place_vertices(field, inside, lvl, points, axes, spacing, sign)
 
     # Triangles: mc_triangles.comp, cells in (brick, word, k) order, the table's triangles in order.
-    cells, cell_cases, n_tri = cells_in_triangle_order(inside, table)
+    cases = cube_cases(inside)
+    per_cell = table.counts[cases]
+    cells = np.argwhere(per_cell > 0)
+    cells = cells[np.lexsort((cells[:, 2], brick_order_key(cells, field.shape)))]
+    cell_cases = cases[tuple(cells.T)]
+    n_tri = table.counts[cell_cases].astype(np.int64)
     cell_of_tri = np.repeat(np.arange(len(cells)), n_tri)
     slot = np.arange(n_tri.sum()) - np.repeat(np.cumsum(n_tri) - n_tri, n_tri)
     edges = table.triangles[cell_cases[cell_of_tri], slot].astype(np.int64)  # (M, 3)

@@ -40,8 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .case_table import CaseTable, montani_table
-from .reference import cells_in_triangle_order, inside_mask
+from .case_table import CaseTable
 
 SINGULAR_CUTOFF = 0.1  # singular values below this fraction of the largest are treated as zero
 MAX_PATCH_VERTICES = 12
@@ -63,13 +62,26 @@ def check_feature_angle(sharp_features) -> float | None:
     return angle
 
 
-def cell_runs(field: np.ndarray, level: float, n_faces: int, table: CaseTable | None = None):
-    """The plain mesh's faces come cell by cell: the cells (C, 3) of `field` (sign-adjusted) at `level`
-    that have faces, and their face counts."""
-    cells, _, n_tri = cells_in_triangle_order(inside_mask(field, level), table or montani_table())
-    if n_tri.sum() != n_faces:
-        raise AssertionError("the mesh's faces do not come from this field's cells")
-    return cells, n_tri
+def edge_of_vertex(verts, ids, spacing):
+    """The grid edge of each vertex `ids`, from its position: (start point (N, 3), axis mask (N, 3), t).
+
+    A vertex lies strictly inside its edge along one axis (EDGE_MARGIN from either end) and on grid
+    planes along the other two."""
+    g = verts[ids].astype(np.float64) / spacing
+    along = np.abs(g - np.rint(g)) > 1e-3
+    start = np.where(along, np.floor(g), np.rint(g)).astype(np.int64)
+    return start, along, (g - start)[along]
+
+
+def cell_runs(verts, faces, spacing):
+    """Both extractors emit faces cell by cell: the cells (C, 3) with faces, in order, and their face counts.
+
+    A face's cell is the least grid coordinate of its corners' edges per axis (its three corners never
+    all lie on one face of the cell)."""
+    start = edge_of_vertex(verts, np.arange(len(verts)), spacing)[0]
+    cells = start[faces].min(axis=1)
+    first = np.flatnonzero(np.concatenate([[True], (cells[1:] != cells[:-1]).any(axis=1)]))
+    return cells[first], np.diff(np.append(first, len(faces)))
 
 
 def _candidate_cells(faces, normals, n_tri, cos_half):
@@ -223,12 +235,8 @@ def eno_gradient(field, points, spacing):
 
 def eno_normals(field, verts, ids, spacing):
     """Outward unit normals of vertices `ids` from ENO gradients at their edge's ends, interpolated along it
-    as mc_vertices.comp interpolates central differences.  The edge comes from the position: a vertex
-    lies strictly inside its edge along one axis and on grid planes along the other two."""
-    g = verts[ids].astype(np.float64) / spacing
-    along = np.abs(g - np.rint(g)) > 1e-3
-    start = np.where(along, np.floor(g), np.rint(g)).astype(np.int64)
-    t = (g - start)[along]
+    as mc_vertices.comp interpolates central differences."""
+    start, along, t = edge_of_vertex(verts, ids, spacing)
     grad = (eno_gradient(field, start, spacing) * (1 - t)[:, None]
             + eno_gradient(field, start + along, spacing) * t[:, None])
     length = np.linalg.norm(grad, axis=1, keepdims=True)
@@ -300,16 +308,16 @@ def vertex_normals_from_faces(verts, faces, vertices):
     return (picked / np.maximum(np.linalg.norm(picked, axis=1, keepdims=True), 1e-30)).astype(np.float32)
 
 
-def sharpen(mesh, field, level, spacing, angle, table: CaseTable | None = None):
-    """Extended MC on the plain mesh `mesh` (verts, faces, normals, values) of `field` (sign-adjusted, so
-    inside is `field >= level`).  Returns (verts, faces, normals, values, n_plain_vertices)."""
+def sharpen(mesh, field, spacing, angle):
+    """Extended MC on the plain mesh `mesh` (verts, faces, normals, values) of `field` (sign-adjusted: it
+    grows into the object).  Returns (verts, faces, normals, values, n_plain_vertices)."""
     verts, faces, normals, values = mesh
     n_plain = len(verts)
     if len(faces) == 0:
         return (*mesh, n_plain)
     spacing = np.asarray(spacing, np.float64)
     cos_angle = np.cos(np.radians(angle))
-    all_cells, n_tri = cell_runs(field, level, len(faces), table)
+    all_cells, n_tri = cell_runs(verts, faces, spacing)
     candidate = np.repeat(_candidate_cells(faces, normals, n_tri, np.cos(np.radians(angle / 2))), n_tri)
     if not candidate.any():
         return (*mesh, n_plain)
@@ -407,11 +415,11 @@ def crisp_normals(verts, faces, normals, values, n_plain):
             np.concatenate([values, values[rows.reshape(-1)]]))
 
 
-def sharpen_extracted(mesh, volume, level, spacing, descent, angle, table: CaseTable | None = None):
-    """`sharpen` for a plain mesh of `volume` at `level` as `marching_cubes` returns it (either backend)."""
+def sharpen_extracted(mesh, volume, spacing, descent, angle):
+    """`sharpen` for a plain mesh of `volume` as `marching_cubes` returns it (either backend)."""
     sign = 1.0 if descent else -1.0
     field = volume.astype(np.float32, copy=False) * np.float32(sign)
-    return sharpen(mesh, field, np.float32(sign * level), spacing, angle, table)
+    return sharpen(mesh, field, spacing, angle)
 
 
 def marching_cubes_sharp_reference(volume, level, spacing=(1.0, 1.0, 1.0), descent=True, angle=30.0,
@@ -419,4 +427,4 @@ def marching_cubes_sharp_reference(volume, level, spacing=(1.0, 1.0, 1.0), desce
     """Plain MC then Extended MC: verts, faces, normals, values (feature vertices after the plain ones)."""
     from .reference import marching_cubes_reference
     mesh = marching_cubes_reference(volume, level, spacing, descent, table)
-    return sharpen_extracted(mesh, volume, level, spacing, descent, angle, table)[:4]
+    return sharpen_extracted(mesh, volume, spacing, descent, angle)[:4]

@@ -15,8 +15,7 @@ from .reference_sharp import crisp_normals, sharpen_extracted
 
 def sharp_mesh_of(extractor, volume_data, angle):
     """The extractor's last mesh with sharp features: verts, faces, normals, values, n_plain_vertices."""
-    return sharpen_extracted(extractor.read_mesh(), volume_data, extractor.level, extractor.spacing,
-                             extractor.descent, angle)
+    return sharpen_extracted(extractor.read_mesh(), volume_data, extractor.spacing, extractor.descent, angle)
 
 
 def upload_mesh(ctx, verts, faces, normals, values) -> GpuMesh:
