@@ -172,6 +172,8 @@ def run_render(args) -> int:
     volume = open_volume_from_args(args.volume, args, _progress)
     iso = _checked_iso(volume, args.iso)
     if args.sharp is not None:
+        if args.panel:
+            raise ValueError("--panel cannot be drawn with --sharp yet; leave one of them out")
         from .sharp_features import render_sharp_png
         path = render_sharp_png(volume, args.out, iso, args.sharp, size=args.size, azimuth=args.azimuth,
                                 elevation=args.elevation, transparent=args.transparent)

@@ -140,3 +140,19 @@ def test_cli_export_and_render_take_sharp(tmp_path):
     assert sharp.stat().st_size > plain.stat().st_size
     assert_one_line_error(isoscope("export", "box", "--out", tmp_path / "x.ply", "--sharp", "180"), "--sharp")
     assert_one_line_error(isoscope("render", "box", "--out", tmp_path / "x.png", "--sharp", "0"), "--sharp")
+    assert_one_line_error(isoscope("render", "box", "--out", tmp_path / "x.png", "--sharp", "30", "--panel"), "--panel")
+
+
+def test_rendered_box_fills_its_edges_and_corners(tmp_path):
+    """Plain MC cuts a box's edges and corners off, so its silhouette is smaller than the box's."""
+    from PIL import Image
+
+    def surface_pixels(*extra):
+        out = tmp_path / f"box{len(extra)}.png"
+        result = isoscope("render", "box", "--resolution", "24", "--size", "480x360", "--out", out, *extra)
+        assert result.returncode == 0, result.stderr
+        rgb = np.asarray(Image.open(out).convert("RGB")).astype(int)
+        return ((np.abs(rgb - rgb[0, 0]).sum(axis=-1) > 60) & (rgb[..., 2] > rgb[..., 0] + 30)).sum()
+
+    plain, sharp = surface_pixels(), surface_pixels("--sharp", "30")
+    assert sharp >= 1.08 * plain, (plain, sharp)
