@@ -6,6 +6,7 @@ import numpy as np
 from . import validation
 from .gpu_layout import VERTEX_FLOATS
 from .reference import marching_cubes_reference
+from .reference_sharp import check_feature_angle, sharpen_extracted
 from .reference_smooth import check_iterations, smooth_projected
 from .reference_tetra import marching_tetrahedra_reference
 
@@ -15,7 +16,7 @@ METHODS = ("lewiner", "lorensen")
 
 def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
                    step_size=1, allow_degenerate=True, method="lewiner", backend="auto", smooth=0,
-                   chunks=None):
+                   chunks=None, sharp_features=None):
     """Extract the isosurface ``volume == level`` as an indexed, watertight triangle mesh.
 
     Parameters follow ``skimage.measure.marching_cubes``:
@@ -48,6 +49,13 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         not the volume: use it for volumes larger than the GPU or RAM (a memory-mapped
         array, np.load(path, mmap_mode="r"), or a Zarr array is read a box at a time).
 
+    sharp_features : None for plain marching cubes, or a feature angle in degrees
+        (0 < angle < 180, e.g. 30): Extended Marching Cubes (Kobbelt et al. 2001,
+        `app.reference_sharp`) adds a vertex on the sharp edge or corner of each cell
+        whose normals open wider than the angle, so boxes keep their edges.  The
+        extra vertices come after the plain ones; the mesh stays watertight.  The
+        plain mesh is made on the chosen backend, the feature step in numpy.
+
     Returns ``verts`` (N, 3) float32 in array-index order times spacing,
     ``faces`` (M, 3) int32, ``normals`` (N, 3) float32 unit vectors, ``values``
     (N,) float32.  Every grid edge whose ends lie on different sides of the
@@ -57,11 +65,13 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     backend = _backend(backend)
     if method not in METHODS:
         raise ValueError(f"method {method!r} is not one of {METHODS}")
+    angle = check_feature_angle(sharp_features)
+    if angle is not None and iterations:
+        raise ValueError("sharp_features= keeps corners that smooth= would round off; use one of them")
     if chunks is not None:
-        if iterations:
-            raise ValueError("smooth= works on a whole-volume mesh, not a chunked one; drop chunks or smooth")
-        return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks)
-    if chunks is not None:
+        if iterations or angle is not None:
+            raise ValueError("smooth= and sharp_features= work on a whole-volume mesh, not a chunked one; "
+                             "drop chunks, or drop those")
         return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks)
     checked = validation.check_volume(volume)
     spacing = validation.as_spacing(spacing)
@@ -73,8 +83,12 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         spacing = tuple(s * step for s in spacing)
 
     if backend == "cpu":
-        return _on_cpu(marching_cubes_reference, checked, level, spacing, descent, iterations)
-    return _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra=False)
+        mesh = _on_cpu(marching_cubes_reference, checked, level, spacing, descent, iterations)
+    else:
+        mesh = _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra=False)
+    if angle is None:
+        return mesh
+    return sharpen_extracted(mesh, checked.data, spacing, descent, angle)[:4]
 
 
 TETRA_BACKENDS = ("auto", "gpu", "cpu", "numpy")

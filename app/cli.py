@@ -33,8 +33,9 @@ other commands (each has --help):
   isoscope render VOLUME --out shot.png [--iso V] [--size WxH] [--azimuth A] [--elevation E] [--panel]
                 [--transparent] [--iso V2 ...] [--opacity A,B] [--color-by value|gradient|FILE] [--color-by-map NAME]
                 [--slice AXIS=INDEX ...] [--clip AXIS=POS[:+|-]] [--window W] [--level L] [--colormap NAME]
-                [--tetrahedra] [--smooth N]
+                [--tetrahedra] [--smooth N] [--sharp DEG]
   isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V [--iso V2 ...]] [--tetrahedra] [--smooth N]
+                [--sharp DEG]
   isoscope export SEGMENTATION --labels --out seg.stl      one mesh per label: seg_label<N>.stl
                 [--chunk N] [--workers N] [--scheduler ADDRESS]   big volumes, a chunk at a time
   isoscope volumes          list the built-in volumes
@@ -115,6 +116,21 @@ def smooth_iterations(text: str) -> int:
     return value
 
 
+def feature_angle(text: str) -> float:
+    from .reference_sharp import check_feature_angle
+    try:
+        return check_feature_angle(float(text))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--sharp {text} must be a feature angle in degrees between 0 and 180 "
+                                         "(exclusive), e.g. 30") from None
+
+
+def _add_sharp(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--sharp", type=feature_angle, metavar="DEG",
+                        help="sharp edges and corners (Extended Marching Cubes) where normals open wider than DEG "
+                             "degrees, e.g. 30")
+
+
 def viewer_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(
         prog="isoscope",
@@ -163,6 +179,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         add_slice_arguments(parser)
         _add_tetrahedra(parser)
         _add_smooth(parser)
+        _add_sharp(parser)
         parser.add_argument("--labels", action="store_true",
                             help="VOLUME is a label map (a segmentation): draw each non-zero label's surface "
                                  "in its own colour")
@@ -184,6 +201,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
                                  "prints how far the result strays from the level set")
         _add_tetrahedra(parser)
         _add_smooth(parser)
+        _add_sharp(parser)
         parser.add_argument("--labels", action="store_true",
                             help="VOLUME is a label map (a segmentation): one closed surface per non-zero label, "
                                  "neighbours sharing their boundary vertices, written to STEM_label<N>.EXT "
@@ -277,6 +295,17 @@ def run_render(args) -> int:
         colormap_lut(args.color_by_map)  # an unknown map is refused before any work
     volume = open_volume_from_args(args.volume, args, _progress)
     isos = _checked_levels(volume, args.iso, args.opacity)
+    if args.sharp is not None:
+        for option in ("--panel", "--tetrahedra", "--smooth", "--labels", "--slice", "--clip", "--color-by"):
+            if getattr(args, option.strip("-").replace("-", "_"), None) not in (None, False, 0, []):
+                raise ValueError(f"render --sharp draws the one sharp-featured surface; leave out {option}")
+        if len(isos) > 1:
+            raise ValueError("render --sharp draws one level; give one --iso")
+        from .sharp_features import render_sharp_png
+        path = render_sharp_png(volume, args.out, isos[0], args.sharp, size=args.size, azimuth=args.azimuth,
+                                elevation=args.elevation, transparent=args.transparent)
+        print(f"wrote {path} ({args.size[0]}x{args.size[1]})")
+        return 0
     from .viewer.headless import render_png
     path = render_png(volume, args.out, isos, size=args.size, azimuth=args.azimuth,
                       elevation=args.elevation, panel=args.panel, transparent=args.transparent,
@@ -306,12 +335,16 @@ def _extract_for_export(volume, iso, args):
     distributed = args.scheduler is not None or args.workers is not None
     if args.chunk is None and not distributed and not is_lazy(volume.data):
         from . import marching_cubes, marching_tetrahedra
-        march = marching_tetrahedra if args.tetrahedra else marching_cubes
-        return march(volume.checked, iso, spacing=volume.spacing, gradient_direction=volume.gradient_direction,
-                     smooth=args.smooth)
-    if args.tetrahedra or args.smooth:
+        if args.tetrahedra:
+            if args.sharp is not None:
+                raise ValueError("--sharp is Extended Marching Cubes: drop --tetrahedra or --sharp")
+            return marching_tetrahedra(volume.checked, iso, spacing=volume.spacing,
+                                       gradient_direction=volume.gradient_direction, smooth=args.smooth)
+        return marching_cubes(volume.checked, iso, spacing=volume.spacing, gradient_direction=volume.gradient_direction,
+                              smooth=args.smooth, sharp_features=args.sharp)
+    if args.tetrahedra or args.smooth or args.sharp is not None:
         raise ValueError("a chunked export (--chunk, --workers, --scheduler, or a Zarr/memory-mapped volume) "
-                         "makes plain marching cubes; drop --tetrahedra and --smooth")
+                         "makes plain marching cubes; drop --tetrahedra, --smooth and --sharp")
     from .chunked import DEFAULT_CHUNK, as_chunks, marching_cubes_chunked
     from .validation import as_level
     chunks = as_chunks(DEFAULT_CHUNK if args.chunk is None else args.chunk, volume.data.shape)

@@ -1,0 +1,433 @@
+"""Extended Marching Cubes (Kobbelt, Botsch, Schwanecke, Seidel 2001) in numpy: sharp edges and corners.
+
+Starts from the plain marching-cubes mesh (`app.reference`) and changes it in two steps:
+
+1. Feature vertices.  A cell's triangles form one patch per loop of edge
+   vertices.  When the normals at a patch's edge vertices (the mesh's normals,
+   as Kobbelt) open wider than the feature angle theta (some pair meets at
+   more than theta), the patch is a piece of an edge or corner: one extra
+   vertex goes where the tangent planes (through each edge vertex, normal to
+   its normal) meet in the least-squares sense.  That quadric is solved by SVD
+   relative to the mass point, with singular values under SINGULAR_CUTOFF
+   times the largest dropped (two planes meet in a line: the point on it
+   nearest the mass point, slid along it into the cell); the point is clamped
+   into the cell.  The patch is replaced by a fan from that vertex to the
+   patch's boundary loop, which keeps every boundary edge, so the mesh stays
+   watertight and wound as before.  Where this departs from the paper, to cope
+   with sampled fields (central differences blend the two sides of an edge in
+   the samples next to it, and edge vertices there sit off the surface):
+   - the planes use ENO normals (one-sided differences from the smoother
+     side), and only those near the two or three most different normals
+     (`_extreme_normals`), taken over the patch and its one-ring when those
+     meet inside the cell (or near it, LINE_MARGIN), else over the patch;
+   - a patch whose one-ring's two sides meet in a line that misses the cell
+     by more than LINE_MARGIN is no feature (it only looked bent);
+   - a corner that pokes into a cell with no patch is placed by the nearest
+     neighbouring patch whose planes meet there (`_corner_in_empty_cell`).
+2. Edge flips.  Where an edge between two edge vertices has a feature vertex
+   on both sides (fans of two neighbouring cells), it is flipped to join the
+   two feature vertices, so the feature line runs straight from cell to cell.
+   Each fan triangle has one such edge, so the flips are independent; a pair of
+   feature vertices that two edges would join is left unflipped (it would
+   make a non-manifold edge).
+
+Outputs keep the plain mesh's vertices first, in their order, then the feature
+vertices in patch order (cells in the plain mesh's triangle order, then their
+first triangle); faces are the plain faces of cells without features, in order,
+then the fans, patch by patch, each fan in boundary-edge order.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .case_table import CaseTable
+
+SINGULAR_CUTOFF = 0.1  # singular values below this fraction of the largest are treated as zero
+MAX_PATCH_VERTICES = 12
+LINE_MARGIN = 0.25  # cells: how far an edge line may pass outside a cell and still count as the cell's
+CLUSTER_ANGLE = 10.0  # degrees: normals this close to a side's own normal count as that side's  # a cell has 12 edges
+
+
+def check_feature_angle(sharp_features) -> float | None:
+    """None, or the feature angle in degrees, strictly between 0 and 180."""
+    if sharp_features is None:
+        return None
+    try:
+        angle = float(sharp_features)
+    except (TypeError, ValueError):
+        angle = float("nan")
+    if not 0.0 < angle < 180.0:
+        raise ValueError(f"sharp_features={sharp_features!r} must be a feature angle in degrees between 0 and 180 "
+                         "(exclusive), e.g. 30, or None for plain marching cubes")
+    return angle
+
+
+def edge_of_vertex(verts, ids, spacing):
+    """The grid edge of each vertex `ids`, from its position: (start point (N, 3), axis mask (N, 3), t).
+
+    A vertex lies strictly inside its edge along one axis (EDGE_MARGIN from either end) and on grid
+    planes along the other two."""
+    g = verts[ids].astype(np.float64) / spacing
+    along = np.abs(g - np.rint(g)) > 1e-3
+    start = np.where(along, np.floor(g), np.rint(g)).astype(np.int64)
+    return start, along, (g - start)[along]
+
+
+def cell_runs(verts, faces, spacing):
+    """Both extractors emit faces cell by cell: the cells (C, 3) with faces, in order, and their face counts.
+
+    A face's cell is the least grid coordinate of its corners' edges per axis (its three corners never
+    all lie on one face of the cell)."""
+    start = edge_of_vertex(verts, np.arange(len(verts)), spacing)[0]
+    a, b, c = faces.T  # (per column, not .min(axis=1): numpy reduces short rows slowly)
+    cells = np.stack([np.minimum(np.minimum(s[a], s[b]), s[c]) for s in start.T], axis=1)
+    key = (cells[:, 0] * (cells[:, 1].max() + 1) + cells[:, 1]) * (cells[:, 2].max() + 1) + cells[:, 2]
+    first = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]]))
+    return cells[first], np.diff(np.append(first, len(faces)))
+
+
+def _candidate_cells(faces, normals, n_tri, cos_half):
+    """Cells where some vertex normal is more than half the feature angle from the cell's mean normal:
+    only there can a patch's normals open wider than the angle (a cheap test over the whole mesh)."""
+    starts = np.cumsum(n_tri) - n_tri
+    corners = [normals[column] for column in faces.T]
+    sums = np.add.reduceat(corners[0] + corners[1] + corners[2], starts)
+    mean = np.repeat((sums / np.maximum(np.linalg.norm(sums, axis=1, keepdims=True), 1e-30)).astype(np.float32),
+                     n_tri, axis=0)
+    dots = [np.einsum("fk,fk->f", corner, mean) for corner in corners]
+    return np.minimum.reduceat(np.minimum(np.minimum(dots[0], dots[1]), dots[2]), starts) < cos_half
+
+
+def _patches(faces: np.ndarray, face_cell: np.ndarray) -> np.ndarray:
+    """A patch id per face: faces of one cell that share a vertex (transitively) share a patch."""
+    n = len(faces)
+    # (cell, vertex) pairs: one per face corner; a vertex lies in one loop of its cell.
+    pair_ids = np.unique(np.repeat(face_cell, 3) * (faces.max() + 1) + faces.reshape(-1),
+                         return_inverse=True)[1].reshape(n, 3)
+    label = np.arange(n)
+    while True:
+        pair_label = np.full(pair_ids.max() + 1, n)
+        np.minimum.at(pair_label, pair_ids.reshape(-1), np.repeat(label, 3))
+        new = pair_label[pair_ids].min(axis=1)
+        if np.array_equal(new, label):
+            return np.unique(label, return_inverse=True)[1].reshape(-1)
+        label = new
+
+
+def _row_counts(*columns):
+    """For each row of the columns, how many rows equal it."""
+    order = np.lexsort(columns[::-1])
+    stacked = np.stack(columns, axis=1)[order]
+    starts = np.flatnonzero(np.concatenate([[True], (stacked[1:] != stacked[:-1]).any(axis=1)]))
+    sizes = np.diff(np.append(starts, len(order)))
+    counts = np.empty(len(order), np.int64)
+    counts[order] = np.repeat(sizes, sizes)
+    return counts
+
+
+def _padded(groups, members, n_groups, width=None):
+    """(G, width) unique members of each group, ascending, padded with -1."""
+    base = members.max() + 1
+    pairs = np.unique(groups * base + members)
+    pairs = np.stack([pairs // base, pairs % base], axis=1)
+    first = np.searchsorted(pairs[:, 0], np.arange(n_groups))
+    slot = np.arange(len(pairs)) - first[pairs[:, 0]]
+    out = np.full((n_groups, width or slot.max() + 1), -1, np.int64)
+    out[pairs[:, 0], slot] = pairs[:, 1]
+    return out
+
+
+def _one_ring(faces, members):
+    """(P, W) the vertices of each row of `members` (padded with -1) and their neighbours in the mesh."""
+    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    wanted = np.zeros(faces.max() + 2, bool)
+    wanted[members[members >= 0]] = True
+    edges = edges[wanted[edges[:, 0]]]
+    edges = edges[np.argsort(edges[:, 0], kind="stable")]
+    starts = np.searchsorted(edges[:, 0], np.arange(faces.max() + 2))
+    rows, cols = np.nonzero(members >= 0)
+    v = members[rows, cols]
+    count = starts[v + 1] - starts[v]
+    nbr = edges[np.repeat(starts[v], count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count), 1]
+    return _padded(np.concatenate([rows, np.repeat(rows, count)]), np.concatenate([v, nbr]), len(members))
+
+
+def feature_points(positions, normals, valid, lower, upper):
+    """Where the tangent planes of each patch (P, W, 3) meet: (points, ok, corners, kinds).
+
+    The quadric is solved relative to the mass point by SVD, singular values under SINGULAR_CUTOFF x the
+    largest dropped.  Three kept and the point inside the cell: a corner, that point.  Otherwise, with two
+    planes' worth (the smallest dropped if need be): an edge, the line where they meet; the point on it
+    nearest the mass point, slid along it into the cell.  Not ok: one plane's worth (no feature after all)
+    or a line that misses the cell.  `corners`: the rank-3 points, unclamped (nan where rank < 3); `kinds`:
+    3 where the point is such a corner, 2 where it is on a line."""
+    w = valid[..., None].astype(np.float64)
+    mass = (positions * w).sum(axis=1) / w.sum(axis=1)
+    a = normals * w
+    b = np.einsum("pvk,pvk->pv", a, positions - mass[:, None, :])
+    u, s, vt = np.linalg.svd(a, full_matrices=False)
+    ub = np.einsum("pvj,pv->pj", u, b)
+    keep = s > SINGULAR_CUTOFF * s[:, :1]
+    rank = keep.sum(axis=1)
+    inv = np.where(keep, 1.0 / np.where(keep, s, 1.0), 0.0)
+    corner = mass + np.einsum("pji,pj->pi", vt, inv * ub)
+    corner = np.where(rank[:, None] == 3, corner, np.nan)
+    inv[:, 2] = 0.0
+    x = mass + np.einsum("pji,pj->pi", vt, inv * ub)  # on the line x + t d
+    d = vt[:, 2]
+    slack = 1e-6 * (upper - lower)
+    moving = np.abs(d) > 1e-12
+    safe = np.where(moving, d, 1.0)
+    t0, t1 = (lower - x) / safe, (upper - x) / safe
+    lo = np.where(moving, np.minimum(t0, t1), -np.inf).max(axis=1)
+    hi = np.where(moving, np.maximum(t0, t1), np.inf).min(axis=1)
+    ok = (rank >= 2) & (lo <= hi) & (moving | ((x >= lower - slack) & (x <= upper + slack))).all(axis=1)
+    x = x + np.where(ok, np.clip(0.0, lo, hi), 0.0)[:, None] * d
+    inside = (corner >= lower - slack).all(axis=1) & (corner <= upper + slack).all(axis=1)
+    x = np.where(inside[:, None], corner, x)
+    return np.clip(x, lower, upper), ok | inside, corner, np.where(inside, 3, np.minimum(rank, 2))
+
+
+def _extreme_normals(n, valid, cos_angle):
+    """Which of the normals (P, W, 3) are near one of the two or three most different ones.
+
+    Gradients by central differences blend the two sides of an edge in the samples next to it; the
+    normals at the ends of the spread are the sides' own.  Seeds: the normal least like the first, the
+    one least like that, and the one farthest out of the plane of those two, when it is more than the
+    feature angle out.  A normal is kept when it lies within CLUSTER_ANGLE of a seed."""
+    rows = np.arange(len(n))
+
+    def dots_with(seed):  # (P, W): each normal's dot with the seed normal; 2 for padding
+        return np.where(valid, np.einsum("pwk,pk->pw", n, n[rows, seed]), 2.0)
+
+    s1 = dots_with(np.zeros(len(n), np.int64)).argmin(axis=1)
+    d1 = dots_with(s1)
+    s2 = d1.argmin(axis=1)
+    d2 = dots_with(s2)
+    # The third side's normal leaves the plane of the first two (a blend of those two stays in it).
+    axis = np.cross(n[rows, s1], n[rows, s2])
+    axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-30)
+    out_of_plane = np.where(valid, np.abs(np.einsum("pwk,pk->pw", n, axis)), -1.0)
+    s3 = out_of_plane.argmax(axis=1)
+    third = out_of_plane[rows, s3] > np.sqrt(1 - cos_angle ** 2)
+    near = np.cos(np.radians(CLUSTER_ANGLE))
+    keep = (d1 > near) | (d2 > near) | ((dots_with(s3) > near) & third[:, None])
+    return keep & valid
+
+
+def eno_gradient(field, points, spacing):
+    """The field's gradient at grid points (N, 3), each axis by the one-sided difference whose side is
+    smoother (smaller second difference: ENO, Harten and Osher 1987).  Central differences straddle an
+    edge and blend its two sides; a one-sided difference from the flat side does not."""
+    shape = np.array(field.shape)
+    grad = np.empty(points.shape, np.float64)
+    for axis in range(3):
+        samples = []
+        for offset in (0, 1, -1, 2, -2):
+            q = points.copy()
+            q[:, axis] = np.clip(points[:, axis] + offset, 0, shape[axis] - 1)
+            samples.append(field[tuple(q.T)].astype(np.float64))
+        f0, fp, fm, fpp, fmm = samples
+        k = points[:, axis]
+        rough_fwd = np.where(k + 2 < shape[axis], np.abs(fpp - 2 * fp + f0), np.inf)
+        rough_bwd = np.where(k - 2 >= 0, np.abs(f0 - 2 * fm + fmm), np.inf)
+        use_fwd = (k == 0) | ((k + 1 < shape[axis]) & (rough_fwd < rough_bwd))
+        grad[:, axis] = np.where(use_fwd, fp - f0, f0 - fm) / spacing[axis]
+    return grad
+
+
+def eno_normals(field, verts, ids, spacing):
+    """Outward unit normals of vertices `ids` from ENO gradients at their edge's ends, interpolated along it
+    as mc_vertices.comp interpolates central differences."""
+    start, along, t = edge_of_vertex(verts, ids, spacing)
+    grad = (eno_gradient(field, start, spacing) * (1 - t)[:, None]
+            + eno_gradient(field, start + along, spacing) * t[:, None])
+    length = np.linalg.norm(grad, axis=1, keepdims=True)
+    return np.where(length > 0, -grad / np.where(length > 0, length, 1), 0.0)
+
+
+def _solve(verts, normals, members, lower, upper, cos_angle):
+    """feature_points of the vertices `members` (P, W, padded with -1), only those with extreme normals."""
+    picked = np.maximum(members, 0)
+    n = normals[picked].astype(np.float64)
+    valid = _extreme_normals(n, members >= 0, cos_angle)
+    return feature_points(verts[picked].astype(np.float64), n * valid[..., None], valid, lower, upper)
+
+
+def _corner_in_empty_cell(corner, face_cells, shape, lower, upper, spacing):
+    """Which patches take their corner point (P, 3; nan where none) that lies in a neighbouring cell.
+
+    A corner that pokes less than a cell into a cell leaves all of that cell's samples outside: the cell
+    has no patch to place it.  The nearest neighbouring patch whose planes meet there takes it instead,
+    one patch per such cell."""
+    found = np.isfinite(corner).all(axis=1)
+    target = np.floor(np.where(found[:, None], corner, 0) / spacing).astype(np.int64)
+    gap = np.maximum(np.maximum(lower - corner, corner - upper), 0).max(axis=1)
+    found &= (gap > 0) & (gap <= spacing.min()) & (target >= 0).all(axis=1)
+    found &= (target < np.array(shape) - 1).all(axis=1)
+    occupied = np.unique(np.ravel_multi_index(face_cells.T, np.array(shape) - 1))
+    key = np.ravel_multi_index(np.where(found[:, None], target, 0).T, np.array(shape) - 1)
+    found &= ~np.isin(key, occupied)
+    takes = np.zeros(len(corner), bool)
+    candidates = np.flatnonzero(found)
+    order = candidates[np.lexsort((gap[candidates], key[candidates]))]
+    _, first = np.unique(key[order], return_index=True)
+    takes[order[first]] = True
+    return takes
+
+
+def _flip_edges(faces, fan_rows):
+    """Flip the edges joining two fans' bases toward their apexes (feature vertices), in place.
+
+    `fan_rows`: the rows of `faces` that are fan triangles (a, b, apex) with base a -> b."""
+    base = faces[fan_rows, :2]
+    stride = faces.max() + 1
+    key, rkey = base[:, 0] * stride + base[:, 1], base[:, 1] * stride + base[:, 0]
+    order = np.argsort(key)
+    at = np.searchsorted(key[order], rkey)
+    at = np.minimum(at, len(key) - 1)
+    partner = order[at]
+    matched = (key[partner] == rkey) & (np.arange(len(key)) < partner)  # each pair once, from its lower row
+    first, second = np.flatnonzero(matched), partner[matched]
+    f1, f2 = faces[fan_rows[first], 2], faces[fan_rows[second], 2]
+    # A pair of feature vertices joined through two different edges would get one edge twice.
+    ok = (_row_counts(np.minimum(f1, f2), np.maximum(f1, f2)) == 1) & (f1 != f2)
+    first, second, f1, f2 = first[ok], second[ok], f1[ok], f2[ok]
+    a, b = base[first, 0], base[first, 1]
+    # (a, b, f1) and (b, a, f2) bound the quad a -> f2 -> b -> f1; split it along f1 - f2 instead.
+    faces[fan_rows[first]] = np.stack([a, f2, f1], axis=1)
+    faces[fan_rows[second]] = np.stack([f2, b, f1], axis=1)
+    return len(first)
+
+
+def vertex_normals_from_faces(verts, faces, vertices):
+    """Area-weighted mean of the face normals around each of `vertices` (unit length)."""
+    tri = verts[faces].astype(np.float64)
+    area_normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    sums = np.zeros((len(verts), 3))
+    for corner in range(3):
+        np.add.at(sums, faces[:, corner], area_normals)
+    picked = sums[vertices]
+    return (picked / np.maximum(np.linalg.norm(picked, axis=1, keepdims=True), 1e-30)).astype(np.float32)
+
+
+def sharpen(mesh, field, spacing, angle):
+    """Extended MC on the plain mesh `mesh` (verts, faces, normals, values) of `field` (sign-adjusted: it
+    grows into the object).  Returns (verts, faces, normals, values, n_plain_vertices)."""
+    verts, faces, normals, values = mesh
+    n_plain = len(verts)
+    if len(faces) == 0:
+        return (*mesh, n_plain)
+    spacing = np.asarray(spacing, np.float64)
+    cos_angle = np.cos(np.radians(angle))
+    all_cells, n_tri = cell_runs(verts, faces, spacing)
+    candidate = np.repeat(_candidate_cells(faces, normals, n_tri, np.cos(np.radians(angle / 2))), n_tri)
+    if not candidate.any():
+        return (*mesh, n_plain)
+    face_cell = np.repeat(np.arange(len(all_cells)), n_tri)[candidate]
+    sub = faces[candidate].astype(np.int64)
+    patch = _patches(sub, face_cell)
+    n_patches = patch.max() + 1
+    members = _padded(np.repeat(patch, 3), sub.reshape(-1), n_patches, MAX_PATCH_VERTICES)
+    valid = members >= 0
+    n = normals[np.maximum(members, 0)].astype(np.float64) * valid[..., None]
+    cos_open = np.einsum("pik,pjk->pij", n, n)
+    both = valid[:, :, None] & valid[:, None, :]
+    is_feature = np.where(both, cos_open, 1.0).min(axis=(1, 2)) < cos_angle
+    if not is_feature.any():
+        return (*mesh, n_plain)
+
+    feature_ids = np.flatnonzero(is_feature)
+    cell_of_patch = np.zeros(n_patches, np.int64)
+    cell_of_patch[patch] = face_cell
+    cells = all_cells[cell_of_patch[feature_ids]]
+    lower, upper = cells * spacing, (cells + 1) * spacing
+    ring_members = _one_ring(faces, members[feature_ids])
+    needed = np.unique(ring_members[ring_members >= 0])
+    plane_normals = normals.astype(np.float64)
+    plane_normals[needed] = eno_normals(field, verts, needed, spacing)
+    new_points, ok = _solve(verts, plane_normals, members[feature_ids], lower, upper, cos_angle)[:2]
+    # The sides' own normals show purer around the patch than in it (central differences blend the sides
+    # in the samples next to an edge), and a corner's third side shows more often: where the planes of the
+    # patch's vertices and their neighbours meet in a line through the cell, or in a point inside it, take
+    # that.  (Three sides meeting outside the cell: the patch's own line is the better guess.)
+    ring, ring_ok, corner, kind = _solve(verts, plane_normals, ring_members, lower, upper, cos_angle)
+    two_sides = ~np.isfinite(corner).all(axis=1) & (kind == 2)
+    ring_ok &= (kind == 3) | two_sides
+    # The two sides' line passes near the cell but not through it (edge vertices next to an edge sit off
+    # it, where linear interpolation crossed the field's kink): the point of it nearest the cell.
+    margin = LINE_MARGIN * spacing
+    near, near_ok = _solve(verts, plane_normals, ring_members, lower - margin, upper + margin, cos_angle)[:2]
+    near_ok &= two_sides & ~ring_ok
+    ring[near_ok], ring_ok = np.clip(near[near_ok], lower[near_ok], upper[near_ok]), ring_ok | near_ok
+    ok &= ring_ok | ~two_sides  # the line misses the cell by more: a blend made the patch look bent
+    new_points[ring_ok], ok = ring[ring_ok], ok | ring_ok
+    takes = _corner_in_empty_cell(corner, all_cells, field.shape, lower, upper, spacing)
+    new_points[takes], ok = corner[takes], ok | takes
+    is_feature[feature_ids[~ok]] = False  # the planes meet outside the cell: keep its plain patch
+    feature_ids, cells, new_points = feature_ids[ok], cells[ok], new_points[ok]
+    if not len(feature_ids):
+        return (*mesh, n_plain)
+    new_index = np.full(n_patches, -1, np.int64)
+    new_index[feature_ids] = n_plain + np.arange(len(feature_ids))
+
+    # Fans: each feature patch's boundary edges (a directed edge whose reverse is not in the patch).
+    in_feature = np.zeros(len(faces), bool)
+    in_feature[np.flatnonzero(candidate)[is_feature[patch]]] = True
+    rows = np.flatnonzero(is_feature[patch])
+    edges = np.stack([sub[rows][:, [0, 1]], sub[rows][:, [1, 2]], sub[rows][:, [2, 0]]], axis=1).reshape(-1, 2)
+    edge_patch = np.repeat(patch[rows], 3)
+    boundary = _row_counts(edge_patch, edges.min(axis=1), edges.max(axis=1)) == 1
+    edges, edge_patch = edges[boundary], edge_patch[boundary]
+    order = np.argsort(edge_patch, kind="stable")
+    fans = np.concatenate([edges[order], new_index[edge_patch[order], None]], axis=1)
+
+    out_faces = np.concatenate([faces[~in_feature].astype(np.int64), fans])
+    fan_rows = np.arange(len(out_faces) - len(fans), len(out_faces))
+    _flip_edges(out_faces, fan_rows)
+
+    out_verts = np.concatenate([verts, new_points.astype(np.float32)])
+    new_normals = vertex_normals_from_faces(out_verts, out_faces, np.arange(n_plain, len(out_verts)))
+    # Around features the sides' own (ENO) normals, which do not blend across the edge.
+    side_normals = normals.copy()
+    pure = np.linalg.norm(plane_normals[needed], axis=1) > 0.5
+    side_normals[needed[pure]] = plane_normals[needed[pure]]
+    out_normals = np.concatenate([side_normals, new_normals])
+    out_values = np.concatenate([values, np.full(len(feature_ids), values.dtype.type(np.mean(values)))])
+    return out_verts, out_faces.astype(np.int32), out_normals, out_values, n_plain
+
+
+def crisp_normals(verts, faces, normals, values, n_plain):
+    """A mesh for drawing: every triangle touching a feature vertex (index >= n_plain) gets its own three
+    vertices; at its feature corners the mean normal of its other corners (the side it lies on), so
+    shading does not smear across the edge.  The rest is unchanged."""
+    flat = (faces >= n_plain).any(axis=1)
+    if not flat.any():
+        return verts, faces, normals, values
+    rows = faces[flat]
+    plain = (rows < n_plain)[..., None]
+    corner_normals = normals[rows].astype(np.float64)
+    side = (corner_normals * plain).sum(axis=1)
+    side /= np.maximum(np.linalg.norm(side, axis=1, keepdims=True), 1e-30)
+    corner_normals = np.where(plain, corner_normals, side[:, None, :])
+    start = len(verts)
+    out_faces = faces.copy()
+    out_faces[flat] = start + np.arange(3 * len(rows)).reshape(-1, 3)
+    return (np.concatenate([verts, verts[rows.reshape(-1)]]), out_faces,
+            np.concatenate([normals, corner_normals.reshape(-1, 3).astype(np.float32)]),
+            np.concatenate([values, values[rows.reshape(-1)]]))
+
+
+def sharpen_extracted(mesh, volume, spacing, descent, angle):
+    """`sharpen` for a plain mesh of `volume` as `marching_cubes` returns it (either backend)."""
+    sign = 1.0 if descent else -1.0
+    field = volume.astype(np.float32, copy=False) * np.float32(sign)
+    return sharpen(mesh, field, spacing, angle)
+
+
+def marching_cubes_sharp_reference(volume, level, spacing=(1.0, 1.0, 1.0), descent=True, angle=30.0,
+                                   table: CaseTable | None = None):
+    """Plain MC then Extended MC: verts, faces, normals, values (feature vertices after the plain ones)."""
+    from .reference import marching_cubes_reference
+    mesh = marching_cubes_reference(volume, level, spacing, descent, table)
+    return sharpen_extracted(mesh, volume, spacing, descent, angle)[:4]

@@ -1,0 +1,68 @@
+#!/usr/bin/env python3
+"""Sharp features' (Extended MC) iso change against plain marching cubes' at the same level, one run.
+
+For each volume of benchmarks/volumes.py at each size, a resident `Extractor` alternates
+between levels 0 and 0.01 (a slider drag).  Timed, as medians:
+
+- plain: `ex.extract(level)` (the GPU mesh stays on the GPU);
+- sharp: `ex.extract(level)` then `sharp_features.sharp_mesh_of(ex, volume, angle)`: the mesh read
+  back and the feature step in numpy (no emc_* shaders yet), read-back included.
+
+Prints a markdown table; ratios only mean something within one run (+-10-15% noise here).
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from isoscope import Extractor  # noqa: E402
+from isoscope.sharp_features import sharp_mesh_of  # noqa: E402
+
+from volumes import VOLUMES  # noqa: E402
+
+
+def median_ms(run, levels, repeats):
+    samples = []
+    for i in range(repeats + 1):
+        start = time.perf_counter()
+        result = run(levels[i % 2])
+        if i:  # the first run warms up (shader JIT, buffer growth)
+            samples.append((time.perf_counter() - start) * 1000)
+    return statistics.median(samples), result
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--sizes", default="256", help="comma-separated samples per axis (default 256)")
+    parser.add_argument("--volumes", default="sphere,gyroid,noise")
+    parser.add_argument("--angle", type=float, default=30.0, help="feature angle, degrees (default 30)")
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args(argv)
+    print(f"### Sharp features (theta = {args.angle:g} deg) vs plain MC, iso change, median ms\n")
+    print("| volume | n | triangles | plain | sharp | ratio | feature vertices |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    for size in (int(s) for s in args.sizes.split(",")):
+        for name in args.volumes.split(","):
+            make, gd = VOLUMES[name]
+            volume = make(size)
+            with Extractor(volume, gradient_direction=gd) as ex:
+                levels = (0.0, 0.01)
+                plain, (_, triangles) = median_ms(ex.extract, levels, args.repeats)
+                def extract_sharp(level, ex=ex, volume=volume):
+                    ex.extract(level)
+                    return sharp_mesh_of(ex, volume, args.angle)
+                sharp, mesh = median_ms(extract_sharp, levels, args.repeats)
+            features = len(mesh[0]) - mesh[4]
+            print(f"| {name} | {size} | {triangles:,} | {plain:.0f} | {sharp:.0f} | {sharp / plain:.1f}x | "
+                  f"{features:,} |", flush=True)
+
+
+if __name__ == "__main__":
+    np.seterr(all="ignore")
+    main()
