@@ -131,6 +131,15 @@ def _add_sharp(parser: argparse.ArgumentParser) -> None:
                              "degrees, e.g. 30")
 
 
+def _add_mesh_modes(parser: argparse.ArgumentParser, labels: str) -> None:
+    """The flags that choose what surface is made: cells, smoothing, sharp features, a label map."""
+    _add_tetrahedra(parser)
+    _add_smooth(parser)
+    _add_sharp(parser)
+    parser.add_argument("--labels", action="store_true",
+                        help=f"VOLUME is a label map (a segmentation): {labels}")
+
+
 def viewer_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(
         prog="isoscope",
@@ -141,6 +150,7 @@ def viewer_parser() -> argparse.ArgumentParser:
     _add_iso(parser)
     parser.add_argument("--size", type=window_size, default=(1280, 800), metavar="WxH",
                         help="window size in screen units (default 1280x800)")
+    _add_mesh_modes(parser, labels="each non-zero label's surface in its own colour, listed in the panel")
     parser.add_argument("--screenshot-dir", default=".", metavar="DIR",
                         help="where key s saves PNGs (default: the current directory)")
     parser.add_argument("--screenshot-scale", type=int, default=1, choices=range(1, 9), metavar="N",
@@ -177,12 +187,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--transparent", action="store_true",
                             help="a transparent background: an RGBA PNG, for slides and figures")
         add_slice_arguments(parser)
-        _add_tetrahedra(parser)
-        _add_smooth(parser)
-        _add_sharp(parser)
-        parser.add_argument("--labels", action="store_true",
-                            help="VOLUME is a label map (a segmentation): draw each non-zero label's surface "
-                                 "in its own colour")
+        _add_mesh_modes(parser, labels="draw each non-zero label's surface in its own colour")
     else:
         parser = OneLineParser(prog="isoscope export",
                                description="Extract the isosurface and write it as a mesh file: binary PLY, OBJ, "
@@ -266,11 +271,22 @@ def run_viewer(args) -> int:
         return EXIT_NO_GL
     try:
         apply_slice_arguments(window.state, args)
+        _apply_mesh_arguments(window.state, args)
     except ValueError:
         window.close()
         raise
     window.run(max_frames=args.frames)
     return 0
+
+
+def _apply_mesh_arguments(state, args) -> None:
+    """--labels, --tetrahedra, --smooth, --sharp on the viewer: through ViewerState, as the panel does."""
+    done = ((not args.labels or state.show_labels(state.volume))
+            and (not args.tetrahedra or state.set_cells("tetrahedra"))
+            and (not args.smooth or state.set_smooth(args.smooth))
+            and (args.sharp is None or state.set_sharp(args.sharp)))
+    if not done:
+        raise ValueError(state.error)
 
 
 def _check_label_options(args, *options: str) -> None:

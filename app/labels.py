@@ -161,7 +161,7 @@ def write_label_meshes(volume, path, *, one_file: bool = False, world: bool = Tr
     """Write `volume`'s label surfaces: a file per label (`label_file`), or with `one_file` one PLY/GLB
     holding them all, each vertex in its label's colour.  Returns (path, vertices, triangles) per file.
     Each file is written atomically; the mesh is in the volume's world space where it has one."""
-    from .export import in_volume_space, write_mesh
+    from .export import in_volume_space
     check_label_output(path, one_file)
     surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing)
     if not surfaces:
@@ -170,10 +170,18 @@ def write_label_meshes(volume, path, *, one_file: bool = False, world: bool = Tr
     placed = {label: in_volume_space(volume, *mesh, world=world) for label, mesh in surfaces.items()}
     meshes = {label: mesh[:3] for label, mesh in placed.items()}
     space = next(iter(placed.values()))[3]
+    return write_labelled(path, meshes, label_colors(len(meshes)), space, one_file)
+
+
+def write_labelled(path, meshes: dict, colors, space: str, one_file: bool) -> list[tuple[Path, int, int]]:
+    """Write label meshes ``{label: (verts, faces, normals)}`` (already placed in `space`): a file per
+    label (`label_file`), or with `one_file` one PLY/GLB with each vertex in its label's colour
+    (`colors`: (labels, 3) RGB in 0..1, in the meshes' order).  Returns (path, vertices, triangles)."""
+    from .export import write_mesh
     if not one_file:
         return [(write_mesh(label_file(path, label), *mesh, space=space), len(mesh[0]), len(mesh[1]))
                 for label, mesh in meshes.items()]
-    colors = np.round(label_colors(len(meshes)) * 255).astype(np.uint8)
+    colors = np.round(np.asarray(colors, float) * 255).astype(np.uint8)
     starts = np.cumsum([0] + [len(verts) for verts, _, _ in meshes.values()])
     verts, faces, normals = (np.concatenate(parts) for parts in zip(*meshes.values()))
     faces = np.concatenate([mesh[1] + start for mesh, start in zip(meshes.values(), starts)])

@@ -35,6 +35,24 @@ class GpuMesh:
     n_triangles: int
     vertex_format: str = VERTEX_FORMAT
 
+    @classmethod
+    def upload(cls, ctx: moderngl.Context, verts, faces, normals, values=0.0) -> GpuMesh:
+        """Numpy arrays (or one value for every vertex) into new buffers of `ctx`, which the
+        caller owns: `release()` them."""
+        records = np.zeros((len(verts), VERTEX_FLOATS), np.float32)
+        start = 0
+        for name, width in VERTEX_FIELDS:
+            column = {"position": verts, "value": values, "normal": normals}.get(name, 0.0)  # "" pads
+            records[:, start:start + width] = np.reshape(column, (-1, width)) if np.ndim(column) else column
+            start += width
+        faces = np.ascontiguousarray(faces, np.uint32)
+        return cls(ctx.buffer(records.tobytes()), ctx.buffer(faces.tobytes()), len(verts), len(faces))
+
+    def release(self) -> None:
+        """Release the buffers: only for a mesh made by `upload`."""
+        self.vertex_buffer.release()
+        self.index_buffer.release()
+
     def read(self):
         """verts (N, 3), faces (M, 3) int32, normals (N, 3), values (N,): scikit-image's layout."""
         if self.vertex_format != VERTEX_FORMAT:

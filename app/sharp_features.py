@@ -6,9 +6,8 @@ face normals (reference_sharp.crisp_normals), so edges render crisp.
 """
 from __future__ import annotations
 
-import numpy as np
+import time
 
-from .gpu_layout import VERTEX_FLOATS
 from .mesh import GpuMesh
 from .reference_sharp import crisp_normals, sharpen_extracted
 
@@ -16,14 +15,6 @@ from .reference_sharp import crisp_normals, sharpen_extracted
 def sharp_mesh_of(extractor, volume_data, angle):
     """The extractor's last mesh with sharp features: verts, faces, normals, values, n_plain_vertices."""
     return sharpen_extracted(extractor.read_mesh(), volume_data, extractor.spacing, extractor.descent, angle)
-
-
-def upload_mesh(ctx, verts, faces, normals, values) -> GpuMesh:
-    """Numpy arrays -> a GpuMesh in new buffers (the caller releases them)."""
-    records = np.zeros((len(verts), VERTEX_FLOATS), np.float32)
-    records[:, 0:3], records[:, 3], records[:, 4:7] = verts, values, normals
-    return GpuMesh(ctx.buffer(records.tobytes()), ctx.buffer(faces.astype(np.uint32).tobytes()),
-                   len(verts), len(faces))
 
 
 def render_sharp_png(volume, out, iso, angle, size=(800, 600), azimuth=None, elevation=None,
@@ -37,13 +28,45 @@ def render_sharp_png(volume, out, iso, angle, size=(800, 600), azimuth=None, ele
         viewer.state.style.transparent_background = transparent
         viewer.show(volume, iso, azimuth, elevation)
         extractor = viewer.state.extractor
-        mesh = upload_mesh(viewer.ctx, *crisp_normals(*sharp_mesh_of(extractor, volume.data, angle)))
+        mesh = GpuMesh.upload(viewer.ctx, *crisp_normals(*sharp_mesh_of(extractor, volume.data, angle)))
         viewer.target.use()
         viewer.renderer.draw([mesh], viewer.camera, viewer.target.viewport, viewer.state.style)
         target = viewer.target
         return save_png(target.read_rgba() if transparent else target.read_rgb(), out)
     finally:
         if mesh is not None:
-            mesh.vertex_buffer.release()
-            mesh.index_buffer.release()
+            mesh.release()
         viewer.release()
+
+
+class SharpenedMesh:
+    """An extractor's last mesh with sharp features, uploaded for drawing with crisp normals (the
+    viewer's GpuSurface shows it in place of the extractor's).  Offers what the viewer reads of an
+    extractor: `mesh`, `level`, counts, `last_extract_ms`, `read_mesh()` (the mesh without the
+    crisp-normal copies of vertices, as the API returns it)."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self.mesh: GpuMesh | None = None
+        self.level = None
+        self.n_vertices = self.n_triangles = 0
+        self.last_extract_ms = 0.0
+        self._arrays = None
+
+    def take(self, extractor, volume_data, angle: float) -> None:
+        start = time.perf_counter()
+        sharpened = sharp_mesh_of(extractor, volume_data, angle)
+        drawn = GpuMesh.upload(self.ctx, *crisp_normals(*sharpened))
+        self.release()
+        self.mesh, self._arrays = drawn, sharpened[:4]
+        self.level = extractor.level
+        self.n_vertices, self.n_triangles = len(sharpened[0]), len(sharpened[1])
+        self.last_extract_ms = extractor.last_extract_ms + 1000 * (time.perf_counter() - start)
+
+    def read_mesh(self):
+        return self._arrays
+
+    def release(self) -> None:
+        if self.mesh is not None:
+            self.mesh.release()
+            self.mesh = None

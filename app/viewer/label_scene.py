@@ -5,35 +5,23 @@ panel can too); `render_labels_png` draws one to a PNG, as `isoscope render --la
 """
 from __future__ import annotations
 
-import numpy as np
-
-from ..gpu_layout import VERTEX_FLOATS
 from ..labels import label_colors, label_surfaces, labels_of
 from ..mesh import GpuMesh
 from .levels import SurfaceLook
 from .screenshot import save_png
 
 
-def upload_mesh(ctx, verts, faces, normals, value: float = 0.0) -> GpuMesh:
-    """An indexed mesh from numpy arrays into GPU buffers of the extractor's vertex records."""
-    records = np.zeros((len(verts), VERTEX_FLOATS), np.float32)
-    records[:, 0:3], records[:, 3], records[:, 4:7] = verts, value, normals
-    faces = np.ascontiguousarray(faces, np.uint32)
-    return GpuMesh(ctx.buffer(records.tobytes()), ctx.buffer(faces.tobytes()), len(verts), len(faces))
-
-
 def label_scene(ctx, surfaces: dict) -> list[tuple[int, GpuMesh, tuple[float, float, float]]]:
     """(label, mesh on the GPU, RGB colour) per label of `label_surfaces`' result, in label order.
     The caller owns the buffers (release them with `release_scene`)."""
     colors = label_colors(len(surfaces))
-    return [(label, upload_mesh(ctx, *surfaces[label], value=float(label)), tuple(map(float, color)))
+    return [(label, GpuMesh.upload(ctx, *surfaces[label], float(label)), tuple(map(float, color)))
             for label, color in zip(sorted(surfaces), colors)]
 
 
 def release_scene(scene) -> None:
     for _, mesh, _ in scene:
-        mesh.vertex_buffer.release()
-        mesh.index_buffer.release()
+        mesh.release()
 
 
 def render_labels_png(volume, out, size=(800, 600), azimuth=None, elevation=None, transparent: bool = False):

@@ -5,10 +5,10 @@ from __future__ import annotations
 from imgui_bundle import imgui
 
 from .colorby import SOURCES
+from .colormaps import COLORMAPS
 from .levels import MAX_LEVELS
 from .state import ViewerState
 
-COLORMAPS = ("viridis", "magma", "inferno", "plasma", "cividis", "turbo", "gray", "hot")
 NEW_LEVEL_STEP = 0.1    # an added level starts this fraction of the range above the selected one
 COLORBAR_HEIGHT = 14.0
 COLORBAR_SEGMENTS = 64
@@ -27,12 +27,12 @@ class LevelsSection:
             imgui.push_id(i)
             if imgui.radio_button("##selected", state.selected == i):
                 state.select_level(i)
-            _tooltip("the slider and histogram edit this level")
+            tooltip("the slider and histogram edit this level")
             imgui.same_line()
             toggled, visible = imgui.checkbox("##visible", level.visible)
             if toggled:
                 state.set_level_visible(i, visible)
-            _tooltip("show / hide")
+            tooltip("show / hide")
             imgui.same_line()
             changed, color = imgui.color_edit3("##color", list(state.level_color(i)),
                                                imgui.ColorEditFlags_.no_inputs)
@@ -81,9 +81,9 @@ class LevelsSection:
         _colorbar(state.color_by)
 
 
-def _tooltip(text: str) -> None:
+def tooltip(text: str) -> None:
     if imgui.is_item_hovered():
-        imgui.set_tooltip(text)
+        imgui.settooltip(text)
 
 
 def _colorbar(color_by) -> None:

@@ -16,6 +16,7 @@ from imgui_bundle import imgui
 from ..volumes import builtin_names
 from .histogram import fraction_of, level_at
 from .levels_panel import LevelsSection
+from .mesh_panel import LabelsSection, MeshSection
 from .orientation import draw_orientation
 from .slice_panel import SlicePanel
 from .state import ViewerState
@@ -82,6 +83,8 @@ class Panel:
         self._go_home = False
         self.slices = SlicePanel()     # the Slices section (slice_panel.py)
         self.levels_section = LevelsSection()
+        self.mesh_section = MeshSection()
+        self.labels_section = LabelsSection()
 
     def draw(self, state: ViewerState) -> None:
         self._collect_file_dialog(state)
@@ -94,7 +97,11 @@ class Panel:
             self._messages(state)   # first: an error must be seen, even in a short window
             self._volume_section(state)
             self._iso_section(state)
-            self.levels_section.draw(state)
+            if state.label_layers:   # a label map on show: its labels stand in for the levels
+                self.labels_section.draw(state)
+            else:
+                self.levels_section.draw(state)
+                self.mesh_section.draw(state)
             self._display_section(state)
             self.slices.draw(state)
             self._stats_section(state)

@@ -16,10 +16,12 @@ from pathlib import Path
 import moderngl
 
 from ..mesh import GpuMesh
+from ..reference_sharp import check_feature_angle
 from ..reference_smooth import check_iterations
 from ..volumes import Volume, open_volume
 from .histogram import value_histogram
-from .levels import SurfaceLevels
+from .label_layers import LabelLayers
+from .levels import SurfaceLevels, SurfaceLook
 from .loading import USER_ERRORS, PendingLoad, one_line
 from .recent import RecentFiles
 from .slices import SliceScene, SliceSettings
@@ -55,7 +57,7 @@ class IsoAnimation:
         return low + (high - low) * (start + (end - start) * sweep)
 
 
-class ViewerState(SurfaceLevels):
+class ViewerState(SurfaceLevels, LabelLayers):
     def __init__(self, ctx: moderngl.Context, recent: RecentFiles | None = None, level_of_detail: bool = False):
         self.ctx = ctx                   # the context the surface's buffers must live in (the window's)
         self.volume: Volume | None = None
@@ -78,6 +80,8 @@ class ViewerState(SurfaceLevels):
         self.gl_renderer = ctx.info.get("GL_RENDERER", "unknown")
         self.loading: PendingLoad | None = None  # a volume being read in the background
         self.cells = "cubes"             # what the extractors march: "cubes" or "tetrahedra"
+        self.sharp: float | None = None  # Extended MC's feature angle, degrees (None: plain meshes)
+        self.label_layers = []           # a label map's surfaces, when one is on show (label_layers.py)
         self.levels, self.selected = [], 0      # the surfaces on show, and the one the slider moves (levels.py)
         self.color_by = None                     # colour by a scalar through a colour map (colorby.py)
 
@@ -122,6 +126,7 @@ class ViewerState(SurfaceLevels):
         first_iso = iso if iso is not None else volume.default_level
         self.iso = (low + high) / 2 if first_iso is None else min(max(float(first_iso), low), high)
         self._reset_levels()
+        self._release_labels()
         self._release_color_by()
         self.volume_serial += 1
         self.update(0.0)
@@ -148,24 +153,40 @@ class ViewerState(SurfaceLevels):
     def set_cells(self, cells: str) -> bool:
         """March "cubes" or "tetrahedra" (every level, from the same resident volume: no re-upload)."""
         if cells not in CELLS:
-            self.error = f"unknown cells {cells!r}; use one of {', '.join(CELLS)}"
-            return False
+            return self._refuse(f"unknown cells {cells!r}; use one of {', '.join(CELLS)}")
+        if cells != "cubes" and self.sharp is not None:
+            return self._refuse("sharp features are a marching-cubes method; turn them off before tetrahedra")
         self.cells = cells
         return self._apply_mesh_options()
 
     def set_smooth(self, iterations) -> bool:
         """Smooth every level's mesh `iterations` times, each projected back onto the level set."""
         try:
-            self.smooth = check_iterations(iterations)
+            iterations = check_iterations(iterations)
         except ValueError as exc:
-            self.error = one_line(exc)
-            return False
+            return self._refuse(one_line(exc))
+        if iterations and self.sharp is not None:
+            return self._refuse("smoothing would round off the sharp features; turn them off first")
+        self.smooth = iterations
+        return self._apply_mesh_options()
+
+    def set_sharp(self, angle) -> bool:
+        """Extended Marching Cubes with feature angle `angle` (degrees) on every level, or None for off."""
+        try:
+            angle = check_feature_angle(angle)
+        except ValueError as exc:
+            return self._refuse(one_line(exc))
+        if angle is not None and (self.smooth or self.cells != "cubes"):
+            return self._refuse("sharp features need cubes without smoothing; set cells to cubes and smoothing to 0")
+        self.sharp = angle
         return self._apply_mesh_options()
 
     def _apply_mesh_options(self) -> bool:
-        """The surface's extractions follow `cells` and `smooth`: every level is extracted again."""
-        if self.surface is not None and (self.surface.cells, self.surface.smooth) != (self.cells, self.smooth):
-            self.surface.cells, self.surface.smooth = self.cells, self.smooth
+        """The surface's extractions follow `cells`, `smooth` and `sharp`: every level is extracted again."""
+        options = (self.cells, self.smooth, self.sharp)
+        self.error = None
+        if self.surface is not None and (self.surface.cells, self.surface.smooth, self.surface.sharp) != options:
+            self.surface.cells, self.surface.smooth, self.surface.sharp = options
             self._refresh_levels()
             self.update(0.0)
         return self.error is None
@@ -177,7 +198,7 @@ class ViewerState(SurfaceLevels):
         except USER_ERRORS as exc:
             self.error = one_line(exc)
             return False
-        surface.cells, surface.smooth = self.cells, self.smooth
+        surface.cells, surface.smooth, surface.sharp = self.cells, self.smooth, self.sharp
         if self.surface is not None:
             self.surface.release()
         self.volume, self.surface = volume, surface
@@ -277,7 +298,9 @@ class ViewerState(SurfaceLevels):
     def save_mesh(self, path) -> bool:
         """Write the surface on show (at full resolution) to `path`, in the format of its extension
         and the volume's world coordinates where its file defines them; False with `error` set."""
-        from ..export import in_volume_space, write_mesh
+        from ..export import COLOR_FORMATS, in_volume_space, write_mesh
+        if self.label_layers:   # a label map: its visible labels, in one coloured file where the format can
+            return self.save_labels(path, one_file=Path(path).suffix.lower() in COLOR_FORMATS)
         if self.surface is None:
             self.error = "no surface to save yet; open a volume first"
             return False
@@ -295,10 +318,19 @@ class ViewerState(SurfaceLevels):
         return True
 
     # --- what the renderer draws, and stats for the panel ---------------------
+    def _drawn(self) -> list[tuple[GpuMesh, SurfaceLook]]:
+        """A label map's visible labels while one is on show, else the visible levels."""
+        return self._shown_labels() if self.label_layers else self._shown_levels()
+
     @property
     def meshes(self) -> list[GpuMesh]:
-        """The visible levels' meshes (their looks: `looks`)."""
-        return [mesh for mesh, _ in self._shown_levels()]
+        """The visible levels' (or labels') meshes; their looks: `looks`."""
+        return [mesh for mesh, _ in self._drawn()]
+
+    @property
+    def looks(self) -> list[SurfaceLook]:
+        """How to draw each of `meshes`, in the same order."""
+        return [look for _, look in self._drawn()]
 
     @property
     def extractor(self):
@@ -331,6 +363,7 @@ class ViewerState(SurfaceLevels):
 
     def release(self) -> None:
         self._release_levels()
+        self._release_labels()
         self._release_color_by()
         if self.surface is not None:
             self.surface.release()

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from ..extractor import Extractor
 from ..mesh import GpuMesh
+from ..sharp_features import SharpenedMesh
 from ..smoothing import Smoother
 from ..tetra_extractor import TetraExtractor
 from ..validation import subsampled
@@ -58,6 +59,11 @@ class GpuSurface:
         self.full_triangles = 0
         self.smooth = 0  # smoothing iterations applied after each extraction (app/smoothing.py)
         self._smoothers: dict[tuple[str, int], Smoother] = {}  # (cells, sample step) -> its extractor's smoother
+        # Extended MC's feature angle (degrees) or None.  The feature step runs in numpy on the read-back
+        # mesh, so only full-resolution cubes meshes get it: previews while dragging stay plain.
+        self.sharp: float | None = None
+        self._sharpened = SharpenedMesh(ctx)
+        self.shown_sharp = False
 
     @property
     def value_range(self) -> tuple[float, float]:
@@ -65,7 +71,9 @@ class GpuSurface:
 
     @property
     def shown(self) -> Extractor:
-        """The extractor whose mesh is on show."""
+        """The extractor whose mesh is on show (or the sharp-featured mesh standing in for it)."""
+        if self.shown_sharp:
+            return self._sharpened
         if self.shown_cells == "tetrahedra":
             return self._tetrahedra[self.shown_step]
         return self.extractor if self.shown_step == 1 else self._previews[self.shown_step]
@@ -91,6 +99,9 @@ class GpuSurface:
             if key not in self._smoothers:
                 self._smoothers[key] = Smoother(extractor)
             self._smoothers[key].smooth(extractor.mesh, self.smooth)
+        self.shown_sharp = self.sharp is not None and step == 1 and self.cells == "cubes"
+        if self.shown_sharp:
+            self._sharpened.take(extractor, self.volume.checked.data, self.sharp)
         self.shown_step, self.shown_cells = step, self.cells
         self.full_triangles = extractor.n_triangles * step * step
 
@@ -100,7 +111,7 @@ class GpuSurface:
 
     def release(self) -> None:
         # Smoothers and tetrahedra borrow their extractor's volume: released first.
-        for gl_owner in (*self._smoothers.values(), *self._tetrahedra.values(), self.extractor,
+        for gl_owner in (self._sharpened, *self._smoothers.values(), *self._tetrahedra.values(), self.extractor,
                          *self._previews.values()):
             gl_owner.release()
         self._previews.clear()

@@ -1,0 +1,129 @@
+"""The viewer's mesh modes (cells, smoothing, sharp features) and label maps, through ViewerState as the
+panel and the viewer's flags use them: what is drawn and saved must be what the API makes."""
+from __future__ import annotations
+
+import nibabel
+import numpy as np
+import pytest
+import trimesh
+from scipy.ndimage import map_coordinates
+from test_cli import assert_one_line_error, isoscope
+
+import isoscope as api
+from isoscope.viewer.headless import HeadlessViewer
+from isoscope.volumes import open_volume
+
+
+@pytest.fixture
+def viewer(gl_ctx):
+    viewer = HeadlessViewer((320, 240), ctx=gl_ctx)
+    yield viewer
+    viewer.release()
+
+
+def drawn_triangles(state):
+    return [mesh.n_triangles for mesh in state.meshes]
+
+
+def test_tetrahedra_apply_to_every_level_without_a_new_upload(viewer):
+    volume = open_volume("torus", resolution=32)
+    viewer.show_levels(volume, [0.0, 0.1])
+    state = viewer.state
+    cubes = drawn_triangles(state)
+    extractor = state.extractor
+    assert state.set_cells("tetrahedra")
+    assert state.extractor is extractor    # the same resident volume
+    expected = [len(api.marching_tetrahedra(volume.checked, level, spacing=volume.spacing,
+                                            gradient_direction=volume.gradient_direction)[1]) for level in (0.0, 0.1)]
+    assert drawn_triangles(state) == expected
+    assert all(t > 2 * c for t, c in zip(expected, cubes))
+    assert state.set_cells("cubes") and drawn_triangles(state) == cubes
+    assert not state.set_cells("hexahedra") and "cubes" in state.error and drawn_triangles(state) == cubes
+
+
+def test_smoothing_moves_every_level_onto_its_own_level_set(viewer, tmp_path):
+    volume = open_volume("metaballs", resolution=40)
+    viewer.show_levels(volume, [0.5, 0.8])
+    state = viewer.state
+    assert state.set_smooth(3)
+    data = volume.data.astype(np.float64)
+    for mesh, level in zip(state.meshes, (0.5, 0.8)):
+        verts = mesh.read()[0]
+        values = map_coordinates(data, (verts / np.asarray(volume.spacing)).T, order=1, mode="nearest")
+        assert np.abs(values - level).max() <= 1e-3 * (data.max() - data.min())
+    state.select_level(0)
+    assert state.save_mesh(tmp_path / "smooth.ply")
+    saved = trimesh.load(tmp_path / "smooth.ply", process=False)
+    expected = api.marching_cubes(volume.checked, 0.5, spacing=volume.spacing, smooth=3)
+    assert len(saved.faces) == len(expected[1])
+    assert not state.set_smooth(-1) and "smooth" in state.error and state.smooth == 3
+
+
+def test_sharp_features_are_drawn_and_saved_as_the_api_makes_them(viewer, tmp_path):
+    volume = open_volume("box", resolution=24)
+    viewer.show(volume)
+    state = viewer.state
+    plain = state.n_triangles
+    assert state.set_sharp(30)
+    verts, faces, _, _ = api.marching_cubes(volume.checked, state.iso, spacing=volume.spacing,
+                                            gradient_direction=volume.gradient_direction, sharp_features=30)
+    assert state.n_triangles == len(faces) and len(faces) != plain
+    assert state.save_mesh(tmp_path / "box.stl")
+    saved = trimesh.load(tmp_path / "box.stl", process=False)
+    assert len(saved.faces) == len(faces)
+    # Smoothing or tetrahedra would undo the features: refused, and the sharp mesh stays.
+    assert not state.set_smooth(2) and state.smooth == 0
+    assert not state.set_cells("tetrahedra") and state.cells == "cubes"
+    assert state.n_triangles == len(faces)
+    assert state.set_sharp(None) and state.n_triangles == plain
+
+
+@pytest.fixture
+def two_labels(tmp_path):
+    labels = np.zeros((30, 28, 26), np.uint8)
+    labels[4:14, 5:20, 4:20] = 1
+    labels[14:25, 5:20, 4:20] = 7      # touching label 1 along a face
+    path = tmp_path / "seg.nii.gz"
+    nibabel.save(nibabel.Nifti1Image(labels, np.diag([0.8, 0.9, 1.1, 1.0])), path)
+    return path
+
+
+def test_a_label_map_shows_one_coloured_surface_per_label(viewer, two_labels, tmp_path):
+    volume = open_volume(str(two_labels))
+    state = viewer.state
+    viewer.show(volume)
+    assert state.show_labels(volume)
+    surfaces = api.label_surfaces(volume.data, spacing=volume.spacing)
+    assert drawn_triangles(state) == [len(surfaces[label][1]) for label in (1, 7)]
+    colors = [look.color for look in state.looks]
+    assert colors[0] != colors[1]
+    both = viewer.render()
+    assert state.set_label_visible(7, False) and drawn_triangles(state) == [len(surfaces[1][1])]
+    assert not np.array_equal(viewer.render(), both)
+    # Save writes what is shown: the visible label, one file each (STL), in the file's world space.
+    assert state.save_mesh(tmp_path / "out.stl")
+    assert (tmp_path / "out_label1.stl").exists() and not (tmp_path / "out_label7.stl").exists()
+    state.set_label_visible(7, True)
+    assert state.save_mesh(tmp_path / "all.ply")   # PLY carries colours: one file
+    mesh = trimesh.load(tmp_path / "all.ply", process=False)
+    assert len(mesh.faces) == sum(len(s[1]) for s in surfaces.values())
+    assert len(np.unique(mesh.visual.vertex_colors[:, :3], axis=0)) == 2
+    state.hide_labels()
+    assert len(state.meshes) == 1     # back to the isosurface
+
+
+def test_a_volume_without_labels_is_refused_and_the_view_stays(viewer):
+    state = viewer.state
+    viewer.show(open_volume("sphere", resolution=20))
+    before = drawn_triangles(state)
+    assert not state.show_labels(open_volume("sphere", resolution=20))   # fractional values
+    assert "label" in state.error and drawn_triangles(state) == before
+
+
+def test_the_viewer_takes_the_mode_flags_and_refuses_bad_pairs(x_display, two_labels, monkeypatch):
+    monkeypatch.setenv("DISPLAY", x_display)
+    for flags in (["torus", "--tetrahedra", "--smooth", "2"], ["box", "--sharp", "30"], [two_labels, "--labels"]):
+        result = isoscope(*flags, "--frames", "2")
+        assert result.returncode == 0, result.stderr
+    assert_one_line_error(isoscope("box", "--tetrahedra", "--sharp", "30", "--frames", "2"), "sharp")
+    assert_one_line_error(isoscope("sphere", "--labels", "--frames", "2"), "label")
