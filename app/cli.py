@@ -186,6 +186,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--panel", action="store_true", help="draw the imgui panel over the scene")
         parser.add_argument("--transparent", action="store_true",
                             help="a transparent background: an RGBA PNG, for slides and figures")
+        parser.add_argument("--wireframe", action="store_true", help="draw the triangles' edges over the surface")
         add_slice_arguments(parser)
         _add_mesh_modes(parser, labels="draw each non-zero label's surface in its own colour")
     else:
@@ -327,7 +328,7 @@ def run_render(args) -> int:
                       elevation=args.elevation, panel=args.panel, transparent=args.transparent,
                       opacities=[a for values in args.opacity or [] for a in values],
                       color_by=args.color_by, colormap=args.color_by_map,
-                      tetrahedra=args.tetrahedra, smooth=args.smooth,
+                      tetrahedra=args.tetrahedra, smooth=args.smooth, wireframe=args.wireframe,
                       prepare=lambda state: apply_slice_arguments(state, args))
     print(f"wrote {path} ({args.size[0]}x{args.size[1]})")
     return 0

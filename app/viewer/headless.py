@@ -90,18 +90,20 @@ class HeadlessViewer:
 
 def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, elevation=None,
                panel: bool = False, transparent: bool = False, opacities=(), color_by=None, colormap=None,
-               prepare=None, tetrahedra: bool = False, smooth: int = 0):
+               prepare=None, tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False):
     """Render one view of `volume` to the PNG file `out` (RGBA with `transparent`); returns its path.
 
     `iso`: a level, or a list of up to 4 (several surfaces, `opacities` in the same order);
     `color_by`: "value", "gradient" or a volume spec of the same shape, through `colormap`, with a
     colour bar at the right (in the panel with `panel`); `prepare(state)`, if given, sets up the
     ViewerState once the volume is shown (slices, clip); `tetrahedra`: marching tetrahedra's
-    surfaces instead of marching cubes'; `smooth`: iterations of smoothing projected onto the level set."""
+    surfaces instead of marching cubes'; `smooth`: iterations of smoothing projected onto the level
+    set; `wireframe`: the triangles' edges drawn over."""
     viewer = HeadlessViewer(size)
     try:
         viewer.state.style.transparent_background = transparent
         viewer.state.smooth = smooth
+        viewer.state.style.wireframe = wireframe
         isos = list(iso) if isinstance(iso, (list, tuple)) else [iso]
         viewer.show_levels(volume, isos, opacities, color_by, colormap, azimuth, elevation)
         if tetrahedra and not viewer.state.set_cells("tetrahedra"):

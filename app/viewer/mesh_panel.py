@@ -18,7 +18,9 @@ class MeshSection:
         self.sharp_angle = DEFAULT_SHARP_ANGLE   # kept while sharp features are off
 
     def draw(self, state: ViewerState) -> None:
-        imgui.separator_text("Mesh")
+        # Folded until opened: the panel must stay short enough for the slices below it.
+        if not imgui.collapsing_header("Mesh: cells, smoothing, sharp features"):
+            return
         imgui.set_next_item_width(150)
         if imgui.begin_combo("cells", state.cells):
             for cells in CELLS:
