@@ -5,6 +5,7 @@ import numpy as np
 
 from . import validation
 from .gpu_layout import VERTEX_FLOATS
+from .masking import check_mask, keep_masked_cells
 from .reference import marching_cubes_reference
 from .reference_sharp import check_feature_angle, sharpen_extracted
 from .reference_smooth import check_iterations, smooth_projected
@@ -16,7 +17,7 @@ METHODS = ("lewiner", "lorensen")
 
 def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
                    step_size=1, allow_degenerate=True, method="lewiner", backend="auto", smooth=0,
-                   chunks=None, sharp_features=None):
+                   chunks=None, sharp_features=None, mask=None):
     """Extract the isosurface ``volume == level`` as an indexed, watertight triangle mesh.
 
     Parameters follow ``skimage.measure.marching_cubes``:
@@ -49,6 +50,9 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         not the volume: use it for volumes larger than the GPU or RAM (a memory-mapped
         array, np.load(path, mmap_mode="r"), or a Zarr array is read a box at a time).
 
+    mask : None, or a boolean array of the volume's shape: as in scikit-image, only the
+        cells whose far corner (i + 1, j + 1, k + 1) the mask holds true get triangles, so
+        the surface is open where it leaves the mask (isoscope.masking).
     sharp_features : None for plain marching cubes, or a feature angle in degrees
         (0 < angle < 180, e.g. 30): Extended Marching Cubes (Kobbelt et al. 2001,
         `app.reference_sharp`) adds a vertex on the sharp edge or corner of each cell
@@ -68,6 +72,9 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     angle = check_feature_angle(sharp_features)
     if angle is not None and iterations:
         raise ValueError("sharp_features= keeps corners that smooth= would round off; use one of them")
+    if mask is not None and (iterations or angle is not None or chunks is not None):
+        raise ValueError("mask= keeps cells of the plain mesh; it cannot be combined with smooth=, "
+                         "sharp_features= or chunks=")
     if chunks is not None:
         if iterations or angle is not None:
             raise ValueError("smooth= and sharp_features= work on a whole-volume mesh, not a chunked one; "
@@ -78,6 +85,7 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     descent = validation.as_gradient_direction(gradient_direction)
     level = validation.as_level(level, checked.value_range)
     step = validation.as_step_size(step_size)
+    mask = check_mask(mask, checked.data.shape)
     if step > 1:
         checked = validation.subsampled(checked, step)
         spacing = tuple(s * step for s in spacing)
@@ -86,6 +94,8 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         mesh = _on_cpu(marching_cubes_reference, checked, level, spacing, descent, iterations)
     else:
         mesh = _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra=False)
+    if mask is not None:
+        return keep_masked_cells(mesh, mask, spacing, step)
     if angle is None:
         return mesh
     return sharpen_extracted(mesh, checked.data, spacing, descent, angle)[:4]
@@ -95,7 +105,7 @@ TETRA_BACKENDS = ("auto", "gpu", "cpu", "numpy")
 
 
 def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
-                        backend="auto", smooth=0):
+                        backend="auto", smooth=0, mask=None):
     """Extract the isosurface ``volume == level`` by marching tetrahedra (Müller and Wehle).
 
     Every cell is split into six tetrahedra along its main diagonal, the same way in every
@@ -110,16 +120,22 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     body diagonal of each cell) whose ends lie on different sides of the level has exactly
     one vertex.  backend: "gpu", "cpu" (or "numpy": the numpy reference), or "auto".
     smooth: iterations of smoothing projected back onto the level set, as in `marching_cubes`.
+    mask: a boolean array of the volume's shape: only cells where it is true, as in `marching_cubes`.
     """
     iterations = check_iterations(smooth)
     backend = _backend(backend, TETRA_BACKENDS)
     checked = validation.check_volume(volume)
+    mask = check_mask(mask, checked.data.shape)
+    if mask is not None and iterations:
+        raise ValueError("mask= keeps cells of the plain mesh; it cannot be combined with smooth=")
     spacing = validation.as_spacing(spacing)
     descent = validation.as_gradient_direction(gradient_direction)
     level = validation.as_level(level, checked.value_range)
     if backend == "cpu":
-        return _on_cpu(marching_tetrahedra_reference, checked, level, spacing, descent, iterations)
-    return _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra=True)
+        mesh = _on_cpu(marching_tetrahedra_reference, checked, level, spacing, descent, iterations)
+    else:
+        mesh = _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra=True)
+    return mesh if mask is None else keep_masked_cells(mesh, mask, spacing)
 
 
 def _on_cpu(reference, checked, level, spacing, descent, iterations):
