@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import errno
+import os
 import sys
 
 from .viewer.slice_options import add_slice_arguments, apply_slice_arguments
@@ -221,10 +222,13 @@ def command_parser(command: str) -> argparse.ArgumentParser:
 
 
 def _progress(fraction: float, message: str) -> None:
-    # Slow loads report progress; overwrite one line on a terminal, stay quiet in logs.
+    # Slow loads report progress; overwrite one line on a terminal, stay quiet in logs.  With
+    # ISOSCOPE_PROGRESS set (the viewer's background export reads them), one line per report.
     if sys.stderr.isatty():
         end = "\n" if fraction >= 1.0 else ""
         print(f"\r{message} {fraction:4.0%}\033[K", end=end, file=sys.stderr, flush=True)
+    elif os.environ.get("ISOSCOPE_PROGRESS"):
+        print(f"{message} {fraction:.0%}", file=sys.stderr, flush=True)
 
 
 def _checked_iso(volume, iso: float | None) -> float | None:

@@ -77,6 +77,7 @@ class Panel:
         self.expr_text = ""
         self._file_dialog = None       # a pending portable_file_dialogs.open_file
         self._save_dialog = None       # a pending portable_file_dialogs.save_file
+        self._save_full_resolution = False  # the pending save is a big volume's full-resolution export
         self.box = None                # the expanded panel's (x, y, width, height), imgui units
         self.iso_slider_box = None     # the iso slider's ((left, top), (right, bottom)), imgui units
         self.histogram_box = None      # the value histogram's ((left, top), (right, bottom)), likewise
@@ -178,6 +179,13 @@ class Panel:
             imgui.same_line()
             if imgui.button("Save mesh...") and self._save_dialog is None:
                 self._open_save_dialog(state)
+        if state.exporting is not None:
+            imgui.progress_bar(state.exporting.fraction, imgui.ImVec2(-1, 0), state.exporting.message)
+        elif self.can_browse and state.full_volume is not None:
+            if imgui.button("Export full resolution...") and self._save_dialog is None:
+                self._open_save_dialog(state, full_resolution=True)
+            if imgui.is_item_hovered():
+                imgui.set_tooltip("the whole volume's mesh at this level, a chunk at a time in the background")
         entered, self.expr_text = imgui.input_text_with_hint(
             "expr", EXPR_HINT, self.expr_text, imgui.InputTextFlags_.enter_returns_true)
         if (entered or imgui.button("Show expr")) and self.expr_text.strip():
@@ -274,10 +282,12 @@ class Panel:
         if pfd is not None:
             self._file_dialog = pfd.open_file("Open volume", str(Path.cwd()), VOLUME_FILE_FILTERS)
 
-    def _open_save_dialog(self, state: ViewerState) -> None:
+    def _open_save_dialog(self, state: ViewerState, full_resolution: bool = False) -> None:
         pfd = self._dialogs(state, "use `isoscope export` on the command line")
         if pfd is not None:
-            self._save_dialog = pfd.save_file("Save mesh", str(Path.cwd() / "isoscope-mesh.stl"), MESH_FILE_FILTERS)
+            self._save_full_resolution = full_resolution
+            self._save_dialog = pfd.save_file("Export full resolution" if full_resolution else "Save mesh",
+                                              str(Path.cwd() / "isoscope-mesh.stl"), MESH_FILE_FILTERS)
 
     def _collect_file_dialog(self, state: ViewerState) -> None:
         # The dialogs run in other processes; poll them so the UI keeps drawing meanwhile.
@@ -290,4 +300,4 @@ class Panel:
             path = self._save_dialog.result()
             self._save_dialog = None
             if path:
-                state.save_mesh(path)
+                (state.export_full_resolution if self._save_full_resolution else state.save_mesh)(path)

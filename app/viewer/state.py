@@ -19,6 +19,7 @@ from ..mesh import GpuMesh
 from ..reference_sharp import check_feature_angle
 from ..reference_smooth import check_iterations
 from ..volumes import Volume, open_volume
+from .big_volume import FullResolutionExport, viewer_level
 from .histogram import value_histogram
 from .label_layers import LabelLayers
 from .levels import SurfaceLevels, SurfaceLook
@@ -82,6 +83,8 @@ class ViewerState(SurfaceLevels, LabelLayers):
         self.cells = "cubes"             # what the extractors march: "cubes" or "tetrahedra"
         self.sharp: float | None = None  # Extended MC's feature angle, degrees (None: plain meshes)
         self.label_layers = []           # a label map's surfaces, when one is on show (label_layers.py)
+        self.full_volume: Volume | None = None   # a big volume shown downsampled (big_volume.py)
+        self.exporting: FullResolutionExport | None = None  # its full-resolution export, running
         self.levels, self.selected = [], 0      # the surfaces on show, and the one the slider moves (levels.py)
         self.color_by = None                     # colour by a scalar through a colour map (colorby.py)
 
@@ -117,9 +120,18 @@ class ViewerState(SurfaceLevels, LabelLayers):
             self.recent.add(pending.spec)
 
     def show(self, volume: Volume, iso: float | None = None) -> bool:
-        """Upload `volume` to the GPU and extract its first surface; the old volume stays on failure."""
-        if not self._upload(volume, volume.gradient_direction):
+        """Upload `volume` to the GPU and extract its first surface; the old volume stays on failure.
+        A volume too big to drag live is shown downsampled (big_volume.py), the full one kept in
+        `full_volume` for 'Export full resolution'."""
+        try:
+            shown, step = viewer_level(volume)
+        except USER_ERRORS as exc:
+            self.error = one_line(exc)
             return False
+        if not self._upload(shown, shown.gradient_direction):
+            return False
+        self.full_volume = volume if step > 1 else None
+        volume = shown
         self.histogram = value_histogram(volume.data, volume.value_range)
         self.slices.fit(volume.data, self.value_range)
         low, high = self.value_range
@@ -235,6 +247,8 @@ class ViewerState(SurfaceLevels, LabelLayers):
         after a preview); True when it re-extracted."""
         if self.loading is not None and self.loading.done():
             self._finish_loading()
+        if self.exporting is not None and self.exporting.done():
+            self._finish_export()
         if self.surface is None:
             return False
         if self.animation.running:
@@ -293,6 +307,26 @@ class ViewerState(SurfaceLevels, LabelLayers):
             return None
         return SliceScene(self.volume.data, self.volume.spacing, self.slices, self.iso,
                           not self.inside_below, self.style.front_color)
+
+    # --- saving ------------------------------------------------------------
+    def export_full_resolution(self, path) -> bool:
+        """Write the full-resolution mesh of a downsampled big volume at the current level to `path`,
+        a chunk at a time in a child process; `update` reports when it is written (or why not)."""
+        if self.full_volume is None:
+            return self._refuse("the whole volume is on show; use Save mesh")
+        if self.exporting is not None and not self.exporting.done():
+            return self._refuse("an export is still running; wait for it to finish")
+        self.exporting = FullResolutionExport(self.full_volume.source, self.iso, path,
+                                              self.full_volume.gradient_direction)
+        self.error = None
+        return True
+
+    def _finish_export(self) -> None:
+        export, self.exporting = self.exporting, None
+        if export.error is not None:
+            self.error = f"full-resolution export failed: {export.error}"
+        else:
+            self.error, self.message = None, export.message
 
     # --- saving ------------------------------------------------------------
     def save_mesh(self, path) -> bool:

@@ -1,0 +1,97 @@
+"""A volume too big to drag live: the viewer shows a downsampled level, and exports the full one
+in the background.
+
+Above `VIEWER_MAX_VOXELS` samples the window would neither fit a modest GPU nor re-extract
+at a dragging pace on llvmpipe, so the viewer shows every `step`-th sample along each axis
+(read a block at a time from a Zarr array or a memory-mapped file: the whole volume is never
+in memory), with a note saying so.  "Export full resolution..." then runs `isoscope export
+--chunk` in a child process, which extracts the full volume a chunk at a time (chunked.py)
+with its own GL context; the window only reads the child's progress lines, so it stays
+responsive, and the file is written atomically by the child (no half file on failure).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import subprocess
+import sys
+import threading
+
+import numpy as np
+
+from ..lazy_arrays import is_lazy, read_block
+from ..volumes import Volume
+
+VIEWER_MAX_VOXELS = 256 ** 3
+"""Samples the viewer shows live; a larger volume is shown at every step-th sample."""
+EXPORT_CHUNK = 128
+
+
+def viewer_level(volume: Volume, max_voxels: int | None = None) -> tuple[Volume, int]:
+    """(`volume`, 1), or a volume of every step-th sample of it and that step, the smallest step
+    that brings it under `max_voxels` (default VIEWER_MAX_VOXELS).  Spacing, world transform and
+    value range stay the full volume's (the range bounds the samples kept)."""
+    budget = VIEWER_MAX_VOXELS if max_voxels is None else max_voxels
+    size = math.prod(volume.data.shape)
+    if size <= budget:
+        return volume, 1
+    step = max(2, math.ceil((size / budget) ** (1 / 3)))
+    while math.prod(-(-n // step) for n in volume.data.shape) > budget:
+        step += 1
+    every = (slice(None, None, step),) * 3
+    data = read_block(volume.data, every) if is_lazy(volume.data) else np.ascontiguousarray(volume.data[every])
+    world = None
+    if volume.world is not None:
+        matrix, space = volume.world
+        world = (matrix @ np.diag([step, step, step, 1.0]), space)
+    shape = "x".join(map(str, volume.data.shape))
+    note = (f"a big volume ({shape}): shown at one sample in {step} along each axis; 'Export full resolution...' "
+            "writes the full mesh")
+    return dataclasses.replace(volume, data=data, spacing=tuple(s * step for s in volume.spacing), world=world,
+                               notes=[*volume.notes, note], _in_memory=None), step
+
+
+class FullResolutionExport:
+    """`isoscope export SOURCE --iso LEVEL --out PATH --chunk N` in a child process, its progress read
+    from its stderr.  `fraction`, `message`; `done()`; then `error` (one line) or None."""
+
+    def __init__(self, source: str, level: float, out, gradient_direction: str = "descent"):
+        self.out = str(out)
+        self.fraction, self.message = 0.0, f"exporting {os.path.basename(self.out)}"
+        self.error: str | None = None
+        inside = ["--inside", "below"] if gradient_direction == "ascent" else []
+        command = [sys.executable, "-m", "isoscope", "export", source, "--iso", repr(float(level)),
+                   "--out", self.out, "--chunk", str(EXPORT_CHUNK), *inside]
+        env = dict(os.environ, ISOSCOPE_PROGRESS="1")   # progress lines even though stderr is a pipe
+        self._process = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                         stderr=subprocess.PIPE, text=True, env=env)
+        self._last_line = ""
+        self._reader = threading.Thread(target=self._read_progress, daemon=True, name="isoscope export progress")
+        self._reader.start()
+
+    def _read_progress(self) -> None:
+        for line in self._process.stderr:
+            line = line.strip()
+            if not line:
+                continue
+            self._last_line = line
+            words = line.rsplit(" ", 1)
+            if len(words) == 2 and words[1].endswith("%"):
+                try:
+                    self.fraction = float(words[1][:-1]) / 100
+                    self.message = words[0]
+                except ValueError:
+                    pass
+        code = self._process.wait()
+        if code != 0:
+            self.error = self._last_line or f"the export stopped (exit code {code})"
+        else:
+            self.fraction, self.message = 1.0, f"wrote {self.out}"
+
+    def done(self) -> bool:
+        return not self._reader.is_alive()
+
+    def cancel(self) -> None:
+        if self._process.poll() is None:
+            self._process.terminate()
