@@ -25,6 +25,16 @@ def big_npy(tmp_path, monkeypatch):
     return path
 
 
+def wait_for_export(state, seconds) -> int:
+    """Frames of `state.update` until the running export is over (or `seconds` pass); their count."""
+    frames, deadline = 0, time.monotonic() + seconds
+    while state.exporting is not None and time.monotonic() < deadline:
+        state.update(0.02)          # the viewer keeps drawing frames meanwhile
+        frames += 1
+        time.sleep(0.02)
+    return frames
+
+
 def test_a_big_volume_is_shown_downsampled_with_a_note(gl_ctx, big_npy):
     state = ViewerState(gl_ctx)
     try:
@@ -50,12 +60,7 @@ def test_the_full_resolution_export_runs_in_the_background_and_matches_the_api(g
         out = tmp_path / "full.ply"
         assert state.export_full_resolution(out)
         assert not state.export_full_resolution(tmp_path / "again.ply") and "still running" in state.error
-        frames = 0
-        deadline = time.monotonic() + 120
-        while state.exporting is not None and time.monotonic() < deadline:
-            state.update(0.02)          # the viewer keeps drawing frames meanwhile
-            frames += 1
-            time.sleep(0.02)
+        frames = wait_for_export(state, 120)
         assert state.exporting is None and state.error is None and "wrote" in state.message
         assert frames > 1
         mesh = trimesh.load(out, process=False)
@@ -71,10 +76,7 @@ def test_a_failed_export_is_one_line_in_the_panel_and_leaves_no_file(gl_ctx, big
         assert state.open(str(big_npy))
         out = tmp_path / "no-such-folder" / "full.ply"
         assert state.export_full_resolution(out)
-        deadline = time.monotonic() + 60
-        while state.exporting is not None and time.monotonic() < deadline:
-            state.update(0.02)
-            time.sleep(0.02)
+        wait_for_export(state, 60)
         assert state.error.startswith("full-resolution export failed") and "\n" not in state.error
         assert not out.exists() and not out.parent.exists()
     finally:
