@@ -109,6 +109,29 @@ def labels_of(volume) -> np.ndarray:
     return data
 
 
+MAX_HINTED_LABELS = 64
+"""An 8/16-bit integer volume with this many distinct non-zero values or fewer looks like a label map."""
+
+
+def label_count_hint(data) -> int:
+    """How many non-zero labels `data` holds if it looks like a label map (an 8- or 16-bit integer
+    array with 1..MAX_HINTED_LABELS distinct non-zero values, counted by one bincount), else 0.
+    The viewer offers to show it as labels; it never switches by itself, since a binary mask or a
+    coarsely quantised scan is an integer volume with few values too."""
+    if not isinstance(data, np.ndarray) or data.dtype.kind not in "iu" or data.dtype.itemsize > 2:
+        return 0
+    values = data.ravel()
+    shift = 0
+    if data.dtype.kind == "i":   # bincount counts from 0: shift signed values up by the type's half range
+        shift = 1 << (8 * data.dtype.itemsize - 1)
+        values = values.astype(np.int32) + shift
+    counts = np.bincount(values)
+    if shift < len(counts):
+        counts[shift] = 0   # the background
+    labels = int(np.count_nonzero(counts))
+    return labels if 1 <= labels <= MAX_HINTED_LABELS else 0
+
+
 def _extractor(backend: str):
     """indicator -> (verts, faces, normals) at level 0.5: one GL context found once for all labels
     (asking for the current context costs a few ms each time), else the numpy reference."""

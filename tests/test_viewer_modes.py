@@ -127,3 +127,14 @@ def test_the_viewer_takes_the_mode_flags_and_refuses_bad_pairs(x_display, two_la
         assert result.returncode == 0, result.stderr
     assert_one_line_error(isoscope("box", "--tetrahedra", "--sharp", "30", "--frames", "2"), "sharp")
     assert_one_line_error(isoscope("sphere", "--labels", "--frames", "2"), "label")
+
+
+def test_a_volume_that_looks_like_a_label_map_is_offered_as_one(viewer, two_labels):
+    from isoscope.labels import label_count_hint
+    assert label_count_hint(np.array([[[0, 3, 3], [-2, 0, 9]]], np.int16)) == 3
+    assert label_count_hint(np.arange(256, dtype=np.uint8).reshape(4, 8, 8)) == 0   # a scan: too many values
+    assert label_count_hint(np.zeros((2, 2, 2), np.float32)) == 0
+    viewer.show(open_volume(str(two_labels)))
+    assert viewer.state.label_hint == 2 and not viewer.state.label_layers   # offered, not switched
+    viewer.show(open_volume("bucky"))
+    assert viewer.state.label_hint == 0

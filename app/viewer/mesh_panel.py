@@ -50,6 +50,17 @@ class LabelsSection:
     def draw(self, state: ViewerState) -> None:
         if not state.label_layers:
             return
+        self.draw_list(state)
+
+    @staticmethod
+    def offer(state: ViewerState) -> None:
+        """In the Volume section: a volume that looks like a label map can be shown as one."""
+        if state.label_hint and not state.label_layers and state.volume is not None:
+            if imgui.button(f"Show as a label map ({state.label_hint} labels)"):
+                state.show_labels(state.volume)
+            tooltip("one closed surface per label, in its own colour (as --labels)")
+
+    def draw_list(self, state: ViewerState) -> None:
         imgui.separator_text("Labels")
         for layer in state.label_layers:
             imgui.push_id(layer.label)

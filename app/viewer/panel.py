@@ -154,6 +154,7 @@ class Panel:
             imgui.text_wrapped(f"{volume.name}  {shape} {volume.data.dtype}")
             for note in volume.notes:
                 imgui.text_wrapped(note)
+            LabelsSection.offer(state)
             toggled, below = imgui.checkbox("object below the level", state.inside_below)
             if imgui.is_item_hovered():
                 imgui.set_tooltip("on for signed distances (negative inside), off for densities such as CT;\n"

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import moderngl
 
+from ..labels import label_count_hint
 from ..mesh import GpuMesh
 from ..reference_sharp import check_feature_angle
 from ..reference_smooth import check_iterations
@@ -84,6 +85,7 @@ class ViewerState(SurfaceLevels, LabelLayers):
         self.sharp: float | None = None  # Extended MC's feature angle, degrees (None: plain meshes)
         self.label_layers = []           # a label map's surfaces, when one is on show (label_layers.py)
         self.full_volume: Volume | None = None   # a big volume shown downsampled (big_volume.py)
+        self.label_hint = 0              # labels in the volume on show if it looks like a label map, else 0
         self.exporting: FullResolutionExport | None = None  # its full-resolution export, running
         self.levels, self.selected = [], 0      # the surfaces on show, and the one the slider moves (levels.py)
         self.color_by = None                     # colour by a scalar through a colour map (colorby.py)
@@ -132,6 +134,7 @@ class ViewerState(SurfaceLevels, LabelLayers):
             return False
         self.full_volume = volume if step > 1 else None
         volume = shown
+        self.label_hint = label_count_hint(volume.data)   # the panel offers "Show as labels"
         self.histogram = value_histogram(volume.data, volume.value_range)
         self.slices.fit(volume.data, self.value_range)
         low, high = self.value_range
