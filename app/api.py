@@ -4,7 +4,6 @@ from __future__ import annotations
 import numpy as np
 
 from . import validation
-from .gpu_layout import VERTEX_FLOATS
 from .masking import check_mask, keep_masked_cells
 from .reference import marching_cubes_reference
 from .reference_sharp import check_feature_angle, sharpen_extracted
@@ -208,18 +207,17 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
     from .extractor import Extractor
     from .mesh import GpuMesh
     from .smoothing import Smoother
-    records = np.zeros((len(verts), VERTEX_FLOATS), np.float32)
-    records[:, 0:3], records[:, 4:7] = verts, normals
     with Extractor(checked, spacing=spacing, gradient_direction=gradient_direction) as extractor:
-        mesh = GpuMesh(extractor.ctx.buffer(records), extractor.ctx.buffer(faces), len(verts), len(faces))
-        smoother = Smoother(extractor)
+        mesh = GpuMesh.upload(extractor.ctx, verts, faces, normals)
+        smoother = None
         try:
+            smoother = Smoother(extractor)
             smoother.smooth(mesh, iterations, level)
             return mesh.read()
         finally:
-            smoother.release()
-            mesh.vertex_buffer.release()
-            mesh.index_buffer.release()
+            if smoother is not None:
+                smoother.release()
+            mesh.release()
 
 
 def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks):

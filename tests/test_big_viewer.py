@@ -51,10 +51,13 @@ def test_a_big_volume_is_shown_downsampled_with_a_note(gl_ctx, big_npy):
         state.release()
 
 
-def test_the_full_resolution_export_runs_in_the_background_and_matches_the_api(gl_ctx, big_npy, tmp_path):
+@pytest.mark.parametrize("inside_below", [False, True])
+def test_the_full_resolution_export_runs_in_the_background_and_matches_the_api(gl_ctx, big_npy, tmp_path,
+                                                                               inside_below):
     state = ViewerState(gl_ctx)
     try:
         assert state.open(str(big_npy))
+        state.set_inside_below(inside_below)   # the side chosen in the panel reaches the export
         state.set_iso(0.3)
         state.update(0.0)
         out = tmp_path / "full.ply"
@@ -64,8 +67,10 @@ def test_the_full_resolution_export_runs_in_the_background_and_matches_the_api(g
         assert state.exporting is None and state.error is None and "wrote" in state.message
         assert frames > 1
         mesh = trimesh.load(out, process=False)
-        expected = isoscope.marching_cubes(np.load(big_npy), 0.3)
+        expected = isoscope.marching_cubes(np.load(big_npy), 0.3,
+                                           gradient_direction="ascent" if inside_below else "descent")
         assert len(mesh.faces) == len(expected[1]) and len(mesh.vertices) == len(expected[0])
+        np.testing.assert_array_equal(mesh.faces, expected[1])   # the same winding: the same side out
     finally:
         state.release()
 

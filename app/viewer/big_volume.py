@@ -20,7 +20,7 @@ import threading
 
 import numpy as np
 
-from ..lazy_arrays import is_lazy, read_block
+from ..lazy_arrays import read_block
 from ..volumes import Volume
 
 VIEWER_MAX_VOXELS = 256 ** 3
@@ -40,7 +40,7 @@ def viewer_level(volume: Volume, max_voxels: int | None = None) -> tuple[Volume,
     while math.prod(-(-n // step) for n in volume.data.shape) > budget:
         step += 1
     every = (slice(None, None, step),) * 3
-    data = read_block(volume.data, every) if is_lazy(volume.data) else np.ascontiguousarray(volume.data[every])
+    data = read_block(volume.data, every)   # a memory map's pages are dropped again, as a Zarr array's chunks
     world = None
     if volume.world is not None:
         matrix, space = volume.world
@@ -56,13 +56,16 @@ class FullResolutionExport:
     """`isoscope export SOURCE --iso LEVEL --out PATH --chunk N` in a child process, its progress read
     from its stderr.  `fraction`, `message`; `done()`; then `error` (one line) or None."""
 
-    def __init__(self, source: str, level: float, out, gradient_direction: str = "descent"):
+    def __init__(self, volume: Volume, level: float, out, gradient_direction: str):
+        """`volume`: the full volume (its source is re-opened by the child, with its spacing);
+        `gradient_direction`: the side the viewer shows as inside now."""
         self.out = str(out)
         self.fraction, self.message = 0.0, f"exporting {os.path.basename(self.out)}"
         self.error: str | None = None
-        inside = ["--inside", "below"] if gradient_direction == "ascent" else []
-        command = [sys.executable, "-m", "isoscope", "export", source, "--iso", repr(float(level)),
-                   "--out", self.out, "--chunk", str(EXPORT_CHUNK), *inside]
+        inside = "below" if gradient_direction == "ascent" else "above"
+        command = [sys.executable, "-m", "isoscope", "export", volume.source, "--iso", repr(float(level)),
+                   "--out", self.out, "--chunk", str(EXPORT_CHUNK), "--inside", inside,
+                   "--spacing", *(repr(float(s)) for s in volume.spacing)]
         env = dict(os.environ, ISOSCOPE_PROGRESS="1")   # progress lines even though stderr is a pipe
         self._process = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                          stderr=subprocess.PIPE, text=True, env=env)

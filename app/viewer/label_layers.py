@@ -9,8 +9,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..labels import check_label_output, label_colors, label_surfaces, labels_of, write_labelled
+from ..labels import check_label_output, label_surfaces, labels_of, write_labelled
 from ..mesh import GpuMesh
+from .label_scene import label_scene
 from .levels import SurfaceLook
 from .loading import USER_ERRORS, one_line
 
@@ -35,16 +36,14 @@ class LabelLayers:
             surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing)
             if not surfaces:
                 raise ValueError(f"{volume.name} has no non-zero labels; open it without --labels for an isosurface")
+            if self.volume is not volume and not self.show(volume):
+                return False
+            scene = label_scene(self.ctx, surfaces)
         except USER_ERRORS as exc:
             self.error = one_line(exc)
             return False
-        if self.volume is not volume and not self.show(volume):
-            return False
         self._release_labels()
-        colors = label_colors(len(surfaces))
-        self.label_layers = [
-            LabelLayer(label, GpuMesh.upload(self.ctx, *surfaces[label], float(label)), tuple(map(float, color)))
-            for label, color in zip(sorted(surfaces), colors)]
+        self.label_layers = [LabelLayer(label, mesh, color) for label, mesh, color in scene]
         self.error = None
         return True
 

@@ -14,9 +14,14 @@ from .screenshot import save_png
 def label_scene(ctx, surfaces: dict) -> list[tuple[int, GpuMesh, tuple[float, float, float]]]:
     """(label, mesh on the GPU, RGB colour) per label of `label_surfaces`' result, in label order.
     The caller owns the buffers (release them with `release_scene`)."""
-    colors = label_colors(len(surfaces))
-    return [(label, GpuMesh.upload(ctx, *surfaces[label], float(label)), tuple(map(float, color)))
-            for label, color in zip(sorted(surfaces), colors)]
+    scene = []
+    try:
+        for label, color in zip(sorted(surfaces), label_colors(len(surfaces))):
+            scene.append((label, GpuMesh.upload(ctx, *surfaces[label], float(label)), tuple(map(float, color))))
+    except BaseException:   # out of GPU memory half-way: nothing half-made is left behind
+        release_scene(scene)
+        raise
+    return scene
 
 
 def release_scene(scene) -> None:

@@ -116,11 +116,6 @@ class SurfaceLevels:
                 shown.append((mesh, SurfaceLook(self.level_color(i), level.opacity, self.color_by)))
         return shown
 
-    @property
-    def looks(self) -> list[SurfaceLook]:
-        """How to draw each of `meshes`, in the same order."""
-        return [look for _, look in self._shown_levels()]
-
     def preview_budget(self) -> int:
         """Triangles the moving level's preview may have: the frame's budget less what the other
         visible levels draw (full meshes), so a drag's frame time stays bounded with several."""

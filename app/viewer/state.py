@@ -200,9 +200,18 @@ class ViewerState(SurfaceLevels, LabelLayers):
         """The surface's extractions follow `cells`, `smooth` and `sharp`: every level is extracted again."""
         options = (self.cells, self.smooth, self.sharp)
         self.error = None
-        if self.surface is not None and (self.surface.cells, self.surface.smooth, self.surface.sharp) != options:
+        if self.surface is None:
+            return True
+        before = (self.surface.cells, self.surface.smooth, self.surface.sharp)
+        if before != options:
             self.surface.cells, self.surface.smooth, self.surface.sharp = options
-            self._refresh_levels()
+            try:
+                self._refresh_levels()
+            except USER_ERRORS as exc:   # e.g. a mesh too big to smooth on this GPU: back to what was shown
+                self.cells, self.smooth, self.sharp = before
+                self.surface.cells, self.surface.smooth, self.surface.sharp = before
+                self._refresh_levels()
+                return self._refuse(one_line(exc))
             self.update(0.0)
         return self.error is None
 
@@ -252,7 +261,7 @@ class ViewerState(SurfaceLevels, LabelLayers):
             self._finish_loading()
         if self.exporting is not None and self.exporting.done():
             self._finish_export()
-        if self.surface is None:
+        if self.surface is None or self.label_layers:   # a label map draws its labels, not the level
             return False
         if self.animation.running:
             self.iso = self.animation.advance(dt_seconds, self.value_range)
@@ -319,8 +328,7 @@ class ViewerState(SurfaceLevels, LabelLayers):
             return self._refuse("the whole volume is on show; use Save mesh")
         if self.exporting is not None and not self.exporting.done():
             return self._refuse("an export is still running; wait for it to finish")
-        self.exporting = FullResolutionExport(self.full_volume.source, self.iso, path,
-                                              self.full_volume.gradient_direction)
+        self.exporting = FullResolutionExport(self.full_volume, self.iso, path, self.volume.gradient_direction)
         self.error = None
         return True
 
@@ -399,6 +407,8 @@ class ViewerState(SurfaceLevels, LabelLayers):
         return (0.0, 0.0, 0.0), upper
 
     def release(self) -> None:
+        if self.exporting is not None:   # the window closes: stop the child (its file is written whole or not at all)
+            self.exporting.cancel()
         self._release_levels()
         self._release_labels()
         self._release_color_by()

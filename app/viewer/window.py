@@ -189,7 +189,8 @@ class ViewerWindow:
         target = OffscreenTarget(self.ctx, scaled)
         try:
             target.use()
-            self.renderer.draw(self.state.meshes, self.camera, target.viewport, self.state.style)
+            self.renderer.draw(self.state.meshes, self.camera, target.viewport, self.state.style,
+                               looks=self.state.looks, slices=self.state.slice_scene)
             return target.read_rgba() if self.state.style.transparent_background else target.read_rgb()
         finally:
             target.release()
