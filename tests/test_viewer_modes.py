@@ -138,3 +138,28 @@ def test_a_volume_that_looks_like_a_label_map_is_offered_as_one(viewer, two_labe
     assert viewer.state.label_hint == 2 and not viewer.state.label_layers   # offered, not switched
     viewer.show(open_volume("bucky"))
     assert viewer.state.label_hint == 0
+
+
+def test_the_pointer_can_rest_on_every_part_of_the_panel(gl_ctx, two_labels):
+    """Hovering shows tooltips: sweep the pointer down the panel's widget columns, with two iso levels
+    and with a label map on show (a tooltip's call must not fail)."""
+    from imgui_bundle import imgui
+    viewer = HeadlessViewer((480, 1200), ctx=gl_ctx)
+    try:
+        viewer.show_levels(open_volume("torus", resolution=20), [0.0, 0.1])
+        viewer.render(panel=True)
+        io = imgui.get_io()
+
+        def sweep():
+            x0, y0, width, height = viewer._panel.box
+            for y in np.arange(y0 + 4, y0 + height, 11.0):
+                for x in (x0 + 18, x0 + 42, x0 + 120):
+                    io.add_mouse_pos_event(float(x), float(y))
+                    viewer.render(panel=True)
+
+        io.add_mouse_pos_event(160.0, 8.0)
+        sweep()
+        viewer.state.show_labels(open_volume(str(two_labels)))
+        sweep()
+    finally:
+        viewer.release()

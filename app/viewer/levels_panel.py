@@ -83,7 +83,7 @@ class LevelsSection:
 
 def tooltip(text: str) -> None:
     if imgui.is_item_hovered():
-        imgui.settooltip(text)
+        imgui.set_tooltip(text)
 
 
 def _colorbar(color_by) -> None:
