@@ -418,11 +418,14 @@ def crisp_normals(verts, faces, normals, values, n_plain):
             np.concatenate([values, values[rows.reshape(-1)]]))
 
 
+def signed_field(volume, descent: bool) -> np.ndarray:
+    """The float32 field `sharpen` takes: `volume`, negated when the object is below the level."""
+    return volume.astype(np.float32, copy=False) * np.float32(1.0 if descent else -1.0)
+
+
 def sharpen_extracted(mesh, volume, spacing, descent, angle):
     """`sharpen` for a plain mesh of `volume` as `marching_cubes` returns it (either backend)."""
-    sign = 1.0 if descent else -1.0
-    field = volume.astype(np.float32, copy=False) * np.float32(sign)
-    return sharpen(mesh, field, spacing, angle)
+    return sharpen(mesh, signed_field(volume, descent), spacing, angle)
 
 
 def marching_cubes_sharp_reference(volume, level, spacing=(1.0, 1.0, 1.0), descent=True, angle=30.0,

@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 
 from .mesh import GpuMesh
-from .reference_sharp import crisp_normals, sharpen_extracted
+from .reference_sharp import crisp_normals, sharpen, sharpen_extracted, signed_field
 
 
 def sharp_mesh_of(extractor, volume_data, angle):
@@ -52,12 +52,17 @@ class SharpenedMesh:
         self.n_vertices = self.n_triangles = 0
         self.last_extract_ms = 0.0
         self._arrays = None
+        self._field, self._field_key = None, None
 
     def take(self, extractor, volume_data, angle: float) -> None:
         start = time.perf_counter()
-        sharpened = sharp_mesh_of(extractor, volume_data, angle)
+        # The signed float32 field, made once per volume and side (a volume's copy: not per extraction).
+        key = (id(volume_data), extractor.descent)
+        if self._field_key != key:
+            self._field, self._field_key = signed_field(volume_data, extractor.descent), key
+        sharpened = sharpen(extractor.read_mesh(), self._field, extractor.spacing, angle)
         drawn = GpuMesh.upload(self.ctx, *crisp_normals(*sharpened))
-        self.release()
+        self._release_mesh()
         self.mesh, self._arrays = drawn, sharpened[:4]
         self.level = extractor.level
         self.n_vertices, self.n_triangles = len(sharpened[0]), len(sharpened[1])
@@ -67,6 +72,10 @@ class SharpenedMesh:
         return self._arrays
 
     def release(self) -> None:
+        self._field, self._field_key = None, None
+        self._release_mesh()
+
+    def _release_mesh(self) -> None:
         if self.mesh is not None:
             self.mesh.release()
             self.mesh = None
