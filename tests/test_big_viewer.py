@@ -96,3 +96,17 @@ def test_a_small_volume_is_shown_whole(gl_ctx):
         assert not state.export_full_resolution("x.ply") and "Save mesh" in state.error
     finally:
         state.release()
+
+
+def test_colour_by_a_second_big_volume_of_the_full_shape(gl_ctx, big_npy, tmp_path):
+    state = ViewerState(gl_ctx)
+    try:
+        assert state.open(str(big_npy))
+        partner = tmp_path / "dose.npy"
+        np.save(partner, np.random.default_rng(3).random((61, 61, 61)).astype(np.float32))
+        assert state.set_color_by(str(partner)), state.error
+        assert state.color_by.scalar_texture.size == (21, 21, 21)   # downsampled like the volume on show
+        np.save(partner, np.random.default_rng(4).random((60, 61, 61)).astype(np.float32))
+        assert not state.set_color_by(str(partner)) and "same shape" in state.error
+    finally:
+        state.release()

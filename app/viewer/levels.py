@@ -21,6 +21,7 @@ from ..gpu_layout import INDEX_BYTES, VERTEX_BYTES
 from ..mesh import GpuMesh
 from ..volumes import open_volume
 from . import surface as surface_module
+from .big_volume import viewer_level
 from .colorby import DEFAULT_COLORMAP, SOURCES, ColorBy, make_color_by
 from .loading import USER_ERRORS, one_line
 
@@ -202,6 +203,8 @@ class SurfaceLevels:
                 color_by = make_color_by(self.ctx, self.volume, source, colormap, spec=source)
             else:
                 second = open_volume(source, ctx=self.ctx)
+                if self.full_volume is not None and second.data.shape == self.full_volume.data.shape:
+                    second = viewer_level(second)[0]   # a big volume's partner, at the step on show
                 color_by = make_color_by(self.ctx, self.volume, "volume", colormap, second, spec=source)
         except USER_ERRORS as exc:
             return self._refuse(one_line(exc))
