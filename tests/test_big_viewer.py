@@ -110,3 +110,22 @@ def test_colour_by_a_second_big_volume_of_the_full_shape(gl_ctx, big_npy, tmp_pa
         assert not state.set_color_by(str(partner)) and "same shape" in state.error
     finally:
         state.release()
+
+
+def test_the_export_reopens_a_raw_file_with_the_options_it_was_opened_with(gl_ctx, big_npy, tmp_path):
+    data = np.load(big_npy)
+    raw = tmp_path / "big.raw"
+    data.tofile(raw)                    # headerless: only --dims and --dtype say what it is
+    state = ViewerState(gl_ctx)
+    try:
+        assert state.open(str(raw), dims=(61, 61, 61), dtype="float32"), state.error
+        assert state.full_volume.open_options == {"dims": (61, 61, 61), "dtype": "float32"}
+        state.set_iso(0.3)
+        out = tmp_path / "raw.ply"
+        assert state.export_full_resolution(out)
+        wait_for_export(state, 120)
+        assert state.error is None, state.error
+        full = state.full_volume.checked.data
+        assert len(trimesh.load(out, process=False).faces) == len(isoscope.marching_cubes(full, 0.3)[1])
+    finally:
+        state.release()

@@ -57,15 +57,17 @@ class FullResolutionExport:
     from its stderr.  `fraction`, `message`; `done()`; then `error` (one line) or None."""
 
     def __init__(self, volume: Volume, level: float, out, gradient_direction: str):
-        """`volume`: the full volume (its source is re-opened by the child, with its spacing);
+        """`volume`: the full volume (its source is re-opened by the child, with its open options);
         `gradient_direction`: the side the viewer shows as inside now."""
         self.out = str(out)
         self.fraction, self.message = 0.0, f"exporting {os.path.basename(self.out)}"
         self.error: str | None = None
         inside = "below" if gradient_direction == "ascent" else "above"
+        reopen = []   # the flags it was opened with: --dims X Y Z, --frame N, ...
+        for name, value in volume.open_options.items():
+            reopen += [f"--{name}", *map(str, value if isinstance(value, (list, tuple)) else [value])]
         command = [sys.executable, "-m", "isoscope", "export", volume.source, "--iso", repr(float(level)),
-                   "--out", self.out, "--chunk", str(EXPORT_CHUNK), "--inside", inside,
-                   "--spacing", *(repr(float(s)) for s in volume.spacing)]
+                   "--out", self.out, "--chunk", str(EXPORT_CHUNK), "--inside", inside, *reopen]
         env = dict(os.environ, ISOSCOPE_PROGRESS="1")   # progress lines even though stderr is a pipe
         self._process = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                          stderr=subprocess.PIPE, text=True, env=env)

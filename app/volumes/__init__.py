@@ -96,6 +96,9 @@ def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, 
                    resolution=resolution, progress=progress, backend=backend, ctx=ctx)
     if inside is not None:
         volume.gradient_direction = INSIDE_SIDES[inside]  # in place: keeps the checked value range
+    given = dict(dims=dims, dtype=dtype, endian=endian, spacing=spacing, frame=frame, series=series,
+                 resolution=resolution)
+    volume.open_options = {name: value for name, value in given.items() if value is not None}
     return volume
 
 

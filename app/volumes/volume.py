@@ -31,6 +31,9 @@ class Volume:
     # it (NIfTI, NRRD, DICOM); None: world units are index x spacing.
     world: tuple[np.ndarray, str] | None = None
     _in_memory: np.ndarray | None = field(default=None, repr=False, compare=False)  # a lazy volume, once read
+    # The options it was opened with (dims, dtype, endian, spacing, frame, series, resolution; those
+    # given), so another process can open the same volume (the viewer's full-resolution export).
+    open_options: dict = field(default_factory=dict, compare=False)
 
     @property
     def checked(self) -> CheckedVolume:
