@@ -311,9 +311,9 @@ def run_render(args) -> int:
                                  transparent=args.transparent)
         print(f"wrote {path} ({args.size[0]}x{args.size[1]})")
         return 0
-    from .viewer.colorby import colormap_lut
+    from .viewer.colormaps import check_colormap
     if args.color_by_map:
-        colormap_lut(args.color_by_map)  # an unknown map is refused before any work
+        check_colormap(args.color_by_map)  # an unknown map is refused before any work
     volume = open_volume_from_args(args.volume, args, _progress)
     isos = _checked_levels(volume, args.iso, args.opacity)
     if args.sharp is not None:

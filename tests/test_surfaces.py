@@ -144,8 +144,8 @@ def test_render_draws_a_colour_bar_and_export_writes_one_file_per_level(tmp_path
                       "--color-by", "gradient", "--color-by-map", "viridis", "--size", "320x240", "--out", out)
     assert result.returncode == 0, result.stderr
     image = np.asarray(Image.open(out).convert("RGB")).astype(int)
-    from isoscope.viewer.colorby import colormap_lut
-    lut = np.round(colormap_lut("viridis") * 255)
+    from isoscope.viewer.colorby import colormap_rgb
+    lut = np.round(colormap_rgb("viridis") * 255)
     from isoscope.viewer.colorbar import BAR_WIDTH, LINE, MARGIN, MAX_BAR_SHARE
     bar = image[:, 320 - MARGIN - BAR_WIDTH // 2]   # the map from top (high) to bottom (low), at the right
     top = MARGIN + 2 * LINE

@@ -22,7 +22,7 @@ SOURCES = ("value", "gradient")
 DEFAULT_COLORMAP = "viridis"
 
 
-def colormap_lut(name: str) -> np.ndarray:
+def colormap_rgb(name: str) -> np.ndarray:
     """(LUT_SIZE, 3) float32 RGB of the `cmap` colour map `name`; a one-line ValueError for an unknown one."""
     return np.ascontiguousarray(colormap_rgba(name)[:, :3], np.float32)
 
@@ -62,7 +62,7 @@ def make_color_by(ctx: moderngl.Context, volume: Volume, source: str, colormap: 
                   second: Volume | None = None, spec: str = "") -> ColorBy:
     """Colour by `source` ("value", "gradient", or "volume" with `second`, opened from `spec`)
     through `colormap`."""
-    lut = colormap_lut(colormap)
+    lut = colormap_rgb(colormap)
     if source == "value":
         scalar, value_range, name = None, volume.value_range, "value"
     elif source == "gradient":

@@ -21,3 +21,9 @@ def colormap_rgba(name: str) -> np.ndarray:
     except (ValueError, KeyError, TypeError):
         raise ValueError(f"unknown colour map {name!r}; try one of {', '.join(COLORMAPS)} "
                          "(any name of the cmap library)") from None
+
+
+def check_colormap(name: str) -> str:
+    """`name` if the cmap library knows it, else the one-line ValueError of `colormap_rgba`."""
+    colormap_rgba(name)
+    return name

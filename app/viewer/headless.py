@@ -62,10 +62,8 @@ class HeadlessViewer:
             self._panel.draw_view_labels(self.state, self.camera)
         self.state.update(0.0)
         self.target.use()
-        self.renderer.draw(self.state.meshes, self.camera, self.target.viewport, self.state.style,
-                           covered_left=int(self._panel.covered_width) if panel else 0, looks=self.state.looks,
-                           slices=self.state.slice_scene)
-        self.renderer.draw_inset(self.state.slice_scene, self.target.viewport)
+        self.renderer.draw_state(self.state, self.camera, self.target.viewport,
+                                 covered_left=int(self._panel.covered_width) if panel else 0)
         if panel:
             self._imgui.render()
         return self.target.read_rgba() if self.state.style.transparent_background else self.target.read_rgb()

@@ -156,6 +156,13 @@ class SceneRenderer:
             self._draw_translucent(translucent, viewport, destination)
         ctx.disable_direct(GL_CLIP_DISTANCE0)   # imgui's shaders write no clip distance
 
+    def draw_state(self, state, camera, viewport: tuple[int, int, int, int], covered_left: int = 0) -> None:
+        """What a ViewerState shows: its meshes in their looks, its slices and clip, then the 2-D view."""
+        drawn, slices = state.drawn(), state.slice_scene   # each worked out once a frame
+        self.draw([mesh for mesh, _ in drawn], camera, viewport, state.style, covered_left=covered_left,
+                  looks=[look for _, look in drawn], slices=slices)
+        self.draw_inset(slices, viewport)
+
     def draw_inset(self, slices: SliceScene | None, viewport: tuple[int, int, int, int]) -> None:
         """After `draw`: the 2-D view of the active slice, over the scene's bottom-right corner."""
         self.slices.draw_inset(slices, viewport)

@@ -39,9 +39,9 @@ def clip_spec(text: str) -> tuple[int, float, bool]:
 
 
 def colormap_name(text: str) -> str:
-    from .slices import colormap_lut
+    from .colormaps import check_colormap
     try:
-        colormap_lut(text)
+        check_colormap(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
     return text

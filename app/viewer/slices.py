@@ -28,7 +28,7 @@ import numpy as np
 
 from ..gpu_layout import EDGE_MARGIN
 from ..resources import shader_source
-from .colormaps import LUT_SIZE, colormap_rgba
+from .colormaps import LUT_SIZE, check_colormap, colormap_rgba
 from .slice_options import AXES
 
 INSET_FRACTION = 0.34     # the 2-D view's longer side, as a fraction of the scene's shorter side
@@ -39,7 +39,7 @@ MAX_PERCENTILE_SAMPLES = 1 << 21
 GL_CLIP_DISTANCE0 = 0x3000
 
 
-def colormap_lut(name: str) -> np.ndarray:
+def colormap_rgba8(name: str) -> np.ndarray:
     """(LUT_SIZE, 4) uint8 RGBA of the `cmap` colour map `name`; ValueError for an unknown name."""
     return np.clip(np.round(colormap_rgba(name) * 255), 0, 255).astype(np.uint8)
 
@@ -134,7 +134,7 @@ class SliceSettings:
         self.window, self.level = window, level
 
     def set_colormap(self, name: str) -> None:
-        colormap_lut(name)   # raises for an unknown name
+        check_colormap(name)
         self.colormap = name
 
     def planes(self) -> list[tuple[int, float, bool]]:
@@ -217,7 +217,7 @@ class SliceRenderer:
     def _set_uniforms(self, scene: SliceScene, view: bytes, projection: bytes) -> None:
         settings = scene.settings
         if settings.colormap != self._lut_name:
-            self.lut.write(colormap_lut(settings.colormap).tobytes())
+            self.lut.write(colormap_rgba8(settings.colormap).tobytes())
             self._lut_name = settings.colormap
         self.lut.use(1)
         program = self.program

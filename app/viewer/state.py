@@ -363,19 +363,19 @@ class ViewerState(SurfaceLevels, LabelLayers):
         return True
 
     # --- what the renderer draws, and stats for the panel ---------------------
-    def _drawn(self) -> list[tuple[GpuMesh, SurfaceLook]]:
+    def drawn(self) -> list[tuple[GpuMesh, SurfaceLook]]:
         """A label map's visible labels while one is on show, else the visible levels."""
         return self._shown_labels() if self.label_layers else self._shown_levels()
 
     @property
     def meshes(self) -> list[GpuMesh]:
         """The visible levels' (or labels') meshes; their looks: `looks`."""
-        return [mesh for mesh, _ in self._drawn()]
+        return [mesh for mesh, _ in self.drawn()]
 
     @property
     def looks(self) -> list[SurfaceLook]:
         """How to draw each of `meshes`, in the same order."""
-        return [look for _, look in self._drawn()]
+        return [look for _, look in self.drawn()]
 
     @property
     def extractor(self):

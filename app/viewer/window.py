@@ -148,10 +148,8 @@ class ViewerWindow:
 
         self.ctx.screen.use()
         pixels_per_unit = fb_width / max(glfw.get_window_size(self.window)[0], 1)  # framebuffer scale
-        self.renderer.draw(self.state.meshes, self.camera, (0, 0, fb_width, fb_height), self.state.style,
-                           covered_left=int(self.panel.covered_width * pixels_per_unit), looks=self.state.looks,
-                           slices=self.state.slice_scene)
-        self.renderer.draw_inset(self.state.slice_scene, (0, 0, fb_width, fb_height))
+        self.renderer.draw_state(self.state, self.camera, (0, 0, fb_width, fb_height),
+                                 covered_left=int(self.panel.covered_width * pixels_per_unit))
         self.imgui.render()
         if self._screenshot_requested:
             self._save_screenshot((fb_width, fb_height))
@@ -189,8 +187,7 @@ class ViewerWindow:
         target = OffscreenTarget(self.ctx, scaled)
         try:
             target.use()
-            self.renderer.draw(self.state.meshes, self.camera, target.viewport, self.state.style,
-                               looks=self.state.looks, slices=self.state.slice_scene)
+            self.renderer.draw_state(self.state, self.camera, target.viewport)
             return target.read_rgba() if self.state.style.transparent_background else target.read_rgb()
         finally:
             target.release()
