@@ -163,3 +163,17 @@ def test_the_pointer_can_rest_on_every_part_of_the_panel(gl_ctx, two_labels):
         sweep()
     finally:
         viewer.release()
+
+
+def test_a_level_that_cannot_be_kept_is_refused_in_one_line_and_nothing_changes(viewer, monkeypatch):
+    viewer.show_levels(open_volume("torus", resolution=24), [0.0])
+    state = viewer.state
+    before = (len(state.levels), state.selected, drawn_triangles(state))
+
+    def out_of_memory(*args, **kwargs):
+        raise ValueError("the mesh needs 2 GiB of GPU memory; lower the resolution")
+    monkeypatch.setattr(state.surface, "extract", out_of_memory)
+    state.set_iso(0.05)   # moved, not yet extracted: keeping the level needs an extraction
+    assert not state.add_level(0.1)
+    assert state.error == "the mesh needs 2 GiB of GPU memory; lower the resolution"
+    assert (len(state.levels), state.selected) == before[:2]

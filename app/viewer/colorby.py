@@ -81,7 +81,11 @@ def make_color_by(ctx: moderngl.Context, volume: Volume, source: str, colormap: 
     scalar_texture = None
     if scalar is not None:
         n0, n1, n2 = scalar.shape   # texel (k, j, i) holds scalar[i, j, k]: axis 2 is the texture's x
-        scalar_texture = ctx.texture3d((n2, n1, n0), 1, np.ascontiguousarray(scalar).tobytes(), dtype="f4")
+        try:
+            scalar_texture = ctx.texture3d((n2, n1, n0), 1, np.ascontiguousarray(scalar).tobytes(), dtype="f4")
+        except BaseException:   # out of GPU memory: the colour map's texture goes with it
+            lut_texture.release()
+            raise
         scalar_texture.filter = moderngl.LINEAR, moderngl.LINEAR
         scalar_texture.repeat_x = scalar_texture.repeat_y = scalar_texture.repeat_z = False
     return ColorBy(name, colormap, (float(value_range[0]), float(value_range[1])), lut, lut_texture,

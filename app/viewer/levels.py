@@ -137,9 +137,8 @@ class SurfaceLevels:
             return self._refuse("open a volume before adding a surface")
         if len(self.levels) >= MAX_LEVELS:
             return self._refuse(f"at most {MAX_LEVELS} surfaces at once; remove one before adding another")
-        if not self._level_in_range(value):
+        if not self._level_in_range(value) or not self._kept_selected_mesh():
             return False
-        self._keep_selected_mesh()
         self.levels.append(SurfaceLevel(float(value), PALETTE[(len(self.levels) - 1) % len(PALETTE)]))
         self._select(len(self.levels) - 1)
         return True
@@ -163,7 +162,8 @@ class SurfaceLevels:
         if not self._level_exists(index):
             return False
         if index != self.selected:
-            self._keep_selected_mesh()
+            if not self._kept_selected_mesh():
+                return False
             self._select(index)
         return True
 
@@ -232,6 +232,14 @@ class SurfaceLevels:
         if not low <= float(value) <= high:
             return self._refuse(f"level {float(value):g} is outside the value range {low:g} .. {high:g}; "
                                 "pick a value inside it")
+        return True
+
+    def _kept_selected_mesh(self) -> bool:
+        """`_keep_selected_mesh`, or False with a one-line `error` (e.g. out of GPU memory): nothing changes."""
+        try:
+            self._keep_selected_mesh()
+        except USER_ERRORS as exc:
+            return self._refuse(one_line(exc))
         return True
 
     def _keep_selected_mesh(self) -> None:

@@ -161,7 +161,10 @@ class ViewerState(SurfaceLevels, LabelLayers):
         if not self._upload(self.volume, direction):
             return False
         self.volume.gradient_direction = direction
-        self._refresh_levels()
+        try:
+            self._refresh_levels()
+        except USER_ERRORS as exc:   # the other levels' meshes stay as they were; the selected one follows
+            self.error = one_line(exc)
         self.update(0.0)
         return self.error is None
 
