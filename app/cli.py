@@ -206,13 +206,9 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--decimate", type=float, metavar="FRACTION",
                             help="keep about this fraction of the triangles (quadric decimation, 0 < F <= 1); "
                                  "prints how far the result strays from the level set")
-        _add_tetrahedra(parser)
-        _add_smooth(parser)
-        _add_sharp(parser)
-        parser.add_argument("--labels", action="store_true",
-                            help="VOLUME is a label map (a segmentation): one closed surface per non-zero label, "
-                                 "neighbours sharing their boundary vertices, written to STEM_label<N>.EXT "
-                                 "beside --out (e.g. seg.stl -> seg_label1.stl, seg_label2.stl)")
+        _add_mesh_modes(parser, labels="one closed surface per non-zero label, neighbours sharing their "
+                                       "boundary vertices, written to STEM_label<N>.EXT beside --out "
+                                       "(e.g. seg.stl -> seg_label1.stl, seg_label2.stl)")
         parser.add_argument("--one-file", action="store_true",
                             help="with --labels: all labels in the one --out file (.ply or .glb), each vertex "
                                  "in its label's colour")
