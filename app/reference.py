@@ -122,6 +122,18 @@ def place_vertices(field, inside, level, points, axes, spacing, sign, steps=None
     return positions, normals.astype(np.float32), values.astype(np.float32)
 
 
+def ordered_triangles(table: CaseTable, cases: np.ndarray, shape):
+    """The passes' triangle order: cells with triangles in (brick, word, k) order, each cell's table
+    triangles in order.  Returns the cells (C, 3), each triangle's cell (M,), its table codes (M, 3)."""
+    cells = np.argwhere(table.counts[cases] > 0)
+    cells = cells[np.lexsort((cells[:, 2], brick_order_key(cells, shape)))]
+    cell_cases = cases[tuple(cells.T)]
+    n_tri = table.counts[cell_cases].astype(np.int64)
+    cell_of_tri = np.repeat(np.arange(len(cells)), n_tri)
+    slot = np.arange(n_tri.sum()) - np.repeat(np.cumsum(n_tri) - n_tri, n_tri)
+    return cells, cell_of_tri, table.triangles[cell_cases[cell_of_tri], slot].astype(np.int64)
+
+
 def marching_cubes_reference(volume: np.ndarray, level: float, spacing=(1.0, 1.0, 1.0),
                              descent: bool = True, table: CaseTable | None = None):
     """verts (N,3) float32, faces (M,3) int32, normals (N,3) float32, values (N,) float32.
@@ -153,15 +165,7 @@ def marching_cubes_reference(volume: np.ndarray, level: float, spacing=(1.0, 1.0
     verts, normals, values = place_vertices(field, inside, lvl, points, axes, spacing, sign)
 
     # Triangles: mc_triangles.comp, cells in (brick, word, k) order, the table's triangles in order.
-    cases = cube_cases(inside)
-    per_cell = table.counts[cases]
-    cells = np.argwhere(per_cell > 0)
-    cells = cells[np.lexsort((cells[:, 2], brick_order_key(cells, field.shape)))]
-    cell_cases = cases[tuple(cells.T)]
-    n_tri = table.counts[cell_cases].astype(np.int64)
-    cell_of_tri = np.repeat(np.arange(len(cells)), n_tri)
-    slot = np.arange(n_tri.sum()) - np.repeat(np.cumsum(n_tri) - n_tri, n_tri)
-    edges = table.triangles[cell_cases[cell_of_tri], slot].astype(np.int64)  # (M, 3)
+    cells, cell_of_tri, edges = ordered_triangles(table, cube_cases(inside), field.shape)
 
     owner = cells[cell_of_tri][:, None, :] + EDGE_ORIGIN[edges]  # (M, 3 corners, 3 coords)
     wanted = np.ravel_multi_index(np.moveaxis(owner, -1, 0), field.shape) * 3 + EDGE_AXIS[edges]

@@ -29,7 +29,7 @@ from functools import cache
 import numpy as np
 
 from .case_table import CORNER_OFFSETS, CaseTable
-from .reference import brick_order_key, cube_cases, inside_mask, place_vertices
+from .reference import brick_order_key, cube_cases, inside_mask, ordered_triangles, place_vertices
 
 KINDS = np.array([(1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 0), (1, 0, 1), (0, 1, 1), (1, 1, 1)], dtype=np.int64)
 """The edge kinds a grid point owns: its edge to q + KINDS[kind]; the axes first, as in cubes."""
@@ -129,14 +129,7 @@ def marching_tetrahedra_reference(volume: np.ndarray, level: float, spacing=(1.0
     verts, normals, values = place_vertices(field, inside, lvl, points, None, spacing, sign, steps=KINDS[kinds])
 
     # Triangles: mt_triangles.comp, cells in (brick, word, k) order, the table's triangles in order.
-    cases = cube_cases(inside)
-    cells = np.argwhere(table.counts[cases] > 0)
-    cells = cells[np.lexsort((cells[:, 2], brick_order_key(cells, field.shape)))]
-    cell_cases = cases[tuple(cells.T)]
-    n_tri = table.counts[cell_cases].astype(np.int64)
-    cell_of_tri = np.repeat(np.arange(len(cells)), n_tri)
-    slot = np.arange(n_tri.sum()) - np.repeat(np.cumsum(n_tri) - n_tri, n_tri)
-    codes = table.triangles[cell_cases[cell_of_tri], slot].astype(np.int64)  # (M, 3)
+    cells, cell_of_tri, codes = ordered_triangles(table, cube_cases(inside), field.shape)
 
     owner = cells[cell_of_tri][:, None, :] + CORNER_OFFSETS[codes & 7]  # (M, 3 corners, 3 coords)
     wanted = np.ravel_multi_index(np.moveaxis(owner, -1, 0), field.shape) * len(KINDS) + (codes >> 3)
