@@ -27,6 +27,16 @@ The table is derived case by case:
    those, the one whose smallest angle is largest at edge-midpoint positions.
 
 Triangles are wound counter-clockwise seen from outside the object.
+
+`label_table` has the same loops (so the same segments on every face: it is as
+crack-free, and its faces agree with `montani_table`'s) but folds each loop to
+enclose the most volume at edge-midpoint positions, smallest angle breaking
+ties.  At level 0.5 on a 0/1 indicator every vertex is a midpoint, and the
+surface cuts the corners of the voxel staircase: folding a five- or six-sided
+loop outwards gives back about half of what is cut (a ball 10 voxels across
+loses 0.8-1.3% of its voxel volume instead of 2.2-2.5%; `app/labels.py` has
+the measurements and the price).  On smooth fields the vertices are not at
+midpoints, and the angle rule gives better triangles.
 """
 from __future__ import annotations
 
@@ -166,9 +176,26 @@ def _min_angle(points: np.ndarray, triangles) -> float:
     return worst
 
 
-def _triangulate(loop: list[int]) -> list[tuple[int, int, int]]:
+def _enclosed_volume(points: np.ndarray, triangles) -> float:
+    """Signed volume of the cones from the cell centre to the triangles: triangulations of one
+    loop differ in it by exactly the difference of the volume they enclose (outward winding)."""
+    centred = points - 0.5
+    return float(sum(np.linalg.det(centred[list(t)]) for t in triangles) / 6.0)
+
+
+def _max_angle_score(points, triangles) -> tuple[float, ...]:
+    return (_min_angle(points, triangles),)
+
+
+def _max_volume_score(points, triangles) -> tuple[float, ...]:
+    return (round(_enclosed_volume(points, triangles), 9), _min_angle(points, triangles))
+
+
+def _triangulate(loop: list[int], score=_max_angle_score) -> list[tuple[int, int, int]]:
+    """The triangulation of `loop` with no diagonal in a cube face whose `score` (a tuple,
+    compared in order; the first best is kept) is largest at edge-midpoint positions."""
     n = len(loop)
-    best, best_angle = None, -1.0
+    best, best_score = None, None
     for triangles in _triangulations(n):
         diagonals = {
             (min(p, q), max(p, q))
@@ -177,9 +204,9 @@ def _triangulate(loop: list[int]) -> list[tuple[int, int, int]]:
         }
         if any(EDGE_FACES[loop[p]] & EDGE_FACES[loop[q]] for p, q in diagonals):
             continue  # a diagonal lying in a cube face could be drawn by the neighbour too
-        angle = _min_angle(EDGE_MIDPOINT[loop], triangles)
-        if angle > best_angle + 1e-9:
-            best, best_angle = triangles, angle
+        value = tuple(round(v, 9) for v in score(EDGE_MIDPOINT[loop], triangles))
+        if best_score is None or value > best_score:
+            best, best_score = triangles, value
     if best is None:
         raise AssertionError(f"loop {loop}: every triangulation puts a diagonal in a face")
     return [tuple(loop[k] for k in t) for t in best]
@@ -207,11 +234,22 @@ class CaseTable:
 
 @cache
 def montani_table() -> CaseTable:
+    """Montani's ambiguous faces, each loop folded for the largest smallest angle."""
+    return _table(_max_angle_score)
+
+
+@cache
+def label_table() -> CaseTable:
+    """The same loops, each folded to enclose the most volume: for 0/1 indicator fields (labels)."""
+    return _table(_max_volume_score)
+
+
+def _table(score) -> CaseTable:
     per_case = []
     for case in range(256):
         triangles = []
         for loop in _loops(case):
-            triangles.extend(_triangulate(loop))
+            triangles.extend(_triangulate(loop, score))
         per_case.append(triangles)
     width = max(len(t) for t in per_case)
     table = np.full((256, width, 3), -1, dtype=np.int8)

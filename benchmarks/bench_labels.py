@@ -11,6 +11,8 @@ label by label; the table says whether they do.  Timed, as medians of --repeats:
 - zmesh: `Mesher((1, 1, 1)).mesh(labels)` then `mesher.get(label, normals=False)` for
   every label (zmesh's default output; no simplification).
 
+Last column: the largest |enclosed volume / (voxel count x voxel volume) - 1| over the labels.
+
 Volumes: `blobs` (16 ellipsoids of 8-30 voxels radius in 256^3 uint32, seeded, later
 ones overwriting earlier ones where they overlap, so many pairs share a boundary)
 and `mni-tissue` (grey and white matter of the MNI ICBM152 2009a template, labels 1
@@ -60,18 +62,29 @@ def mni_tissue() -> np.ndarray:
 
 def ours(labels, backend):
     surfaces = isoscope.label_surfaces(labels, backend=backend)
-    return {label: (len(v), len(f)) for label, (v, f, _) in surfaces.items()}
+    return {label: (v, f) for label, (v, f, _) in surfaces.items()}
 
 
 def zmesh_run(labels):
     import zmesh
     mesher = zmesh.Mesher((1, 1, 1))
     mesher.mesh(labels)
-    counts = {}
+    meshes = {}
     for label in mesher.ids():
         mesh = mesher.get(label, normals=False)
-        counts[int(label)] = (len(mesh.vertices), len(mesh.faces))
-    return counts
+        meshes[int(label)] = (mesh.vertices, mesh.faces)
+    return meshes
+
+
+def volume_error(meshes, labels) -> float:
+    """Largest |enclosed volume / voxel count - 1| over the labels (divergence theorem)."""
+    voxels = np.bincount(labels.ravel().astype(np.int64))
+    worst = 0.0
+    for label, (verts, faces) in meshes.items():
+        a, b, c = (np.asarray(verts, np.float64)[np.asarray(faces)[:, k]] for k in range(3))
+        enclosed = abs(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6)
+        worst = max(worst, abs(enclosed / voxels[label] - 1))
+    return worst
 
 
 def median_ms(run, labels, repeats):
@@ -97,8 +110,9 @@ def main() -> int:
         zmesh_version = "not installed (pip install zmesh)"
     ours(np.pad(np.ones((2, 2, 2), np.uint8), 1), "gpu")  # warm-up: context and shaders
     print(f"### label_surfaces vs zmesh {zmesh_version} (median ms of {args.repeats})\n")
-    print("| volume | labels | vertices | triangles | " + " | ".join(runners) + " | counts vs zmesh, per label |")
-    print("|---|---:|---:|---:|" + "---:|" * len(runners) + "---|")
+    print("| volume | labels | vertices | triangles | " + " | ".join(runners) + " | counts vs zmesh, per label "
+          "| worst volume error, ours / zmesh |")
+    print("|---|---:|---:|---:|" + "---:|" * len(runners) + "---|---|")
     for name in args.volumes.split(","):
         try:
             labels = blobs(args.size) if name == "blobs" else mni_tissue()
@@ -107,20 +121,22 @@ def main() -> int:
             continue
         title = f"{name} {'x'.join(map(str, labels.shape))} {labels.dtype}"
         print(f"running {title}", file=sys.stderr, flush=True)
-        times, counts = {}, {}
+        times, meshes = {}, {}
         for runner, run in runners.items():
-            times[runner], counts[runner] = median_ms(run, labels, args.repeats)
+            times[runner], meshes[runner] = median_ms(run, labels, args.repeats)
+        counts = {runner: {k: (len(v), len(f)) for k, (v, f) in m.items()} for runner, m in meshes.items()}
         mine = counts["ours gpu"]
         assert counts["ours numpy"] == mine, "the GPU and numpy meshes differ"
-        same = "no zmesh"
+        same, errors = "no zmesh", f"{volume_error(meshes['ours gpu'], labels):.2%} / -"
         if "zmesh" in counts:
+            errors = f"{volume_error(meshes['ours gpu'], labels):.2%} / {volume_error(meshes['zmesh'], labels):.2%}"
             theirs = counts["zmesh"]
             vertices = all(theirs.get(k, (0, 0))[0] == v for k, (v, _) in mine.items()) and theirs.keys() == mine.keys()
             extra = sum(t for _, t in mine.values()) - sum(t for _, t in theirs.values())
             same = f"vertices {'equal' if vertices else 'differ'}; triangles ours - zmesh: {extra:+,}"
         print(f"| {title} | {len(mine)} | {sum(v for v, _ in mine.values()):,} | "
               f"{sum(t for _, t in mine.values()):,} | " + " | ".join(f"{times[r]:.0f}" for r in runners)
-              + f" | {same} |", flush=True)
+              + f" | {same} | {errors} |", flush=True)
     return 0
 
 

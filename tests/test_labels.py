@@ -100,11 +100,14 @@ def test_neighbours_share_identical_boundary_vertices():
         assert len(shared) == touching_edges(labels, a, b) > 0, (a, b)
 
 
-@pytest.mark.parametrize("shape_name", ["ball 11", "ball 14", "ball 20", "cube 10", "ellipsoid 10x14x18"])
+@pytest.mark.parametrize("shape_name", ["ball 10", "ball 10 off the grid", "ball 11", "ball 14", "ball 20",
+                                        "cube 10", "ellipsoid 10x14x18"])
 def test_enclosed_volume_within_two_percent_of_the_voxel_count(shape_name):
     shape = (30, 30, 30)
     labels = np.zeros(shape, np.uint8)
-    if shape_name.startswith("ball"):
+    if shape_name == "ball 10 off the grid":
+        labels[ball(shape, (14.3, 14.1, 14.7), 5)] = 2
+    elif shape_name.startswith("ball"):
         across = int(shape_name.split()[1])
         labels[ball(shape, (14.5,) * 3 if across % 2 == 0 else (14,) * 3, across / 2)] = 2
     elif shape_name == "cube 10":
