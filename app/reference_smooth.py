@@ -3,17 +3,28 @@
 Per iteration every vertex moves toward the average of its mesh neighbours (the umbrella
 operator, weight UMBRELLA_WEIGHT), then Newton steps on the trilinear interpolant F of the
 volume pull it back onto F = level along F's gradient, inside a box of 3 cells around where
-the move took it.  Umbrella rather than Taubin's lambda/mu pair: Taubin's second (inflating)
-step exists to undo the shrinking of plain smoothing, and the projection already undoes it
-exactly, so one gather per iteration does the job of two.  What is left of the move is its
-tangential part: the triangles even out while the surface stays where the volume puts it.
+the move took it.  The level they are pulled to is corrected by the interpolant's own error:
+linear interpolation across a cell misses a smooth field by t(1 - t)/2 x its second derivative
+along each axis (t the position in the cell), so Newton solves F(v) - E(v) = level with
+E(v) = sum over axes of t(1 - t)/2 x k, k the second differences of the samples around the
+cell, capped at +-CORRECTION x the value range.  Without it the smoothed vertices, which leave
+the grid edges (where F is exact along the one axis that varies) for cell interiors (where all
+three axes' errors add up), sink toward the concave side: on a sphere's distance field the
+smoothed mesh's area came out 1.5x further below 4 pi r^2 than plain marching cubes' (-0.13%
+against -0.09% at 19 cells of radius); corrected it is about half plain's error.  The cap keeps
+|F(v) - level| <= (ACCEPT + CORRECTION) x the range however rough the field.
+
+Umbrella rather than Taubin's lambda/mu pair: Taubin's second (inflating) step exists to undo
+the shrinking of plain smoothing, and the projection already undoes it exactly, so one gather
+per iteration does the job of two.  What is left of the move is its tangential part: the triangles
+even out while the surface stays where the volume puts it.
 
 * Neighbours: for each triangle (a, b, c) the half-edges a->b, b->c, c->a; a vertex's
   neighbours are the ends of its outgoing half-edges, so on a closed, consistently wound
   mesh each one-ring neighbour counts once.  Any indexed mesh works (cubes, tetrahedra).
 * A vertex on the volume's border keeps its coordinate along that axis (the mesh's open
   edges stay on the border instead of creeping inward).
-* A projection that ends further than ACCEPT x the value range off the level keeps the
+* A projection that ends further than ACCEPT x the value range off its level keeps the
   vertex where it was, so every vertex stays as close to the level set as it started.
 * Normals come from the field's gradient at the new position: central differences at the
   8 corners of its cell, blended trilinearly (on a grid edge that is the extractor's normal).
@@ -35,7 +46,9 @@ NEWTON_STEPS = 4
 CONVERGED = 0.01
 """Newton stops stepping a vertex once it is within this fraction of ACCEPT x the range of the level."""
 ACCEPT = 1e-4
-"""A projection ending further off the level than this fraction of the value range is discarded."""
+"""A projection ending further off its (corrected) level than this fraction of the value range is discarded."""
+CORRECTION = 5e-4
+"""Largest correction of the level for the interpolant's error, as a fraction of the value range."""
 BORDER = 1e-3
 """A coordinate within this many cells of the volume's first or last sample lies on the border."""
 
@@ -85,16 +98,53 @@ def trilinear(field: np.ndarray, x: np.ndarray):
     return lerp(d0, d1, f0), grad
 
 
-def project(field, level, x, free, spacing, tolerance):
-    """Newton steps from x toward F = level, inside 3 cells around x's cell: the end points, and
-    whether each ended within `tolerance` of the level."""
+def curvature(field: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Per axis, the mean second difference of the samples along the 4 grid lines through x's cell
+    along that axis, at the cell's two ends: (f[s] - f[s+1] - f[s+2] + f[s+3]) / 2 with s = the cell
+    - 1, moved inward at the border; 0 along axes of fewer than 4 samples.  (N, 3), index units."""
+    shape = np.array(field.shape)
+    cell = np.clip(np.floor(x).astype(np.int64), 0, shape - 2)
+    k = np.zeros(x.shape, F32)
+    for axis in range(3):
+        if shape[axis] < 4:
+            continue
+        start = cell.copy()
+        start[:, axis] = np.clip(cell[:, axis] - 1, 0, shape[axis] - 4)
+        others = [a for a in range(3) if a != axis]
+        for u in (0, 1):
+            for w in (0, 1):
+                p = start.copy()
+                p[:, others[0]] += u
+                p[:, others[1]] += w
+                f = []
+                for d in range(4):
+                    q = p.copy()
+                    q[:, axis] += d
+                    f.append(field[q[:, 0], q[:, 1], q[:, 2]])
+                k[:, axis] += (f[0] - f[1]) - (f[2] - f[3])
+    return k * F32(0.125)
+
+
+def corrected(field, level, x, k, cap):
+    """F(x) - E(x) - level and its gradient (index units), E = sum t(1 - t)/2 k capped at +-cap (see above)."""
+    value, grad = trilinear(field, x)
+    t = (x - np.clip(np.floor(x), 0, np.array(field.shape, F32) - 2)).astype(F32)
+    error = np.sum(t * (1 - t) * F32(0.5) * k, axis=1)
+    inside = np.abs(error) <= cap
+    grad = grad - ((F32(0.5) - t) * k) * inside[:, None]
+    return value - np.clip(error, -cap, cap) - level, grad
+
+
+def project(field, level, x, free, spacing, tolerance, cap):
+    """Newton steps from x toward F - E = level (see above), inside 3 cells around x's cell: the end
+    points, and whether each ended within `tolerance` of that level."""
     top = np.array(field.shape, F32) - 1
     x = np.clip(x, 0, top)
     lo = np.maximum(np.floor(x) - 1, 0).astype(F32)
     hi = np.minimum(np.floor(x) + 2, top).astype(F32)
+    k = curvature(field, x)
     for step in range(NEWTON_STEPS + 1):
-        value, grad = trilinear(field, x)
-        residual = value - level
+        residual, grad = corrected(field, level, x, k, cap)
         if step == NEWTON_STEPS:
             break
         g = grad / spacing * free  # the physical gradient, along the free axes
@@ -152,11 +202,13 @@ def smooth_projected(verts, faces, volume, level, iterations, spacing=(1.0, 1.0,
     if value_range is None:
         value_range = (float(volume.min()), float(volume.max()))
     tolerance = F32(ACCEPT * (value_range[1] - value_range[0]))
+    cap = F32(CORRECTION * (value_range[1] - value_range[0]))
     x = (np.asarray(verts, F32) / spacing).astype(F32)
     free = free_axes(x, field.shape)
     starts, ends = half_edges(faces)
     for _ in range(check_iterations(iterations)):
-        projected, on_level = project(field, lvl, umbrella(x, free, starts, ends), free, spacing, tolerance)
+        projected, on_level = project(field, lvl, umbrella(x, free, starts, ends), free, spacing, tolerance,
+                                     cap)
         x = np.where(on_level[:, None], projected, x).astype(F32)
     value, _ = trilinear(field, x)
     fallback = np.zeros_like(x) if normals is None else normals

@@ -27,7 +27,7 @@ from .gpu_layout import GROUP_SIZE, VERTEX_BYTES
 from .gpu_limits import GPULimitError, GpuLimits
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
-from .reference_smooth import ACCEPT, BORDER, CONVERGED, NEWTON_STEPS, UMBRELLA_WEIGHT, check_iterations
+from .reference_smooth import ACCEPT, BORDER, CONVERGED, CORRECTION, NEWTON_STEPS, UMBRELLA_WEIGHT, check_iterations
 from .scan import ExclusiveScan
 
 IMAGE_SHIFT = 12
@@ -92,7 +92,8 @@ class Smoother:
         low, high = ex.value_range
         for program in self._programs.values():
             set_uniforms(program, **ex.grid_uniforms, u_level=sign * level, u_sign=sign,
-                         u_vertex_count=n_v, u_triangle_count=n_t, u_tolerance=ACCEPT * (high - low))
+                         u_vertex_count=n_v, u_triangle_count=n_t, u_tolerance=ACCEPT * (high - low),
+                         u_correction=CORRECTION * (high - low))
         ends = self._buffer("ends", (n_v + 1) * 4)
         neighbours = self._image("neighbours", 3 * n_t, 1, "u4")
         positions = [self._image("positions", n_v, 4, "f4"), self._image("positions 2", n_v, 4, "f4")]
