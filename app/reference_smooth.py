@@ -135,14 +135,13 @@ def corrected(field, level, x, k, cap):
     return value - np.clip(error, -cap, cap) - level, grad
 
 
-def project(field, level, x, free, spacing, tolerance, cap):
-    """Newton steps from x toward F - E = level (see above), inside 3 cells around x's cell: the end
-    points, and whether each ended within `tolerance` of that level."""
+def project(field, level, x, free, spacing, tolerance, k, cap):
+    """Newton steps from x toward F - E = level (see above, k the vertices' curvatures), inside 3 cells
+    around x's cell: the end points, and whether each ended within `tolerance` of that level."""
     top = np.array(field.shape, F32) - 1
     x = np.clip(x, 0, top)
     lo = np.maximum(np.floor(x) - 1, 0).astype(F32)
     hi = np.minimum(np.floor(x) + 2, top).astype(F32)
-    k = curvature(field, x)
     for step in range(NEWTON_STEPS + 1):
         residual, grad = corrected(field, level, x, k, cap)
         if step == NEWTON_STEPS:
@@ -206,9 +205,10 @@ def smooth_projected(verts, faces, volume, level, iterations, spacing=(1.0, 1.0,
     x = (np.asarray(verts, F32) / spacing).astype(F32)
     free = free_axes(x, field.shape)
     starts, ends = half_edges(faces)
+    k = curvature(field, x)  # once, where each vertex starts: it moves about a cell at most
     for _ in range(check_iterations(iterations)):
         projected, on_level = project(field, lvl, umbrella(x, free, starts, ends), free, spacing, tolerance,
-                                     cap)
+                                     k, cap)
         x = np.where(on_level[:, None], projected, x).astype(F32)
     value, _ = trilinear(field, x)
     fallback = np.zeros_like(x) if normals is None else normals

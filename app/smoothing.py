@@ -97,6 +97,8 @@ class Smoother:
         ends = self._buffer("ends", (n_v + 1) * 4)
         neighbours = self._image("neighbours", 3 * n_t, 1, "u4")
         positions = [self._image("positions", n_v, 4, "f4"), self._image("positions 2", n_v, 4, "f4")]
+        self._image("rings", n_v, 2, "u4").bind_to_image(4, read=True, write=True)
+        self._image("curvatures", n_v, 4, "f4").bind_to_image(5, read=True, write=True)
         ex.volume_texture.bind_to_image(0, read=True, write=False)
         mesh.index_buffer.bind_to_storage_buffer(6, size=max(n_t, 1) * 12)
         mesh.vertex_buffer.bind_to_storage_buffer(8, size=n_v * VERTEX_BYTES)

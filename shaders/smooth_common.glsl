@@ -22,18 +22,31 @@ ivec2 item_texel(uint i) { return ivec2(i & ((1u << IMAGE_SHIFT) - 1u), i >> IMA
 
 uint vertex_index() { return linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex; }
 
-// The trilinear interpolant of the (sign-adjusted) field at x (index units, inside the grid) and
-// its gradient in index units: returns vec4(gradient, value).
-vec4 trilinear(vec3 x) {
-    ivec3 c = clamp(ivec3(floor(x)), ivec3(0), u_dims - 2);
+// The cell of x (index units, clamped into the grid's cells).
+ivec3 cell_of(vec3 x) { return clamp(ivec3(floor(x)), ivec3(0), u_dims - 2); }
+
+// The (sign-adjusted) samples at cell c's corners: [0] = (v000, v001, v010, v011), [1] = (v100, ...).
+mat2x4 cell_samples(ivec3 c) {
+    return mat2x4(vec4(field_at(c), field_at(c + ivec3(0, 0, 1)), field_at(c + ivec3(0, 1, 0)),
+                       field_at(c + ivec3(0, 1, 1))),
+                  vec4(field_at(c + ivec3(1, 0, 0)), field_at(c + ivec3(1, 0, 1)), field_at(c + ivec3(1, 1, 0)),
+                       field_at(c + ivec3(1, 1, 1))));
+}
+
+// The trilinear interpolant at x in cell c with samples s (cell_samples(c)) and its gradient in
+// index units: returns vec4(gradient, value).
+vec4 trilinear_in(vec3 x, ivec3 c, mat2x4 s) {
     vec3 f = x - vec3(c);
-    float v000 = field_at(c), v001 = field_at(c + ivec3(0, 0, 1));
-    float v010 = field_at(c + ivec3(0, 1, 0)), v011 = field_at(c + ivec3(0, 1, 1));
-    float v100 = field_at(c + ivec3(1, 0, 0)), v101 = field_at(c + ivec3(1, 0, 1));
-    float v110 = field_at(c + ivec3(1, 1, 0)), v111 = field_at(c + ivec3(1, 1, 1));
+    float v000 = s[0].x, v001 = s[0].y, v010 = s[0].z, v011 = s[0].w;
+    float v100 = s[1].x, v101 = s[1].y, v110 = s[1].z, v111 = s[1].w;
     float c00 = mix(v000, v001, f.z), c01 = mix(v010, v011, f.z);
     float c10 = mix(v100, v101, f.z), c11 = mix(v110, v111, f.z);
     float d0 = mix(c00, c01, f.y), d1 = mix(c10, c11, f.y);
     float e0 = mix(v001 - v000, v011 - v010, f.y), e1 = mix(v101 - v100, v111 - v110, f.y);
     return vec4(d1 - d0, mix(c01 - c00, c11 - c10, f.x), mix(e0, e1, f.x), mix(d0, d1, f.x));
+}
+
+vec4 trilinear(vec3 x) {
+    ivec3 c = cell_of(x);
+    return trilinear_in(x, c, cell_samples(c));
 }

@@ -3,8 +3,9 @@
 // the way to the neighbours' average (along free axes), then NEWTON_STEPS Newton steps on the
 // trilinear interpolant toward the level, along the physical gradient, clamped to the 3 cells
 // around where the move went.  The level is corrected by the interpolant's own error estimate
-// E = sum t(1 - t)/2 k (k: second differences around the cell, taken once per projection; E capped
-// at +-u_correction; see app/reference_smooth.py).  A projection ending over u_tolerance off the
+// E = sum t(1 - t)/2 k (k: second differences around the vertex's first cell, from smooth_load; E
+// capped at +-u_correction; see app/reference_smooth.py).  Per vertex it loads its position, ring
+// and curvature from images, and per neighbour an index and a position: no SSBO loads at all.  A projection ending over u_tolerance off the
 // corrected level is discarded.
 // NEWTON_STEPS and CONVERGED are #defines from app/reference_smooth.py.
 layout(local_size_x = GROUP_SIZE) in;
@@ -13,33 +14,16 @@ layout(local_size_x = GROUP_SIZE) in;
 uniform float u_tolerance;
 uniform float u_correction;
 layout(r32ui, binding = 3) readonly uniform uimage2D u_neighbours;
+layout(rg32ui, binding = 4) readonly uniform uimage2D u_rings;
+layout(rgba32f, binding = 5) readonly uniform image2D u_curvatures;
 layout(rgba32f, binding = 1) readonly uniform image2D u_before;
 layout(rgba32f, binding = 2) writeonly uniform image2D u_after;
 
-// Per axis, the mean second difference along the 4 grid lines through x's cell along that axis:
-// (f[s] - f[s+1] - f[s+2] + f[s+3]) / 2 per line, s = the cell - 1 moved inward at the border.
-// Along axis a (unit vector `along`, the others u and w) from cell c; 0 with fewer than 4 samples.
-float axis_curvature(ivec3 c, int a, ivec3 along, ivec3 u, ivec3 w) {
-    if (u_dims[a] < 4) return 0.0;
-    ivec3 start = c + along * (clamp(c[a] - 1, 0, u_dims[a] - 4) - c[a]);
-    float sum = 0.0;
-    for (int line = 0; line < 4; line++) {
-        ivec3 p = start + (line >> 1) * u + (line & 1) * w;
-        sum += (field_at(p) - field_at(p + along)) - (field_at(p + 2 * along) - field_at(p + 3 * along));
-    }
-    return sum * 0.125;
-}
-
-vec3 curvature(vec3 x) {
-    ivec3 c = clamp(ivec3(floor(x)), ivec3(0), u_dims - 2);
-    ivec3 i = ivec3(1, 0, 0), j = ivec3(0, 1, 0), k = ivec3(0, 0, 1);
-    return vec3(axis_curvature(c, 0, i, j, k), axis_curvature(c, 1, j, i, k), axis_curvature(c, 2, k, i, j));
-}
-
-// F(x) - E(x) - level and its gradient (index units): vec4(gradient, residual).
-vec4 corrected(vec3 x, vec3 k) {
-    vec4 f = trilinear(x);
-    vec3 t = x - vec3(clamp(floor(x), vec3(0.0), vec3(u_dims - 2)));
+// F(x) - E(x) - level and its gradient (index units): vec4(gradient, residual); x in cell c, whose
+// samples are s.
+vec4 corrected(vec3 x, ivec3 c, mat2x4 s, vec3 k) {
+    vec4 f = trilinear_in(x, c, s);
+    vec3 t = x - vec3(c);
     float error = dot(t * (1.0 - t) * 0.5, k);
     vec3 slope = abs(error) <= u_correction ? (0.5 - t) * k : vec3(0.0);
     return vec4(f.xyz - slope, f.w - clamp(error, -u_correction, u_correction) - u_level);
@@ -52,7 +36,8 @@ void main() {
     if (v >= u_vertex_count) return;
     vec4 here = imageLoad(u_before, item_texel(v));
     vec3 x = here.xyz, free = free_axes(here.w);
-    uint first = v == 0u ? 0u : ends[v - 1u], last = ends[v];
+    uvec2 ring = imageLoad(u_rings, item_texel(v)).xy;
+    uint first = ring.x, last = ring.y;
     vec3 offset = vec3(0.0);
     for (uint s = first; s < last; s++) offset += position_before(imageLoad(u_neighbours, item_texel(s)).x) - x;
     vec3 y = x;
@@ -61,10 +46,19 @@ void main() {
     vec3 top = vec3(u_dims - 1);
     y = clamp(y, vec3(0.0), top);
     vec3 lo = max(floor(y) - 1.0, vec3(0.0)), hi = min(floor(y) + 2.0, top);
-    vec3 k = curvature(y);
+    vec3 k = imageLoad(u_curvatures, item_texel(v)).xyz;
     float r;
+    // A Newton step seldom leaves its cell: the cell's 8 samples (8 of the pass's ~20 volume loads
+    // per evaluation... most of its time) are loaded again only when it does.
+    ivec3 c = cell_of(y);
+    mat2x4 s = cell_samples(c);
     for (int step = 0; ; step++) {  // stops once within CONVERGED of the tolerance, or after NEWTON_STEPS
-        vec4 f = corrected(y, k);
+        ivec3 now = cell_of(y);
+        if (now != c) {
+            c = now;
+            s = cell_samples(c);
+        }
+        vec4 f = corrected(y, c, s, k);
         r = f.w;
         if (abs(r) <= CONVERGED * u_tolerance || step == NEWTON_STEPS) break;
         vec3 g = f.xyz / u_spacing * free;
