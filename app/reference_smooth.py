@@ -99,29 +99,37 @@ def trilinear(field: np.ndarray, x: np.ndarray):
 
 
 def curvature(field: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Per axis, the mean second difference of the samples along the 4 grid lines through x's cell
-    along that axis, at the cell's two ends: (f[s] - f[s+1] - f[s+2] + f[s+3]) / 2 with s = the cell
-    - 1, moved inward at the border; 0 along axes of fewer than 4 samples.  (N, 3), index units."""
+    """Per axis, the mean second difference along the 4 grid lines through x's cell along that axis,
+    at the cell's two ends: (f[c-1] - f[c]) - (f[c+1] - f[c+2]) per line, c the cell; at the border,
+    where one of those ends has no second difference, twice the other's; 0 along axes of fewer than 3
+    samples.  Only the cell's corners and one sample beyond each end are read.  (N, 3), index units."""
     shape = np.array(field.shape)
     cell = np.clip(np.floor(x).astype(np.int64), 0, shape - 2)
     k = np.zeros(x.shape, F32)
+
+    def at(p):
+        return field[p[:, 0], p[:, 1], p[:, 2]]
     for axis in range(3):
-        if shape[axis] < 4:
+        if shape[axis] < 3:
             continue
-        start = cell.copy()
-        start[:, axis] = np.clip(cell[:, axis] - 1, 0, shape[axis] - 4)
         others = [a for a in range(3) if a != axis]
+        c = cell[:, axis]
         for u in (0, 1):
             for w in (0, 1):
-                p = start.copy()
+                p = cell.copy()
                 p[:, others[0]] += u
                 p[:, others[1]] += w
-                f = []
-                for d in range(4):
-                    q = p.copy()
-                    q[:, axis] += d
-                    f.append(field[q[:, 0], q[:, 1], q[:, 2]])
-                k[:, axis] += (f[0] - f[1]) - (f[2] - f[3])
+                f0 = at(p)
+                p[:, axis] = c + 1
+                f1 = at(p)
+                p[:, axis] = np.maximum(c - 1, 0)
+                below = at(p)
+                p[:, axis] = np.minimum(c + 2, shape[axis] - 1)
+                above = at(p)
+                line = np.where(c == 0, F32(2) * ((f0 - f1) - (f1 - above)),
+                                np.where(c + 2 > shape[axis] - 1, F32(2) * ((below - f0) - (f0 - f1)),
+                                         (below - f0) - (f1 - above)))
+                k[:, axis] += line
     return k * F32(0.125)
 
 

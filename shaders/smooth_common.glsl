@@ -33,6 +33,9 @@ mat2x4 cell_samples(ivec3 c) {
                        field_at(c + ivec3(1, 1, 1))));
 }
 
+// Sample d (0/1 per axis) of the cell whose samples cell_samples() gave.
+float corner_sample(mat2x4 s, ivec3 d) { return pick(d.x == 0 ? s[0] : s[1], uint(2 * d.y + d.z)); }
+
 // The trilinear interpolant at x in cell c with samples s (cell_samples(c)) and its gradient in
 // index units: returns vec4(gradient, value).
 vec4 trilinear_in(vec3 x, ivec3 c, mat2x4 s) {

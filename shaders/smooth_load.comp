@@ -13,26 +13,30 @@ layout(rgba32f, binding = 1) writeonly uniform image2D u_positions;
 layout(rg32ui, binding = 4) writeonly uniform uimage2D u_rings;
 layout(rgba32f, binding = 5) writeonly uniform image2D u_curvatures;
 
-// Per axis, the mean second difference along the 4 grid lines through x's cell along that axis:
-// (f[s] - f[s+1] - f[s+2] + f[s+3]) / 2 per line, s = the cell - 1 moved inward at the border.
-// Along axis a (unit vector `along`, the others u and w) from cell c; 0 with fewer than 4 samples.
-float axis_curvature(ivec3 c, int a, ivec3 along, ivec3 u, ivec3 w) {
-    if (u_dims[a] < 4) return 0.0;
-    ivec3 start = c + along * (clamp(c[a] - 1, 0, u_dims[a] - 4) - c[a]);
+// Per axis, the mean second difference along the 4 grid lines through cell c along that axis, at
+// the cell's two ends (app/reference_smooth.py's curvature(), in its order of operations): the
+// cell's corners come from s, so each line loads only its sample beyond each end.
+float axis_curvature(ivec3 c, mat2x4 s, int a, ivec3 along, ivec3 u, ivec3 w) {
+    if (u_dims[a] < 3) return 0.0;
     float sum = 0.0;
     for (int line = 0; line < 4; line++) {
-        ivec3 p = start + (line >> 1) * u + (line & 1) * w;
-        sum += (field_at(p) - field_at(p + along)) - (field_at(p + 2 * along) - field_at(p + 3 * along));
+        ivec3 d = (line >> 1) * u + (line & 1) * w;
+        float f0 = corner_sample(s, d), f1 = corner_sample(s, d + along);
+        ivec3 p = c + d;
+        float below = field_at(p - along * min(c[a], 1)), above = field_at(p + along * min(u_dims[a] - 1 - c[a], 2));
+        sum += c[a] == 0 ? 2.0 * ((f0 - f1) - (f1 - above))
+             : c[a] + 2 > u_dims[a] - 1 ? 2.0 * ((below - f0) - (f0 - f1)) : (below - f0) - (f1 - above);
     }
     return sum * 0.125;
 }
 
 vec3 curvature(vec3 x) {
-    ivec3 c = clamp(ivec3(floor(x)), ivec3(0), u_dims - 2);
+    ivec3 c = cell_of(x);
+    mat2x4 s = cell_samples(c);
     ivec3 i = ivec3(1, 0, 0), j = ivec3(0, 1, 0), k = ivec3(0, 0, 1);
-    return vec3(axis_curvature(c, 0, i, j, k), axis_curvature(c, 1, j, i, k), axis_curvature(c, 2, k, i, j));
+    return vec3(axis_curvature(c, s, 0, i, j, k), axis_curvature(c, s, 1, j, i, k),
+                axis_curvature(c, s, 2, k, i, j));
 }
-
 
 void main() {
     uint v = vertex_index();

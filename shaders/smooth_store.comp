@@ -9,9 +9,6 @@ struct Vertex { vec4 position_value; vec4 normal; };
 layout(std430, binding = 8) buffer Vertices { Vertex vertices[]; };
 layout(rgba32f, binding = 1) readonly uniform image2D u_positions;
 
-// Sample d (0/1 per axis) of the cell whose samples cell_samples() gave.
-float corner_sample(mat2x4 s, ivec3 d) { return pick(d.x == 0 ? s[0] : s[1], uint(2 * d.y + d.z)); }
-
 // Central differences (one-sided at the border) at corner d of cell c, physical units.  Along each
 // axis one neighbour is another corner of the cell, already in s: only the other is loaded, so the
 // 8 corners take 8 + 24 loads instead of 8 x 6.
