@@ -1,5 +1,5 @@
 #version 430
-// Smoothing pass 3 of 5, one invocation per vertex: the mesh's positions into index units, with
+// Smoothing pass 2 of 5 (after the scan), one invocation per vertex: the mesh's positions into index units, with
 // the axes the vertex may move along (not those where it lies on the volume's border); its ring's
 // slots (first, last + 1) in the neighbour list; and the field's curvature around where it starts
 // (smooth_step.comp corrects the level by it).  Each is stored in an image: smooth_step loads them
@@ -45,6 +45,6 @@ void main() {
     bvec3 free = bvec3(uvec3(greaterThan(x, vec3(BORDER))) & uvec3(lessThan(x, vec3(u_dims - 1) - BORDER)));
     uvec3 bits = uvec3(free) * uvec3(1u, 2u, 4u);
     imageStore(u_positions, item_texel(v), vec4(x, float(bits.x | bits.y | bits.z)));
-    imageStore(u_rings, item_texel(v), uvec4(v == 0u ? 0u : ends[v - 1u], ends[v], 0u, 0u));
+    imageStore(u_rings, item_texel(v), uvec4(ends[v], ends[v + 1u], 0u, 0u));  // scanned: first slots
     imageStore(u_curvatures, item_texel(v), vec4(curvature(clamp(x, vec3(0.0), vec3(u_dims - 1))), 0.0));
 }
