@@ -7,7 +7,8 @@ the move took it.  The level they are pulled to is corrected by the interpolant'
 linear interpolation across a cell misses a smooth field by t(1 - t)/2 x its second derivative
 along each axis (t the position in the cell), so Newton solves F(v) - E(v) = level with
 E(v) = sum over axes of t(1 - t)/2 x k, k the second differences of the samples around the
-cell, capped at +-CORRECTION x the value range.  Without it the smoothed vertices, which leave
+cell where the vertex starts (taken once: it moves about a cell at most), E capped at
++-CORRECTION x the value range.  Without it the smoothed vertices, which leave
 the grid edges (where F is exact along the one axis that varies) for cell interiors (where all
 three axes' errors add up), sink toward the concave side: on a sphere's distance field the
 smoothed mesh's area came out 1.5x further below 4 pi r^2 than plain marching cubes' (-0.13%

@@ -4,9 +4,9 @@
 // trilinear interpolant toward the level, along the physical gradient, clamped to the 3 cells
 // around where the move went.  The level is corrected by the interpolant's own error estimate
 // E = sum t(1 - t)/2 k (k: second differences around the vertex's first cell, from smooth_load; E
-// capped at +-u_correction; see app/reference_smooth.py).  Per vertex it loads its position, ring
-// and curvature from images, and per neighbour an index and a position: no SSBO loads at all.  A projection ending over u_tolerance off the
-// corrected level is discarded.
+// capped at +-u_correction; see app/reference_smooth.py).  A projection ending over u_tolerance off
+// the corrected level is discarded.  Per vertex it loads its position, ring and curvature from
+// images, and per neighbour an index and a position: no SSBO loads at all.
 // NEWTON_STEPS and CONVERGED are #defines from app/reference_smooth.py.
 layout(local_size_x = GROUP_SIZE) in;
 #include "smooth_common.glsl"
@@ -25,6 +25,8 @@ vec4 corrected(vec3 x, ivec3 c, mat2x4 s, vec3 k) {
     vec4 f = trilinear_in(x, c, s);
     vec3 t = x - vec3(c);
     float error = dot(t * (1.0 - t) * 0.5, k);
+    // A select, not `if (...) f.xyz -= ...`: that form gave other results on llvmpipe (Newton failed on
+    // ~16% of the vertices of a noise volume, the numpy mirror on none).
     vec3 slope = abs(error) <= u_correction ? (0.5 - t) * k : vec3(0.0);
     return vec4(f.xyz - slope, f.w - clamp(error, -u_correction, u_correction) - u_level);
 }
@@ -48,17 +50,16 @@ void main() {
     vec3 lo = max(floor(y) - 1.0, vec3(0.0)), hi = min(floor(y) + 2.0, top);
     vec3 k = imageLoad(u_curvatures, item_texel(v)).xyz;
     float r;
-    // A Newton step seldom leaves its cell: the cell's 8 samples (8 of the pass's ~20 volume loads
-    // per evaluation... most of its time) are loaded again only when it does.
+    // A Newton step seldom leaves its cell: the cell's 8 samples are loaded again only when it does.
     ivec3 c = cell_of(y);
-    mat2x4 s = cell_samples(c);
+    mat2x4 samples = cell_samples(c);
     for (int step = 0; ; step++) {  // stops once within CONVERGED of the tolerance, or after NEWTON_STEPS
         ivec3 now = cell_of(y);
         if (now != c) {
             c = now;
-            s = cell_samples(c);
+            samples = cell_samples(c);
         }
-        vec4 f = corrected(y, c, s, k);
+        vec4 f = corrected(y, c, samples, k);
         r = f.w;
         if (abs(r) <= CONVERGED * u_tolerance || step == NEWTON_STEPS) break;
         vec3 g = f.xyz / u_spacing * free;
