@@ -49,8 +49,3 @@ vec4 trilinear_in(vec3 x, ivec3 c, mat2x4 s) {
     float e0 = mix(v001 - v000, v011 - v010, f.y), e1 = mix(v101 - v100, v111 - v110, f.y);
     return vec4(d1 - d0, mix(c01 - c00, c11 - c10, f.x), mix(e0, e1, f.x), mix(d0, d1, f.x));
 }
-
-vec4 trilinear(vec3 x) {
-    ivec3 c = cell_of(x);
-    return trilinear_in(x, c, cell_samples(c));
-}
