@@ -154,6 +154,25 @@ def test_gpu_matches_the_numpy_reference(gl_ctx, direction):
         smoother.release()
 
 
+@pytest.mark.parametrize("shape", [(2, 9, 7), (3, 5, 40), (4, 4, 4), (3, 3, 3), (33, 3, 12)])
+def test_gpu_matches_the_numpy_reference_on_thin_grids(gl_ctx, shape):
+    # Axes of 2, 3 and 4 samples take every border branch of the level's curvature correction.
+    volume = gaussian_filter(np.random.default_rng(1).standard_normal(shape).astype(np.float32), 1.0)
+    volume -= volume.mean()
+    with Extractor(volume, spacing=SPACING, ctx=gl_ctx) as ex:
+        ex.extract(0.0)
+        verts, faces, normals, _ = ex.read_mesh()
+        assert len(faces) > 0
+        smoother = Smoother(ex)
+        ex.extract(0.0)
+        smoother.smooth(ex.mesh, 5)
+        gpu = ex.read_mesh()
+        smoother.release()
+    cpu = smooth_projected(verts, faces, volume, 0.0, 5, SPACING, normals=normals)
+    assert np.abs(gpu[0] - verts).max() > 0.1
+    np.testing.assert_allclose(gpu[0], cpu[0], atol=1e-4)
+
+
 def test_an_empty_mesh_and_zero_iterations_change_nothing(gl_ctx):
     volume = smooth_noise((12, 12, 12))
     with Extractor(volume, ctx=gl_ctx) as ex:
