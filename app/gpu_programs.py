@@ -26,12 +26,14 @@ def compute_program(ctx: moderngl.Context, name: str, defines: dict | None = Non
 def dispatch_groups(program: moderngl.ComputeShader, groups: int) -> None:
     """Run `groups` work groups, folded into 2-D when one dimension's limit would be passed.
 
-    Shaders rebuild the linear group id as y * num_groups.x + x and bounds-check it.
+    Shaders rebuild the linear group id as y * num_groups.x + x and bounds-check it.  The fold is
+    as even as it can be (x * y - groups < y): empty groups are not free on llvmpipe, and folding
+    65,536 groups as 65,535 x 2 once added ~65,000 of them, ~140 ms to a 4.2 M vertex pass.
     """
     if groups <= 0:
         return
-    x = min(groups, MAX_GROUPS_PER_DIMENSION)
-    y = -(-groups // x)
+    y = -(-groups // MAX_GROUPS_PER_DIMENSION)
+    x = -(-groups // y)
     program.run(x, y, 1)
 
 

@@ -3,17 +3,29 @@
 Per iteration every vertex moves toward the average of its mesh neighbours (the umbrella
 operator, weight UMBRELLA_WEIGHT), then Newton steps on the trilinear interpolant F of the
 volume pull it back onto F = level along F's gradient, inside a box of 3 cells around where
-the move took it.  Umbrella rather than Taubin's lambda/mu pair: Taubin's second (inflating)
-step exists to undo the shrinking of plain smoothing, and the projection already undoes it
-exactly, so one gather per iteration does the job of two.  What is left of the move is its
-tangential part: the triangles even out while the surface stays where the volume puts it.
+the move took it.  The level they are pulled to is corrected by the interpolant's own error:
+linear interpolation across a cell misses a smooth field by t(1 - t)/2 x its second derivative
+along each axis (t the position in the cell), so Newton solves F(v) - E(v) = level with
+E(v) = sum over axes of t(1 - t)/2 x k, k the second differences of the samples around the
+cell where the vertex starts (taken once: it moves about a cell at most), E capped at
++-CORRECTION x the value range.  Without it the smoothed vertices, which leave
+the grid edges (where F is exact along the one axis that varies) for cell interiors (where all
+three axes' errors add up), sink toward the concave side: on a sphere's distance field the
+smoothed mesh's area came out 1.5x further below 4 pi r^2 than plain marching cubes' (-0.13%
+against -0.09% at 19 cells of radius); corrected it is about half plain's error.  The cap keeps
+|F(v) - level| <= (ACCEPT + CORRECTION) x the range however rough the field.
+
+Umbrella rather than Taubin's lambda/mu pair: Taubin's second (inflating) step exists to undo
+the shrinking of plain smoothing, and the projection already undoes it exactly, so one gather
+per iteration does the job of two.  What is left of the move is its tangential part: the triangles
+even out while the surface stays where the volume puts it.
 
 * Neighbours: for each triangle (a, b, c) the half-edges a->b, b->c, c->a; a vertex's
   neighbours are the ends of its outgoing half-edges, so on a closed, consistently wound
   mesh each one-ring neighbour counts once.  Any indexed mesh works (cubes, tetrahedra).
 * A vertex on the volume's border keeps its coordinate along that axis (the mesh's open
   edges stay on the border instead of creeping inward).
-* A projection that ends further than ACCEPT x the value range off the level keeps the
+* A projection that ends further than ACCEPT x the value range off its level keeps the
   vertex where it was, so every vertex stays as close to the level set as it started.
 * Normals come from the field's gradient at the new position: central differences at the
   8 corners of its cell, blended trilinearly (on a grid edge that is the extractor's normal).
@@ -32,10 +44,13 @@ UMBRELLA_WEIGHT = 0.5
 """Fraction of the way to the neighbours' average moved per iteration (0.5 damps every mode)."""
 NEWTON_STEPS = 4
 """Newton steps per projection (quadratic convergence: 4 reach float precision from < 1 cell)."""
-CONVERGED = 0.01
-"""Newton stops stepping a vertex once it is within this fraction of ACCEPT x the range of the level."""
+CONVERGED = 0.1
+"""Newton stops stepping a vertex once it is within this fraction of ACCEPT x the range of the level
+(1e-5 of the range: 0.01 took a third evaluation for ~40% of the vertices, ~10% of an iteration)."""
 ACCEPT = 1e-4
-"""A projection ending further off the level than this fraction of the value range is discarded."""
+"""A projection ending further off its (corrected) level than this fraction of the value range is discarded."""
+CORRECTION = 5e-4
+"""Largest correction of the level for the interpolant's error, as a fraction of the value range."""
 BORDER = 1e-3
 """A coordinate within this many cells of the volume's first or last sample lies on the border."""
 
@@ -85,16 +100,60 @@ def trilinear(field: np.ndarray, x: np.ndarray):
     return lerp(d0, d1, f0), grad
 
 
-def project(field, level, x, free, spacing, tolerance):
-    """Newton steps from x toward F = level, inside 3 cells around x's cell: the end points, and
-    whether each ended within `tolerance` of the level."""
+def curvature(field: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Per axis, the mean second difference along the 4 grid lines through x's cell along that axis,
+    at the cell's two ends: (f[c-1] - f[c]) - (f[c+1] - f[c+2]) per line, c the cell; at the border,
+    where one of those ends has no second difference, twice the other's; 0 along axes of fewer than 3
+    samples.  Only the cell's corners and one sample beyond each end are read.  (N, 3), index units."""
+    shape = np.array(field.shape)
+    cell = np.clip(np.floor(x).astype(np.int64), 0, shape - 2)
+    k = np.zeros(x.shape, F32)
+
+    def at(p):
+        return field[p[:, 0], p[:, 1], p[:, 2]]
+    for axis in range(3):
+        if shape[axis] < 3:
+            continue
+        others = [a for a in range(3) if a != axis]
+        c = cell[:, axis]
+        for u in (0, 1):
+            for w in (0, 1):
+                p = cell.copy()
+                p[:, others[0]] += u
+                p[:, others[1]] += w
+                f0 = at(p)
+                p[:, axis] = c + 1
+                f1 = at(p)
+                p[:, axis] = np.maximum(c - 1, 0)
+                below = at(p)
+                p[:, axis] = np.minimum(c + 2, shape[axis] - 1)
+                above = at(p)
+                line = np.where(c == 0, F32(2) * ((f0 - f1) - (f1 - above)),
+                                np.where(c + 2 > shape[axis] - 1, F32(2) * ((below - f0) - (f0 - f1)),
+                                         (below - f0) - (f1 - above)))
+                k[:, axis] += line
+    return k * F32(0.125)
+
+
+def corrected(field, level, x, k, cap):
+    """F(x) - E(x) - level and its gradient (index units), E = sum t(1 - t)/2 k capped at +-cap (see above)."""
+    value, grad = trilinear(field, x)
+    t = (x - np.clip(np.floor(x), 0, np.array(field.shape, F32) - 2)).astype(F32)
+    error = np.sum(t * (1 - t) * F32(0.5) * k, axis=1)
+    inside = np.abs(error) <= cap
+    grad = grad - ((F32(0.5) - t) * k) * inside[:, None]
+    return value - np.clip(error, -cap, cap) - level, grad
+
+
+def project(field, level, x, free, spacing, tolerance, k, cap):
+    """Newton steps from x toward F - E = level (see above, k the vertices' curvatures), inside 3 cells
+    around x's cell: the end points, and whether each ended within `tolerance` of that level."""
     top = np.array(field.shape, F32) - 1
     x = np.clip(x, 0, top)
     lo = np.maximum(np.floor(x) - 1, 0).astype(F32)
     hi = np.minimum(np.floor(x) + 2, top).astype(F32)
     for step in range(NEWTON_STEPS + 1):
-        value, grad = trilinear(field, x)
-        residual = value - level
+        residual, grad = corrected(field, level, x, k, cap)
         if step == NEWTON_STEPS:
             break
         g = grad / spacing * free  # the physical gradient, along the free axes
@@ -152,11 +211,14 @@ def smooth_projected(verts, faces, volume, level, iterations, spacing=(1.0, 1.0,
     if value_range is None:
         value_range = (float(volume.min()), float(volume.max()))
     tolerance = F32(ACCEPT * (value_range[1] - value_range[0]))
+    cap = F32(CORRECTION * (value_range[1] - value_range[0]))
     x = (np.asarray(verts, F32) / spacing).astype(F32)
     free = free_axes(x, field.shape)
     starts, ends = half_edges(faces)
+    k = curvature(field, x)  # once, where each vertex starts: it moves about a cell at most
     for _ in range(check_iterations(iterations)):
-        projected, on_level = project(field, lvl, umbrella(x, free, starts, ends), free, spacing, tolerance)
+        projected, on_level = project(field, lvl, umbrella(x, free, starts, ends), free, spacing, tolerance,
+                                     k, cap)
         x = np.where(on_level[:, None], projected, x).astype(F32)
     value, _ = trilinear(field, x)
     fallback = np.zeros_like(x) if normals is None else normals

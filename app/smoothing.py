@@ -4,10 +4,11 @@ The volume is the one already resident in an `Extractor`; the mesh is usually it
 extraction (any indexed mesh on that volume's level set works).  Passes (shaders/smooth_*.comp;
 numpy mirror and the method: app/reference_smooth.py):
 
-1. ``smooth_valence`` per triangle: outgoing half-edges per vertex (atomic counts)
+1. ``smooth_valence`` per triangle: outgoing half-edges per vertex (atomic counts), each half-edge's rank
 2. scan              the counts -> each vertex's first slot in the neighbour list
-3. ``smooth_fill``   per triangle: each half-edge's end into its start vertex's next slot
-4. ``smooth_load``   per vertex: positions in index units, axes it may move along
+3. ``smooth_load``   per vertex: positions in index units, axes it may move along, its ring's slots,
+                     the field's curvature where it starts (for the level's correction)
+4. ``smooth_fill``   per triangle: each half-edge's end into slot first + rank of its start vertex
 5. ``smooth_step``   per vertex, once per iteration: umbrella move, Newton projection (ping-pong)
 6. ``smooth_store``  per vertex: positions, values and normals back into the mesh
 
@@ -16,8 +17,9 @@ fixed-point atomics every iteration: the topology is the same in every iteration
 is built once (two passes over the triangles) and each iteration is one pass that reads each
 vertex's ~6 neighbours, with no atomics, no clearing pass and no fixed-point rounding; the
 projection fits in the same pass, so an iteration is one dispatch.
-Positions (two, ping-pong) and neighbour lists live in 2-D images, the per-vertex list ends in a
-buffer (it is scanned): 36 bytes of scratch per vertex and 12 per triangle.
+Positions (two, ping-pong), rings, curvatures, neighbour lists and ranks live in 2-D images (an
+imageLoad costs llvmpipe a fraction of an SSBO load), the per-vertex list ends in a buffer (it is
+scanned): 60 bytes of scratch per vertex and 24 per triangle.
 """
 from __future__ import annotations
 
@@ -27,7 +29,7 @@ from .gpu_layout import GROUP_SIZE, VERTEX_BYTES
 from .gpu_limits import GPULimitError, GpuLimits
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
-from .reference_smooth import ACCEPT, BORDER, CONVERGED, NEWTON_STEPS, UMBRELLA_WEIGHT, check_iterations
+from .reference_smooth import ACCEPT, BORDER, CONVERGED, CORRECTION, NEWTON_STEPS, UMBRELLA_WEIGHT, check_iterations
 from .scan import ExclusiveScan
 
 IMAGE_SHIFT = 12
@@ -92,23 +94,33 @@ class Smoother:
         low, high = ex.value_range
         for program in self._programs.values():
             set_uniforms(program, **ex.grid_uniforms, u_level=sign * level, u_sign=sign,
-                         u_vertex_count=n_v, u_triangle_count=n_t, u_tolerance=ACCEPT * (high - low))
+                         u_vertex_count=n_v, u_triangle_count=n_t, u_tolerance=ACCEPT * (high - low),
+                         u_correction=CORRECTION * (high - low))
         ends = self._buffer("ends", (n_v + 1) * 4)
         neighbours = self._image("neighbours", 3 * n_t, 1, "u4")
+        ranks = self._image("ranks", 3 * n_t, 1, "u4")
         positions = [self._image("positions", n_v, 4, "f4"), self._image("positions 2", n_v, 4, "f4")]
+        rings, curvatures = self._image("rings", n_v, 2, "u4"), self._image("curvatures", n_v, 4, "f4")
         ex.volume_texture.bind_to_image(0, read=True, write=False)
         mesh.index_buffer.bind_to_storage_buffer(6, size=max(n_t, 1) * 12)
         mesh.vertex_buffer.bind_to_storage_buffer(8, size=n_v * VERTEX_BYTES)
 
         ends.clear()
         ends.bind_to_storage_buffer(2)
+        ranks.bind_to_image(3, read=False, write=True)
         self._run("smooth_valence", n_t)
         self._scan(ends, n_v + 1)
         ends.bind_to_storage_buffer(2)
-        neighbours.bind_to_image(3, read=True, write=True)
-        self._run("smooth_fill", n_t)
-        positions[0].bind_to_image(1, read=True, write=True)
+        positions[0].bind_to_image(1, read=False, write=True)
+        rings.bind_to_image(4, read=False, write=True)
+        curvatures.bind_to_image(5, read=False, write=True)
         self._run("smooth_load", n_v)
+        neighbours.bind_to_image(3, read=False, write=True)
+        rings.bind_to_image(4, read=True, write=False)
+        ranks.bind_to_image(5, read=True, write=False)
+        self._run("smooth_fill", n_t)
+        neighbours.bind_to_image(3, read=True, write=False)
+        curvatures.bind_to_image(5, read=True, write=False)
         for i in range(iterations):
             positions[i % 2].bind_to_image(1, read=True, write=False)
             positions[(i + 1) % 2].bind_to_image(2, read=False, write=True)

@@ -2,11 +2,12 @@
 //
 // Positions are kept in index units (position / spacing) as vec4(x, free axes), where w holds
 // bits 1, 2, 4: the axes along which the vertex may move (0 where it lies on the volume's border).
-// Neighbour lists: vertex v's neighbours are neighbours[ends[v - 1] .. ends[v]) (ends[-1] = 0),
-// the far ends of its outgoing half-edges.  Positions and neighbour lists live in 2-D images
-// 2^IMAGE_SHIFT texels wide, item i at texel (i mod width, i / width): on llvmpipe an imageLoad
-// costs a fraction of an SSBO load (see mc_common.glsl), and the gather is most of an iteration.  UMBRELLA_WEIGHT, NEWTON_STEPS and BORDER are
-// #defines from app/reference_smooth.py.
+// Neighbour lists: vertex v's neighbours are neighbours[first .. last), (first, last) its ring in
+// u_rings (the scanned counts ends[v], ends[v + 1]), the far ends of its outgoing half-edges.
+// Per-vertex and per-half-edge data live in 2-D images 2^IMAGE_SHIFT texels wide, item i at texel
+// (i mod width, i / width): on llvmpipe an imageLoad costs a fraction of an SSBO load (see
+// mc_common.glsl), and the gather is most of an iteration.  UMBRELLA_WEIGHT, NEWTON_STEPS and BORDER
+// are #defines from app/reference_smooth.py.
 #include "mc_common.glsl"
 
 uniform uint u_vertex_count;
@@ -22,15 +23,26 @@ ivec2 item_texel(uint i) { return ivec2(i & ((1u << IMAGE_SHIFT) - 1u), i >> IMA
 
 uint vertex_index() { return linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex; }
 
-// The trilinear interpolant of the (sign-adjusted) field at x (index units, inside the grid) and
-// its gradient in index units: returns vec4(gradient, value).
-vec4 trilinear(vec3 x) {
-    ivec3 c = clamp(ivec3(floor(x)), ivec3(0), u_dims - 2);
+// The cell of x (index units, clamped into the grid's cells).
+ivec3 cell_of(vec3 x) { return clamp(ivec3(floor(x)), ivec3(0), u_dims - 2); }
+
+// The (sign-adjusted) samples at cell c's corners: [0] = (v000, v001, v010, v011), [1] = (v100, ...).
+mat2x4 cell_samples(ivec3 c) {
+    return mat2x4(vec4(field_at(c), field_at(c + ivec3(0, 0, 1)), field_at(c + ivec3(0, 1, 0)),
+                       field_at(c + ivec3(0, 1, 1))),
+                  vec4(field_at(c + ivec3(1, 0, 0)), field_at(c + ivec3(1, 0, 1)), field_at(c + ivec3(1, 1, 0)),
+                       field_at(c + ivec3(1, 1, 1))));
+}
+
+// Sample d (0/1 per axis) of the cell whose samples cell_samples() gave.
+float corner_sample(mat2x4 s, ivec3 d) { return pick(d.x == 0 ? s[0] : s[1], uint(2 * d.y + d.z)); }
+
+// The trilinear interpolant at x in cell c with samples s (cell_samples(c)) and its gradient in
+// index units: returns vec4(gradient, value).
+vec4 trilinear_in(vec3 x, ivec3 c, mat2x4 s) {
     vec3 f = x - vec3(c);
-    float v000 = field_at(c), v001 = field_at(c + ivec3(0, 0, 1));
-    float v010 = field_at(c + ivec3(0, 1, 0)), v011 = field_at(c + ivec3(0, 1, 1));
-    float v100 = field_at(c + ivec3(1, 0, 0)), v101 = field_at(c + ivec3(1, 0, 1));
-    float v110 = field_at(c + ivec3(1, 1, 0)), v111 = field_at(c + ivec3(1, 1, 1));
+    float v000 = s[0].x, v001 = s[0].y, v010 = s[0].z, v011 = s[0].w;
+    float v100 = s[1].x, v101 = s[1].y, v110 = s[1].z, v111 = s[1].w;
     float c00 = mix(v000, v001, f.z), c01 = mix(v010, v011, f.z);
     float c10 = mix(v100, v101, f.z), c11 = mix(v110, v111, f.z);
     float d0 = mix(c00, c01, f.y), d1 = mix(c10, c11, f.y);

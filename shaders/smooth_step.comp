@@ -2,15 +2,34 @@
 // Smoothing pass 4 of 5, once per iteration, one invocation per vertex: move UMBRELLA_WEIGHT of
 // the way to the neighbours' average (along free axes), then NEWTON_STEPS Newton steps on the
 // trilinear interpolant toward the level, along the physical gradient, clamped to the 3 cells
-// around where the move went.  A projection ending over u_tolerance off the level is discarded.
+// around where the move went.  The level is corrected by the interpolant's own error estimate
+// E = sum t(1 - t)/2 k (k: second differences around the vertex's first cell, from smooth_load; E
+// capped at +-u_correction; see app/reference_smooth.py).  A projection ending over u_tolerance off
+// the corrected level is discarded.  Per vertex it loads its position, ring and curvature from
+// images, and per neighbour an index and a position: no SSBO loads at all.
 // NEWTON_STEPS and CONVERGED are #defines from app/reference_smooth.py.
 layout(local_size_x = GROUP_SIZE) in;
 #include "smooth_common.glsl"
 
 uniform float u_tolerance;
+uniform float u_correction;
 layout(r32ui, binding = 3) readonly uniform uimage2D u_neighbours;
+layout(rg32ui, binding = 4) readonly uniform uimage2D u_rings;
+layout(rgba32f, binding = 5) readonly uniform image2D u_curvatures;
 layout(rgba32f, binding = 1) readonly uniform image2D u_before;
 layout(rgba32f, binding = 2) writeonly uniform image2D u_after;
+
+// F(x) - E(x) - level and its gradient (index units): vec4(gradient, residual); x in cell c, whose
+// samples are s.
+vec4 corrected(vec3 x, ivec3 c, mat2x4 s, vec3 k) {
+    vec4 f = trilinear_in(x, c, s);
+    vec3 t = x - vec3(c);
+    float error = dot(t * (1.0 - t) * 0.5, k);
+    // A select, not `if (...) f.xyz -= ...`: that form gave other results on llvmpipe (Newton failed on
+    // ~16% of the vertices of a noise volume, the numpy mirror on none).
+    vec3 slope = abs(error) <= u_correction ? (0.5 - t) * k : vec3(0.0);
+    return vec4(f.xyz - slope, f.w - clamp(error, -u_correction, u_correction) - u_level);
+}
 
 vec3 position_before(uint v) { return imageLoad(u_before, item_texel(v)).xyz; }
 
@@ -19,7 +38,8 @@ void main() {
     if (v >= u_vertex_count) return;
     vec4 here = imageLoad(u_before, item_texel(v));
     vec3 x = here.xyz, free = free_axes(here.w);
-    uint first = v == 0u ? 0u : ends[v - 1u], last = ends[v];
+    uvec2 ring = imageLoad(u_rings, item_texel(v)).xy;
+    uint first = ring.x, last = ring.y;
     vec3 offset = vec3(0.0);
     for (uint s = first; s < last; s++) offset += position_before(imageLoad(u_neighbours, item_texel(s)).x) - x;
     vec3 y = x;
@@ -28,10 +48,19 @@ void main() {
     vec3 top = vec3(u_dims - 1);
     y = clamp(y, vec3(0.0), top);
     vec3 lo = max(floor(y) - 1.0, vec3(0.0)), hi = min(floor(y) + 2.0, top);
+    vec3 k = imageLoad(u_curvatures, item_texel(v)).xyz;
     float r;
+    // A Newton step seldom leaves its cell: the cell's 8 samples are loaded again only when it does.
+    ivec3 c = cell_of(y);
+    mat2x4 samples = cell_samples(c);
     for (int step = 0; ; step++) {  // stops once within CONVERGED of the tolerance, or after NEWTON_STEPS
-        vec4 f = trilinear(y);
-        r = f.w - u_level;
+        ivec3 now = cell_of(y);
+        if (now != c) {
+            c = now;
+            samples = cell_samples(c);
+        }
+        vec4 f = corrected(y, c, samples, k);
+        r = f.w;
         if (abs(r) <= CONVERGED * u_tolerance || step == NEWTON_STEPS) break;
         vec3 g = f.xyz / u_spacing * free;
         float gg = dot(g, g);
