@@ -99,6 +99,13 @@ def _candidate_cells(faces, normals, n_tri, cos_half):
     return np.minimum.reduceat(np.minimum(np.minimum(dots[0], dots[1]), dots[2]), starts) < cos_half
 
 
+def _unique(values):
+    """np.unique(values) of a 1-D integer array by a sort (np.unique's hash table is several times slower
+    on the million-entry keys here)."""
+    ordered = np.sort(values, kind="stable")
+    return ordered[np.concatenate([[True], ordered[1:] != ordered[:-1]])] if len(ordered) else ordered
+
+
 def _patches(faces: np.ndarray, face_cell: np.ndarray) -> np.ndarray:
     """A patch id per face: faces of one cell that share a vertex (transitively) share a patch."""
     n = len(faces)
@@ -129,7 +136,7 @@ def _row_counts(*columns):
 def _padded(groups, members, n_groups, width=None):
     """(G, width) unique members of each group, ascending, padded with -1."""
     base = members.max() + 1
-    pairs = np.unique(groups * base + members)
+    pairs = _unique(groups * base + members)
     pairs = np.stack([pairs // base, pairs % base], axis=1)
     first = np.searchsorted(pairs[:, 0], np.arange(n_groups))
     slot = np.arange(len(pairs)) - first[pairs[:, 0]]
@@ -319,7 +326,7 @@ def _corner_in_empty_cell(corner, face_cells, shape, lower, upper, spacing):
     gap = np.maximum(np.maximum(lower - corner, corner - upper), 0).max(axis=1)
     found &= (gap > 0) & (gap <= spacing.min()) & (target >= 0).all(axis=1)
     found &= (target < np.array(shape) - 1).all(axis=1)
-    occupied = np.unique(np.ravel_multi_index(face_cells.T, np.array(shape) - 1))
+    occupied = _unique(np.ravel_multi_index(face_cells.T, np.array(shape) - 1))
     key = np.ravel_multi_index(np.where(found[:, None], target, 0).T, np.array(shape) - 1)
     found &= ~np.isin(key, occupied)
     takes = np.zeros(len(corner), bool)
@@ -356,6 +363,9 @@ def _flip_edges(faces, fan_rows):
 
 def vertex_normals_from_faces(verts, faces, vertices):
     """Area-weighted mean of the face normals around each of `vertices` (unit length)."""
+    wanted = np.zeros(len(verts), bool)
+    wanted[vertices] = True
+    faces = faces[wanted[faces].any(axis=1)]  # only the faces around them (the same sums, in the same order)
     tri = verts[faces].astype(np.float64)
     area_normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     sums = np.zeros((len(verts), 3))
@@ -399,7 +409,7 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points):
     cells = all_cells[cell_of_patch[feature_ids]]
     lower, upper = cells * spacing, (cells + 1) * spacing
     ring_members = _one_ring(faces, members[feature_ids])
-    needed = np.unique(ring_members[ring_members >= 0])
+    needed = _unique(ring_members[ring_members >= 0])
     plane_normals = normals.astype(np.float64)
     plane_normals[needed] = eno_normals(field, verts, needed, spacing)
     new_points, ok, corner = solver(verts, plane_normals, members[feature_ids], ring_members, lower, upper,
