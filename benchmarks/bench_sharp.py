@@ -5,9 +5,10 @@ For each volume of benchmarks/volumes.py at each size, a resident `Extractor` al
 between levels 0 and 0.01 (a slider drag).  Timed, as medians:
 
 - plain: `ex.extract(level)` (the GPU mesh stays on the GPU);
-- sharp: `ex.extract(level)` then `sharp_features.sharp_mesh_of(ex, volume, angle, field, gpu)` as
-  the viewer runs it: the mesh read back (included), the feature step in numpy with its per-patch
-  solve on the GPU (emc_solve.comp, a `SharpExtractor` kept between levels);
+- sharp: `ex.extract(level)` then `SharpenedMesh.take(ex, volume, angle)`, the viewer's iso change:
+  emc_candidates; where some cell may hold a feature, the mesh read back, the feature step in numpy
+  with its per-patch solve on the GPU (emc_solve.comp) and the crisp-normal mesh uploaded for
+  drawing; where none may, the extractor's mesh is drawn as it is;
 - numpy: the same with the per-patch solve in numpy too (`reference_sharp.patch_points`), i.e. the
   `backend="cpu"` feature step on the GPU's plain mesh (what the GPU path was before emc_solve).
 
@@ -26,8 +27,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from isoscope import Extractor  # noqa: E402
 from isoscope.reference_sharp import sharpen, signed_field  # noqa: E402
-from isoscope.sharp_extractor import SharpExtractor  # noqa: E402
-from isoscope.sharp_features import sharp_mesh_of  # noqa: E402
+from isoscope.sharp_features import SharpenedMesh  # noqa: E402
 
 from volumes import VOLUMES  # noqa: E402
 
@@ -59,21 +59,22 @@ def main(argv=None):
             with Extractor(volume, gradient_direction=gd) as ex:
                 levels = (0.0, 0.01)
                 plain, (_, triangles) = median_ms(ex.extract, levels, args.repeats)
-                field, gpu = signed_field(volume, ex.descent), SharpExtractor(ex)
+                field, shown = signed_field(volume, ex.descent), SharpenedMesh(ex.ctx)
 
-                def extract_sharp(level, ex=ex, volume=volume, field=field, gpu=gpu):
+                def extract_sharp(level, ex=ex, volume=volume, shown=shown):
                     ex.extract(level)
-                    return sharp_mesh_of(ex, volume, args.angle, field, gpu)
+                    shown.take(ex, volume, args.angle)
+                    return shown
 
                 def extract_numpy(level, ex=ex, field=field):
                     ex.extract(level)
                     return sharpen(ex.read_mesh(), field, ex.spacing, args.angle)
 
-                sharp, mesh = median_ms(extract_sharp, levels, args.repeats)
+                sharp, _ = median_ms(extract_sharp, levels, args.repeats)
                 numpy_ms, reference = median_ms(extract_numpy, levels, args.repeats)
-                gpu.release()
-            assert np.array_equal(mesh[1], reference[1]), "the GPU solve's mesh differs from numpy's"
-            features = len(mesh[0]) - mesh[4]
+                assert np.array_equal(shown.read_mesh()[1], reference[1]), "the GPU path's mesh differs from numpy's"
+                shown.release()
+            features = len(reference[0]) - reference[4]
             print(f"| {name} | {size} | {triangles:,} | {plain:.0f} | {sharp:.0f} | {sharp / plain:.1f}x | "
                   f"{numpy_ms:.0f} | {numpy_ms / plain:.1f}x | {features:,} |", flush=True)
 
