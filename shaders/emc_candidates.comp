@@ -12,16 +12,19 @@ uniform uint u_triangle_count;
 uniform float u_cos_half;  // cos of half the feature angle
 layout(std430, binding = 5) buffer Count { uint candidates; };
 layout(std430, binding = 6) readonly buffer Triangles { uint corners[]; };
-layout(std430, binding = 8) readonly buffer Vertices { vec4 records[]; };  // VERTEX_FLOATS / 4 per vertex
+layout(std430, binding = 8) readonly buffer Vertices { float vertex_data[]; };
 
 const uint RUN_LIMIT = 16u;  // a cell has at most MAX_TRIANGLES_PER_CELL; longer runs count as candidates
 
-// One vec4 load each (on llvmpipe each SSBO load is bounds-checked on its own: a third of the float loads).
-vec3 normal_of(uint v) { return records[v * uint(VERTEX_FLOATS / 4) + 1u].xyz; }
+vec3 normal_of(uint v) {
+    uint base = v * uint(VERTEX_FLOATS) + 4u;
+    return vec3(vertex_data[base], vertex_data[base + 1u], vertex_data[base + 2u]);
+}
 
 // reference_sharp.edge_of_vertex's start point: floor along the edge's axis, the grid plane on the others.
 ivec3 edge_start(uint v) {
-    vec3 g = records[v * uint(VERTEX_FLOATS / 4)].xyz / u_spacing;
+    uint base = v * uint(VERTEX_FLOATS);
+    vec3 g = vec3(vertex_data[base], vertex_data[base + 1u], vertex_data[base + 2u]) / u_spacing;
     vec3 nearest = roundEven(g);
     return ivec3(mix(nearest, floor(g), greaterThan(abs(g - nearest), vec3(1e-3))));
 }
