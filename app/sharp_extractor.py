@@ -6,10 +6,7 @@
 
 Passes (shaders/emc_*.comp; numpy mirror and the method: app/reference_sharp.py):
 
-1. ``emc_candidates`` per triangle: counts the cells that may hold a feature (a loosened
-   reference_sharp._candidate_cells).  None: the plain mesh is the answer, and it stays on the
-   GPU (`SharpenedMesh` draws the extractor's buffers; nothing is read back).
-2. ``emc_solve``  per feature patch: ENO normals of its vertices and one-ring from the volume
+1. ``emc_solve``  per feature patch: ENO normals of its vertices and one-ring from the volume
    image, the extreme normals, the planes' least-squares point (a fixed-step Jacobi eigen-solve
    of the 3x3 normal equations, in double precision as numpy's), the line or corner into the cell.
 
@@ -28,9 +25,6 @@ from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
 from .reference_sharp import CLUSTER_ANGLE, JACOBI_SWEEPS, LINE_MARGIN, MAX_PATCH_VERTICES, SINGULAR_CUTOFF
 
-CANDIDATE_SLACK = 1e-4
-"""emc_candidates loosens the candidate test by this much (cosine), against float rounding."""
-
 RING_STEP = 16
 """Ring lists' capacity in the shader is their width rounded up to this (one program per capacity)."""
 
@@ -48,8 +42,7 @@ class SharpExtractor:
         self._defines = {**extractor.volume_defines, "JACOBI_SWEEPS": JACOBI_SWEEPS,
                          "SINGULAR_CUTOFF_SQ": _double(SINGULAR_CUTOFF ** 2),
                          "CLUSTER_COS": _double(np.cos(np.radians(CLUSTER_ANGLE))),
-                         "LINE_MARGIN": _double(LINE_MARGIN), "MAX_PATCH_VERTICES": MAX_PATCH_VERTICES,
-                         "CANDIDATE_SLACK": repr(CANDIDATE_SLACK)}
+                         "LINE_MARGIN": _double(LINE_MARGIN), "MAX_PATCH_VERTICES": MAX_PATCH_VERTICES}
         self._buffers: dict[str, moderngl.Buffer] = {}
 
     def _program(self, name: str, **defines) -> moderngl.ComputeShader:
@@ -65,23 +58,6 @@ class SharpExtractor:
         if data:
             buf.write(data)
         return buf
-
-    def candidate_cells(self, angle: float, mesh: GpuMesh | None = None) -> int:
-        """How many cells of the extractor's mesh (or `mesh`) may hold a feature at `angle` degrees, at
-        least as many as reference_sharp finds: 0 means `sharpen` gives the plain mesh back."""
-        mesh = self.extractor.mesh if mesh is None else mesh
-        if mesh.n_triangles == 0:
-            return 0
-        program = self._program("emc_candidates")
-        set_uniforms(program, **self.extractor.grid_uniforms, u_triangle_count=mesh.n_triangles,
-                     u_cos_half=float(np.cos(np.radians(angle / 2))))
-        count = self._upload("count", np.zeros(1, np.uint32))
-        count.bind_to_storage_buffer(5)
-        mesh.index_buffer.bind_to_storage_buffer(6, size=mesh.n_triangles * 12)
-        mesh.vertex_buffer.bind_to_storage_buffer(8, size=mesh.n_vertices * VERTEX_BYTES)
-        dispatch_groups(program, -(-mesh.n_triangles // GROUP_SIZE))
-        self.ctx.memory_barrier()
-        return int(np.frombuffer(count.read(size=4), np.uint32)[0])
 
     def patch_points(self, verts, plane_normals, members, ring_members, lower, upper, spacing, cos_angle,
                      mesh: GpuMesh | None = None):

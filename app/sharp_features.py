@@ -22,11 +22,9 @@ def sharp_mesh_of(extractor, volume_data, angle, field=None, gpu: SharpExtractor
 
     `field`: signed_field(volume_data, extractor.descent) if already made; `gpu`: a SharpExtractor of
     `extractor` to reuse (else one is made and released here)."""
+    field = signed_field(volume_data, extractor.descent) if field is None else field
     solver = SharpExtractor(extractor) if gpu is None else gpu
     try:
-        if solver.candidate_cells(angle) == 0:  # sharpen would give the plain mesh back
-            return (*extractor.read_mesh(), extractor.n_vertices)
-        field = signed_field(volume_data, extractor.descent) if field is None else field
         return sharpen(extractor.read_mesh(), field, extractor.spacing, angle, solver=solver.patch_points)
     finally:
         if gpu is None:
@@ -67,8 +65,7 @@ class SharpenedMesh:
     """An extractor's last mesh with sharp features, uploaded for drawing with crisp normals (the
     viewer's GpuSurface shows it in place of the extractor's).  Offers what the viewer reads of an
     extractor: `mesh`, `level`, counts, `last_extract_ms`, `read_mesh()` (the mesh without the
-    crisp-normal copies of vertices, as the API returns it).  A level where emc_candidates finds no
-    cell that could hold a feature shows the extractor's own mesh: nothing is read back or uploaded."""
+    crisp-normal copies of vertices, as the API returns it)."""
 
     def __init__(self, ctx):
         self.ctx = ctx
@@ -79,7 +76,6 @@ class SharpenedMesh:
         self._arrays = None
         self._field, self._field_key = None, None
         self._gpu: SharpExtractor | None = None
-        self._plain_of = None  # the extractor whose own mesh is on show (no feature at this level)
 
     def take(self, extractor, volume_data, angle: float) -> None:
         start = time.perf_counter()
@@ -90,21 +86,16 @@ class SharpenedMesh:
         if self._gpu is None or self._gpu.extractor is not extractor:
             self._release_gpu()
             self._gpu = SharpExtractor(extractor)
+        sharpened = sharp_mesh_of(extractor, volume_data, angle, self._field, self._gpu)
+        drawn = GpuMesh.upload(self.ctx, *crisp_normals(*sharpened))
+        self._release_mesh()
+        self.mesh, self._arrays = drawn, sharpened[:4]
         self.level = extractor.level
-        if self._gpu.candidate_cells(angle) == 0:  # the plain mesh as it is: drawn from the extractor's buffers
-            self._release_mesh()
-            self.mesh, self._arrays, self._plain_of = extractor.mesh, None, extractor
-            self.n_vertices, self.n_triangles = extractor.n_vertices, extractor.n_triangles
-        else:
-            sharpened = sharp_mesh_of(extractor, volume_data, angle, self._field, self._gpu)
-            drawn = GpuMesh.upload(self.ctx, *crisp_normals(*sharpened))
-            self._release_mesh()
-            self.mesh, self._arrays = drawn, sharpened[:4]
-            self.n_vertices, self.n_triangles = len(sharpened[0]), len(sharpened[1])
+        self.n_vertices, self.n_triangles = len(sharpened[0]), len(sharpened[1])
         self.last_extract_ms = extractor.last_extract_ms + 1000 * (time.perf_counter() - start)
 
     def read_mesh(self):
-        return self._plain_of.read_mesh() if self._plain_of is not None else self._arrays
+        return self._arrays
 
     def release(self) -> None:
         self._field, self._field_key = None, None
@@ -117,6 +108,6 @@ class SharpenedMesh:
             self._gpu = None
 
     def _release_mesh(self) -> None:
-        if self.mesh is not None and self._plain_of is None:  # the extractor's own buffers stay its own
+        if self.mesh is not None:
             self.mesh.release()
-        self.mesh, self._plain_of = None, None
+            self.mesh = None

@@ -209,36 +209,3 @@ def test_gpu_feature_points_match_the_numpy_reference(gl_ctx, name, spacing):
     np.testing.assert_array_equal(gpu_mesh[1], cpu_mesh[1])
     for a, b in zip(gpu_mesh[::2], cpu_mesh[::2]):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-5)
-
-
-@pytest.mark.parametrize("name", list(GPU_SCENES))
-def test_gpu_candidate_count_bounds_the_numpy_candidates(gl_ctx, name):
-    """emc_candidates counts at least the cells reference_sharp takes as candidates (barely more: its
-    slack), and none where numpy finds none; then the viewer draws the extractor's own buffers."""
-    from isoscope import Extractor
-    from isoscope.reference_sharp import _candidate_cells, cell_runs
-    from isoscope.sharp_extractor import SharpExtractor
-    from isoscope.sharp_features import SharpenedMesh
-
-    volume = GPU_SCENES[name]().astype(np.float32)
-    with Extractor(volume, ctx=gl_ctx) as ex:
-        ex.extract(0.0)
-        verts, faces, normals, _ = plain = ex.read_mesh()
-        n_tri = cell_runs(verts, faces, np.ones(3))[1]
-        gpu = SharpExtractor(ex)
-        try:
-            for angle in (10, 30, 60):
-                cpu = _candidate_cells(faces, normals, n_tri, np.cos(np.radians(angle / 2))).sum()
-                assert cpu <= gpu.candidate_cells(angle) <= cpu + 0.05 * len(n_tri)
-                assert (gpu.candidate_cells(angle) == 0) == (cpu == 0), angle
-        finally:
-            gpu.release()
-        shown = SharpenedMesh(gl_ctx)
-        try:
-            shown.take(ex, volume, 30)
-            assert (shown.mesh.vertex_buffer is ex.vertex_buffer) == (name == "sphere")
-            for a, b in zip(shown.read_mesh(), iso.marching_cubes(volume, 0.0, sharp_features=30, backend="cpu")):
-                np.testing.assert_allclose(a, b, rtol=0, atol=1e-5)
-        finally:
-            shown.release()
-        assert ex.read_mesh()[0].shape == plain[0].shape  # the extractor's buffers were not released
