@@ -4,9 +4,8 @@ The feature step (app.reference_sharp.sharpen) runs on the mesh the Extractor re
 its per-patch solve (ENO normals, the planes' point) on the GPU: `SharpExtractor.patch_points`,
 shaders/emc_solve.comp, which gives the numpy reference's points to ~1e-14.  Grouping triangles
 into patches, the one-ring lists, fans, edge flips, the feature vertices' normals and the crisp
-normals for drawing are still numpy (see app/sharp_extractor.py for what remains).  For drawing,
-triangles at feature vertices get face normals (reference_sharp.crisp_normals), so edges render
-crisp.
+normals for drawing are still numpy (see app/sharp_extractor.py).  For drawing, triangles at
+feature vertices get face normals (reference_sharp.crisp_normals), so edges render crisp.
 """
 from __future__ import annotations
 
@@ -65,7 +64,8 @@ class SharpenedMesh:
     """An extractor's last mesh with sharp features, uploaded for drawing with crisp normals (the
     viewer's GpuSurface shows it in place of the extractor's).  Offers what the viewer reads of an
     extractor: `mesh`, `level`, counts, `last_extract_ms`, `read_mesh()` (the mesh without the
-    crisp-normal copies of vertices, as the API returns it)."""
+    crisp-normal copies of vertices, as the API returns it).  A level without features draws the
+    extractor's own buffers (no upload)."""
 
     def __init__(self, ctx):
         self.ctx = ctx
@@ -76,6 +76,7 @@ class SharpenedMesh:
         self._arrays = None
         self._field, self._field_key = None, None
         self._gpu: SharpExtractor | None = None
+        self._borrowed = False  # `mesh` is the extractor's own (drawn, not uploaded, when it has no feature)
 
     def take(self, extractor, volume_data, angle: float) -> None:
         start = time.perf_counter()
@@ -87,9 +88,10 @@ class SharpenedMesh:
             self._release_gpu()
             self._gpu = SharpExtractor(extractor)
         sharpened = sharp_mesh_of(extractor, volume_data, angle, self._field, self._gpu)
-        drawn = GpuMesh.upload(self.ctx, *crisp_normals(*sharpened))
+        plain = len(sharpened[0]) == sharpened[4]  # no feature at this level: the extractor's mesh as it is
+        drawn = extractor.mesh if plain else GpuMesh.upload(self.ctx, *crisp_normals(*sharpened))
         self._release_mesh()
-        self.mesh, self._arrays = drawn, sharpened[:4]
+        self.mesh, self._arrays, self._borrowed = drawn, sharpened[:4], plain
         self.level = extractor.level
         self.n_vertices, self.n_triangles = len(sharpened[0]), len(sharpened[1])
         self.last_extract_ms = extractor.last_extract_ms + 1000 * (time.perf_counter() - start)
@@ -108,6 +110,6 @@ class SharpenedMesh:
             self._gpu = None
 
     def _release_mesh(self) -> None:
-        if self.mesh is not None:
+        if self.mesh is not None and not self._borrowed:
             self.mesh.release()
-            self.mesh = None
+        self.mesh, self._borrowed = None, False

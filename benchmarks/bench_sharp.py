@@ -6,11 +6,10 @@ between levels 0 and 0.01 (a slider drag).  Timed, as medians:
 
 - plain: `ex.extract(level)` (the GPU mesh stays on the GPU);
 - sharp: `ex.extract(level)` then `SharpenedMesh.take(ex, volume, angle)`, the viewer's iso change:
-  emc_candidates; where some cell may hold a feature, the mesh read back, the feature step in numpy
-  with its per-patch solve on the GPU (emc_solve.comp) and the crisp-normal mesh uploaded for
-  drawing; where none may, the extractor's mesh is drawn as it is;
-- numpy: the same with the per-patch solve in numpy too (`reference_sharp.patch_points`), i.e. the
-  `backend="cpu"` feature step on the GPU's plain mesh (what the GPU path was before emc_solve).
+  the mesh read back, the feature step in numpy with its per-patch solve on the GPU (emc_solve.comp)
+  and the crisp-normal mesh uploaded for drawing;
+- numpy: extract, read back and `reference_sharp.sharpen` all in numpy (the `backend="cpu"` feature
+  step on the GPU's plain mesh; what the GPU path was before emc_solve, less the drawing upload).
 
 Prints a markdown table; ratios only mean something within one run (+-10-15% noise here).
 """

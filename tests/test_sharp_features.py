@@ -209,3 +209,26 @@ def test_gpu_feature_points_match_the_numpy_reference(gl_ctx, name, spacing):
     np.testing.assert_array_equal(gpu_mesh[1], cpu_mesh[1])
     for a, b in zip(gpu_mesh[::2], cpu_mesh[::2]):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-5)
+
+
+def test_viewer_mesh_without_features_is_the_extractors_own(gl_ctx):
+    """SharpenedMesh draws the extractor's buffers where no feature is found (nothing uploaded), and
+    its own upload where one is; either way read_mesh() is the cpu backend's mesh."""
+    from isoscope import Extractor
+    from isoscope.sharp_features import SharpenedMesh
+
+    for name in ("sphere", "box"):
+        volume = GPU_SCENES[name]().astype(np.float32)
+        with Extractor(volume, ctx=gl_ctx) as ex:
+            shown = SharpenedMesh(gl_ctx)
+            try:
+                for level in (0.0, 0.5, 0.0):
+                    ex.extract(level)
+                    shown.take(ex, volume, 30)
+                    assert (shown.mesh.vertex_buffer is ex.vertex_buffer) == (name == "sphere")
+                    cpu = iso.marching_cubes(volume, level, sharp_features=30, backend="cpu")
+                    np.testing.assert_array_equal(shown.read_mesh()[1], cpu[1])
+                    assert shown.n_vertices == len(cpu[0])
+            finally:
+                shown.release()
+            assert ex.read_mesh()[0].shape[0] == ex.n_vertices > 0  # its buffers were not released
