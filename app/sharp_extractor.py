@@ -92,9 +92,6 @@ class SharpExtractor:
         corner = np.where(result[:, 7:8] > 0, result[:, 4:7], np.nan)
         return result[:, :3].copy(), result[:, 3] > 0, corner
 
-    def scratch_bytes(self) -> int:
-        return sum(buf.size for buf in self._buffers.values())
-
     def release(self) -> None:
         for buf in self._buffers.values():
             buf.release()
