@@ -57,7 +57,9 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         `app.reference_sharp`) adds a vertex on the sharp edge or corner of each cell
         whose normals open wider than the angle, so boxes keep their edges.  The
         extra vertices come after the plain ones; the mesh stays watertight.  The
-        plain mesh is made on the chosen backend, the feature step in numpy.
+        plain mesh is made on the chosen backend; on "gpu" the feature step's per-patch
+        solve runs there too (shaders/emc_solve.comp: the numpy reference's mesh), the
+        rest of it in numpy; on "cpu" all of it in numpy.
 
     Returns ``verts`` (N, 3) float32 in array-index order times spacing,
     ``faces`` (M, 3) int32, ``normals`` (N, 3) float32 unit vectors, ``values``
@@ -91,6 +93,9 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
 
     if backend == "cpu":
         mesh = _on_cpu(marching_cubes_reference, checked, level, spacing, descent, iterations)
+    elif angle is not None:
+        from .sharp_features import marching_cubes_sharp_gpu
+        return marching_cubes_sharp_gpu(checked, level, spacing, gradient_direction, angle)
     else:
         mesh = _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra=False)
     if mask is not None:

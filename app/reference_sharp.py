@@ -7,9 +7,10 @@ Starts from the plain marching-cubes mesh (`app.reference`) and changes it in tw
    as Kobbelt) open wider than the feature angle theta (some pair meets at
    more than theta), the patch is a piece of an edge or corner: one extra
    vertex goes where the tangent planes (through each edge vertex, normal to
-   its normal) meet in the least-squares sense.  That quadric is solved by SVD
-   relative to the mass point, with singular values under SINGULAR_CUTOFF
-   times the largest dropped (two planes meet in a line: the point on it
+   its normal) meet in the least-squares sense.  That quadric is solved
+   relative to the mass point (a fixed-step Jacobi eigen-solve of its 3x3 normal
+   equations, the same steps as the GPU's), with singular values under
+   SINGULAR_CUTOFF times the largest dropped (two planes meet in a line: the point on it
    nearest the mass point, slid along it into the cell); the point is clamped
    into the cell.  The patch is replaced by a fan from that vertex to the
    patch's boundary loop, which keeps every boundary edge, so the mesh stays
@@ -98,6 +99,13 @@ def _candidate_cells(faces, normals, n_tri, cos_half):
     return np.minimum.reduceat(np.minimum(np.minimum(dots[0], dots[1]), dots[2]), starts) < cos_half
 
 
+def _unique(values):
+    """np.unique(values) of a 1-D integer array by a sort (np.unique's hash table is several times slower
+    on the million-entry keys here)."""
+    ordered = np.sort(values, kind="stable")
+    return ordered[np.concatenate([[True], ordered[1:] != ordered[:-1]])] if len(ordered) else ordered
+
+
 def _patches(faces: np.ndarray, face_cell: np.ndarray) -> np.ndarray:
     """A patch id per face: faces of one cell that share a vertex (transitively) share a patch."""
     n = len(faces)
@@ -128,7 +136,7 @@ def _row_counts(*columns):
 def _padded(groups, members, n_groups, width=None):
     """(G, width) unique members of each group, ascending, padded with -1."""
     base = members.max() + 1
-    pairs = np.unique(groups * base + members)
+    pairs = _unique(groups * base + members)
     pairs = np.stack([pairs // base, pairs % base], axis=1)
     first = np.searchsorted(pairs[:, 0], np.arange(n_groups))
     slot = np.arange(len(pairs)) - first[pairs[:, 0]]
@@ -152,29 +160,57 @@ def _one_ring(faces, members):
     return _padded(np.concatenate([rows, np.repeat(rows, count)]), np.concatenate([v, nbr]), len(members))
 
 
+JACOBI_SWEEPS = 6  # cyclic Jacobi sweeps of the 3x3 normal equations: double precision well before then
+
+
+def symmetric_eigen(m):
+    """Eigenvalues (P, 3), descending, and unit eigenvectors (P, 3, 3; column j for value j) of the
+    symmetric matrices `m` (P, 3, 3): JACOBI_SWEEPS cyclic Jacobi sweeps (rotations over (0, 1), (0, 2),
+    (1, 2)), then a stable sort.  A fixed number of steps, so emc_common.glsl takes the same ones."""
+    a = np.array(m, np.float64)
+    v = np.broadcast_to(np.eye(3), a.shape).copy()
+    with np.errstate(over="ignore"):  # theta overflows for tiny off-diagonals: t = 0, no rotation (as in GLSL)
+        for _ in range(JACOBI_SWEEPS):
+            for p, q in ((0, 1), (0, 2), (1, 2)):
+                apq = a[:, p, q]
+                rotate = apq != 0.0
+                theta = (a[:, q, q] - a[:, p, p]) / (2.0 * np.where(rotate, apq, 1.0))
+                t = np.where(theta >= 0, 1.0, -1.0) / (np.abs(theta) + np.sqrt(theta * theta + 1.0))
+                c = np.where(rotate, 1.0 / np.sqrt(t * t + 1.0), 1.0)
+                s = np.where(rotate, t * c, 0.0)
+                j = np.broadcast_to(np.eye(3), a.shape).copy()
+                j[:, p, p], j[:, q, q], j[:, p, q], j[:, q, p] = c, c, s, -s
+                a = np.transpose(j, (0, 2, 1)) @ a @ j
+                v = v @ j
+    values = np.diagonal(a, axis1=1, axis2=2)
+    order = np.argsort(-values, axis=1, kind="stable")
+    return np.take_along_axis(values, order, axis=1), np.take_along_axis(v, order[:, None, :], axis=2)
+
+
 def feature_points(positions, normals, valid, lower, upper):
     """Where the tangent planes of each patch (P, W, 3) meet: (points, ok, corners, kinds).
 
-    The quadric is solved relative to the mass point by SVD, singular values under SINGULAR_CUTOFF x the
-    largest dropped.  Three kept and the point inside the cell: a corner, that point.  Otherwise, with two
-    planes' worth (the smallest dropped if need be): an edge, the line where they meet; the point on it
-    nearest the mass point, slid along it into the cell.  Not ok: one plane's worth (no feature after all)
-    or a line that misses the cell.  `corners`: the rank-3 points, unclamped (nan where rank < 3); `kinds`:
-    3 where the point is such a corner, 2 where it is on a line."""
+    The quadric is solved relative to the mass point through the eigen-decomposition of its normal
+    equations (`symmetric_eigen`; the squares of the planes' singular values), singular values under
+    SINGULAR_CUTOFF x the largest dropped.  Three kept and the point inside the cell: a corner, that point.
+    Otherwise, with two planes' worth (the smallest dropped if need be): an edge, the line where they meet;
+    the point on it nearest the mass point, slid along it into the cell.  Not ok: one plane's worth (no
+    feature after all) or a line that misses the cell.  `corners`: the rank-3 points, unclamped (nan where
+    rank < 3); `kinds`: 3 where the point is such a corner, 2 where it is on a line."""
     w = valid[..., None].astype(np.float64)
     mass = (positions * w).sum(axis=1) / w.sum(axis=1)
     a = normals * w
     b = np.einsum("pvk,pvk->pv", a, positions - mass[:, None, :])
-    u, s, vt = np.linalg.svd(a, full_matrices=False)
-    ub = np.einsum("pvj,pv->pj", u, b)
-    keep = s > SINGULAR_CUTOFF * s[:, :1]
+    values, vectors = symmetric_eigen(np.einsum("pvi,pvj->pij", a, a))
+    along = np.einsum("pij,pi->pj", vectors, np.einsum("pvi,pv->pi", a, b))  # each eigenvector . A^T b
+    keep = values > SINGULAR_CUTOFF ** 2 * values[:, :1]
     rank = keep.sum(axis=1)
-    inv = np.where(keep, 1.0 / np.where(keep, s, 1.0), 0.0)
-    corner = mass + np.einsum("pji,pj->pi", vt, inv * ub)
+    inv = np.where(keep, 1.0 / np.where(keep, values, 1.0), 0.0)
+    corner = mass + np.einsum("pij,pj->pi", vectors, inv * along)
     corner = np.where(rank[:, None] == 3, corner, np.nan)
     inv[:, 2] = 0.0
-    x = mass + np.einsum("pji,pj->pi", vt, inv * ub)  # on the line x + t d
-    d = vt[:, 2]
+    x = mass + np.einsum("pij,pj->pi", vectors, inv * along)  # on the line x + t d
+    d = vectors[:, :, 2]
     slack = 1e-6 * (upper - lower)
     moving = np.abs(d) > 1e-12
     safe = np.where(moving, d, 1.0)
@@ -254,6 +290,31 @@ def _solve(verts, normals, members, lower, upper, cos_angle):
     return feature_points(verts[picked].astype(np.float64), n * valid[..., None], valid, lower, upper)
 
 
+def patch_points(verts, plane_normals, members, ring_members, lower, upper, spacing, cos_angle):
+    """Each feature patch's vertex: (points (P, 3), ok (P,), corners (P, 3), nan where none).
+
+    `members` (P, MAX_PATCH_VERTICES) and `ring_members` (P, W): the patch's vertices and those with their
+    neighbours, padded with -1; `lower`, `upper` (P, 3): the patch's cell.  shaders/emc_solve.comp does the
+    same per patch."""
+    new_points, ok = _solve(verts, plane_normals, members, lower, upper, cos_angle)[:2]
+    # The sides' own normals show purer around the patch than in it (central differences blend the sides
+    # in the samples next to an edge), and a corner's third side shows more often: where the planes of the
+    # patch's vertices and their neighbours meet in a line through the cell, or in a point inside it, take
+    # that.  (Three sides meeting outside the cell: the patch's own line is the better guess.)
+    ring, ring_ok, corner, kind = _solve(verts, plane_normals, ring_members, lower, upper, cos_angle)
+    two_sides = ~np.isfinite(corner).all(axis=1) & (kind == 2)
+    ring_ok &= (kind == 3) | two_sides
+    # The two sides' line passes near the cell but not through it (edge vertices next to an edge sit off
+    # it, where linear interpolation crossed the field's kink): the point of it nearest the cell.
+    margin = LINE_MARGIN * spacing
+    near, near_ok = _solve(verts, plane_normals, ring_members, lower - margin, upper + margin, cos_angle)[:2]
+    near_ok &= two_sides & ~ring_ok
+    ring[near_ok], ring_ok = np.clip(near[near_ok], lower[near_ok], upper[near_ok]), ring_ok | near_ok
+    ok &= ring_ok | ~two_sides  # the line misses the cell by more: a blend made the patch look bent
+    new_points[ring_ok], ok = ring[ring_ok], ok | ring_ok
+    return new_points, ok, corner
+
+
 def _corner_in_empty_cell(corner, face_cells, shape, lower, upper, spacing):
     """Which patches take their corner point (P, 3; nan where none) that lies in a neighbouring cell.
 
@@ -265,7 +326,7 @@ def _corner_in_empty_cell(corner, face_cells, shape, lower, upper, spacing):
     gap = np.maximum(np.maximum(lower - corner, corner - upper), 0).max(axis=1)
     found &= (gap > 0) & (gap <= spacing.min()) & (target >= 0).all(axis=1)
     found &= (target < np.array(shape) - 1).all(axis=1)
-    occupied = np.unique(np.ravel_multi_index(face_cells.T, np.array(shape) - 1))
+    occupied = _unique(np.ravel_multi_index(face_cells.T, np.array(shape) - 1))
     key = np.ravel_multi_index(np.where(found[:, None], target, 0).T, np.array(shape) - 1)
     found &= ~np.isin(key, occupied)
     takes = np.zeros(len(corner), bool)
@@ -302,6 +363,9 @@ def _flip_edges(faces, fan_rows):
 
 def vertex_normals_from_faces(verts, faces, vertices):
     """Area-weighted mean of the face normals around each of `vertices` (unit length)."""
+    wanted = np.zeros(len(verts), bool)
+    wanted[vertices] = True
+    faces = faces[wanted[faces].any(axis=1)]  # only the faces around them (the same sums, in the same order)
     tri = verts[faces].astype(np.float64)
     area_normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     sums = np.zeros((len(verts), 3))
@@ -311,9 +375,11 @@ def vertex_normals_from_faces(verts, faces, vertices):
     return (picked / np.maximum(np.linalg.norm(picked, axis=1, keepdims=True), 1e-30)).astype(np.float32)
 
 
-def sharpen(mesh, field, spacing, angle):
+def sharpen(mesh, field, spacing, angle, solver=patch_points):
     """Extended MC on the plain mesh `mesh` (verts, faces, normals, values) of `field` (sign-adjusted: it
-    grows into the object).  Returns (verts, faces, normals, values, n_plain_vertices)."""
+    grows into the object).  Returns (verts, faces, normals, values, n_plain_vertices).
+
+    `solver`: `patch_points` or a stand-in that computes the same (the GPU's, app.sharp_extractor)."""
     verts, faces, normals, values = mesh
     n_plain = len(verts)
     if len(faces) == 0:
@@ -343,25 +409,11 @@ def sharpen(mesh, field, spacing, angle):
     cells = all_cells[cell_of_patch[feature_ids]]
     lower, upper = cells * spacing, (cells + 1) * spacing
     ring_members = _one_ring(faces, members[feature_ids])
-    needed = np.unique(ring_members[ring_members >= 0])
+    needed = _unique(ring_members[ring_members >= 0])
     plane_normals = normals.astype(np.float64)
     plane_normals[needed] = eno_normals(field, verts, needed, spacing)
-    new_points, ok = _solve(verts, plane_normals, members[feature_ids], lower, upper, cos_angle)[:2]
-    # The sides' own normals show purer around the patch than in it (central differences blend the sides
-    # in the samples next to an edge), and a corner's third side shows more often: where the planes of the
-    # patch's vertices and their neighbours meet in a line through the cell, or in a point inside it, take
-    # that.  (Three sides meeting outside the cell: the patch's own line is the better guess.)
-    ring, ring_ok, corner, kind = _solve(verts, plane_normals, ring_members, lower, upper, cos_angle)
-    two_sides = ~np.isfinite(corner).all(axis=1) & (kind == 2)
-    ring_ok &= (kind == 3) | two_sides
-    # The two sides' line passes near the cell but not through it (edge vertices next to an edge sit off
-    # it, where linear interpolation crossed the field's kink): the point of it nearest the cell.
-    margin = LINE_MARGIN * spacing
-    near, near_ok = _solve(verts, plane_normals, ring_members, lower - margin, upper + margin, cos_angle)[:2]
-    near_ok &= two_sides & ~ring_ok
-    ring[near_ok], ring_ok = np.clip(near[near_ok], lower[near_ok], upper[near_ok]), ring_ok | near_ok
-    ok &= ring_ok | ~two_sides  # the line misses the cell by more: a blend made the patch look bent
-    new_points[ring_ok], ok = ring[ring_ok], ok | ring_ok
+    new_points, ok, corner = solver(verts, plane_normals, members[feature_ids], ring_members, lower, upper,
+                                    spacing, cos_angle)
     takes = _corner_in_empty_cell(corner, all_cells, field.shape, lower, upper, spacing)
     new_points[takes], ok = corner[takes], ok | takes
     is_feature[feature_ids[~ok]] = False  # the planes meet outside the cell: keep its plain patch

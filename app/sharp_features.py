@@ -1,20 +1,41 @@
 """Extended Marching Cubes for the GPU extractor's meshes, and `isoscope render --sharp`.
 
-The feature step (app.reference_sharp) runs in numpy on the mesh the Extractor read back;
-there are no emc_* compute shaders yet.  For drawing, triangles at feature vertices get
-face normals (reference_sharp.crisp_normals), so edges render crisp.
+The feature step (app.reference_sharp.sharpen) runs on the mesh the Extractor read back, with
+its per-patch solve (ENO normals, the planes' point) on the GPU: `SharpExtractor.patch_points`,
+shaders/emc_solve.comp, which gives the numpy reference's points to ~1e-14.  Grouping triangles
+into patches, the one-ring lists, fans, edge flips, the feature vertices' normals and the crisp
+normals for drawing are still numpy (see app/sharp_extractor.py).  For drawing, triangles at
+feature vertices get face normals (reference_sharp.crisp_normals), so edges render crisp.
 """
 from __future__ import annotations
 
 import time
 
 from .mesh import GpuMesh
-from .reference_sharp import crisp_normals, sharpen, sharpen_extracted, signed_field
+from .reference_sharp import crisp_normals, sharpen, signed_field
+from .sharp_extractor import SharpExtractor
 
 
-def sharp_mesh_of(extractor, volume_data, angle):
-    """The extractor's last mesh with sharp features: verts, faces, normals, values, n_plain_vertices."""
-    return sharpen_extracted(extractor.read_mesh(), volume_data, extractor.spacing, extractor.descent, angle)
+def sharp_mesh_of(extractor, volume_data, angle, field=None, gpu: SharpExtractor | None = None):
+    """The extractor's last mesh with sharp features: verts, faces, normals, values, n_plain_vertices.
+
+    `field`: signed_field(volume_data, extractor.descent) if already made; `gpu`: a SharpExtractor of
+    `extractor` to reuse (else one is made and released here)."""
+    field = signed_field(volume_data, extractor.descent) if field is None else field
+    solver = SharpExtractor(extractor) if gpu is None else gpu
+    try:
+        return sharpen(extractor.read_mesh(), field, extractor.spacing, angle, solver=solver.patch_points)
+    finally:
+        if gpu is None:
+            solver.release()
+
+
+def marching_cubes_sharp_gpu(checked, level, spacing, gradient_direction, angle):
+    """`api.marching_cubes(..., sharp_features=angle, backend="gpu")`: extract, then sharp_mesh_of."""
+    from .extractor import Extractor
+    with Extractor(checked, spacing=spacing, gradient_direction=gradient_direction) as extractor:
+        extractor.extract(level)
+        return sharp_mesh_of(extractor, checked.data, angle)[:4]
 
 
 def render_sharp_png(volume, out, iso, angle, size=(800, 600), azimuth=None, elevation=None,
@@ -43,7 +64,8 @@ class SharpenedMesh:
     """An extractor's last mesh with sharp features, uploaded for drawing with crisp normals (the
     viewer's GpuSurface shows it in place of the extractor's).  Offers what the viewer reads of an
     extractor: `mesh`, `level`, counts, `last_extract_ms`, `read_mesh()` (the mesh without the
-    crisp-normal copies of vertices, as the API returns it)."""
+    crisp-normal copies of vertices, as the API returns it).  A level without features draws the
+    extractor's own buffers (no upload)."""
 
     def __init__(self, ctx):
         self.ctx = ctx
@@ -53,6 +75,8 @@ class SharpenedMesh:
         self.last_extract_ms = 0.0
         self._arrays = None
         self._field, self._field_key = None, None
+        self._gpu: SharpExtractor | None = None
+        self._borrowed = False  # `mesh` is the extractor's own (drawn, not uploaded, when it has no feature)
 
     def take(self, extractor, volume_data, angle: float) -> None:
         start = time.perf_counter()
@@ -60,10 +84,14 @@ class SharpenedMesh:
         key = (id(volume_data), extractor.descent)
         if self._field_key != key:
             self._field, self._field_key = signed_field(volume_data, extractor.descent), key
-        sharpened = sharpen(extractor.read_mesh(), self._field, extractor.spacing, angle)
-        drawn = GpuMesh.upload(self.ctx, *crisp_normals(*sharpened))
+        if self._gpu is None or self._gpu.extractor is not extractor:
+            self._release_gpu()
+            self._gpu = SharpExtractor(extractor)
+        sharpened = sharp_mesh_of(extractor, volume_data, angle, self._field, self._gpu)
+        plain = len(sharpened[0]) == sharpened[4]  # no feature at this level: the extractor's mesh as it is
+        drawn = extractor.mesh if plain else GpuMesh.upload(self.ctx, *crisp_normals(*sharpened))
         self._release_mesh()
-        self.mesh, self._arrays = drawn, sharpened[:4]
+        self.mesh, self._arrays, self._borrowed = drawn, sharpened[:4], plain
         self.level = extractor.level
         self.n_vertices, self.n_triangles = len(sharpened[0]), len(sharpened[1])
         self.last_extract_ms = extractor.last_extract_ms + 1000 * (time.perf_counter() - start)
@@ -73,9 +101,15 @@ class SharpenedMesh:
 
     def release(self) -> None:
         self._field, self._field_key = None, None
+        self._release_gpu()
         self._release_mesh()
 
+    def _release_gpu(self) -> None:
+        if self._gpu is not None:
+            self._gpu.release()
+            self._gpu = None
+
     def _release_mesh(self) -> None:
-        if self.mesh is not None:
+        if self.mesh is not None and not self._borrowed:
             self.mesh.release()
-            self.mesh = None
+        self.mesh, self._borrowed = None, False

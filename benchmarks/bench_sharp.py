@@ -5,8 +5,11 @@ For each volume of benchmarks/volumes.py at each size, a resident `Extractor` al
 between levels 0 and 0.01 (a slider drag).  Timed, as medians:
 
 - plain: `ex.extract(level)` (the GPU mesh stays on the GPU);
-- sharp: `ex.extract(level)` then `sharp_features.sharp_mesh_of(ex, volume, angle)`: the mesh read
-  back and the feature step in numpy (no emc_* shaders yet), read-back included.
+- sharp: `ex.extract(level)` then `SharpenedMesh.take(ex, volume, angle)`, the viewer's iso change:
+  the mesh read back, the feature step in numpy with its per-patch solve on the GPU (emc_solve.comp)
+  and the crisp-normal mesh uploaded for drawing;
+- numpy: extract, read back and `reference_sharp.sharpen` all in numpy (the `backend="cpu"` feature
+  step on the GPU's plain mesh; what the GPU path was before emc_solve, less the drawing upload).
 
 Prints a markdown table; ratios only mean something within one run (+-10-15% noise here).
 """
@@ -22,7 +25,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from isoscope import Extractor  # noqa: E402
-from isoscope.sharp_features import sharp_mesh_of  # noqa: E402
+from isoscope.reference_sharp import sharpen, signed_field  # noqa: E402
+from isoscope.sharp_features import SharpenedMesh  # noqa: E402
 
 from volumes import VOLUMES  # noqa: E402
 
@@ -45,8 +49,8 @@ def main(argv=None):
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args(argv)
     print(f"### Sharp features (theta = {args.angle:g} deg) vs plain MC, iso change, median ms\n")
-    print("| volume | n | triangles | plain | sharp | ratio | feature vertices |")
-    print("|---|---:|---:|---:|---:|---:|---:|")
+    print("| volume | n | triangles | plain | sharp | ratio | numpy | ratio | feature vertices |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for size in (int(s) for s in args.sizes.split(",")):
         for name in args.volumes.split(","):
             make, gd = VOLUMES[name]
@@ -54,13 +58,24 @@ def main(argv=None):
             with Extractor(volume, gradient_direction=gd) as ex:
                 levels = (0.0, 0.01)
                 plain, (_, triangles) = median_ms(ex.extract, levels, args.repeats)
-                def extract_sharp(level, ex=ex, volume=volume):
+                field, shown = signed_field(volume, ex.descent), SharpenedMesh(ex.ctx)
+
+                def extract_sharp(level, ex=ex, volume=volume, shown=shown):
                     ex.extract(level)
-                    return sharp_mesh_of(ex, volume, args.angle)
-                sharp, mesh = median_ms(extract_sharp, levels, args.repeats)
-            features = len(mesh[0]) - mesh[4]
+                    shown.take(ex, volume, args.angle)
+                    return shown
+
+                def extract_numpy(level, ex=ex, field=field):
+                    ex.extract(level)
+                    return sharpen(ex.read_mesh(), field, ex.spacing, args.angle)
+
+                sharp, _ = median_ms(extract_sharp, levels, args.repeats)
+                numpy_ms, reference = median_ms(extract_numpy, levels, args.repeats)
+                assert np.array_equal(shown.read_mesh()[1], reference[1]), "the GPU path's mesh differs from numpy's"
+                shown.release()
+            features = len(reference[0]) - reference[4]
             print(f"| {name} | {size} | {triangles:,} | {plain:.0f} | {sharp:.0f} | {sharp / plain:.1f}x | "
-                  f"{features:,} |", flush=True)
+                  f"{numpy_ms:.0f} | {numpy_ms / plain:.1f}x | {features:,} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -156,3 +156,79 @@ def test_rendered_box_fills_its_edges_and_corners(tmp_path):
 
     plain, sharp = surface_pixels(), surface_pixels("--sharp", "30")
     assert sharp >= 1.08 * plain, (plain, sharp)
+
+
+def smooth_noise(n, seed=3):
+    """A smooth random field: a few random plane waves (no sharp features, but bends here and there)."""
+    rng = np.random.default_rng(seed)
+    points = grid_points(n) / n
+    waves = [np.cos(points @ rng.normal(0, 12, 3) + rng.uniform(0, 2 * np.pi)) for _ in range(6)]
+    return np.sum(waves, axis=0).astype(np.float32)
+
+
+GPU_SCENES = {
+    **{name: (lambda boxes=boxes: -union_sdf(boxes, grid_points(N))) for name, boxes in SCENES.items()},
+    "sphere": lambda: 10.5 - np.linalg.norm(grid_points(N) - 11.7, axis=-1),
+    "smooth noise": lambda: smooth_noise(N),
+}
+
+
+@pytest.mark.parametrize("spacing", [(1.0, 1.0, 1.0), (1.0, 0.8, 1.3)])
+@pytest.mark.parametrize("name", list(GPU_SCENES))
+def test_gpu_feature_points_match_the_numpy_reference(gl_ctx, name, spacing):
+    """emc_solve.comp against reference_sharp.patch_points on the same patches (and the meshes they give)."""
+    from isoscope import Extractor
+    from isoscope.reference_sharp import patch_points, sharpen, signed_field
+    from isoscope.sharp_extractor import SharpExtractor
+
+    volume = GPU_SCENES[name]().astype(np.float32)
+    seen = {}
+
+    def recorded(key, solve):
+        def run(*args):
+            seen[key] = solve(*args)
+            return seen[key]
+        return run
+
+    with Extractor(volume, spacing=spacing, ctx=gl_ctx) as ex:
+        ex.extract(0.0)
+        mesh, field, gpu = ex.read_mesh(), signed_field(volume, True), SharpExtractor(ex)
+        try:
+            cpu_mesh = sharpen(mesh, field, spacing, 30, solver=recorded("cpu", patch_points))
+            gpu_mesh = sharpen(mesh, field, spacing, 30, solver=recorded("gpu", gpu.patch_points))
+        finally:
+            gpu.release()
+    if name == "sphere":
+        assert not seen and len(cpu_mesh[0]) == cpu_mesh[4]  # no feature patch at all
+        return
+    (cpu_points, cpu_ok, cpu_corner), (gpu_points, gpu_ok, gpu_corner) = seen["cpu"], seen["gpu"]
+    assert len(cpu_points) > 0 and cpu_ok.any()
+    np.testing.assert_array_equal(gpu_ok, cpu_ok)
+    np.testing.assert_allclose(gpu_points, cpu_points, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(gpu_corner, cpu_corner, rtol=0, atol=1e-9)  # nan where rank < 3, on both
+    np.testing.assert_array_equal(gpu_mesh[1], cpu_mesh[1])
+    for a, b in zip(gpu_mesh[::2], cpu_mesh[::2]):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-5)
+
+
+def test_viewer_mesh_without_features_is_the_extractors_own(gl_ctx):
+    """SharpenedMesh draws the extractor's buffers where no feature is found (nothing uploaded), and
+    its own upload where one is; either way read_mesh() is the cpu backend's mesh."""
+    from isoscope import Extractor
+    from isoscope.sharp_features import SharpenedMesh
+
+    for name in ("sphere", "box"):
+        volume = GPU_SCENES[name]().astype(np.float32)
+        with Extractor(volume, ctx=gl_ctx) as ex:
+            shown = SharpenedMesh(gl_ctx)
+            try:
+                for level in (0.0, 0.5, 0.0):
+                    ex.extract(level)
+                    shown.take(ex, volume, 30)
+                    assert (shown.mesh.vertex_buffer is ex.vertex_buffer) == (name == "sphere")
+                    cpu = iso.marching_cubes(volume, level, sharp_features=30, backend="cpu")
+                    np.testing.assert_array_equal(shown.read_mesh()[1], cpu[1])
+                    assert shown.n_vertices == len(cpu[0])
+            finally:
+                shown.release()
+            assert ex.read_mesh()[0].shape[0] == ex.n_vertices > 0  # its buffers were not released

@@ -1,0 +1,98 @@
+"""Extended Marching Cubes' feature step on the GPU, on the mesh an `Extractor` already holds.
+
+    >>> ex = Extractor(volume); ex.extract(level)
+    >>> sharp = SharpExtractor(ex)                  # borrows its volume image and mesh buffers
+    >>> sharp.patch_points(...)                     # reference_sharp.patch_points, on the GPU
+
+Passes (shaders/emc_*.comp; numpy mirror and the method: app/reference_sharp.py):
+
+1. ``emc_solve``  per feature patch: ENO normals of its vertices and one-ring from the volume
+   image, the extreme normals, the planes' least-squares point (a fixed-step Jacobi eigen-solve
+   of the 3x3 normal equations, in double precision as numpy's), the line or corner into the cell.
+
+What is not on the GPU yet (numpy, on the mesh read back): finding each triangle's cell and the
+candidate cells, grouping into patches, the feature test, the one-ring lists, the side normals,
+corners in empty cells, fans, edge flips, the feature vertices' normals and the crisp normals
+for drawing (reference_sharp.crisp_normals; the drawn mesh is uploaded).
+`sharpen(..., solver=SharpExtractor(ex).patch_points)` is the numpy reference with pass 1
+swapped in; it gives the same mesh (tests/test_sharp_features.py).  A GPU candidate-cell pass
+was tried and dropped: on llvmpipe it cost more than numpy's read-back and test (git log).
+"""
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from .gpu_layout import GROUP_SIZE, VERTEX_BYTES
+from .gpu_programs import compute_program, dispatch_groups, set_uniforms
+from .mesh import GpuMesh
+from .reference_sharp import CLUSTER_ANGLE, JACOBI_SWEEPS, LINE_MARGIN, MAX_PATCH_VERTICES, SINGULAR_CUTOFF
+
+RING_STEP = 16
+"""Ring lists' capacity in the shader is their width rounded up to this (one program per capacity)."""
+
+
+def _double(value) -> str:
+    return f"{float(value)!r}lf"
+
+
+class SharpExtractor:
+    """Runs the Extended-MC passes on meshes of one extractor's volume; keeps its scratch buffers."""
+
+    def __init__(self, extractor):
+        self.extractor = extractor
+        self.ctx = extractor.ctx
+        self._defines = {**extractor.volume_defines, "JACOBI_SWEEPS": JACOBI_SWEEPS,
+                         "SINGULAR_CUTOFF_SQ": _double(SINGULAR_CUTOFF ** 2),
+                         "CLUSTER_COS": _double(np.cos(np.radians(CLUSTER_ANGLE))),
+                         "LINE_MARGIN": _double(LINE_MARGIN), "MAX_PATCH_VERTICES": MAX_PATCH_VERTICES}
+        self._buffers: dict[str, moderngl.Buffer] = {}
+
+    def _program(self, name: str, **defines) -> moderngl.ComputeShader:
+        return compute_program(self.ctx, f"{name}.comp", {**self._defines, **defines})
+
+    def _upload(self, name: str, array: np.ndarray) -> moderngl.Buffer:
+        data = np.ascontiguousarray(array).tobytes()
+        buf = self._buffers.get(name)
+        if buf is None or buf.size < max(len(data), 4):
+            if buf is not None:
+                buf.release()
+            buf = self._buffers[name] = self.ctx.buffer(reserve=max(len(data), 4))
+        if data:
+            buf.write(data)
+        return buf
+
+    def patch_points(self, verts, plane_normals, members, ring_members, lower, upper, spacing, cos_angle,
+                     mesh: GpuMesh | None = None):
+        """reference_sharp.patch_points on the GPU for the extractor's mesh (or `mesh`, whose vertices
+        `verts` are): the planes' normals are made from the volume, so `plane_normals` is not read."""
+        ex = self.extractor
+        mesh = ex.mesh if mesh is None else mesh
+        n_patches = len(members)
+        if n_patches == 0:
+            return np.zeros((0, 3)), np.zeros(0, bool), np.zeros((0, 3))
+        cells = np.rint(lower / np.asarray(spacing, np.float64)).astype(np.int32)
+        ring_width = ring_members.shape[1]
+        program = self._program("emc_solve", RING_CAPACITY=-(-max(ring_width, MAX_PATCH_VERTICES) // RING_STEP)
+                                * RING_STEP)
+        set_uniforms(program, **ex.grid_uniforms, u_sign=1.0 if ex.descent else -1.0, u_patch_count=n_patches,
+                     u_ring_width=ring_width)
+        program["u_spacing_d"].value = tuple(float(s) for s in spacing)
+        program["u_out_of_plane"].value = float(np.sqrt(1 - cos_angle ** 2))
+        ex.volume_texture.bind_to_image(0, read=True, write=False)
+        self._upload("members", members.astype(np.int32)).bind_to_storage_buffer(1)
+        self._upload("ring", ring_members.astype(np.int32)).bind_to_storage_buffer(2)
+        self._upload("cells", cells).bind_to_storage_buffer(3)
+        out = self._upload("points", np.zeros(8 * n_patches, np.float64))
+        out.bind_to_storage_buffer(4)
+        mesh.vertex_buffer.bind_to_storage_buffer(8, size=max(mesh.n_vertices, 1) * VERTEX_BYTES)
+        dispatch_groups(program, -(-n_patches // GROUP_SIZE))
+        self.ctx.memory_barrier()
+        result = np.frombuffer(out.read(size=64 * n_patches), np.float64).reshape(-1, 8)
+        corner = np.where(result[:, 7:8] > 0, result[:, 4:7], np.nan)
+        return result[:, :3].copy(), result[:, 3] > 0, corner
+
+    def release(self) -> None:
+        for buf in self._buffers.values():
+            buf.release()
+        self._buffers.clear()
