@@ -98,7 +98,10 @@ def test_a_label_map_shows_one_coloured_surface_per_label(viewer, two_labels, tm
     colors = [look.color for look in state.looks]
     assert colors[0] != colors[1]
     both = viewer.render()
+    assert state.label_counts() == (2, sum(len(s[0]) for s in surfaces.values()),
+                                    sum(len(s[1]) for s in surfaces.values()))
     assert state.set_label_visible(7, False) and drawn_triangles(state) == [len(surfaces[1][1])]
+    assert state.label_counts() == (1, len(surfaces[1][0]), len(surfaces[1][1]))   # the stats: what is drawn
     assert not np.array_equal(viewer.render(), both)
     # Save writes what is shown: the visible label, one file each (STL), in the file's world space.
     assert state.save_mesh(tmp_path / "out.stl")
@@ -110,6 +113,31 @@ def test_a_label_map_shows_one_coloured_surface_per_label(viewer, two_labels, tm
     assert len(np.unique(mesh.visual.vertex_colors[:, :3], axis=0)) == 2
     state.hide_labels()
     assert len(state.meshes) == 1     # back to the isosurface
+
+
+HISTOGRAM_RGB = (230, 179, 0)   # imgui's default PlotHistogram colour (0.90, 0.70, 0.00)
+
+
+def histogram_pixels(image):
+    return int((np.abs(image.astype(int) - HISTOGRAM_RGB) <= 3).all(axis=2).sum())
+
+
+def test_a_label_map_takes_the_place_of_the_iso_value_section(gl_ctx, two_labels):
+    """The iso value does nothing to a label map: while one is on show the panel has no iso slider and
+    no value histogram; back to the isosurface, both return."""
+    viewer = HeadlessViewer((480, 900), ctx=gl_ctx)
+    try:
+        volume = open_volume(str(two_labels))
+        viewer.show(volume)
+        assert histogram_pixels(viewer.render(panel=True)) > 20
+        assert viewer._panel.iso_slider_box is not None
+        assert viewer.state.show_labels(volume)
+        assert histogram_pixels(viewer.render(panel=True)) == 0
+        assert viewer._panel.iso_slider_box is None
+        viewer.state.hide_labels()
+        assert histogram_pixels(viewer.render(panel=True)) > 20
+    finally:
+        viewer.release()
 
 
 def test_a_volume_without_labels_is_refused_and_the_view_stays(viewer):

@@ -59,6 +59,11 @@ class LabelLayers:
         self.error = f"no label {label} on show"
         return False
 
+    def label_counts(self) -> tuple[int, int, int]:
+        """(labels shown, vertices, triangles) of the visible labels' surfaces: the stats of what is drawn."""
+        shown = [layer.mesh for layer in self.label_layers if layer.visible]
+        return len(shown), sum(m.n_vertices for m in shown), sum(m.n_triangles for m in shown)
+
     def _shown_labels(self) -> list[tuple[GpuMesh, SurfaceLook]]:
         return [(layer.mesh, SurfaceLook(layer.color, 1.0)) for layer in self.label_layers if layer.visible]
 

@@ -97,10 +97,11 @@ class Panel:
         if expanded:
             self._messages(state)   # first: an error must be seen, even in a short window
             self._volume_section(state)
-            self._iso_section(state)
-            if state.label_layers:   # a label map on show: its labels stand in for the levels
+            if state.label_layers:   # a label map on show: its labels stand in for the iso value and the levels
+                self.iso_slider_box = self.histogram_box = None
                 self.labels_section.draw(state)
             else:
+                self._iso_section(state)
                 self.levels_section.draw(state)
                 self.mesh_section.draw(state)
             self._display_section(state)
@@ -245,6 +246,18 @@ class Panel:
 
     def _stats_section(self, state: ViewerState) -> None:
         imgui.separator_text("Stats")
+        if state.label_layers:   # what is drawn: the visible labels, not the (hidden) level's mesh
+            shown, vertices, triangles = state.label_counts()
+            imgui.text(f"labels     {shown} of {len(state.label_layers)} shown")
+            imgui.text(f"vertices   {vertices:,}")
+            imgui.text(f"triangles  {triangles:,}")
+        else:
+            self._level_stats(state)
+        imgui.text(f"frame      {state.frame_ms:.1f} ms" if state.frame_ms else "frame      -")
+        imgui.text_wrapped(f"GL: {state.gl_renderer}")
+
+    @staticmethod
+    def _level_stats(state: ViewerState) -> None:
         imgui.text(f"vertices   {state.n_vertices:,}")
         imgui.text(f"triangles  {state.n_triangles:,}")
         if state.preview_step > 1:
@@ -254,8 +267,6 @@ class Panel:
             for i in range(len(state.levels)):
                 triangles, ms = state.level_stats(i)
                 imgui.text(f"surface {i + 1}  {triangles:,} triangles, {ms:.1f} ms")
-        imgui.text(f"frame      {state.frame_ms:.1f} ms" if state.frame_ms else "frame      -")
-        imgui.text_wrapped(f"GL: {state.gl_renderer}")
 
     def _messages(self, state: ViewerState) -> None:
         if state.error:
