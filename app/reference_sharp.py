@@ -41,8 +41,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .case_table import CaseTable
-
 SINGULAR_CUTOFF = 0.1  # singular values below this fraction of the largest are treated as zero
 MAX_PATCH_VERTICES = 12
 LINE_MARGIN = 0.25  # cells: how far an edge line may pass outside a cell and still count as the cell's
@@ -478,11 +476,3 @@ def signed_field(volume, descent: bool) -> np.ndarray:
 def sharpen_extracted(mesh, volume, spacing, descent, angle):
     """`sharpen` for a plain mesh of `volume` as `marching_cubes` returns it (either backend)."""
     return sharpen(mesh, signed_field(volume, descent), spacing, angle)
-
-
-def marching_cubes_sharp_reference(volume, level, spacing=(1.0, 1.0, 1.0), descent=True, angle=30.0,
-                                   table: CaseTable | None = None):
-    """Plain MC then Extended MC: verts, faces, normals, values (feature vertices after the plain ones)."""
-    from .reference import marching_cubes_reference
-    mesh = marching_cubes_reference(volume, level, spacing, descent, table)
-    return sharpen_extracted(mesh, volume, spacing, descent, angle)[:4]
