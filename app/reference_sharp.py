@@ -85,6 +85,55 @@ def cell_runs(verts, faces, spacing):
     return cells[first], np.diff(np.append(first, len(faces)))
 
 
+BEND_MARGIN = 0.05  # degrees off the half-angle in vertex_may_bend: far more than float32 rounding
+
+
+def bend_cos(angle) -> np.float32:
+    """vertex_may_bend's threshold: the cosine of half the feature angle less BEND_MARGIN."""
+    return np.float32(np.cos(np.radians(angle / 2 - BEND_MARGIN)))
+
+
+def vertex_may_bend(verts, normals, field, spacing, angle):
+    """Per vertex of a plain MC mesh of `field` (sign-adjusted), whether a cell around its edge may
+    hold a feature: its normal is more than half the feature angle (less BEND_MARGIN) from some
+    around cell's outward direction r_C, minus its mean gradient (or r_C is zero; or the vertex lies
+    on no grid edge, as after smoothing).  Conservative: if no vertex of cell C is flagged, each of
+    C's normals is within angle/2 of r_C, so any two are within the angle of each other and
+    `sharpen`'s feature test (some pair of a patch's normals opening wider) fails in C.  So where no
+    vertex is flagged, `sharpen` returns the plain mesh.  shaders/emc_flags.comp does the same per
+    vertex, in float32 and in the edge's frame (u, w across it, ascending, a along it) as here."""
+    g = verts.astype(np.float64) / np.asarray(spacing, np.float64)
+    along = np.abs(g - np.rint(g)) > 1e-3
+    flagged = along.sum(axis=1) != 1
+    start = np.where(along, np.floor(g), np.rint(g)).astype(np.int64)
+    a = along.astype(np.int64)
+    u = np.where(along[:, :1], [0, 1, 0], [1, 0, 0])
+    w = np.where(along[:, 2:], [0, 1, 0], [0, 0, 1])
+    frame = np.stack([u, w, a], axis=1)  # (N, 3 axes of the frame, xyz)
+    n = np.einsum("nfk,nk->nf", frame, normals.astype(np.float32)).astype(np.float32)
+    step = (frame @ np.asarray(spacing, np.float64)).astype(np.float32)
+    f = {(i, j, k): field[tuple(np.clip(start + (i - 1) * u + (j - 1) * w + k * a, 0,
+                                        np.array(field.shape) - 1).T)]
+         for i in range(3) for j in range(3) for k in range(2)}
+    cos_half, upper = bend_cos(angle), np.array(field.shape) - 2
+    for du in (0, 1):
+        for dw in (0, 1):
+            cell = start - (1 - du) * u - (1 - dw) * w
+            exists = ~flagged & (cell >= 0).all(axis=1) & (cell <= upper).all(axis=1)
+            c = {(i, j, k): f[du + i, dw + j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)}
+            grad = np.stack([(c[1, 0, 0] - c[0, 0, 0]) + (c[1, 0, 1] - c[0, 0, 1])
+                             + ((c[1, 1, 0] - c[0, 1, 0]) + (c[1, 1, 1] - c[0, 1, 1])),
+                             (c[0, 1, 0] - c[0, 0, 0]) + (c[0, 1, 1] - c[0, 0, 1])
+                             + ((c[1, 1, 0] - c[1, 0, 0]) + (c[1, 1, 1] - c[1, 0, 1])),
+                             (c[0, 0, 1] - c[0, 0, 0]) + (c[0, 1, 1] - c[0, 1, 0])
+                             + ((c[1, 0, 1] - c[1, 0, 0]) + (c[1, 1, 1] - c[1, 1, 0]))], axis=1) / (4 * step)
+            length = np.sqrt((grad * grad).sum(axis=1))
+            with np.errstate(invalid="ignore", divide="ignore"):
+                dots = (n * (-grad / length[:, None])).sum(axis=1)
+            flagged |= exists & (~(length > 0) | ~(dots >= cos_half))
+    return flagged
+
+
 def _candidate_cells(faces, normals, n_tri, cos_half):
     """Cells where some vertex normal is more than half the feature angle from the cell's mean normal:
     only there can a patch's normals open wider than the angle (a cheap test over the whole mesh)."""
