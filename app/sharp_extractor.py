@@ -33,8 +33,14 @@ from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
 from .reference_sharp import CLUSTER_ANGLE, JACOBI_SWEEPS, LINE_MARGIN, MAX_PATCH_VERTICES, SINGULAR_CUTOFF, bend_cos
 
-RING_STEP = 16
-"""Ring lists' capacity in the shader is their width rounded up to this (one program per capacity)."""
+RING_STEP = 48
+"""Ring lists' capacity in the shader is their width rounded up to this (one program per capacity).
+
+One capacity covers every ring seen (widths ~20-30 on noise, boxes), so a process compiles emc_solve
+once.  Not smaller: llvmpipe keeps private arrays of up to ~32 entries in registers, and then takes
+~16-18 s to compile the shader (capacity 32) against ~2 s from 40 on, where they live in scratch
+memory; the solve runs as fast either way (noise 128: 0.25 s at 32, 0.23 s at 48).  Timed with
+MESA_SHADER_CACHE_DISABLE=true: Mesa's disk cache hides the compile after a machine's first run."""
 
 
 def _double(value) -> str:
