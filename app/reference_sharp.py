@@ -148,8 +148,9 @@ def _candidate_cells(faces, normals, n_tri, cos_half):
 
 def _unique(values):
     """np.unique(values) of a 1-D integer array by a sort (np.unique's hash table is several times slower
-    on the million-entry keys here)."""
-    ordered = np.sort(values, kind="stable")
+    on the million-entry keys here; equal keys are equal, so the sort need not be stable, and numpy's
+    default sort is ~4x faster than its stable one on such keys)."""
+    ordered = np.sort(values)
     return ordered[np.concatenate([[True], ordered[1:] != ordered[:-1]])] if len(ordered) else ordered
 
 
@@ -194,12 +195,16 @@ def _padded(groups, members, n_groups, width=None):
 
 def _one_ring(faces, members):
     """(P, W) the vertices of each row of `members` (padded with -1) and their neighbours in the mesh."""
-    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    wanted = np.zeros(faces.max() + 2, bool)
+    n_ids = faces.max() + 2
+    wanted = np.zeros(n_ids, bool)
     wanted[members[members >= 0]] = True
+    a, b, c = faces.T
+    near = wanted[a] | wanted[b] | wanted[c]  # only the faces at wanted vertices have their edges
+    a, b, c = a[near], b[near], c[near]
+    edges = np.stack([np.concatenate([a, b, c]), np.concatenate([b, c, a])], axis=1)
     edges = edges[wanted[edges[:, 0]]]
-    edges = edges[np.argsort(edges[:, 0], kind="stable")]
-    starts = np.searchsorted(edges[:, 0], np.arange(faces.max() + 2))
+    edges = edges[np.argsort(edges[:, 0])]  # (neighbours' order is free: _padded sorts them)
+    starts = np.searchsorted(edges[:, 0], np.arange(n_ids))
     rows, cols = np.nonzero(members >= 0)
     v = members[rows, cols]
     count = starts[v + 1] - starts[v]
@@ -304,14 +309,15 @@ def eno_gradient(field, points, spacing):
     edge and blend its two sides; a one-sided difference from the flat side does not."""
     shape = np.array(field.shape)
     grad = np.empty(points.shape, np.float64)
+    flat_field = field.reshape(-1)
+    strides = np.array([shape[1] * shape[2], shape[2], 1])
+    flat = points @ strides
+    f0 = flat_field[flat].astype(np.float64)
     for axis in range(3):
-        samples = []
-        for offset in (0, 1, -1, 2, -2):
-            q = points.copy()
-            q[:, axis] = np.clip(points[:, axis] + offset, 0, shape[axis] - 1)
-            samples.append(field[tuple(q.T)].astype(np.float64))
-        f0, fp, fm, fpp, fmm = samples
         k = points[:, axis]
+        # Flat indices of the neighbours along the axis (clamped into the grid), gathered from 1-D.
+        fp, fm, fpp, fmm = (flat_field[flat + (np.clip(k + offset, 0, shape[axis] - 1) - k) * strides[axis]]
+                            .astype(np.float64) for offset in (1, -1, 2, -2))
         rough_fwd = np.where(k + 2 < shape[axis], np.abs(fpp - 2 * fp + f0), np.inf)
         rough_bwd = np.where(k - 2 >= 0, np.abs(f0 - 2 * fm + fmm), np.inf)
         use_fwd = (k == 0) | ((k + 1 < shape[axis]) & (rough_fwd < rough_bwd))
@@ -319,12 +325,21 @@ def eno_gradient(field, points, spacing):
     return grad
 
 
+def _eno_gradients_at(field, points, spacing):
+    """eno_gradient at each of `points` (N, 3), computed once per distinct grid point (neighbouring
+    vertices share their edges' ends): the same numbers, at a fraction of the gathers."""
+    shape = np.array(field.shape)
+    flat = np.ravel_multi_index(points.T, shape)
+    unique, where = np.unique(flat, return_inverse=True)
+    return eno_gradient(field, np.stack(np.unravel_index(unique, shape), axis=1), spacing)[where.reshape(-1)]
+
+
 def eno_normals(field, verts, ids, spacing):
     """Outward unit normals of vertices `ids` from ENO gradients at their edge's ends, interpolated along it
     as mc_vertices.comp interpolates central differences."""
     start, along, t = edge_of_vertex(verts, ids, spacing)
-    grad = (eno_gradient(field, start, spacing) * (1 - t)[:, None]
-            + eno_gradient(field, start + along, spacing) * t[:, None])
+    ends = _eno_gradients_at(field, np.concatenate([start, start + along]), spacing)
+    grad = ends[:len(ids)] * (1 - t)[:, None] + ends[len(ids):] * t[:, None]
     length = np.linalg.norm(grad, axis=1, keepdims=True)
     return np.where(length > 0, -grad / np.where(length > 0, length, 1), 0.0)
 
