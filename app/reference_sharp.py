@@ -72,14 +72,25 @@ def edge_of_vertex(verts, ids, spacing):
     return start, along, (g - start)[along]
 
 
+def _edge_starts(verts, spacing):
+    """edge_of_vertex's start points of all `verts`, as three int32 columns (cell_runs' fast path)."""
+    columns = []
+    for axis in range(3):
+        g = verts[:, axis].astype(np.float64) / spacing[axis]
+        nearest = np.rint(g)
+        columns.append(np.where(np.abs(g - nearest) > 1e-3, np.floor(g), nearest).astype(np.int32))
+    return columns
+
+
 def cell_runs(verts, faces, spacing):
     """Both extractors emit faces cell by cell: the cells (C, 3) with faces, in order, and their face counts.
 
     A face's cell is the least grid coordinate of its corners' edges per axis (its three corners never
     all lie on one face of the cell)."""
-    start = edge_of_vertex(verts, np.arange(len(verts)), spacing)[0]
-    a, b, c = faces.T  # (per column, not .min(axis=1): numpy reduces short rows slowly)
-    cells = np.stack([np.minimum(np.minimum(s[a], s[b]), s[c]) for s in start.T], axis=1)
+    a, b, c = (np.ascontiguousarray(column) for column in faces.T)  # (per column, not .min(axis=1): numpy
+    # reduces short rows slowly; int32 columns gather faster)
+    cells = np.stack([np.minimum(np.minimum(s[a], s[b]), s[c]) for s in _edge_starts(verts, spacing)],
+                     axis=1).astype(np.int64)
     key = (cells[:, 0] * (cells[:, 1].max() + 1) + cells[:, 1]) * (cells[:, 2].max() + 1) + cells[:, 2]
     first = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]]))
     return cells[first], np.diff(np.append(first, len(faces)))
