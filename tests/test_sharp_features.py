@@ -293,3 +293,28 @@ def test_bend_pass_flags_every_cell_whose_normals_open_wider_than_the_angle(gl_c
         assert not any_flag  # the pass does let the plain mesh through where nothing bends
     if name not in ("sphere", "smooth noise") and angle <= 60:
         assert (widest > angle).any()  # the scenes do test the bound
+
+
+def test_bend_pass_flags_vertices_a_smoothing_moved_off_the_grid_edges(gl_ctx):
+    """Pass 0 tests a vertex against the cells of the edge it lies on; after smoothing most vertices lie on
+    no edge, and those say 'may bend' (the numpy step then runs, as before pass 0), like the mirror."""
+    from isoscope import Extractor
+    from isoscope.reference_sharp import signed_field, vertex_may_bend
+    from isoscope.sharp_extractor import SharpExtractor
+    from isoscope.smoothing import Smoother
+
+    volume = GPU_SCENES["sphere"]().astype(np.float32)
+    with Extractor(volume, ctx=gl_ctx) as ex:
+        ex.extract(0.0)
+        gpu, smoother = SharpExtractor(ex), Smoother(ex)
+        try:
+            assert not gpu.may_bend(30)  # the plain sphere bends nowhere
+            smoother.smooth(ex.mesh, 3)
+            flags = gpu.may_bend(30, each=True)
+            verts, _, normals, _ = ex.read_mesh()
+        finally:
+            gpu.release()
+            smoother.release()
+    on_an_edge = (np.abs(verts - np.rint(verts)) > 1e-3).sum(axis=1) == 1  # (unit spacing)
+    assert (~on_an_edge).sum() > len(verts) // 2 and flags[~on_an_edge].all()
+    np.testing.assert_array_equal(flags, vertex_may_bend(verts, normals, signed_field(volume, True), (1, 1, 1), 30))
