@@ -76,6 +76,9 @@ bool vertex_may_bend(uint index) {
 void main() {
     uint index = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
     if (index >= u_vertex_count) return;
+#ifndef FLAG_EACH
+    if (flags[0] != 0u) return;  // one is enough: groups that start after it skip their work (noise)
+#endif
     bool bent = vertex_may_bend(index);
 #ifdef FLAG_EACH
     flags[1u + index] = bent ? 1u : 0u;
