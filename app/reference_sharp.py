@@ -218,13 +218,13 @@ def _row_counts(*columns):
 def _padded(groups, members, n_groups, width=None):
     """(G, width) unique members of each group, ascending, padded with -1."""
     base = members.max() + 1
-    pairs = _unique(groups * base + members)
-    pairs = np.stack([pairs // base, pairs % base], axis=1)
-    first = np.searchsorted(pairs[:, 0], np.arange(n_groups))
-    slot = np.arange(len(pairs)) - first[pairs[:, 0]]
-    out = np.full((n_groups, width or slot.max() + 1), -1, np.int64)
-    out[pairs[:, 0], slot] = pairs[:, 1]
-    return out
+    group, member = np.divmod(_unique(groups * base + members), base)
+    counts = np.bincount(group, minlength=n_groups)
+    width = width or counts.max()
+    slot = np.arange(len(group)) - np.repeat(np.cumsum(counts) - counts, counts)
+    out = np.full(n_groups * width, -1, np.int64)
+    out[group * width + slot] = member
+    return out.reshape(n_groups, width)
 
 
 def _one_ring(faces, members):
