@@ -494,6 +494,8 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points):
     patch = _patches(sub, face_cell)
     n_patches = patch.max() + 1
     members = _padded(np.repeat(patch, 3), sub.reshape(-1), n_patches, MAX_PATCH_VERTICES)
+    # (vertex_may_bend, pass 0 on the GPU, skips all of this where no cell's mesh normals open wider than
+    # the angle: a feature must keep needing two of them to, or that bound must change with it.)
     is_feature = _opens_wider(normals, members, cos_angle, angle)
     if not is_feature.any():
         return (*mesh, n_plain)
