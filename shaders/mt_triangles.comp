@@ -43,18 +43,20 @@ uint vertex_index(CellRows rows, Owners here, Owners next, uint k, uint code) {
     return first_of_kind(here, row, kind) + uint(bitCount(kind_crossing(rows, row, kind) & ((1u << bit) - 1u)));
 }
 
-// Name each vertex the word owns in its slot.
-void write_vertex_jobs(uint id, uint next, CellRows rows, ivec3 word) {
-    for (uint kind = 0u; kind < KINDS; ++kind) {
-        uint bits = owned_crossings(rows, word, kind);
-        for (; bits != 0u; ++next) {
-            uint b = uint(findLSB(bits));
-            bits &= bits - 1u;
-            uint slot = next - u_vertex_window.x;  // wraps past the window's count when next is before it
-            if (slot < u_vertex_window.y) {
-                vertex_words[uint(VERTEX_FLOATS) * slot] = id;
-                vertex_words[uint(VERTEX_FLOATS) * slot + 1u] = (kind << 5) | b;
-            }
+// Name each vertex the word owns in its slot: one iteration per vertex, kind by kind, as in
+// mc_triangles.comp.  Not a loop per kind: the SIMD lanes (words) of a vector would then run
+// each kind's loop as long as their busiest, the sum of seven maxima instead of one.
+void write_vertex_jobs(uint id, uint next, uint count, CellRows rows, ivec3 word) {
+    uint end = next + count;
+    uint kind = 0u, bits = owned_crossings(rows, word, 0u);
+    for (; next < end; ++next) {
+        while (bits == 0u) bits = owned_crossings(rows, word, ++kind);
+        uint b = uint(findLSB(bits));
+        bits &= bits - 1u;
+        uint slot = next - u_vertex_window.x;  // wraps past the window's count when next is before it
+        if (slot < u_vertex_window.y) {
+            vertex_words[uint(VERTEX_FLOATS) * slot] = id;
+            vertex_words[uint(VERTEX_FLOATS) * slot + 1u] = (kind << 5) | b;
         }
     }
 }
@@ -78,7 +80,7 @@ void main() {
     bool triangles = meets(first.y, counts.z, u_triangle_window);
     if (!vertices && !triangles) return;
     CellRows rows = border_rows(word.x, word.y, word.z);
-    if (vertices) write_vertex_jobs(id, first.x, rows, word);
+    if (vertices) write_vertex_jobs(id, first.x, mt_vertex_total(counts), rows, word);
     if (!triangles) return;
 
     uint cells = mixed_cells(rows, word.z);
