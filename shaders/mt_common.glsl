@@ -9,7 +9,8 @@
 //
 // Per word, the counts image (rgba32ui) holds: x = where kinds 1-4 start among the word's own
 // vertices (8 bits each), y = where kinds 5 and 6 start and the word's vertex total (8 bits each),
-// z = the triangles of the word's cells.
+// z = the triangles of the word's cells, w = the brick-local index (see brick_word()) of the word
+// that mt_triangles.comp's invocation at this word's place handles (mt_word_offsets.comp says why).
 layout(std140, binding = 0) uniform CaseTable { uvec4 case_table[CASE_TABLE_QUADS]; };
 
 uint case_table_word(uint index) { return pick(case_table[index >> 2], index & 3u); }
@@ -24,6 +25,7 @@ uint kind_start(uint starts_x, uint starts_y, uint kind) {
                                        : (starts_y >> (8u * (kind - 5u))) & 255u;
 }
 uint mt_vertex_total(uvec4 counts) { return (counts.y >> 16) & 255u; }
+uint mt_work(uvec4 counts) { return mt_vertex_total(counts) + counts.z; }  // mt_triangles.comp's loop iterations
 
 // The sign rows around a row of cells as cell_rows() gives them, with the rows past the grid's
 // last row along axis 0 or 1 zero (their edges are masked off by kind_crossings).

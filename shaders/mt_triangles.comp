@@ -72,6 +72,9 @@ void main() {
     bool exists;
     ivec3 word = brick_word(brick, exists);
     if (!exists) return;
+    // The word this invocation takes: mt_word_offsets.comp ordered the brick's words by work.
+    uint local = imageLoad(u_word_counts, word_texel(word_id_of(word.x, word.y, word.z))).w;
+    word = brick_origin(brick) + ivec3(int(local) / BRICK_J, int(local) % BRICK_J, 0);
     uint id = word_id_of(word.x, word.y, word.z);
     uvec4 counts = imageLoad(u_word_counts, word_texel(id));
     uvec2 first = imageLoad(u_word_offsets, word_texel(id)).xy;
