@@ -35,12 +35,27 @@ uint first_of_kind(Owners o, uint row, uint kind) {
     return pick(o.first, row) + kind_start(pick(o.starts_x, row), pick(o.starts_y, row), kind);
 }
 
+// The first vertices, in word w + 1, of the edges that cell 31's corners 4, 5 and 6 own there (bit 0):
+// corner 4's kinds 0, 1 and 3, corner 5's kind 1, corner 6's kind 0 (the kinds with no step along axis 2).
+struct Wrapped { uvec4 corner4_and_5; uint corner6; };
+
+Wrapped wrapped_owners(ivec3 word) {
+    Owners next = owners_at(word, word.z + 1);
+    return Wrapped(uvec4(first_of_kind(next, 0u, 0u), first_of_kind(next, 0u, 1u), first_of_kind(next, 0u, 3u),
+                         first_of_kind(next, 1u, 1u)), first_of_kind(next, 2u, 0u));
+}
+
 // Index of the vertex on the tetrahedron edge `code` (corner | kind << 3) of cell k of the word.
-uint vertex_index(CellRows rows, Owners here, Owners next, uint k, uint code) {
+// Selects, not branches: llvmpipe runs both sides of a branch whenever one lane takes it.
+uint vertex_index(CellRows rows, Owners here, Wrapped next, uint k, uint code) {
     uint corner = code & 7u, kind = code >> 3;
     uint row = corner & 3u, bit = k + (corner >> 2);
-    if (bit == uint(WORD_BITS)) return first_of_kind(next, row, kind);
-    return first_of_kind(here, row, kind) + uint(bitCount(kind_crossing(rows, row, kind) & ((1u << bit) - 1u)));
+    uint below = (1u << (bit & uint(WORD_BITS - 1))) - 1u;  // bits below `bit`; none past the word
+    uint index = first_of_kind(here, row, kind) + uint(bitCount(kind_crossing(rows, row, kind) & below));
+    uint wrapped = corner == 4u ? (kind == 0u ? next.corner4_and_5.x : kind == 1u ? next.corner4_and_5.y
+                                                                              : next.corner4_and_5.z)
+                 : corner == 5u ? next.corner4_and_5.w : next.corner6;
+    return bit == uint(WORD_BITS) ? wrapped : index;
 }
 
 // Name each vertex the word owns in its slot: one iteration per vertex, kind by kind, as in
@@ -88,8 +103,8 @@ void main() {
 
     uint cells = mixed_cells(rows, word.z);
     Owners here = owners_at(word, word.z);
-    Owners next = here;
-    if ((cells >> uint(WORD_BITS - 1)) != 0u) next = owners_at(word, word.z + 1);  // word w + 1 exists then
+    Wrapped next = Wrapped(uvec4(0u), 0u);
+    if ((cells >> uint(WORD_BITS - 1)) != 0u) next = wrapped_owners(word);  // word w + 1 exists then
     // One iteration per triangle, as in mc_triangles.comp.
     uint at_triangle = first.y, end = first.y + counts.z;
     uint k = 0u, c = 0u, slot = 0u, cell_triangles = 0u;
