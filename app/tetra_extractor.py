@@ -10,7 +10,9 @@ same orchestration (`extract`: skip bricks, pack signs, classify, brick sums, sc
 word offsets, triangles, vertices), the same empty-space skipping (the brick ranges
 bound every sample a tetrahedron edge reaches, which are the cubes' samples), its own
 sign words, counts and mesh buffers, so the two meshes live side by side.  Passes 1-2
-(`mc_bricks`, `mc_signs`) are the cubes' shaders; 3, 4, 6, 7 and 8 are `mt_*.comp`.
+(`mc_bricks`, `mc_signs`) are the cubes' shaders; 3, 4, 6, 7 and 8 are `mt_*.comp`.  Pass 6
+also orders each brick's words by their work for pass 7, so that the words sharing a SIMD
+vector on llvmpipe loop about as long as each other (see mt_word_offsets.comp).
 `app/reference_tetra.py` is its numpy mirror and says which split and why.
 """
 from __future__ import annotations
