@@ -269,7 +269,7 @@ class Extractor:
             self._run_over_active_bricks("mc_triangles")
         for window in vertex_windows:
             self._bind_window(6, self.vertex_buffer, window, VERTEX_BYTES)
-            set_uniforms(vertices, u_vertex_count=window[1])
+            set_uniforms(vertices, u_vertex_first=window[0], u_vertex_count=window[1])
             dispatch_groups(vertices, -(-window[1] // GROUP_SIZE))
         self.ctx.memory_barrier()
 

@@ -1,18 +1,19 @@
 #version 430
 // Tetrahedra pass 7, over active bricks, one invocation per word: the triangles of the tetrahedra
 // of the word's cells, as indices of the vertices their edges' owners hold (the four sign rows
-// around the cells, at k or k + 1, possibly in word w + 1), and a job in each of the word's own
-// vertex slots (word id, then kind << 5 | bit) from which mt_vertices.comp computes the vertex.
+// around the cells, at k or k + 1, possibly in word w + 1), and the job of each vertex the word
+// owns (word id, kind << 5 | bit; see mt_jobs.glsl) from which mt_vertices.comp computes it.
 layout(local_size_x = BRICK_WORDS) in;
 #include "mc_common.glsl"
 #include "mc_sign_words.glsl"
 #include "mc_active_bricks.glsl"
 #include "mt_common.glsl"
+#include "mt_jobs.glsl"
 
 layout(rgba32ui, binding = 2) readonly uniform uimage2D u_word_counts;  // see mt_common.glsl
 layout(rg32ui, binding = 3) readonly uniform uimage2D u_word_offsets;   // (first vertex, first triangle)
 layout(std430, binding = 6) writeonly buffer Indices { uint indices[]; };
-layout(std430, binding = 8) writeonly buffer VertexRecords { uint vertex_words[]; };  // VERTEX_FLOATS per vertex
+layout(rg32ui, binding = 4) writeonly uniform uimage2D u_vertex_jobs;
 // The (first, count) of the vertices and triangles bound above (see mc_triangles.comp).
 uniform uvec2 u_vertex_window;
 uniform uvec2 u_triangle_window;
@@ -58,7 +59,7 @@ uint vertex_index(CellRows rows, Owners here, Wrapped next, uint k, uint code) {
     return bit == uint(WORD_BITS) ? wrapped : index;
 }
 
-// Name each vertex the word owns in its slot: one iteration per vertex, kind by kind, as in
+// Write the job of each vertex the word owns: one iteration per vertex, kind by kind, as in
 // mc_triangles.comp.  Not a loop per kind: the SIMD lanes (words) of a vector would then run
 // each kind's loop as long as their busiest, the sum of seven maxima instead of one.
 void write_vertex_jobs(uint id, uint next, uint count, CellRows rows, ivec3 word) {
@@ -69,10 +70,7 @@ void write_vertex_jobs(uint id, uint next, uint count, CellRows rows, ivec3 word
         uint b = uint(findLSB(bits));
         bits &= bits - 1u;
         uint slot = next - u_vertex_window.x;  // wraps past the window's count when next is before it
-        if (slot < u_vertex_window.y) {
-            vertex_words[uint(VERTEX_FLOATS) * slot] = id;
-            vertex_words[uint(VERTEX_FLOATS) * slot + 1u] = (kind << 5) | b;
-        }
+        if (slot < u_vertex_window.y) imageStore(u_vertex_jobs, job_texel(next), uvec4(id, (kind << 5) | b, 0u, 0u));
     }
 }
 
