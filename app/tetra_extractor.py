@@ -98,21 +98,22 @@ class TetraExtractor(Extractor):
                 self._dispatch_args, self._case_table)
 
     def _ensure_output(self, n_vertices: int, n_triangles: int) -> None:
-        """The mesh buffers, and the vertex-job image (rows of 2^job_shift jobs, grown by half again)."""
-        super()._ensure_output(n_vertices, n_triangles)
+        """The mesh buffers, and the vertex-job image (rows of 2^job_shift jobs; it grows as they do)."""
         width, limit = 1 << self._job_shift, self.plan.limits.max_texture_size
         rows = max(1, -(-n_vertices // width))
-        if self._vertex_jobs is not None and self._vertex_jobs.height >= rows:
-            return
-        if rows > limit:
+        if rows > limit:  # before anything is reallocated, so the last mesh stays intact
             raise GPULimitError(f"the mesh at this level ({n_vertices} vertices) needs a {width}x{rows} vertex-job "
                                 f"image, above this GPU's {limit}-texel limit; pick another level, crop or "
                                 "downsample the volume, or use backend='cpu'")
+        super()._ensure_output(n_vertices, n_triangles)
+        if self._vertex_jobs is not None and self._vertex_jobs.height >= rows:
+            return
         if self._vertex_jobs is not None:
+            rows = min(limit, max(rows, self._vertex_jobs.height * 3 // 2))  # as the buffers grow
             self._vertex_jobs.release()
             self._vertex_jobs = None  # released: a failing allocation below must not release it twice
         try:
-            self._vertex_jobs = self.ctx.texture((width, min(limit, max(rows, rows * 3 // 2))), 2, dtype="u4")
+            self._vertex_jobs = self.ctx.texture((width, rows), 2, dtype="u4")
         except moderngl.Error as exc:
             raise GPULimitError(f"the mesh at this level ({n_vertices} vertices) needs a vertex-job image that "
                                 f"this GPU could not allocate ({exc}); pick another level, crop or downsample "
