@@ -160,7 +160,10 @@ class Extractor:
         self._sign_words.bind_to_image(1, read=True, write=True)
         self._word_counts.bind_to_image(2, read=True, write=True)
         self._word_offsets.bind_to_image(3, read=True, write=True)
-        self._case_table.bind_to_uniform_block(0)
+        self._bind_case_table()
+
+    def _bind_case_table(self) -> None:
+        self._case_table.bind_to_uniform_block(0)  # see mc_case_table.glsl
 
     def _ensure_output(self, n_vertices: int, n_triangles: int) -> None:
         """Grow the mesh buffers to fit (by half again, so dragging the slider rarely reallocates).

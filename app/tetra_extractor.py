@@ -31,6 +31,9 @@ from .scan import ExclusiveScan
 
 __all__ = ["TetraExtractor"]
 
+CASE_TABLE_SHIFT = 10
+"""The case-table image is 2^10 texels wide (see mt_common.glsl)."""
+
 MAX_JOB_SHIFT = 14
 """The vertex-job image is at most 2^14 texels wide: with as many rows, 2^28 vertices."""
 
@@ -59,9 +62,9 @@ class TetraExtractor(Extractor):
         self._brick_ranges = source.brick_ranges
 
         case_words = self.table.packed_for_gpu()
-        self._case_words = np.concatenate([case_words, np.zeros(-len(case_words) % 4, np.uint32)])
-        defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u",
-                   "CASE_TABLE_QUADS": len(self._case_words) // 4, **self.volume_defines}
+        self._case_words = np.concatenate([case_words, np.zeros(-len(case_words) % (1 << CASE_TABLE_SHIFT), np.uint32)])
+        defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u", "CASE_TABLE_SHIFT": f"{CASE_TABLE_SHIFT}u",
+                   **self.volume_defines}
         self._passes = {name: compute_program(self.ctx, f"{shader}.comp", defines) for name, shader in PASSES.items()}
 
         self.n_vertices = self.n_triangles = self.active_bricks = 0
@@ -86,7 +89,9 @@ class TetraExtractor(Extractor):
         self._brick_triangle_offsets = self._storage(sizes["brick triangle offsets"])
         self._active_bricks = self._storage(sizes["active bricks"])
         self._dispatch_args = self._own(ctx.buffer(reserve=24))
-        self._case_table = self._own(ctx.buffer(self._case_words.tobytes()))
+        width = 1 << CASE_TABLE_SHIFT
+        self._case_table = self._own(ctx.texture((width, len(self._case_words) // width), 1,
+                                                 self._case_words.tobytes(), dtype="u4"))
         self._scan = ExclusiveScan(ctx)
         self.vertex_buffer = ctx.buffer(reserve=VERTEX_BYTES)
         self.index_buffer = ctx.buffer(reserve=INDEX_BYTES)
@@ -94,8 +99,14 @@ class TetraExtractor(Extractor):
 
     def _scratch_buffers(self):
         """Its own work buffers (the brick ranges are the source's)."""
-        return (self._brick_vertex_offsets, self._brick_triangle_offsets, self._active_bricks,
-                self._dispatch_args, self._case_table)
+        return (self._brick_vertex_offsets, self._brick_triangle_offsets, self._active_bricks, self._dispatch_args)
+
+    def _word_images(self):
+        """Its images counted by scratch_bytes: the per-word ones and the case table."""
+        return (*super()._word_images(), self._case_table)
+
+    def _bind_case_table(self) -> None:
+        self._case_table.bind_to_image(5, read=True, write=False)  # see mt_common.glsl
 
     def _ensure_output(self, n_vertices: int, n_triangles: int) -> None:
         """The mesh buffers, and the vertex-job image (rows of 2^job_shift jobs; it grows as they do)."""
