@@ -2,7 +2,7 @@
 // Tetrahedra pass 7, over active bricks, one invocation per word: the triangles of the tetrahedra
 // of the word's cells, as indices of the vertices their edges' owners hold (the four sign rows
 // around the cells, at k or k + 1, possibly in word w + 1), and the job of each vertex the word
-// owns (word id, kind << 5 | bit; see mt_jobs.glsl) from which mt_vertices.comp computes it.
+// owns (its edge's start sample and kind; see mt_jobs.glsl) from which mt_vertices.comp computes it.
 layout(local_size_x = BRICK_WORDS) in;
 #include "mc_common.glsl"
 #include "mc_sign_words.glsl"
@@ -62,7 +62,7 @@ uint vertex_index(CellRows rows, Owners here, Wrapped next, uint k, uint code) {
 // Write the job of each vertex the word owns: one iteration per vertex, kind by kind, as in
 // mc_triangles.comp.  Not a loop per kind: the SIMD lanes (words) of a vector would then run
 // each kind's loop as long as their busiest, the sum of seven maxima instead of one.
-void write_vertex_jobs(uint id, uint next, uint count, CellRows rows, ivec3 word) {
+void write_vertex_jobs(uint next, uint count, CellRows rows, ivec3 word) {
     uint end = next + count;
     uint kind = 0u, bits = owned_crossings(rows, word, 0u);
     for (; next < end; ++next) {
@@ -70,7 +70,8 @@ void write_vertex_jobs(uint id, uint next, uint count, CellRows rows, ivec3 word
         uint b = uint(findLSB(bits));
         bits &= bits - 1u;
         uint slot = next - u_vertex_window.x;  // wraps past the window's count when next is before it
-        if (slot < u_vertex_window.y) imageStore(u_vertex_jobs, job_texel(next), uvec4(id, (kind << 5) | b, 0u, 0u));
+        ivec3 start = ivec3(word.xy, word.z * WORD_BITS + int(b));
+        if (slot < u_vertex_window.y) imageStore(u_vertex_jobs, job_texel(next), uvec4(mt_job(start, kind), 0u, 0u));
     }
 }
 
@@ -96,7 +97,7 @@ void main() {
     bool triangles = meets(first.y, counts.z, u_triangle_window);
     if (!vertices && !triangles) return;
     CellRows rows = border_rows(word.x, word.y, word.z);
-    if (vertices) write_vertex_jobs(id, first.x, mt_vertex_total(counts), rows, word);
+    if (vertices) write_vertex_jobs(first.x, mt_vertex_total(counts), rows, word);
     if (!triangles) return;
 
     uint cells = mixed_cells(rows, word.z);

@@ -24,12 +24,10 @@ vec3 gradient_at(ivec3 p) {
 void main() {
     uint index = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
     if (index >= u_vertex_count) return;
-    uvec2 record = imageLoad(u_vertex_jobs, job_texel(u_vertex_first + index)).xy;
-    ivec3 word = word_of_id(record.x);
-    uint job = record.y;  // kind << 5 | bit
-    uint dir = (0x7653421u >> (4u * (job >> 5))) & 7u;  // mt_common.glsl's kind_dir()
+    uvec2 job = imageLoad(u_vertex_jobs, job_texel(u_vertex_first + index)).xy;
+    uint dir = (0x7653421u >> (4u * mt_job_kind(job))) & 7u;  // mt_common.glsl's kind_dir()
     ivec3 step = ivec3(int(dir & 1u), int((dir >> 1) & 1u), int(dir >> 2));
-    ivec3 p0 = ivec3(word.xy, word.z * WORD_BITS + int(job & uint(WORD_BITS - 1)));
+    ivec3 p0 = mt_job_start(job);
     float v0 = field_at(p0), v1 = field_at(p0 + step);
     float t = clamp((u_level - v0) / (v1 - v0), EDGE_MARGIN, 1.0 - EDGE_MARGIN);
 
