@@ -160,7 +160,10 @@ class Extractor:
         self._sign_words.bind_to_image(1, read=True, write=True)
         self._word_counts.bind_to_image(2, read=True, write=True)
         self._word_offsets.bind_to_image(3, read=True, write=True)
-        self._case_table.bind_to_uniform_block(0)
+        self._bind_case_table()
+
+    def _bind_case_table(self) -> None:
+        self._case_table.bind_to_uniform_block(0)  # see mc_case_table.glsl
 
     def _ensure_output(self, n_vertices: int, n_triangles: int) -> None:
         """Grow the mesh buffers to fit (by half again, so dragging the slider rarely reallocates).
@@ -269,7 +272,7 @@ class Extractor:
             self._run_over_active_bricks("mc_triangles")
         for window in vertex_windows:
             self._bind_window(6, self.vertex_buffer, window, VERTEX_BYTES)
-            set_uniforms(vertices, u_vertex_count=window[1])
+            set_uniforms(vertices, u_vertex_first=window[0], u_vertex_count=window[1])
             dispatch_groups(vertices, -(-window[1] // GROUP_SIZE))
         self.ctx.memory_barrier()
 

@@ -34,5 +34,5 @@ void main() {
         }
     }
     imageStore(u_word_counts, word_texel(word_id_of(word.x, word.y, word.z)),
-               uvec4(starts_x, starts_y | (total << 16), triangles, 0u));
+               uvec4(starts_x, starts_y | (total << 16), triangles, gl_LocalInvocationIndex));  // w: itself, until sorted
 }

@@ -1,13 +1,16 @@
 #version 430
-// Tetrahedra pass 8, one invocation per vertex: replace the job that mt_triangles.comp left in the
-// vertex's slot by its position, value and outward normal, as mc_vertices.comp does for an axis edge.
+// Tetrahedra pass 8, one invocation per vertex: its position, value and outward normal from the job
+// that mt_triangles.comp left for it (mt_jobs.glsl), as mc_vertices.comp does for an axis edge.
 layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
+#include "mt_jobs.glsl"
 
+uniform uint u_vertex_first;  // the window of the vertex buffer bound below: its first vertex and count
 uniform uint u_vertex_count;
 
 struct Vertex { vec4 position_value; vec4 normal; };
-layout(std430, binding = 6) buffer Vertices { Vertex vertices[]; };
+layout(std430, binding = 6) writeonly buffer Vertices { Vertex vertices[]; };
+layout(rg32ui, binding = 4) readonly uniform uimage2D u_vertex_jobs;
 
 // Central differences, one-sided at the border, in physical units (as mc_vertices.comp).
 vec3 gradient_at(ivec3 p) {
@@ -21,11 +24,10 @@ vec3 gradient_at(ivec3 p) {
 void main() {
     uint index = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
     if (index >= u_vertex_count) return;
-    ivec3 word = word_of_id(floatBitsToUint(vertices[index].position_value.x));
-    uint job = floatBitsToUint(vertices[index].position_value.y);  // kind << 5 | bit
-    uint dir = (0x7653421u >> (4u * (job >> 5))) & 7u;  // mt_common.glsl's kind_dir()
+    uvec2 job = imageLoad(u_vertex_jobs, job_texel(u_vertex_first + index)).xy;
+    uint dir = (0x7653421u >> (4u * mt_job_kind(job))) & 7u;  // mt_common.glsl's kind_dir()
     ivec3 step = ivec3(int(dir & 1u), int((dir >> 1) & 1u), int(dir >> 2));
-    ivec3 p0 = ivec3(word.xy, word.z * WORD_BITS + int(job & uint(WORD_BITS - 1)));
+    ivec3 p0 = mt_job_start(job);
     float v0 = field_at(p0), v1 = field_at(p0 + step);
     float t = clamp((u_level - v0) / (v1 - v0), EDGE_MARGIN, 1.0 - EDGE_MARGIN);
 

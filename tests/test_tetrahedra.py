@@ -10,7 +10,7 @@ from scipy.ndimage import gaussian_filter
 
 import isoscope
 from isoscope.extractor import Extractor
-from isoscope.gpu_limits import GpuLimits
+from isoscope.gpu_limits import GPULimitError, GpuLimits
 from isoscope.reference import marching_cubes_reference
 from isoscope.reference_tetra import marching_tetrahedra_reference
 from isoscope.tetra_extractor import TetraExtractor
@@ -194,6 +194,27 @@ def test_a_mesh_larger_than_one_storage_block_is_written_a_window_at_a_time(gl_c
             assert len(tetra.plan.mesh_windows(n_vertices, n_triangles)[0]) > 10
             assert_same_mesh(tetra.read_mesh(), marching_tetrahedra_reference(volume, 0.1))
 
+
+
+def test_a_mesh_past_the_vertex_job_image_limit_is_refused_and_the_extractor_still_works(gl_ctx):
+    """The vertex jobs live in a 2-D image (mt_jobs.glsl): with 16-texel textures, 16 x 16 jobs."""
+    volume = RNG.normal(size=(12, 12, 20)).astype(np.float32)
+    real = GpuLimits.of(gl_ctx)
+    small = GpuLimits(real.max_3d_texture_size, 16, real.max_storage_block_bytes)
+    few = float(np.sort(volume, axis=None)[-4])  # four samples inside: at most 4 * 14 vertices
+    with Extractor(volume, ctx=gl_ctx, limits=small) as cubes:
+        with TetraExtractor(cubes) as tetra:
+            n_vertices, _ = tetra.extract(few)
+            assert 0 < n_vertices <= 16 * 16
+            assert tetra.scratch_bytes() >= 8 * n_vertices
+            with pytest.raises(GPULimitError, match="vertex-job image") as refusal:
+                tetra.extract(0.0)
+            assert "\n" not in str(refusal.value)
+            assert tetrahedral_grid_crossings(volume, 0.0) > 16 * 16
+            expected = marching_tetrahedra_reference(volume, few)
+            assert_same_mesh(tetra.read_mesh(), expected)  # the refusal left the last mesh as it was
+            tetra.extract(few)
+            assert_same_mesh(tetra.read_mesh(), expected)
 
 def test_level_none_and_numpy_alias():
     volume = sphere(20)
