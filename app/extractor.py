@@ -13,14 +13,15 @@ indexed mesh and sized from the scans, so nothing is ever dropped):
 5. ``scan``            exclusive scans of the per-brick totals -> offsets and grand totals
 6. ``mc_word_offsets`` per active brick: each word's first vertex and triangle
 7. ``mc_triangles``    active bricks: triangle indices into the shared vertices, and
-                       in each vertex's slot the edge it lies on (a job for pass 8)
+                       for each vertex the edge it lies on (a job for pass 8, in an image)
 8. ``mc_vertices``     one invocation per vertex: position, value and outward normal
 
 Between passes 1 and 2, ``mc_dispatch_args`` turns the active count into the indirect
 dispatch sizes of passes 2-4, 6 and 7, so those touch only the bricks whose range
 contains the new level (pass 1 and the scans still visit every brick, cheaply).
 Scratch: 16 bytes per 32-sample word plus 20 per brick (about 0.5 byte per voxel;
-0.75 for a moment while the brick ranges are measured).  Read-backs
+0.75 for a moment while the brick ranges are measured), and 4 bytes per vertex for the jobs
+(shaders/vertex_jobs.glsl says why they have an image of their own).  Read-backs
 per extraction: the two totals (8 bytes), which size the outputs, and after the passes
 the active-brick count (4 bytes), for the stats.
 
@@ -47,6 +48,9 @@ from .volume_texture import upload_volume
 
 __all__ = ["Extractor", "GPULimitError"]
 
+MAX_JOB_SHIFT = 14
+"""The vertex-job image is at most 2^14 texels wide: with as many rows, 2^28 vertices."""
+
 PASSES = ("mc_row_range", "mc_brick_range", "mc_bricks", "mc_signs", "mc_dispatch_args", "mc_classify",
           "mc_brick_sums", "mc_word_offsets", "mc_triangles", "mc_vertices")
 
@@ -64,6 +68,9 @@ class Extractor:
     overrides the GL implementation's limits (tests lower them to reach the refusals).
     """
 
+    JOB_COMPONENTS = 1
+    """uints per vertex job (shaders/vertex_jobs.glsl): the cubes' (word id, axis, bit) is one."""
+
     def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
                  ctx: moderngl.Context | None = None, table: CaseTable | None = None,
                  limits: GpuLimits | None = None):
@@ -75,12 +82,14 @@ class Extractor:
         self.ctx = ctx or current_or_standalone()
         self.table = table or montani_table()
         self.plan = plan_extractor(self.shape, limits or GpuLimits.of(self.ctx))  # refuses before allocating
+        # The vertex-job image's width: a power of two within the GL's 2-D texture limit.
+        self._job_shift = min(MAX_JOB_SHIFT, self.plan.limits.max_texture_size.bit_length() - 1)
         # What every pass is told about the grid, the same at every level (the division constants too).
         self._grid_uniforms = dict(
             u_dims=self.shape, u_words=self.plan.words_per_row, u_bricks=self.plan.bricks,
             u_brick_count=self.plan.brick_count, u_spacing=self.spacing, u_word_shift=self.plan.word_shift,
             u_div_words=divisor_magic(self.plan.words_per_row), u_div_rows=divisor_magic(self.shape[1]),
-            u_div_bricks_j=divisor_magic(self.plan.bricks[1]))
+            u_div_bricks_j=divisor_magic(self.plan.bricks[1]), u_job_shift=self._job_shift)
 
         case_words = self.table.packed_for_gpu()
         self._case_words = np.concatenate([case_words, np.zeros(-len(case_words) % 4, np.uint32)])  # whole uvec4s
@@ -97,7 +106,7 @@ class Extractor:
         self.last_extract_ms = 0.0  # wall time of extract(), read-back included
         self.last_gpu_ms = 0.0  # GPU time of its passes, by GL timer queries (llvmpipe reports ~0)
         self._owned: list = []  # every GL object allocated here, released together
-        self.vertex_buffer = self.index_buffer = None  # grown by _ensure_output, so not in _owned
+        self.vertex_buffer = self.index_buffer = self._vertex_jobs = None  # grown by _ensure_output, not in _owned
         self._scan: ExclusiveScan | None = None
         try:
             self._allocate(checked.data)
@@ -166,9 +175,16 @@ class Extractor:
         self._case_table.bind_to_uniform_block(0)  # see mc_case_table.glsl
 
     def _ensure_output(self, n_vertices: int, n_triangles: int) -> None:
-        """Grow the mesh buffers to fit (by half again, so dragging the slider rarely reallocates).
+        """Grow the mesh buffers and the vertex-job image to fit (by half again, so dragging the slider
+        rarely reallocates).  Every limit is checked first, so a refused level leaves the last mesh intact.
 
-        They may outgrow one storage block: the passes then write them a window at a time."""
+        The buffers may outgrow one storage block: the passes then write them a window at a time."""
+        width, limit = 1 << self._job_shift, self.plan.limits.max_texture_size
+        rows = max(1, -(-n_vertices // width))
+        if rows > limit:
+            raise GPULimitError(f"the mesh at this level ({n_vertices} vertices) needs a {width}x{rows} vertex-job "
+                                f"image, above this GPU's {limit}-texel limit; pick another level, crop or "
+                                "downsample the volume, or use backend='cpu'")
         for attr, needed in (("vertex_buffer", n_vertices * VERTEX_BYTES),
                              ("index_buffer", n_triangles * INDEX_BYTES)):
             buf = getattr(self, attr)
@@ -183,6 +199,18 @@ class Extractor:
                         f"the mesh at this level ({n_vertices} vertices, {n_triangles} triangles) needs a "
                         f"{size >> 20} MiB buffer that this GPU could not allocate ({exc}); pick another "
                         "level, crop or downsample the volume, or use backend='cpu'") from None
+        if self._vertex_jobs is not None and self._vertex_jobs.height >= rows:
+            return
+        if self._vertex_jobs is not None:
+            rows = min(limit, max(rows, self._vertex_jobs.height * 3 // 2))  # as the buffers grow
+            self._vertex_jobs.release()
+            self._vertex_jobs = None  # released: a failing allocation below must not release it twice
+        try:
+            self._vertex_jobs = self.ctx.texture((width, rows), self.JOB_COMPONENTS, dtype="u4")
+        except moderngl.Error as exc:
+            raise GPULimitError(f"the mesh at this level ({n_vertices} vertices) needs a vertex-job image that "
+                                f"this GPU could not allocate ({exc}); pick another level, crop or downsample "
+                                "the volume, or use backend='cpu'") from None
 
     # -- extraction -------------------------------------------------------------------------
 
@@ -262,12 +290,12 @@ class Extractor:
         # The scan used slots 0 and 1; bind the passes' buffers again.
         self._bind((1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets))
         self._run_over_active_bricks("mc_word_offsets", per_brick=True)
+        self._vertex_jobs.bind_to_image(4, read=True, write=True)  # see vertex_jobs.glsl
         vertex_windows, triangle_windows = self.plan.mesh_windows(n_vertices, n_triangles)
         triangles, vertices = self._passes["mc_triangles"], self._passes["mc_vertices"]
         for vertex_window, triangle_window in zip(vertex_windows, triangle_windows):
             # Each run writes only the triangles and vertex jobs inside its windows (usually one).
             self._bind_window(6, self.index_buffer, triangle_window, INDEX_BYTES)
-            self._bind_window(8, self.vertex_buffer, vertex_window, VERTEX_BYTES)
             set_uniforms(triangles, u_vertex_window=vertex_window, u_triangle_window=triangle_window)
             self._run_over_active_bricks("mc_triangles")
         for window in vertex_windows:
@@ -292,9 +320,14 @@ class Extractor:
         return self.mesh.read()
 
     def scratch_bytes(self) -> int:
-        """GPU memory beyond the volume texture and the mesh buffers."""
+        """GPU memory beyond the volume texture and the mesh buffers (the vertex-job image included)."""
         images = sum(t.width * t.height * t.components * 4 for t in self._word_images())
-        return images + sum(b.size for b in self._scratch_buffers()) + self._scan.scratch_bytes()
+        return images + self.job_bytes() + sum(b.size for b in self._scratch_buffers()) + self._scan.scratch_bytes()
+
+    def job_bytes(self) -> int:
+        """The vertex-job image's share of scratch_bytes: JOB_COMPONENTS uints per vertex, grown with the mesh."""
+        jobs = self._vertex_jobs
+        return 0 if jobs is None else jobs.width * jobs.height * jobs.components * 4
 
     def _word_images(self) -> tuple[moderngl.Texture, ...]:
         return (self._sign_words, self._word_counts, self._word_offsets)
@@ -305,11 +338,11 @@ class Extractor:
 
     def release(self) -> None:
         """Free every GL object this extractor made; safe to call twice, or on a half-built one."""
-        for obj in (*self._owned, self.vertex_buffer, self.index_buffer):
+        for obj in (*self._owned, self.vertex_buffer, self.index_buffer, self._vertex_jobs):
             if obj is not None:
                 obj.release()
         self._owned.clear()
-        self.vertex_buffer = self.index_buffer = None
+        self.vertex_buffer = self.index_buffer = self._vertex_jobs = None
         if self._scan is not None:
             self._scan.release()
 

@@ -15,15 +15,14 @@ also orders each brick's words by their work for pass 7, so that the words shari
 vector on llvmpipe loop about as long as each other (see mt_word_offsets.comp).
 `app/reference_tetra.py` is its numpy mirror and says which split and why.
 
-Unlike the cubes' passes, pass 7 leaves the vertex jobs for pass 8 in an image of their own
-(8 bytes per vertex, grown with the mesh), not in the vertex buffer: see shaders/mt_jobs.glsl.
+Pass 7 leaves the vertex jobs for pass 8 in the Extractor's job image (shaders/vertex_jobs.glsl),
+two uints per vertex here (JOB_COMPONENTS; the encoding is in shaders/mt_jobs.glsl).
 """
 from __future__ import annotations
 
-import moderngl
 import numpy as np
 
-from .extractor import Extractor, GPULimitError
+from .extractor import Extractor
 from .gpu_layout import INDEX_BYTES, VERTEX_BYTES
 from .gpu_programs import compute_program
 from .reference_tetra import tetra_table
@@ -33,9 +32,6 @@ __all__ = ["TetraExtractor"]
 
 CASE_TABLE_SHIFT = 10
 """The case-table image is 2^10 texels wide (see mt_common.glsl)."""
-
-MAX_JOB_SHIFT = 14
-"""The vertex-job image is at most 2^14 texels wide: with as many rows, 2^28 vertices."""
 
 # The Extractor's pass names, and the shader that runs each here.
 PASSES = {"mc_bricks": "mc_bricks", "mc_dispatch_args": "mc_dispatch_args", "mc_signs": "mc_signs",
@@ -49,14 +45,15 @@ class TetraExtractor(Extractor):
     It borrows `source`'s volume image and brick ranges: release it before (or with) `source`.
     """
 
+    JOB_COMPONENTS = 2  # (i | j << 16, k << 3 | kind): see mt_jobs.glsl
+
     def __init__(self, source: Extractor):
         self.source = source
         self.spacing, self.descent, self.shape = source.spacing, source.descent, source.shape
         self.value_range, self.ctx, self.plan = source.value_range, source.ctx, source.plan
         self.table = tetra_table()
-        # The vertex-job image's width: a power of two within the GL's 2-D texture limit.
-        self._job_shift = min(MAX_JOB_SHIFT, source.plan.limits.max_texture_size.bit_length() - 1)
-        self._grid_uniforms = dict(source.grid_uniforms, u_job_shift=self._job_shift)
+        self._job_shift = source._job_shift
+        self._grid_uniforms = source.grid_uniforms  # u_job_shift among them
         self._volume = source.volume_texture
         self.volume_defines = source.volume_defines
         self._brick_ranges = source.brick_ranges
@@ -107,40 +104,3 @@ class TetraExtractor(Extractor):
 
     def _bind_case_table(self) -> None:
         self._case_table.bind_to_image(5, read=True, write=False)  # see mt_common.glsl
-
-    def _ensure_output(self, n_vertices: int, n_triangles: int) -> None:
-        """The mesh buffers, and the vertex-job image (rows of 2^job_shift jobs; it grows as they do)."""
-        width, limit = 1 << self._job_shift, self.plan.limits.max_texture_size
-        rows = max(1, -(-n_vertices // width))
-        if rows > limit:  # before anything is reallocated, so the last mesh stays intact
-            raise GPULimitError(f"the mesh at this level ({n_vertices} vertices) needs a {width}x{rows} vertex-job "
-                                f"image, above this GPU's {limit}-texel limit; pick another level, crop or "
-                                "downsample the volume, or use backend='cpu'")
-        super()._ensure_output(n_vertices, n_triangles)
-        if self._vertex_jobs is not None and self._vertex_jobs.height >= rows:
-            return
-        if self._vertex_jobs is not None:
-            rows = min(limit, max(rows, self._vertex_jobs.height * 3 // 2))  # as the buffers grow
-            self._vertex_jobs.release()
-            self._vertex_jobs = None  # released: a failing allocation below must not release it twice
-        try:
-            self._vertex_jobs = self.ctx.texture((width, rows), 2, dtype="u4")
-        except moderngl.Error as exc:
-            raise GPULimitError(f"the mesh at this level ({n_vertices} vertices) needs a vertex-job image that "
-                                f"this GPU could not allocate ({exc}); pick another level, crop or downsample "
-                                "the volume, or use backend='cpu'") from None
-
-    def _generate(self, n_vertices: int, n_triangles: int) -> None:
-        self._vertex_jobs.bind_to_image(4, read=True, write=True)  # see mt_jobs.glsl
-        super()._generate(n_vertices, n_triangles)
-
-    def scratch_bytes(self) -> int:
-        """GPU memory beyond the shared volume and the mesh buffers, the vertex-job image included."""
-        jobs = self._vertex_jobs
-        return super().scratch_bytes() + (jobs.width * jobs.height * 8 if jobs is not None else 0)
-
-    def release(self) -> None:
-        if self._vertex_jobs is not None:
-            self._vertex_jobs.release()
-            self._vertex_jobs = None
-        super().release()

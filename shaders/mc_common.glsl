@@ -70,7 +70,7 @@ ivec3 brick_origin(uint brick) {
                  int(brick - column * uint(u_words)));
 }
 
-// A vertex job, left in the vertex's slot by mc_triangles.comp for mc_vertices.comp: the owning
+// A vertex job, left by mc_triangles.comp for mc_vertices.comp (vertex_jobs.glsl): the owning
 // word's id, the edge's axis and the bit of its start sample, in one uint (word id << 7 | axis << 5
 // | bit: 5 bits for a bit of WORD_BITS = 32, so at most 2^25 words, gpu_layout.MAX_WORDS).
 uint vertex_job(uint word_id, uint axis, uint bit) { return (word_id << 7) | (axis << 5) | bit; }

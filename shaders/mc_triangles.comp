@@ -1,19 +1,20 @@
 #version 430
 // Pass 7, over active bricks, one invocation per word: the triangles of the word's cells, as
 // indices of the vertices that the cells' edges own (possibly in a neighbouring word or brick),
-// and a job in each of the word's own vertex slots (word id << 7 | axis << 5 | bit) from which
-// mc_vertices.comp, run next with one invocation per vertex, computes the vertex.  Both need
-// the same sign rows, so one pass loads them once.
+// and for each of the word's own vertices a job (word id << 7 | axis << 5 | bit, in the job
+// image: vertex_jobs.glsl) from which mc_vertices.comp, run next with one invocation per vertex,
+// computes the vertex.  Both need the same sign rows, so one pass loads them once.
 layout(local_size_x = BRICK_WORDS) in;
 #include "mc_common.glsl"
 #include "mc_sign_words.glsl"
 #include "mc_active_bricks.glsl"
 #include "mc_case_table.glsl"
+#include "vertex_jobs.glsl"
 
 layout(r32ui, binding = 2) readonly uniform uimage2D u_word_counts;
 layout(rg32ui, binding = 3) readonly uniform uimage2D u_word_offsets;  // (first vertex, first triangle)
 layout(std430, binding = 6) writeonly buffer Indices { uint indices[]; };
-layout(std430, binding = 8) writeonly buffer VertexRecords { uint vertex_words[]; };  // VERTEX_FLOATS per vertex
+layout(r32ui, binding = 4) writeonly uniform uimage2D u_vertex_jobs;
 // The (first, count) of the vertices and triangles bound above: a mesh larger than one storage
 // block is written a window at a time, each run writing only what falls in its windows.
 uniform uvec2 u_vertex_window;
@@ -81,8 +82,9 @@ void write_vertex_jobs(uint id, uint next, uint count, uvec3 crossing) {
         }
         uint b = uint(findLSB(bits));
         bits &= bits - 1u;
-        uint slot = next - u_vertex_window.x;  // wraps past the window's count when next is before it
-        if (slot < u_vertex_window.y) vertex_words[uint(VERTEX_FLOATS) * slot] = vertex_job(id, axis, b);
+        // Once per vertex: in the run whose vertex window holds it (usually the only run).
+        if (next - u_vertex_window.x < u_vertex_window.y)  // wraps past the count when next is before it
+            imageStore(u_vertex_jobs, job_texel(next), uvec4(vertex_job(id, axis, b)));
     }
 }
 

@@ -1,13 +1,16 @@
 #version 430
-// Pass 8, one invocation per vertex: replace the job that mc_triangles.comp left in the
-// vertex's slot by its position, value and outward normal.
+// Pass 8, one invocation per vertex: its position, value and outward normal, from the job that
+// mc_triangles.comp left for it (vertex_jobs.glsl).
 layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
+#include "vertex_jobs.glsl"
 
+uniform uint u_vertex_first;  // the window of the vertex buffer bound below: its first vertex and count
 uniform uint u_vertex_count;
+layout(r32ui, binding = 4) readonly uniform uimage2D u_vertex_jobs;
 
 struct Vertex { vec4 position_value; vec4 normal; };
-layout(std430, binding = 6) buffer Vertices { Vertex vertices[]; };
+layout(std430, binding = 6) writeonly buffer Vertices { Vertex vertices[]; };
 
 // Central differences, one-sided at the border, in physical units.  Written per axis without
 // indexing vectors by a variable: llvmpipe turns such indexing into scratch-memory traffic.
@@ -40,6 +43,6 @@ Vertex edge_vertex(ivec3 p0, int axis) {
 void main() {
     uint index = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
     if (index >= u_vertex_count) return;
-    uint job = floatBitsToUint(vertices[index].position_value.x);  // see vertex_job() in mc_common.glsl
+    uint job = imageLoad(u_vertex_jobs, job_texel(u_vertex_first + index)).x;  // see vertex_job() in mc_common.glsl
     vertices[index] = edge_vertex(job_start(job), job_axis(job));
 }
