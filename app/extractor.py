@@ -48,6 +48,18 @@ from .volume_texture import upload_volume
 
 __all__ = ["Extractor", "GPULimitError"]
 
+CASE_TABLE_SHIFT = 10
+"""The case-table image is 2^10 texels wide (see mc_case_table.glsl)."""
+
+
+def case_table_image(ctx: moderngl.Context, table: CaseTable) -> moderngl.Texture:
+    """`table`'s words (CaseTable.packed_for_gpu) in an r32ui image 2^CASE_TABLE_SHIFT texels wide."""
+    words = table.packed_for_gpu()
+    width = 1 << CASE_TABLE_SHIFT
+    words = np.concatenate([words, np.zeros(-len(words) % width, np.uint32)])
+    return ctx.texture((width, len(words) // width), 1, words.tobytes(), dtype="u4")
+
+
 MAX_JOB_SHIFT = 14
 """The vertex-job image is at most 2^14 texels wide: with as many rows, 2^28 vertices."""
 
@@ -91,12 +103,10 @@ class Extractor:
             u_div_words=divisor_magic(self.plan.words_per_row), u_div_rows=divisor_magic(self.shape[1]),
             u_div_bricks_j=divisor_magic(self.plan.bricks[1]), u_job_shift=self._job_shift)
 
-        case_words = self.table.packed_for_gpu()
-        self._case_words = np.concatenate([case_words, np.zeros(-len(case_words) % 4, np.uint32)])  # whole uvec4s
         _, volume_format, volume_image = volume_texel_format(checked.data.dtype)
         self.volume_defines = {"VOLUME_FORMAT": volume_format, "VOLUME_IMAGE": volume_image}  # for other passes
         defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u",  # the layout's come with every program
-                   "CASE_TABLE_QUADS": len(self._case_words) // 4, **self.volume_defines}
+                   "CASE_TABLE_SHIFT": f"{CASE_TABLE_SHIFT}u", **self.volume_defines}
         self._passes = {name: compute_program(self.ctx, f"{name}.comp", defines) for name in PASSES}
 
         self.n_vertices = 0
@@ -152,7 +162,7 @@ class Extractor:
         self._brick_ranges = self._storage(sizes["brick ranges"])
         self._active_bricks = self._storage(sizes["active bricks"])
         self._dispatch_args = self._own(ctx.buffer(reserve=24))  # groups per active brick, then per 64 bricks
-        self._case_table = self._own(ctx.buffer(self._case_words.tobytes()))
+        self._case_table = self._own(case_table_image(ctx, self.table))
         self._scan = ExclusiveScan(ctx)
         self.vertex_buffer = ctx.buffer(reserve=VERTEX_BYTES)
         self.index_buffer = ctx.buffer(reserve=INDEX_BYTES)
@@ -172,7 +182,7 @@ class Extractor:
         self._bind_case_table()
 
     def _bind_case_table(self) -> None:
-        self._case_table.bind_to_uniform_block(0)  # see mc_case_table.glsl
+        self._case_table.bind_to_image(5, read=True, write=False)  # see mc_case_table.glsl
 
     def _ensure_output(self, n_vertices: int, n_triangles: int) -> None:
         """Grow the mesh buffers and the vertex-job image to fit (by half again, so dragging the slider
@@ -330,11 +340,12 @@ class Extractor:
         return 0 if jobs is None else jobs.width * jobs.height * jobs.components * 4
 
     def _word_images(self) -> tuple[moderngl.Texture, ...]:
-        return (self._sign_words, self._word_counts, self._word_offsets)
+        """The images scratch_bytes counts: the per-word ones and the case table."""
+        return (self._sign_words, self._word_counts, self._word_offsets, self._case_table)
 
     def _scratch_buffers(self) -> tuple[moderngl.Buffer, ...]:
         return (self._brick_vertex_offsets, self._brick_triangle_offsets, self._brick_ranges, self._active_bricks,
-                self._dispatch_args, self._case_table)
+                self._dispatch_args)
 
     def release(self) -> None:
         """Free every GL object this extractor made; safe to call twice, or on a half-built one."""

@@ -20,18 +20,13 @@ two uints per vertex here (JOB_COMPONENTS; the encoding is in shaders/mt_jobs.gl
 """
 from __future__ import annotations
 
-import numpy as np
-
-from .extractor import Extractor
+from .extractor import CASE_TABLE_SHIFT, Extractor, case_table_image
 from .gpu_layout import INDEX_BYTES, VERTEX_BYTES
 from .gpu_programs import compute_program
 from .reference_tetra import tetra_table
 from .scan import ExclusiveScan
 
 __all__ = ["TetraExtractor"]
-
-CASE_TABLE_SHIFT = 10
-"""The case-table image is 2^10 texels wide (see mt_common.glsl)."""
 
 # The Extractor's pass names, and the shader that runs each here.
 PASSES = {"mc_bricks": "mc_bricks", "mc_dispatch_args": "mc_dispatch_args", "mc_signs": "mc_signs",
@@ -58,8 +53,6 @@ class TetraExtractor(Extractor):
         self.volume_defines = source.volume_defines
         self._brick_ranges = source.brick_ranges
 
-        case_words = self.table.packed_for_gpu()
-        self._case_words = np.concatenate([case_words, np.zeros(-len(case_words) % (1 << CASE_TABLE_SHIFT), np.uint32)])
         defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u", "CASE_TABLE_SHIFT": f"{CASE_TABLE_SHIFT}u",
                    **self.volume_defines}
         self._passes = {name: compute_program(self.ctx, f"{shader}.comp", defines) for name, shader in PASSES.items()}
@@ -86,9 +79,7 @@ class TetraExtractor(Extractor):
         self._brick_triangle_offsets = self._storage(sizes["brick triangle offsets"])
         self._active_bricks = self._storage(sizes["active bricks"])
         self._dispatch_args = self._own(ctx.buffer(reserve=24))
-        width = 1 << CASE_TABLE_SHIFT
-        self._case_table = self._own(ctx.texture((width, len(self._case_words) // width), 1,
-                                                 self._case_words.tobytes(), dtype="u4"))
+        self._case_table = self._own(case_table_image(ctx, self.table))
         self._scan = ExclusiveScan(ctx)
         self.vertex_buffer = ctx.buffer(reserve=VERTEX_BYTES)
         self.index_buffer = ctx.buffer(reserve=INDEX_BYTES)
@@ -97,10 +88,3 @@ class TetraExtractor(Extractor):
     def _scratch_buffers(self):
         """Its own work buffers (the brick ranges are the source's)."""
         return (self._brick_vertex_offsets, self._brick_triangle_offsets, self._active_bricks, self._dispatch_args)
-
-    def _word_images(self):
-        """Its images counted by scratch_bytes: the per-word ones and the case table."""
-        return (*super()._word_images(), self._case_table)
-
-    def _bind_case_table(self) -> None:
-        self._case_table.bind_to_image(5, read=True, write=False)  # see mt_common.glsl

@@ -3,23 +3,16 @@
 // Each cell is split into six tetrahedra along its main diagonal (app/reference_tetra.py says
 // why), so a grid point owns seven kinds of edges: kind q runs from the point to the point plus
 // kind_dir(q), a 0/1 vector whose bit a is its step along axis a: the axes 0, 1, 2, the face
-// diagonals (0, 1), (0, 2), (1, 2), then the body diagonal.  The table (the words of
-// mc_case_table.glsl's layout, in an r32ui image 2^CASE_TABLE_SHIFT texels wide) names a triangle's
-// vertices by 6-bit codes: the owning cell corner (bits 0-2, as app/case_table.py numbers corners)
-// | kind << 3.  An image, not the cubes' uniform block: a cell's case differs from lane to lane, and
-// on llvmpipe a uniform uvec4 at a varying index is four loads per lane before pick() takes one,
-// an imageLoad of one r32ui texel is one gather (noise 160^3: mt_triangles ~8-16% faster).
+// diagonals (0, 1), (0, 2), (1, 2), then the body diagonal.  The table (mc_case_table.glsl's
+// layout and image) names a triangle's vertices by 6-bit codes, not edges: the owning cell corner
+// (bits 0-2, as app/case_table.py numbers corners) | kind << 3.
 //
 // Per word, the counts image (rgba32ui) holds: x = where kinds 1-4 start among the word's own
 // vertices (8 bits each), y = where kinds 5 and 6 start and the word's vertex total (8 bits each),
 // z = the triangles of the word's cells, w = the brick-local index (see brick_word()) of the word
 // that mt_triangles.comp's invocation at this word's place handles (mt_word_offsets.comp says why).
-layout(r32ui, binding = 5) readonly uniform uimage2D u_case_table;
+#include "mc_case_table.glsl"
 
-uint case_table_word(uint index) {
-    return imageLoad(u_case_table, ivec2(index & ((1u << CASE_TABLE_SHIFT) - 1u), index >> CASE_TABLE_SHIFT)).x;
-}
-uint triangle_count(uint cube_case) { return case_table_word(256u * MAX_TRIANGLES_PER_CELL + cube_case); }
 uint triangle_codes(uint cube_case, uint t) { return case_table_word(cube_case * MAX_TRIANGLES_PER_CELL + t); }
 
 const uint KINDS = 7u;
