@@ -119,17 +119,17 @@ def _normal_spread(faces, normals, n_tri):
 
 def _plane_cells(field, all_cells, spread, cos_loose, spacing):
     """The cells `sharp_planes` looks at: those whose mesh normals stray CANDIDATE_FRACTION of the angle
-    (`spread` < `cos_loose`) and have a clean corner sample, their neighbours (a corner's cell can see its
-    normals barely open, the sides blending in all its samples; the edges leading into it open theirs),
-    each kept where it has a clean corner sample itself.  None on smooth fields."""
-    cells = np.zeros(len(all_cells), bool)
-    loose = np.flatnonzero(spread < cos_loose)
-    cells[loose[any_clean_corner(field, all_cells[loose], spacing)]] = True
-    if cells.any():
-        cells = _dilated(all_cells, cells)
-        near = np.flatnonzero(cells)
-        cells[near] = any_clean_corner(field, all_cells[near], spacing)
-    return cells
+    (`spread` < `cos_loose`) and their neighbours (a corner's cell can see its normals barely open, the
+    sides blending in all its samples; the edges leading into it open theirs), where clean samples
+    (`any_clean_corner`) are near: in the cell's corners or those of cells up to two away, the reach of
+    the 6x6x6 samples `plane_feature_points` takes.  None on smooth fields."""
+    cells = _dilated(all_cells, spread < cos_loose)
+    near = np.flatnonzero(cells)
+    clean = np.zeros(len(all_cells), bool)
+    clean[near] = any_clean_corner(field, all_cells[near], spacing)
+    if not clean.any():
+        return clean
+    return cells & _dilated(all_cells, _dilated(all_cells, clean))
 
 
 def _opening(n, valid):
