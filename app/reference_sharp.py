@@ -57,6 +57,7 @@ SINGULAR_CUTOFF = 0.1  # singular values below this fraction of the largest are 
 MAX_PATCH_VERTICES = 12
 LINE_MARGIN = 0.25  # cells: how far an edge line may pass outside a cell and still count as the cell's
 CANDIDATE_FRACTION = 0.25  # cells whose mesh normals stray this fraction of the angle from their mean are checked
+FOLD_SIDE_COS = -0.3  # a fan triangle turned further than this (cosine) from both its base's side normals folds
 FOLD_COS = -0.7  # a fan triangle turned further than this (cosine) from the plain triangle it replaces folds
 FOLD_RETREAT = (0.25, 0.5, 0.75, 1.0)  # fractions of the way to the patch's mass point tried when a fan folds
 CLUSTER_ANGLE = 10.0  # degrees: normals this close to a side's own normal count as that side's  # a cell has 12 edges
@@ -570,14 +571,14 @@ def _unfolded(candidates, fans, fan_patch, feature_ids, verts, side_normals, ref
 def _folding(points, fans, fan_patch, verts, side_normals, reference):
     """Which patches' fans turn a triangle over.  `fans` (F, 3): base a -> b (plain vertices), then the
     apex (numbered after `verts`, at `points`); `reference` (F, 3): the normal of the plain triangle each
-    replaces.  Over: its normal opposes both base vertices' side normals, or turns further than FOLD_COS
-    from the plain triangle's (the apex beyond the patch's loop)."""
+    replaces.  Over: its normal turns further than FOLD_SIDE_COS from both base vertices' side normals,
+    or further than FOLD_COS from the plain triangle's (the apex beyond the patch's loop)."""
     a, b = verts[fans[:, 0]].astype(np.float64), verts[fans[:, 1]].astype(np.float64)
     n = np.cross(b - a, points[fans[:, 2] - len(verts)] - a)
-    against = ((np.einsum("fk,fk->f", n, side_normals[fans[:, 0]]) < 0)
-               & (np.einsum("fk,fk->f", n, side_normals[fans[:, 1]]) < 0))
-    against |= (np.einsum("fk,fk->f", n, reference)
-                < FOLD_COS * np.linalg.norm(n, axis=1) * np.linalg.norm(reference, axis=1))
+    length = np.linalg.norm(n, axis=1)
+    against = ((np.einsum("fk,fk->f", n, side_normals[fans[:, 0]]) < FOLD_SIDE_COS * length)
+               & (np.einsum("fk,fk->f", n, side_normals[fans[:, 1]]) < FOLD_SIDE_COS * length))
+    against |= np.einsum("fk,fk->f", n, reference) < FOLD_COS * length * np.linalg.norm(reference, axis=1)
     return _unique(fan_patch[against])
 
 
