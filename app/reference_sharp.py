@@ -56,6 +56,7 @@ from .sharp_planes import any_clean_corner, clean_gradient, level_of, plane_feat
 SINGULAR_CUTOFF = 0.1  # singular values below this fraction of the largest are treated as zero
 MAX_PATCH_VERTICES = 12
 LINE_MARGIN = 0.25  # cells: how far an edge line may pass outside a cell and still count as the cell's
+SOLVER_CORNER_REACH = 0.3  # cells: the solver's corner this close to a cell beats the sample planes' line
 CANDIDATE_FRACTION = 0.25  # cells whose mesh normals stray this fraction of the angle from their mean are checked
 FOLD_SIDE_COS = -0.3  # a fan triangle turned further than this (cosine) from both its base's side normals folds
 FOLD_COS = -0.7  # a fan triangle turned further than this (cosine) from the plain triangle it replaces folds
@@ -490,6 +491,7 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points):
     # point folds the fan.
     own = _corner_in_empty_cell(corner, all_cells, field.shape, lower, upper, spacing)
     solved, solved_ok = np.where(own[:, None], corner, solved), solved_ok | own
+    solver_corner = corner.copy()
     new_points, ok = solved.copy(), solved_ok.copy()
     p_ok, p_corner = p_ok[feature_ids], p_corner[feature_ids]
     new_points[p_ok], ok = p_points[feature_ids][p_ok], ok | p_ok
@@ -497,6 +499,12 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points):
     corner[has_corner] = p_corner[has_corner]
     takes = _corner_in_empty_cell(corner, all_cells, field.shape, lower, upper, spacing)
     new_points[takes], ok = corner[takes], ok | takes
+    # The sample planes meet in a line, the mesh's normals in a corner at the cell: a corner whose third
+    # side no clean sample sees (a union's corner poking out through one sample) is the solver's.
+    gap = np.maximum(np.maximum(lower - solver_corner, solver_corner - upper), 0).max(axis=1)
+    seen_by_mesh = np.isfinite(solver_corner).all(axis=1) & (gap <= SOLVER_CORNER_REACH * spacing.min())
+    prefer = ~has_corner & p_ok & solved_ok & seen_by_mesh
+    new_points[prefer] = solved[prefer]
     is_feature[feature_ids[~ok]] = False  # the planes meet outside the cell: keep its plain patch
     feature_ids, cells, new_points, solved, solved_ok = (feature_ids[ok], cells[ok], new_points[ok], solved[ok],
                                                          solved_ok[ok])
