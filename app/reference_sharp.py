@@ -124,7 +124,11 @@ def _plane_cells(field, all_cells, spread, cos_loose, spacing):
     (`spread` < `cos_loose`) and their neighbours (a corner's cell can see its normals barely open, the
     sides blending in all its samples; the edges leading into it open theirs), where clean samples
     (`any_clean_corner`) are near: in the cell's corners or those of cells up to two away, the reach of
-    the 6x6x6 samples `plane_feature_points` takes.  None on smooth fields."""
+    the 6x6x6 samples `plane_feature_points` takes.  None where the bent cells have no clean corner at
+    all (smooth fields)."""
+    loose = np.flatnonzero(spread < cos_loose)
+    if not any_clean_corner(field, all_cells[loose], spacing).any():  # a smooth field: not one clean sample
+        return np.zeros(len(all_cells), bool)
     cells = _dilated(all_cells, spread < cos_loose)
     near = np.flatnonzero(cells)
     clean = np.zeros(len(all_cells), bool)
