@@ -163,7 +163,8 @@ def _occupancy(cells, shape):
     def occupied(query):
         inside = ((query >= 0) & (query < dims)).all(axis=1)
         key = np.ravel_multi_index(np.clip(query, 0, dims - 1).T, dims)
-        return ~inside | np.isin(key, keys)
+        at = np.minimum(np.searchsorted(keys, key), len(keys) - 1)
+        return ~inside | (keys[at] == key)
     return occupied
 
 

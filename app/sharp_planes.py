@@ -173,11 +173,14 @@ def _plane_qef(field, cells, spacing, level, cos_angle, solve, occupied, toward)
         empty = ~occupied(across)
         if not empty.any():
             continue
+        at = np.flatnonzero(empty)  # only the rows whose neighbour there is empty
+        across = across[at]
         lo, hi = across * spacing, (across + 1) * spacing
-        there, there_ok, _, there_kind = solve(*(part[rows] for part in planes), lo, hi, mass=(across + 0.5) * spacing)
-        dist = np.linalg.norm(there - centre[rows], axis=1)
-        take = empty & there_ok & (there_kind == 2) & (dist < best)
-        points[rows[take]], best[take] = there[take], dist[take]
+        there, there_ok, _, there_kind = solve(*(part[rows[at]] for part in planes), lo, hi,
+                                               mass=(across + 0.5) * spacing)
+        dist = np.linalg.norm(there - centre[rows[at]], axis=1)
+        take = there_ok & (there_kind == 2) & (dist < best[at])
+        points[rows[at[take]]], best[at[take]] = there[take], dist[take]
     ok[rows] |= np.isfinite(best)
     return points, ok, corner, kind, opens
 
