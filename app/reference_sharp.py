@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sharp_planes import any_clean_corner, clean_gradient, level_of, plane_feature_points
+from .sharp_planes import any_clean_corner, level_of, plane_feature_points
 
 SINGULAR_CUTOFF = 0.1  # singular values below this fraction of the largest are treated as zero
 MAX_PATCH_VERTICES = 12
@@ -89,17 +89,78 @@ def edge_of_vertex(verts, ids, spacing):
     return start, along, (g - start)[along]
 
 
+def _edge_starts(verts, spacing):
+    """edge_of_vertex's start points of all `verts`, as three int32 columns (cell_runs' fast path)."""
+    columns = []
+    for axis in range(3):
+        g = verts[:, axis].astype(np.float64) / spacing[axis]
+        nearest = np.rint(g)
+        columns.append(np.where(np.abs(g - nearest) > 1e-3, np.floor(g), nearest).astype(np.int32))
+    return columns
+
+
 def cell_runs(verts, faces, spacing):
     """Both extractors emit faces cell by cell: the cells (C, 3) with faces, in order, and their face counts.
 
     A face's cell is the least grid coordinate of its corners' edges per axis (its three corners never
     all lie on one face of the cell)."""
-    start = edge_of_vertex(verts, np.arange(len(verts)), spacing)[0]
-    a, b, c = faces.T  # (per column, not .min(axis=1): numpy reduces short rows slowly)
-    cells = np.stack([np.minimum(np.minimum(s[a], s[b]), s[c]) for s in start.T], axis=1)
+    a, b, c = (np.ascontiguousarray(column) for column in faces.T)  # (per column, not .min(axis=1): numpy
+    # reduces short rows slowly; int32 columns gather faster)
+    cells = np.stack([np.minimum(np.minimum(s[a], s[b]), s[c]) for s in _edge_starts(verts, spacing)],
+                     axis=1).astype(np.int64)
     key = (cells[:, 0] * (cells[:, 1].max() + 1) + cells[:, 1]) * (cells[:, 2].max() + 1) + cells[:, 2]
     first = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]]))
     return cells[first], np.diff(np.append(first, len(faces)))
+
+
+OPEN_MARGIN = 0.05  # degrees: _opens_wider's margin for float32 normals (see there)
+BEND_MARGIN = 0.05  # degrees off the half-angle in vertex_may_bend: far more than float32 rounding
+
+
+def bend_cos(angle) -> np.float32:
+    """vertex_may_bend's threshold: the cosine of half the feature angle less BEND_MARGIN."""
+    return np.float32(np.cos(np.radians(angle / 2 - BEND_MARGIN)))
+
+
+def vertex_may_bend(verts, normals, field, spacing, angle):
+    """Per vertex of a plain MC mesh of `field` (sign-adjusted), whether a cell around its edge may
+    hold a feature: its normal is more than half the feature angle (less BEND_MARGIN) from some
+    around cell's outward direction r_C, minus its mean gradient (or r_C is zero; or the vertex lies
+    on no grid edge, as after smoothing).  Conservative: if no vertex of cell C is flagged, each of
+    C's normals is within angle/2 of r_C, so any two are within the angle of each other and
+    `sharpen`'s feature test (some pair of a patch's normals opening wider) fails in C.  So where no
+    vertex is flagged, `sharpen` returns the plain mesh.  shaders/emc_flags.comp does the same per
+    vertex, in float32 and in the edge's frame (u, w across it, ascending, a along it) as here."""
+    g = verts.astype(np.float64) / np.asarray(spacing, np.float64)
+    along = np.abs(g - np.rint(g)) > 1e-3
+    flagged = along.sum(axis=1) != 1
+    start = np.where(along, np.floor(g), np.rint(g)).astype(np.int64)
+    a = along.astype(np.int64)
+    u = np.where(along[:, :1], [0, 1, 0], [1, 0, 0])
+    w = np.where(along[:, 2:], [0, 1, 0], [0, 0, 1])
+    frame = np.stack([u, w, a], axis=1)  # (N, 3 axes of the frame, xyz)
+    n = np.einsum("nfk,nk->nf", frame, normals.astype(np.float32)).astype(np.float32)
+    step = (frame @ np.asarray(spacing, np.float64)).astype(np.float32)
+    f = {(i, j, k): field[tuple(np.clip(start + (i - 1) * u + (j - 1) * w + k * a, 0,
+                                        np.array(field.shape) - 1).T)]
+         for i in range(3) for j in range(3) for k in range(2)}
+    cos_half, upper = bend_cos(angle), np.array(field.shape) - 2
+    for du in (0, 1):
+        for dw in (0, 1):
+            cell = start - (1 - du) * u - (1 - dw) * w
+            exists = ~flagged & (cell >= 0).all(axis=1) & (cell <= upper).all(axis=1)
+            c = {(i, j, k): f[du + i, dw + j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)}
+            grad = np.stack([(c[1, 0, 0] - c[0, 0, 0]) + (c[1, 0, 1] - c[0, 0, 1])
+                             + ((c[1, 1, 0] - c[0, 1, 0]) + (c[1, 1, 1] - c[0, 1, 1])),
+                             (c[0, 1, 0] - c[0, 0, 0]) + (c[0, 1, 1] - c[0, 0, 1])
+                             + ((c[1, 1, 0] - c[1, 0, 0]) + (c[1, 1, 1] - c[1, 0, 1])),
+                             (c[0, 0, 1] - c[0, 0, 0]) + (c[0, 1, 1] - c[0, 1, 0])
+                             + ((c[1, 0, 1] - c[1, 0, 0]) + (c[1, 1, 1] - c[1, 1, 0]))], axis=1) / (4 * step)
+            length = np.sqrt((grad * grad).sum(axis=1))
+            with np.errstate(invalid="ignore", divide="ignore"):
+                dots = (n * (-grad / length[:, None])).sum(axis=1)
+            flagged |= exists & (~(length > 0) | ~(dots >= cos_half))
+    return flagged
 
 
 def _candidate_cells(faces, normals, n_tri, cos_half):
@@ -111,11 +172,14 @@ def _candidate_cells(faces, normals, n_tri, cos_half):
 def _normal_spread(faces, normals, n_tri):
     """Per cell (faces in runs of `n_tri`), the least cosine between a vertex normal and the cell's mean."""
     starts = np.cumsum(n_tri) - n_tri
-    corners = [normals[column] for column in faces.T]
-    sums = np.add.reduceat(corners[0] + corners[1] + corners[2], starts)
-    mean = np.repeat((sums / np.maximum(np.linalg.norm(sums, axis=1, keepdims=True), 1e-30)).astype(np.float32),
-                     n_tri, axis=0)
-    dots = [np.einsum("fk,fk->f", corner, mean) for corner in corners]
+    # Per axis and corner (contiguous columns gather and add faster than rows of three).
+    columns = [np.ascontiguousarray(column) for column in faces.T]
+    corners = [[np.ascontiguousarray(normals[:, axis])[column] for axis in range(3)] for column in columns]
+    sums = np.stack([np.add.reduceat(corners[0][axis] + corners[1][axis] + corners[2][axis], starts)
+                     for axis in range(3)], axis=1)
+    unit = (sums / np.maximum(np.linalg.norm(sums, axis=1, keepdims=True), 1e-30)).astype(np.float32)
+    mean = [np.repeat(unit[:, axis], n_tri) for axis in range(3)]
+    dots = [(corner[0] * mean[0] + corner[1] * mean[1]) + corner[2] * mean[2] for corner in corners]
     return np.minimum.reduceat(np.minimum(np.minimum(dots[0], dots[1]), dots[2]), starts)
 
 
@@ -136,12 +200,6 @@ def _plane_cells(field, all_cells, spread, cos_loose, spacing):
     if not clean.any():
         return clean
     return cells & _dilated(all_cells, _dilated(all_cells, clean))
-
-
-def _opening(n, valid):
-    """The least cosine between two of each row's normals (P, W, 3), padding (not `valid`) left out."""
-    both = valid[:, :, None] & valid[:, None, :]
-    return np.where(both, np.einsum("pik,pjk->pij", n, n), 1.0).min(axis=(1, 2))
 
 
 def _dilated(cells, flags):
@@ -170,8 +228,9 @@ def _occupancy(cells, shape):
 
 def _unique(values):
     """np.unique(values) of a 1-D integer array by a sort (np.unique's hash table is several times slower
-    on the million-entry keys here)."""
-    ordered = np.sort(values, kind="stable")
+    on the million-entry keys here; equal keys are equal, so the sort need not be stable, and numpy's
+    default sort is ~4x faster than its stable one on such keys)."""
+    ordered = np.sort(values)
     return ordered[np.concatenate([[True], ordered[1:] != ordered[:-1]])] if len(ordered) else ordered
 
 
@@ -191,6 +250,28 @@ def _patches(faces: np.ndarray, face_cell: np.ndarray) -> np.ndarray:
         label = new
 
 
+def _opens_wider(normals, members, cos_angle, angle):
+    """Whether some two normals of each patch's `members` (P, W, padded with -1) meet at more than the
+    feature angle: the smallest of all pairs' dots (float64) below cos_angle.
+
+    The (P, W, W) dots are computed only for patches the normals' dots with the first member's do not
+    settle: one of those below cos_angle (by more than rounding) is such a pair; all within half the
+    angle less OPEN_MARGIN of it puts every pair within the angle (by the triangle inequality)."""
+    valid = members >= 0
+    n = normals[np.maximum(members, 0)].astype(np.float64) * valid[..., None]
+    first = np.where(valid, np.einsum("pik,pk->pi", n, n[:, 0]), 1.0).min(axis=1)
+    wider = first < cos_angle - 1e-12
+    if angle >= 1.0:  # (a margin that beats float32 normals' rounding needs some angle)
+        unsettled = np.flatnonzero(~wider & (first < np.cos(np.radians(angle / 2 - OPEN_MARGIN))))
+    else:
+        unsettled = np.flatnonzero(~wider)
+    n, valid = n[unsettled], valid[unsettled]
+    cos_open = np.einsum("pik,pjk->pij", n, n)
+    both = valid[:, :, None] & valid[:, None, :]
+    wider[unsettled] = np.where(both, cos_open, 1.0).min(axis=(1, 2)) < cos_angle
+    return wider
+
+
 def _row_counts(*columns):
     """For each row of the columns, how many rows equal it."""
     order = np.lexsort(columns[::-1])
@@ -205,23 +286,27 @@ def _row_counts(*columns):
 def _padded(groups, members, n_groups, width=None):
     """(G, width) unique members of each group, ascending, padded with -1."""
     base = members.max() + 1
-    pairs = _unique(groups * base + members)
-    pairs = np.stack([pairs // base, pairs % base], axis=1)
-    first = np.searchsorted(pairs[:, 0], np.arange(n_groups))
-    slot = np.arange(len(pairs)) - first[pairs[:, 0]]
-    out = np.full((n_groups, width or slot.max() + 1), -1, np.int64)
-    out[pairs[:, 0], slot] = pairs[:, 1]
-    return out
+    group, member = np.divmod(_unique(groups * base + members), base)
+    counts = np.bincount(group, minlength=n_groups)
+    width = width or counts.max()
+    slot = np.arange(len(group)) - np.repeat(np.cumsum(counts) - counts, counts)
+    out = np.full(n_groups * width, -1, np.int64)
+    out[group * width + slot] = member
+    return out.reshape(n_groups, width)
 
 
 def _one_ring(faces, members):
     """(P, W) the vertices of each row of `members` (padded with -1) and their neighbours in the mesh."""
-    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    wanted = np.zeros(faces.max() + 2, bool)
+    n_ids = faces.max() + 2
+    wanted = np.zeros(n_ids, bool)
     wanted[members[members >= 0]] = True
+    a, b, c = faces.T
+    near = wanted[a] | wanted[b] | wanted[c]  # only the faces at wanted vertices have their edges
+    a, b, c = a[near], b[near], c[near]
+    edges = np.stack([np.concatenate([a, b, c]), np.concatenate([b, c, a])], axis=1)
     edges = edges[wanted[edges[:, 0]]]
-    edges = edges[np.argsort(edges[:, 0], kind="stable")]
-    starts = np.searchsorted(edges[:, 0], np.arange(faces.max() + 2))
+    edges = edges[np.argsort(edges[:, 0])]  # (neighbours' order is free: _padded sorts them)
+    starts = np.searchsorted(edges[:, 0], np.arange(n_ids))
     rows, cols = np.nonzero(members >= 0)
     v = members[rows, cols]
     count = starts[v + 1] - starts[v]
@@ -325,15 +410,39 @@ def eno_gradient(field, points, spacing):
     """The field's gradient at grid points (N, 3), each axis by the one-sided difference whose side is
     smoother (smaller second difference: ENO, Harten and Osher 1987).  Central differences straddle an
     edge and blend its two sides; a one-sided difference from the flat side does not."""
-    return clean_gradient(field, points, spacing)[0]
+    shape = np.array(field.shape)
+    grad = np.empty(points.shape, np.float64)
+    flat_field = field.reshape(-1)
+    strides = np.array([shape[1] * shape[2], shape[2], 1])
+    flat = points @ strides
+    f0 = flat_field[flat].astype(np.float64)
+    for axis in range(3):
+        k = points[:, axis]
+        # Flat indices of the neighbours along the axis (clamped into the grid), gathered from 1-D.
+        fp, fm, fpp, fmm = (flat_field[flat + (np.clip(k + offset, 0, shape[axis] - 1) - k) * strides[axis]]
+                            .astype(np.float64) for offset in (1, -1, 2, -2))
+        rough_fwd = np.where(k + 2 < shape[axis], np.abs(fpp - 2 * fp + f0), np.inf)
+        rough_bwd = np.where(k - 2 >= 0, np.abs(f0 - 2 * fm + fmm), np.inf)
+        use_fwd = (k == 0) | ((k + 1 < shape[axis]) & (rough_fwd < rough_bwd))
+        grad[:, axis] = np.where(use_fwd, fp - f0, f0 - fm) / spacing[axis]
+    return grad
+
+
+def _eno_gradients_at(field, points, spacing):
+    """eno_gradient at each of `points` (N, 3), computed once per distinct grid point (neighbouring
+    vertices share their edges' ends): the same numbers, at a fraction of the gathers."""
+    shape = np.array(field.shape)
+    flat = np.ravel_multi_index(points.T, shape)
+    unique, where = np.unique(flat, return_inverse=True)
+    return eno_gradient(field, np.stack(np.unravel_index(unique, shape), axis=1), spacing)[where.reshape(-1)]
 
 
 def eno_normals(field, verts, ids, spacing):
     """Outward unit normals of vertices `ids` from ENO gradients at their edge's ends, interpolated along it
     as mc_vertices.comp interpolates central differences."""
     start, along, t = edge_of_vertex(verts, ids, spacing)
-    grad = (eno_gradient(field, start, spacing) * (1 - t)[:, None]
-            + eno_gradient(field, start + along, spacing) * t[:, None])
+    ends = _eno_gradients_at(field, np.concatenate([start, start + along]), spacing)
+    grad = ends[:len(ids)] * (1 - t)[:, None] + ends[len(ids):] * t[:, None]
     length = np.linalg.norm(grad, axis=1, keepdims=True)
     return np.where(length > 0, -grad / np.where(length > 0, length, 1), 0.0)
 
@@ -432,10 +541,10 @@ def vertex_normals_from_faces(verts, faces, vertices):
     faces = faces[wanted[faces].any(axis=1)]  # only the faces around them (the same sums, in the same order)
     tri = verts[faces].astype(np.float64)
     area_normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    sums = np.zeros((len(verts), 3))
-    for corner in range(3):
-        np.add.at(sums, faces[:, corner], area_normals)
-    picked = sums[vertices]
+    # Per axis one bincount over the corners, corner 0 of every face first: each vertex's sum adds the
+    # same numbers in the same order as np.add.at corner by corner would (several times faster).
+    corners, weights = faces.T.reshape(-1), np.tile(area_normals, (3, 1))
+    picked = np.stack([np.bincount(corners, weights[:, axis], len(verts))[vertices] for axis in range(3)], axis=1)
     return (picked / np.maximum(np.linalg.norm(picked, axis=1, keepdims=True), 1e-30)).astype(np.float32)
 
 
@@ -465,8 +574,6 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points):
     patch = _patches(sub, face_cell)
     n_patches = patch.max() + 1
     members = _padded(np.repeat(patch, 3), sub.reshape(-1), n_patches, MAX_PATCH_VERTICES)
-    valid = members >= 0
-    n = normals[np.maximum(members, 0)].astype(np.float64) * valid[..., None]
     cell_of_patch = np.zeros(n_patches, np.int64)
     cell_of_patch[patch] = face_cell
     p_points, p_corner = np.zeros((n_patches, 3)), np.full((n_patches, 3), np.nan)
@@ -476,10 +583,10 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points):
         p_points[linear], p_ok[linear], p_corner[linear], _, p_open[linear] = plane_feature_points(
             field, all_cells[cell_of_patch[linear]], spacing, level_of(field, verts, spacing), cos_angle,
             feature_points, _occupancy(all_cells, field.shape))
-    opening = np.ones(n_patches)
-    curved = np.flatnonzero(bent[cell_of_patch])  # only there can the mesh normals open wider than the angle
-    opening[curved] = _opening(n[curved], valid[curved])
-    is_feature = (opening < cos_angle) | (p_ok & p_open)
+    # (vertex_may_bend, pass 0 on the GPU, skips all of this where no cell's mesh normals open wider than
+    # the angle: a feature must keep needing two of them to, or that bound must change with it.  The
+    # sample planes' features break it where no mesh normals open that wide at all; see the branch notes.)
+    is_feature = _opens_wider(normals, members, cos_angle, angle) | (p_ok & p_open)
     if not is_feature.any():
         return (*mesh, n_plain)
 
@@ -606,15 +713,18 @@ def crisp_normals(verts, faces, normals, values, n_plain):
     """A mesh for drawing: every triangle touching a feature vertex (index >= n_plain) gets its own three
     vertices; at its feature corners the mean normal of its other corners (the side it lies on), so
     shading does not smear across the edge.  The rest is unchanged."""
-    flat = (faces >= n_plain).any(axis=1)
+    a, b, c = faces.T  # (per column: numpy reduces short rows slowly)
+    flat = (a >= n_plain) | (b >= n_plain) | (c >= n_plain)
     if not flat.any():
         return verts, faces, normals, values
     rows = faces[flat]
-    plain = (rows < n_plain)[..., None]
+    plain = rows < n_plain
     corner_normals = normals[rows].astype(np.float64)
-    side = (corner_normals * plain).sum(axis=1)
-    side /= np.maximum(np.linalg.norm(side, axis=1, keepdims=True), 1e-30)
-    corner_normals = np.where(plain, corner_normals, side[:, None, :])
+    weighted = [corner_normals[:, k] * plain[:, k, None] for k in range(3)]
+    side = (weighted[0] + weighted[1]) + weighted[2]
+    side /= np.maximum(np.sqrt((side[:, 0] * side[:, 0] + side[:, 1] * side[:, 1]) + side[:, 2] * side[:, 2]),
+                       1e-30)[:, None]
+    corner_normals = np.where(plain[..., None], corner_normals, side[:, None, :])
     start = len(verts)
     out_faces = faces.copy()
     out_faces[flat] = start + np.arange(3 * len(rows)).reshape(-1, 3)

@@ -2,19 +2,25 @@
 
     >>> ex = Extractor(volume); ex.extract(level)
     >>> sharp = SharpExtractor(ex)                  # borrows its volume image and mesh buffers
+    >>> sharp.may_bend(angle)                       # False: the sharp mesh is the plain one
     >>> sharp.patch_points(...)                     # reference_sharp.patch_points, on the GPU
 
 Passes (shaders/emc_*.comp; numpy mirror and the method: app/reference_sharp.py):
 
+0. ``emc_flags``  per vertex of the plain mesh: is its normal more than half the feature angle
+   from the mean-gradient direction of a cell around its edge (reference_sharp.vertex_may_bend)?
+   Where no vertex is, no cell's normals open wider than the angle and `sharpen` would return
+   the plain mesh: the caller skips the read-back and the numpy step (sphere, gyroid).
 1. ``emc_solve``  per feature patch: ENO normals of its vertices and one-ring from the volume
    image, the extreme normals, the planes' least-squares point (a fixed-step Jacobi eigen-solve
    of the 3x3 normal equations, in double precision as numpy's), the line or corner into the cell.
 
-What is not on the GPU yet (numpy, on the mesh read back): finding each triangle's cell and the
-candidate cells, grouping into patches, the feature test, the one-ring lists, the side normals,
-the grid samples' own planes where the field is locally linear (app.sharp_planes), corners in
-empty cells, fans and the test that none folds, edge flips, the feature vertices' normals and the
-crisp normals for drawing (reference_sharp.crisp_normals; the drawn mesh is uploaded).
+What is not on the GPU yet (numpy, on the mesh read back where pass 0 flags a vertex): finding
+each triangle's cell and the candidate cells, grouping into patches, the feature test, the
+one-ring lists, the side normals, the grid samples' own planes where the field is locally linear
+(app.sharp_planes), corners in empty cells, fans and the test that none folds, edge flips, the
+feature vertices' normals and the crisp normals for drawing (reference_sharp.crisp_normals; the
+drawn mesh is uploaded).
 `sharpen(..., solver=SharpExtractor(ex).patch_points)` is the numpy reference with pass 1
 swapped in; it gives the same mesh (tests/test_sharp_features.py).  A GPU candidate-cell pass
 was tried and dropped: on llvmpipe it cost more than numpy's read-back and test (git log).
@@ -27,10 +33,16 @@ import numpy as np
 from .gpu_layout import GROUP_SIZE, VERTEX_BYTES
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
-from .reference_sharp import CLUSTER_ANGLE, JACOBI_SWEEPS, LINE_MARGIN, MAX_PATCH_VERTICES, SINGULAR_CUTOFF
+from .reference_sharp import CLUSTER_ANGLE, JACOBI_SWEEPS, LINE_MARGIN, MAX_PATCH_VERTICES, SINGULAR_CUTOFF, bend_cos
 
-RING_STEP = 16
-"""Ring lists' capacity in the shader is their width rounded up to this (one program per capacity)."""
+RING_STEP = 48
+"""Ring lists' capacity in the shader is their width rounded up to this (one program per capacity).
+
+One capacity covers every ring seen (widths ~20-30 on noise, boxes), so a process compiles emc_solve
+once.  Not smaller: llvmpipe keeps private arrays of up to ~32 entries in registers, and then takes
+~16-18 s to compile the shader (capacity 32) against ~2 s from 40 on, where they live in scratch
+memory; the solve runs as fast either way (noise 128: 0.25 s at 32, 0.23 s at 48).  Timed with
+MESA_SHADER_CACHE_DISABLE=true: Mesa's disk cache hides the compile after a machine's first run."""
 
 
 def _double(value) -> str:
@@ -62,6 +74,28 @@ class SharpExtractor:
         if data:
             buf.write(data)
         return buf
+
+    def may_bend(self, angle: float, mesh: GpuMesh | None = None, each: bool = False):
+        """Pass 0 (emc_flags.comp) on the extractor's mesh (or `mesh`): whether some vertex may sit in a
+        feature cell (reference_sharp.vertex_may_bend).  False: `sharpen` would return the plain mesh
+        as it is, so nothing need be read back.  `each`: the per-vertex flags instead (for tests)."""
+        ex = self.extractor
+        mesh = ex.mesh if mesh is None else mesh
+        n = mesh.n_vertices
+        if n == 0:
+            return np.zeros(0, bool) if each else False
+        program = self._program("emc_flags", **({"FLAG_EACH": 1} if each else {}))
+        set_uniforms(program, **ex.grid_uniforms, u_sign=1.0 if ex.descent else -1.0, u_vertex_count=n,
+                     u_cos_half=float(bend_cos(angle)))
+        ex.volume_texture.bind_to_image(0, read=True, write=False)
+        flags = self._upload("flags", np.zeros(1 + n if each else 1, np.uint32))
+        flags.bind_to_storage_buffer(5)
+        mesh.vertex_buffer.bind_to_storage_buffer(8, size=n * VERTEX_BYTES)
+        dispatch_groups(program, -(-n // GROUP_SIZE))
+        self.ctx.memory_barrier()
+        if each:
+            return np.frombuffer(flags.read(size=4 * (1 + n)), np.uint32)[1:] > 0
+        return bool(np.frombuffer(flags.read(size=4), np.uint32)[0])
 
     def patch_points(self, verts, plane_normals, members, ring_members, lower, upper, spacing, cos_angle,
                      mesh: GpuMesh | None = None):

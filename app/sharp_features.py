@@ -1,6 +1,9 @@
 """Extended Marching Cubes for the GPU extractor's meshes, and `isoscope render --sharp`.
 
-The feature step (app.reference_sharp.sharpen) runs on the mesh the Extractor read back, with
+First pass 0 (`SharpExtractor.may_bend`, shaders/emc_flags.comp) asks the GPU whether any cell
+may bend past the feature angle; where none may, the plain mesh is the answer and nothing is read
+back (the viewer draws the extractor's own buffers).  Else the feature step
+(app.reference_sharp.sharpen) runs on the mesh the Extractor read back, with
 its per-patch solve (ENO normals, the planes' point) on the GPU: `SharpExtractor.patch_points`,
 shaders/emc_solve.comp, which gives the numpy reference's points to ~1e-14.  Grouping triangles
 into patches, the one-ring lists, fans, edge flips, the feature vertices' normals and the crisp
@@ -21,13 +24,25 @@ def sharp_mesh_of(extractor, volume_data, angle, field=None, gpu: SharpExtractor
 
     `field`: signed_field(volume_data, extractor.descent) if already made; `gpu`: a SharpExtractor of
     `extractor` to reuse (else one is made and released here)."""
-    field = signed_field(volume_data, extractor.descent) if field is None else field
     solver = SharpExtractor(extractor) if gpu is None else gpu
     try:
-        return sharpen(extractor.read_mesh(), field, extractor.spacing, angle, solver=solver.patch_points)
+        sharpened = _sharpened(extractor, volume_data, angle, field, solver)
     finally:
         if gpu is None:
             solver.release()
+    if sharpened is None:
+        mesh = extractor.read_mesh()
+        return (*mesh, len(mesh[0]))
+    return sharpened
+
+
+def _sharpened(extractor, volume_data, angle, field, gpu: SharpExtractor):
+    """sharpen's result for the extractor's last mesh, or None where it is the plain mesh as it is, which
+    pass 0 (SharpExtractor.may_bend) tells without reading the mesh back."""
+    if not gpu.may_bend(angle):
+        return None
+    field = signed_field(volume_data, extractor.descent) if field is None else field
+    return sharpen(extractor.read_mesh(), field, extractor.spacing, angle, solver=gpu.patch_points)
 
 
 def marching_cubes_sharp_gpu(checked, level, spacing, gradient_direction, angle):
@@ -87,16 +102,20 @@ class SharpenedMesh:
         if self._gpu is None or self._gpu.extractor is not extractor:
             self._release_gpu()
             self._gpu = SharpExtractor(extractor)
-        sharpened = sharp_mesh_of(extractor, volume_data, angle, self._field, self._gpu)
-        plain = len(sharpened[0]) == sharpened[4]  # no feature at this level: the extractor's mesh as it is
+        sharpened = _sharpened(extractor, volume_data, angle, self._field, self._gpu)
+        # No feature at this level: the extractor's mesh as it is (without a read-back where pass 0 says so).
+        plain = sharpened is None or len(sharpened[0]) == sharpened[4]
         drawn = extractor.mesh if plain else GpuMesh.upload(self.ctx, *crisp_normals(*sharpened))
         self._release_mesh()
-        self.mesh, self._arrays, self._borrowed = drawn, sharpened[:4], plain
+        self.mesh, self._arrays, self._borrowed = drawn, None if sharpened is None else sharpened[:4], plain
         self.level = extractor.level
-        self.n_vertices, self.n_triangles = len(sharpened[0]), len(sharpened[1])
+        self.n_vertices, self.n_triangles = ((extractor.n_vertices, extractor.n_triangles) if sharpened is None
+                                             else (len(sharpened[0]), len(sharpened[1])))
         self.last_extract_ms = extractor.last_extract_ms + 1000 * (time.perf_counter() - start)
 
     def read_mesh(self):
+        if self._arrays is None and self.mesh is not None:  # the extractor's plain mesh, read when asked
+            self._arrays = self.mesh.read()
         return self._arrays
 
     def release(self) -> None:

@@ -6,8 +6,10 @@ between levels 0 and 0.01 (a slider drag).  Timed, as medians:
 
 - plain: `ex.extract(level)` (the GPU mesh stays on the GPU);
 - sharp: `ex.extract(level)` then `SharpenedMesh.take(ex, volume, angle)`, the viewer's iso change:
-  the mesh read back, the feature step in numpy with its per-patch solve on the GPU (emc_solve.comp)
-  and the crisp-normal mesh uploaded for drawing;
+  pass 0 on the GPU (emc_flags.comp: may any cell bend past the angle?); where none may (sphere,
+  gyroid at 128 and up) that is all, the extractor's mesh is drawn as it is; else the mesh read
+  back, the feature step in numpy with its per-patch solve on the GPU (emc_solve.comp) and the
+  crisp-normal mesh uploaded for drawing;
 - numpy: extract, read back and `reference_sharp.sharpen` all in numpy (the `backend="cpu"` feature
   step on the GPU's plain mesh; what the GPU path was before emc_solve, less the drawing upload).
 

@@ -233,3 +233,89 @@ def test_viewer_mesh_without_features_is_the_extractors_own(gl_ctx):
             finally:
                 shown.release()
             assert ex.read_mesh()[0].shape[0] == ex.n_vertices > 0  # its buffers were not released
+
+
+def rough_noise(n, seed=5):
+    """Gaussian noise blurred a little: bends everywhere, many of them sharper than the feature angle."""
+    from scipy.ndimage import gaussian_filter
+    return gaussian_filter(np.random.default_rng(seed).standard_normal((n, n, n)), 1.5).astype(np.float32)
+
+
+BEND_SCENES = {**GPU_SCENES, "rough noise": lambda: rough_noise(N)}
+
+
+def widest_opening_per_cell(verts, faces, normals, spacing):
+    """(cells' face lists, the largest angle in degrees between two vertex normals of each cell), cells
+    found from the faces' centroids (an MC triangle's centroid lies inside its cell)."""
+    cells = np.floor(verts[faces].mean(axis=1) / np.asarray(spacing)).astype(np.int64)
+    _, cell_of_face = np.unique(cells, axis=0, return_inverse=True)
+    widest = []
+    groups = np.split(np.argsort(cell_of_face.reshape(-1), kind="stable"),
+                      np.flatnonzero(np.diff(np.sort(cell_of_face.reshape(-1)))) + 1)
+    for rows in groups:
+        n = normals[np.unique(faces[rows])].astype(np.float64)
+        widest.append(np.degrees(np.arccos(np.clip((n @ n.T).min(), -1, 1))))
+    return [faces[rows] for rows in groups], np.array(widest)
+
+
+@pytest.mark.parametrize("angle", [10, 30, 60, 120])
+@pytest.mark.parametrize("spacing", [(1.0, 1.0, 1.0), (1.0, 0.8, 1.3)])
+@pytest.mark.parametrize("name", list(BEND_SCENES))
+def test_bend_pass_flags_every_cell_whose_normals_open_wider_than_the_angle(gl_ctx, name, spacing, angle):
+    """emc_flags.comp (pass 0) equals reference_sharp.vertex_may_bend and never misses a cell where two
+    vertex normals open wider than the feature angle, the only cells `sharpen` can change; where it
+    flags nothing, sharp_mesh_of gives the numpy reference's (plain) mesh without running it."""
+    from isoscope import Extractor
+    from isoscope.reference_sharp import sharpen, signed_field, vertex_may_bend
+    from isoscope.sharp_extractor import SharpExtractor
+    from isoscope.sharp_features import sharp_mesh_of
+
+    volume = BEND_SCENES[name]().astype(np.float32)
+    with Extractor(volume, spacing=spacing, ctx=gl_ctx) as ex:
+        ex.extract(0.0)
+        verts, faces, normals, values = mesh = ex.read_mesh()
+        gpu = SharpExtractor(ex)
+        try:
+            flags, any_flag = gpu.may_bend(angle, each=True), gpu.may_bend(angle)
+            fast = sharp_mesh_of(ex, volume, angle, gpu=gpu)
+        finally:
+            gpu.release()
+    field = signed_field(volume, True)
+    np.testing.assert_array_equal(flags, vertex_may_bend(verts, normals, field, spacing, angle))
+    assert any_flag == flags.any()
+    cell_faces, widest = widest_opening_per_cell(verts, faces, normals, spacing)
+    missed = [i for i in np.flatnonzero(widest > angle) if not flags[cell_faces[i]].any()]
+    assert not missed, f"{len(missed)} bent cells not flagged, e.g. opening {widest[missed[0]]:.1f} deg"
+    reference = sharpen(mesh, field, spacing, angle)
+    np.testing.assert_array_equal(fast[1], reference[1])
+    for a, b in zip(fast, reference):  # exact where nothing bends; else the GPU solve's points (~1e-14 off)
+        np.testing.assert_allclose(a, b, rtol=0, atol=0 if not any_flag else 1e-5)
+    if name == "sphere" and angle >= 30:
+        assert not any_flag  # the pass does let the plain mesh through where nothing bends
+    if name not in ("sphere", "smooth noise") and angle <= 60:
+        assert (widest > angle).any()  # the scenes do test the bound
+
+
+def test_bend_pass_flags_vertices_a_smoothing_moved_off_the_grid_edges(gl_ctx):
+    """Pass 0 tests a vertex against the cells of the edge it lies on; after smoothing most vertices lie on
+    no edge, and those say 'may bend' (the numpy step then runs, as before pass 0), like the mirror."""
+    from isoscope import Extractor
+    from isoscope.reference_sharp import signed_field, vertex_may_bend
+    from isoscope.sharp_extractor import SharpExtractor
+    from isoscope.smoothing import Smoother
+
+    volume = GPU_SCENES["sphere"]().astype(np.float32)
+    with Extractor(volume, ctx=gl_ctx) as ex:
+        ex.extract(0.0)
+        gpu, smoother = SharpExtractor(ex), Smoother(ex)
+        try:
+            assert not gpu.may_bend(30)  # the plain sphere bends nowhere
+            smoother.smooth(ex.mesh, 3)
+            flags = gpu.may_bend(30, each=True)
+            verts, _, normals, _ = ex.read_mesh()
+        finally:
+            gpu.release()
+            smoother.release()
+    on_an_edge = (np.abs(verts - np.rint(verts)) > 1e-3).sum(axis=1) == 1  # (unit spacing)
+    assert (~on_an_edge).sum() > len(verts) // 2 and flags[~on_an_edge].all()
+    np.testing.assert_array_equal(flags, vertex_may_bend(verts, normals, signed_field(volume, True), (1, 1, 1), 30))

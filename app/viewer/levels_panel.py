@@ -39,7 +39,7 @@ class LevelsSection:
             if changed:
                 state.set_level_color(i, color)
             imgui.same_line()
-            imgui.set_next_item_width(110)
+            imgui.set_next_item_width(135)  # wide enough that the grab at 1.00 leaves the text readable
             changed, opacity = imgui.slider_float("##opacity", level.opacity, 0.0, 1.0, "opacity %.2f")
             if changed:
                 state.set_level_opacity(i, opacity)
