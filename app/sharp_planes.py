@@ -98,7 +98,7 @@ def _unique_keys(keys):
 NEIGHBOURHOOD = np.array([(a, b, c) for a in range(-2, 4) for b in range(-2, 4) for c in range(-2, 4)])
 
 
-def plane_feature_points(field, cells, spacing, level, cos_angle, solve, occupied, anchor=None, chunk=2048):
+def plane_feature_points(field, cells, spacing, level, cos_angle, solve, occupied, chunk=2048):
     """Per cell (P, 3 grid coordinates) the QEF of the clean sample planes around it.
 
     `solve(positions, normals, valid, lower, upper, mass=)` is `reference_sharp.feature_points`, taken
@@ -107,13 +107,12 @@ def plane_feature_points(field, cells, spacing, level, cos_angle, solve, occupie
     face's samples all give the same plane) share a unit weight, so a face seen by many samples does not
     drown one seen by few.  Cells go in chunks (memory)."""
     spacing = np.asarray(spacing, np.float64)
-    anchor = (cells + 0.5) * spacing if anchor is None else anchor
-    parts = [_plane_qef(field, cells[rows], spacing, level, cos_angle, solve, occupied, anchor[rows])
+    parts = [_plane_qef(field, cells[rows], spacing, level, cos_angle, solve, occupied)
              for rows in np.array_split(np.arange(len(cells)), max(1, -(-len(cells) // chunk)))]
     return tuple(np.concatenate([part[k] for part in parts]) for k in range(5))
 
 
-def _plane_qef(field, cells, spacing, level, cos_angle, solve, occupied, toward):
+def _plane_qef(field, cells, spacing, level, cos_angle, solve, occupied):
     shape = np.array(field.shape)
     points = cells[:, None, :] + NEIGHBOURHOOD[None]
     inside = ((points >= 0) & (points < shape)).all(axis=2)
@@ -147,16 +146,18 @@ def _plane_qef(field, cells, spacing, level, cos_angle, solve, occupied, toward)
     opens = np.where(both, np.einsum("pik,pjk->pij", normal, normal), 1.0).min(axis=(1, 2)) < cos_angle
     lower, upper = cells * spacing, (cells + 1) * spacing
     planes = (anchor, normal, valid)
-    _, ok, corner, kind = solve(*planes, lower, upper, mass=centre)
+    points, ok, corner, kind = solve(*planes, lower, upper, mass=centre)
     # Three sides meeting outside the cell (near a corner): the cell's edge is the line of two of them,
-    # the pair whose line is on the surface (`_surface_pair`).
+    # the pair whose line is on the surface (`_surface_pair`); those rows are solved again.
     beside = np.isfinite(corner).all(axis=1) & (kind != 3)
     if beside.any():
         keep = valid.copy()
         keep[beside] = _surface_pair(normal[beside], anchor[beside], valid[beside], cos_angle, centre[beside],
                                      field, spacing, level)
         planes = (anchor, planes[1] * keep[..., None], keep)
-    points, ok, _, kind = solve(*planes, lower, upper, mass=toward)
+        rows = np.flatnonzero(beside)
+        points[rows], ok[rows], _, kind[rows] = solve(*(part[rows] for part in planes), lower[rows], upper[rows],
+                                                      mass=centre[rows])
     # A corner just outside the cell: its edges leave it in more directions than one point of a line can
     # follow; the cell takes the corner itself.
     gap = np.maximum(np.maximum(lower - corner, corner - upper), 0).max(axis=1)
