@@ -24,13 +24,23 @@ Starts from the plain marching-cubes mesh (`app.reference`) and changes it in tw
    - a patch whose one-ring's two sides meet in a line that misses the cell
      by more than LINE_MARGIN is no feature (it only looked bent);
    - a corner that pokes into a cell with no patch is placed by the nearest
-     neighbouring patch whose planes meet there (`_corner_in_empty_cell`).
+     neighbouring patch whose planes meet there (`_corner_in_empty_cell`);
+   - where the field is locally linear (a signed-distance field), the grid samples'
+     own tangent planes (`app.sharp_planes`) decide instead: candidate cells (mesh
+     normals straying CANDIDATE_FRACTION of the angle) and their neighbours become
+     feature cells when those planes open wider than the angle, and take those
+     planes' point.  That point is exact, but the plain edge vertices next to a kink
+     sit off it (linear interpolation across the kink), so a fan to it can turn a
+     triangle over: then the solver's point, then points FOLD_RETREAT of the way to
+     the patch's mass point are tried, and a patch whose every try folds stays plain
+     (`_unfolded`).
 2. Edge flips.  Where an edge between two edge vertices has a feature vertex
    on both sides (fans of two neighbouring cells), it is flipped to join the
    two feature vertices, so the feature line runs straight from cell to cell.
    Each fan triangle has one such edge, so the flips are independent; a pair of
    feature vertices that two edges would join is left unflipped (it would
-   make a non-manifold edge).
+   make a non-manifold edge), and so is a flip that would turn a triangle over
+   or join two feature vertices at one point (a zero-area triangle).
 
 Outputs keep the plain mesh's vertices first, in their order, then the feature
 vertices in patch order (cells in the plain mesh's triangle order, then their
@@ -41,9 +51,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from .sharp_planes import any_clean_corner, level_of, plane_feature_points
+
 SINGULAR_CUTOFF = 0.1  # singular values below this fraction of the largest are treated as zero
 MAX_PATCH_VERTICES = 12
 LINE_MARGIN = 0.25  # cells: how far an edge line may pass outside a cell and still count as the cell's
+SOLVER_CORNER_REACH = 0.3  # cells: the solver's corner this close to a cell beats the sample planes' line
+CANDIDATE_FRACTION = 0.25  # cells whose mesh normals stray this fraction of the angle from their mean are checked
+FOLD_SIDE_COS = -0.3  # a fan triangle turned further than this (cosine) from both its base's side normals folds
+FOLD_COS = -0.7  # a fan triangle turned further than this (cosine) from the plain triangle it replaces folds
+FOLD_RETREAT = (0.25, 0.5, 0.75, 1.0)  # fractions of the way to the patch's mass point tried when a fan folds
 CLUSTER_ANGLE = 10.0  # degrees: normals this close to a side's own normal count as that side's  # a cell has 12 edges
 
 
@@ -149,6 +166,11 @@ def vertex_may_bend(verts, normals, field, spacing, angle):
 def _candidate_cells(faces, normals, n_tri, cos_half):
     """Cells where some vertex normal is more than half the feature angle from the cell's mean normal:
     only there can a patch's normals open wider than the angle (a cheap test over the whole mesh)."""
+    return _normal_spread(faces, normals, n_tri) < cos_half
+
+
+def _normal_spread(faces, normals, n_tri):
+    """Per cell (faces in runs of `n_tri`), the least cosine between a vertex normal and the cell's mean."""
     starts = np.cumsum(n_tri) - n_tri
     # Per axis and corner (contiguous columns gather and add faster than rows of three).
     columns = [np.ascontiguousarray(column) for column in faces.T]
@@ -158,7 +180,50 @@ def _candidate_cells(faces, normals, n_tri, cos_half):
     unit = (sums / np.maximum(np.linalg.norm(sums, axis=1, keepdims=True), 1e-30)).astype(np.float32)
     mean = [np.repeat(unit[:, axis], n_tri) for axis in range(3)]
     dots = [(corner[0] * mean[0] + corner[1] * mean[1]) + corner[2] * mean[2] for corner in corners]
-    return np.minimum.reduceat(np.minimum(np.minimum(dots[0], dots[1]), dots[2]), starts) < cos_half
+    return np.minimum.reduceat(np.minimum(np.minimum(dots[0], dots[1]), dots[2]), starts)
+
+
+def _plane_cells(field, all_cells, spread, cos_loose, spacing):
+    """The cells `sharp_planes` looks at: those whose mesh normals stray CANDIDATE_FRACTION of the angle
+    (`spread` < `cos_loose`) and their neighbours (a corner's cell can see its normals barely open, the
+    sides blending in all its samples; the edges leading into it open theirs), where clean samples
+    (`any_clean_corner`) are near: in the cell's corners or those of cells up to two away, the reach of
+    the 6x6x6 samples `plane_feature_points` takes.  None where the bent cells have no clean corner at
+    all (smooth fields)."""
+    loose = np.flatnonzero(spread < cos_loose)
+    if not any_clean_corner(field, all_cells[loose], spacing).any():  # a smooth field: not one clean sample
+        return np.zeros(len(all_cells), bool)
+    cells = _dilated(all_cells, spread < cos_loose)
+    near = np.flatnonzero(cells)
+    clean = np.zeros(len(all_cells), bool)
+    clean[near] = any_clean_corner(field, all_cells[near], spacing)
+    if not clean.any():
+        return clean
+    return cells & _dilated(all_cells, _dilated(all_cells, clean))
+
+
+def _dilated(cells, flags):
+    """`flags` (per cell of `cells`, C x 3) set also on the cells next to a flagged one (26-neighbourhood)."""
+    span = cells.max(axis=0) + 3
+    around = np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)])
+
+    def key(c):
+        return ((c[:, 0] + 1) * span[1] + c[:, 1] + 1) * span[2] + c[:, 2] + 1
+    near = _unique(key((cells[flags][:, None, :] + around[None]).reshape(-1, 3)))
+    return flags | np.isin(key(cells), near)
+
+
+def _occupancy(cells, shape):
+    """A function telling whether grid cells (N, 3) are among `cells` (those with faces)."""
+    dims = np.array(shape) - 1
+    keys = _unique(np.ravel_multi_index(cells.T, dims))
+
+    def occupied(query):
+        inside = ((query >= 0) & (query < dims)).all(axis=1)
+        key = np.ravel_multi_index(np.clip(query, 0, dims - 1).T, dims)
+        at = np.minimum(np.searchsorted(keys, key), len(keys) - 1)
+        return ~inside | (keys[at] == key)
+    return occupied
 
 
 def _unique(values):
@@ -276,7 +341,7 @@ def symmetric_eigen(m):
     return np.take_along_axis(values, order, axis=1), np.take_along_axis(v, order[:, None, :], axis=2)
 
 
-def feature_points(positions, normals, valid, lower, upper):
+def feature_points(positions, normals, valid, lower, upper, mass=None):
     """Where the tangent planes of each patch (P, W, 3) meet: (points, ok, corners, kinds).
 
     The quadric is solved relative to the mass point through the eigen-decomposition of its normal
@@ -287,7 +352,8 @@ def feature_points(positions, normals, valid, lower, upper):
     feature after all) or a line that misses the cell.  `corners`: the rank-3 points, unclamped (nan where
     rank < 3); `kinds`: 3 where the point is such a corner, 2 where it is on a line."""
     w = valid[..., None].astype(np.float64)
-    mass = (positions * w).sum(axis=1) / w.sum(axis=1)
+    if mass is None:
+        mass = (positions * w).sum(axis=1) / w.sum(axis=1)
     a = normals * w
     b = np.einsum("pvk,pvk->pv", a, positions - mass[:, None, :])
     values, vectors = symmetric_eigen(np.einsum("pvi,pvj->pij", a, a))
@@ -436,10 +502,11 @@ def _corner_in_empty_cell(corner, face_cells, shape, lower, upper, spacing):
     return takes
 
 
-def _flip_edges(faces, fan_rows):
+def _flip_edges(faces, fan_rows, verts=None):
     """Flip the edges joining two fans' bases toward their apexes (feature vertices), in place.
 
-    `fan_rows`: the rows of `faces` that are fan triangles (a, b, apex) with base a -> b."""
+    `fan_rows`: the rows of `faces` that are fan triangles (a, b, apex) with base a -> b; `verts`: the
+    positions, to leave alone flips that would fold."""
     base = faces[fan_rows, :2]
     stride = faces.max() + 1
     key, rkey = base[:, 0] * stride + base[:, 1], base[:, 1] * stride + base[:, 0]
@@ -454,6 +521,13 @@ def _flip_edges(faces, fan_rows):
     ok = (_row_counts(np.minimum(f1, f2), np.maximum(f1, f2)) == 1) & (f1 != f2)
     first, second, f1, f2 = first[ok], second[ok], f1[ok], f2[ok]
     a, b = base[first, 0], base[first, 1]
+    if verts is not None:  # a flip must not turn a triangle over, nor join two feature vertices at one point
+        p = verts.astype(np.float64)
+        before = np.cross(p[b] - p[a], p[f1] - p[a]) + np.cross(p[a] - p[b], p[f2] - p[b])
+        after = [np.cross(p[f2] - p[a], p[f1] - p[a]), np.cross(p[b] - p[f2], p[f1] - p[f2])]
+        fine = (np.einsum("fk,fk->f", after[0], before) > 0) & (np.einsum("fk,fk->f", after[1], before) > 0)
+        fine &= np.linalg.norm(p[f1] - p[f2], axis=1) > 1e-6
+        first, second, f1, f2, a, b = first[fine], second[fine], f1[fine], f2[fine], a[fine], b[fine]
     # (a, b, f1) and (b, a, f2) bound the quad a -> f2 -> b -> f1; split it along f1 - f2 instead.
     faces[fan_rows[first]] = np.stack([a, f2, f1], axis=1)
     faces[fan_rows[second]] = np.stack([f2, b, f1], axis=1)
@@ -486,64 +560,153 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points):
     spacing = np.asarray(spacing, np.float64)
     cos_angle = np.cos(np.radians(angle))
     all_cells, n_tri = cell_runs(verts, faces, spacing)
-    candidate = np.repeat(_candidate_cells(faces, normals, n_tri, np.cos(np.radians(angle / 2))), n_tri)
-    if not candidate.any():
+    spread = _normal_spread(faces, normals, n_tri)
+    bent = spread < np.cos(np.radians(angle / 2))
+    # Where the field is locally linear, its samples' own planes (app.sharp_planes) say where the sides
+    # are; central differences blend the sides next to an edge (a cell cutting a box's edge can see its
+    # normals open only 25 degrees).
+    planar = _plane_cells(field, all_cells, spread, np.cos(np.radians(angle * CANDIDATE_FRACTION)), spacing)
+    if not (bent | planar).any():
         return (*mesh, n_plain)
+    candidate = np.repeat(bent | planar, n_tri)
     face_cell = np.repeat(np.arange(len(all_cells)), n_tri)[candidate]
     sub = faces[candidate].astype(np.int64)
     patch = _patches(sub, face_cell)
     n_patches = patch.max() + 1
     members = _padded(np.repeat(patch, 3), sub.reshape(-1), n_patches, MAX_PATCH_VERTICES)
+    cell_of_patch = np.zeros(n_patches, np.int64)
+    cell_of_patch[patch] = face_cell
+    p_points, p_corner = np.zeros((n_patches, 3)), np.full((n_patches, 3), np.nan)
+    p_ok, p_open = np.zeros(n_patches, bool), np.zeros(n_patches, bool)
+    linear = np.flatnonzero(planar[cell_of_patch])
+    if len(linear):
+        p_points[linear], p_ok[linear], p_corner[linear], _, p_open[linear] = plane_feature_points(
+            field, all_cells[cell_of_patch[linear]], spacing, level_of(field, verts, spacing), cos_angle,
+            feature_points, _occupancy(all_cells, field.shape))
     # (vertex_may_bend, pass 0 on the GPU, skips all of this where no cell's mesh normals open wider than
-    # the angle: a feature must keep needing two of them to, or that bound must change with it.)
-    is_feature = _opens_wider(normals, members, cos_angle, angle)
+    # the angle: a feature must keep needing two of them to, or that bound must change with it.  The
+    # sample planes' features break it where no mesh normals open that wide at all; see the branch notes.)
+    is_feature = _opens_wider(normals, members, cos_angle, angle) | (p_ok & p_open)
     if not is_feature.any():
         return (*mesh, n_plain)
 
     feature_ids = np.flatnonzero(is_feature)
-    cell_of_patch = np.zeros(n_patches, np.int64)
-    cell_of_patch[patch] = face_cell
     cells = all_cells[cell_of_patch[feature_ids]]
     lower, upper = cells * spacing, (cells + 1) * spacing
     ring_members = _one_ring(faces, members[feature_ids])
     needed = _unique(ring_members[ring_members >= 0])
     plane_normals = normals.astype(np.float64)
     plane_normals[needed] = eno_normals(field, verts, needed, spacing)
-    new_points, ok, corner = solver(verts, plane_normals, members[feature_ids], ring_members, lower, upper,
-                                    spacing, cos_angle)
+    solved, solved_ok, corner = solver(verts, plane_normals, members[feature_ids], ring_members, lower, upper,
+                                       spacing, cos_angle)
+    # The solver's own point (with its corners in empty cells): the fallback where the sample planes'
+    # point folds the fan.
+    own = _corner_in_empty_cell(corner, all_cells, field.shape, lower, upper, spacing)
+    solved, solved_ok = np.where(own[:, None], corner, solved), solved_ok | own
+    solver_corner = corner.copy()
+    new_points, ok = solved.copy(), solved_ok.copy()
+    p_ok, p_corner = p_ok[feature_ids], p_corner[feature_ids]
+    new_points[p_ok], ok = p_points[feature_ids][p_ok], ok | p_ok
+    has_corner = np.isfinite(p_corner).all(axis=1)
+    corner[has_corner] = p_corner[has_corner]
     takes = _corner_in_empty_cell(corner, all_cells, field.shape, lower, upper, spacing)
     new_points[takes], ok = corner[takes], ok | takes
+    # The sample planes meet in a line, the mesh's normals in a corner at the cell: a corner whose third
+    # side no clean sample sees (a union's corner poking out through one sample) is the solver's.
+    gap = np.maximum(np.maximum(lower - solver_corner, solver_corner - upper), 0).max(axis=1)
+    seen_by_mesh = np.isfinite(solver_corner).all(axis=1) & (gap <= SOLVER_CORNER_REACH * spacing.min())
+    prefer = ~has_corner & p_ok & solved_ok & seen_by_mesh
+    new_points[prefer] = solved[prefer]
     is_feature[feature_ids[~ok]] = False  # the planes meet outside the cell: keep its plain patch
-    feature_ids, cells, new_points = feature_ids[ok], cells[ok], new_points[ok]
+    feature_ids, cells, new_points, solved, solved_ok = (feature_ids[ok], cells[ok], new_points[ok], solved[ok],
+                                                         solved_ok[ok])
     if not len(feature_ids):
         return (*mesh, n_plain)
-    new_index = np.full(n_patches, -1, np.int64)
-    new_index[feature_ids] = n_plain + np.arange(len(feature_ids))
-
-    # Fans: each feature patch's boundary edges (a directed edge whose reverse is not in the patch).
-    in_feature = np.zeros(len(faces), bool)
-    in_feature[np.flatnonzero(candidate)[is_feature[patch]]] = True
-    rows = np.flatnonzero(is_feature[patch])
-    edges = np.stack([sub[rows][:, [0, 1]], sub[rows][:, [1, 2]], sub[rows][:, [2, 0]]], axis=1).reshape(-1, 2)
-    edge_patch = np.repeat(patch[rows], 3)
-    boundary = _row_counts(edge_patch, edges.min(axis=1), edges.max(axis=1)) == 1
-    edges, edge_patch = edges[boundary], edge_patch[boundary]
-    order = np.argsort(edge_patch, kind="stable")
-    fans = np.concatenate([edges[order], new_index[edge_patch[order], None]], axis=1)
-
-    out_faces = np.concatenate([faces[~in_feature].astype(np.int64), fans])
-    fan_rows = np.arange(len(out_faces) - len(fans), len(out_faces))
-    _flip_edges(out_faces, fan_rows)
-
-    out_verts = np.concatenate([verts, new_points.astype(np.float32)])
-    new_normals = vertex_normals_from_faces(out_verts, out_faces, np.arange(n_plain, len(out_verts)))
     # Around features the sides' own (ENO) normals, which do not blend across the edge.
     side_normals = normals.copy()
     pure = np.linalg.norm(plane_normals[needed], axis=1) > 0.5
     side_normals[needed[pure]] = plane_normals[needed[pure]]
+    fans, fan_patch, source = _fans(sub, patch, is_feature, feature_ids, n_plain)
+    mass = _patch_mass(verts, members[feature_ids])
+    candidates = [new_points, np.where(solved_ok[:, None], solved, new_points)]
+    candidates += [new_points + t * (mass - new_points) for t in FOLD_RETREAT]
+    tri = verts[sub[source]].astype(np.float64)
+    reference = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # each fan triangle's plain triangle
+    new_points, found = _unfolded(candidates, fans, fan_patch, feature_ids, verts, side_normals, reference)
+    if not found.all():  # every candidate folds: the plain patch
+        is_feature[feature_ids[~found]] = False
+        feature_ids, cells, new_points = feature_ids[found], cells[found], new_points[found]
+        fans, fan_patch, source = _fans(sub, patch, is_feature, feature_ids, n_plain)
+    out_faces = np.concatenate([faces[~_in_feature(candidate, is_feature, patch)].astype(np.int64), fans])
+    fan_rows = np.arange(len(out_faces) - len(fans), len(out_faces))
+    _flip_edges(out_faces, fan_rows, np.concatenate([verts, new_points.astype(np.float32)]))
+
+    out_verts = np.concatenate([verts, new_points.astype(np.float32)])
+    new_normals = vertex_normals_from_faces(out_verts, out_faces, np.arange(n_plain, len(out_verts)))
     out_normals = np.concatenate([side_normals, new_normals])
-    out_values = np.concatenate([values, np.full(len(feature_ids), values.dtype.type(np.mean(values)))])
+    out_values = np.concatenate([values, np.full(len(out_verts) - n_plain, values.dtype.type(np.mean(values)))])
     return out_verts, out_faces.astype(np.int32), out_normals, out_values, n_plain
+
+
+def _patch_mass(verts, members):
+    """The mean of each patch's vertices (P, 3; `members` padded with -1)."""
+    valid = (members >= 0)[..., None]
+    return (verts[np.maximum(members, 0)].astype(np.float64) * valid).sum(axis=1) / valid.sum(axis=1)
+
+
+def _fans(sub, patch, is_feature, feature_ids, n_plain):
+    """Each feature patch's fan: its boundary edges (a directed edge whose reverse is not in the patch),
+    patch by patch, each closed by the patch's feature vertex (numbered from n_plain in feature_ids
+    order)."""
+    new_index = np.full(len(is_feature), -1, np.int64)
+    new_index[feature_ids] = n_plain + np.arange(len(feature_ids))
+    rows = np.flatnonzero(is_feature[patch])
+    edges = np.stack([sub[rows][:, [0, 1]], sub[rows][:, [1, 2]], sub[rows][:, [2, 0]]], axis=1).reshape(-1, 2)
+    edge_patch = np.repeat(patch[rows], 3)
+    boundary = _row_counts(edge_patch, edges.min(axis=1), edges.max(axis=1)) == 1
+    edges, edge_patch, source = edges[boundary], edge_patch[boundary], np.repeat(rows, 3)[boundary]
+    order = np.argsort(edge_patch, kind="stable")
+    return (np.concatenate([edges[order], new_index[edge_patch[order], None]], axis=1), edge_patch[order],
+            source[order])
+
+
+def _unfolded(candidates, fans, fan_patch, feature_ids, verts, side_normals, reference):
+    """Per feature patch the first of `candidates` (each P x 3, rows in `feature_ids` order) whose fan
+    does not fold (`_folding`): (points, found)."""
+    points = candidates[0].copy()
+    settled = np.zeros(len(points), bool)
+    for candidate in candidates:
+        open_rows = np.flatnonzero(~settled)
+        if not len(open_rows):
+            break
+        points[open_rows] = candidate[open_rows]
+        mine = np.isin(fan_patch, feature_ids[open_rows])
+        folded = np.searchsorted(feature_ids, _folding(points, fans[mine], fan_patch[mine], verts, side_normals,
+                                                            reference[mine]))
+        settled[open_rows] = True
+        settled[folded] = False
+    return points, settled
+
+
+def _folding(points, fans, fan_patch, verts, side_normals, reference):
+    """Which patches' fans turn a triangle over.  `fans` (F, 3): base a -> b (plain vertices), then the
+    apex (numbered after `verts`, at `points`); `reference` (F, 3): the normal of the plain triangle each
+    replaces.  Over: its normal turns further than FOLD_SIDE_COS from both base vertices' side normals,
+    or further than FOLD_COS from the plain triangle's (the apex beyond the patch's loop)."""
+    a, b = verts[fans[:, 0]].astype(np.float64), verts[fans[:, 1]].astype(np.float64)
+    n = np.cross(b - a, points[fans[:, 2] - len(verts)] - a)
+    length = np.linalg.norm(n, axis=1)
+    against = ((np.einsum("fk,fk->f", n, side_normals[fans[:, 0]]) < FOLD_SIDE_COS * length)
+               & (np.einsum("fk,fk->f", n, side_normals[fans[:, 1]]) < FOLD_SIDE_COS * length))
+    against |= np.einsum("fk,fk->f", n, reference) < FOLD_COS * length * np.linalg.norm(reference, axis=1)
+    return _unique(fan_patch[against])
+
+
+def _in_feature(candidate, is_feature, patch):
+    """Which faces (of all) belong to feature patches (`patch`: the candidate faces' patch ids)."""
+    out = np.zeros(len(candidate), bool)
+    out[np.flatnonzero(candidate)[is_feature[patch]]] = True
+    return out
 
 
 def crisp_normals(verts, faces, normals, values, n_plain):

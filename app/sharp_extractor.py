@@ -17,8 +17,10 @@ Passes (shaders/emc_*.comp; numpy mirror and the method: app/reference_sharp.py)
 
 What is not on the GPU yet (numpy, on the mesh read back where pass 0 flags a vertex): finding
 each triangle's cell and the candidate cells, grouping into patches, the feature test, the
-one-ring lists, the side normals, corners in empty cells, fans, edge flips, the feature vertices'
-normals and the crisp normals for drawing (reference_sharp.crisp_normals; the drawn mesh is uploaded).
+one-ring lists, the side normals, the grid samples' own planes where the field is locally linear
+(app.sharp_planes), corners in empty cells, fans and the test that none folds, edge flips, the
+feature vertices' normals and the crisp normals for drawing (reference_sharp.crisp_normals; the
+drawn mesh is uploaded).
 `sharpen(..., solver=SharpExtractor(ex).patch_points)` is the numpy reference with pass 1
 swapped in; it gives the same mesh (tests/test_sharp_features.py).  A GPU candidate-cell pass
 was tried and dropped: on llvmpipe it cost more than numpy's read-back and test (git log).

@@ -92,9 +92,10 @@ def test_flips_join_feature_vertices_into_lines(scene):
     assert joined >= 0.8 * n_feature, (joined, n_feature)
 
 
-@pytest.mark.xfail(strict=True, reason="issue 9's bar, not reached: where a cell's sign pattern misses an edge or "
-                                       "corner (inside corners on a diagonal, a corner poking into an empty "
-                                       "cell) or its edge vertices sit off the kink, ~0.35-0.65 cells remain")
+@pytest.mark.xfail(strict=True, reason="issue 9's bar, not reached (~0.35-0.55 cells remain): plain edge vertices "
+                                       "sit off a kink, so a fan to the exact edge point would fold and the point "
+                                       "retreats; a face split across an edge by the sign pattern; a corner or "
+                                       "edge in a cell without a patch, or seen through one sample only")
 def test_issue_bar_three_times_closer_and_corners_within_a_fifth_of_a_cell(scene):
     faces_points = on_surface(scene["boxes"], np.concatenate([b.face_points(0.5) for b in scene["boxes"]]))
     worst = {name: max(scene["edge_distance"][name].max(), distance_to_mesh(faces_points, m[0], m[1]).max())
