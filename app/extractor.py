@@ -11,7 +11,8 @@ indexed mesh and sized from the scans, so nothing is ever dropped):
 3. ``mc_classify``     active bricks: per word, vertices owned (per axis) and triangles
 4. ``mc_brick_sums``   per active brick: its totals
 5. ``scan``            exclusive scans of the per-brick totals -> offsets and grand totals
-6. ``mc_word_offsets`` per active brick: each word's first vertex and triangle
+6. ``mc_word_offsets`` per active brick: each word's first vertex and triangle, and the order
+                       in which pass 7 takes the brick's words (by their work: see the shader)
 7. ``mc_triangles``    active bricks: triangle indices into the shared vertices, and
                        for each vertex the edge it lies on (a job for pass 8, in an image)
 8. ``mc_vertices``     one invocation per vertex: position, value and outward normal
@@ -39,7 +40,7 @@ import numpy as np
 from . import validation
 from .case_table import CaseTable, montani_table
 from .gl_context import current_or_standalone
-from .gpu_layout import GROUP_SIZE, INDEX_BYTES, VERTEX_BYTES, divisor_magic, volume_texel_format
+from .gpu_layout import GROUP_SIZE, INDEX_BYTES, VERTEX_BYTES, WORD_BITS, divisor_magic, volume_texel_format
 from .gpu_limits import GPULimitError, GpuLimits, plan_extractor
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
@@ -93,6 +94,9 @@ class Extractor:
         self.value_range = checked.value_range
         self.ctx = ctx or current_or_standalone()
         self.table = table or montani_table()
+        if WORD_BITS * self.table.max_triangles > 255:  # a word's triangle count has 8 bits (mc_common.glsl)
+            raise ValueError(f"a case table with up to {self.table.max_triangles} triangles per cell does not fit "
+                             f"the per-word counts; at most {255 // WORD_BITS} can")
         self.plan = plan_extractor(self.shape, limits or GpuLimits.of(self.ctx))  # refuses before allocating
         # The vertex-job image's width: a power of two within the GL's 2-D texture limit.
         self._job_shift = min(MAX_JOB_SHIFT, self.plan.limits.max_texture_size.bit_length() - 1)

@@ -1,6 +1,7 @@
 #version 430
 // Pass 3, over active bricks, one invocation per word: the vertices the word owns (per axis)
-// and the triangles of its cells, packed into one uint for the passes that follow.
+// and the triangles of its cells, packed into one uint for the passes that follow (with the word's
+// own place in its brick, which mc_word_offsets.comp may reorder: see mc_common.glsl).
 layout(local_size_x = BRICK_WORDS) in;
 #include "mc_common.glsl"
 #include "mc_sign_words.glsl"
@@ -31,6 +32,6 @@ void main() {
         crossing = crossing_masks(word.x, word.y, word.z);  // the grid's last row along axis 0 or 1
     }
     uint counts = uint(bitCount(crossing.x)) | (uint(bitCount(crossing.y)) << 6)
-                | (uint(bitCount(crossing.z)) << 12) | (triangles << 18);
+                | (uint(bitCount(crossing.z)) << 12) | (triangles << 18) | (gl_LocalInvocationIndex << 26);
     imageStore(u_word_counts, word_texel(word_id_of(word.x, word.y, word.z)), uvec4(counts));
 }

@@ -111,7 +111,12 @@ float sample_at(ivec3 p) {
 }
 float field_at(ivec3 p) { return u_sign * sample_at(p); }
 
-// Per word, packed counts: vertices it owns along axes 0, 1, 2 (6 bits each) and triangles of its cells.
+// Per word, packed counts: vertices it owns along axes 0, 1, 2 (6 bits each), triangles of its cells
+// (8 bits: at most 32 cells x MAX_TRIANGLES_PER_CELL, checked in app/extractor.py), and in the top 6
+// bits the brick-local index of the word that mc_triangles.comp's invocation at this word's place
+// takes (mc_word_offsets.comp orders them; mc_classify.comp writes each word its own place).
 uint vertices_along(uint counts, uint axis) { return (counts >> (6u * axis)) & 63u; }
 uint vertex_total(uint counts) { return vertices_along(counts, 0u) + vertices_along(counts, 1u) + vertices_along(counts, 2u); }
-uint triangle_total(uint counts) { return counts >> 18; }
+uint triangle_total(uint counts) { return (counts >> 18) & 255u; }
+uint taken_word(uint counts) { return counts >> 26; }
+uint with_taken_word(uint counts, uint local) { return (counts & 0x03FFFFFFu) | (local << 26); }

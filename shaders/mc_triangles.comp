@@ -94,6 +94,9 @@ void main() {
     bool exists;
     ivec3 word = brick_word(brick, exists);
     if (!exists) return;
+    // The word this invocation takes: mc_word_offsets.comp ordered the brick's words by their work.
+    uint local = taken_word(imageLoad(u_word_counts, word_texel(word_id_of(word.x, word.y, word.z))).x);
+    word = brick_origin(brick) + ivec3(int(local) / BRICK_J, int(local) % BRICK_J, 0);
     uint id = word_id_of(word.x, word.y, word.z);
     uint counts = imageLoad(u_word_counts, word_texel(id)).x;
     uvec2 first = imageLoad(u_word_offsets, word_texel(id)).xy;
