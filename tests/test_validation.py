@@ -33,6 +33,25 @@ def test_negative_overflow_and_a_file_get_the_same_message(tmp_path):
         open_volume(str(tmp_path / "big.npy"))
 
 
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_non_finite_samples_in_any_slab_are_found_counted_and_placed(monkeypatch, bad, dtype):
+    # The scan finds them through each slab's min and max; every slab must be looked at, and the
+    # message must still name the first one and the count (two here, in different slabs).
+    monkeypatch.setattr("isoscope.validation.CHECK_SLAB_BYTES", 6 * 7 * np.dtype(dtype).itemsize * 2)
+    volume = np.linspace(-1, 1, 9 * 6 * 7).astype(dtype).reshape(9, 6, 7)
+    volume[7, 4, 5] = bad
+    volume[8, 0, 1] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError) as err:
+            check_volume(volume)
+    message = str(err.value)
+    assert "2 NaN/Inf sample(s)" in message and "(7, 4, 5)" in message and "\n" not in message
+    volume[7, 4, 5] = volume[8, 0, 1] = 0.5  # and once they are gone, the range is the samples'
+    assert check_volume(volume).value_range == (-1.0, 1.0)
+
+
 def test_a_checked_volume_passes_through_unchanged():
     checked = check_volume(np.arange(27, dtype=np.int16).reshape(3, 3, 3))
     assert checked.data.dtype == np.int16  # integers stay integers
