@@ -305,14 +305,15 @@ class Extractor:
         self._bind((1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets))
         self._run_over_active_bricks("mc_word_offsets", per_brick=True)
         self._vertex_jobs.bind_to_image(4, read=True, write=True)  # see vertex_jobs.glsl
-        vertex_windows, triangle_windows = self.plan.mesh_windows(n_vertices, n_triangles)
         triangles, vertices = self._passes["mc_triangles"], self._passes["mc_vertices"]
-        for vertex_window, triangle_window in zip(vertex_windows, triangle_windows):
-            # Each run writes only the triangles and vertex jobs inside its windows (usually one).
-            self._bind_window(6, self.index_buffer, triangle_window, INDEX_BYTES)
-            set_uniforms(triangles, u_vertex_window=vertex_window, u_triangle_window=triangle_window)
+        runs = self.plan.triangle_runs(n_triangles)
+        for window, job_slots in runs:
+            # Each run writes the triangles in its window of the index buffer (usually the only one)
+            # and the vertex jobs of the words whose triangles start there (triangle_runs.glsl).
+            self._bind_window(6, self.index_buffer, window, INDEX_BYTES)
+            set_uniforms(triangles, u_triangle_window=window, u_job_slots=job_slots, u_spread=int(len(runs) > 1))
             self._run_over_active_bricks("mc_triangles")
-        for window in vertex_windows:
+        for window in self.plan.windows(n_vertices, VERTEX_BYTES):
             self._bind_window(6, self.vertex_buffer, window, VERTEX_BYTES)
             set_uniforms(vertices, u_vertex_first=window[0], u_vertex_count=window[1])
             dispatch_groups(vertices, -(-window[1] // GROUP_SIZE))

@@ -20,7 +20,6 @@ from .gpu_layout import (
     MAX_WORDS,
     SAMPLES_PER_TEXEL,
     STORAGE_OFFSET_ALIGNMENT,
-    VERTEX_BYTES,
     WORD_BITS,
 )
 
@@ -81,13 +80,13 @@ class ExtractorPlan:
         per_window = max(unit, self.limits.max_storage_block_bytes // unit * unit) // record_bytes
         return [(first, min(per_window, count - first)) for first in range(0, count, per_window)] or [(0, 0)]
 
-    def mesh_windows(self, n_vertices: int, n_triangles: int):
-        """The vertex buffer's and the index buffer's windows, paired: as many pairs as the longer
-        list, the shorter padded with empty windows."""
-        vertex = self.windows(n_vertices, VERTEX_BYTES)
-        triangle = self.windows(n_triangles, INDEX_BYTES)
-        pairs = max(len(vertex), len(triangle))
-        return vertex + [(0, 0)] * (pairs - len(vertex)), triangle + [(0, 0)] * (pairs - len(triangle))
+    def triangle_runs(self, n_triangles: int) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+        """The triangle pass's runs: per window of the index buffer, the window and the triangle
+        slots [first, end) whose words write their vertex jobs in that run (shaders/triangle_runs.glsl);
+        the last run's end is 2^32 - 1, so every word writes its jobs in exactly one run."""
+        windows = self.windows(n_triangles, INDEX_BYTES)
+        ends = [first for first, _ in windows[1:]] + [0xFFFFFFFF]
+        return [(window, (window[0] if i else 0, end)) for i, (window, end) in enumerate(zip(windows, ends))]
 
 
 def plan_extractor(shape, limits: GpuLimits) -> ExtractorPlan:

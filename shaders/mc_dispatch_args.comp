@@ -15,6 +15,7 @@ void fold(uint count, uint at) {
 }
 
 void main() {
-    fold(active_count, 0u);
+    // Rounded up to whole columns for active_brick_spread (mc_active_bricks.glsl); the extra groups leave at once.
+    fold((active_count + uint(SPREAD_COLUMNS) - 1u) / uint(SPREAD_COLUMNS) * uint(SPREAD_COLUMNS), 0u);
     fold((active_count + uint(GROUP_SIZE) - 1u) / uint(GROUP_SIZE), 3u);
 }

@@ -10,15 +10,12 @@ layout(local_size_x = BRICK_WORDS) in;
 #include "mc_active_bricks.glsl"
 #include "mc_case_table.glsl"
 #include "vertex_jobs.glsl"
+#include "triangle_runs.glsl"
 
 layout(r32ui, binding = 2) readonly uniform uimage2D u_word_counts;
 layout(rg32ui, binding = 3) readonly uniform uimage2D u_word_offsets;  // (first vertex, first triangle)
 layout(std430, binding = 6) writeonly buffer Indices { uint indices[]; };
 layout(r32ui, binding = 4) writeonly uniform uimage2D u_vertex_jobs;
-// The (first, count) of the vertices and triangles bound above: a mesh larger than one storage
-// block is written a window at a time, each run writing only what falls in its windows.
-uniform uvec2 u_vertex_window;
-uniform uvec2 u_triangle_window;
 
 // Where each axis's vertices start in the words owning a cell row's edges, per sign row around
 // the cells (component d0 | d1 << 1): in word w, and in word w + 1 (reached from cell 31, only
@@ -82,15 +79,13 @@ void write_vertex_jobs(uint id, uint next, uint count, uvec3 crossing) {
         }
         uint b = uint(findLSB(bits));
         bits &= bits - 1u;
-        // Once per vertex: in the run whose vertex window holds it (usually the only run).
-        if (next - u_vertex_window.x < u_vertex_window.y)  // wraps past the count when next is before it
-            imageStore(u_vertex_jobs, job_texel(next), uvec4(vertex_job(id, axis, b)));
+        imageStore(u_vertex_jobs, job_texel(next), uvec4(vertex_job(id, axis, b)));
     }
 }
 
 void main() {
     uint brick;
-    if (!active_brick(brick)) return;
+    if (!run_brick(brick)) return;
     bool exists;
     ivec3 word = brick_word(brick, exists);
     if (!exists) return;
@@ -100,13 +95,16 @@ void main() {
     uint id = word_id_of(word.x, word.y, word.z);
     uint counts = imageLoad(u_word_counts, word_texel(id)).x;
     uvec2 first = imageLoad(u_word_offsets, word_texel(id)).xy;
+    bool jobs = writes_jobs(first.y);
     if (!has_cells(word.x, word.y)) {  // the grid's last rows: edges but no cells
-        write_vertex_jobs(id, first.x, vertex_total(counts), crossing_masks(word.x, word.y, word.z));
+        if (jobs) write_vertex_jobs(id, first.x, vertex_total(counts), crossing_masks(word.x, word.y, word.z));
         return;
     }
-    if (counts == 0u) return;
+    bool triangles = meets_triangle_window(first.y, triangle_total(counts));
+    if (!jobs && !triangles) return;  // a run for another window of a large mesh; no work here
     CellRows rows = cell_rows(word.x, word.y, word.z);
-    write_vertex_jobs(id, first.x, vertex_total(counts), crossing_from_rows(rows, word.z));
+    if (jobs) write_vertex_jobs(id, first.x, vertex_total(counts), crossing_from_rows(rows, word.z));
+    if (!triangles) return;
 
     uint next = first.y;
     uint end = next + triangle_total(counts);

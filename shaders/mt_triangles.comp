@@ -9,14 +9,12 @@ layout(local_size_x = BRICK_WORDS) in;
 #include "mc_active_bricks.glsl"
 #include "mt_common.glsl"
 #include "mt_jobs.glsl"
+#include "triangle_runs.glsl"
 
 layout(rgba32ui, binding = 2) readonly uniform uimage2D u_word_counts;  // see mt_common.glsl
 layout(rg32ui, binding = 3) readonly uniform uimage2D u_word_offsets;   // (first vertex, first triangle)
 layout(std430, binding = 6) writeonly buffer Indices { uint indices[]; };
 layout(rg32ui, binding = 4) writeonly uniform uimage2D u_vertex_jobs;
-// The (first, count) of the vertices and triangles bound above (see mc_triangles.comp).
-uniform uvec2 u_vertex_window;
-uniform uvec2 u_triangle_window;
 
 // Per sign row around the cells (component d0 | d1 << 1), its word's first vertex and kind starts.
 struct Owners { uvec4 first; uvec4 starts_x; uvec4 starts_y; };
@@ -69,20 +67,14 @@ void write_vertex_jobs(uint next, uint count, CellRows rows, ivec3 word) {
         while (bits == 0u) bits = owned_crossings(rows, word, ++kind);
         uint b = uint(findLSB(bits));
         bits &= bits - 1u;
-        uint slot = next - u_vertex_window.x;  // wraps past the window's count when next is before it
         ivec3 start = ivec3(word.xy, word.z * WORD_BITS + int(b));
-        if (slot < u_vertex_window.y) imageStore(u_vertex_jobs, job_texel(next), uvec4(mt_job(start, kind), 0u, 0u));
+        imageStore(u_vertex_jobs, job_texel(next), uvec4(mt_job(start, kind), 0u, 0u));
     }
-}
-
-// Whether records first .. first + count - 1 meet the window (first, count) this run writes.
-bool meets(uint first, uint count, uvec2 window) {
-    return count > 0u && first < window.x + window.y && window.x < first + count;
 }
 
 void main() {
     uint brick;
-    if (!active_brick(brick)) return;
+    if (!run_brick(brick)) return;
     bool exists;
     ivec3 word = brick_word(brick, exists);
     if (!exists) return;
@@ -93,11 +85,11 @@ void main() {
     uvec4 counts = imageLoad(u_word_counts, word_texel(id));
     uvec2 first = imageLoad(u_word_offsets, word_texel(id)).xy;
     // A mesh larger than one storage block takes a run per window: words outside it leave at once.
-    bool vertices = meets(first.x, mt_vertex_total(counts), u_vertex_window);
-    bool triangles = meets(first.y, counts.z, u_triangle_window);
-    if (!vertices && !triangles) return;
+    bool jobs = writes_jobs(first.y);
+    bool triangles = meets_triangle_window(first.y, counts.z);
+    if (!jobs && !triangles) return;
     CellRows rows = border_rows(word.x, word.y, word.z);
-    if (vertices) write_vertex_jobs(first.x, mt_vertex_total(counts), rows, word);
+    if (jobs) write_vertex_jobs(first.x, mt_vertex_total(counts), rows, word);
     if (!triangles) return;
 
     uint cells = mixed_cells(rows, word.z);

@@ -8,7 +8,7 @@ import pytest
 
 import isoscope.volume_texture as volume_texture
 from isoscope.extractor import Extractor, GPULimitError
-from isoscope.gpu_layout import STORAGE_OFFSET_ALIGNMENT
+from isoscope.gpu_layout import INDEX_BYTES, STORAGE_OFFSET_ALIGNMENT, VERTEX_BYTES
 from isoscope.gpu_limits import GpuLimits, plan_extractor
 from isoscope.reference import marching_cubes_reference
 
@@ -92,8 +92,8 @@ def test_a_mesh_larger_than_one_storage_block_is_written_a_window_at_a_time(gl_c
     small = GpuLimits(real.max_3d_texture_size, real.max_texture_size, block_kib << 10)
     with Extractor(volume, ctx=gl_ctx, limits=small) as ex:
         n_vertices, n_triangles = ex.extract(0.1)
-        vertex_windows, triangle_windows = ex.plan.mesh_windows(n_vertices, n_triangles)
-        assert len(vertex_windows) > 10 and n_triangles * 12 > 10 * (block_kib << 10)
+        assert len(ex.plan.windows(n_vertices, VERTEX_BYTES)) > 10
+        assert len(ex.plan.triangle_runs(n_triangles)) > 10 and n_triangles * 12 > 10 * (block_kib << 10)
         windowed = ex.read_mesh()
         ex.extract(0.3)   # and again at another level, into the same (grown) buffers
         windowed_again = ex.read_mesh()
@@ -109,3 +109,16 @@ def test_windows_cover_every_record_once_at_aligned_offsets(gl_ctx):
         covered = [i for first, n in windows for i in range(first, first + n)]
         assert covered == list(range(count))
         assert all(first * record % STORAGE_OFFSET_ALIGNMENT == 0 and n * record <= 10_000 for first, n in windows)
+
+
+@pytest.mark.parametrize("count", [0, 1, 833, 12_345])
+def test_each_triangle_run_writes_its_window_and_every_word_writes_its_jobs_in_one_run(gl_ctx, count):
+    real = GpuLimits.of(gl_ctx)
+    plan = plan_extractor((8, 8, 40), GpuLimits(real.max_3d_texture_size, real.max_texture_size, 10_000))
+    runs = plan.triangle_runs(count)
+    assert [window for window, _ in runs] == plan.windows(count, INDEX_BYTES)
+    # The job slots tile [0, 2^32) in order: a word's first triangle slot (any uint32) is in one run's.
+    starts = [start for _, (start, _) in runs]
+    ends = [end for _, (_, end) in runs]
+    assert starts[0] == 0 and ends[-1] == 2**32 - 1 and starts[1:] == ends[:-1]
+    assert all(start == window[0] for (window, (start, _)) in runs[1:])

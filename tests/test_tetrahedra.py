@@ -10,6 +10,7 @@ from scipy.ndimage import gaussian_filter
 
 import isoscope
 from isoscope.extractor import Extractor
+from isoscope.gpu_layout import VERTEX_BYTES
 from isoscope.gpu_limits import GPULimitError, GpuLimits
 from isoscope.reference import marching_cubes_reference
 from isoscope.reference_tetra import marching_tetrahedra_reference
@@ -191,7 +192,8 @@ def test_a_mesh_larger_than_one_storage_block_is_written_a_window_at_a_time(gl_c
     with Extractor(volume, ctx=gl_ctx, limits=small) as cubes:
         with TetraExtractor(cubes) as tetra:
             n_vertices, n_triangles = tetra.extract(0.1)
-            assert len(tetra.plan.mesh_windows(n_vertices, n_triangles)[0]) > 10
+            assert len(tetra.plan.windows(n_vertices, VERTEX_BYTES)) > 10
+            assert len(tetra.plan.triangle_runs(n_triangles)) > 10
             assert_same_mesh(tetra.read_mesh(), marching_tetrahedra_reference(volume, 0.1))
 
 
