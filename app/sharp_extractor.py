@@ -22,7 +22,9 @@ one-ring lists, the side normals, the grid samples' own planes where the field i
 feature vertices' normals and the crisp normals for drawing (reference_sharp.crisp_normals; the
 drawn mesh is uploaded).
 `sharpen(..., solver=SharpExtractor(ex).patch_points)` is the numpy reference with pass 1
-swapped in; it gives the same mesh (tests/test_sharp_features.py).  A GPU candidate-cell pass
+swapped in; it gives the same mesh (tests/test_sharp_features.py).  A pass whose buffers would not
+fit one storage block of the GL (a mesh of over ~4 M vertices in 128 MiB) is left to numpy: both
+read vertices by index, so a window at a time, as the extractor writes them, would not do.  A GPU candidate-cell pass
 was tried and dropped: on llvmpipe it cost more than numpy's read-back and test (git log).
 """
 from __future__ import annotations
@@ -33,7 +35,15 @@ import numpy as np
 from .gpu_layout import GROUP_SIZE, VERTEX_BYTES
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
-from .reference_sharp import CLUSTER_ANGLE, JACOBI_SWEEPS, LINE_MARGIN, MAX_PATCH_VERTICES, SINGULAR_CUTOFF, bend_cos
+from .reference_sharp import (
+    CLUSTER_ANGLE,
+    JACOBI_SWEEPS,
+    LINE_MARGIN,
+    MAX_PATCH_VERTICES,
+    SINGULAR_CUTOFF,
+    bend_cos,
+)
+from .reference_sharp import patch_points as numpy_patch_points
 
 RING_STEP = 48
 """Ring lists' capacity in the shader is their width rounded up to this (one program per capacity).
@@ -60,6 +70,11 @@ class SharpExtractor:
                          "CLUSTER_COS": _double(np.cos(np.radians(CLUSTER_ANGLE))),
                          "LINE_MARGIN": _double(LINE_MARGIN), "MAX_PATCH_VERTICES": MAX_PATCH_VERTICES}
         self._buffers: dict[str, moderngl.Buffer] = {}
+        self._block_bytes = extractor.plan.limits.max_storage_block_bytes
+
+    def _fits(self, *sizes: int) -> bool:
+        """Whether storage blocks of these byte sizes can be bound (GL_MAX_SHADER_STORAGE_BLOCK_SIZE)."""
+        return max(sizes) <= self._block_bytes
 
     def _program(self, name: str, **defines) -> moderngl.ComputeShader:
         return compute_program(self.ctx, f"{name}.comp", {**self._defines, **defines})
@@ -78,12 +93,15 @@ class SharpExtractor:
     def may_bend(self, angle: float, mesh: GpuMesh | None = None, each: bool = False):
         """Pass 0 (emc_flags.comp) on the extractor's mesh (or `mesh`): whether some vertex may sit in a
         feature cell (reference_sharp.vertex_may_bend).  False: `sharpen` would return the plain mesh
-        as it is, so nothing need be read back.  `each`: the per-vertex flags instead (for tests)."""
+        as it is, so nothing need be read back.  `each`: the per-vertex flags instead (for tests).
+        None: the mesh is too large for one storage block, so the pass did not run (ask numpy)."""
         ex = self.extractor
         mesh = ex.mesh if mesh is None else mesh
         n = mesh.n_vertices
         if n == 0:
             return np.zeros(0, bool) if each else False
+        if not self._fits(n * VERTEX_BYTES, 4 * (1 + n) if each else 4):
+            return None
         program = self._program("emc_flags", **({"FLAG_EACH": 1} if each else {}))
         set_uniforms(program, **ex.grid_uniforms, u_sign=1.0 if ex.descent else -1.0, u_vertex_count=n,
                      u_cos_half=float(bend_cos(angle)))
@@ -106,8 +124,10 @@ class SharpExtractor:
         n_patches = len(members)
         if n_patches == 0:
             return np.zeros((0, 3)), np.zeros(0, bool), np.zeros((0, 3))
-        cells = np.rint(lower / np.asarray(spacing, np.float64)).astype(np.int32)
         ring_width = ring_members.shape[1]
+        if not self._fits(mesh.n_vertices * VERTEX_BYTES, 4 * members.size, 4 * ring_members.size, 64 * n_patches):
+            return numpy_patch_points(verts, plane_normals, members, ring_members, lower, upper, spacing, cos_angle)
+        cells = np.rint(lower / np.asarray(spacing, np.float64)).astype(np.int32)
         program = self._program("emc_solve", RING_CAPACITY=-(-max(ring_width, MAX_PATCH_VERTICES) // RING_STEP)
                                 * RING_STEP)
         set_uniforms(program, **ex.grid_uniforms, u_sign=1.0 if ex.descent else -1.0, u_patch_count=n_patches,

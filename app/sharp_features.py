@@ -39,7 +39,7 @@ def sharp_mesh_of(extractor, volume_data, angle, field=None, gpu: SharpExtractor
 def _sharpened(extractor, volume_data, angle, field, gpu: SharpExtractor):
     """sharpen's result for the extractor's last mesh, or None where it is the plain mesh as it is, which
     pass 0 (SharpExtractor.may_bend) tells without reading the mesh back."""
-    if not gpu.may_bend(angle):
+    if gpu.may_bend(angle) is False:  # None: too large for the GPU's pass 0; sharpen tells in numpy
         return None
     field = signed_field(volume_data, extractor.descent) if field is None else field
     return sharpen(extractor.read_mesh(), field, extractor.spacing, angle, solver=gpu.patch_points)

@@ -1,6 +1,7 @@
 """Extended Marching Cubes (sharp features) against the true geometry of boxes built here in numpy."""
 from __future__ import annotations
 
+import moderngl
 import numpy as np
 import pytest
 from sdf_boxes import Box, distance_to_mesh, grid_points, rotation
@@ -123,6 +124,34 @@ def test_gpu_mesh_matches_the_numpy_reference(gl_ctx):
     np.testing.assert_array_equal(gpu[1], cpu[1])
     for a, b in zip(gpu[::2], cpu[::2]):
         np.testing.assert_allclose(a, b, atol=1e-5)
+
+
+def test_a_mesh_too_large_for_one_storage_block_leaves_the_feature_passes_to_numpy(gl_ctx, monkeypatch):
+    # Passes 0 and 1 read vertices by index, so they cannot take the vertex buffer a window at a time as
+    # the extractor writes it.  With a 16 KiB block limit the mesh needs several: no binding may pass the
+    # limit (drivers other than llvmpipe refuse or read garbage), and the mesh is still the reference's.
+    from isoscope.extractor import Extractor
+    from isoscope.gpu_limits import GpuLimits
+    from isoscope.sharp_features import sharp_mesh_of
+    volume = (-union_sdf(SCENES["rotated box"], grid_points(N))).astype(np.float32)
+    real = GpuLimits.of(gl_ctx)
+    small = GpuLimits(real.max_3d_texture_size, real.max_texture_size, 16 << 10)
+    bound = []
+    original = moderngl.Buffer.bind_to_storage_buffer
+
+    def observed(self, binding=0, offset=0, size=-1):
+        bound.append(self.size - offset if size < 0 else size)
+        return original(self, binding, offset, size)
+    monkeypatch.setattr(moderngl.Buffer, "bind_to_storage_buffer", observed)
+    with Extractor(volume, ctx=gl_ctx, limits=small) as ex:
+        ex.extract(0.0)
+        assert ex.n_vertices * 32 > 2 * (16 << 10)  # several blocks' worth
+        verts, faces, normals, values, n_plain = sharp_mesh_of(ex, volume, 30.0)
+    assert bound and max(bound) <= 16 << 10, f"a {max(bound)}-byte storage block was bound"
+    expected = sharpen_extracted(iso.marching_cubes(volume, 0.0, backend="cpu"), volume, (1.0, 1.0, 1.0), True, 30)
+    assert len(verts) > n_plain  # features were found
+    np.testing.assert_array_equal(faces, expected[1])
+    np.testing.assert_allclose(verts, expected[0], atol=1e-5)
 
 
 @pytest.mark.parametrize("angle", [0, 180, -10, 200, float("nan"), "wide"])
