@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sharp_planes import any_clean_corner, level_of, plane_feature_points
+from .sharp_planes import any_clean_corner, kink_vertices, level_of, plane_feature_points
 
 SINGULAR_CUTOFF = 0.1  # singular values below this fraction of the largest are treated as zero
 MAX_PATCH_VERTICES = 12
@@ -594,9 +594,10 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points):
     p_points, p_corner = np.zeros((n_patches, 3)), np.full((n_patches, 3), np.nan)
     p_ok, p_open = np.zeros(n_patches, bool), np.zeros(n_patches, bool)
     linear = np.flatnonzero(planar[cell_of_patch])
+    level = level_of(field, verts, spacing) if len(linear) else None
     if len(linear):
         p_points[linear], p_ok[linear], p_corner[linear], _, p_open[linear] = plane_feature_points(
-            field, all_cells[cell_of_patch[linear]], spacing, level_of(field, verts, spacing), cos_angle,
+            field, all_cells[cell_of_patch[linear]], spacing, level, cos_angle,
             feature_points, _occupancy(all_cells, field.shape))
     # (vertex_may_bend, pass 0 on the GPU, skips all of this where no cell's mesh normals open wider than
     # the angle: a feature must keep needing two of them to, or that bound must change with it.  The
@@ -610,6 +611,9 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points):
     lower, upper = cells * spacing, (cells + 1) * spacing
     ring_members = _one_ring(faces, members[feature_ids])
     needed = _unique(ring_members[ring_members >= 0])
+    if level is not None:  # the sample planes are in play: they also place the vertices next to a kink
+        verts = verts.copy()
+        verts[needed] = kink_vertices(field, verts, needed, spacing, level)
     plane_normals = normals.astype(np.float64)
     plane_normals[needed] = eno_normals(field, verts, needed, spacing)
     solved, solved_ok, corner = solver(verts, plane_normals, members[feature_ids], ring_members, lower, upper,

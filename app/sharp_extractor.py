@@ -22,9 +22,11 @@ one-ring lists, the side normals, the grid samples' own planes where the field i
 feature vertices' normals and the crisp normals for drawing (reference_sharp.crisp_normals; the
 drawn mesh is uploaded).
 `sharpen(..., solver=SharpExtractor(ex).patch_points)` is the numpy reference with pass 1
-swapped in; it gives the same mesh (tests/test_sharp_features.py).  A pass whose buffers would not
-fit one storage block of the GL (a mesh of over ~4 M vertices in 128 MiB) is left to numpy: both
-read vertices by index, so a window at a time, as the extractor writes them, would not do.  A GPU candidate-cell pass
+swapped in; it gives the same mesh (tests/test_sharp_features.py).  Pass 1 takes the positions
+`sharpen` gives it (uploading only the vertices its lists name), not the mesh buffer: `sharpen`
+may have moved vertices next to a kink.  Pass 0 reads the extractor's vertex buffer by index, so
+a mesh too large for one storage block of the GL (over ~4 M vertices in 128 MiB) leaves it to
+numpy; so does pass 1 if its lists would not fit.  A GPU candidate-cell pass
 was tried and dropped: on llvmpipe it cost more than numpy's read-back and test (git log).
 """
 from __future__ import annotations
@@ -32,7 +34,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from .gpu_layout import GROUP_SIZE, VERTEX_BYTES
+from .gpu_layout import GROUP_SIZE, VERTEX_BYTES, VERTEX_FLOATS
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
 from .reference_sharp import (
@@ -115,18 +117,23 @@ class SharpExtractor:
             return np.frombuffer(flags.read(size=4 * (1 + n)), np.uint32)[1:] > 0
         return bool(np.frombuffer(flags.read(size=4), np.uint32)[0])
 
-    def patch_points(self, verts, plane_normals, members, ring_members, lower, upper, spacing, cos_angle,
-                     mesh: GpuMesh | None = None):
-        """reference_sharp.patch_points on the GPU for the extractor's mesh (or `mesh`, whose vertices
-        `verts` are): the planes' normals are made from the volume, so `plane_normals` is not read."""
+    def patch_points(self, verts, plane_normals, members, ring_members, lower, upper, spacing, cos_angle):
+        """reference_sharp.patch_points on the GPU for meshes of the extractor's volume.  The planes'
+        normals are made from the volume at `verts` (so `plane_normals` is not read); only the vertices
+        the lists name go up, renumbered (sharpen may have moved some next to a kink: sharp_planes)."""
         ex = self.extractor
-        mesh = ex.mesh if mesh is None else mesh
         n_patches = len(members)
         if n_patches == 0:
             return np.zeros((0, 3)), np.zeros(0, bool), np.zeros((0, 3))
+        used = np.unique(np.concatenate([members[members >= 0], ring_members[ring_members >= 0]]))
         ring_width = ring_members.shape[1]
-        if not self._fits(mesh.n_vertices * VERTEX_BYTES, 4 * members.size, 4 * ring_members.size, 64 * n_patches):
+        if not self._fits(len(used) * VERTEX_BYTES, 4 * members.size, 4 * ring_members.size, 64 * n_patches):
             return numpy_patch_points(verts, plane_normals, members, ring_members, lower, upper, spacing, cos_angle)
+        records = np.zeros((len(used), VERTEX_FLOATS), np.float32)  # the vertex record's layout, positions only
+        records[:, :3] = verts[used]
+
+        def renumbered(lists):  # ascending lists stay ascending: -1 padding stays last
+            return np.where(lists >= 0, np.searchsorted(used, np.maximum(lists, 0)), -1).astype(np.int32)
         cells = np.rint(lower / np.asarray(spacing, np.float64)).astype(np.int32)
         program = self._program("emc_solve", RING_CAPACITY=-(-max(ring_width, MAX_PATCH_VERTICES) // RING_STEP)
                                 * RING_STEP)
@@ -135,12 +142,12 @@ class SharpExtractor:
         program["u_spacing_d"].value = tuple(float(s) for s in spacing)
         program["u_out_of_plane"].value = float(np.sqrt(1 - cos_angle ** 2))
         ex.volume_texture.bind_to_image(0, read=True, write=False)
-        self._upload("members", members.astype(np.int32)).bind_to_storage_buffer(1)
-        self._upload("ring", ring_members.astype(np.int32)).bind_to_storage_buffer(2)
+        self._upload("members", renumbered(members)).bind_to_storage_buffer(1)
+        self._upload("ring", renumbered(ring_members)).bind_to_storage_buffer(2)
         self._upload("cells", cells).bind_to_storage_buffer(3)
         out = self._upload("points", np.zeros(8 * n_patches, np.float64))
         out.bind_to_storage_buffer(4)
-        mesh.vertex_buffer.bind_to_storage_buffer(8, size=max(mesh.n_vertices, 1) * VERTEX_BYTES)
+        self._upload("vertices", records).bind_to_storage_buffer(8)
         dispatch_groups(program, -(-n_patches // GROUP_SIZE))
         self.ctx.memory_barrier()
         result = np.frombuffer(out.read(size=64 * n_patches), np.float64).reshape(-1, 8)

@@ -77,6 +77,49 @@ def sample_planes(field, points, spacing, level):
     return normal, anchor, clean
 
 
+KINK_CROSSING = 0.3  # a sample plane places a vertex only if it crosses the edge at least this steeply (cosine)
+
+
+def kink_vertices(field, verts, ids, spacing, level):
+    """Positions (N, 3) for the plain vertices `ids`: where one end of a vertex's grid edge has a clean plane
+    that crosses the edge inside it (and the other end has none), the vertex moves along its edge to that
+    crossing.  Linear interpolation is exact only where the field is straight along the edge; between two
+    samples governed by different sides of a box (the one outside by its x face, the one inside by its y
+    face) it lands up to half a cell off the surface, and a fan to the true edge point from there folds.
+    A plane's side need not be the surface there (a face's plane runs on past its edge, and a union's box
+    hides faces of the other): the crossing must leave the edge's other sample reachable at the plane's
+    slope (a distance field's slope bounds how fast it changes), or the vertex stays.  Where the field is
+    straight the plane's crossing is linear interpolation's, so nothing moves; smooth fields have no clean
+    samples.  Vertices stay EDGE_MARGIN from their edge's ends, on the same edge."""
+    from .gpu_layout import EDGE_MARGIN
+    from .reference_sharp import edge_of_vertex
+    spacing = np.asarray(spacing, np.float64)
+    start, along, t = edge_of_vertex(verts, ids, spacing)
+    ends = (start, start + along)
+    values = [field[tuple(end.T)].astype(np.float64) - level for end in ends]
+    length = (along * spacing).sum(axis=1)  # the edge's length
+    crossings = []
+    for k, end in enumerate(ends):
+        grad, clean = clean_gradient(field, end, spacing)
+        slope = np.linalg.norm(grad, axis=1)
+        rate = (grad * along * spacing).sum(axis=1)  # the plane's change from t = 0 to t = 1
+        safe = np.where(rate != 0, rate, 1.0)
+        at = k - values[k] / safe  # where the plane meets the level
+        other = values[1 - k]
+        reach = slope * np.abs((1 - k) - at) * length
+        crossing = (clean & (np.abs(rate) > KINK_CROSSING * slope * length) & (at > 0) & (at < 1)
+                    & (np.abs(other) <= reach * (1 + LINEAR_TOLERANCE)))
+        crossings.append(np.where(crossing, at, np.nan))
+    first, second = crossings
+    one = np.isfinite(first) != np.isfinite(second)
+    t = np.where(one, np.clip(np.where(np.isfinite(first), first, second), EDGE_MARGIN, 1 - EDGE_MARGIN), t)
+    out = verts[ids].astype(np.float64)
+    axis = np.argmax(along, axis=1)
+    rows = np.arange(len(ids))
+    out[rows, axis] = (start[rows, axis] + t) * spacing[axis]
+    return out.astype(np.float32)
+
+
 CELL_CORNERS = np.array([(a, b, c) for a in range(2) for b in range(2) for c in range(2)])
 
 
