@@ -659,6 +659,8 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points):
     if not found.all():  # every candidate folds: the plain patch
         is_feature[feature_ids[~found]] = False
         feature_ids, cells, new_points = feature_ids[found], cells[found], new_points[found]
+        if not len(feature_ids):  # the plain mesh as it came (no vertex moved by kink_vertices either)
+            return (*mesh, n_plain)
         fans, fan_patch, source = _fans(sub, patch, is_feature, feature_ids, n_plain)
     out_faces = np.concatenate([faces[~_in_feature(candidate, is_feature, patch)].astype(np.int64), fans])
     fan_rows = np.arange(len(out_faces) - len(fans), len(out_faces))
@@ -735,8 +737,9 @@ def _in_feature(candidate, is_feature, patch):
 def crisp_normals(verts, faces, normals, values, n_plain):
     """A mesh for drawing: every triangle touching a feature vertex (index >= n_plain) gets its own three
     vertices; at its feature corners the mean normal of its other corners (the side it lies on), so
-    shading does not smear across the edge; so does every triangle with a corner whose normal faces
-    away from it, and such corners get the triangle's own normal.  The rest is unchanged."""
+    shading does not smear across the edge; in a mesh with feature vertices, so does every triangle with
+    a corner whose normal faces away from it, and such corners get the triangle's own normal.  The rest
+    is unchanged (a mesh without feature vertices is returned as it is: the plain mesh)."""
     a, b, c = faces.T  # (per column: numpy reduces short rows slowly)
     flat = (a >= n_plain) | (b >= n_plain) | (c >= n_plain)
     if not flat.any():

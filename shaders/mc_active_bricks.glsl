@@ -20,6 +20,8 @@ bool active_brick(out uint brick) {
 bool active_brick_spread(out uint brick) {
     uint group = linear_group();
     uint rows = (active_count + uint(SPREAD_COLUMNS) - 1u) / uint(SPREAD_COLUMNS);
+    // Groups past the columns (the fold into 2-D adds some) would map onto slots other groups own.
+    if (group >= rows * uint(SPREAD_COLUMNS)) return false;
     uint slot = (group % uint(SPREAD_COLUMNS)) * rows + group / uint(SPREAD_COLUMNS);
     if (slot >= active_count) return false;
     brick = active_bricks[slot];

@@ -7,15 +7,19 @@ layout(std430, binding = 7) readonly buffer ActiveBricks { uint active_count; ui
 // Two sets: one work group per active brick, and one invocation per active brick (GROUP_SIZE a group).
 layout(std430, binding = 9) writeonly buffer DispatchArgs { uint groups[6]; };
 
+// As evenly as gpu_programs.dispatch_groups folds (x * y - count < y): empty groups are not free on
+// llvmpipe, and count = 65,536 as 65,535 x 2 would add ~65,000 of them.
 void fold(uint count, uint at) {
-    uint x = min(count, uint(MAX_GROUPS_PER_DIMENSION));
+    uint y = (count + uint(MAX_GROUPS_PER_DIMENSION) - 1u) / uint(MAX_GROUPS_PER_DIMENSION);
+    uint x = y == 0u ? 0u : (count + y - 1u) / y;
     groups[at] = max(x, 1u);
-    groups[at + 1u] = x == 0u ? 0u : (count + x - 1u) / x;
+    groups[at + 1u] = y;
     groups[at + 2u] = 1u;
 }
 
 void main() {
-    // Rounded up to whole columns for active_brick_spread (mc_active_bricks.glsl); the extra groups leave at once.
+    // Rounded up to whole columns for active_brick_spread (mc_active_bricks.glsl); the extra groups, and
+    // the fold's, leave at once.
     fold((active_count + uint(SPREAD_COLUMNS) - 1u) / uint(SPREAD_COLUMNS) * uint(SPREAD_COLUMNS), 0u);
     fold((active_count + uint(GROUP_SIZE) - 1u) / uint(GROUP_SIZE), 3u);
 }

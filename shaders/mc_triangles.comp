@@ -95,13 +95,13 @@ void main() {
     uint id = word_id_of(word.x, word.y, word.z);
     uint counts = imageLoad(u_word_counts, word_texel(id)).x;
     uvec2 first = imageLoad(u_word_offsets, word_texel(id)).xy;
-    bool jobs = writes_jobs(first.y);
+    bool jobs = writes_jobs(first.y) && vertex_total(counts) > 0u;  // a word with nothing leaves below
     if (!has_cells(word.x, word.y)) {  // the grid's last rows: edges but no cells
         if (jobs) write_vertex_jobs(id, first.x, vertex_total(counts), crossing_masks(word.x, word.y, word.z));
         return;
     }
     bool triangles = meets_triangle_window(first.y, triangle_total(counts));
-    if (!jobs && !triangles) return;  // a run for another window of a large mesh; no work here
+    if (!jobs && !triangles) return;  // nothing for this run: an empty word, or another window's
     CellRows rows = cell_rows(word.x, word.y, word.z);
     if (jobs) write_vertex_jobs(id, first.x, vertex_total(counts), crossing_from_rows(rows, word.z));
     if (!triangles) return;

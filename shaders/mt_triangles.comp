@@ -85,7 +85,7 @@ void main() {
     uvec4 counts = imageLoad(u_word_counts, word_texel(id));
     uvec2 first = imageLoad(u_word_offsets, word_texel(id)).xy;
     // A mesh larger than one storage block takes a run per window: words outside it leave at once.
-    bool jobs = writes_jobs(first.y);
+    bool jobs = writes_jobs(first.y) && mt_vertex_total(counts) > 0u;  // a word with nothing leaves below
     bool triangles = meets_triangle_window(first.y, counts.z);
     if (!jobs && !triangles) return;
     CellRows rows = border_rows(word.x, word.y, word.z);

@@ -122,3 +122,43 @@ def test_each_triangle_run_writes_its_window_and_every_word_writes_its_jobs_in_o
     ends = [end for _, (_, end) in runs]
     assert starts[0] == 0 and ends[-1] == 2**32 - 1 and starts[1:] == ends[:-1]
     assert all(start == window[0] for (window, (start, _)) in runs[1:])
+
+
+@pytest.mark.parametrize("active", [0, 5, 8, 13, 1000, 65_529, 65_536, 70_001])
+def test_spread_runs_take_every_active_brick_once(gl_ctx, tmp_path, monkeypatch, active):
+    # A large mesh's triangle runs take the active bricks spread over SPREAD_COLUMNS columns
+    # (mc_active_bricks.glsl), dispatched by mc_dispatch_args.comp.  Every brick must be taken by exactly
+    # one work group, also past 65,535 groups, where the dispatch folds into 2-D (its extra groups
+    # once took bricks other groups owned), and the fold must stay even (empty groups cost).
+    from isoscope.gpu_layout import MAX_GROUPS_PER_DIMENSION, SPREAD_COLUMNS
+    from isoscope.gpu_programs import compute_program
+    from isoscope.resources import shaders_dir
+    for path in shaders_dir().iterdir():
+        (tmp_path / path.name).write_text(path.read_text())
+    (tmp_path / "probe.comp").write_text(
+        '#version 430\nlayout(local_size_x = 1) in;\n#include "mc_common.glsl"\n#include "mc_active_bricks.glsl"\n'
+        "layout(std430, binding = 0) buffer Hits { uint hits[]; };\n"
+        "void main() { uint brick; if (active_brick_spread(brick)) atomicAdd(hits[brick], 1u); }\n")
+    monkeypatch.setattr("isoscope.resources.shaders_dir", lambda: tmp_path)
+    volume = {"VOLUME_FORMAT": "rgba32f", "VOLUME_IMAGE": "image3D"}
+    probe, args = compute_program(gl_ctx, "probe.comp", volume), compute_program(gl_ctx, "mc_dispatch_args.comp")
+    buffers = [gl_ctx.buffer(np.concatenate([[active], np.arange(active)]).astype(np.uint32).tobytes()),
+               gl_ctx.buffer(reserve=24), gl_ctx.buffer(reserve=4 * max(active, 1))]
+    listed, dispatch, hits = buffers
+    try:
+        hits.clear()
+        listed.bind_to_storage_buffer(7)
+        dispatch.bind_to_storage_buffer(9)
+        args.run(1)
+        gl_ctx.memory_barrier()
+        hits.bind_to_storage_buffer(0)
+        probe.run_indirect(dispatch)
+        gl_ctx.memory_barrier()
+        taken = np.frombuffer(hits.read(), np.uint32)[:active]
+        x, y, _ = np.frombuffer(dispatch.read(12), np.uint32).tolist()
+    finally:
+        for buffer in buffers:
+            buffer.release()
+    assert (taken == 1).all(), f"{int((taken == 0).sum())} bricks missed, {int((taken > 1).sum())} taken twice"
+    columns = -(-active // SPREAD_COLUMNS) * SPREAD_COLUMNS
+    assert x <= MAX_GROUPS_PER_DIMENSION and columns <= x * y < columns + max(y, 1)
