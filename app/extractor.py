@@ -84,6 +84,9 @@ class Extractor:
     JOB_COMPONENTS = 1
     """uints per vertex job (shaders/vertex_jobs.glsl): the cubes' (word id, axis, bit) is one."""
 
+    _run_list: moderngl.Buffer | None = None
+    """A large mesh's per-run brick list (`_run_bricks`), made when first needed."""
+
     def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
                  ctx: moderngl.Context | None = None, table: CaseTable | None = None,
                  limits: GpuLimits | None = None):
@@ -307,17 +310,42 @@ class Extractor:
         self._vertex_jobs.bind_to_image(4, read=True, write=True)  # see vertex_jobs.glsl
         triangles, vertices = self._passes["mc_triangles"], self._passes["mc_vertices"]
         runs = self.plan.triangle_runs(n_triangles)
-        for window, job_slots in runs:
+        for (window, job_slots), bricks in zip(runs, self._run_bricks(runs)):
             # Each run writes the triangles in its window of the index buffer (usually the only one)
             # and the vertex jobs of the words whose triangles start there (triangle_runs.glsl).
             self._bind_window(6, self.index_buffer, window, INDEX_BYTES)
-            set_uniforms(triangles, u_triangle_window=window, u_job_slots=job_slots, u_spread=int(len(runs) > 1))
-            self._run_over_active_bricks("mc_triangles")
+            set_uniforms(triangles, u_triangle_window=window, u_job_slots=job_slots)
+            if bricks is None:
+                self._run_over_active_bricks("mc_triangles")
+            elif len(bricks):
+                self._run_list.write(np.concatenate([[len(bricks)], bricks]).astype(np.uint32))
+                self._run_list.bind_to_storage_buffer(7)  # in the active list's place (mc_active_bricks.glsl)
+                dispatch_groups(triangles, len(bricks))
+                self.ctx.memory_barrier()
         for window in self.plan.windows(n_vertices, VERTEX_BYTES):
             self._bind_window(6, self.vertex_buffer, window, VERTEX_BYTES)
             set_uniforms(vertices, u_vertex_first=window[0], u_vertex_count=window[1])
             dispatch_groups(vertices, -(-window[1] // GROUP_SIZE))
         self.ctx.memory_barrier()
+
+    def _run_bricks(self, runs) -> list:
+        """Per triangle-pass run, the bricks it has work in (ascending ids), or [None] for a single run,
+        which takes the active list.  A mesh of several windows reads back the bricks' scanned offsets
+        (8 bytes a brick) and gives each run only its own bricks: run over the whole list, every run paid
+        for the words it skips, and its bricks, which sit together there, went to one of llvmpipe's
+        threads (it hands each one contiguous N-th of a dispatch's groups)."""
+        if len(runs) == 1:
+            return [None]
+        count = self.brick_count + 1
+        firsts = np.frombuffer(self._brick_triangle_offsets.read(4 * count), np.uint32).astype(np.int64)
+        vertices = np.frombuffer(self._brick_vertex_offsets.read(4 * count), np.uint32)
+        busy = np.flatnonzero((np.diff(firsts) > 0) | (np.diff(vertices) > 0))
+        start, end = firsts[busy], firsts[busy + 1]
+        if self._run_list is None:
+            self._run_list = self._own(self.ctx.buffer(reserve=4 * count))
+        # A brick's words start their triangles at slots start .. end (its last words may have none, so
+        # end itself): the run whose job slots [s, e) that closed range meets.
+        return [busy[(start < e) & (end >= s)] for _, (s, e) in runs]
 
     @staticmethod
     def _bind_window(binding: int, buffer: moderngl.Buffer, window: tuple[int, int], record_bytes: int) -> None:
@@ -358,7 +386,7 @@ class Extractor:
             if obj is not None:
                 obj.release()
         self._owned.clear()
-        self.vertex_buffer = self.index_buffer = self._vertex_jobs = None
+        self.vertex_buffer = self.index_buffer = self._vertex_jobs = self._run_list = None
         if self._scan is not None:
             self._scan.release()
 

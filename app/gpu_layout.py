@@ -64,14 +64,6 @@ when smoothing noise 256^3 took ~200 ms with 4, ~60 with 32)."""
 MAX_GROUPS_PER_DIMENSION = 65535
 """GL's guaranteed work groups per dispatch dimension; longer dispatches fold into 2-D."""
 
-SPREAD_COLUMNS = 8
-"""A triangle-pass run over one window of a large mesh (shaders/triangle_runs.glsl) takes the
-active bricks in this many interleaved columns, and the per-brick dispatches are rounded up to a
-multiple of it.  llvmpipe hands each of its N threads one contiguous N-th of a dispatch's work
-groups, and a window's bricks sit together in the list: in list order one thread did a whole run's
-work while the other idled, so two half-mesh runs took as long as two whole ones.  Spread, each of
-N threads takes an N-th of every column, for any N; 8 columns keep each thread's reads in 8 long
-runs (32 cost 7% more in cache misses)."""
 
 # --- the mesh the extractor writes and the renderer draws ------------------------------------------
 VERTEX_FIELDS = (("position", 3), ("value", 1), ("normal", 3), ("", 1))
@@ -122,6 +114,5 @@ def shader_defines() -> dict[str, object]:
         "SCAN_ITEMS_PER_INVOCATION": SCAN_ITEMS_PER_INVOCATION,
         "SCAN_BLOCK": SCAN_BLOCK,
         "MAX_GROUPS_PER_DIMENSION": MAX_GROUPS_PER_DIMENSION,
-        "SPREAD_COLUMNS": SPREAD_COLUMNS,
         "VERTEX_FLOATS": VERTEX_FLOATS,
     }

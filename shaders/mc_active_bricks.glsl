@@ -13,21 +13,6 @@ bool active_brick(out uint brick) {
     return true;
 }
 
-// The same, taking the list in SPREAD_COLUMNS interleaved columns: group g takes slot
-// (g % SPREAD_COLUMNS) * rows + g / SPREAD_COLUMNS, so any contiguous share of the work groups
-// (what llvmpipe gives each thread) holds bricks from all over the list (gpu_layout.SPREAD_COLUMNS).
-// mc_dispatch_args.comp rounds the group count up to a multiple of SPREAD_COLUMNS for this.
-bool active_brick_spread(out uint brick) {
-    uint group = linear_group();
-    uint rows = (active_count + uint(SPREAD_COLUMNS) - 1u) / uint(SPREAD_COLUMNS);
-    // Groups past the columns (the fold into 2-D adds some) would map onto slots other groups own.
-    if (group >= rows * uint(SPREAD_COLUMNS)) return false;
-    uint slot = (group % uint(SPREAD_COLUMNS)) * rows + group / uint(SPREAD_COLUMNS);
-    if (slot >= active_count) return false;
-    brick = active_bricks[slot];
-    return true;
-}
-
 // The brick of this invocation (one invocation per brick), or false past the end of the list.
 bool active_brick_of_invocation(out uint brick) {
     uint slot = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;

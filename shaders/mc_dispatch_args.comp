@@ -18,8 +18,6 @@ void fold(uint count, uint at) {
 }
 
 void main() {
-    // Rounded up to whole columns for active_brick_spread (mc_active_bricks.glsl); the extra groups, and
-    // the fold's, leave at once.
-    fold((active_count + uint(SPREAD_COLUMNS) - 1u) / uint(SPREAD_COLUMNS) * uint(SPREAD_COLUMNS), 0u);
+    fold(active_count, 0u);
     fold((active_count + uint(GROUP_SIZE) - 1u) / uint(GROUP_SIZE), 3u);
 }

@@ -85,7 +85,7 @@ void write_vertex_jobs(uint id, uint next, uint count, uvec3 crossing) {
 
 void main() {
     uint brick;
-    if (!run_brick(brick)) return;
+    if (!active_brick(brick)) return;
     bool exists;
     ivec3 word = brick_word(brick, exists);
     if (!exists) return;

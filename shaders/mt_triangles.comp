@@ -74,7 +74,7 @@ void write_vertex_jobs(uint next, uint count, CellRows rows, ivec3 word) {
 
 void main() {
     uint brick;
-    if (!run_brick(brick)) return;
+    if (!active_brick(brick)) return;
     bool exists;
     ivec3 word = brick_word(brick, exists);
     if (!exists) return;

@@ -5,16 +5,10 @@
 // whose triangle slots [u_job_slots.x, u_job_slots.y) hold the word's first triangle slot (the last
 // run's end is 2^32 - 1, so a word with no triangles at the very end has a run too).  Not a run per
 // window of the vertex buffer as well: those runs did nothing but jobs, at the cost of a whole pass.
+// Each of several runs takes only its own bricks (app/extractor.py's _run_bricks, in the active
+// list's place), so the words that leave at once are those that straddle a window's ends.
 uniform uvec2 u_job_slots;
 uniform uvec2 u_triangle_window;  // the (first, count) of the triangles bound in this run
-// 1 when the mesh takes more than one run: each run then takes the active bricks spread over the
-// list (active_brick_spread), as its bricks sit together there and llvmpipe would give them all
-// to one thread (gpu_layout.SPREAD_COLUMNS).  0 (one run): in list order, which keeps neighbours
-// together in the caches.
-uniform uint u_spread;
-
-bool run_brick(out uint brick) { return u_spread != 0u ? active_brick_spread(brick) : active_brick(brick); }
-
 bool writes_jobs(uint first_triangle) { return first_triangle - u_job_slots.x < u_job_slots.y - u_job_slots.x; }
 
 // Whether triangles first .. first + count - 1 meet this run's window.

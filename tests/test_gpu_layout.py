@@ -37,8 +37,7 @@ def test_the_check_catches_a_literal(tmp_path):
 
 def test_every_program_sees_the_layout_as_python_has_it(gl_ctx, tmp_path, monkeypatch):
     names = ["WORD_BITS", "BRICK_I", "BRICK_J", "BRICK_WORDS", "SAMPLES_PER_TEXEL", "GROUP_SIZE",
-             "SCAN_GROUP", "SCAN_ITEMS_PER_INVOCATION", "SCAN_BLOCK", "MAX_GROUPS_PER_DIMENSION", "VERTEX_FLOATS",
-             "SPREAD_COLUMNS"]
+             "SCAN_GROUP", "SCAN_ITEMS_PER_INVOCATION", "SCAN_BLOCK", "MAX_GROUPS_PER_DIMENSION", "VERTEX_FLOATS"]
     body = "\n".join(f"    values[{i}] = uint({name});" for i, name in enumerate(names))
     (tmp_path / "probe.comp").write_text(
         "#version 430\nlayout(local_size_x = 1) in;\n"

@@ -124,13 +124,12 @@ def test_each_triangle_run_writes_its_window_and_every_word_writes_its_jobs_in_o
     assert all(start == window[0] for (window, (start, _)) in runs[1:])
 
 
-@pytest.mark.parametrize("active", [0, 5, 8, 13, 1000, 65_529, 65_536, 70_001])
-def test_spread_runs_take_every_active_brick_once(gl_ctx, tmp_path, monkeypatch, active):
-    # A large mesh's triangle runs take the active bricks spread over SPREAD_COLUMNS columns
-    # (mc_active_bricks.glsl), dispatched by mc_dispatch_args.comp.  Every brick must be taken by exactly
-    # one work group, also past 65,535 groups, where the dispatch folds into 2-D (its extra groups
-    # once took bricks other groups owned), and the fold must stay even (empty groups cost).
-    from isoscope.gpu_layout import MAX_GROUPS_PER_DIMENSION, SPREAD_COLUMNS
+@pytest.mark.parametrize("active", [0, 5, 1000, 65_535, 65_536, 70_001, 131_071])
+def test_the_active_brick_dispatch_takes_every_brick_once_and_folds_evenly(gl_ctx, tmp_path, monkeypatch, active):
+    # mc_dispatch_args.comp folds the active bricks' work groups into 2-D past 65,535; each brick must be
+    # taken by exactly one group, and the fold must stay even (65,536 as 65,535 x 2 added 65,534 empty
+    # groups, which are not free on llvmpipe).
+    from isoscope.gpu_layout import MAX_GROUPS_PER_DIMENSION
     from isoscope.gpu_programs import compute_program
     from isoscope.resources import shaders_dir
     for path in shaders_dir().iterdir():
@@ -138,7 +137,7 @@ def test_spread_runs_take_every_active_brick_once(gl_ctx, tmp_path, monkeypatch,
     (tmp_path / "probe.comp").write_text(
         '#version 430\nlayout(local_size_x = 1) in;\n#include "mc_common.glsl"\n#include "mc_active_bricks.glsl"\n'
         "layout(std430, binding = 0) buffer Hits { uint hits[]; };\n"
-        "void main() { uint brick; if (active_brick_spread(brick)) atomicAdd(hits[brick], 1u); }\n")
+        "void main() { uint brick; if (active_brick(brick)) atomicAdd(hits[brick], 1u); }\n")
     monkeypatch.setattr("isoscope.resources.shaders_dir", lambda: tmp_path)
     volume = {"VOLUME_FORMAT": "rgba32f", "VOLUME_IMAGE": "image3D"}
     probe, args = compute_program(gl_ctx, "probe.comp", volume), compute_program(gl_ctx, "mc_dispatch_args.comp")
@@ -160,5 +159,34 @@ def test_spread_runs_take_every_active_brick_once(gl_ctx, tmp_path, monkeypatch,
         for buffer in buffers:
             buffer.release()
     assert (taken == 1).all(), f"{int((taken == 0).sum())} bricks missed, {int((taken > 1).sum())} taken twice"
-    columns = -(-active // SPREAD_COLUMNS) * SPREAD_COLUMNS
-    assert x <= MAX_GROUPS_PER_DIMENSION and columns <= x * y < columns + max(y, 1)
+    assert x <= MAX_GROUPS_PER_DIMENSION and active <= x * y < active + max(y, 1)
+
+
+@pytest.mark.parametrize("block_kib", [24, 64])
+def test_each_run_of_a_large_mesh_takes_only_the_bricks_with_work_in_it(gl_ctx, block_kib):
+    # Extractor._run_bricks: every brick with vertices or triangles is in the runs its triangles meet
+    # and in the one run that writes its words' vertex jobs, and in no other (the mesh itself is checked
+    # against the reference above).
+    volume = RNG.normal(size=(30, 33, 45)).astype(np.float32)
+    real = GpuLimits.of(gl_ctx)
+    small = GpuLimits(real.max_3d_texture_size, real.max_texture_size, block_kib << 10)
+    with Extractor(volume, ctx=gl_ctx, limits=small) as ex:
+        n_vertices, n_triangles = ex.extract(0.1)
+        runs = ex.plan.triangle_runs(n_triangles)
+        lists = ex._run_bricks(runs)
+        count = ex.brick_count + 1
+        firsts = np.frombuffer(ex._brick_triangle_offsets.read(4 * count), np.uint32).astype(np.int64)
+        vertex_firsts = np.frombuffer(ex._brick_vertex_offsets.read(4 * count), np.uint32)
+    assert len(runs) > 3 and len(lists) == len(runs)
+    busy = np.flatnonzero((np.diff(firsts) > 0) | (np.diff(vertex_firsts) > 0))
+    taken = np.concatenate(lists)
+    assert set(taken.tolist()) == set(busy.tolist())  # every busy brick, and only those
+    def run_of(slot):  # the run whose job slots hold a triangle slot
+        return next(r for r, (_, (s, e)) in enumerate(runs) if s <= slot < e)
+    for b in busy:
+        meets = {r for r, ((first, n), _) in enumerate(runs) if firsts[b] < first + n and first < firsts[b + 1]}
+        # needed: its triangles' runs and its first word's job run; allowed besides: the job run of the
+        # brick's end (its last words may have no triangle and start at that slot)
+        needed, allowed = meets | {run_of(firsts[b])}, {run_of(firsts[b + 1])}
+        held = {r for r, bricks in enumerate(lists) if b in bricks}
+        assert needed <= held <= needed | allowed, (b, needed, held)
