@@ -125,7 +125,11 @@ class SharpExtractor:
         n_patches = len(members)
         if n_patches == 0:
             return np.zeros((0, 3)), np.zeros(0, bool), np.zeros((0, 3))
-        used = np.unique(np.concatenate([members[members >= 0], ring_members[ring_members >= 0]]))
+        listed = np.zeros(len(verts), bool)  # (a mask, not np.unique: its hash table took ~85 ms on the MNI T1)
+        listed[members[members >= 0]] = listed[ring_members[ring_members >= 0]] = True
+        used = np.flatnonzero(listed)
+        new_index = np.full(len(verts), -1, np.int32)
+        new_index[used] = np.arange(len(used), dtype=np.int32)
         ring_width = ring_members.shape[1]
         if not self._fits(len(used) * VERTEX_BYTES, 4 * members.size, 4 * ring_members.size, 64 * n_patches):
             return numpy_patch_points(verts, plane_normals, members, ring_members, lower, upper, spacing, cos_angle)
@@ -133,7 +137,7 @@ class SharpExtractor:
         records[:, :3] = verts[used]
 
         def renumbered(lists):  # ascending lists stay ascending: -1 padding stays last
-            return np.where(lists >= 0, np.searchsorted(used, np.maximum(lists, 0)), -1).astype(np.int32)
+            return np.where(lists >= 0, new_index[np.maximum(lists, 0)], -1).astype(np.int32)
         cells = np.rint(lower / np.asarray(spacing, np.float64)).astype(np.int32)
         program = self._program("emc_solve", RING_CAPACITY=-(-max(ring_width, MAX_PATCH_VERTICES) // RING_STEP)
                                 * RING_STEP)
