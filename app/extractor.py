@@ -14,7 +14,7 @@ indexed mesh and sized from the scans, so nothing is ever dropped):
 6. ``mc_word_offsets`` per active brick: each word's first vertex and triangle, and the order
                        in which pass 7 takes the brick's words (by their work: see the shader)
 7. ``mc_triangles``    active bricks: triangle indices into the shared vertices, and
-                       for each vertex the edge it lies on (a job for pass 8, in an image)
+                       for each vertex the edge it lies on (a job for pass 8, in a buffer)
 8. ``mc_vertices``     one invocation per vertex: position, value and outward normal
 
 Between passes 1 and 2, ``mc_dispatch_args`` turns the active count into the indirect
@@ -22,7 +22,7 @@ dispatch sizes of passes 2-4, 6 and 7, so those touch only the bricks whose rang
 contains the new level (pass 1 and the scans still visit every brick, cheaply).
 Scratch: 16 bytes per 32-sample word plus 20 per brick (about 0.5 byte per voxel;
 0.75 for a moment while the brick ranges are measured), and 4 bytes per vertex for the jobs
-(shaders/vertex_jobs.glsl says why they have an image of their own).  Read-backs
+(shaders/vertex_jobs.glsl says why they have a buffer of their own).  Read-backs
 per extraction: the two totals (8 bytes), which size the outputs, and after the passes
 the active-brick count (4 bytes), for the stats.
 
@@ -40,7 +40,15 @@ import numpy as np
 from . import validation
 from .case_table import CaseTable, montani_table
 from .gl_context import current_or_standalone
-from .gpu_layout import GROUP_SIZE, INDEX_BYTES, VERTEX_BYTES, WORD_BITS, divisor_magic, volume_texel_format
+from .gpu_layout import (
+    GROUP_SIZE,
+    INDEX_BYTES,
+    STORAGE_OFFSET_ALIGNMENT,
+    VERTEX_BYTES,
+    WORD_BITS,
+    divisor_magic,
+    volume_texel_format,
+)
 from .gpu_limits import GPULimitError, GpuLimits, plan_extractor
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
@@ -61,9 +69,6 @@ def case_table_image(ctx: moderngl.Context, table: CaseTable) -> moderngl.Textur
     return ctx.texture((width, len(words) // width), 1, words.tobytes(), dtype="u4")
 
 
-MAX_JOB_SHIFT = 14
-"""The vertex-job image is at most 2^14 texels wide: with as many rows, 2^28 vertices."""
-
 PASSES = ("mc_row_range", "mc_brick_range", "mc_bricks", "mc_signs", "mc_dispatch_args", "mc_classify",
           "mc_brick_sums", "mc_word_offsets", "mc_triangles", "mc_vertices")
 
@@ -83,6 +88,8 @@ class Extractor:
 
     JOB_COMPONENTS = 1
     """uints per vertex job (shaders/vertex_jobs.glsl): the cubes' (word id, axis, bit) is one."""
+    JOB_BINDING = 4
+    """The storage binding of the vertex jobs' window (shaders/vertex_jobs.glsl)."""
 
     _run_list: moderngl.Buffer | None = None
     """A large mesh's per-run brick list (`_run_bricks`), made when first needed."""
@@ -101,14 +108,12 @@ class Extractor:
             raise ValueError(f"a case table with up to {self.table.max_triangles} triangles per cell does not fit "
                              f"the per-word counts; at most {255 // WORD_BITS} can")
         self.plan = plan_extractor(self.shape, limits or GpuLimits.of(self.ctx))  # refuses before allocating
-        # The vertex-job image's width: a power of two within the GL's 2-D texture limit.
-        self._job_shift = min(MAX_JOB_SHIFT, self.plan.limits.max_texture_size.bit_length() - 1)
         # What every pass is told about the grid, the same at every level (the division constants too).
         self._grid_uniforms = dict(
             u_dims=self.shape, u_words=self.plan.words_per_row, u_bricks=self.plan.bricks,
             u_brick_count=self.plan.brick_count, u_spacing=self.spacing, u_word_shift=self.plan.word_shift,
             u_div_words=divisor_magic(self.plan.words_per_row), u_div_rows=divisor_magic(self.shape[1]),
-            u_div_bricks_j=divisor_magic(self.plan.bricks[1]), u_job_shift=self._job_shift)
+            u_div_bricks_j=divisor_magic(self.plan.bricks[1]))
 
         _, volume_format, volume_image = volume_texel_format(checked.data.dtype)
         self.volume_defines = {"VOLUME_FORMAT": volume_format, "VOLUME_IMAGE": volume_image}  # for other passes
@@ -123,7 +128,7 @@ class Extractor:
         self.last_extract_ms = 0.0  # wall time of extract(), read-back included
         self.last_gpu_ms = 0.0  # GPU time of its passes, by GL timer queries (llvmpipe reports ~0)
         self._owned: list = []  # every GL object allocated here, released together
-        self.vertex_buffer = self.index_buffer = self._vertex_jobs = None  # grown by _ensure_output, not in _owned
+        self.vertex_buffer = self.index_buffer = self.vertex_jobs = None  # grown by _ensure_output, not in _owned
         self._scan: ExclusiveScan | None = None
         try:
             self._allocate(checked.data)
@@ -173,6 +178,7 @@ class Extractor:
         self._scan = ExclusiveScan(ctx)
         self.vertex_buffer = ctx.buffer(reserve=VERTEX_BYTES)
         self.index_buffer = ctx.buffer(reserve=INDEX_BYTES)
+        self.vertex_jobs = ctx.buffer(reserve=self.job_record_bytes)
         # Two queries: one around counting, one around output, so the CPU's read-back of the
         # totals between them is not counted as GPU time.
         self._timers = (ctx.query(time=True), ctx.query(time=True))
@@ -191,19 +197,18 @@ class Extractor:
     def _bind_case_table(self) -> None:
         self._case_table.bind_to_image(5, read=True, write=False)  # see mc_case_table.glsl
 
+    @property
+    def job_record_bytes(self) -> int:
+        return 4 * self.JOB_COMPONENTS
+
     def _ensure_output(self, n_vertices: int, n_triangles: int) -> None:
-        """Grow the mesh buffers and the vertex-job image to fit (by half again, so dragging the slider
-        rarely reallocates).  Every limit is checked first, so a refused level leaves the last mesh intact.
+        """Grow the mesh buffers and the vertex-job buffer to fit (by half again, so dragging the slider
+        rarely reallocates).  A failed allocation leaves the last mesh intact.
 
         The buffers may outgrow one storage block: the passes then write them a window at a time."""
-        width, limit = 1 << self._job_shift, self.plan.limits.max_texture_size
-        rows = max(1, -(-n_vertices // width))
-        if rows > limit:
-            raise GPULimitError(f"the mesh at this level ({n_vertices} vertices) needs a {width}x{rows} vertex-job "
-                                f"image, above this GPU's {limit}-texel limit; pick another level, crop or "
-                                "downsample the volume, or use backend='cpu'")
         for attr, needed in (("vertex_buffer", n_vertices * VERTEX_BYTES),
-                             ("index_buffer", n_triangles * INDEX_BYTES)):
+                             ("index_buffer", n_triangles * INDEX_BYTES),
+                             ("vertex_jobs", n_vertices * self.job_record_bytes)):
             buf = getattr(self, attr)
             if buf.size < needed:
                 size = max(needed, int(buf.size * 1.5))
@@ -216,18 +221,6 @@ class Extractor:
                         f"the mesh at this level ({n_vertices} vertices, {n_triangles} triangles) needs a "
                         f"{size >> 20} MiB buffer that this GPU could not allocate ({exc}); pick another "
                         "level, crop or downsample the volume, or use backend='cpu'") from None
-        if self._vertex_jobs is not None and self._vertex_jobs.height >= rows:
-            return
-        if self._vertex_jobs is not None:
-            rows = min(limit, max(rows, self._vertex_jobs.height * 3 // 2))  # as the buffers grow
-            self._vertex_jobs.release()
-            self._vertex_jobs = None  # released: a failing allocation below must not release it twice
-        try:
-            self._vertex_jobs = self.ctx.texture((width, rows), self.JOB_COMPONENTS, dtype="u4")
-        except moderngl.Error as exc:
-            raise GPULimitError(f"the mesh at this level ({n_vertices} vertices) needs a vertex-job image that "
-                                f"this GPU could not allocate ({exc}); pick another level, crop or downsample "
-                                "the volume, or use backend='cpu'") from None
 
     # -- extraction -------------------------------------------------------------------------
 
@@ -271,10 +264,14 @@ class Extractor:
         self._active_bricks.write(b"\0\0\0\0")  # the active count, appended to by mc_bricks
         with self._timers[0]:
             n_vertices, n_triangles = self._count()
+        # Planned (and refused, where a limit is passed) before the outputs grow: a refused level leaves
+        # the last mesh intact.
+        runs = self.plan.triangle_runs(n_triangles)
+        dispatches = self._run_bricks(runs, n_vertices)
         self._ensure_output(n_vertices, n_triangles)
         if n_vertices:
             with self._timers[1]:
-                self._generate(n_vertices, n_triangles)
+                self._generate(n_vertices, runs, dispatches)
         self.ctx.finish()
 
         self.n_vertices, self.n_triangles, self.level = n_vertices, n_triangles, level
@@ -302,50 +299,72 @@ class Extractor:
         n_triangles = int(np.frombuffer(self._brick_triangle_offsets.read(4, total_at), np.uint32)[0])
         return n_vertices, n_triangles
 
-    def _generate(self, n_vertices: int, n_triangles: int) -> None:
+    def _generate(self, n_vertices: int, runs, dispatches) -> None:
         """Passes 6-8: offsets per word, triangles and vertex jobs, vertices, into the mesh buffers."""
         # The scan used slots 0 and 1; bind the passes' buffers again.
         self._bind((1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets))
         self._run_over_active_bricks("mc_word_offsets", per_brick=True)
-        self._vertex_jobs.bind_to_image(4, read=True, write=True)  # see vertex_jobs.glsl
         triangles, vertices = self._passes["mc_triangles"], self._passes["mc_vertices"]
-        runs = self.plan.triangle_runs(n_triangles)
-        for (window, job_slots), bricks in zip(runs, self._run_bricks(runs)):
+        for (window, job_slots), run_dispatches in zip(runs, dispatches):
             # Each run writes the triangles in its window of the index buffer (usually the only one)
-            # and the vertex jobs of the words whose triangles start there (triangle_runs.glsl).
+            # and the vertex jobs of the words whose triangles start there (triangle_runs.glsl), into
+            # the window of the job buffer that holds their vertices (vertex_jobs.glsl).
             self._bind_window(6, self.index_buffer, window, INDEX_BYTES)
-            set_uniforms(triangles, u_triangle_window=window, u_job_slots=job_slots)
-            if bricks is None:
-                self._run_over_active_bricks("mc_triangles")
-            elif len(bricks):
+            for bricks, jobs in run_dispatches:
+                self._bind_window(self.JOB_BINDING, self.vertex_jobs, jobs, self.job_record_bytes)
+                set_uniforms(triangles, u_triangle_window=window, u_job_slots=job_slots, u_job_first=jobs[0])
+                if bricks is None:
+                    self._run_over_active_bricks("mc_triangles")
+                    continue
                 self._run_list.write(np.concatenate([[len(bricks)], bricks]).astype(np.uint32))
                 self._run_list.bind_to_storage_buffer(7)  # in the active list's place (mc_active_bricks.glsl)
                 dispatch_groups(triangles, len(bricks))
                 self.ctx.memory_barrier()
         for window in self.plan.windows(n_vertices, VERTEX_BYTES):
             self._bind_window(6, self.vertex_buffer, window, VERTEX_BYTES)
-            set_uniforms(vertices, u_vertex_first=window[0], u_vertex_count=window[1])
+            self._bind_window(self.JOB_BINDING, self.vertex_jobs, window, self.job_record_bytes)
+            set_uniforms(vertices, u_vertex_count=window[1])
             dispatch_groups(vertices, -(-window[1] // GROUP_SIZE))
         self.ctx.memory_barrier()
 
-    def _run_bricks(self, runs) -> list:
-        """Per triangle-pass run, the bricks it has work in (ascending ids), or [None] for a single run,
-        which takes the active list.  A mesh of several windows reads back the bricks' scanned offsets
-        (8 bytes a brick) and gives each run only its own bricks: run over the whole list, every run paid
-        for the words it skips, and its bricks, which sit together there, went to one of llvmpipe's
-        threads (it hands each one contiguous N-th of a dispatch's groups)."""
-        if len(runs) == 1:
-            return [None]
+    def _run_bricks(self, runs, n_vertices: int) -> list:
+        """Per triangle-pass run, its dispatches: (bricks, job window) pairs, the bricks (ascending ids, or
+        None for the active list) and the window (first, count) of the job buffer that holds their
+        vertices.  A mesh whose triangles and jobs fit one storage block each is one dispatch over the
+        active list.  Otherwise the bricks' scanned offsets are read back (8 bytes a brick) and each run
+        takes only its own bricks, as many dispatches as its jobs need blocks: over the whole list, every
+        run paid for the words it skips, and its bricks, which sit together there, went to one of
+        llvmpipe's threads (it hands each one contiguous N-th of a dispatch's groups)."""
+        block = self.plan.limits.max_storage_block_bytes
+        jobs_per_block = block // self.job_record_bytes
+        if len(runs) == 1 and n_vertices <= jobs_per_block:
+            return [[(None, (0, n_vertices))]]
         count = self.brick_count + 1
         firsts = np.frombuffer(self._brick_triangle_offsets.read(4 * count), np.uint32).astype(np.int64)
-        vertices = np.frombuffer(self._brick_vertex_offsets.read(4 * count), np.uint32)
+        vertices = np.frombuffer(self._brick_vertex_offsets.read(4 * count), np.uint32).astype(np.int64)
         busy = np.flatnonzero((np.diff(firsts) > 0) | (np.diff(vertices) > 0))
         start, end = firsts[busy], firsts[busy + 1]
         if self._run_list is None:
             self._run_list = self._own(self.ctx.buffer(reserve=4 * count))
-        # A brick's words start their triangles at slots start .. end (its last words may have none, so
-        # end itself): the run whose job slots [s, e) that closed range meets.
-        return [busy[(start < e) & (end >= s)] for _, (s, e) in runs]
+        align = max(1, STORAGE_OFFSET_ALIGNMENT // self.job_record_bytes)  # where a binding may start
+        out = []
+        for _, (s, e) in runs:
+            # A brick's words start their triangles at slots start .. end (its last words may have none, so
+            # end itself): the run whose job slots [s, e) that closed range meets.
+            bricks = busy[(start < e) & (end >= s)]
+            dispatches = []
+            while len(bricks):
+                first = int(vertices[bricks[0]]) // align * align
+                # The bricks whose vertices fit one block from `first` (at least one).
+                fit = max(1, int(np.searchsorted(vertices[bricks + 1], first + jobs_per_block, side="right")))
+                last = int(vertices[bricks[fit - 1] + 1])
+                if last - first > jobs_per_block:
+                    raise GPULimitError(f"one brick of this mesh has more vertex jobs than a storage block of "
+                                        f"{block:,} bytes holds; pick another level, or use backend='cpu'")
+                dispatches.append((bricks[:fit], (first, last - first)))
+                bricks = bricks[fit:]
+            out.append(dispatches)
+        return out
 
     @staticmethod
     def _bind_window(binding: int, buffer: moderngl.Buffer, window: tuple[int, int], record_bytes: int) -> None:
@@ -363,14 +382,13 @@ class Extractor:
         return self.mesh.read()
 
     def scratch_bytes(self) -> int:
-        """GPU memory beyond the volume texture and the mesh buffers (the vertex-job image included)."""
+        """GPU memory beyond the volume texture and the mesh buffers (the vertex-job buffer included)."""
         images = sum(t.width * t.height * t.components * 4 for t in self._word_images())
         return images + self.job_bytes() + sum(b.size for b in self._scratch_buffers()) + self._scan.scratch_bytes()
 
     def job_bytes(self) -> int:
-        """The vertex-job image's share of scratch_bytes: JOB_COMPONENTS uints per vertex, grown with the mesh."""
-        jobs = self._vertex_jobs
-        return 0 if jobs is None else jobs.width * jobs.height * jobs.components * 4
+        """The vertex-job buffer's share of scratch_bytes: JOB_COMPONENTS uints per vertex, grown with the mesh."""
+        return 0 if self.vertex_jobs is None else self.vertex_jobs.size
 
     def _word_images(self) -> tuple[moderngl.Texture, ...]:
         """The images scratch_bytes counts: the per-word ones and the case table."""
@@ -382,11 +400,11 @@ class Extractor:
 
     def release(self) -> None:
         """Free every GL object this extractor made; safe to call twice, or on a half-built one."""
-        for obj in (*self._owned, self.vertex_buffer, self.index_buffer, self._vertex_jobs):
+        for obj in (*self._owned, self.vertex_buffer, self.index_buffer, self.vertex_jobs):
             if obj is not None:
                 obj.release()
         self._owned.clear()
-        self.vertex_buffer = self.index_buffer = self._vertex_jobs = self._run_list = None
+        self.vertex_buffer = self.index_buffer = self.vertex_jobs = self._run_list = None
         if self._scan is not None:
             self._scan.release()
 

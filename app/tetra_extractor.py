@@ -15,7 +15,7 @@ also orders each brick's words by their work for pass 7, so that the words shari
 vector on llvmpipe loop about as long as each other (see mt_word_offsets.comp).
 `app/reference_tetra.py` is its numpy mirror and says which split and why.
 
-Pass 7 leaves the vertex jobs for pass 8 in the Extractor's job image (shaders/vertex_jobs.glsl),
+Pass 7 leaves the vertex jobs for pass 8 in a job buffer of its own (shaders/vertex_jobs.glsl),
 two uints per vertex here (JOB_COMPONENTS; the encoding is in shaders/mt_jobs.glsl).
 """
 from __future__ import annotations
@@ -47,8 +47,7 @@ class TetraExtractor(Extractor):
         self.spacing, self.descent, self.shape = source.spacing, source.descent, source.shape
         self.value_range, self.ctx, self.plan = source.value_range, source.ctx, source.plan
         self.table = tetra_table()
-        self._job_shift = source._job_shift
-        self._grid_uniforms = source.grid_uniforms  # u_job_shift among them
+        self._grid_uniforms = source.grid_uniforms
         self._volume = source.volume_texture
         self.volume_defines = source.volume_defines
         self._brick_ranges = source.brick_ranges
@@ -61,7 +60,7 @@ class TetraExtractor(Extractor):
         self.level = None
         self.last_extract_ms = self.last_gpu_ms = 0.0
         self._owned = []
-        self.vertex_buffer = self.index_buffer = self._vertex_jobs = None
+        self.vertex_buffer = self.index_buffer = self.vertex_jobs = None
         self._scan = None
         try:
             self._allocate_scratch()
@@ -83,6 +82,7 @@ class TetraExtractor(Extractor):
         self._scan = ExclusiveScan(ctx)
         self.vertex_buffer = ctx.buffer(reserve=VERTEX_BYTES)
         self.index_buffer = ctx.buffer(reserve=INDEX_BYTES)
+        self.vertex_jobs = ctx.buffer(reserve=self.job_record_bytes)
         self._timers = (ctx.query(time=True), ctx.query(time=True))
 
     def _scratch_buffers(self):

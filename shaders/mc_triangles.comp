@@ -15,7 +15,7 @@ layout(local_size_x = BRICK_WORDS) in;
 layout(r32ui, binding = 2) readonly uniform uimage2D u_word_counts;
 layout(rg32ui, binding = 3) readonly uniform uimage2D u_word_offsets;  // (first vertex, first triangle)
 layout(std430, binding = 6) writeonly buffer Indices { uint indices[]; };
-layout(r32ui, binding = 4) writeonly uniform uimage2D u_vertex_jobs;
+layout(std430, binding = 4) writeonly buffer VertexJobs { uint vertex_jobs[]; };  // JOB_BINDING
 
 // Where each axis's vertices start in the words owning a cell row's edges, per sign row around
 // the cells (component d0 | d1 << 1): in word w, and in word w + 1 (reached from cell 31, only
@@ -79,7 +79,7 @@ void write_vertex_jobs(uint id, uint next, uint count, uvec3 crossing) {
         }
         uint b = uint(findLSB(bits));
         bits &= bits - 1u;
-        imageStore(u_vertex_jobs, job_texel(next), uvec4(vertex_job(id, axis, b)));
+        vertex_jobs[next - u_job_first] = vertex_job(id, axis, b);
     }
 }
 

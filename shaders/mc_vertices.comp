@@ -5,9 +5,9 @@ layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
 #include "vertex_jobs.glsl"
 
-uniform uint u_vertex_first;  // the window of the vertex buffer bound below: its first vertex and count
+// The window of the vertex buffer (and of the job buffer) bound below: its vertex count.
 uniform uint u_vertex_count;
-layout(r32ui, binding = 4) readonly uniform uimage2D u_vertex_jobs;
+layout(std430, binding = 4) readonly buffer VertexJobs { uint vertex_jobs[]; };  // this run's window
 
 struct Vertex { vec4 position_value; vec4 normal; };
 layout(std430, binding = 6) writeonly buffer Vertices { Vertex vertices[]; };
@@ -43,6 +43,6 @@ Vertex edge_vertex(ivec3 p0, int axis) {
 void main() {
     uint index = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
     if (index >= u_vertex_count) return;
-    uint job = imageLoad(u_vertex_jobs, job_texel(u_vertex_first + index)).x;  // see vertex_job() in mc_common.glsl
+    uint job = vertex_jobs[index];  // see vertex_job() in mc_common.glsl
     vertices[index] = edge_vertex(job_start(job), job_axis(job));
 }

@@ -14,7 +14,7 @@ layout(local_size_x = BRICK_WORDS) in;
 layout(rgba32ui, binding = 2) readonly uniform uimage2D u_word_counts;  // see mt_common.glsl
 layout(rg32ui, binding = 3) readonly uniform uimage2D u_word_offsets;   // (first vertex, first triangle)
 layout(std430, binding = 6) writeonly buffer Indices { uint indices[]; };
-layout(rg32ui, binding = 4) writeonly uniform uimage2D u_vertex_jobs;
+layout(std430, binding = 4) writeonly buffer VertexJobs { uvec2 vertex_jobs[]; };  // JOB_BINDING
 
 // Per sign row around the cells (component d0 | d1 << 1), its word's first vertex and kind starts.
 struct Owners { uvec4 first; uvec4 starts_x; uvec4 starts_y; };
@@ -68,7 +68,7 @@ void write_vertex_jobs(uint next, uint count, CellRows rows, ivec3 word) {
         uint b = uint(findLSB(bits));
         bits &= bits - 1u;
         ivec3 start = ivec3(word.xy, word.z * WORD_BITS + int(b));
-        imageStore(u_vertex_jobs, job_texel(next), uvec4(mt_job(start, kind), 0u, 0u));
+        vertex_jobs[next - u_job_first] = mt_job(start, kind);
     }
 }
 

@@ -5,12 +5,12 @@ layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
 #include "mt_jobs.glsl"
 
-uniform uint u_vertex_first;  // the window of the vertex buffer bound below: its first vertex and count
+// The window of the vertex buffer (and of the job buffer) bound below: its vertex count.
 uniform uint u_vertex_count;
 
 struct Vertex { vec4 position_value; vec4 normal; };
 layout(std430, binding = 6) writeonly buffer Vertices { Vertex vertices[]; };
-layout(rg32ui, binding = 4) readonly uniform uimage2D u_vertex_jobs;
+layout(std430, binding = 4) readonly buffer VertexJobs { uvec2 vertex_jobs[]; };  // this run's window
 
 // Central differences, one-sided at the border, in physical units (as mc_vertices.comp).
 vec3 gradient_at(ivec3 p) {
@@ -24,7 +24,7 @@ vec3 gradient_at(ivec3 p) {
 void main() {
     uint index = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
     if (index >= u_vertex_count) return;
-    uvec2 job = imageLoad(u_vertex_jobs, job_texel(u_vertex_first + index)).xy;
+    uvec2 job = vertex_jobs[index];
     uint dir = (0x7653421u >> (4u * mt_job_kind(job))) & 7u;  // mt_common.glsl's kind_dir()
     ivec3 step = ivec3(int(dir & 1u), int((dir >> 1) & 1u), int(dir >> 2));
     ivec3 p0 = mt_job_start(job);

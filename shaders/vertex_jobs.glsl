@@ -1,8 +1,10 @@
 // Vertex jobs: the triangle pass (mc_triangles.comp, mt_triangles.comp) writes each vertex's job,
-// the edge it lies on, into texel `vertex` of an image 2^u_job_shift texels wide (app/extractor.py
-// grows it with the mesh), and the vertex pass (mc_vertices.comp, mt_vertices.comp) reads it back.  Not into the vertex's own slot of
-// the vertex buffer, as they once did: on llvmpipe an SSBO load goes lane by lane and an imageLoad
-// is one gather, and reading the job back from the SSBO took about a third of the vertex pass.
-uniform uint u_job_shift;
-
-ivec2 job_texel(uint vertex) { return ivec2(vertex & ((1u << u_job_shift) - 1u), vertex >> u_job_shift); }
+// the edge it lies on, into the vertex's slot of a job buffer, and the vertex pass (mc_vertices.comp,
+// mt_vertices.comp) reads it back; each declares the buffer at binding JOB_BINDING (app/extractor.py)
+// with its own element type (one uint for cubes, a uvec2 for tetrahedra).  Like the mesh buffers the
+// job buffer is bound a window at a time: a triangle run binds the window that holds its words'
+// vertices and writes vertex v at v - u_job_first; a vertex run binds the window of its vertices.
+// Not the vertex buffer's own slots, as they once were (a job read from between vertex records was a
+// third of the vertex pass), nor a 2-D image, as they were next: an imageStore costs llvmpipe ~6 ns
+// a lane, a plain store far less (tetrahedra on noise 256^3: 359 -> 295 ms an extraction).
+uniform uint u_job_first;

@@ -173,10 +173,18 @@ def test_each_run_of_a_large_mesh_takes_only_the_bricks_with_work_in_it(gl_ctx, 
     with Extractor(volume, ctx=gl_ctx, limits=small) as ex:
         n_vertices, n_triangles = ex.extract(0.1)
         runs = ex.plan.triangle_runs(n_triangles)
-        lists = ex._run_bricks(runs)
+        dispatches = ex._run_bricks(runs, n_vertices)
+        lists = [np.concatenate([bricks for bricks, _ in run]) for run in dispatches]
+        # and each dispatch's job window starts aligned and fits one block
+        for run in dispatches:
+            for _, (first, span) in run:
+                assert first * 4 % 256 == 0 and span * 4 <= block_kib << 10
         count = ex.brick_count + 1
         firsts = np.frombuffer(ex._brick_triangle_offsets.read(4 * count), np.uint32).astype(np.int64)
         vertex_firsts = np.frombuffer(ex._brick_vertex_offsets.read(4 * count), np.uint32)
+        for run in dispatches:  # and holds its bricks' vertices
+            for bricks, (first, span) in run:
+                assert first <= vertex_firsts[bricks[0]] and vertex_firsts[bricks[-1] + 1] <= first + span
     assert len(runs) > 3 and len(lists) == len(runs)
     busy = np.flatnonzero((np.diff(firsts) > 0) | (np.diff(vertex_firsts) > 0))
     taken = np.concatenate(lists)

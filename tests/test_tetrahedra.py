@@ -188,7 +188,7 @@ def test_shares_the_resident_volume_and_leaves_the_cubes_alone(gl_ctx):
 def test_a_mesh_larger_than_one_storage_block_is_written_a_window_at_a_time(gl_ctx):
     volume = RNG.normal(size=(24, 25, 33)).astype(np.float32)
     real = GpuLimits.of(gl_ctx)
-    small = GpuLimits(real.max_3d_texture_size, real.max_texture_size, 32 << 10)
+    small = GpuLimits(real.max_3d_texture_size, real.max_texture_size, 64 << 10)  # a brick's jobs fit one block
     with Extractor(volume, ctx=gl_ctx, limits=small) as cubes:
         with TetraExtractor(cubes) as tetra:
             n_vertices, n_triangles = tetra.extract(0.1)
@@ -198,25 +198,26 @@ def test_a_mesh_larger_than_one_storage_block_is_written_a_window_at_a_time(gl_c
 
 
 
-def test_a_mesh_past_the_vertex_job_image_limit_is_refused_and_the_extractor_still_works(gl_ctx):
-    """The vertex jobs live in a 2-D image (mt_jobs.glsl): with 16-texel textures, 16 x 16 jobs."""
+def test_a_brick_with_more_vertex_jobs_than_a_storage_block_is_refused_and_the_extractor_still_works(gl_ctx):
+    """Vertex jobs go to a buffer bound a window at a time (vertex_jobs.glsl), a brick's at least at once:
+    with 4 KiB blocks (GL guarantees 128 MiB) a brick of noise has more than 512 tetrahedra jobs."""
     volume = RNG.normal(size=(12, 12, 20)).astype(np.float32)
     real = GpuLimits.of(gl_ctx)
-    small = GpuLimits(real.max_3d_texture_size, 16, real.max_storage_block_bytes)
+    small = GpuLimits(real.max_3d_texture_size, real.max_texture_size, 4 << 10)
     few = float(np.sort(volume, axis=None)[-4])  # four samples inside: at most 4 * 14 vertices
     with Extractor(volume, ctx=gl_ctx, limits=small) as cubes:
         with TetraExtractor(cubes) as tetra:
             n_vertices, _ = tetra.extract(few)
-            assert 0 < n_vertices <= 16 * 16
-            assert tetra.scratch_bytes() >= 8 * n_vertices
-            with pytest.raises(GPULimitError, match="vertex-job image") as refusal:
+            assert 0 < n_vertices <= 4 * 14
+            with pytest.raises(GPULimitError, match="storage block") as refusal:
                 tetra.extract(0.0)
             assert "\n" not in str(refusal.value)
-            assert tetrahedral_grid_crossings(volume, 0.0) > 16 * 16
+            assert tetrahedral_grid_crossings(volume, 0.0) > 512
             expected = marching_tetrahedra_reference(volume, few)
             assert_same_mesh(tetra.read_mesh(), expected)  # the refusal left the last mesh as it was
             tetra.extract(few)
             assert_same_mesh(tetra.read_mesh(), expected)
+
 
 def test_level_none_and_numpy_alias():
     volume = sphere(20)
