@@ -203,23 +203,32 @@ class Extractor:
 
     def _ensure_output(self, n_vertices: int, n_triangles: int) -> None:
         """Grow the mesh buffers and the vertex-job buffer to fit (by half again, so dragging the slider
-        rarely reallocates).  A failed allocation leaves the last mesh intact.
+        rarely reallocates).  A failed allocation leaves an empty mesh (a buffer may already have been
+        replaced) and an extractor that can extract again.
 
         The buffers may outgrow one storage block: the passes then write them a window at a time."""
         for attr, needed in (("vertex_buffer", n_vertices * VERTEX_BYTES),
                              ("index_buffer", n_triangles * INDEX_BYTES),
                              ("vertex_jobs", n_vertices * self.job_record_bytes)):
             buf = getattr(self, attr)
-            if buf.size < needed:
-                size = max(needed, int(buf.size * 1.5))
-                buf.release()
+            held = 0 if buf is None else buf.size  # None: an earlier allocation failed
+            if held < needed:
+                size = max(needed, int(held * 1.5))
+                if buf is not None:
+                    buf.release()
                 setattr(self, attr, None)  # released: a failing allocation below must not release it twice
                 try:
                     setattr(self, attr, self.ctx.buffer(reserve=size))
                 except moderngl.Error as exc:
+                    self.n_vertices = self.n_triangles = 0  # an empty mesh, in a small buffer where one can be had
+                    self.level = None
+                    try:
+                        setattr(self, attr, self.ctx.buffer(reserve=VERTEX_BYTES))
+                    except moderngl.Error:
+                        pass
                     raise GPULimitError(
                         f"the mesh at this level ({n_vertices} vertices, {n_triangles} triangles) needs a "
-                        f"{size >> 20} MiB buffer that this GPU could not allocate ({exc}); pick another "
+                        f"{size / 2**20:.1f} MiB buffer that this GPU could not allocate ({exc}); pick another "
                         "level, crop or downsample the volume, or use backend='cpu'") from None
 
     # -- extraction -------------------------------------------------------------------------
@@ -320,7 +329,7 @@ class Extractor:
                 self._run_list.bind_to_storage_buffer(7)  # in the active list's place (mc_active_bricks.glsl)
                 dispatch_groups(triangles, len(bricks))
                 self.ctx.memory_barrier()
-        for window in self.plan.windows(n_vertices, VERTEX_BYTES):
+        for window in self.plan.windows(n_vertices, VERTEX_BYTES, self.job_record_bytes):
             self._bind_window(6, self.vertex_buffer, window, VERTEX_BYTES)
             self._bind_window(self.JOB_BINDING, self.vertex_jobs, window, self.job_record_bytes)
             set_uniforms(vertices, u_vertex_count=window[1])
@@ -360,7 +369,8 @@ class Extractor:
                 last = int(vertices[bricks[fit - 1] + 1])
                 if last - first > jobs_per_block:
                     raise GPULimitError(f"one brick of this mesh has more vertex jobs than a storage block of "
-                                        f"{block:,} bytes holds; pick another level, or use backend='cpu'")
+                                        f"{block:,} bytes holds from an aligned start; pick another level, or "
+                                        "use backend='cpu'")
                 dispatches.append((bricks[:fit], (first, last - first)))
                 bricks = bricks[fit:]
             out.append(dispatches)

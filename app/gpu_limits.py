@@ -72,11 +72,15 @@ class ExtractorPlan:
                 "brick ranges": 2 * self.brick_count, "active bricks": 1 + self.brick_count,
                 "row ranges": 2 * self.word_count}
 
-    def windows(self, count: int, record_bytes: int) -> list[tuple[int, int]]:
+    def windows(self, count: int, record_bytes: int, *parallel_bytes: int) -> list[tuple[int, int]]:
         """`count` records cut into (first, count) windows that a shader can bind as one storage
         block each: at most the storage-block limit, starting at aligned offsets.  A mesh buffer
-        may be larger than one block; the passes write it a window at a time."""
-        unit = math.lcm(record_bytes, STORAGE_OFFSET_ALIGNMENT)
+        may be larger than one block; the passes write it a window at a time.  `parallel_bytes`:
+        the record sizes of smaller buffers bound with the same windows (the vertex jobs beside the
+        vertices), whose offsets must be aligned too."""
+        records = math.lcm(*(STORAGE_OFFSET_ALIGNMENT // math.gcd(size, STORAGE_OFFSET_ALIGNMENT)
+                             for size in (record_bytes, *parallel_bytes)))  # a window's first, in records
+        unit = records * record_bytes
         per_window = max(unit, self.limits.max_storage_block_bytes // unit * unit) // record_bytes
         return [(first, min(per_window, count - first)) for first in range(0, count, per_window)] or [(0, 0)]
 

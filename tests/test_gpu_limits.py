@@ -198,3 +198,72 @@ def test_each_run_of_a_large_mesh_takes_only_the_bricks_with_work_in_it(gl_ctx, 
         needed, allowed = meets | {run_of(firsts[b])}, {run_of(firsts[b + 1])}
         held = {r for r, bricks in enumerate(lists) if b in bricks}
         assert needed <= held <= needed | allowed, (b, needed, held)
+
+
+def test_a_brick_with_vertices_and_no_triangles_on_a_window_start_writes_its_jobs(gl_ctx):
+    # A brick whose words own vertices but no triangle (the grid's last rows) has its words' first
+    # triangle slot at the brick's end: where that slot starts a window of triangles, the brick's jobs
+    # are that next run's, which must take the brick too.  Block sizes are searched for that case.
+    volume = np.random.default_rng(0).normal(size=(30, 33, 45)).astype(np.float32)
+    real = GpuLimits.of(gl_ctx)
+    with Extractor(volume, ctx=gl_ctx) as ex:
+        ex.extract(0.1)
+        count = ex.brick_count + 1
+        firsts = np.frombuffer(ex._brick_triangle_offsets.read(4 * count), np.uint32).astype(np.int64)
+        vertices = np.frombuffer(ex._brick_vertex_offsets.read(4 * count), np.uint32).astype(np.int64)
+    quiet = [b for b in range(count - 1) if firsts[b] == firsts[b + 1] and vertices[b + 1] > vertices[b]]
+    # Index windows hold a multiple of 64 triangles (lcm(12, 256) bytes): blocks of 768 * m bytes.
+    sizes = [m for m in range(21, 200) if any(firsts[b] > 0 and firsts[b] % (64 * m) == 0 for b in quiet)][:2]
+    assert sizes, "no block size puts such a brick on a window start: the test needs another volume"
+    expected = marching_cubes_reference(volume, 0.1)
+    for m in sizes:
+        small = GpuLimits(real.max_3d_texture_size, real.max_texture_size, 768 * m)
+        with Extractor(volume, ctx=gl_ctx, limits=small) as ex:
+            ex.extract(0.1)
+            assert_same_mesh(ex.read_mesh(), expected)
+
+
+@pytest.mark.parametrize("block", [41 << 10, 100_000, 2**31 - 1])
+def test_vertex_windows_start_where_the_vertices_and_their_jobs_can_both_be_bound(gl_ctx, block):
+    # The vertex pass binds the same (first, count) window of the vertex buffer (32-byte records) and
+    # of the job buffer (4 or 8 bytes): both offsets must be multiples of the storage alignment.
+    real = GpuLimits.of(gl_ctx)
+    plan = plan_extractor((8, 8, 40), GpuLimits(real.max_3d_texture_size, real.max_texture_size, block))
+    for jobs in (4, 8):
+        windows = plan.windows(50_000_000, VERTEX_BYTES, jobs)
+        assert len(windows) > 1 or block > 50_000_000 * VERTEX_BYTES
+        for first, n in windows:
+            assert first * VERTEX_BYTES % STORAGE_OFFSET_ALIGNMENT == 0 and first * jobs % STORAGE_OFFSET_ALIGNMENT == 0
+            assert n * VERTEX_BYTES <= block
+        assert sum(n for _, n in windows) == 50_000_000
+
+
+def test_a_failed_output_allocation_leaves_an_empty_mesh_and_a_working_extractor(gl_ctx):
+    # The third buffer the outputs grow (the vertex jobs) cannot be had: a one-line refusal, an empty
+    # mesh (the vertex buffer was already replaced), and the next extraction works.
+    volume = RNG.normal(size=(30, 33, 45)).astype(np.float32)
+    few = float(np.sort(volume, axis=None)[-4])
+
+    class FailingThird:  # the real context, whose third buffer allocation fails
+        def __init__(self, ctx):
+            self._ctx, self.calls = ctx, 0
+
+        def __getattr__(self, name):
+            return getattr(self._ctx, name)
+
+        def buffer(self, *args, **kwargs):
+            self.calls += 1
+            if self.calls == 3:
+                raise moderngl.Error("out of memory (simulated)")
+            return self._ctx.buffer(*args, **kwargs)
+
+    with Extractor(volume, ctx=gl_ctx) as ex:
+        ex.extract(few)
+        ex.ctx = FailingThird(gl_ctx)
+        with pytest.raises(GPULimitError) as refusal:
+            ex.extract(0.0)
+        assert "\n" not in str(refusal.value) and "could not allocate" in str(refusal.value)
+        assert ex.n_vertices == ex.n_triangles == 0 and len(ex.read_mesh()[1]) == 0
+        ex.ctx = gl_ctx
+        ex.extract(0.0)
+        assert_same_mesh(ex.read_mesh(), marching_cubes_reference(volume, 0.0))
