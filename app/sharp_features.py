@@ -13,6 +13,7 @@ feature vertices get face normals (reference_sharp.crisp_normals), so edges rend
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 from .mesh import GpuMesh
 from .reference_sharp import crisp_normals, sharpen, signed_field
@@ -80,7 +81,13 @@ class SharpenedMesh:
     viewer's GpuSurface shows it in place of the extractor's).  Offers what the viewer reads of an
     extractor: `mesh`, `level`, counts, `last_extract_ms`, `read_mesh()` (the mesh without the
     crisp-normal copies of vertices, as the API returns it).  A level without features draws the
-    extractor's own buffers (no upload)."""
+    extractor's own buffers (no upload).
+
+    `take(..., wait=False)` (the viewer's slider coming to rest) runs the numpy feature step on a
+    worker thread, with the numpy patch solve (the GPU's gives the same points to ~1e-14), and shows
+    the plain mesh meanwhile: on a scan the step takes about a second, and the window stays live.
+    `poll()` swaps the result in when it is ready; a newer `take` drops an older result unseen;
+    `read_mesh()` waits for a pending one."""
 
     def __init__(self, ctx):
         self.ctx = ctx
@@ -92,9 +99,18 @@ class SharpenedMesh:
         self._field, self._field_key = None, None
         self._gpu: SharpExtractor | None = None
         self._borrowed = False  # `mesh` is the extractor's own (drawn, not uploaded, when it has no feature)
+        self._worker: ThreadPoolExecutor | None = None
+        self._pending = None  # (future, the extractor, when it started) of a step on the worker
+        self._generation = 0
 
-    def take(self, extractor, volume_data, angle: float) -> None:
+    @property
+    def pending(self) -> bool:
+        """A feature step is running on the worker; the plain mesh is on show until it is in."""
+        return self._pending is not None
+
+    def take(self, extractor, volume_data, angle: float, wait: bool = True) -> None:
         start = time.perf_counter()
+        self._drop_pending()
         # The signed float32 field, made once per volume and side (a volume's copy: not per extraction).
         key = (id(volume_data), extractor.descent)
         if self._field_key != key:
@@ -102,26 +118,67 @@ class SharpenedMesh:
         if self._gpu is None or self._gpu.extractor is not extractor:
             self._release_gpu()
             self._gpu = SharpExtractor(extractor)
-        sharpened = _sharpened(extractor, volume_data, angle, self._field, self._gpu)
+        if wait:
+            self._show(extractor, _sharpened(extractor, volume_data, angle, self._field, self._gpu), start)
+            return
+        if self._gpu.may_bend(angle) is False:  # pass 0: no cell can bend, so the plain mesh (no read-back)
+            self._show(extractor, None, start)
+            return
+        plain = extractor.read_mesh()
+        self._show(extractor, None, start, plain)  # the plain mesh until the step is done
+        if self._worker is None:
+            self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isoscope sharp features")
+        self._generation += 1
+        future = self._worker.submit(_step, self._generation, plain, self._field, extractor.spacing, angle)
+        self._pending = (future, extractor, start)
+
+    def poll(self) -> bool:
+        """Show a finished feature step's mesh; True when the mesh on show changed."""
+        if self._pending is None or not self._pending[0].done():
+            return False
+        future, extractor, start = self._pending
+        self._pending = None
+        generation, sharpened = future.result()
+        if generation != self._generation:
+            return False
+        self._show(extractor, sharpened, start)
+        return True
+
+    def _show(self, extractor, sharpened, start: float, plain_arrays=None) -> None:
         # No feature at this level: the extractor's mesh as it is (without a read-back where pass 0 says so).
         plain = sharpened is None or len(sharpened[0]) == sharpened[4]
         drawn = extractor.mesh if plain else GpuMesh.upload(self.ctx, *crisp_normals(*sharpened))
         self._release_mesh()
-        self.mesh, self._arrays, self._borrowed = drawn, None if sharpened is None else sharpened[:4], plain
+        self.mesh, self._borrowed = drawn, plain
+        self._arrays = plain_arrays if sharpened is None else sharpened[:4]
         self.level = extractor.level
         self.n_vertices, self.n_triangles = ((extractor.n_vertices, extractor.n_triangles) if sharpened is None
                                              else (len(sharpened[0]), len(sharpened[1])))
         self.last_extract_ms = extractor.last_extract_ms + 1000 * (time.perf_counter() - start)
 
     def read_mesh(self):
+        if self._pending is not None:  # the sharp mesh is on its way: wait for it
+            self._pending[0].result()
+            self.poll()
         if self._arrays is None and self.mesh is not None:  # the extractor's plain mesh, read when asked
             self._arrays = self.mesh.read()
         return self._arrays
 
     def release(self) -> None:
+        self._drop_pending()
+        if self._worker is not None:
+            self._worker.shutdown(wait=False, cancel_futures=True)
+            self._worker = None
         self._field, self._field_key = None, None
         self._release_gpu()
         self._release_mesh()
+
+    def _drop_pending(self) -> None:
+        """Forget a step on the worker (it finishes there unseen, or never starts)."""
+        if self._pending is not None:
+            self._pending[0].cancel()
+            self._pending = None
+        self._generation += 1
 
     def _release_gpu(self) -> None:
         if self._gpu is not None:
@@ -132,3 +189,8 @@ class SharpenedMesh:
         if self.mesh is not None and not self._borrowed:
             self.mesh.release()
         self.mesh, self._borrowed = None, False
+
+
+def _step(generation, plain, field, spacing, angle):
+    """The numpy feature step (the worker's): (generation, sharpen's result)."""
+    return generation, sharpen(plain, field, spacing, angle)

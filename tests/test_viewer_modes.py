@@ -78,6 +78,46 @@ def test_sharp_features_are_drawn_and_saved_as_the_api_makes_them(viewer, tmp_pa
     assert state.set_sharp(None) and state.n_triangles == plain
 
 
+def test_sharp_features_at_rest_are_made_on_a_worker_while_the_plain_mesh_shows(viewer, tmp_path):
+    # The slider coming to rest: the feature step (a second or more on a scan) runs on a worker thread
+    # and the window keeps drawing the plain mesh; the next frames bring the sharp one in.  A newer
+    # level drops an older level's result; saving waits for it.
+    import time
+    volume = open_volume("box", resolution=24)
+    viewer.show(volume)
+    state = viewer.state
+    assert state.set_sharp(30)  # an explicit option: made at once
+    lo, hi = state.value_range
+
+    def meshes(iso):
+        kwargs = dict(spacing=volume.spacing, gradient_direction=volume.gradient_direction)
+        return (api.marching_cubes(volume.checked, iso, **kwargs),
+                api.marching_cubes(volume.checked, iso, sharp_features=30, **kwargs))
+
+    # Below the box's own level its offsets are smaller boxes, with edges (above, they round off).
+    first, second = state.iso - 0.02 * (hi - lo), state.iso - 0.04 * (hi - lo)
+    state.iso = first
+    state.update(0.0)
+    state.iso = second  # before the first level's features are in
+    state.update(0.0)
+    plain, sharp = meshes(second)
+    assert len(sharp[1]) != len(plain[1])  # the level has features
+    assert state.surface.sharp_pending and state.n_triangles == len(plain[1])
+    deadline = time.monotonic() + 60
+    while state.surface.sharp_pending and time.monotonic() < deadline:
+        time.sleep(0.01)
+        state.update(0.0)
+    assert not state.surface.sharp_pending and state.n_triangles == len(sharp[1])
+    np.testing.assert_allclose(state.surface.shown.read_mesh()[0], sharp[0], atol=1e-5)
+
+    state.iso = first
+    state.update(0.0)
+    assert state.surface.sharp_pending
+    assert state.save_mesh(tmp_path / "box.stl")  # waits for the features
+    assert len(trimesh.load(tmp_path / "box.stl", process=False).faces) == len(meshes(first)[1][1])
+    assert not state.surface.sharp_pending and state.n_triangles == len(meshes(first)[1][1])
+
+
 @pytest.fixture
 def two_labels(tmp_path):
     labels = np.zeros((30, 28, 26), np.uint8)

@@ -250,6 +250,7 @@ class SurfaceLevels:
         if self.surface.shown_step != 1 or self.surface.shown_cells != self.surface.cells \
                 or self.surface.shown.level != self.iso:
             self.surface.extract(self.iso)
+        self.surface.settle()  # sharp features still on the worker: the copy must have them
         if level.copy is None:
             level.copy = MeshCopy(self.ctx)
         level.copy.take(self.surface.mesh)

@@ -215,7 +215,7 @@ class ViewerState(SurfaceLevels, LabelLayers):
                 self.surface.cells, self.surface.smooth, self.surface.sharp = before
                 self._refresh_levels()
                 return self._refuse(one_line(exc))
-            self.update(0.0)
+            self.update(0.0, wait=True)
         return self.error is None
 
     def _upload(self, volume: Volume, gradient_direction: str) -> bool:
@@ -257,15 +257,20 @@ class ViewerState(SurfaceLevels, LabelLayers):
             self.animation.start(self.iso, self.value_range)
 
     # --- per frame ---------------------------------------------------------
-    def update(self, dt_seconds: float) -> bool:
+    def update(self, dt_seconds: float, wait: bool = False) -> bool:
         """Advance the animation and re-extract if the iso value moved (or the full mesh is due
-        after a preview); True when it re-extracted."""
+        after a preview); True when it re-extracted.  Sharp features are made on a worker thread (the
+        plain mesh shows until they are in) unless `wait`, as after a change of the mesh options."""
         if self.loading is not None and self.loading.done():
             self._finish_loading()
         if self.exporting is not None and self.exporting.done():
             self._finish_export()
         if self.surface is None or self.label_layers:   # a label map draws its labels, not the level
             return False
+        try:
+            self.surface.poll()   # sharp features made on the worker since the last frame
+        except (*USER_ERRORS, MemoryError) as exc:   # the plain mesh stays on show
+            self.error = f"sharp features failed: {one_line(exc)}"
         if self.animation.running:
             self.iso = self.animation.advance(dt_seconds, self.value_range)
         moved = self.iso != self._extracted_iso or self.smooth != self.surface.smooth
@@ -283,7 +288,7 @@ class ViewerState(SurfaceLevels, LabelLayers):
         self._moved_last_frame = moved and self._extracted_iso is not None  # a new volume's first is no move
         self.surface.smooth = self.smooth
         try:
-            self.surface.extract(self.iso, preview=preview, budget=self.preview_budget())
+            self.surface.extract(self.iso, preview=preview, budget=self.preview_budget(), wait=wait)
         except USER_ERRORS as exc:
             self.error = one_line(exc)
             self.animation.running = False

@@ -82,9 +82,10 @@ class GpuSurface:
     def mesh(self) -> GpuMesh:
         return self.shown.mesh
 
-    def extract(self, iso: float, preview: bool = False, budget: int | None = None) -> None:
+    def extract(self, iso: float, preview: bool = False, budget: int | None = None, wait: bool = True) -> None:
         """Extract at `iso`: the full mesh, or with `preview` a coarse one if the full one is big
-        (more than `budget` triangles, default PREVIEW_TRIANGLES)."""
+        (more than `budget` triangles, default PREVIEW_TRIANGLES).  Without `wait`, sharp features are
+        made on a worker thread (the plain mesh shows until `poll` brings them in)."""
         step = preview_step(self.full_triangles, self.volume.data.shape, budget) if preview else 1
         if step > 1 and step not in self._previews:
             self._previews[step] = self._make_preview(step)
@@ -101,9 +102,23 @@ class GpuSurface:
             self._smoothers[key].smooth(extractor.mesh, self.smooth)
         self.shown_sharp = self.sharp is not None and step == 1 and self.cells == "cubes"
         if self.shown_sharp:
-            self._sharpened.take(extractor, self.volume.checked.data, self.sharp)
+            self._sharpened.take(extractor, self.volume.checked.data, self.sharp, wait=wait)
         self.shown_step, self.shown_cells = step, self.cells
         self.full_triangles = extractor.n_triangles * step * step
+
+    @property
+    def sharp_pending(self) -> bool:
+        """Sharp features are being made on the worker; the plain mesh is on show meanwhile."""
+        return self.shown_sharp and self._sharpened.pending
+
+    def poll(self) -> bool:
+        """Bring in sharp features made on the worker; True when the mesh on show changed."""
+        return self.shown_sharp and self._sharpened.poll()
+
+    def settle(self) -> None:
+        """Wait for sharp features being made on the worker, and show them."""
+        if self.sharp_pending:
+            self._sharpened.read_mesh()
 
     def _make_preview(self, step: int) -> Extractor:
         return Extractor(subsampled(self.volume.checked, step), spacing=tuple(s * step for s in self.volume.spacing),
