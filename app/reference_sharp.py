@@ -562,11 +562,22 @@ def vertex_normals_from_faces(verts, faces, vertices):
     return (picked / np.maximum(np.linalg.norm(picked, axis=1, keepdims=True), 1e-30)).astype(np.float32)
 
 
-def sharpen(mesh, field, spacing, angle, solver=patch_points):
+class Stopped(Exception):
+    """`sharpen` gave up at a `stop` check (its result was no longer wanted)."""
+
+
+def _check(stop) -> None:
+    if stop is not None and stop.is_set():
+        raise Stopped
+
+
+def sharpen(mesh, field, spacing, angle, solver=patch_points, stop=None):
     """Extended MC on the plain mesh `mesh` (verts, faces, normals, values) of `field` (sign-adjusted: it
     grows into the object).  Returns (verts, faces, normals, values, n_plain_vertices).
 
-    `solver`: `patch_points` or a stand-in that computes the same (the GPU's, app.sharp_extractor)."""
+    `solver`: `patch_points` or a stand-in that computes the same (the GPU's, app.sharp_extractor).
+    `stop`: a threading.Event; once set, the step raises `Stopped` at its next check (a viewer's worker
+    dropping a result no longer wanted)."""
     verts, faces, normals, values = mesh
     n_plain = len(verts)
     if len(faces) == 0:
@@ -584,6 +595,7 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points):
         planar[:] = False  # as the GPU's pass 0 (emc_flags.comp): no vertex may bend, so the plain mesh
     if not (bent | planar).any():
         return (*mesh, n_plain)
+    _check(stop)
     candidate = np.repeat(bent | planar, n_tri)
     face_cell = np.repeat(np.arange(len(all_cells)), n_tri)[candidate]
     sub = faces[candidate].astype(np.int64)
@@ -606,6 +618,7 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points):
     is_feature = _opens_wider(normals, members, cos_angle, angle) | (p_ok & p_open)
     if not is_feature.any():
         return (*mesh, n_plain)
+    _check(stop)
 
     feature_ids = np.flatnonzero(is_feature)
     cells = all_cells[cell_of_patch[feature_ids]]
@@ -617,8 +630,10 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points):
         verts[needed] = kink_vertices(field, verts, needed, spacing, level)
     plane_normals = normals.astype(np.float64)
     plane_normals[needed] = eno_normals(field, verts, needed, spacing)
+    _check(stop)
     solved, solved_ok, corner = solver(verts, plane_normals, members[feature_ids], ring_members, lower, upper,
                                        spacing, cos_angle)
+    _check(stop)
     # The solver's own point (with its corners in empty cells): the fallback where the sample planes'
     # point folds the fan.
     own = _corner_in_empty_cell(corner, all_cells, field.shape, lower, upper, spacing)
@@ -663,6 +678,7 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points):
         if not len(feature_ids):  # the plain mesh as it came (no vertex moved by kink_vertices either)
             return (*mesh, n_plain)
         fans, fan_patch, source = _fans(sub, patch, is_feature, feature_ids, n_plain)
+    _check(stop)
     out_faces = np.concatenate([faces[~_in_feature(candidate, is_feature, patch)].astype(np.int64), fans])
     fan_rows = np.arange(len(out_faces) - len(fans), len(out_faces))
     _flip_edges(out_faces, fan_rows, np.concatenate([verts, new_points.astype(np.float32)]))

@@ -12,11 +12,13 @@ feature vertices get face normals (reference_sharp.crisp_normals), so edges rend
 """
 from __future__ import annotations
 
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import wait as wait_for
 
 from .mesh import GpuMesh
-from .reference_sharp import crisp_normals, sharpen, signed_field
+from .reference_sharp import Stopped, crisp_normals, sharpen, signed_field
 from .sharp_extractor import SharpExtractor
 
 
@@ -86,8 +88,9 @@ class SharpenedMesh:
     `take(..., wait=False)` (the viewer's slider coming to rest) runs the numpy feature step on a
     worker thread, with the numpy patch solve (the GPU's gives the same points to ~1e-14), and shows
     the plain mesh meanwhile: on a scan the step takes about a second, and the window stays live.
-    `poll()` swaps the result in when it is ready; a newer `take` drops an older result unseen;
-    `read_mesh()` waits for a pending one."""
+    `poll()` swaps the result in when it is ready; a newer `take` (or `drop_pending`) stops an older
+    step at its next check and drops its result unseen; `read_mesh()` waits for a pending one.  A step
+    that fails leaves the plain mesh and raises ValueError from `poll` or `read_mesh`, once."""
 
     def __init__(self, ctx):
         self.ctx = ctx
@@ -100,7 +103,7 @@ class SharpenedMesh:
         self._gpu: SharpExtractor | None = None
         self._borrowed = False  # `mesh` is the extractor's own (drawn, not uploaded, when it has no feature)
         self._worker: ThreadPoolExecutor | None = None
-        self._pending = None  # (future, the extractor, when it started) of a step on the worker
+        self._pending = None  # (future, stop event, the extractor, when it started) of a step on the worker
         self._generation = 0
 
     @property
@@ -110,7 +113,7 @@ class SharpenedMesh:
 
     def take(self, extractor, volume_data, angle: float, wait: bool = True) -> None:
         start = time.perf_counter()
-        self._drop_pending()
+        self.drop_pending()
         # The signed float32 field, made once per volume and side (a volume's copy: not per extraction).
         key = (id(volume_data), extractor.descent)
         if self._field_key != key:
@@ -129,17 +132,23 @@ class SharpenedMesh:
         if self._worker is None:
             self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isoscope sharp features")
         self._generation += 1
-        future = self._worker.submit(_step, self._generation, plain, self._field, extractor.spacing, angle)
-        self._pending = (future, extractor, start)
+        stop = threading.Event()
+        future = self._worker.submit(_step, self._generation, plain, self._field, extractor.spacing, angle, stop)
+        self._pending = (future, stop, extractor, start)
 
     def poll(self) -> bool:
-        """Show a finished feature step's mesh; True when the mesh on show changed."""
+        """Show a finished feature step's mesh; True when the mesh on show changed.  ValueError: the
+        step failed (the plain mesh stays on show)."""
         if self._pending is None or not self._pending[0].done():
             return False
-        future, extractor, start = self._pending
+        future, _, extractor, start = self._pending
         self._pending = None
-        generation, sharpened = future.result()
-        if generation != self._generation:
+        try:
+            generation, sharpened = future.result()
+        except Exception as exc:  # a bug or memory on the worker: said once, the plain mesh stays
+            raise ValueError(f"sharp features failed ({type(exc).__name__}: {exc}); the plain mesh is shown") \
+                from None
+        if generation != self._generation or sharpened is _STOPPED:
             return False
         self._show(extractor, sharpened, start)
         return True
@@ -158,14 +167,14 @@ class SharpenedMesh:
 
     def read_mesh(self):
         if self._pending is not None:  # the sharp mesh is on its way: wait for it
-            self._pending[0].result()
+            wait_for([self._pending[0]])
             self.poll()
         if self._arrays is None and self.mesh is not None:  # the extractor's plain mesh, read when asked
             self._arrays = self.mesh.read()
         return self._arrays
 
     def release(self) -> None:
-        self._drop_pending()
+        self.drop_pending()
         if self._worker is not None:
             self._worker.shutdown(wait=False, cancel_futures=True)
             self._worker = None
@@ -173,10 +182,11 @@ class SharpenedMesh:
         self._release_gpu()
         self._release_mesh()
 
-    def _drop_pending(self) -> None:
-        """Forget a step on the worker (it finishes there unseen, or never starts)."""
+    def drop_pending(self) -> None:
+        """Forget a step on the worker: it never starts, or stops at its next check, unseen."""
         if self._pending is not None:
             self._pending[0].cancel()
+            self._pending[1].set()
             self._pending = None
         self._generation += 1
 
@@ -191,6 +201,12 @@ class SharpenedMesh:
         self.mesh, self._borrowed = None, False
 
 
-def _step(generation, plain, field, spacing, angle):
-    """The numpy feature step (the worker's): (generation, sharpen's result)."""
-    return generation, sharpen(plain, field, spacing, angle)
+_STOPPED = object()
+
+
+def _step(generation, plain, field, spacing, angle, stop):
+    """The numpy feature step (the worker's): (generation, sharpen's result, or _STOPPED)."""
+    try:
+        return generation, sharpen(plain, field, spacing, angle, stop=stop)
+    except Stopped:
+        return generation, _STOPPED

@@ -118,6 +118,70 @@ def test_sharp_features_at_rest_are_made_on_a_worker_while_the_plain_mesh_shows(
     assert not state.surface.sharp_pending and state.n_triangles == len(meshes(first)[1][1])
 
 
+def test_a_failed_extraction_or_feature_step_leaves_a_drawable_plain_mesh(viewer, monkeypatch):
+    # A level whose outputs cannot be allocated while the last level's features are still on the
+    # worker: the frame after draws (the extractor's empty mesh, not the released buffers), and the
+    # late features do not come back.  A feature step that fails: one message, the plain mesh stays.
+    import time
+
+    import isoscope.sharp_features as sharp_features
+    from isoscope.extractor import GPULimitError
+    from isoscope.gpu_layout import VERTEX_BYTES
+    viewer.show(open_volume("box", resolution=24))
+    state = viewer.state
+    assert state.set_sharp(30)
+    lo, hi = state.value_range
+    step = sharp_features._step
+    monkeypatch.setattr(sharp_features, "_step", lambda *args: (time.sleep(0.3), step(*args))[1])
+    state.iso -= 0.02 * (hi - lo)
+    state.update(0.0)
+    assert state.surface.sharp_pending
+    extractor = state.surface.extractor
+
+    def cannot_allocate(n_vertices, n_triangles):  # as _ensure_output fails: a buffer already replaced
+        extractor.vertex_buffer.release()
+        extractor.vertex_buffer = extractor.ctx.buffer(reserve=VERTEX_BYTES)
+        extractor.n_vertices = extractor.n_triangles = 0
+        raise GPULimitError("the mesh at this level needs a buffer that this GPU could not allocate")
+    monkeypatch.setattr(extractor, "_ensure_output", cannot_allocate)
+    state.iso -= 0.01 * (hi - lo)
+    state.update(0.0)
+    assert "could not allocate" in state.error and not state.surface.sharp_pending
+    viewer.render()  # no released buffer is drawn
+    time.sleep(0.5)
+    state.update(0.0)
+    assert state.n_triangles == 0  # the dropped step's mesh did not come back
+    monkeypatch.undo()
+
+    def broken(*args):
+        raise IndexError("a bug in the feature step")
+    monkeypatch.setattr(sharp_features, "_step", broken)
+    state.iso -= 0.01 * (hi - lo)
+    state.update(0.0)
+    plain = state.n_triangles
+    deadline = time.monotonic() + 30
+    while state.surface.sharp_pending and time.monotonic() < deadline:
+        time.sleep(0.01)
+        state.update(0.0)
+    assert "sharp features failed" in state.error and "IndexError" in state.error and "\n" not in state.error
+    assert state.n_triangles == plain > 0
+    viewer.render()
+
+
+def test_a_feature_step_stops_when_asked(gl_ctx):
+    import threading
+
+    from isoscope.reference_sharp import Stopped, sharpen, signed_field
+    volume = open_volume("box", resolution=24)
+    mesh = api.marching_cubes(volume.checked, volume.default_level, gradient_direction=volume.gradient_direction)
+    field = signed_field(volume.data, volume.gradient_direction == "descent")
+    stop = threading.Event()
+    assert len(sharpen(mesh, field, (1, 1, 1), 30, stop=stop)[0]) > len(mesh[0])  # not set: it runs
+    stop.set()
+    with pytest.raises(Stopped):
+        sharpen(mesh, field, (1, 1, 1), 30, stop=stop)
+
+
 @pytest.fixture
 def two_labels(tmp_path):
     labels = np.zeros((30, 28, 26), np.uint8)

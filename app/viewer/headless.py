@@ -52,7 +52,7 @@ class HeadlessViewer:
             raise ValueError(state.error)
         if len(isos) > 1:
             state.select_level(0)
-        state.update(0.0)
+        state.update(0.0, wait=True)
 
     def render(self, panel: bool = False) -> np.ndarray:
         """Re-extract if the iso value changed, draw, and return (height, width, 3) uint8 pixels
@@ -60,7 +60,7 @@ class HeadlessViewer:
         if panel:
             self._layout_panel()   # the panel may change the state, as in the window
             self._panel.draw_view_labels(self.state, self.camera)
-        self.state.update(0.0)
+        self.state.update(0.0, wait=True)  # a render shows the finished scene
         self.target.use()
         self.renderer.draw_state(self.state, self.camera, self.target.viewport,
                                  covered_left=int(self._panel.covered_width) if panel else 0)

@@ -144,7 +144,7 @@ class ViewerState(SurfaceLevels, LabelLayers):
         self._release_labels()
         self._release_color_by()
         self.volume_serial += 1
-        self.update(0.0)
+        self.update(0.0, wait=True)
         return self.error is None
 
     @property
@@ -165,7 +165,7 @@ class ViewerState(SurfaceLevels, LabelLayers):
             self._refresh_levels()
         except USER_ERRORS as exc:   # the other levels' meshes stay as they were; the selected one follows
             self.error = one_line(exc)
-        self.update(0.0)
+        self.update(0.0, wait=True)
         return self.error is None
 
     def set_cells(self, cells: str) -> bool:
@@ -269,8 +269,8 @@ class ViewerState(SurfaceLevels, LabelLayers):
             return False
         try:
             self.surface.poll()   # sharp features made on the worker since the last frame
-        except (*USER_ERRORS, MemoryError) as exc:   # the plain mesh stays on show
-            self.error = f"sharp features failed: {one_line(exc)}"
+        except USER_ERRORS as exc:   # the plain mesh stays on show
+            self.error = one_line(exc)
         if self.animation.running:
             self.iso = self.animation.advance(dt_seconds, self.value_range)
         moved = self.iso != self._extracted_iso or self.smooth != self.surface.smooth

@@ -94,7 +94,12 @@ class GpuSurface:
             if step not in self._tetrahedra:
                 self._tetrahedra[step] = TetraExtractor(extractor)
             extractor = self._tetrahedra[step]
-        extractor.extract(iso)
+        try:
+            extractor.extract(iso)
+        except BaseException:  # the sharp mesh on show (or on its way) belongs to what the extractor had
+            self._sharpened.drop_pending()
+            self.shown_sharp = False
+            raise
         if self.smooth:
             key = (self.cells, step)
             if key not in self._smoothers:
@@ -103,6 +108,8 @@ class GpuSurface:
         self.shown_sharp = self.sharp is not None and step == 1 and self.cells == "cubes"
         if self.shown_sharp:
             self._sharpened.take(extractor, self.volume.checked.data, self.sharp, wait=wait)
+        else:  # a preview or another mode: a step still on the worker is not wanted
+            self._sharpened.drop_pending()
         self.shown_step, self.shown_cells = step, self.cells
         self.full_triangles = extractor.n_triangles * step * step
 
