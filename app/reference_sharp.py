@@ -764,7 +764,8 @@ def crisp_normals(verts, faces, normals, values, n_plain):
     flat = (a >= n_plain) | (b >= n_plain) | (c >= n_plain)
     if not flat.any():
         return verts, faces, normals, values
-    flat |= _shaded_from_behind(verts, faces, normals)
+    face_normals = _unit_face_normals(verts, faces)  # once: which faces a corner shades from behind, and how
+    flat |= (np.einsum("fck,fk->fc", normals[faces].astype(np.float64), face_normals) < 0.0).any(axis=1)
     rows = faces[flat]
     plain = rows < n_plain
     corner_normals = normals[rows].astype(np.float64)
@@ -777,7 +778,7 @@ def crisp_normals(verts, faces, normals, values, n_plain):
     # behind (dark specks: on the MNI T1 at 128, thousands of fan triangles that turn 90-107 degrees,
     # which the fold test lets through to keep edges straight, and plain triangles next to them whose
     # corners took the sides' normals): such corners take the triangle's normal.
-    face = _unit_face_normals(verts, rows)
+    face = face_normals[flat]
     behind = np.einsum("fck,fk->fc", corner_normals, face) < 0.0
     corner_normals = np.where(behind[..., None], face[:, None, :], corner_normals)
     start = len(verts)
@@ -792,12 +793,6 @@ def _unit_face_normals(verts, faces):
     corners = verts[faces].astype(np.float64)
     face = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     return face / np.maximum(np.linalg.norm(face, axis=1), 1e-30)[:, None]
-
-
-def _shaded_from_behind(verts, faces, normals):
-    """Which faces have a corner whose normal is more than 90 degrees from the face's own normal."""
-    return (np.einsum("fck,fk->fc", normals[faces].astype(np.float64), _unit_face_normals(verts, faces)) < 0.0).any(
-        axis=1)
 
 
 def signed_field(volume, descent: bool) -> np.ndarray:
