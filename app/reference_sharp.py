@@ -33,14 +33,17 @@ Starts from the plain marching-cubes mesh (`app.reference`) and changes it in tw
      sit off it (linear interpolation across the kink), so a fan to it can turn a
      triangle over: then the solver's point, then points FOLD_RETREAT of the way to
      the patch's mass point are tried, and a patch whose every try folds stays plain
-     (`_unfolded`).
+     (`_unfolded`);
+   - neighbouring patches whose points are one corner (it pokes out of its cell into theirs) become
+     one patch around one vertex (`_merge_coincident`), where two fans would fold between them.
 2. Edge flips.  Where an edge between two edge vertices has a feature vertex
    on both sides (fans of two neighbouring cells), it is flipped to join the
    two feature vertices, so the feature line runs straight from cell to cell.
-   Each fan triangle has one such edge, so the flips are independent; a pair of
-   feature vertices that two edges would join is left unflipped (it would
-   make a non-manifold edge), and so is a flip that would turn a triangle over
-   or join two feature vertices at one point (a zero-area triangle).
+   Each fan triangle has one such edge, so the flips are independent; a flip
+   that would turn a triangle over or join two feature vertices at one point (a
+   zero-area triangle) is left out, and a pair of feature vertices that two
+   edges would join is joined through the first of them only (both would make
+   one edge twice: a non-manifold edge).
 
 Outputs keep the plain mesh's vertices first, in their order, then the feature
 vertices in patch order (cells in the plain mesh's triangle order, then their
@@ -531,8 +534,7 @@ def _flip_edges(faces, fan_rows, verts=None):
     matched = (key[partner] == rkey) & (np.arange(len(key)) < partner)  # each pair once, from its lower row
     first, second = np.flatnonzero(matched), partner[matched]
     f1, f2 = faces[fan_rows[first], 2], faces[fan_rows[second], 2]
-    # A pair of feature vertices joined through two different edges would get one edge twice.
-    ok = (_row_counts(np.minimum(f1, f2), np.maximum(f1, f2)) == 1) & (f1 != f2)
+    ok = f1 != f2
     first, second, f1, f2 = first[ok], second[ok], f1[ok], f2[ok]
     a, b = base[first, 0], base[first, 1]
     if verts is not None:  # a flip must not turn a triangle over, nor join two feature vertices at one point
@@ -542,6 +544,11 @@ def _flip_edges(faces, fan_rows, verts=None):
         fine = (np.einsum("fk,fk->f", after[0], before) > 0) & (np.einsum("fk,fk->f", after[1], before) > 0)
         fine &= np.linalg.norm(p[f1] - p[f2], axis=1) > 1e-6
         first, second, f1, f2, a, b = first[fine], second[fine], f1[fine], f2[fine], a[fine], b[fine]
+    # Two fans that share two base edges (a patch joined by _merge_coincident meets its neighbour along two
+    # of its cell's faces) flip one of them: both would make the edge joining their apexes twice.
+    once = _first_rows(np.minimum(f1, f2), np.maximum(f1, f2))
+    once.sort()
+    first, second, f1, f2, a, b = first[once], second[once], f1[once], f2[once], a[once], b[once]
     # (a, b, f1) and (b, a, f2) bound the quad a -> f2 -> b -> f1; split it along f1 - f2 instead.
     faces[fan_rows[first]] = np.stack([a, f2, f1], axis=1)
     faces[fan_rows[second]] = np.stack([f2, b, f1], axis=1)
@@ -652,9 +659,10 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points, stop=None):
     seen_by_mesh = np.isfinite(solver_corner).all(axis=1) & (gap <= SOLVER_CORNER_REACH * spacing.min())
     prefer = ~has_corner & p_ok & solved_ok & seen_by_mesh
     new_points[prefer] = solved[prefer]
+    at_corner = np.linalg.norm(np.where(np.isfinite(corner), corner, np.inf) - new_points, axis=1) < 1e-6
     is_feature[feature_ids[~ok]] = False  # the planes meet outside the cell: keep its plain patch
-    feature_ids, cells, new_points, solved, solved_ok = (feature_ids[ok], cells[ok], new_points[ok], solved[ok],
-                                                         solved_ok[ok])
+    feature_ids, cells, new_points, solved, solved_ok, at_corner = (
+        feature_ids[ok], cells[ok], new_points[ok], solved[ok], solved_ok[ok], at_corner[ok])
     if not len(feature_ids):
         return (*mesh, n_plain)
     # Around features the sides' own (ENO) normals, which do not blend across the edge.
@@ -665,6 +673,10 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points, stop=None):
     eno = plane_normals[needed]
     pure = (np.linalg.norm(eno, axis=1) > 0.5) & (np.einsum("ij,ij->i", eno, normals[needed]) > 0.0)
     side_normals[needed[pure]] = plane_normals[needed[pure]]
+    keep = _merge_coincident(sub, patch, is_feature, feature_ids, new_points, at_corner, spacing, verts, side_normals,
+                             n_plain)
+    feature_ids, cells, new_points, solved, solved_ok = (feature_ids[keep], cells[keep], new_points[keep],
+                                                         solved[keep], solved_ok[keep])
     fans, fan_patch, source = _fans(sub, patch, is_feature, feature_ids, n_plain)
     mass = _patch_mass(verts, members[feature_ids])
     candidates = [new_points, np.where(solved_ok[:, None], solved, new_points)]
@@ -688,6 +700,108 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points, stop=None):
     out_normals = np.concatenate([side_normals, new_normals])
     out_values = np.concatenate([values, np.full(len(out_verts) - n_plain, values.dtype.type(np.mean(values)))])
     return out_verts, out_faces.astype(np.int32), out_normals, out_values, n_plain
+
+
+MERGE_DISTANCE = 0.05  # cells: neighbouring feature patches whose points are this close share one vertex
+
+
+def _merge_coincident(sub, patch, is_feature, feature_ids, points, at_corner, spacing, verts, side_normals, n_plain):
+    """Join neighbouring feature patches whose points (P, 3, rows in feature_ids order) are one corner
+    (`at_corner`: the point is where three sides meet) into one patch around one feature vertex, in place
+    in `patch` (the candidate faces' patch ids) and `is_feature`; returns which rows of feature_ids remain
+    (each group keeps its lowest patch id and that patch's point).
+
+    A box's corner that pokes just out of its own cell is the point of that cell's patch and of the
+    neighbours' its edges run into (sharp_planes: CORNER_REACH).  As two vertices at one place, the fans
+    between them fold: the boundary edge the two patches share gets a fan triangle from each apex, one of
+    them turned over, so the fold test (`_folding`) sent one apex back toward its patch's mass point, up to
+    half a cell off the corner, and the edge running from the corner kinked through it (0.32 cells off on
+    the rotated box of tests/test_sharp_features.py).  Joined, that edge is inside one patch and drops out
+    of the fan.  Two patches are joined only across an edge whose fan triangle turns over as it is, and
+    only at corners: two fans that share two base edges join their apexes by one flip, not two, and
+    points on a line (a face on a grid plane gives two patches a point each, one cell apart along the
+    edge) are left as they were.  A group stays apart where its joined fan would fold, or where the
+    joined patch is no disk (vertices - edges + faces = 1: one boundary loop), so that the fan stays
+    2-manifold at its apex."""
+    keep = np.ones(len(feature_ids), bool)
+    if at_corner.sum() < 2:
+        return keep
+    row_of = np.full(len(is_feature), -1, np.int64)
+    row_of[feature_ids] = np.arange(len(feature_ids))
+    cornered = np.zeros(len(is_feature), bool)
+    cornered[feature_ids[at_corner]] = True
+    rows = np.flatnonzero(cornered[patch])
+    edges = np.stack([sub[rows][:, [0, 1]], sub[rows][:, [1, 2]], sub[rows][:, [2, 0]]], axis=1).reshape(-1, 2)
+    edge_patch = np.repeat(patch[rows], 3)
+    lo, hi = edges.min(axis=1), edges.max(axis=1)
+    shared = _row_counts(edge_patch, lo, hi) == 1  # boundary edges of their patch ...
+    lo, hi, edge_patch = lo[shared], hi[shared], edge_patch[shared]
+    order = np.lexsort((edge_patch, hi, lo))
+    lo, hi, edge_patch = lo[order], hi[order], edge_patch[order]
+    same = (lo[1:] == lo[:-1]) & (hi[1:] == hi[:-1])  # ... that are another patch's boundary edge too
+    p, q, lo, hi = edge_patch[:-1][same], edge_patch[1:][same], lo[:-1][same], hi[:-1][same]
+    close = np.linalg.norm((points[row_of[p]] - points[row_of[q]]) / spacing, axis=1) < MERGE_DISTANCE
+    p, q, lo, hi = p[close], q[close], lo[close], hi[close]
+    if not len(p):
+        return keep
+    # Only across an edge whose fan triangle turns over as it is.
+    involved = _unique(np.concatenate([p, q]))
+    is_involved = np.zeros(len(is_feature), bool)
+    is_involved[involved] = True
+    fans, _, source = _fans(sub, patch, is_involved, involved, n_plain)
+    tri = verts[sub[source]].astype(np.float64)
+    reference = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    over = _turned_over(points[row_of[involved]], fans, verts, side_normals, reference)
+    stride = int(sub.max()) + 1
+    base = np.sort(fans[over, :2], axis=1)
+    needed = np.isin(lo * stride + hi, _unique(base[:, 0] * stride + base[:, 1]))
+    p, q = p[needed], q[needed]
+    if not len(p):
+        return keep
+    label = np.arange(len(is_feature))
+    while True:  # connected groups: each patch takes the lowest id it reaches
+        low = np.minimum(label[p], label[q])
+        new = label.copy()
+        np.minimum.at(new, p, low)
+        np.minimum.at(new, q, low)
+        new = new[new]
+        if np.array_equal(new, label):
+            break
+        label = new
+    original = patch.copy()
+    patch[:] = label[patch]
+    group = label[feature_ids]
+    joined = _unique(group[group != feature_ids])
+    # Apart again: a group whose joined patch is no disk, or whose fan to its point folds.
+    member_rows = np.flatnonzero(np.isin(patch, joined))
+    corners = sub[member_rows]
+    owner = np.repeat(patch[member_rows], 3)
+    flat = corners.reshape(-1)
+    e = np.stack([corners, np.roll(corners, -1, axis=1)], axis=2).reshape(-1, 2)
+    n_vertices = np.bincount(owner[_first_rows(owner, flat)], minlength=len(label))
+    n_edges = np.bincount(owner[_first_rows(owner, e.min(axis=1), e.max(axis=1))], minlength=len(label))
+    n_faces = np.bincount(patch[member_rows], minlength=len(label))
+    apart = joined[(n_vertices - n_edges + n_faces)[joined] != 1]
+    is_feature[feature_ids[group != feature_ids]] = False
+    trial = np.setdiff1d(joined, apart)
+    on_trial = np.zeros(len(is_feature), bool)
+    on_trial[trial] = True
+    fans, fan_patch, source = _fans(sub, patch, on_trial, trial, n_plain)
+    tri = verts[sub[source]].astype(np.float64)
+    reference = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    apart = np.concatenate([apart, _folding(points[row_of[trial]], fans, fan_patch, verts, side_normals, reference)])
+    undo = np.isin(patch, apart)
+    patch[undo] = original[undo]
+    separate = np.isin(group, apart)
+    is_feature[feature_ids[separate]] = True
+    return (group == feature_ids) | separate
+
+
+def _first_rows(*columns):
+    """The index of one row per distinct row of the columns."""
+    order = np.lexsort(columns[::-1])
+    stacked = np.stack(columns, axis=1)[order]
+    return order[np.concatenate([[True], (stacked[1:] != stacked[:-1]).any(axis=1)])[:len(order)]]
 
 
 def _patch_mass(verts, members):
@@ -734,17 +848,22 @@ def _unfolded(candidates, fans, fan_patch, feature_ids, verts, side_normals, ref
 
 
 def _folding(points, fans, fan_patch, verts, side_normals, reference):
-    """Which patches' fans turn a triangle over.  `fans` (F, 3): base a -> b (plain vertices), then the
-    apex (numbered after `verts`, at `points`); `reference` (F, 3): the normal of the plain triangle each
-    replaces.  Over: its normal turns further than FOLD_SIDE_COS from both base vertices' side normals,
-    or further than FOLD_COS from the plain triangle's (the apex beyond the patch's loop)."""
+    """Which patches' fans turn a triangle over (`_turned_over`)."""
+    return _unique(fan_patch[_turned_over(points, fans, verts, side_normals, reference)])
+
+
+def _turned_over(points, fans, verts, side_normals, reference):
+    """Which fan triangles turn over.  `fans` (F, 3): base a -> b (plain vertices), then the apex (numbered
+    after `verts`, at `points`); `reference` (F, 3): the normal of the plain triangle each replaces.  Over:
+    its normal turns further than FOLD_SIDE_COS from both base vertices' side normals, or further than
+    FOLD_COS from the plain triangle's (the apex beyond the patch's loop)."""
     a, b = verts[fans[:, 0]].astype(np.float64), verts[fans[:, 1]].astype(np.float64)
     n = np.cross(b - a, points[fans[:, 2] - len(verts)] - a)
     length = np.linalg.norm(n, axis=1)
     against = ((np.einsum("fk,fk->f", n, side_normals[fans[:, 0]]) < FOLD_SIDE_COS * length)
                & (np.einsum("fk,fk->f", n, side_normals[fans[:, 1]]) < FOLD_SIDE_COS * length))
     against |= np.einsum("fk,fk->f", n, reference) < FOLD_COS * length * np.linalg.norm(reference, axis=1)
-    return _unique(fan_patch[against])
+    return against
 
 
 def _in_feature(candidate, is_feature, patch):
