@@ -154,10 +154,10 @@ def _on_cpu(reference, checked, level, spacing, descent, iterations):
 
 def _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra):
     """Upload, extract (cubes, or tetrahedra from the same resident volume), smooth, read back."""
-    from .extractor import Extractor
+    from .extractor_pool import pooled_extractor
     from .smoothing import Smoother
     from .tetra_extractor import TetraExtractor
-    with Extractor(checked, spacing=spacing, gradient_direction=gradient_direction) as cubes:
+    with pooled_extractor(checked, spacing, gradient_direction) as cubes:
         extractor = TetraExtractor(cubes) if tetrahedra else cubes
         smoother = None
         try:

@@ -53,7 +53,7 @@ from .gpu_limits import GPULimitError, GpuLimits, plan_extractor
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
 from .scan import ExclusiveScan
-from .volume_texture import upload_volume
+from .volume_texture import upload_volume, write_volume
 
 __all__ = ["Extractor", "GPULimitError"]
 
@@ -92,6 +92,7 @@ class Extractor:
     """The storage binding of the vertex jobs' window (shaders/vertex_jobs.glsl)."""
 
     _run_list: moderngl.Buffer | None = None
+    _volume: moderngl.Texture3D | None = None
     """A large mesh's per-run brick list (`_run_bricks`), made when first needed."""
 
     def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
@@ -108,14 +109,10 @@ class Extractor:
             raise ValueError(f"a case table with up to {self.table.max_triangles} triangles per cell does not fit "
                              f"the per-word counts; at most {255 // WORD_BITS} can")
         self.plan = plan_extractor(self.shape, limits or GpuLimits.of(self.ctx))  # refuses before allocating
-        # What every pass is told about the grid, the same at every level (the division constants too).
-        self._grid_uniforms = dict(
-            u_dims=self.shape, u_words=self.plan.words_per_row, u_bricks=self.plan.bricks,
-            u_brick_count=self.plan.brick_count, u_spacing=self.spacing, u_word_shift=self.plan.word_shift,
-            u_div_words=divisor_magic(self.plan.words_per_row), u_div_rows=divisor_magic(self.shape[1]),
-            u_div_bricks_j=divisor_magic(self.plan.bricks[1]))
+        self._set_grid_uniforms()
 
-        _, volume_format, volume_image = volume_texel_format(checked.data.dtype)
+        self._texel_format = volume_texel_format(checked.data.dtype)
+        _, volume_format, volume_image = self._texel_format
         self.volume_defines = {"VOLUME_FORMAT": volume_format, "VOLUME_IMAGE": volume_image}  # for other passes
         defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u",  # the layout's come with every program
                    "CASE_TABLE_SHIFT": f"{CASE_TABLE_SHIFT}u", **self.volume_defines}
@@ -138,6 +135,39 @@ class Extractor:
             raise
 
     # -- set-up -----------------------------------------------------------------------------
+
+    def _set_grid_uniforms(self) -> None:
+        # What every pass is told about the grid, the same at every level (the division constants too).
+        self._grid_uniforms = dict(
+            u_dims=self.shape, u_words=self.plan.words_per_row, u_bricks=self.plan.bricks,
+            u_brick_count=self.plan.brick_count, u_spacing=self.spacing, u_word_shift=self.plan.word_shift,
+            u_div_words=divisor_magic(self.plan.words_per_row), u_div_rows=divisor_magic(self.shape[1]),
+            u_div_bricks_j=divisor_magic(self.plan.bricks[1]))
+
+    def fits(self, volume) -> bool:
+        """Whether `reload` can take `volume` (an array or a CheckedVolume): the same shape, and samples
+        the volume image holds in the same format."""
+        data = volume.data if isinstance(volume, validation.CheckedVolume) else np.asarray(volume)
+        return data.shape == self.shape and volume_texel_format(data.dtype) == self._texel_format
+
+    def reload(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent") -> None:
+        """Take a new volume of the same shape and sample format (`fits`) into this extractor's GL objects:
+        the volume image is written in place and the brick ranges measured again, nothing is allocated
+        (new storage costs llvmpipe a zeroing pass and the OS a page fault per page: on a 256^3 float32
+        volume, 26 of the one-shot call's ~90 ms, and the mesh buffers grow from nothing again).  The
+        last mesh is dropped.  A volume that does not fit raises ValueError and changes nothing."""
+        checked = validation.check_volume(volume)
+        spacing = validation.as_spacing(spacing)
+        descent = validation.as_gradient_direction(gradient_direction)
+        if not self.fits(checked):
+            raise ValueError(f"a {checked.data.dtype} volume of shape {checked.data.shape} does not fit this "
+                             f"extractor's {self.plan.dims_text} image; make a new Extractor for it")
+        self.n_vertices = self.n_triangles = self.active_bricks = 0
+        self.level = None
+        self.spacing, self.descent, self.value_range = spacing, descent, checked.value_range
+        self._set_grid_uniforms()
+        write_volume(self._volume, checked.data, self.plan)
+        self._measure_brick_ranges()
 
     @property
     def brick_count(self) -> int:
@@ -396,6 +426,15 @@ class Extractor:
         images = sum(t.width * t.height * t.components * 4 for t in self._word_images())
         return images + self.job_bytes() + sum(b.size for b in self._scratch_buffers()) + self._scan.scratch_bytes()
 
+    def gpu_bytes(self) -> int:
+        """All the GL memory this extractor holds: the volume image, scratch_bytes and the mesh buffers."""
+        if self._volume is None:
+            return 0
+        image = self._volume
+        volume = image.width * image.height * image.depth * image.components * int(image.dtype[1:])
+        meshes = sum(b.size for b in (self.vertex_buffer, self.index_buffer) if b is not None)
+        return volume + self.scratch_bytes() + meshes
+
     def job_bytes(self) -> int:
         """The vertex-job buffer's share of scratch_bytes: JOB_COMPONENTS uints per vertex, grown with the mesh."""
         return 0 if self.vertex_jobs is None else self.vertex_jobs.size
@@ -414,7 +453,7 @@ class Extractor:
             if obj is not None:
                 obj.release()
         self._owned.clear()
-        self.vertex_buffer = self.index_buffer = self.vertex_jobs = self._run_list = None
+        self.vertex_buffer = self.index_buffer = self.vertex_jobs = self._run_list = self._volume = None
         if self._scan is not None:
             self._scan.release()
 

@@ -9,7 +9,10 @@ volumes.REAL_VOLUMES, or a volume file, at each of its levels) it times, as medi
 - ours, iso change: a resident `Extractor`, alternating between two nearby levels
   (a slider drag); only `ex.extract(level)` is timed (it returns when the GPU is done);
 - ours, first: `isoscope.marching_cubes(vol, 0, backend="gpu")`, upload and read-back
-  included, context creation and shader compilation not (a warm-up call does them);
+  included, context creation and shader compilation not (a warm-up call does them); the
+  GPU memory the last call kept (app/extractor_pool.py) is reused, as in a loop of calls;
+  "fresh memory" is the same call after `isoscope.release_gpu_memory()` each time (a
+  process's first call on a volume of a new shape or sample type);
 - ours, numpy: `isoscope.marching_cubes(vol, 0, backend="cpu")` (not above 256^3);
 - each peer re-run at the new level the way its users would: scikit-image
   (lewiner), PyMCubes, and VTK vtkFlyingEdges3D on an already-built pipeline
@@ -231,14 +234,20 @@ def summary(samples: list[float]) -> dict:
             "samples_ms": [round(s, 3) for s in samples]}
 
 
-def bench_ours_first(volume, gd, level, repeats, backend, untimed):
+def bench_ours_first(volume, gd, level, repeats, backend, untimed, fresh=False):
+    """One-shot calls.  The GPU keeps the last call's extractor for the next (app/extractor_pool.py);
+    `fresh`: each call starts without it (isoscope.release_gpu_memory() before it, untimed), as a
+    process's first call on a volume of a new shape does."""
     last = {}
 
     def run(level):
         last["verts"], faces, _, _ = isoscope.marching_cubes(volume, level, gradient_direction=gd, backend=backend)
         return len(faces)
 
-    result, triangles = alternate(run, {"a": level, "b": level}, 0, untimed, repeats)
+    release = getattr(isoscope, "release_gpu_memory", None) if fresh else None
+    if release is not None:
+        release()
+    result, triangles = alternate(run, {"a": level, "b": level}, 0, untimed, repeats, after_timed=release)
     return {**result, "triangles": {"a": triangles["a"]}, "off_level": off_level(volume, last.pop("verts"), level)}
 
 
@@ -404,6 +413,8 @@ def run_case(volume, spec, level, peers, args) -> dict:
     case["ours"]["iso_change"] = bench_ours_iso_change(volume, gd, levels, repeats, args.warmup)
     log(f"{tag} ours: first (gpu)")
     case["ours"]["first"] = bench_ours_first(volume, gd, levels["a"], repeats, "gpu", args.warmup)
+    log(f"{tag} ours: first (gpu), fresh GPU memory each call")
+    case["ours"]["first_fresh"] = bench_ours_first(volume, gd, levels["a"], repeats, "gpu", 0, fresh=True)
     if voxels <= CPU_MAX_SIZE ** 3 and not args.no_cpu:
         log(f"{tag} ours: numpy")
         case["ours"]["numpy"] = bench_ours_first(volume, gd, levels["a"], repeats, "cpu", 0)
@@ -520,12 +531,13 @@ def markdown(meta, cases, peers, warnings, notes) -> str:
         row += [cell_ratio(c["peers"][p.key], ours["median_ms"]) for p in peers]
         out.append("| " + " | ".join(row) + " |")
     out += ["", "### First extraction (upload + extract + read-back): peer ms / our ms", ""]
-    head = ["size", "volume", "ours GPU ms", "ours numpy ms"] + [p.label for p in peers]
+    head = ["size", "volume", "ours GPU ms", "ours GPU ms, fresh memory", "ours numpy ms"] + [p.label for p in peers]
     out += ["| " + " | ".join(head) + " |", "|" + "---|" * 2 + "---:|" * (len(head) - 2)]
     for c in cases:
         first = c["ours"]["first"]
         numpy_ms = c["ours"]["numpy"]["median_ms"] if "numpy" in c["ours"] else None
-        row = [c["grid"], case_name(c), fmt_ms(first["median_ms"]), fmt_ms(numpy_ms)]
+        fresh_ms = c["ours"]["first_fresh"]["median_ms"] if "first_fresh" in c["ours"] else None
+        row = [c["grid"], case_name(c), fmt_ms(first["median_ms"]), fmt_ms(fresh_ms), fmt_ms(numpy_ms)]
         row += [cell_ratio(c["peers"][p.key], first["median_ms"]) for p in peers]
         out.append("| " + " | ".join(row) + " |")
     out += ["", "### Medians (ms) and triangle counts at the first level (0; a real scan's L)", ""]
@@ -535,6 +547,7 @@ def markdown(meta, cases, peers, warnings, notes) -> str:
         ours_n = c["ours"]["iso_change"]["triangles"]["a"]
         rows = [("ours: iso change (Extractor.extract)", c["ours"]["iso_change"]),
                 ("ours: first, GPU (isoscope.marching_cubes)", c["ours"]["first"]),
+                ("ours: first, GPU, fresh memory (release_gpu_memory() before each)", c["ours"].get("first_fresh")),
                 ("ours: first, numpy reference", c["ours"].get("numpy"))]
         rows += [(p.label, c["peers"][p.key]) for p in peers]
         for label, r in rows:
