@@ -35,7 +35,8 @@ Starts from the plain marching-cubes mesh (`app.reference`) and changes it in tw
      the patch's mass point are tried, and a patch whose every try folds stays plain
      (`_unfolded`);
    - neighbouring patches whose points are one corner (it pokes out of its cell into theirs) become
-     one patch around one vertex (`_merge_coincident`), where two fans would fold between them.
+     one patch around one vertex (`_merge_coincident`), where two fans would fold between them; a
+     plain vertex inside the joined patch splits a fan triangle in three (`_split_fans`).
 2. Edge flips.  Where an edge between two edge vertices has a feature vertex
    on both sides (fans of two neighbouring cells), it is flipped to join the
    two feature vertices, so the feature line runs straight from cell to cell.
@@ -63,6 +64,7 @@ SOLVER_CORNER_REACH = 0.3  # cells: the solver's corner this close to a cell bea
 CANDIDATE_FRACTION = 0.25  # cells whose mesh normals stray this fraction of the angle from their mean are checked
 FOLD_SIDE_COS = -0.3  # a fan triangle turned further than this (cosine) from both its base's side normals folds
 FOLD_COS = -0.7  # a fan triangle turned further than this (cosine) from the plain triangle it replaces folds
+FLAT_SINE = 1e-4  # a fan triangle whose apex is this close (sine of the angle at its base) to its base's line is flat
 FOLD_RETREAT = (0.25, 0.5, 0.75, 1.0)  # fractions of the way to the patch's mass point tried when a fan folds
 CLUSTER_ANGLE = 10.0  # degrees: normals this close to a side's own normal count as that side's  # a cell has 12 edges
 
@@ -673,8 +675,8 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points, stop=None):
     eno = plane_normals[needed]
     pure = (np.linalg.norm(eno, axis=1) > 0.5) & (np.einsum("ij,ij->i", eno, normals[needed]) > 0.0)
     side_normals[needed[pure]] = plane_normals[needed[pure]]
-    keep = _merge_coincident(sub, patch, is_feature, feature_ids, new_points, at_corner, spacing, verts, side_normals,
-                             n_plain)
+    keep, splits = _merge_coincident(sub, patch, is_feature, feature_ids, new_points, at_corner, spacing, verts,
+                                     side_normals, n_plain)
     feature_ids, cells, new_points, solved, solved_ok = (feature_ids[keep], cells[keep], new_points[keep],
                                                          solved[keep], solved_ok[keep])
     fans, fan_patch, source = _fans(sub, patch, is_feature, feature_ids, n_plain)
@@ -691,8 +693,10 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points, stop=None):
             return (*mesh, n_plain)
         fans, fan_patch, source = _fans(sub, patch, is_feature, feature_ids, n_plain)
     _check(stop)
-    out_faces = np.concatenate([faces[~_in_feature(candidate, is_feature, patch)].astype(np.int64), fans])
-    fan_rows = np.arange(len(out_faces) - len(fans), len(out_faces))
+    fans, inner_faces, split_rows = _split_fans(fans, fan_patch, splits)
+    out_faces = np.concatenate([faces[~_in_feature(candidate, is_feature, patch)].astype(np.int64), fans,
+                                inner_faces])
+    fan_rows = len(out_faces) - len(inner_faces) - len(fans) + np.flatnonzero(~split_rows)
     _flip_edges(out_faces, fan_rows, np.concatenate([verts, new_points.astype(np.float32)]))
 
     out_verts = np.concatenate([verts, new_points.astype(np.float32)])
@@ -709,7 +713,8 @@ def _merge_coincident(sub, patch, is_feature, feature_ids, points, at_corner, sp
     """Join neighbouring feature patches whose points (P, 3, rows in feature_ids order) are one corner
     (`at_corner`: the point is where three sides meet) into one patch around one feature vertex, in place
     in `patch` (the candidate faces' patch ids) and `is_feature`; returns which rows of feature_ids remain
-    (each group keeps its lowest patch id and that patch's point).
+    (each group keeps its lowest patch id and that patch's point) and the fan triangles `_split_fans`
+    splits around the joined patches' inner vertices.
 
     A box's corner that pokes just out of its own cell is the point of that cell's patch and of the
     neighbours' its edges run into (sharp_planes: CORNER_REACH).  As two vertices at one place, the fans
@@ -720,12 +725,15 @@ def _merge_coincident(sub, patch, is_feature, feature_ids, points, at_corner, sp
     of the fan.  Two patches are joined only across an edge whose fan triangle turns over as it is, and
     only at corners: two fans that share two base edges join their apexes by one flip, not two, and
     points on a line (a face on a grid plane gives two patches a point each, one cell apart along the
-    edge) are left as they were.  A group stays apart where its joined fan would fold, or where the
-    joined patch is no disk (vertices - edges + faces = 1: one boundary loop), so that the fan stays
-    2-manifold at its apex."""
-    keep = np.ones(len(feature_ids), bool)
+    edge) are left as they were.  A group stays apart where its joined fan would fold, or where the joined
+    patch is no disk (vertices - edges + faces = 1: one boundary loop), so that the fan stays 2-manifold
+    at its apex.  Where the corner's cells all four lie around one grid edge, that edge's vertex is inside
+    the joined patch, and a fan over its boundary would leave the vertex without a face: it goes inside a
+    fan triangle whose base it neighboured instead, split in three around it (`_inner_splits`), and a
+    group where some inner vertex finds no such triangle that stays facing the same way stays apart."""
+    keep, no_splits = np.ones(len(feature_ids), bool), np.zeros((0, 4), np.int64)
     if at_corner.sum() < 2:
-        return keep
+        return keep, no_splits
     row_of = np.full(len(is_feature), -1, np.int64)
     row_of[feature_ids] = np.arange(len(feature_ids))
     cornered = np.zeros(len(is_feature), bool)
@@ -743,7 +751,7 @@ def _merge_coincident(sub, patch, is_feature, feature_ids, points, at_corner, sp
     close = np.linalg.norm((points[row_of[p]] - points[row_of[q]]) / spacing, axis=1) < MERGE_DISTANCE
     p, q, lo, hi = p[close], q[close], lo[close], hi[close]
     if not len(p):
-        return keep
+        return keep, no_splits
     # Only across an edge whose fan triangle turns over as it is.
     involved = _unique(np.concatenate([p, q]))
     is_involved = np.zeros(len(is_feature), bool)
@@ -757,7 +765,7 @@ def _merge_coincident(sub, patch, is_feature, feature_ids, points, at_corner, sp
     needed = np.isin(lo * stride + hi, _unique(base[:, 0] * stride + base[:, 1]))
     p, q = p[needed], q[needed]
     if not len(p):
-        return keep
+        return keep, no_splits
     label = np.arange(len(is_feature))
     while True:  # connected groups: each patch takes the lowest id it reaches
         low = np.minimum(label[p], label[q])
@@ -779,9 +787,14 @@ def _merge_coincident(sub, patch, is_feature, feature_ids, points, at_corner, sp
     flat = corners.reshape(-1)
     e = np.stack([corners, np.roll(corners, -1, axis=1)], axis=2).reshape(-1, 2)
     n_vertices = np.bincount(owner[_first_rows(owner, flat)], minlength=len(label))
-    n_edges = np.bincount(owner[_first_rows(owner, e.min(axis=1), e.max(axis=1))], minlength=len(label))
+    lo, hi = e.min(axis=1), e.max(axis=1)
+    n_edges = np.bincount(owner[_first_rows(owner, lo, hi)], minlength=len(label))
     n_faces = np.bincount(patch[member_rows], minlength=len(label))
-    apart = joined[(n_vertices - n_edges + n_faces)[joined] != 1]
+    rim = _row_counts(owner, lo, hi) == 1  # the joined patch's boundary edges
+    rim_keys = _unique(np.concatenate([owner[rim] * stride + lo[rim], owner[rim] * stride + hi[rim]]))
+    at = np.minimum(np.searchsorted(rim_keys, owner * stride + flat), len(rim_keys) - 1)
+    on_rim = rim_keys[at] == owner * stride + flat
+    apart = joined[((n_vertices - n_edges + n_faces) != 1)[joined]]  # a disk: one boundary loop
     is_feature[feature_ids[group != feature_ids]] = False
     trial = np.setdiff1d(joined, apart)
     on_trial = np.zeros(len(is_feature), bool)
@@ -790,11 +803,72 @@ def _merge_coincident(sub, patch, is_feature, feature_ids, points, at_corner, sp
     tri = verts[sub[source]].astype(np.float64)
     reference = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     apart = np.concatenate([apart, _folding(points[row_of[trial]], fans, fan_patch, verts, side_normals, reference)])
+    # A vertex inside the joined patch (the corner's cells all around its grid edge) has no place in the fan:
+    # it goes inside one fan triangle whose base it neighboured, split in three around it.
+    inner = np.flatnonzero(~on_rim & on_trial[owner] & ~np.isin(owner, apart))
+    inner = inner[_first_rows(owner[inner], flat[inner])]
+    splits, lost = _inner_splits(flat[inner], owner[inner], corners, owner, fans, fan_patch, reference,
+                                 points[row_of[fan_patch]], verts)
+    apart = np.concatenate([apart, lost])
+    splits = splits[~np.isin(splits[:, 3], apart)]
     undo = np.isin(patch, apart)
     patch[undo] = original[undo]
     separate = np.isin(group, apart)
     is_feature[feature_ids[separate]] = True
-    return (group == feature_ids) | separate
+    return (group == feature_ids) | separate, splits
+
+
+def _split_fans(fans, fan_patch, splits):
+    """`fans` with each split of _merge_coincident applied: its fan triangle (a, b, apex) becomes (a, b, v),
+    and (b, apex, v), (apex, a, v) are returned apart.  Returns (fans, the added faces, which fan rows were
+    split: they are no longer fan triangles, so no flip takes them)."""
+    split_rows = np.zeros(len(fans), bool)
+    if not len(splits):
+        return fans, np.zeros((0, 3), np.int64), split_rows
+    fans = fans.copy()
+    added = []
+    for a, b, v, g in splits.tolist():
+        row = int(np.flatnonzero((fans[:, 0] == a) & (fans[:, 1] == b) & (fan_patch == g))[0])
+        apex = int(fans[row, 2])
+        fans[row] = (a, b, v)
+        added += [(b, apex, v), (apex, a, v)]
+        split_rows[row] = True
+    return fans, np.array(added, np.int64), split_rows
+
+
+def _inner_splits(inner, inner_owner, corners, owner, fans, fan_patch, reference, apex, verts):
+    """For each vertex `inner` (plain, inside the joined patch `inner_owner`), a fan triangle of that patch
+    whose base a -> b are both its neighbours in the patch's plain faces and that splits into (a, b, v),
+    (b, apex, v), (apex, a, v) with all three facing as the plain triangle it replaces (`reference`), the
+    most evenly; one base per vertex.  Returns (splits (S, 4): a, b, v, patch; the patches where some
+    inner vertex found none)."""
+    p = verts.astype(np.float64)
+    face_owner = owner[::3]
+    splits, lost, used = [], [], set()
+    for v, g in zip(inner.tolist(), inner_owner.tolist()):
+        ring = set(corners[(face_owner == g) & (corners == v).any(axis=1)].reshape(-1).tolist()) - {v}
+        best, best_score = None, 0.0
+        for row in np.flatnonzero(fan_patch == g):
+            a, b = int(fans[row, 0]), int(fans[row, 1])
+            if a not in ring or b not in ring or (a, b) in used:
+                continue
+            x, r = apex[row], reference[row] / np.linalg.norm(reference[row])
+            score = min(_facing(p[a], p[b], p[v], r), _facing(p[b], x, p[v], r), _facing(x, p[a], p[v], r))
+            if score > best_score:
+                best, best_score = (a, b, v, g), score
+        if best is None:
+            lost.append(g)
+        else:
+            used.add(best[:2])
+            splits.append(best)
+    return np.array(splits, np.int64).reshape(-1, 4), np.array(lost, np.int64)
+
+
+def _facing(a, b, c, direction) -> float:
+    """The cosine between triangle (a, b, c)'s normal and `direction` (0 for a degenerate triangle)."""
+    n = np.cross(b - a, c - a)
+    length = np.linalg.norm(n)
+    return float(n @ direction / length) if length > 1e-12 else 0.0
 
 
 def _first_rows(*columns):
@@ -856,14 +930,18 @@ def _turned_over(points, fans, verts, side_normals, reference):
     """Which fan triangles turn over.  `fans` (F, 3): base a -> b (plain vertices), then the apex (numbered
     after `verts`, at `points`); `reference` (F, 3): the normal of the plain triangle each replaces.  Over:
     its normal turns further than FOLD_SIDE_COS from both base vertices' side normals, or further than
-    FOLD_COS from the plain triangle's (the apex beyond the patch's loop)."""
+    FOLD_COS from the plain triangle's (the apex beyond the patch's loop).  A triangle of no area (the apex
+    on its base's line, or on a base vertex: a corner where a plain vertex already is) counts as over too."""
     a, b = verts[fans[:, 0]].astype(np.float64), verts[fans[:, 1]].astype(np.float64)
-    n = np.cross(b - a, points[fans[:, 2] - len(verts)] - a)
+    apex = points[fans[:, 2] - len(verts)]
+    n = np.cross(b - a, apex - a)
     length = np.linalg.norm(n, axis=1)
+    reach = np.maximum(np.linalg.norm(apex - a, axis=1), np.linalg.norm(apex - b, axis=1))
+    flat = length <= FLAT_SINE * np.linalg.norm(b - a, axis=1) * reach
     against = ((np.einsum("fk,fk->f", n, side_normals[fans[:, 0]]) < FOLD_SIDE_COS * length)
                & (np.einsum("fk,fk->f", n, side_normals[fans[:, 1]]) < FOLD_SIDE_COS * length))
     against |= np.einsum("fk,fk->f", n, reference) < FOLD_COS * length * np.linalg.norm(reference, axis=1)
-    return against
+    return against | flat
 
 
 def _in_feature(candidate, is_feature, patch):

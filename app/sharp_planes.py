@@ -244,7 +244,8 @@ def _surface_pair(normal, anchor, valid, cos_angle, centre, field, spacing, leve
     for i in range(sides):
         for j in range(i + 1, sides):
             c = np.einsum("pk,pk->p", n[:, i], n[:, j])
-            usable = rep_ok[:, i] & rep_ok[:, j] & (c < cos_angle)
+            # (not opposite planes, c = -1: two parallel faces, say of a thin slab, meet in no line)
+            usable = rep_ok[:, i] & rep_ok[:, j] & (c < cos_angle) & (1 - c * c > 1e-9)
             # x = centre + alpha n_i + beta n_j on both planes
             ri = np.einsum("pk,pk->p", n[:, i], a[:, i] - centre)
             rj = np.einsum("pk,pk->p", n[:, j], a[:, j] - centre)

@@ -10,7 +10,7 @@ from test_cli import assert_one_line_error, isoscope
 import isoscope as iso
 from isoscope.reference_sharp import check_feature_angle, crisp_normals, edge_of_vertex, sharpen_extracted
 
-from mesh_checks import assert_closed_manifold, edge_use_counts, signed_volume
+from mesh_checks import assert_closed_manifold, edge_use_counts, signed_volume, triangle_areas
 
 N = 24  # samples per axis: boxes about 10 cells wide
 SCENES = {
@@ -50,6 +50,7 @@ def corner_distances(corners, verts):
 def test_mesh_stays_closed_two_manifold_and_outward(scene):
     verts, faces, normals, _ = scene["sharp"]
     assert_closed_manifold(faces)
+    assert np.array_equal(np.unique(faces), np.arange(len(verts)))  # every vertex in some face
     assert signed_volume(verts, faces) > 0  # counter-clockwise seen from outside
     assert np.isfinite(verts).all() and np.allclose(np.linalg.norm(normals, axis=1), 1, atol=1e-4)
     # The plain vertices stay, in order, each on its grid edge (one moves along it only where the field
@@ -107,6 +108,58 @@ def test_edges_run_straight_out_of_a_corner_that_neighbouring_cells_share(name):
     assert distance_to_mesh(near, verts, faces).max() <= CORNER_EDGE_BOUND[name]
     assert corner_distances(corners, verts).max() <= 0.01
     assert_closed_manifold(faces)
+
+
+def test_a_union_whose_sample_planes_include_opposite_faces_is_sharpened():
+    # Near a thin part of this union a cell sees two parallel, opposite faces among its sample planes: they
+    # meet in no line (sharp_planes._surface_pair divided by 1 - cos^2 = 0, and the step stopped with an
+    # IndexError on the NaN point).
+    boxes = [Box([14.9585, 16.3038, 15.9327], [3.1473, 4.4126, 5.1101]),
+             Box([10.5648, 10.163, 15.7317], [2.1064, 3.749, 3.9398]),
+             Box([12.1445, 15.1251, 12.0133], [5.1384, 3.2624, 4.8213], rotation(3.0646, 3.0551, 2.4056))]
+    volume = union_sdf(boxes, grid_points(27)).astype(np.float32)
+    plain = iso.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu")
+    verts, faces = iso.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu", sharp_features=30)[:2]
+    assert len(verts) > len(plain[0])
+    assert_closed_manifold(faces)
+    assert np.array_equal(np.unique(faces), np.arange(len(verts)))
+    assert signed_volume(verts, faces) > 0
+
+
+def random_boxes(seed):
+    """1-3 boxes of random size, place and rotation (a third axis-aligned with faces just off grid planes,
+    a third barely rotated), their union's distance field on an n^3 grid, and a spacing."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(24, 33))
+    boxes = []
+    for _ in range(int(rng.choice([1, 2, 3]))):
+        half, centre = rng.uniform(2.0, n / 4.5, 3), rng.uniform(n / 2 - n / 8, n / 2 + n / 8, 3)
+        mode = rng.integers(3)
+        if mode == 0:
+            lo = np.round(centre - half) - rng.uniform(0.0, 0.15, 3) * rng.choice([-1, 1], 3)
+            hi = np.round(centre + half) + rng.uniform(0.0, 0.15, 3) * rng.choice([-1, 1], 3)
+            boxes.append(Box((lo + hi) / 2, (hi - lo) / 2))
+        else:
+            spread = 0.15 if mode == 1 else np.pi
+            boxes.append(Box(centre, half, rotation(*rng.uniform(-spread, spread, 3))))
+    volume = union_sdf(boxes, grid_points(n)).astype(np.float32)
+    return volume, tuple(rng.uniform(0.5, 2.0, 3)) if rng.random() < 0.3 else (1.0, 1.0, 1.0)
+
+
+@pytest.mark.parametrize("seed", [2002, 2004, 2010, 2014, 2031])
+def test_random_boxes_give_a_closed_mesh_without_flat_or_unused_pieces(seed):
+    # Seeds where a feature point fell on a plain vertex or its base's line (flat fan triangles, now tried
+    # as folds: the next candidate point is taken) and where corners' cells surround a grid edge (its
+    # vertex, inside the joined patch, had no face: now it splits a fan triangle).
+    volume, spacing = random_boxes(seed)
+    plain = iso.marching_cubes(volume, 0.0, spacing=spacing, gradient_direction="ascent", backend="cpu")
+    verts, faces = iso.marching_cubes(volume, 0.0, spacing=spacing, gradient_direction="ascent", backend="cpu",
+                                      sharp_features=30)[:2]
+    assert len(verts) > len(plain[0])
+    assert_closed_manifold(faces)
+    assert np.array_equal(np.unique(faces), np.arange(len(verts)))
+    assert triangle_areas(verts, faces).min() > 1e-9
+    assert signed_volume(verts, faces) > 0
 
 
 def test_flips_join_feature_vertices_into_lines(scene):
