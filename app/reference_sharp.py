@@ -371,7 +371,7 @@ def feature_points(positions, normals, valid, lower, upper, mass=None):
     rank < 3); `kinds`: 3 where the point is such a corner, 2 where it is on a line."""
     w = valid[..., None].astype(np.float64)
     if mass is None:
-        mass = (positions * w).sum(axis=1) / w.sum(axis=1)
+        mass = (positions * w).sum(axis=1) / np.maximum(w.sum(axis=1), 1.0)  # no plane: rank 0, not ok
     a = normals * w
     b = np.einsum("pvk,pvk->pv", a, positions - mass[:, None, :])
     values, vectors = symmetric_eigen(np.einsum("pvi,pvj->pij", a, a))
