@@ -511,3 +511,18 @@ def test_a_quantised_scan_keeps_its_fans_from_turning_over(size, sigma):
     n_feature = len(sharp[0]) - len(plain[0])
     assert n_feature > 1000  # the test means something: many feature vertices
     assert _turned_over(*sharp[:3]) <= _turned_over(*plain[:3]) + 0.005 * n_feature
+
+
+def test_a_patch_with_no_valid_plane_is_no_feature_and_warns_nothing():
+    import warnings
+
+    from isoscope.reference_sharp import feature_points
+    positions = np.array([[[0.2, 0.5, 0.5], [0.8, 0.5, 0.5], [0.5, 0.5, 0.9]]] * 2)
+    normals = np.array([[[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]]] * 2)
+    valid = np.array([[True, True, True], [False, False, False]])
+    lower, upper = np.zeros((2, 3)), np.ones((2, 3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's 'invalid value encountered in divide' fails the test
+        points, ok, corners, kinds = feature_points(positions, normals, valid, lower, upper)
+    assert ok.tolist() == [True, False] and kinds[0] == 3
+    np.testing.assert_allclose(points[0], [0.2, 0.5, 0.9])  # where the three planes meet
