@@ -31,9 +31,11 @@ Starts from the plain marching-cubes mesh (`app.reference`) and changes it in tw
      feature cells when those planes open wider than the angle, and take those
      planes' point.  That point is exact, but the plain edge vertices next to a kink
      sit off it (linear interpolation across the kink), so a fan to it can turn a
-     triangle over: then the solver's point, then points FOLD_RETREAT of the way to
-     the patch's mass point are tried, and a patch whose every try folds stays plain
-     (`_unfolded`);
+     triangle over: then (where that point is a corner just outside the cell) the
+     point on the cell's own edge line, then the solver's point (not where it lies
+     more than SOLVER_DRIFT from the planes' exact one), then points FOLD_RETREAT of
+     the way to the patch's mass point are tried, and a patch whose every try folds
+     stays plain (`_unfolded`); a fan triangle of no area counts as folded;
    - neighbouring patches whose points are one corner (it pokes out of its cell into theirs) become
      one patch around one vertex (`_merge_coincident`), where two fans would fold between them; a
      plain vertex inside the joined patch splits a fan triangle in three (`_split_fans`).
@@ -64,6 +66,7 @@ SOLVER_CORNER_REACH = 0.3  # cells: the solver's corner this close to a cell bea
 CANDIDATE_FRACTION = 0.25  # cells whose mesh normals stray this fraction of the angle from their mean are checked
 FOLD_SIDE_COS = -0.3  # a fan triangle turned further than this (cosine) from both its base's side normals folds
 FOLD_COS = -0.7  # a fan triangle turned further than this (cosine) from the plain triangle it replaces folds
+SOLVER_DRIFT = 1.0  # cells: the solver's point this far from the sample planes' exact one is no fallback for it
 FLAT_SINE = 1e-4  # a fan triangle whose apex is this close (sine of the angle at its base) to its base's line is flat
 FOLD_RETREAT = (0.25, 0.5, 0.75, 1.0)  # fractions of the way to the patch's mass point tried when a fan folds
 CLUSTER_ANGLE = 10.0  # degrees: normals this close to a side's own normal count as that side's  # a cell has 12 edges
@@ -615,10 +618,12 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points, stop=None):
     cell_of_patch[patch] = face_cell
     p_points, p_corner = np.zeros((n_patches, 3)), np.full((n_patches, 3), np.nan)
     p_ok, p_open = np.zeros(n_patches, bool), np.zeros(n_patches, bool)
+    p_line = np.zeros((n_patches, 3))
     linear = np.flatnonzero(planar[cell_of_patch])
     level = level_of(field, verts, spacing) if len(linear) else None
     if len(linear):
-        p_points[linear], p_ok[linear], p_corner[linear], _, p_open[linear] = plane_feature_points(
+        (p_points[linear], p_ok[linear], p_corner[linear], _, p_open[linear],
+         p_line[linear]) = plane_feature_points(
             field, all_cells[cell_of_patch[linear]], spacing, level, cos_angle,
             feature_points, _occupancy(all_cells, field.shape))
     # (vertex_may_bend, pass 0 on the GPU, skips all of this where no cell's mesh normals open wider than
@@ -662,9 +667,14 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points, stop=None):
     prefer = ~has_corner & p_ok & solved_ok & seen_by_mesh
     new_points[prefer] = solved[prefer]
     at_corner = np.linalg.norm(np.where(np.isfinite(corner), corner, np.inf) - new_points, axis=1) < 1e-6
+    from_planes = p_ok & ~prefer
+    # Where the planes' point is a corner just outside the cell, the point on the cell's own edge line: the
+    # fallback where the fan to the corner folds (the corner's own cell, or another neighbour, has it).
+    line = np.where(from_planes[:, None], p_line[feature_ids], new_points)
     is_feature[feature_ids[~ok]] = False  # the planes meet outside the cell: keep its plain patch
-    feature_ids, cells, new_points, solved, solved_ok, at_corner = (
-        feature_ids[ok], cells[ok], new_points[ok], solved[ok], solved_ok[ok], at_corner[ok])
+    feature_ids, cells, new_points, solved, solved_ok, at_corner, from_planes, line = (
+        feature_ids[ok], cells[ok], new_points[ok], solved[ok], solved_ok[ok], at_corner[ok], from_planes[ok],
+        line[ok])
     if not len(feature_ids):
         return (*mesh, n_plain)
     # Around features the sides' own (ENO) normals, which do not blend across the edge.
@@ -677,11 +687,17 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points, stop=None):
     side_normals[needed[pure]] = plane_normals[needed[pure]]
     keep, splits = _merge_coincident(sub, patch, is_feature, feature_ids, new_points, at_corner, spacing, verts,
                                      side_normals, n_plain)
-    feature_ids, cells, new_points, solved, solved_ok = (feature_ids[keep], cells[keep], new_points[keep],
-                                                         solved[keep], solved_ok[keep])
+    feature_ids, cells, new_points, solved, solved_ok, from_planes, line = (
+        feature_ids[keep], cells[keep], new_points[keep], solved[keep], solved_ok[keep], from_planes[keep],
+        line[keep])
     fans, fan_patch, source = _fans(sub, patch, is_feature, feature_ids, n_plain)
     mass = _patch_mass(verts, members[feature_ids])
-    candidates = [new_points, np.where(solved_ok[:, None], solved, new_points)]
+    # Where the planes' point folds: their edge line's point in this cell (`line`, where that point was a
+    # corner just outside it), then the solver's point, unless the planes placed theirs exactly and the
+    # solver's lies more than a cell from it: blended normals put it there, off the surface (0.66 cells
+    # out of the rotated box of tests/test_sharp_features.py: a spike).
+    drift = np.linalg.norm(solved - new_points, axis=1) > SOLVER_DRIFT * spacing.min()
+    candidates = [new_points, line, np.where((solved_ok & ~(from_planes & drift))[:, None], solved, new_points)]
     candidates += [new_points + t * (mass - new_points) for t in FOLD_RETREAT]
     tri = verts[sub[source]].astype(np.float64)
     reference = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # each fan triangle's plain triangle
@@ -865,10 +881,19 @@ def _inner_splits(inner, inner_owner, corners, owner, fans, fan_patch, reference
 
 
 def _facing(a, b, c, direction) -> float:
-    """The cosine between triangle (a, b, c)'s normal and `direction` (0 for a degenerate triangle)."""
+    """The cosine between triangle (a, b, c)'s normal and `direction`; 0 for a flat one (`_flat`)."""
     n = np.cross(b - a, c - a)
     length = np.linalg.norm(n)
-    return float(n @ direction / length) if length > 1e-12 else 0.0
+    return 0.0 if _flat(length, a, b, c) else float(n @ direction / length)
+
+
+def _flat(length, a, b, c):
+    """Whether triangle (a, b, c), whose normal's length (twice its area) is `length`, is flat: c within
+    FLAT_SINE (the sine of the angle at the base) of the line of a, b, or on them.  Relative, not an
+    absolute area: a feature point a float32 rounding away from a plain vertex's line still is flat once
+    the mesh is stored as float32.  Broadcasts over rows of points."""
+    reach = np.maximum(np.linalg.norm(c - a, axis=-1), np.linalg.norm(c - b, axis=-1))
+    return length <= FLAT_SINE * np.linalg.norm(b - a, axis=-1) * reach
 
 
 def _first_rows(*columns):
@@ -936,8 +961,7 @@ def _turned_over(points, fans, verts, side_normals, reference):
     apex = points[fans[:, 2] - len(verts)]
     n = np.cross(b - a, apex - a)
     length = np.linalg.norm(n, axis=1)
-    reach = np.maximum(np.linalg.norm(apex - a, axis=1), np.linalg.norm(apex - b, axis=1))
-    flat = length <= FLAT_SINE * np.linalg.norm(b - a, axis=1) * reach
+    flat = _flat(length, a, b, apex)
     against = ((np.einsum("fk,fk->f", n, side_normals[fans[:, 0]]) < FOLD_SIDE_COS * length)
                & (np.einsum("fk,fk->f", n, side_normals[fans[:, 1]]) < FOLD_SIDE_COS * length))
     against |= np.einsum("fk,fk->f", n, reference) < FOLD_COS * length * np.linalg.norm(reference, axis=1)

@@ -146,13 +146,15 @@ def plane_feature_points(field, cells, spacing, level, cos_angle, solve, occupie
 
     `solve(positions, normals, valid, lower, upper, mass=)` is `reference_sharp.feature_points`, taken
     relative to the cell's centre; `occupied(cells)` whether cells have a patch.  Returns what `solve`
-    returns and whether the planes open wider than the feature angle.  Planes that repeat one another (a
+    returns, whether the planes open wider than the feature angle, and the point on the cell's edge line
+    where a corner just outside the cell took the point's place (else the point itself): the fallback
+    where a fan to the corner folds.  Planes that repeat one another (a
     face's samples all give the same plane) share a unit weight, so a face seen by many samples does not
     drown one seen by few.  Cells go in chunks (memory)."""
     spacing = np.asarray(spacing, np.float64)
     parts = [_plane_qef(field, cells[rows], spacing, level, cos_angle, solve, occupied)
              for rows in np.array_split(np.arange(len(cells)), max(1, -(-len(cells) // chunk)))]
-    return tuple(np.concatenate([part[k] for part in parts]) for k in range(5))
+    return tuple(np.concatenate([part[k] for part in parts]) for k in range(6))
 
 
 def _plane_qef(field, cells, spacing, level, cos_angle, solve, occupied):
@@ -205,6 +207,7 @@ def _plane_qef(field, cells, spacing, level, cos_angle, solve, occupied):
     # follow; the cell takes the corner itself.
     gap = np.maximum(np.maximum(lower - corner, corner - upper), 0).max(axis=1)
     close = beside & (gap <= CORNER_REACH * spacing.min())
+    line_points = np.where((close & ok)[:, None], points, corner)  # the edge line's point, where it had one
     points[close], ok = corner[close], ok | close
     # Or it passes a grid edge of the cell through the cell across it, which has no patch (its samples all
     # on one side): this patch carries the line there, as _corner_in_empty_cell does for corners.
@@ -226,7 +229,8 @@ def _plane_qef(field, cells, spacing, level, cos_angle, solve, occupied):
         take = there_ok & (there_kind == 2) & (dist < best[at])
         points[rows[at[take]]], best[at[take]] = there[take], dist[take]
     ok[rows] |= np.isfinite(best)
-    return points, ok, corner, kind, opens
+    line_points = np.where(close[:, None], line_points, points)
+    return points, ok, corner, kind, opens, line_points
 
 
 SIDES = 4  # distinct planes considered per cell by `_surface_pair` (the most often seen)
