@@ -400,6 +400,17 @@ def feature_points(positions, normals, valid, lower, upper, mass=None):
     return np.clip(x, lower, upper), ok | inside, corner, np.where(inside, 3, np.minimum(rank, 2))
 
 
+THIRD_SIDE_MARGIN = 1e-9  # see third_side_bound
+
+
+def third_side_bound(cos_angle) -> float:
+    """How far out of the plane of the two most different normals (sine) a third side's normal must lie:
+    the feature angle's sine, and a margin far above rounding.  On an 8-bit scan the ENO normals come from
+    whole-number differences, and a third normal lay exactly 30 degrees out (0.5 to within 2e-16), which
+    numpy and the GPU's double arithmetic decided opposite ways (the MNI T1 at level 60)."""
+    return float(np.sqrt(1 - cos_angle ** 2)) + THIRD_SIDE_MARGIN
+
+
 def _extreme_normals(n, valid, cos_angle):
     """Which of the normals (P, W, 3) are near one of the two or three most different ones.
 
@@ -421,7 +432,7 @@ def _extreme_normals(n, valid, cos_angle):
     axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-30)
     out_of_plane = np.where(valid, np.abs(np.einsum("pwk,pk->pw", n, axis)), -1.0)
     s3 = out_of_plane.argmax(axis=1)
-    third = out_of_plane[rows, s3] > np.sqrt(1 - cos_angle ** 2)
+    third = out_of_plane[rows, s3] > third_side_bound(cos_angle)
     near = np.cos(np.radians(CLUSTER_ANGLE))
     keep = (d1 > near) | (d2 > near) | ((dots_with(s3) > near) & third[:, None])
     return keep & valid

@@ -22,7 +22,10 @@ one-ring lists, the side normals, the grid samples' own planes where the field i
 feature vertices' normals and the crisp normals for drawing (reference_sharp.crisp_normals; the
 drawn mesh is uploaded).
 `sharpen(..., solver=SharpExtractor(ex).patch_points)` is the numpy reference with pass 1
-swapped in; it gives the same mesh (tests/test_sharp_features.py).  Pass 1 takes the positions
+swapped in; it gives the same mesh (tests/test_sharp_features.py), except where a decision rests on
+a value within rounding of its threshold, which the GPU's double arithmetic can take the other way
+(thresholds that whole-number data meets exactly carry a margin: third_side_bound).  Pass 1 takes the
+positions
 `sharpen` gives it (uploading only the vertices its lists name), not the mesh buffer: `sharpen`
 may have moved vertices next to a kink.  Pass 0 reads the extractor's vertex buffer by index, so
 a mesh too large for one storage block of the GL (over ~4 M vertices in 128 MiB) leaves it to
@@ -44,6 +47,7 @@ from .reference_sharp import (
     MAX_PATCH_VERTICES,
     SINGULAR_CUTOFF,
     bend_cos,
+    third_side_bound,
 )
 from .reference_sharp import patch_points as numpy_patch_points
 
@@ -144,7 +148,7 @@ class SharpExtractor:
         set_uniforms(program, **ex.grid_uniforms, u_sign=1.0 if ex.descent else -1.0, u_patch_count=n_patches,
                      u_ring_width=ring_width)
         program["u_spacing_d"].value = tuple(float(s) for s in spacing)
-        program["u_out_of_plane"].value = float(np.sqrt(1 - cos_angle ** 2))
+        program["u_out_of_plane"].value = third_side_bound(cos_angle)
         ex.volume_texture.bind_to_image(0, read=True, write=False)
         self._upload("members", renumbered(members)).bind_to_storage_buffer(1)
         self._upload("ring", renumbered(ring_members)).bind_to_storage_buffer(2)

@@ -553,3 +553,17 @@ def test_a_patch_with_no_valid_plane_is_no_feature_and_warns_nothing():
         points, ok, corners, kinds = feature_points(positions, normals, valid, lower, upper)
     assert ok.tolist() == [True, False] and kinds[0] == 3
     np.testing.assert_allclose(points[0], [0.2, 0.5, 0.9])  # where the three planes meet
+
+
+def test_a_third_side_exactly_at_the_feature_angle_is_not_one():
+    # Two sides at right angles and a third normal tilted out of their plane by the feature angle to within
+    # rounding (sin 30 = 0.5, as whole-number ENO differences on an 8-bit scan give it): not a third side,
+    # whatever the last bit of the arithmetic, so numpy and the GPU's doubles agree (they took it opposite
+    # ways on the MNI T1); a degree more out of the plane is one.
+    from isoscope.reference_sharp import _extreme_normals
+    cos_angle = np.cos(np.radians(30.0))
+    for z, expected in ((np.nextafter(np.sqrt(1 - cos_angle ** 2), 1.0), False), (np.sin(np.radians(31.0)), True)):
+        third = np.array([0.0, np.sqrt(1 - z * z), z])
+        normals = np.array([[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], third]])
+        keep = _extreme_normals(normals, np.ones((1, 3), bool), cos_angle)
+        assert keep[0, 2] == expected, (z, keep)
