@@ -710,8 +710,7 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points, stop=None):
     drift = np.linalg.norm(solved - new_points, axis=1) > SOLVER_DRIFT * spacing.min()
     candidates = [new_points, line, np.where((solved_ok & ~(from_planes & drift))[:, None], solved, new_points)]
     candidates += [new_points + t * (mass - new_points) for t in FOLD_RETREAT]
-    tri = verts[sub[source]].astype(np.float64)
-    reference = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # each fan triangle's plain triangle
+    reference = _plain_normals(verts, sub[source])  # each fan triangle's plain triangle
     new_points, found = _unfolded(candidates, fans, fan_patch, feature_ids, verts, side_normals, reference)
     if not found.all():  # every candidate folds: the plain patch
         is_feature[feature_ids[~found]] = False
@@ -763,8 +762,35 @@ def _merge_coincident(sub, patch, is_feature, feature_ids, points, at_corner, sp
         return keep, no_splits
     row_of = np.full(len(is_feature), -1, np.int64)
     row_of[feature_ids] = np.arange(len(feature_ids))
-    cornered = np.zeros(len(is_feature), bool)
-    cornered[feature_ids[at_corner]] = True
+    p, q = _coincident_pairs(sub, patch, feature_ids[at_corner], points, row_of, spacing, verts, side_normals,
+                             n_plain)
+    if not len(p):
+        return keep, no_splits
+    label = _lowest_reached(p, q, len(is_feature))
+    original = patch.copy()
+    patch[:] = label[patch]
+    group = label[feature_ids]
+    is_feature[feature_ids[group != feature_ids]] = False
+    apart, splits = _vetted(sub, patch, _unique(group[group != feature_ids]), points, row_of, verts, side_normals,
+                            n_plain)
+    undo = np.isin(patch, apart)
+    patch[undo] = original[undo]
+    separate = np.isin(group, apart)
+    is_feature[feature_ids[separate]] = True
+    return (group == feature_ids) | separate, splits
+
+
+def _plain_normals(verts, triangles):
+    """The (unnormalised) normals of triangles (F, 3) of plain vertices."""
+    tri = verts[triangles].astype(np.float64)
+    return np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+
+
+def _coincident_pairs(sub, patch, cornered_ids, points, row_of, spacing, verts, side_normals, n_plain):
+    """Pairs (p, q) of patches among `cornered_ids` that share a boundary edge, whose points lie within
+    MERGE_DISTANCE, and whose fan triangle over that edge turns over (`_turned_over`) as it is."""
+    cornered = np.zeros(len(row_of), bool)
+    cornered[cornered_ids] = True
     rows = np.flatnonzero(cornered[patch])
     edges = np.stack([sub[rows][:, [0, 1]], sub[rows][:, [1, 2]], sub[rows][:, [2, 0]]], axis=1).reshape(-1, 2)
     edge_patch = np.repeat(patch[rows], 3)
@@ -778,71 +804,64 @@ def _merge_coincident(sub, patch, is_feature, feature_ids, points, at_corner, sp
     close = np.linalg.norm((points[row_of[p]] - points[row_of[q]]) / spacing, axis=1) < MERGE_DISTANCE
     p, q, lo, hi = p[close], q[close], lo[close], hi[close]
     if not len(p):
-        return keep, no_splits
-    # Only across an edge whose fan triangle turns over as it is.
+        return p, q
     involved = _unique(np.concatenate([p, q]))
-    is_involved = np.zeros(len(is_feature), bool)
+    is_involved = np.zeros(len(row_of), bool)
     is_involved[involved] = True
     fans, _, source = _fans(sub, patch, is_involved, involved, n_plain)
-    tri = verts[sub[source]].astype(np.float64)
-    reference = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    over = _turned_over(points[row_of[involved]], fans, verts, side_normals, reference)
+    over = _turned_over(points[row_of[involved]], fans, verts, side_normals, _plain_normals(verts, sub[source]))
     stride = int(sub.max()) + 1
     base = np.sort(fans[over, :2], axis=1)
     needed = np.isin(lo * stride + hi, _unique(base[:, 0] * stride + base[:, 1]))
-    p, q = p[needed], q[needed]
-    if not len(p):
-        return keep, no_splits
-    label = np.arange(len(is_feature))
-    while True:  # connected groups: each patch takes the lowest id it reaches
+    return p[needed], q[needed]
+
+
+def _lowest_reached(p, q, n):
+    """Connected groups of the pairs (p, q) among ids 0 .. n-1: each id's label is the lowest id it reaches."""
+    label = np.arange(n)
+    while True:
         low = np.minimum(label[p], label[q])
         new = label.copy()
         np.minimum.at(new, p, low)
         np.minimum.at(new, q, low)
         new = new[new]
         if np.array_equal(new, label):
-            break
+            return label
         label = new
-    original = patch.copy()
-    patch[:] = label[patch]
-    group = label[feature_ids]
-    joined = _unique(group[group != feature_ids])
-    # Apart again: a group whose joined patch is no disk, or whose fan to its point folds.
+
+
+def _vetted(sub, patch, joined, points, row_of, verts, side_normals, n_plain):
+    """Of the joined patches (ids in `patch`, already relabelled), those to keep apart: no disk (vertices -
+    edges + faces != 1), a fan to their point that folds, or an inner vertex with no split (`_inner_splits`);
+    and the splits of the others."""
     member_rows = np.flatnonzero(np.isin(patch, joined))
     corners = sub[member_rows]
     owner = np.repeat(patch[member_rows], 3)
     flat = corners.reshape(-1)
     e = np.stack([corners, np.roll(corners, -1, axis=1)], axis=2).reshape(-1, 2)
-    n_vertices = np.bincount(owner[_first_rows(owner, flat)], minlength=len(label))
     lo, hi = e.min(axis=1), e.max(axis=1)
-    n_edges = np.bincount(owner[_first_rows(owner, lo, hi)], minlength=len(label))
-    n_faces = np.bincount(patch[member_rows], minlength=len(label))
-    rim = _row_counts(owner, lo, hi) == 1  # the joined patch's boundary edges
-    rim_keys = _unique(np.concatenate([owner[rim] * stride + lo[rim], owner[rim] * stride + hi[rim]]))
-    at = np.minimum(np.searchsorted(rim_keys, owner * stride + flat), len(rim_keys) - 1)
-    on_rim = rim_keys[at] == owner * stride + flat
+    n_vertices = np.bincount(owner[_first_rows(owner, flat)], minlength=len(row_of))
+    n_edges = np.bincount(owner[_first_rows(owner, lo, hi)], minlength=len(row_of))
+    n_faces = np.bincount(patch[member_rows], minlength=len(row_of))
     apart = joined[((n_vertices - n_edges + n_faces) != 1)[joined]]  # a disk: one boundary loop
-    is_feature[feature_ids[group != feature_ids]] = False
     trial = np.setdiff1d(joined, apart)
-    on_trial = np.zeros(len(is_feature), bool)
+    on_trial = np.zeros(len(row_of), bool)
     on_trial[trial] = True
     fans, fan_patch, source = _fans(sub, patch, on_trial, trial, n_plain)
-    tri = verts[sub[source]].astype(np.float64)
-    reference = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    reference = _plain_normals(verts, sub[source])
     apart = np.concatenate([apart, _folding(points[row_of[trial]], fans, fan_patch, verts, side_normals, reference)])
-    # A vertex inside the joined patch (the corner's cells all around its grid edge) has no place in the fan:
-    # it goes inside one fan triangle whose base it neighboured, split in three around it.
-    inner = np.flatnonzero(~on_rim & on_trial[owner] & ~np.isin(owner, apart))
+    # A vertex inside the joined patch (the corner's cells all around its grid edge) is on none of its
+    # boundary edges: it has no place in the fan, and goes inside one fan triangle whose base it neighboured.
+    rim = _row_counts(owner, lo, hi) == 1
+    stride = int(sub.max()) + 1
+    rim_keys = _unique(np.concatenate([owner[rim] * stride + lo[rim], owner[rim] * stride + hi[rim]]))
+    at = np.minimum(np.searchsorted(rim_keys, owner * stride + flat), len(rim_keys) - 1)
+    inner = np.flatnonzero((rim_keys[at] != owner * stride + flat) & on_trial[owner] & ~np.isin(owner, apart))
     inner = inner[_first_rows(owner[inner], flat[inner])]
     splits, lost = _inner_splits(flat[inner], owner[inner], corners, owner, fans, fan_patch, reference,
                                  points[row_of[fan_patch]], verts)
     apart = np.concatenate([apart, lost])
-    splits = splits[~np.isin(splits[:, 3], apart)]
-    undo = np.isin(patch, apart)
-    patch[undo] = original[undo]
-    separate = np.isin(group, apart)
-    is_feature[feature_ids[separate]] = True
-    return (group == feature_ids) | separate, splits
+    return apart, splits[~np.isin(splits[:, 3], apart)]
 
 
 def _split_fans(fans, fan_patch, splits):
