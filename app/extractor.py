@@ -92,8 +92,9 @@ class Extractor:
     """The storage binding of the vertex jobs' window (shaders/vertex_jobs.glsl)."""
 
     _run_list: moderngl.Buffer | None = None
-    _volume: moderngl.Texture3D | None = None
     """A large mesh's per-run brick list (`_run_bricks`), made when first needed."""
+    _volume: moderngl.Texture3D | None = None
+    """The volume image (None once released: gpu_bytes reads 0)."""
 
     def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
                  ctx: moderngl.Context | None = None, table: CaseTable | None = None,

@@ -678,14 +678,18 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points, stop=None):
     prefer = ~has_corner & p_ok & solved_ok & seen_by_mesh
     new_points[prefer] = solved[prefer]
     at_corner = np.linalg.norm(np.where(np.isfinite(corner), corner, np.inf) - new_points, axis=1) < 1e-6
+    # Where the point folds its fan, the fallbacks in order: where the planes' point is a corner just outside
+    # the cell, the point on the cell's own edge line (the corner's own cell, or another neighbour, has the
+    # corner); then the solver's point, unless the planes placed theirs exactly and the solver's lies more
+    # than a cell from it: blended normals put it there, off the surface (0.66 cells out of the rotated box
+    # of tests/test_sharp_features.py: a spike).
     from_planes = p_ok & ~prefer
-    # Where the planes' point is a corner just outside the cell, the point on the cell's own edge line: the
-    # fallback where the fan to the corner folds (the corner's own cell, or another neighbour, has it).
     line = np.where(from_planes[:, None], p_line[feature_ids], new_points)
+    drift = np.linalg.norm(solved - new_points, axis=1) > SOLVER_DRIFT * spacing.min()
+    fallback = np.where((solved_ok & ~(from_planes & drift))[:, None], solved, new_points)
     is_feature[feature_ids[~ok]] = False  # the planes meet outside the cell: keep its plain patch
-    feature_ids, cells, new_points, solved, solved_ok, at_corner, from_planes, line = (
-        feature_ids[ok], cells[ok], new_points[ok], solved[ok], solved_ok[ok], at_corner[ok], from_planes[ok],
-        line[ok])
+    feature_ids, new_points, at_corner, line, fallback = (feature_ids[ok], new_points[ok], at_corner[ok], line[ok],
+                                                          fallback[ok])
     if not len(feature_ids):
         return (*mesh, n_plain)
     # Around features the sides' own (ENO) normals, which do not blend across the edge.
@@ -698,23 +702,15 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points, stop=None):
     side_normals[needed[pure]] = plane_normals[needed[pure]]
     keep, splits = _merge_coincident(sub, patch, is_feature, feature_ids, new_points, at_corner, spacing, verts,
                                      side_normals, n_plain)
-    feature_ids, cells, new_points, solved, solved_ok, from_planes, line = (
-        feature_ids[keep], cells[keep], new_points[keep], solved[keep], solved_ok[keep], from_planes[keep],
-        line[keep])
+    feature_ids, new_points, line, fallback = feature_ids[keep], new_points[keep], line[keep], fallback[keep]
     fans, fan_patch, source = _fans(sub, patch, is_feature, feature_ids, n_plain)
     mass = _patch_mass(verts, members[feature_ids])
-    # Where the planes' point folds: their edge line's point in this cell (`line`, where that point was a
-    # corner just outside it), then the solver's point, unless the planes placed theirs exactly and the
-    # solver's lies more than a cell from it: blended normals put it there, off the surface (0.66 cells
-    # out of the rotated box of tests/test_sharp_features.py: a spike).
-    drift = np.linalg.norm(solved - new_points, axis=1) > SOLVER_DRIFT * spacing.min()
-    candidates = [new_points, line, np.where((solved_ok & ~(from_planes & drift))[:, None], solved, new_points)]
-    candidates += [new_points + t * (mass - new_points) for t in FOLD_RETREAT]
+    candidates = [new_points, line, fallback] + [new_points + t * (mass - new_points) for t in FOLD_RETREAT]
     reference = _plain_normals(verts, sub[source])  # each fan triangle's plain triangle
     new_points, found = _unfolded(candidates, fans, fan_patch, feature_ids, verts, side_normals, reference)
     if not found.all():  # every candidate folds: the plain patch
         is_feature[feature_ids[~found]] = False
-        feature_ids, cells, new_points = feature_ids[found], cells[found], new_points[found]
+        feature_ids, new_points = feature_ids[found], new_points[found]
         if not len(feature_ids):  # the plain mesh as it came (no vertex moved by kink_vertices either)
             return (*mesh, n_plain)
         fans, fan_patch, source = _fans(sub, patch, is_feature, feature_ids, n_plain)

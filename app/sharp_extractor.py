@@ -25,8 +25,7 @@ drawn mesh is uploaded).
 swapped in; it gives the same mesh (tests/test_sharp_features.py), except where a decision rests on
 a value within rounding of its threshold, which the GPU's double arithmetic can take the other way
 (thresholds that whole-number data meets exactly carry a margin: third_side_bound).  Pass 1 takes the
-positions
-`sharpen` gives it (uploading only the vertices its lists name), not the mesh buffer: `sharpen`
+positions `sharpen` gives it (uploading only the vertices its lists name), not the mesh buffer: `sharpen`
 may have moved vertices next to a kink.  Pass 0 reads the extractor's vertex buffer by index, so
 a mesh too large for one storage block of the GL (over ~4 M vertices in 128 MiB) leaves it to
 numpy; so does pass 1 if its lists would not fit.  A GPU candidate-cell pass
