@@ -5,8 +5,9 @@ indexed mesh and sized from the scans, so nothing is ever dropped):
 
 0. ``mc_row_range``, ``mc_brick_range``  once per volume: the value range of each
    brick (8 x 8 rows x 32 samples, plus the halo its cells reach), for skipping
-1. ``mc_bricks``       per brick: bricks the level cannot cut write constant signs
-                       and are skipped from here on; the rest go on an active list
+1. ``mc_bricks``       per brick: bricks the level cannot cut hold constant signs (written
+                       when they change side) and are skipped from here on; the rest go on
+                       an active list
 2. ``mc_signs``        active bricks: pack inside bits 32 per word along axis 2
 3. ``mc_classify``     active bricks: per word, vertices owned (per axis) and triangles
 4. ``mc_brick_sums``   per active brick: its totals
@@ -20,7 +21,7 @@ indexed mesh and sized from the scans, so nothing is ever dropped):
 Between passes 1 and 2, ``mc_dispatch_args`` turns the active count into the indirect
 dispatch sizes of passes 2-4, 6 and 7, so those touch only the bricks whose range
 contains the new level (pass 1 and the scans still visit every brick, cheaply).
-Scratch: 16 bytes per 32-sample word plus 20 per brick (about 0.5 byte per voxel;
+Scratch: 16 bytes per 32-sample word plus 24 per brick (about 0.5 byte per voxel;
 0.75 for a moment while the brick ranges are measured), and 4 bytes per vertex for the jobs
 (shaders/vertex_jobs.glsl says why they have a buffer of their own).  Read-backs
 per extraction: the two totals (8 bytes), which size the outputs, and after the passes
@@ -204,6 +205,8 @@ class Extractor:
         self._brick_triangle_offsets = self._storage(sizes["brick triangle offsets"])
         self._brick_ranges = self._storage(sizes["brick ranges"])
         self._active_bricks = self._storage(sizes["active bricks"])
+        self._brick_states = self._storage(sizes["brick states"])
+        self._brick_states.clear()  # 0: the sign words hold nothing known (mc_bricks.comp)
         self._dispatch_args = self._own(ctx.buffer(reserve=24))  # groups per active brick, then per 64 bricks
         self._case_table = self._own(case_table_image(ctx, self.table))
         self._scan = ExclusiveScan(ctx)
@@ -323,7 +326,7 @@ class Extractor:
     def _count(self) -> tuple[int, int]:
         """Passes 1-5: skip, pack signs, classify, brick sums, scan; returns the totals (read back)."""
         self._bind((1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets), (7, self._active_bricks),
-                   (8, self._brick_ranges), (9, self._dispatch_args))
+                   (8, self._brick_ranges), (9, self._dispatch_args), (3, self._brick_states))
         dispatch_groups(self._passes["mc_bricks"], -(-(self.brick_count + 1) // GROUP_SIZE))
         self.ctx.memory_barrier()
         dispatch_groups(self._passes["mc_dispatch_args"], 1)
@@ -446,7 +449,7 @@ class Extractor:
 
     def _scratch_buffers(self) -> tuple[moderngl.Buffer, ...]:
         return (self._brick_vertex_offsets, self._brick_triangle_offsets, self._brick_ranges, self._active_bricks,
-                self._dispatch_args)
+                self._brick_states, self._dispatch_args)
 
     def release(self) -> None:
         """Free every GL object this extractor made; safe to call twice, or on a half-built one."""

@@ -70,6 +70,7 @@ class ExtractorPlan:
         """The uint/float elements of each work buffer, the set-up's row ranges included."""
         return {"brick vertex offsets": self.brick_count + 1, "brick triangle offsets": self.brick_count + 1,
                 "brick ranges": 2 * self.brick_count, "active bricks": 1 + self.brick_count,
+                "brick states": self.brick_count,
                 "row ranges": 2 * self.word_count}
 
     def windows(self, count: int, record_bytes: int, *parallel_bytes: int) -> list[tuple[int, int]]:

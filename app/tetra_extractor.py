@@ -77,6 +77,8 @@ class TetraExtractor(Extractor):
         self._brick_vertex_offsets = self._storage(sizes["brick vertex offsets"])
         self._brick_triangle_offsets = self._storage(sizes["brick triangle offsets"])
         self._active_bricks = self._storage(sizes["active bricks"])
+        self._brick_states = self._storage(sizes["brick states"])  # of its own sign words
+        self._brick_states.clear()
         self._dispatch_args = self._own(ctx.buffer(reserve=24))
         self._case_table = self._own(case_table_image(ctx, self.table))
         self._scan = ExclusiveScan(ctx)
@@ -87,4 +89,5 @@ class TetraExtractor(Extractor):
 
     def _scratch_buffers(self):
         """Its own work buffers (the brick ranges are the source's)."""
-        return (self._brick_vertex_offsets, self._brick_triangle_offsets, self._active_bricks, self._dispatch_args)
+        return (self._brick_vertex_offsets, self._brick_triangle_offsets, self._active_bricks, self._brick_states,
+                self._dispatch_args)

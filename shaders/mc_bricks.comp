@@ -1,8 +1,11 @@
 #version 430
 // Pass 1, one invocation per brick: does the level cut this brick's value range?
-// A brick on one side writes its constant sign words here (neighbours' cells read them)
-// and zero counts; the others are appended to the active list that every later pass
-// runs over, so an iso change costs only the bricks it can touch.  Ties count as inside.
+// A brick on one side has zero counts and constant sign words (neighbours' cells read them),
+// which it writes here unless its state says they are already there: while a slider moves, most
+// bricks stay on their side, and rewriting their words was most of this pass (imageStores cost
+// llvmpipe ~2 ns a lane more than a buffer's stores).  The others are appended to the active list
+// that every later pass runs over, so an iso change costs only the bricks it can touch.  Ties
+// count as inside.
 layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
 
@@ -11,6 +14,10 @@ layout(std430, binding = 1) writeonly buffer BrickVertexCounts { uint brick_vert
 layout(std430, binding = 2) writeonly buffer BrickTriangleCounts { uint brick_triangle_counts[]; };
 layout(std430, binding = 7) buffer ActiveBricks { uint active_count; uint active_bricks[]; };
 layout(std430, binding = 8) readonly buffer BrickRanges { vec2 brick_ranges[]; };
+// What each brick's sign words hold: UNKNOWN (as allocated, or written by mc_signs.comp at some
+// level), or a side's constants.  Only this pass and mc_signs.comp (active bricks) write them.
+layout(std430, binding = 3) buffer BrickStates { uint brick_states[]; };
+const uint UNKNOWN = 0u, ALL_OUTSIDE = 1u, ALL_INSIDE = 2u;
 
 void main() {
     uint brick = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
@@ -23,10 +30,14 @@ void main() {
     bool all_inside = range.x >= u_level, all_outside = range.y < u_level;
     if (!all_inside && !all_outside) {
         active_bricks[atomicAdd(active_count, 1u)] = brick;
+        brick_states[brick] = UNKNOWN;  // mc_signs.comp writes its words
         return;
     }
     brick_vertex_counts[brick] = 0u;
     brick_triangle_counts[brick] = 0u;
+    uint state = all_inside ? ALL_INSIDE : ALL_OUTSIDE;
+    if (brick_states[brick] == state) return;
+    brick_states[brick] = state;
     ivec3 origin = brick_origin(brick);
     uint bits = all_inside ? point_bits(origin.z) : 0u;
     for (int i = origin.x; i < min(origin.x + BRICK_I, u_dims.x); ++i) {

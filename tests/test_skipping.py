@@ -59,3 +59,45 @@ def test_resident_extraction_equals_full_extraction_at_brick_bounds(gl_ctx, blob
             np.testing.assert_allclose(normals, ref_normals, atol=1e-5)
             skipped_somewhere |= 0 < ex.active_bricks < ex.brick_count
         assert skipped_somewhere  # the test exercised skipping, not only all-active bricks
+
+
+def inside_words(volume, level, descent=True):
+    """Independently: the packed inside bits of every row word, (n0, n1, words) uint32, ties inside."""
+    inside = volume >= level if descent else volume <= level
+    n0, n1, n2 = volume.shape
+    words = -(-n2 // 32)
+    padded = np.zeros((n0, n1, words * 32), bool)
+    padded[:, :, :n2] = inside
+    weights = (1 << np.arange(32, dtype=np.uint64))
+    return (padded.reshape(n0, n1, words, 32) * weights).sum(-1).astype(np.uint32)
+
+
+def sign_words(ex):
+    """The extractor's sign-word image, word by word in grid order."""
+    n0, n1, n2 = ex.shape
+    count = n0 * n1 * -(-n2 // 32)
+    return np.frombuffer(ex._sign_words.read(), np.uint32)[:count].reshape(n0, n1, -1)
+
+
+@pytest.mark.parametrize("direction", ["descent", "ascent"])
+def test_every_sign_word_is_right_after_bricks_change_sides(gl_ctx, blobs, direction):
+    """Skipped bricks keep their constant sign words from one extraction to the next and write them
+    only when they change side (mc_bricks.comp's brick states): after each level of a sequence that
+    repeats levels, jumps a brick straight from one side to the other and back, and takes in a new
+    volume of the same shape, every word, skipped or not, holds the volume's inside bits."""
+    descent = direction == "descent"
+    lo, hi = float(blobs.min()), float(blobs.max())
+    other = np.ascontiguousarray(blobs[::-1, :, ::-1])  # the same shape and range, other bricks busy
+    with Extractor(blobs, ctx=gl_ctx, gradient_direction=direction) as ex:
+        current = blobs
+        for volume, level in [(blobs, 0.5), (blobs, 0.5), (blobs, hi), (blobs, lo), (blobs, hi), (blobs, 0.3),
+                              (other, 0.3), (other, lo), (other, 0.6), (blobs, 0.6)]:
+            if volume is not current:
+                ex.reload(volume, gradient_direction=direction)
+                current = volume
+            ex.extract(level)
+            np.testing.assert_array_equal(sign_words(ex), inside_words(volume, level, descent))
+            ref_verts, ref_faces, _, _ = marching_cubes_reference(volume, level, descent=descent)
+            verts, faces, _, _ = ex.read_mesh()
+            np.testing.assert_array_equal(faces, ref_faces)
+            np.testing.assert_allclose(verts, ref_verts, atol=1e-5)
