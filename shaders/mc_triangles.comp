@@ -50,22 +50,41 @@ OwnerStarts owner_starts(ivec3 word, bool need_next) {
     return s;
 }
 
-// Index of the vertex on cell edge `edge` (see app/case_table.py) of cell k of the word.
-uint vertex_index(CellRows rows, OwnerStarts starts, uint k, uint edge) {
-    uint axis = edge >> 2, low = edge & 3u;
-    // The owner's offset from the cell's corner 0 along the two axes other than `axis`.
-    uint d0 = axis == 0u ? 0u : low & 1u;
-    uint d1 = axis == 0u ? low & 1u : axis == 1u ? 0u : low >> 1;
-    uint d2 = axis == 2u ? 0u : low >> 1;
-    uint row = d0 | (d1 << 1);  // the owner's sign row among the four around the cells
-    uint bit = k + d2;
-    if (bit == uint(WORD_BITS)) return pick(axis == 0u ? starts.next0 : starts.next1, row);
-    uint here = pick(rows.at_k, row);
-    uint crossing = axis == 0u ? here ^ pick(rows.at_k, row | 1u)
-                  : axis == 1u ? here ^ pick(rows.at_k, row | 2u)
-                               : here ^ (here >> 1);  // bits below `bit` never need the next word
-    uint start = pick(axis == 0u ? starts.along0 : axis == 1u ? starts.along1 : starts.along2, row);
-    return start + uint(bitCount(crossing & ((1u << bit) - 1u)));
+// The word's crossing masks per owner row (app/case_table.py: edge = axis * 4 + low; low's bits are
+// the owner's offsets along the other two axes, the lower axis first): along axis 0 rows 0 and 2,
+// along axis 1 rows 0 and 1 (edges 0, 1 and 4, 5 start at the cell's k; 2, 3 and 6, 7 at k + 1),
+// along axis 2 the four rows (edges 8-11).
+struct EdgeLines { uvec4 crossing01; uvec4 crossing2; uvec4 start01; };
+
+EdgeLines edge_lines(CellRows rows, OwnerStarts starts) {
+    uvec4 r = rows.at_k;
+    EdgeLines e;
+    e.crossing01 = uvec4(r.x ^ r.y, r.z ^ r.w, r.x ^ r.z, r.y ^ r.w);
+    e.crossing2 = r ^ (r >> 1);  // bits below a cell's k never need the next word
+    e.start01 = uvec4(starts.along0.xz, starts.along1.xy);
+    return e;
+}
+
+// Indices of the vertices on the 12 edges of cell k (edge e in component e & 3 of vector e >> 2):
+// each is its owner's first vertex along the axis plus the crossings before it in the owner's row.
+// Edges at k + 1 of the word's last cell belong to the next word.
+struct CellVertices { uvec4 e0; uvec4 e1; uvec4 e2; };
+
+CellVertices cell_vertices(EdgeLines lines, OwnerStarts starts, uint k) {
+    uint below = (1u << k) - 1u;
+    uvec4 at_k = lines.start01 + uvec4(bitCount(lines.crossing01 & below));  // edges 0, 1, 4, 5
+    uvec4 at_k1 = at_k + ((lines.crossing01 >> k) & 1u);  // edges 2, 3, 6, 7
+    if (k == uint(WORD_BITS - 1)) at_k1 = uvec4(starts.next0.xz, starts.next1.xy);
+    CellVertices v;
+    v.e0 = uvec4(at_k.xy, at_k1.xy);
+    v.e1 = uvec4(at_k.zw, at_k1.zw);
+    v.e2 = starts.along2 + uvec4(bitCount(lines.crossing2 & uvec4(below)));
+    return v;
+}
+
+uint edge_vertex_index(CellVertices v, uint edge) {
+    uvec4 four = edge < 4u ? v.e0 : edge < 8u ? v.e1 : v.e2;
+    return pick(four, edge & 3u);
 }
 
 // Name each vertex the word owns in its slot, one iteration per vertex, axis by axis.
@@ -112,7 +131,9 @@ void main() {
     OwnerStarts starts = owner_starts(word, (cells >> uint(WORD_BITS - 1)) != 0u);
     // One iteration per triangle (not nested loops over cells and their triangles): SIMD lanes
     // working on different words then stay in step for as long as each has triangles left.
+    EdgeLines lines = edge_lines(rows, starts);
     uint k = 0u, c = 0u, slot = 0u, cell_triangles = 0u;
+    CellVertices v;
     for (; next < end; ++next) {
         if (slot == cell_triangles) {
             k = uint(findLSB(cells));
@@ -120,12 +141,13 @@ void main() {
             c = cell_case(rows, k);
             cell_triangles = triangle_count(c);
             slot = 0u;
+            v = cell_vertices(lines, starts, k);
         }
         uint edges = triangle_edges(c, slot++);
         uint at = next - u_triangle_window.x;
         if (at >= u_triangle_window.y) continue;
-        indices[3u * at + 0u] = vertex_index(rows, starts, k, edges & 15u);
-        indices[3u * at + 1u] = vertex_index(rows, starts, k, (edges >> 4) & 15u);
-        indices[3u * at + 2u] = vertex_index(rows, starts, k, (edges >> 8) & 15u);
+        indices[3u * at + 0u] = edge_vertex_index(v, edges & 15u);
+        indices[3u * at + 1u] = edge_vertex_index(v, (edges >> 4) & 15u);
+        indices[3u * at + 2u] = edge_vertex_index(v, (edges >> 8) & 15u);
     }
 }
