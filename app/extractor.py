@@ -48,6 +48,7 @@ from .gpu_layout import (
     VERTEX_BYTES,
     WORD_BITS,
     divisor_magic,
+    job_coordinate_bits,
     volume_texel_format,
 )
 from .gpu_limits import GPULimitError, GpuLimits, plan_extractor
@@ -118,6 +119,8 @@ class Extractor:
         self.volume_defines = {"VOLUME_FORMAT": volume_format, "VOLUME_IMAGE": volume_image}  # for other passes
         defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u",  # the layout's come with every program
                    "CASE_TABLE_SHIFT": f"{CASE_TABLE_SHIFT}u", **self.volume_defines}
+        if self._job_bits is not None:  # vertex jobs hold their sample's coordinates (mc_common.glsl)
+            defines["JOB_COORDINATES"] = 1
         self._passes = {name: compute_program(self.ctx, f"{name}.comp", defines) for name in PASSES}
 
         self.n_vertices = 0
@@ -145,6 +148,9 @@ class Extractor:
             u_brick_count=self.plan.brick_count, u_spacing=self.spacing, u_word_shift=self.plan.word_shift,
             u_div_words=divisor_magic(self.plan.words_per_row), u_div_rows=divisor_magic(self.shape[1]),
             u_div_bricks_j=divisor_magic(self.plan.bricks[1]))
+        self._job_bits = job_coordinate_bits(self.shape)
+        if self._job_bits is not None:
+            self._grid_uniforms["u_job_bits"] = self._job_bits
 
     def fits(self, volume) -> bool:
         """Whether `reload` can take `volume` (an array or a CheckedVolume): the same shape, and samples

@@ -48,7 +48,19 @@ MAX_WORD_IMAGE_SHIFT = 12
 """Per-word images are at most 2^12 = 4096 texels wide."""
 
 MAX_WORDS = 1 << 25
-"""A vertex job packs its word id into the top 25 bits of a uint (word << 7 | axis << 5 | bit)."""
+"""A vertex job of a grid too large for job_coordinate_bits packs its word id into the top 25 bits of a
+uint (word << 7 | axis << 5 | bit)."""
+
+JOB_BITS = 32
+"""Bits of a marching-cubes vertex job (mc_common.glsl)."""
+
+
+def job_coordinate_bits(shape) -> tuple[int, int] | None:
+    """The bits of j and of k when a vertex job can hold its edge's start sample (i, j, k) and axis
+    (2 bits) in JOB_BITS, for a grid of `shape`; None when it cannot (the job then holds the
+    owning word's id, which the vertex pass decodes with two divisions instead of shifts)."""
+    bits = [max(1, (int(n) - 1).bit_length()) for n in shape]
+    return (bits[1], bits[2]) if sum(bits) + 2 <= JOB_BITS else None
 
 # --- work-group sizes ------------------------------------------------------------------------------
 GROUP_SIZE = 64

@@ -70,15 +70,33 @@ ivec3 brick_origin(uint brick) {
                  int(brick - column * uint(u_words)));
 }
 
-// A vertex job, left by mc_triangles.comp for mc_vertices.comp (vertex_jobs.glsl): the owning
-// word's id, the edge's axis and the bit of its start sample, in one uint (word id << 7 | axis << 5
-// | bit: 5 bits for a bit of WORD_BITS = 32, so at most 2^25 words, gpu_layout.MAX_WORDS).
-uint vertex_job(uint word_id, uint axis, uint bit) { return (word_id << 7) | (axis << 5) | bit; }
-ivec3 job_start(uint job) {  // the edge's start sample
+// A vertex job, left by mc_triangles.comp for mc_vertices.comp (vertex_jobs.glsl): the edge's start
+// sample (i, j, k) and axis in one uint, ((i << bits of j | j) << bits of k | k) << 2 | axis, decoded
+// by shifts (app/gpu_layout.job_coordinate_bits: u_job_bits = the bits of j and of k).  A grid too
+// large for that (JOB_COORDINATES undefined) packs the owning word's id, the axis and the bit of the
+// start sample instead (word id << 7 | axis << 5 | bit: at most 2^25 words, gpu_layout.MAX_WORDS),
+// which costs two divisions to decode: a fifth of the vertex pass on the MNI T1.
+#ifdef JOB_COORDINATES
+uniform uvec2 u_job_bits;
+// The jobs of word (i, j, w) (grid id word_id) are job_base(...) | vertex_job_bits(axis, bit).
+uint job_base(ivec3 word, uint word_id) {
+    return ((((uint(word.x) << u_job_bits.x) | uint(word.y)) << u_job_bits.y) | uint(WORD_BITS * word.z)) << 2;
+}
+uint vertex_job_bits(uint axis, uint bit) { return (bit << 2) | axis; }
+ivec3 job_start(uint job) {
+    uint ij = job >> (2u + u_job_bits.y);
+    return ivec3(ij >> u_job_bits.x, ij & ((1u << u_job_bits.x) - 1u), (job >> 2) & ((1u << u_job_bits.y) - 1u));
+}
+int job_axis(uint job) { return int(job & 3u); }
+#else
+uint job_base(ivec3 word, uint word_id) { return word_id << 7; }
+uint vertex_job_bits(uint axis, uint bit) { return (axis << 5) | bit; }
+ivec3 job_start(uint job) {
     ivec3 word = word_of_id(job >> 7);
     return ivec3(word.xy, word.z * WORD_BITS + int(job & uint(WORD_BITS - 1)));
 }
 int job_axis(uint job) { return int((job >> 5) & 3u); }
+#endif
 
 // The texel of word `id` in a per-word image.
 ivec2 word_texel(uint id) { return ivec2(id & ((1u << u_word_shift) - 1u), id >> u_word_shift); }

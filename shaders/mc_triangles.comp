@@ -88,7 +88,7 @@ uint edge_vertex_index(CellVertices v, uint edge) {
 }
 
 // Name each vertex the word owns in its slot, one iteration per vertex, axis by axis.
-void write_vertex_jobs(uint id, uint next, uint count, uvec3 crossing) {
+void write_vertex_jobs(uint base, uint next, uint count, uvec3 crossing) {
     uint end = next + count;
     uint axis = 0u, bits = crossing.x;
     for (; next < end; ++next) {
@@ -98,7 +98,7 @@ void write_vertex_jobs(uint id, uint next, uint count, uvec3 crossing) {
         }
         uint b = uint(findLSB(bits));
         bits &= bits - 1u;
-        vertex_jobs[next - u_job_first] = vertex_job(id, axis, b);
+        vertex_jobs[next - u_job_first] = base | vertex_job_bits(axis, b);
     }
 }
 
@@ -116,13 +116,13 @@ void main() {
     uvec2 first = imageLoad(u_word_offsets, word_texel(id)).xy;
     bool jobs = writes_jobs(first.y) && vertex_total(counts) > 0u;  // a word with nothing leaves below
     if (!has_cells(word.x, word.y)) {  // the grid's last rows: edges but no cells
-        if (jobs) write_vertex_jobs(id, first.x, vertex_total(counts), crossing_masks(word.x, word.y, word.z));
+        if (jobs) write_vertex_jobs(job_base(word, id), first.x, vertex_total(counts), crossing_masks(word.x, word.y, word.z));
         return;
     }
     bool triangles = meets_triangle_window(first.y, triangle_total(counts));
     if (!jobs && !triangles) return;  // nothing for this run: an empty word, or another window's
     CellRows rows = cell_rows(word.x, word.y, word.z);
-    if (jobs) write_vertex_jobs(id, first.x, vertex_total(counts), crossing_from_rows(rows, word.z));
+    if (jobs) write_vertex_jobs(job_base(word, id), first.x, vertex_total(counts), crossing_from_rows(rows, word.z));
     if (!triangles) return;
 
     uint next = first.y;

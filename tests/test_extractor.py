@@ -130,3 +130,29 @@ def test_scratch_stays_under_one_byte_per_voxel(gl_ctx, shape):
         jobs = ex.job_bytes()
         assert ex.scratch_bytes() - jobs < volume.size, (ex.scratch_bytes() - jobs) / volume.size
         assert 4 * ex.n_vertices <= jobs <= 4 * 1.5 * ex.n_vertices
+
+
+def test_vertex_jobs_hold_coordinates_where_they_fit_in_32_bits():
+    from isoscope.gpu_layout import job_coordinate_bits
+    assert job_coordinate_bits((197, 233, 189)) == (8, 8)  # 8 + 8 + 8 bits of i, j, k and 2 of the axis
+    assert job_coordinate_bits((2, 2, 2)) == (1, 1)
+    assert job_coordinate_bits((1024, 1024, 1024)) == (10, 10)  # 32 bits exactly
+    assert job_coordinate_bits((1025, 1024, 1024)) is None  # 33: the word-id encoding instead
+
+
+@pytest.mark.parametrize("shape", [(17, 5, 33), (6, 70, 97)])
+def test_word_id_vertex_jobs_give_the_same_mesh(gl_ctx, monkeypatch, shape):
+    """The encoding for grids too large for coordinates in a job (mc_common.glsl), forced on a small one."""
+    import isoscope.extractor as extractor_module
+    volume = RNG.normal(size=shape).astype(np.float32)
+    with Extractor(volume, ctx=gl_ctx) as packed:
+        packed.extract(0.1)
+        expected = [a.copy() for a in packed.read_mesh()]
+        assert packed._job_bits is not None
+    monkeypatch.setattr(extractor_module, "job_coordinate_bits", lambda shape: None)
+    with Extractor(volume, ctx=gl_ctx) as by_word:
+        assert by_word._job_bits is None
+        by_word.extract(0.1)
+        for a, b in zip(expected, by_word.read_mesh()):
+            assert a.tobytes() == b.tobytes()
+    assert_same_mesh(expected, marching_cubes_reference(volume, 0.1))
