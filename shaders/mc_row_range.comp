@@ -1,6 +1,10 @@
 #version 430
 // Once per volume, step 1 of 2: the value range of each word's row segment, samples
 // 32w .. 32w+32 (one more than the word: its cells and axis-2 edges reach it).
+// A fixed number of texel loads per word (the row's last texels clamped to the one holding its
+// last sample, whose samples past it are masked), with the minima and maxima kept per component
+// and folded once at the end: the loop that stopped at each word's own end and folded every
+// texel took 9.6 ms on a 256^3 float32 volume.
 layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
 
@@ -11,14 +15,15 @@ void main() {
     uint id = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
     if (id >= u_word_count) return;
     ivec3 word = word_of_id(id);
-    vec2 range = vec2(1.0 / 0.0, -1.0 / 0.0);
     int last = min(WORD_BITS * (word.z + 1), u_dims.z - 1);
-    for (int q = QUADS_PER_WORD * word.z; SAMPLES_PER_TEXEL * q <= last; ++q) {  // those past `last` are skipped
+    int last_quad = last / SAMPLES_PER_TEXEL;
+    vec4 lo = vec4(1.0 / 0.0), hi = vec4(-1.0 / 0.0);
+    for (int t = 0; t <= QUADS_PER_WORD; ++t) {  // the word's texels, then the next word's first
+        int q = min(QUADS_PER_WORD * word.z + t, last_quad);
         vec4 v = quad_at(word.x, word.y, q);
         bvec4 wanted = lessThanEqual(ivec4(SAMPLES_PER_TEXEL * q) + ivec4(0, 1, 2, 3), ivec4(last));
-        vec4 lo = mix(vec4(1.0 / 0.0), v, wanted), hi = mix(vec4(-1.0 / 0.0), v, wanted);
-        range = vec2(min(range.x, min(min(lo.x, lo.y), min(lo.z, lo.w))),
-                     max(range.y, max(max(hi.x, hi.y), max(hi.z, hi.w))));
+        lo = min(lo, mix(vec4(1.0 / 0.0), v, wanted));
+        hi = max(hi, mix(vec4(-1.0 / 0.0), v, wanted));
     }
-    row_ranges[id] = range;
+    row_ranges[id] = vec2(min(min(lo.x, lo.y), min(lo.z, lo.w)), max(max(hi.x, hi.y), max(hi.z, hi.w)));
 }
