@@ -81,11 +81,13 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
             raise ValueError("smooth= and sharp_features= work on a whole-volume mesh, not a chunked one; "
                              "drop chunks, or drop those")
         return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks)
-    checked = validation.check_volume(volume)
+    step = validation.as_step_size(step_size)
+    # The plain GPU mesh leaves the value scan to the upload (check_volume's scan_values).
+    checked = validation.check_volume(volume, scan_values=backend == "cpu" or angle is not None or step > 1)
     spacing = validation.as_spacing(spacing)
     descent = validation.as_gradient_direction(gradient_direction)
-    level = validation.as_level(level, checked.value_range)
-    step = validation.as_step_size(step_size)
+    if checked.value_range is not None:
+        level = validation.as_level(level, checked.value_range)
     mask = check_mask(mask, checked.data.shape)
     if step > 1:
         checked = validation.subsampled(checked, step)
@@ -128,13 +130,14 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     """
     iterations = check_iterations(smooth)
     backend = _backend(backend, TETRA_BACKENDS)
-    checked = validation.check_volume(volume)
+    checked = validation.check_volume(volume, scan_values=backend == "cpu")  # else scanned on upload
     mask = check_mask(mask, checked.data.shape)
     if mask is not None and iterations:
         raise ValueError("mask= keeps cells of the plain mesh; it cannot be combined with smooth=")
     spacing = validation.as_spacing(spacing)
     descent = validation.as_gradient_direction(gradient_direction)
-    level = validation.as_level(level, checked.value_range)
+    if checked.value_range is not None:
+        level = validation.as_level(level, checked.value_range)
     if backend == "cpu":
         mesh = _on_cpu(marching_tetrahedra_reference, checked, level, spacing, descent, iterations)
     else:
@@ -155,22 +158,35 @@ def _on_cpu(reference, checked, level, spacing, descent, iterations):
 def _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra):
     """Upload, extract (cubes, or tetrahedra from the same resident volume), smooth, read back."""
     from .extractor_pool import pooled_extractor
+    bad_level = None
+    with pooled_extractor(checked, spacing, gradient_direction) as cubes:
+        if checked.value_range is None:  # its values were scanned on upload
+            try:
+                level = validation.as_level(level, cubes.value_range)
+            except ValueError as exc:
+                bad_level = exc  # raised once the extractor is back in the pool, intact
+        if bad_level is None:
+            return _extract_and_read(cubes, level, iterations, tetrahedra)
+    raise bad_level
+
+
+def _extract_and_read(cubes, level, iterations, tetrahedra):
+    """Extract at `level` from the resident volume of `cubes` (or from a TetraExtractor on it), smooth, read back."""
     from .smoothing import Smoother
     from .tetra_extractor import TetraExtractor
-    with pooled_extractor(checked, spacing, gradient_direction) as cubes:
-        extractor = TetraExtractor(cubes) if tetrahedra else cubes
-        smoother = None
-        try:
-            extractor.extract(level)
-            if iterations:
-                smoother = Smoother(extractor)
-                smoother.smooth(extractor.mesh, iterations)
-            return extractor.read_mesh()
-        finally:
-            if smoother is not None:
-                smoother.release()
-            if tetrahedra:
-                extractor.release()
+    extractor = TetraExtractor(cubes) if tetrahedra else cubes
+    smoother = None
+    try:
+        extractor.extract(level)
+        if iterations:
+            smoother = Smoother(extractor)
+            smoother.smooth(extractor.mesh, iterations)
+        return extractor.read_mesh()
+    finally:
+        if smoother is not None:
+            smoother.release()
+        if tetrahedra:
+            extractor.release()
 
 
 def _backend(backend: str, allowed=BACKENDS) -> str:

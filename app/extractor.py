@@ -135,6 +135,7 @@ class Extractor:
         try:
             self._allocate(checked.data)
             self._measure_brick_ranges()
+            self.value_range = self._value_range(checked)
         except BaseException:
             self.release()
             raise
@@ -176,6 +177,7 @@ class Extractor:
         self._set_grid_uniforms()
         write_volume(self._volume, checked.data, self.plan)
         self._measure_brick_ranges()
+        self.value_range = self._value_range(checked)
 
     @property
     def brick_count(self) -> int:
@@ -212,6 +214,7 @@ class Extractor:
         self._brick_ranges = self._storage(sizes["brick ranges"])
         self._active_bricks = self._storage(sizes["active bricks"])
         self._brick_states = self._storage(sizes["brick states"])
+        self._non_finite = self._storage(1)  # set by mc_row_range.comp: a NaN or infinite sample
         self._brick_states.clear()  # 0: the sign words hold nothing known (mc_bricks.comp)
         self._dispatch_args = self._own(ctx.buffer(reserve=24))  # groups per active brick, then per 64 bricks
         self._case_table = self._own(case_table_image(ctx, self.table))
@@ -286,18 +289,31 @@ class Extractor:
     def _measure_brick_ranges(self) -> None:
         """Each brick's value range, via each word's row range (a buffer freed afterwards)."""
         word_count = self.plan.word_count
-        self._set_common_uniforms(self.value_range[0])
+        self._set_common_uniforms(0.0)
         set_uniforms(self._passes["mc_row_range"], u_word_count=word_count)
         self._bind_images()
         row_ranges = self.ctx.buffer(reserve=self.plan.storage_elements()["row ranges"] * 4)
+        self._non_finite.clear()
         try:
-            self._bind((8, row_ranges), (9, self._brick_ranges))
+            self._bind((8, row_ranges), (9, self._brick_ranges), (7, self._non_finite))
             dispatch_groups(self._passes["mc_row_range"], -(-word_count // GROUP_SIZE))
             self.ctx.memory_barrier()
             dispatch_groups(self._passes["mc_brick_range"], -(-self.brick_count // GROUP_SIZE))
             self.ctx.memory_barrier()
         finally:
             row_ranges.release()
+
+    def _value_range(self, checked) -> tuple[float, float]:
+        """`checked`'s value range: its own, or for a volume whose values were not scanned
+        (validation.check_volume(scan_values=False)) the brick ranges' union, after the row-range
+        pass found no NaN or infinite sample; where it found one, check_volume's error."""
+        if checked.value_range is not None:
+            return checked.value_range
+        if np.frombuffer(self._non_finite.read(4), np.uint32)[0]:
+            checked = validation.check_volume(checked.data)  # raises, naming the first bad sample
+            return checked.value_range
+        ranges = np.frombuffer(self._brick_ranges.read(8 * self.brick_count), np.float32).reshape(-1, 2)
+        return float(ranges[:, 0].min()), float(ranges[:, 1].max())
 
     def _run_over_active_bricks(self, name: str, per_brick: bool = False) -> None:
         """A work group per active brick (an invocation per word), or an invocation per active brick."""

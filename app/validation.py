@@ -27,9 +27,14 @@ class CheckedVolume:
     finite, at least 2 long on every axis, and within float32's range; its dtype is otherwise
     kept (integers stay integers).  The extractors take one as it is, without scanning again.
     A lazy array (Zarr: see lazy_arrays) is checked block by block and kept lazy; chunked.py reads it.
+
+    `value_range` is None for a volume made by `check_volume(..., scan_values=False)`: its shape
+    and type passed, its values are not scanned yet.  Only an `Extractor` takes such a volume:
+    its upload pass scans them (measuring the brick ranges it needs anyway), and it raises
+    check_volume's own error for a non-finite sample.
     """
     data: np.ndarray
-    value_range: tuple[float, float]
+    value_range: tuple[float, float] | None
     notes: tuple[str, ...] = ()
 
 
@@ -53,17 +58,26 @@ def _at_index(index) -> str:
     return f"at index {tuple(int(i) for i in index)}; replace them (e.g. np.nan_to_num) first"
 
 
+GPU_SCANNED_DTYPES = ("float32", "uint8", "int8", "uint16", "int16")
+"""Sample types the GPU holds exactly (gpu_layout.VOLUME_TEXEL_FORMATS), so that its scan of the
+values finds the same range as numpy's."""
+
+
 def check_volume(volume, what: str = "volume", *, progress: Progress | None = None,
-                 where: Callable[[tuple], str] | None = None) -> CheckedVolume:
+                 where: Callable[[tuple], str] | None = None, scan_values: bool = True) -> CheckedVolume:
     """The one check every volume passes, from a user's array or a file: shape, dtype, values.
 
     Values are scanned once, a slab of planes at a time.  `what` names the volume in messages;
-    `where` words the first bad sample's place and the fix.
+    `where` words the first bad sample's place and the fix.  scan_values=False leaves the values of
+    an in-memory array of a GPU_SCANNED_DTYPES type to the Extractor that uploads it (value_range
+    None): one pass over the samples fewer in a one-shot GPU call (9 ms of a 256^3 float32 one).
     """
     if isinstance(volume, CheckedVolume):
         return volume
     where = where or _at_index
     data, notes = _numeric_3d(volume, what)
+    if not scan_values and not is_lazy(data) and str(data.dtype) in GPU_SCANNED_DTYPES:
+        return CheckedVolume(data, None, tuple(notes))
     lo, hi = np.inf, -np.inf
     step = max(1, CHECK_SLAB_BYTES // max(1, data.shape[1] * data.shape[2] * data.dtype.itemsize))
     for start in range(0, data.shape[0], step):

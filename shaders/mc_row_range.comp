@@ -10,6 +10,9 @@ layout(local_size_x = GROUP_SIZE) in;
 
 uniform uint u_word_count;
 layout(std430, binding = 8) writeonly buffer RowRanges { vec2 row_ranges[]; };
+// Set where a sample is NaN or infinite: a volume whose values nothing else scanned
+// (app/extractor.py's _value_range; the ranges are then meaningless).
+layout(std430, binding = 7) buffer NonFinite { uint non_finite; };
 
 void main() {
     uint id = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
@@ -18,12 +21,15 @@ void main() {
     int last = min(WORD_BITS * (word.z + 1), u_dims.z - 1);
     int last_quad = last / SAMPLES_PER_TEXEL;
     vec4 lo = vec4(1.0 / 0.0), hi = vec4(-1.0 / 0.0);
+    bvec4 bad = bvec4(false);
     for (int t = 0; t <= QUADS_PER_WORD; ++t) {  // the word's texels, then the next word's first
         int q = min(QUADS_PER_WORD * word.z + t, last_quad);
         vec4 v = quad_at(word.x, word.y, q);
+        bad = bvec4(uvec4(bad) | uvec4(isnan(v)) | uvec4(isinf(v)));  // padding past the row is 0
         bvec4 wanted = lessThanEqual(ivec4(SAMPLES_PER_TEXEL * q) + ivec4(0, 1, 2, 3), ivec4(last));
         lo = min(lo, mix(vec4(1.0 / 0.0), v, wanted));
         hi = max(hi, mix(vec4(-1.0 / 0.0), v, wanted));
     }
+    if (any(bad)) non_finite = 1u;
     row_ranges[id] = vec2(min(min(lo.x, lo.y), min(lo.z, lo.w)), max(max(hi.x, hi.y), max(hi.z, hi.w)));
 }

@@ -118,3 +118,59 @@ def test_reload_refuses_a_volume_that_does_not_fit_and_keeps_the_old_one(gl_ctx)
         extractor.extract(0.0)
         assert_same_mesh(extractor.read_mesh(),
                          isoscope.marching_cubes(wider.astype(np.float32), 0.0, spacing=(2, 1, 1), backend="cpu"))
+
+
+# -- values scanned on upload (check_volume(scan_values=False), Extractor._value_range) ----------------
+
+@pytest.mark.parametrize("dtype", ["float32", "uint8", "int8", "uint16", "int16"])
+def test_the_upload_scan_finds_numpys_value_range(gl_ctx, dtype):
+    rng = np.random.default_rng(11)
+    info = np.iinfo(dtype) if dtype != "float32" else None
+    for shape in ((5, 7, 70), (2, 2, 2), (9, 33, 129)):  # partial texels and words, one texel, several words
+        if info is None:
+            volume = (rng.normal(size=shape) * 1e3).astype(dtype)
+        else:
+            volume = rng.integers(info.min, info.max, size=shape, endpoint=True).astype(dtype)
+        unscanned = check_volume(volume, scan_values=False)
+        assert unscanned.value_range is None
+        with Extractor(unscanned, ctx=gl_ctx) as ex:
+            assert ex.value_range == (float(volume.min()), float(volume.max()))
+
+
+def test_volumes_the_gpu_does_not_hold_exactly_are_still_scanned_by_numpy():
+    for volume in (np.zeros((4, 4, 4), np.float64), np.zeros((4, 4, 4), np.int32)):
+        assert check_volume(volume, scan_values=False).value_range == (0.0, 0.0)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_a_non_finite_sample_found_on_upload_gets_the_scans_own_error(bad):
+    volume = ball(24, 0.5)
+    volume[3, 17, 22] = bad
+    with pytest.raises(ValueError) as cpu:
+        isoscope.marching_cubes(volume, 0.0, backend="cpu")
+    for call in (lambda: isoscope.marching_cubes(volume, 0.0, backend="gpu"),
+                 lambda: isoscope.marching_tetrahedra(volume, 0.0, backend="gpu")):
+        with pytest.raises(ValueError) as gpu:
+            call()
+        assert str(gpu.value) == str(cpu.value)
+        assert "at index (3, 17, 22)" in str(gpu.value)
+    good = ball(24, 0.5)  # the same shape: the next call starts afresh and is right
+    assert_same_mesh(*both(good, 0.0))
+
+
+def test_a_level_outside_the_scanned_range_is_refused_and_the_extractor_kept():
+    volume = ball(20, 0.5)
+    isoscope.marching_cubes(volume, 0.0, backend="gpu")
+    kept, first = extractor_pool.stats()["kept_bytes"], reused()
+    with pytest.raises(ValueError, match="outside the data range"):
+        isoscope.marching_cubes(volume, 5.0, backend="gpu")
+    assert extractor_pool.stats()["kept_bytes"] == kept > 0
+    assert_same_mesh(*both(volume, 0.0))
+    assert reused() == first + 2
+
+
+def test_the_default_level_is_the_middle_of_the_scanned_range():
+    volume = (ball(21, 0.4) * 100).astype(np.int16)
+    gpu, cpu = both(volume, None)
+    assert_same_mesh(gpu, cpu)
+    assert len(gpu[0]) > 0
