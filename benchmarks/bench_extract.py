@@ -211,21 +211,33 @@ def timed(fn, *args):
     return (time.perf_counter() - start) * 1000.0, result
 
 
+SETTLE_SECONDS = 0.5
+"""Untimed runs go on for at least this long (when there are any), for every runner alike: on this
+2-vCPU VM our resident extractor's first ~8-10 extractions ran up to 1.8x slower than later ones
+(~0.1-0.4 s; the MNI T1 @ 60, the first case of a run, read 10.2 ms against a steady 6.9)."""
+
+
 def alternate(run, levels, start, untimed, repeats, after_timed=None):
-    """Runs run(level) -> triangles at a, b, a, ... (from levels["ab"[start]]): `untimed` runs, then
-    `repeats` timed ones, so every run follows one at the other level, like a slider drag.
+    """Runs run(level) -> triangles at a, b, a, ... (from levels["ab"[start]]): `untimed` runs (and
+    more until SETTLE_SECONDS have passed), then `repeats` timed ones, so every run follows one at
+    the other level, like a slider drag.
 
     The untimed runs let the allocator settle: here the first two or three runs at a new size
     in a process are up to 1.5x slower for every library alike (fresh pages for fresh outputs).
     """
     triangles, samples = {}, []
-    for i in range(untimed + repeats):
+    settled_at = time.perf_counter() + SETTLE_SECONDS
+    done = 0
+    while done < untimed or (untimed and time.perf_counter() < settled_at):
+        which = "ab"[(start + done) % 2]
+        _, triangles[which] = timed(run, levels[which])
+        done += 1
+    for i in range(done, done + repeats):
         which = "ab"[(start + i) % 2]
         ms, triangles[which] = timed(run, levels[which])
-        if i >= untimed:
-            samples.append(ms)
-            if after_timed:
-                after_timed()
+        samples.append(ms)
+        if after_timed:
+            after_timed()
     return summary(samples), triangles
 
 
@@ -303,6 +315,10 @@ def bench_peer(peer, volume, gd, levels, repeats, untimed):
 
 def warm_up(peers) -> str:
     """Create the GL context, compile the shaders and load every peer's code, on a tiny volume."""
+    busy = np.random.default_rng(0).random((600, 600))
+    until = time.perf_counter() + 1.0
+    while time.perf_counter() < until:  # both cores busy for a second: this VM ramps idle vCPUs up slowly
+        busy @ busy
     tiny = VOLUMES["sphere"][0](12)
     levels = {"a": 0.0, "b": 0.05}
     bench_ours_first(tiny, "ascent", 0.0, 1, "gpu", 1)
@@ -388,10 +404,31 @@ def run_cases(spec, peers, args) -> list[dict]:
         volume = volume.astype(np.float32)
     lo, hi = float(volume.min()), float(volume.max())
     levels = spec["levels"] or [lo + f * (hi - lo) for f in spec["fractions"]]
-    cases = [run_case(volume, spec, level, peers, args) for level in levels]
+    cases = [merge_rounds([run_case(volume, spec, level, peers, args) for _ in range(args.rounds)])
+             for level in levels]
     del volume
     gc.collect()
     return cases
+
+
+def merge_rounds(rounds: list[dict]) -> dict:
+    """One case from several rounds of it (--rounds): each runner's timed samples from every round,
+    their median and minimum; counts and checks from the first round.  Rounds interleave the
+    runners, so a slow spell of the machine (here 0.2-0.5 s at up to 1.8x) falls on some rounds of
+    each rather than on all of one runner's samples."""
+    case = rounds[0]
+    for later in rounds[1:]:
+        for group in ("ours", "peers"):
+            for key, result in case[group].items():
+                other = later[group].get(key, {})
+                if "samples_ms" in result and "samples_ms" in other:
+                    result["samples_ms"] = result["samples_ms"] + other["samples_ms"]
+    for group in ("ours", "peers"):
+        for result in case[group].values():
+            if "samples_ms" in result:
+                result.update(summary(result["samples_ms"]))
+    case["rounds"] = len(rounds)
+    return case
 
 
 def run_case(volume, spec, level, peers, args) -> dict:
@@ -601,6 +638,9 @@ def parse_args(argv=None):
     parser.add_argument("--warmup", type=int, default=2,
                         help="untimed runs before the timed ones, per runner and volume (default 2; "
                              "the numpy reference gets none)")
+    parser.add_argument("--rounds", type=int, default=1,
+                        help="measure each case this many times over, every runner in turn, and pool "
+                             "each runner's samples (default 1; 3 or more on a noisy machine)")
     parser.add_argument("--float32", action="store_true",
                         help="give every runner the real scans and files as float32 (default: their file's dtype)")
     parser.add_argument("--no-cpu", action="store_true", help="skip our numpy reference")
@@ -623,6 +663,8 @@ def parse_args(argv=None):
         parser.error(f"--levels wants numbers like 60,128, not {args.levels!r}")
     if args.repeats < 0 or args.warmup < 0:
         parser.error("--repeats and --warmup cannot be negative")
+    if args.rounds < 1:
+        parser.error("--rounds must be 1 or more")
     return args
 
 
@@ -642,6 +684,9 @@ def main(argv=None) -> int:
             "python": platform.python_version(), "numpy": np.__version__,
             "peers": {p.key: (p.version if p.missing is None else None) for p in peers}}
     cases, warnings = [], []
+    if args.rounds > 1:
+        notes.append(f"each case measured in {args.rounds} rounds, every runner in turn in each; medians and "
+                     "minima over all rounds' samples")
     for spec in plan(args):
         try:
             spec_cases = run_cases(spec, peers, args)
