@@ -90,15 +90,13 @@ uint edge_vertex_index(CellVertices v, uint edge) {
 // Name each vertex the word owns in its slot, one iteration per vertex, axis by axis.
 void write_vertex_jobs(uint base, uint next, uint count, uvec3 crossing) {
     uint end = next + count;
-    uint axis = 0u, bits = crossing.x;
-    for (; next < end; ++next) {
-        while (bits == 0u) {
-            ++axis;
-            bits = axis == 1u ? crossing.y : crossing.z;
-        }
-        uint b = uint(findLSB(bits));
-        bits &= bits - 1u;
-        vertex_jobs[next - u_job_first] = base | vertex_job_bits(axis, b);
+    uvec3 left = crossing;
+    for (; next < end; ++next) {  // the lowest bit of the first axis with bits left, by selects
+        uint axis = left.x != 0u ? 0u : left.y != 0u ? 1u : 2u;
+        uint bits = axis == 0u ? left.x : axis == 1u ? left.y : left.z;
+        uvec3 lowest = uvec3(equal(uvec3(axis), uvec3(0u, 1u, 2u))) * (bits & (0u - bits));
+        left &= ~lowest;
+        vertex_jobs[next - u_job_first] = base | vertex_job_bits(axis, uint(findLSB(bits)));
     }
 }
 
