@@ -156,3 +156,19 @@ def test_word_id_vertex_jobs_give_the_same_mesh(gl_ctx, monkeypatch, shape):
         for a, b in zip(expected, by_word.read_mesh()):
             assert a.tobytes() == b.tobytes()
     assert_same_mesh(expected, marching_cubes_reference(volume, 0.1))
+
+
+def test_reading_a_mesh_by_records_or_by_fields_gives_the_same_arrays(gl_ctx, monkeypatch):
+    """GpuMesh.read copies each field out of the mapped buffer on a software renderer, and reads the
+    records once and splits them elsewhere (mesh._read_fields): both give the same contiguous arrays."""
+    import isoscope.mesh as mesh_module
+    volume = RNG.normal(size=(20, 18, 37)).astype(np.float32)
+    with Extractor(volume, ctx=gl_ctx) as ex:
+        ex.extract(0.3)
+        by_fields = ex.read_mesh()
+        monkeypatch.setattr(mesh_module, "SOFTWARE_RENDERERS", ())
+        by_records = ex.read_mesh()
+    for a, b in zip(by_fields, by_records):
+        assert a.dtype == b.dtype and a.flags.c_contiguous and b.flags.c_contiguous
+        assert a.tobytes() == b.tobytes()
+    assert_same_mesh(by_fields, marching_cubes_reference(volume, 0.3))
