@@ -81,9 +81,10 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
             raise ValueError("smooth= and sharp_features= work on a whole-volume mesh, not a chunked one; "
                              "drop chunks, or drop those")
         return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks)
+    # The plain GPU mesh of every sample leaves the value scan to the upload (check_volume's scan_values).
+    every_sample = isinstance(step_size, (int, np.integer)) and step_size == 1
+    checked = validation.check_volume(volume, scan_values=backend == "cpu" or angle is not None or not every_sample)
     step = validation.as_step_size(step_size)
-    # The plain GPU mesh leaves the value scan to the upload (check_volume's scan_values).
-    checked = validation.check_volume(volume, scan_values=backend == "cpu" or angle is not None or step > 1)
     spacing = validation.as_spacing(spacing)
     descent = validation.as_gradient_direction(gradient_direction)
     if checked.value_range is not None:

@@ -174,3 +174,19 @@ def test_the_default_level_is_the_middle_of_the_scanned_range():
     gpu, cpu = both(volume, None)
     assert_same_mesh(gpu, cpu)
     assert len(gpu[0]) > 0
+
+
+def test_an_unscanned_volume_passed_to_the_numpy_paths_is_scanned_there():
+    volume = ball(16, 0.5)
+    unscanned = check_volume(volume, scan_values=False)
+    assert_same_mesh(isoscope.marching_cubes(unscanned, None, backend="cpu"), isoscope.marching_cubes(volume, None))
+    assert check_volume(unscanned).value_range == (float(volume.min()), float(volume.max()))
+    volume[2, 3, 4] = np.nan
+    with pytest.raises(ValueError, match=r"NaN/Inf .* at index \(2, 3, 4\)"):
+        isoscope.smooth_mesh(check_volume(volume, scan_values=False), np.zeros((0, 3)), np.zeros((0, 3), int), 0.0)
+
+
+@pytest.mark.parametrize("step", [0, 1.5, np.array([1, 2])])
+def test_a_bad_step_size_gets_its_own_error_on_the_gpu_path(step):
+    with pytest.raises(ValueError, match="step_size must be a whole number"):
+        isoscope.marching_cubes(ball(8, 0.5), 0.0, step_size=step, backend="gpu")
