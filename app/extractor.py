@@ -471,7 +471,7 @@ class Extractor:
 
     def _scratch_buffers(self) -> tuple[moderngl.Buffer, ...]:
         return (self._brick_vertex_offsets, self._brick_triangle_offsets, self._brick_ranges, self._active_bricks,
-                self._brick_states, self._dispatch_args)
+                self._brick_states, self._non_finite, self._dispatch_args)
 
     def release(self) -> None:
         """Free every GL object this extractor made; safe to call twice, or on a half-built one."""
