@@ -214,8 +214,8 @@ class Extractor:
         self._brick_ranges = self._storage(sizes["brick ranges"])
         self._active_bricks = self._storage(sizes["active bricks"])
         self._brick_states = self._storage(sizes["brick states"])
-        self._non_finite = self._storage(1)  # set by mc_row_range.comp: a NaN or infinite sample
         self._brick_states.clear()  # 0: the sign words hold nothing known (mc_bricks.comp)
+        self._non_finite = self._storage(1)  # set by mc_row_range.comp: a NaN or infinite sample
         self._dispatch_args = self._own(ctx.buffer(reserve=24))  # groups per active brick, then per 64 bricks
         self._case_table = self._own(case_table_image(ctx, self.table))
         self._scan = ExclusiveScan(ctx)
