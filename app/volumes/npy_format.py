@@ -6,7 +6,9 @@ volumes, frames along axis 0 (np.stack(volumes)); the caller picks one.
 """
 from __future__ import annotations
 
+import tokenize
 import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +29,7 @@ def read_header(fp, what: str, file_bytes: int | None = None) -> tuple[tuple[int
         version = np.lib.format.read_magic(fp)
         read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
         shape, fortran_order, dtype = read(fp)
-    except ValueError as exc:
+    except (ValueError, SyntaxError, tokenize.TokenError) as exc:  # a cut-off header dict fails to tokenize
         raise VolumeError(f"{what} is not a valid .npy file ({exc}); {_RESAVE}") from None
     if dtype.hasobject:
         raise VolumeError(f"{what} holds Python objects (a pickled array), which isoscope never "
@@ -80,7 +82,7 @@ def load_npz(path: Path, array_name: str | None, progress: Progress | None = Non
                 data = np.lib.format.read_array(member, allow_pickle=False)
         except VolumeError:
             raise
-        except (ValueError, EOFError, OSError, zipfile.BadZipFile) as exc:
+        except (ValueError, EOFError, OSError, zipfile.BadZipFile, zlib.error) as exc:
             raise damaged(path, exc, "save it again with np.savez") from None
     notes = [f"{path.name} holds {len(members)} arrays; showing {name!r} (pick one as {path.name}:NAME)"] \
         if len(members) > 1 and array_name is None else []

@@ -1,6 +1,11 @@
 """What every file loader shares: reading in slabs with progress, and wording read failures."""
 from __future__ import annotations
 
+import contextlib
+import logging
+import stat
+import warnings
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -62,3 +67,106 @@ def reason(exc: Exception) -> str:
 
 def damaged(path: Path, exc: Exception, fix: str = "export it again") -> VolumeError:
     return VolumeError(f"{path.name} is damaged or truncated ({reason(exc)}); {fix}")
+
+
+def refuse_unless_regular(path: Path, what: str | None = None) -> None:
+    """A pipe, socket or device would block a read or never end: only regular files are read."""
+    try:
+        mode = path.stat().st_mode
+    except OSError as exc:
+        raise VolumeError(f"{what or path.name} cannot be read ({exc.strerror}); check the path") from None
+    if not stat.S_ISREG(mode):
+        kind = "a named pipe" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
+        raise VolumeError(f"{what or path.name} is {kind}, not a regular file; save the data to a file and open that")
+
+
+GZIP_CHUNK = 1 << 20
+
+
+def inflate_bounded(stream, limit: int, what: str, decompressor=None) -> bytes:
+    """The whole of a gzip (default) or bzip2 stream read from `stream`, checked to its end (CRC, length).
+
+    Refuses, while inflating, a stream that would give more than `limit` bytes: a few kilobytes
+    of deflate can claim gigabytes (a decompression bomb), and the header already said how much
+    data there is. A stream that ends early, is corrupt or fails its CRC is refused too."""
+    inflate = decompressor if decompressor is not None else zlib.decompressobj(zlib.MAX_WBITS | 32)  # gzip or zlib
+    out = bytearray()
+    try:
+        while not inflate.eof:
+            chunk = inflate.unconsumed_tail if getattr(inflate, "unconsumed_tail", b"") else stream.read(GZIP_CHUNK)
+            if not chunk:
+                raise VolumeError(f"{what}: its compressed data ends early (truncated); export it again")
+            out += inflate.decompress(chunk, limit + 1 - len(out))
+            if len(out) > limit:
+                raise _bomb(what, limit)
+    except (zlib.error, OSError, EOFError) as exc:
+        raise VolumeError(f"{what}: its compressed data is corrupt ({reason(exc)}); export it again") from None
+    return bytes(out)
+
+
+def check_gzip_file(path: Path, limit: int, what: str | None = None) -> None:
+    """Read a .gz file to its end without keeping it: its CRC and length are checked (readers that stop
+    once they have their data never see a corrupt tail), and it may not inflate past `limit` bytes.
+
+    Every member of a multi-member file is checked, zero padding after them is allowed; memory
+    stays at a chunk."""
+    what = what or path.name
+    total, started, pending = 0, False, b""
+    inflate = zlib.decompressobj(zlib.MAX_WBITS | 16)
+    with open(path, "rb") as stream:
+        while True:
+            data = pending or inflate.unconsumed_tail or stream.read(GZIP_CHUNK)
+            pending = b""
+            if not data:
+                if started:
+                    raise VolumeError(f"{what}: its gzip data ends early (truncated); export it again")
+                return
+            if not started and not data.strip(b"\0"):
+                continue  # padding after the last member
+            started = True
+            try:
+                total += len(inflate.decompress(data, GZIP_CHUNK))
+            except zlib.error as exc:
+                raise VolumeError(f"{what}: its gzip data is corrupt ({reason(exc)}); export it again") from None
+            if total > limit:
+                raise _bomb(what, limit)
+            if inflate.eof:  # one member whole and its CRC right; another may follow
+                pending, started = inflate.unused_data, False
+                inflate = zlib.decompressobj(zlib.MAX_WBITS | 16)
+
+
+def _bomb(what: str, limit: int) -> VolumeError:
+    return VolumeError(f"{what}: its compressed data inflates to more than the {limit:,} bytes its header "
+                       "implies (corrupt, or a decompression bomb); export it again")
+
+
+@contextlib.contextmanager
+def library_messages(notes: list[str], *loggers: str):
+    """Warnings and log records that a reading library prints (nibabel's pixdim notice, tifffile's
+    page offsets, numpy's overflow), kept as the volume's notes instead: stderr stays isoscope's.
+
+    Import the library first: the loggers it makes on import are the ones taken."""
+    records: list[str] = []
+
+    class Keep(logging.Handler):
+        def emit(self, record):
+            records.append(record.getMessage())
+
+    handler, saved = Keep(logging.WARNING), []
+    named = [name for name in list(logging.Logger.manager.loggerDict)
+             if any(name == root or name.startswith(root + ".") for root in loggers)]  # nibabel.global has its own
+    for name in dict.fromkeys([*loggers, *named]):
+        logger = logging.getLogger(name)
+        saved.append((logger, logger.propagate, list(logger.handlers)))
+        logger.handlers, logger.propagate = [handler], False
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            yield
+    finally:
+        for logger, propagate, handlers in saved:
+            logger.handlers, logger.propagate = handlers, propagate
+    for message in records + [str(w.message) for w in caught]:
+        line = " ".join(message.split())
+        if line and line not in notes:
+            notes.append(line)

@@ -6,8 +6,10 @@ and the viewer can trust any Volume they are handed.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 from collections.abc import Callable
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -82,17 +84,39 @@ def available_memory_bytes() -> int:
         return 1 << 34
 
 
+# (most samples, the fix) that the caller of an open will take in one piece: an export that is not
+# chunked hands the whole volume to one extractor, so a header that implies more is refused before
+# a byte of data is read, not after minutes of reading and gigabytes of memory.
+_SAMPLE_LIMIT: ContextVar[tuple[int, str] | None] = ContextVar("sample_limit", default=None)
+
+
+@contextlib.contextmanager
+def sample_limit(max_samples: int | None, fix: str):
+    """Within this block, refuse_if_too_big also refuses a 3-D volume of more than `max_samples` samples."""
+    token = _SAMPLE_LIMIT.set(None if max_samples is None else (int(max_samples), fix))
+    try:
+        yield
+    finally:
+        _SAMPLE_LIMIT.reset(token)
+
+
 def refuse_if_too_big(shape, itemsize: int, what: str, *, copies: int = 1,
                       fix: str = "crop or downsample it first") -> None:
-    """Refuse, before allocating, a volume that cannot fit in memory.
+    """Refuse, before allocating, a volume that cannot fit in memory (or, inside `sample_limit`, that
+    has more samples than the caller can take).
 
     The budget is half of what is available: the checks, a dtype conversion or
     the extractor's upload may need a second copy while the first is alive.
-    `copies` counts the copies the caller itself holds at once.
+    `copies` counts the copies the caller itself holds at once. Sizes are Python
+    integers: a header's dimensions cannot wrap around to a small product.
     """
     n_voxels = 1
     for n in shape:
         n_voxels *= int(n)
+    limit = _SAMPLE_LIMIT.get()
+    if limit is not None and len(shape) == 3 and n_voxels > limit[0]:
+        raise VolumeError(f"{what} is {shape_text(shape)} ({n_voxels:,} samples), more than the "
+                          f"{limit[0]:,} that one extraction takes: {limit[1]}")
     n_bytes = n_voxels * int(itemsize) * copies
     budget = available_memory_bytes() // 2
     if n_bytes > budget:
@@ -100,6 +124,21 @@ def refuse_if_too_big(shape, itemsize: int, what: str, *, copies: int = 1,
             f"{what} is {shape_text(shape)} voxels ({size_text(n_bytes)} to load), more than this "
             f"machine can hold (about {size_text(budget)} usable): {fix}"
         )
+
+
+def world_problem(matrix) -> str | None:
+    """What makes a 4x4 index -> world matrix unusable (not finite, or its axes do not span space:
+    a zeroed NIfTI sform, collinear NRRD space directions), or None when it is usable."""
+    matrix = np.asarray(matrix, np.float64)
+    if matrix.shape != (4, 4) or not np.all(np.isfinite(matrix)):
+        return "is not finite"
+    linear = matrix[:3, :3]
+    lengths = np.linalg.norm(linear, axis=0)
+    if np.any(lengths == 0):
+        return f"gives array axis {int(np.argmin(lengths))} no length"
+    if abs(np.linalg.det(linear / lengths)) < 1e-6:
+        return "has array axes that point the same way (a singular matrix)"
+    return None
 
 
 def finish_volume(data: np.ndarray, *, spacing, name: str, source: str, gradient_direction: str,
@@ -122,9 +161,14 @@ def finish_volume(data: np.ndarray, *, spacing, name: str, source: str, gradient
     spacing = tuple(float(s) for s in spacing)
     if len(spacing) != 3 or not all(np.isfinite(s) and s > 0 for s in spacing):
         raise VolumeError(f"{what}: spacing {spacing} must be three positive numbers")
+    notes = list(notes or [])
+    if world is not None and (problem := world_problem(world[0])) is not None:
+        notes.append(f"{what}: its header's index-to-world matrix {problem}; shown and exported in "
+                     "index x spacing coordinates instead of world ones")
+        world = None
     if gradient_direction not in ("descent", "ascent"):
         raise ValueError(f"gradient_direction must be 'descent' or 'ascent', not {gradient_direction!r}")
     return Volume(data=checked.data, spacing=spacing, name=name, source=source,
                   gradient_direction=gradient_direction, default_level=default_level,
-                  value_range=checked.value_range, notes=list(notes or []) + list(checked.notes),
+                  value_range=checked.value_range, notes=notes + list(checked.notes),
                   world=world)
