@@ -6,6 +6,7 @@ file is a C-order (z, y, x) array, transposed here so axis 0 is x.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,6 +21,7 @@ RAW_DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", 
 ENDIANS = {"little": "<", "big": ">"}
 SIDECAR_KEYS = ("dims", "dtype", "endian", "spacing")
 _READ_CHUNK = 32 << 20
+MAX_DIM = (1 << 31) - 1  # samples per axis: more is no file anyone has (and wraps 32-bit indices)
 
 
 @dataclass
@@ -53,15 +55,26 @@ def _read_sidecar(path: Path) -> dict:
 
 
 def three_positive(values, flag: str, kind, where: str):
+    """Three positive numbers from flags or a sidecar; `kind` int: whole numbers up to MAX_DIM (a
+    product of dims is then taken with Python ints, which cannot wrap as int64 does)."""
     try:
+        if isinstance(values, (str, bytes)) or any(isinstance(v, bool) for v in values):
+            raise TypeError  # "123" is one number, not three; true is not a number, though int() takes it
         items = [kind(v) for v in values]
-    except (TypeError, ValueError):
-        items = []
-    if len(items) != 3 or any(v <= 0 for v in items) or (kind is int and any(
-            isinstance(v, float) and not v.is_integer() for v in values)):
+        whole = kind is not int or all(not isinstance(v, float) or v.is_integer() for v in values)
+    except (TypeError, ValueError, OverflowError):  # not numbers; int(inf) overflows
+        items, whole = [], False
+    if len(items) != 3 or not whole or any(not 0 < v < math.inf for v in items) or (
+            kind is int and any(v > MAX_DIM for v in items)):
+        limit = f" up to {MAX_DIM}" if kind is int else ""
         raise VolumeError(f"{where}: {flag} needs three positive {'whole ' if kind is int else ''}"
-                          f"numbers (X Y Z), got {values!r}")
+                          f"numbers (X Y Z){limit}, got {_short(values)}")
     return tuple(items)
+
+
+def _short(values) -> str:
+    text = repr(values)
+    return text if len(text) <= 80 else text[:77] + "..."
 
 
 def raw_layout(path: Path, dims=None, dtype=None, endian=None, spacing=None) -> RawLayout:
@@ -89,8 +102,20 @@ def raw_layout(path: Path, dims=None, dtype=None, endian=None, spacing=None) -> 
     return RawLayout(dims, np.dtype(dtype_name).newbyteorder(ENDIANS[endian_name]), spacing, notes)
 
 
+def _product(dims) -> int:
+    """Python ints: np.prod's int64 wraps (4294967296 x 4294967296 x 8 is 0) and would pass the size checks."""
+    n = 1
+    for d in dims:
+        n *= int(d)
+    return n
+
+
+def _bytes(n: int) -> str:
+    return f"{n} bytes" if n < 1 << 30 else f"{size_text(n)} ({n} bytes)"
+
+
 def _check_file_size(path: Path, layout: RawLayout) -> None:
-    n_voxels = int(np.prod(layout.dims, dtype=np.int64))
+    n_voxels = _product(layout.dims)
     expected = n_voxels * layout.dtype.itemsize
     actual = path.stat().st_size
     if actual == expected:
@@ -101,7 +126,7 @@ def _check_file_size(path: Path, layout: RawLayout) -> None:
             "check --dims and --dtype")
     if actual < expected:
         raise VolumeError(f"{path.name} is truncated or the layout is wrong: --dims {dims} as "
-                          f"{layout.dtype.name} needs {expected} bytes, the file has {actual}; {hint}")
+                          f"{layout.dtype.name} needs {_bytes(expected)}, the file has {actual} bytes; {hint}")
     raise VolumeError(f"{path.name} is larger than its layout: --dims {dims} as {layout.dtype.name} "
                       f"needs {expected} bytes, the file has {actual} ({actual - expected} extra, "
                       f"a header?); {hint}")
@@ -112,7 +137,7 @@ def load_raw(path: Path, dims=None, dtype=None, endian=None, spacing=None,
     """The array, axes transposed to x first: read whole when small, memory-mapped (read from disk a
     block at a time, so it may exceed RAM) from MAP_BYTES up."""
     layout = raw_layout(path, dims, dtype, endian, spacing)
-    n_bytes = int(np.prod(layout.dims, dtype=np.int64)) * layout.dtype.itemsize
+    n_bytes = _product(layout.dims) * layout.dtype.itemsize
     if path.stat().st_size < n_bytes:
         refuse_if_too_big(layout.dims, layout.dtype.itemsize, path.name)  # a header-less monster, or truncated
     _check_file_size(path, layout)
