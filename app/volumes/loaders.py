@@ -16,6 +16,7 @@ from .nifti_format import load_nifti, nifti_world
 from .npy_format import load_npy, load_npz
 from .nrrd_format import load_nrrd, nrrd_world
 from .raw_format import load_raw, sidecar_path, three_positive
+from .reading import refuse_unless_regular
 from .tiff_format import TIFF_SUFFIXES, load_tiff
 from .volume import Progress, Volume, finish_volume, shape_text
 from .zarr_format import is_zarr, load_zarr
@@ -76,6 +77,8 @@ def _format_of(path: Path, has_raw_flags: bool) -> str:
 def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, frame=None,
               series=None, progress: Progress | None = None) -> Volume:
     path, array_name = resolve_path(spec)
+    if not path.is_dir():
+        refuse_unless_regular(path)  # a named pipe would block the read for good
     kind = _format_of(path, dims is not None)
     if series is not None and kind != "dicom":
         raise VolumeError(f"--series picks a series of a DICOM folder, and {path.name} is not one; drop it")

@@ -6,13 +6,17 @@ directions"; a 4-D file's frame axis is the one whose kind is not spatial.
 """
 from __future__ import annotations
 
+import bz2
+import io
+import math
+import os
 from pathlib import Path
 
 import numpy as np
 
 from .errors import VolumeError
 from .frames import select_frame
-from .reading import Loaded, read_or_explain, reason
+from .reading import Loaded, inflate_bounded, read_or_explain, reason, refuse_unless_regular
 from .volume import Progress, refuse_if_too_big, report
 
 _SPATIAL_KINDS = {"domain", "space"}
@@ -64,6 +68,72 @@ def nrrd_world(path: Path):
     return world, "LPS"
 
 
+_COMPRESSED = {"gzip": "gzip", "gz": "gzip", "bzip2": "bzip2", "bz2": "bzip2"}
+_LINE_LIMIT = 1 << 16  # a "line skip" line longer than this is not a text line
+
+
+def _data_file(path: Path, header: dict) -> tuple[Path, bool]:
+    """(the file holding the samples, whether they follow a header in it)."""
+    name = header.get("data file", header.get("datafile"))
+    if name is None:
+        return path, True
+    if str(name).upper().startswith("LIST") or "%" in str(name) or len(str(name).split()) > 1:
+        raise VolumeError(f"{path.name} spreads its samples over several data files, which isoscope does "
+                          "not read; save the volume as one .nrrd")
+    data_path = Path(name) if Path(name).is_absolute() else path.parent / name
+    if not data_path.exists():
+        raise VolumeError(f"{path.name} names the data file {name}, which does not exist; keep it beside the "
+                          f"header or fix 'data file:'")
+    refuse_unless_regular(data_path, f"{path.name}'s data file {name}")
+    return data_path, False
+
+
+def _read_data(path: Path, header: dict) -> np.ndarray:
+    """The samples, read no further than the header's sizes imply: a compressed body may not inflate
+    past them (a bomb), a data file is never read to an end the header does not need (a pipe, a
+    huge file), and a gzip body is checked to its CRC. pynrrd then lays the bytes out (type,
+    endianness, axis order) from a header whose data is those bytes, raw and in memory."""
+    import nrrd
+    encoding = str(header.get("encoding", "raw")).lower()
+    if encoding not in ("raw", *_COMPRESSED):  # text encodings: pynrrd parses them, bounded by the file
+        return nrrd.read(str(path))[0]
+    needed = math.prod(int(n) for n in header["sizes"]) * _itemsize(str(header.get("type", "")))
+    line_skip = int(header.get("line skip", header.get("lineskip", 0)))
+    byte_skip = int(header.get("byte skip", header.get("byteskip", 0)))
+    if line_skip < 0 or byte_skip < -1:
+        raise VolumeError(f"{path.name}: line skip {line_skip} / byte skip {byte_skip} are not valid NRRD "
+                          "(line skip >= 0, byte skip >= -1); fix the header")
+    data_path, attached = _data_file(path, header)
+    with open(data_path, "rb") as stream:
+        if attached:  # the samples follow the header's blank line
+            while stream.readline(_LINE_LIMIT).strip():
+                pass
+        for _ in range(line_skip):
+            if not stream.readline(_LINE_LIMIT).endswith(b"\n"):
+                raise VolumeError(f"{path.name}: its 'line skip: {line_skip}' passes the end of a text line; "
+                                  "fix the header")
+        if encoding in _COMPRESSED:
+            decompressor = bz2.BZ2Decompressor() if _COMPRESSED[encoding] == "bzip2" else None
+            # byte skip -1: the samples are the last bytes of the inflated stream, after a short preamble
+            limit = needed + (max(byte_skip, 0) if byte_skip >= 0 else _LINE_LIMIT)
+            body = inflate_bounded(stream, limit, path.name, decompressor)
+            body = body[byte_skip:] if byte_skip >= 0 else body[-needed:]
+        else:
+            if byte_skip >= 0:
+                stream.seek(byte_skip, os.SEEK_CUR)
+            elif data_path.stat().st_size >= needed:  # -1: the samples are the file's last bytes
+                stream.seek(-needed, os.SEEK_END)
+            body = stream.read(needed + 1)
+    if len(body) != needed:
+        more = "more" if len(body) > needed else "fewer"
+        raise VolumeError(f"{path.name} holds {more} sample bytes than its header's sizes "
+                          f"({' x '.join(str(int(n)) for n in header['sizes'])}) imply: {needed:,}; export it again")
+    raw = {key: value for key, value in header.items()
+           if key not in ("data file", "datafile", "line skip", "lineskip", "byte skip", "byteskip")}
+    raw["encoding"] = "raw"
+    return nrrd.read_data(raw, io.BytesIO(body))
+
+
 def load_nrrd(path: Path, frame: int | None, progress: Progress | None = None) -> Loaded:
     import nrrd
     try:
@@ -75,7 +145,7 @@ def load_nrrd(path: Path, frame: int | None, progress: Progress | None = None) -
     refuse_if_too_big([int(s) for s in header.get("sizes", [])],
                       _itemsize(str(header.get("type", "double"))), path.name)
     report(progress, 0.0, f"reading {path.name}")  # pynrrd reads in one call: no finer progress
-    data, header = read_or_explain(path, lambda: nrrd.read(str(path)), (nrrd.NRRDError,))
+    data = read_or_explain(path, lambda: _read_data(path, header), (nrrd.NRRDError,))
     notes: list[str] = []
     spatial_axes = list(range(data.ndim))
     if data.ndim == 4:

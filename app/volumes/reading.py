@@ -47,6 +47,8 @@ def read_or_explain(path: Path, read, errors: tuple[type[BaseException], ...] = 
     OS/EOF/value errors say the file is damaged, cut-off compression says so."""
     try:
         return read()
+    except VolumeError:  # already one line about the file
+        raise
     except (OSError, EOFError, ValueError, *errors) as exc:
         raise damaged(path, exc) from None
     except Exception as exc:
