@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from isoscope.volumes import VolumeError, open_volume
-from isoscope.volumes.expression import GLSL_FUNCTIONS, evaluate, parse, to_glsl
+from isoscope.volumes.expression import GLSL_FUNCTIONS, GLSL_OPERATORS, evaluate, parse, to_glsl
 from isoscope.volumes.expression_volume import split_expression_spec
 from isoscope.volumes.gpu_sampler import sample_on_gpu
 from isoscope.volumes.grid import Box, sample_function
@@ -63,11 +63,16 @@ def test_text_outside_the_grammar_is_refused(text):
 
 
 def test_glsl_is_built_only_from_whitelisted_pieces():
-    glsl = to_glsl(parse("sin(x)^2 + max(y, -z) / 1e-3 + pi - log(2.5e-7)"))
-    without_numbers = re.sub(r"\d+\.?\d*(?:e[+-]?\d+)?", " ", glsl)
-    identifiers = set(re.findall(r"[A-Za-z_]\w*", without_numbers))
-    assert identifiers <= {"x", "y", "z", "ex_pow"} | set(GLSL_FUNCTIONS.values())
-    assert set(re.sub(r"[\w.\s]", "", glsl)) <= set("()+-*/,")
+    code = to_glsl(parse("sin(x)^2 + max(y, -z) / 1e-3 + pi - log(2.5e-7) + 0*x"))
+    # the numbers travel as data, never as text: inputs[i] holds the float32 evaluate() uses
+    assert code.numbers.dtype == np.float32
+    assert set(code.numbers) == {np.float32(v) for v in (2, 1e-3, math.pi, 2.5e-7, 0)}
+    without_indices = re.sub(r"(inputs\[|\bt)\d+", " ", code.body)
+    assert not re.search(r"\d", without_indices)
+    identifiers = set(re.findall(r"[A-Za-z_]\w*", without_indices))
+    assert identifiers <= ({"x", "y", "z", "inputs", "precise", "float", "return"}
+                           | set(GLSL_FUNCTIONS.values()) | set(GLSL_OPERATORS.values()) | {"ex_neg"})
+    assert set(re.sub(r"[\w\s]", "", code.body)) <= set("(),;=[]")
 
 
 def test_spec_options():

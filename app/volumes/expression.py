@@ -9,9 +9,19 @@ Grammar (whitelist; nothing else is accepted):
     atom    := NUMBER | "x" | "y" | "z" | "pi" | FUNC "(" expr ("," expr)* ")" | "(" expr ")"
     FUNC    := sin cos tan exp log sqrt abs (one argument) | min max (two)
 
-Both back ends give IEEE semantics where the maths is undefined (log(-1) and
-sqrt(-1) are NaN, 1/0 is Inf, a negative base to a fractional power is NaN),
-so the finite-values check after sampling catches the same cases on CPU and GPU.
+Both back ends compute in float32 with the same IEEE semantics, spelled out
+rather than left to the GL driver: log(-1) and sqrt(-1) are NaN, 1/0 is Inf,
+0*Inf is NaN, a negative base to a fractional power is NaN, pow follows C99,
+min/max propagate NaN and order -0 below +0, and every result below the
+smallest normal float is flushed to a zero of its sign (GPUs flush denormals,
+their exp/pow never make them).  So the samples agree element for element,
+non-finite ones included, and the finite-values check after sampling accepts
+or refuses a formula alike on CPU and GPU.
+
+Nothing recurses with the size of a formula: chains such as x+x+...+x parse in
+a loop, evaluation and GLSL emission walk the tree with an explicit stack (GLSL
+gets one statement per operation, never deep parentheses), and nesting
+(parentheses, function arguments, exponents) is bounded by MAX_DEPTH.
 The user's text reaches GLSL only as the emitter's output: numbers are
 re-printed from floats, names come from the whitelist tables below.
 """
@@ -28,8 +38,12 @@ from .errors import VolumeError
 VARIABLES = ("x", "y", "z")
 CONSTANTS = {"pi": math.pi}
 FUNCTIONS = {"sin": 1, "cos": 1, "tan": 1, "exp": 1, "log": 1, "sqrt": 1, "abs": 1, "min": 2, "max": 2}
-MAX_LENGTH = 2000  # far beyond any formula a person types; bounds parser recursion too
-MAX_DEPTH = 100
+MAX_LENGTH = 2000  # far beyond any formula a person types
+# Nesting levels: parentheses, function arguments and exponents (2^2^...). The parser
+# recurses about 9 Python frames per level; 50 levels stay far below the recursion limit.
+MAX_DEPTH = 50
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+FLOAT32_TINY = float(np.finfo(np.float32).tiny)  # the smallest normal float32
 
 _TOKEN = re.compile(r"""
     (?P<number>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)
@@ -51,20 +65,20 @@ class Variable:
     name: str  # "x", "y" or "z"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False, repr=False)  # no recursive ==, hash or repr on deep trees
 class Unary:
     op: str  # "-" (a unary "+" is dropped by the parser)
     operand: object
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False, repr=False)  # no recursive ==, hash or repr on deep trees
 class Binary:
     op: str  # + - * / ^
     left: object
     right: object
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False, repr=False)  # no recursive ==, hash or repr on deep trees
 class Call:
     function: str
     args: tuple
@@ -149,11 +163,12 @@ class _Parser:
         return node
 
     def unary(self):
-        if self.token.kind == "op" and self.token.text in ("-", "+"):
-            op = self.take().text
-            operand = self.nested(self.unary)
-            return Unary("-", operand) if op == "-" else operand
-        return self.power()
+        # A run of signs is read in a loop: "----x" is x, at any length (-(-v) is v bit for bit).
+        negative = False
+        while self.token.kind == "op" and self.token.text in ("-", "+"):
+            negative ^= self.take().text == "-"
+        operand = self.power()
+        return Unary("-", operand) if negative else operand
 
     def power(self):
         base = self.atom()
@@ -166,7 +181,8 @@ class _Parser:
         # Recursion depth is bounded so "((((..." gives a message, not a RecursionError.
         self.depth += 1
         if self.depth > MAX_DEPTH:
-            self.fail(self.token, "the expression nests too deeply", f"use fewer than {MAX_DEPTH} levels")
+            self.fail(self.token, f"the expression nests more than {MAX_DEPTH} levels deep "
+                      f"(parentheses, function calls, exponents)", f"use at most {MAX_DEPTH} levels")
         try:
             return rule()
         finally:
@@ -176,7 +192,7 @@ class _Parser:
         token = self.take()
         if token.kind == "number":
             value = float(token.text)
-            if not math.isfinite(value) or abs(value) > float(np.finfo(np.float32).max):
+            if not math.isfinite(value) or abs(value) > FLOAT32_MAX:
                 self.fail(token, f"number {token.text} is too large for 32-bit floats", "use a smaller number")
             return Number(value)
         if token.kind == "name":
@@ -216,14 +232,98 @@ def parse(text: str):
     """The syntax tree of a formula, or a VolumeError pointing at the column."""
     if len(text) > MAX_LENGTH:
         raise VolumeError(f"expression is {len(text)} characters long; keep it under {MAX_LENGTH}")
-    return _Parser(text).parse()
+    try:
+        return _Parser(text).parse()
+    except RecursionError:  # only if called already deep in the stack: MAX_DEPTH keeps the parser shallow
+        raise VolumeError(f"expression nests too deeply to parse here; use at most {MAX_DEPTH} levels "
+                          f"of parentheses, function calls and exponents") from None
+
+
+# --- walking a tree without recursion ------------------------------------------------------
+
+def _children(node) -> tuple:
+    if isinstance(node, Unary):
+        return (node.operand,)
+    if isinstance(node, Binary):
+        return (node.left, node.right)
+    if isinstance(node, Call):
+        return node.args
+    return ()
+
+
+def postorder(tree) -> list:
+    """Every node, operands before the node that uses them, with an explicit stack: a tree as deep
+    as x+x+...+x (one level per term) costs no Python recursion."""
+    order, stack = [], [(tree, False)]
+    while stack:
+        node, expanded = stack.pop()
+        children = _children(node)
+        if expanded or not children:
+            order.append(node)
+        else:
+            stack.append((node, True))
+            stack.extend((child, False) for child in reversed(children))
+    return order
+
+
+def peak_intermediates(tree) -> int:
+    """The most computed (grid-sized) values `evaluate` holds at once; numbers and x, y, z don't count."""
+    held = peak = 0
+    for node in postorder(tree):
+        if _children(node):
+            held = held - sum(1 for child in _children(node) if _children(child)) + 1
+            peak = max(peak, held)
+    return max(peak, 1)
+
+
+# Rough milliseconds llvmpipe takes to compile each GLSL helper (the ex_* functions are inlined
+# at every use); measured with 50-150 distinct calls of each in one shader.
+_GLSL_COMPILE_MS = {"^": 25, "/": 25, "sin": 15, "cos": 15, "tan": 15, "exp": 15, "log": 15, "sqrt": 15,
+                    "min": 10, "max": 10}
+
+
+def glsl_compile_ms(tree) -> int:
+    """An estimate of the milliseconds a GLSL compiler (llvmpipe's) needs for `to_glsl(tree)`."""
+    total = 0
+    for node in postorder(tree):
+        if isinstance(node, Binary):
+            total += _GLSL_COMPILE_MS.get(node.op, 1)
+        elif isinstance(node, Call):
+            total += _GLSL_COMPILE_MS.get(node.function, 1)
+        elif isinstance(node, Unary):
+            total += 1
+    return total
 
 
 # --- numpy evaluation (the CPU back end and the GPU's reference) -------------------------
 
+def flush_denormals(values, tiny: float = FLOAT32_TINY):
+    """Values below the smallest normal float32 become a zero of their sign, as on a GPU."""
+    values = np.asarray(values)
+    small = (np.abs(values) < tiny) & (values != 0)
+    if np.any(small):
+        values = np.where(small, np.copysign(values.dtype.type(0), values), values)
+    return values
+
+
+def _minimum(a, b):
+    # IEEE 754-2019 minimum: NaN if either is NaN, -0 below +0 (the order numpy leaves open).
+    zeros = (a == 0) & (b == 0)
+    result = np.where(b < a, b, a)
+    result = np.where(zeros, np.where(np.signbit(a) | np.signbit(b), -0.0, 0.0).astype(result.dtype), result)
+    return np.where(np.isnan(a) | np.isnan(b), result.dtype.type(np.nan), result)
+
+
+def _maximum(a, b):
+    zeros = (a == 0) & (b == 0)
+    result = np.where(b > a, b, a)
+    result = np.where(zeros, np.where(np.signbit(a) & np.signbit(b), -0.0, 0.0).astype(result.dtype), result)
+    return np.where(np.isnan(a) | np.isnan(b), result.dtype.type(np.nan), result)
+
+
 _NUMPY_FUNCTIONS = {
     "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log,
-    "sqrt": np.sqrt, "abs": np.abs, "min": np.minimum, "max": np.maximum,
+    "sqrt": np.sqrt, "abs": np.abs, "min": _minimum, "max": _maximum,
 }
 _NUMPY_OPERATORS = {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.divide, "^": np.power}
 
@@ -232,53 +332,79 @@ def evaluate(tree, x, y, z, dtype=np.float32):
     """Evaluate on numpy arrays (broadcasting), with IEEE results for undefined maths.
 
     float32 by default, as the GPU computes, so both back ends overflow, cancel and
-    round alike; pass np.float64 for a reference of higher precision.
+    round alike, and flush denormal results to zero as the GPU does; pass np.float64
+    for a reference of higher precision (no flushing).
     """
-    variables = {name: np.asarray(value, dtype=dtype) for name, value in zip(VARIABLES, (x, y, z))}
+    flush = (lambda v: flush_denormals(v)) if np.dtype(dtype) == np.float32 else (lambda v: v)
     number = np.dtype(dtype).type  # a numpy scalar of the same type keeps the arithmetic in dtype
-
-    def walk(node):
-        if isinstance(node, Number):
-            return number(node.value)
-        if isinstance(node, Variable):
-            return variables[node.name]
-        if isinstance(node, Unary):
-            return np.negative(walk(node.operand))
-        if isinstance(node, Binary):
-            return _NUMPY_OPERATORS[node.op](walk(node.left), walk(node.right))
-        return _NUMPY_FUNCTIONS[node.function](*(walk(arg) for arg in node.args))
-
     with np.errstate(all="ignore"):  # NaN/Inf are reported by the volume checks, with a fix
-        return walk(tree)
+        variables = {name: flush(np.asarray(value, dtype=dtype)) for name, value in zip(VARIABLES, (x, y, z))}
+        values = []
+        for node in postorder(tree):
+            if isinstance(node, Number):
+                values.append(flush(number(node.value)))
+            elif isinstance(node, Variable):
+                values.append(variables[node.name])
+            elif isinstance(node, Unary):
+                values.append(np.negative(values.pop()))
+            elif isinstance(node, Binary):
+                right = values.pop()
+                values.append(flush(_NUMPY_OPERATORS[node.op](values.pop(), right)))
+            else:
+                args = values[-len(node.args):]
+                del values[-len(node.args):]
+                values.append(flush(_NUMPY_FUNCTIONS[node.function](*args)))
+        return values[0]
 
 
 # --- GLSL emission -----------------------------------------------------------------------
 
-# GLSL's own log/sqrt/pow are undefined outside their domain; the ex_* helpers in
-# shaders/expr_functions.glsl give numpy's answers instead.
+# GLSL leaves much of this maths undefined (log, sqrt, pow outside their domain, 1/0, NaN
+# inputs) and lets the compiler fold 0*v to 0 and v-v to 0; the ex_* helpers in
+# shaders/expr_functions.glsl compute each operation exactly as `evaluate` does.
 GLSL_FUNCTIONS = {
-    "sin": "sin", "cos": "cos", "tan": "tan", "exp": "exp", "log": "ex_log",
-    "sqrt": "ex_sqrt", "abs": "abs", "min": "ex_min", "max": "ex_max",
+    "sin": "ex_sin", "cos": "ex_cos", "tan": "ex_tan", "exp": "ex_exp", "log": "ex_log",
+    "sqrt": "ex_sqrt", "abs": "ex_abs", "min": "ex_min", "max": "ex_max",
 }
+GLSL_OPERATORS = {"+": "ex_add", "-": "ex_sub", "*": "ex_mul", "/": "ex_div", "^": "ex_pow"}
 
 
-def glsl_float(value: float) -> str:
-    """A GLSL float literal for a Python float; repr() round-trips, GLSL needs a '.' or exponent."""
-    text = repr(float(value))
-    return text if ("." in text or "e" in text) else text + ".0"
+@dataclass(frozen=True)
+class GlslCode:
+    """`body`: the statements of `float field(float x, float y, float z)`, ending in a return.
+    `numbers`: the formula's numbers, which the body reads as inputs[0], inputs[1], ...: a
+    compiler cannot fold what it cannot see, and GLSL compilers fold 0*v to 0 even where the
+    result is `precise` (0*log(-1) is NaN, not 0)."""
+    body: str
+    numbers: np.ndarray  # float32, as `evaluate` rounds and flushes them
 
 
-def to_glsl(tree) -> str:
-    """One GLSL expression of the float variables x, y, z."""
-    if isinstance(tree, Number):
-        return f"({glsl_float(tree.value)})"
-    if isinstance(tree, Variable):
-        return tree.name
-    if isinstance(tree, Unary):
-        return f"(-{to_glsl(tree.operand)})"
-    if isinstance(tree, Binary):
-        if tree.op == "^":
-            return f"ex_pow({to_glsl(tree.left)}, {to_glsl(tree.right)})"
-        return f"({to_glsl(tree.left)} {tree.op} {to_glsl(tree.right)})"
-    args = ", ".join(to_glsl(arg) for arg in tree.args)
-    return f"{GLSL_FUNCTIONS[tree.function]}({args})"
+def to_glsl(tree) -> GlslCode:
+    """One GLSL statement per operation, then a return: straight-line code, so a formula of a
+    thousand terms is a thousand short statements rather than a thousand nested parentheses
+    for the GLSL compiler to recurse through."""
+    statements, values, numbers = [], [], {}
+    for node in postorder(tree):
+        if isinstance(node, Number):
+            value = flush_denormals(np.float32(node.value))
+            index = numbers.setdefault(value.tobytes(), len(numbers))  # by bits: 0 and -0 differ
+            values.append(f"inputs[{index}]")
+            continue
+        if isinstance(node, Variable):
+            values.append(node.name)
+            continue
+        if isinstance(node, Unary):
+            call = f"ex_neg({values.pop()})"
+        elif isinstance(node, Binary):
+            right = values.pop()
+            call = f"{GLSL_OPERATORS[node.op]}({values.pop()}, {right})"
+        else:
+            args = values[-len(node.args):]
+            del values[-len(node.args):]
+            call = f"{GLSL_FUNCTIONS[node.function]}({', '.join(args)})"
+        name = f"t{len(statements)}"
+        statements.append(f"precise float {name} = {call};")
+        values.append(name)
+    statements.append(f"return {values[0]};")
+    table = np.frombuffer(b"".join(numbers), dtype=np.float32) if numbers else np.zeros(0, np.float32)
+    return GlslCode(" ".join(statements), table)

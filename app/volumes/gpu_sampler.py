@@ -1,9 +1,10 @@
 """Sampling a parsed expression on the GPU: the only module here that touches GL.
 
-The expression becomes the EXPR_FIELD macro of shaders/expr_sample.comp; the
-grid is filled a slab of axis-0 planes at a time into one reused SSBO, sized
-under GL_MAX_SHADER_STORAGE_BLOCK_SIZE (128 MiB on llvmpipe), and read back
-into the numpy array the Volume will hold.
+The expression becomes the EXPR_BODY macro of shaders/expr_sample.comp (straight-line
+statements, see expression.to_glsl); its numbers and the sample coordinates are uploaded
+as the same float32 values the numpy back end uses; the grid is filled a slab of axis-0
+planes at a time into one reused SSBO, sized under GL_MAX_SHADER_STORAGE_BLOCK_SIZE
+(128 MiB on llvmpipe), and read back into the numpy array the Volume will hold.
 """
 from __future__ import annotations
 
@@ -11,12 +12,20 @@ import numpy as np
 
 from isoscope.resources import shader_source
 
-from .expression import to_glsl
+from .errors import VolumeError
+from .expression import flush_denormals, glsl_compile_ms, to_glsl
 from .grid import LOWER_RESOLUTION, Box
 from .volume import Progress, refuse_if_too_big, report
 
 LOCAL_SIZE = (8, 8, 1)  # matches expr_sample.comp; 8x8x1 is the fast shape on llvmpipe
 _SLAB_BYTES = 64 << 20  # smaller slabs keep the progress bar moving and the read-back cheap
+# Formulas estimated to take longer than this to compile are not compiled: the GLSL compiler
+# inlines every helper at every use and slows down more than linearly (500 powers: 40 s).
+MAX_COMPILE_MS = 3000
+
+
+class TooCostlyForGPU(VolumeError):
+    """The formula would take too long to compile; numpy gives the same samples."""
 
 
 def _slab_planes(ctx, shape) -> int:
@@ -39,15 +48,24 @@ def sample_on_gpu(tree, box: Box, shape: tuple[int, int, int], ctx=None,
         from isoscope.gl_context import current_or_standalone
         ctx = current_or_standalone()
     refuse_if_too_big(shape, 4, "the expression grid", fix=LOWER_RESOLUTION)
+    estimate = glsl_compile_ms(tree)
+    if estimate > MAX_COMPILE_MS:
+        raise TooCostlyForGPU(f"the formula has too many operations to compile for the GPU quickly (about "
+                              f"{estimate / 1000:.0f} s, more than {MAX_COMPILE_MS / 1000:.0f} s); "
+                              f"use the cpu backend or a shorter formula")
+    code = to_glsl(tree)
     out = np.empty(shape, dtype=np.float32)
-    program = ctx.compute_shader(shader_source("expr_sample.comp", defines={"EXPR_FIELD": to_glsl(tree)}))
+    inputs = np.concatenate([code.numbers, *(sample_axis(box, axis, n) for axis, n in enumerate(shape))])
+    program = ctx.compute_shader(shader_source("expr_sample.comp", defines={
+        "EXPR_BODY": code.body, "EXPR_NUMBERS": f"{len(code.numbers)}u"}))
     planes = _slab_planes(ctx, shape)
-    buffer = ctx.buffer(reserve=planes * shape[1] * shape[2] * 4)
+    buffer = inputs_buffer = None
     try:
+        buffer = ctx.buffer(reserve=planes * shape[1] * shape[2] * 4)
+        inputs_buffer = ctx.buffer(inputs.tobytes())
         _set_uniform(program, "u_shape", tuple(int(n) for n in shape))
-        _set_uniform(program, "u_lo", tuple(float(v) for v in box.lo))
-        _set_uniform(program, "u_step", tuple(float(s) for s in box.spacing(shape)))
         buffer.bind_to_storage_buffer(0)
+        inputs_buffer.bind_to_storage_buffer(1)
         groups_x = -(-shape[2] // LOCAL_SIZE[0])
         groups_y = -(-shape[1] // LOCAL_SIZE[1])
         for first in range(0, shape[0], planes):
@@ -63,6 +81,13 @@ def sample_on_gpu(tree, box: Box, shape: tuple[int, int, int], ctx=None,
                                                      ).reshape(count, shape[1], shape[2])
             report(progress, (first + count) / shape[0], "sampling the expression on the GPU")
     finally:
-        buffer.release()
-        program.release()
+        for resource in (buffer, inputs_buffer, program):
+            if resource is not None:
+                resource.release()
     return out
+
+
+def sample_axis(box: Box, axis: int, n: int) -> np.ndarray:
+    """The float32 coordinates numpy's `evaluate` gets along one axis (grid.sample_function's)."""
+    with np.errstate(all="ignore"):  # the box was checked to fit float32
+        return flush_denormals(box.axis(axis, n).astype(np.float32))
