@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import VolumeError
-from .volume import Progress, report, shape_text
+from .volume import Progress, refuse_if_too_big, report, shape_text
 
 MAX_FILES = 20_000
 GAP_TOLERANCE = 0.01  # of the slice spacing: how far apart positions may differ from even steps
@@ -69,20 +69,57 @@ def _describe(files) -> str:
     return f"{text + ', ' if text else ''}{len(files)} slices"
 
 
+def _image_size(folder: Path, path: Path, header) -> tuple[int, int]:
+    """(Rows, Columns) of one slice's header, refusing what is no grey image."""
+    rows, columns = header.get("Rows"), header.get("Columns")
+    if not all(isinstance(n, int) and n > 0 for n in (rows, columns)):
+        raise VolumeError(f"{folder.name}/{path.name}: its Rows and Columns ({rows!r} x {columns!r}) are not an "
+                          "image size, so the file is damaged; remove it or export the series again")
+    samples = header.get("SamplesPerPixel", 1)
+    if samples not in (1, None):
+        raise VolumeError(f"{folder.name}/{path.name} is a colour image ({samples} samples per pixel, "
+                          f"{header.get('PhotometricInterpretation', '')}); a volume needs grey slices: "
+                          "remove it or export the series in greyscale")
+    return rows, columns
+
+
+def _numbers(header, keyword: str, count: int) -> np.ndarray:
+    values = header.get(keyword)
+    if values is None:
+        raise VolumeError(f"{keyword} is missing")
+    values = [values] if not isinstance(values, (list, tuple)) and not hasattr(values, "__len__") else values
+    if len(values) != count:
+        raise VolumeError(f"{keyword} has {len(values)} values where DICOM has {count}")
+    numbers = np.array([float(v) for v in values])
+    if not np.all(np.isfinite(numbers)):
+        raise VolumeError(f"{keyword} is not finite ({', '.join(map(str, values))})")
+    return numbers
+
+
 def _geometry(folder: Path, files):
     """Sorted files, slice spacing, pixel spacing; refuses what would give a wrong volume."""
-    sizes = {(int(h.Rows), int(h.Columns)) for _, h in files}
+    sizes = {_image_size(folder, path, h) for path, h in files}
     if len(sizes) > 1:
         raise VolumeError(f"{folder.name}: the series mixes image sizes "
                           f"({', '.join(f'{r}x{c}' for r, c in sorted(sizes))}); export it again as one series")
     try:
-        orientation = np.array([float(v) for v in files[0][1].ImageOrientationPatient])
-        positions = np.array([[float(v) for v in h.ImagePositionPatient] for _, h in files])
-        pixel_spacing = tuple(float(v) for v in files[0][1].PixelSpacing)
+        orientation = _numbers(files[0][1], "ImageOrientationPatient", 6)
+        positions = np.array([_numbers(h, "ImagePositionPatient", 3) for _, h in files])
+        pixel_spacing = tuple(_numbers(files[0][1], "PixelSpacing", 2))
+    except VolumeError as exc:
+        raise VolumeError(f"{folder.name}: {exc}, so the slices' order and spacing are unknown; export the "
+                          "series with its geometry (ImagePositionPatient, ImageOrientationPatient, "
+                          "PixelSpacing)") from None
     except (AttributeError, ValueError, TypeError):
         raise VolumeError(f"{folder.name}: the slices lack ImagePositionPatient, ImageOrientationPatient "
                           "or PixelSpacing, so their order and spacing are unknown; export the series "
                           "with its geometry") from None
+    if min(pixel_spacing) <= 0:
+        raise VolumeError(f"{folder.name}: PixelSpacing {pixel_spacing} is not positive; fix the series' header")
+    row_length, column_length = np.linalg.norm(orientation[:3]), np.linalg.norm(orientation[3:])
+    if abs(row_length - 1) > 0.01 or abs(column_length - 1) > 0.01 or abs(orientation[:3] @ orientation[3:]) > 0.01:
+        raise VolumeError(f"{folder.name}: ImageOrientationPatient ({', '.join(f'{v:g}' for v in orientation)}) "
+                          "is not two perpendicular unit directions; fix the series' header")
     if len(files) < 2:
         raise VolumeError(f"{folder.name} holds one DICOM slice; a volume needs at least 2")
     normal = np.cross(orientation[:3], orientation[3:])
@@ -112,22 +149,43 @@ def _geometry(folder: Path, files):
     return [files[i] for i in order], (spacing, pixel_spacing[0], pixel_spacing[1]), world
 
 
-def _pixels(path: Path) -> np.ndarray:
+def _rescale(header) -> tuple[float, float]:
+    slope = float(header.get("RescaleSlope", 1) or 1)
+    intercept = float(header.get("RescaleIntercept", 0) or 0)
+    return slope, intercept
+
+
+def _pixels(path: Path, into: np.ndarray) -> None:
+    """One slice's samples, rescaled, written into `into` (a plane of the volume)."""
     import pydicom
     dataset = pydicom.dcmread(path)
+    syntax = getattr(getattr(dataset, "file_meta", None), "TransferSyntaxUID", None)
+    if not any(keyword in dataset for keyword in ("PixelData", "FloatPixelData", "DoubleFloatPixelData")):
+        raise VolumeError(f"{path.name} has no pixel data (an image header without its image); remove it or "
+                          "export the series again")
     try:
         pixels = dataset.pixel_array
-    except (RuntimeError, NotImplementedError, ValueError) as exc:
-        syntax = getattr(getattr(dataset, "file_meta", None), "TransferSyntaxUID", None)
+    except (RuntimeError, NotImplementedError, ValueError, AttributeError) as exc:
+        detail = str(exc).splitlines()[0][:120] if str(exc) else type(exc).__name__
+        if syntax is None or not getattr(syntax, "is_compressed", True):
+            raise VolumeError(f"{path.name} is damaged or truncated ({detail}); export the series again") from None
         name = getattr(syntax, "name", str(syntax))
         raise VolumeError(f"{path.name} is compressed as {name}, which pydicom cannot decode here "
-                          f"({str(exc).splitlines()[0][:120]}); install a decoder: "
+                          f"({detail}); install a decoder: "
                           "pip install pylibjpeg pylibjpeg-libjpeg pylibjpeg-openjpeg") from None
-    slope = float(getattr(dataset, "RescaleSlope", 1) or 1)
-    intercept = float(getattr(dataset, "RescaleIntercept", 0) or 0)
-    if slope != 1 or intercept != 0:
-        pixels = pixels * np.float32(slope) + np.float32(intercept)
-    return pixels
+    if pixels.shape != into.shape:
+        raise VolumeError(f"{path.name}'s pixels are {'x'.join(map(str, pixels.shape))} where its header and the "
+                          f"series say {'x'.join(map(str, into.shape))}; remove it or export the series again")
+    slope, intercept = _rescale(dataset)
+    if slope == 1 and intercept == 0:
+        into[...] = pixels
+        return
+    with np.errstate(all="ignore"):
+        scaled = pixels * np.float64(slope) + np.float64(intercept)
+    if not np.all(np.abs(scaled) <= np.finfo(np.float32).max):
+        raise VolumeError(f"{path.name}: its RescaleSlope {slope:g} and RescaleIntercept {intercept:g} take "
+                          "samples beyond what float32 holds (or are not finite); fix the header")
+    into[...] = scaled
 
 
 def load_dicom_folder(folder: Path, series: str | None = None, progress: Progress | None = None):
@@ -139,15 +197,21 @@ def load_dicom_folder(folder: Path, series: str | None = None, progress: Progres
                           "pip install pydicom") from None
     all_series = _series_files(folder, progress)
     files, spacing, world = _geometry(folder, _pick_series(folder, all_series, series))
-    slices = []
+    header = files[0][1]
+    # Stored integers stay integers unless a slice is rescaled; the volume is allocated once, after
+    # the size check, and filled a slice at a time (no list of slices and a stacked copy beside it).
+    rescaled = any(_rescale(h) != (1.0, 0.0) for _, h in files)
+    bits = header.get("BitsAllocated", 16)
+    signed = header.get("PixelRepresentation", 0) == 1
+    dtype = np.dtype(np.float32) if rescaled or bits not in (8, 16, 32) else \
+        np.dtype(f"{'i' if signed else 'u'}{bits // 8}")
+    rows, columns = _image_size(folder, files[0][0], header)
+    refuse_if_too_big((len(files), rows, columns), dtype.itemsize, folder.name)
+    data = np.empty((len(files), rows, columns), dtype)
     for number, (path, _) in enumerate(files, 1):
-        slices.append(_pixels(path))
+        _pixels(path, data[number - 1])
         if number % 10 == 0:
             report(progress, 0.3 + 0.7 * number / len(files), f"reading {folder.name} slices")
-    data = np.stack(slices)  # stored integers stay integers unless a slice was rescaled
-    if data.dtype.kind == "f":
-        data = data.astype(np.float32, copy=False)
-    header = files[0][1]
     notes = [f"DICOM series {_describe(files)}, {shape_text(data.shape)} "
              f"(slice, row, column), {spacing[0]:.4g} x {spacing[1]:.4g} x {spacing[2]:.4g} mm"]
     if len(all_series) > 1:
