@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from isoscope.gpu_layout import MAX_WORDS, WORD_BITS
+
 from .errors import VolumeError
-from .expression import evaluate, parse
+from .expression import FLOAT32_MAX, evaluate, parse, peak_intermediates
 from .grid import Box, pick_resolution, sample_function
 from .volume import Progress, Volume, finish_volume
 
@@ -17,6 +19,35 @@ PREFIX = "expr:"
 DEFAULT_BOX = Box.cube(-1.0, 1.0)
 DEFAULT_RESOLUTION = 64
 _OPTIONS_HELP = "use box=LO,HI or box=X0,X1,Y0,Y1,Z0,Z1 and res=N"
+# The numpy back end evaluates a few axis-0 planes at a time so that all the intermediate
+# values a formula holds at once (expression.peak_intermediates) stay under this.
+_EVALUATION_BYTES = 64 << 20
+
+
+def extractor_words(shape) -> int:
+    """The extractor's sign words for a grid: one bit per sample, WORD_BITS samples per word
+    along axis 2 (gpu_limits.plan_extractor's count, which must stay within MAX_WORDS)."""
+    n0, n1, n2 = (int(n) for n in shape)
+    return n0 * n1 * -(-n2 // WORD_BITS)
+
+
+def largest_cube_resolution() -> int:
+    """The largest res=N whose N^3 grid the extractor takes (1024)."""
+    n = 1
+    while extractor_words((n + 1,) * 3) <= MAX_WORDS:
+        n += 1
+    return n
+
+
+def check_grid_size(shape) -> None:
+    """Refuse, before any allocation or sampling, a grid the extractor would refuse after it."""
+    if extractor_words(shape) > MAX_WORDS:
+        samples = int(np.prod([int(n) for n in shape], dtype=np.int64))
+        limit = MAX_WORDS * WORD_BITS
+        raise VolumeError(
+            f"expr: res={shape[0]} makes {'x'.join(map(str, shape))} = {samples:,} samples, above the "
+            f"extractor's limit of 2^{limit.bit_length() - 1} ({limit:,}); "
+            f"use res={largest_cube_resolution()} or less")
 
 
 def split_expression_spec(spec: str) -> tuple[str, Box, str | None]:
@@ -47,7 +78,27 @@ def _parse_box(text: str) -> Box:
     if len(values) != 6 or not all(np.isfinite(values)) or any(
             values[2 * a] >= values[2 * a + 1] for a in range(3)):
         raise VolumeError(f"expr box {text!r} is not valid; {_OPTIONS_HELP} with each LO < HI")
+    # The formula is computed in 32-bit floats: the corners and the extent must be finite there
+    # (checked in float64, before numpy could warn about an overflowing cast).
+    for a in range(3):
+        lo, hi = values[2 * a], values[2 * a + 1]
+        if max(abs(lo), abs(hi)) > FLOAT32_MAX or hi - lo > FLOAT32_MAX:
+            raise VolumeError(f"expr box {text!r} does not fit 32-bit floats (largest {FLOAT32_MAX:.4g}, "
+                              f"extent included); use a smaller box")
+        if np.float32(lo) >= np.float32(hi):
+            raise VolumeError(f"expr box {text!r} is empty in 32-bit floats ({lo:g} and {hi:g} round to "
+                              f"the same number); use a wider box")
     return Box(tuple(values[0::2]), tuple(values[1::2]))
+
+
+def _check_samples_distinct(box: Box, shape) -> None:
+    """Refuse a box so narrow for its position that neighbouring samples share a 32-bit coordinate."""
+    from .gpu_sampler import sample_axis
+    for axis, n in enumerate(shape):
+        coordinates = sample_axis(box, axis, n)
+        if not np.all(np.diff(coordinates) > 0):
+            raise VolumeError(f"expr box is too narrow for res={n} at {box.lo[axis]:g}: neighbouring samples "
+                              f"round to the same 32-bit coordinate; use a wider box or a lower res")
 
 
 def open_expression(spec: str, *, resolution=None, progress: Progress | None = None,
@@ -56,6 +107,8 @@ def open_expression(spec: str, *, resolution=None, progress: Progress | None = N
     tree = parse(formula)  # before any GL work: a typo costs nothing
     n = pick_resolution(spec_resolution, resolution, DEFAULT_RESOLUTION, "expr")
     shape = (n, n, n)
+    check_grid_size(shape)
+    _check_samples_distinct(box, shape)
     data, notes = _sample(tree, box, shape, backend, ctx, progress)
     spacing = box.spacing(shape)
 
@@ -75,13 +128,18 @@ def _sample(tree, box: Box, shape, backend: str, ctx, progress):
         raise ValueError(f"backend must be 'auto', 'gpu' or 'cpu', not {backend!r}")
     if backend != "cpu":
         from isoscope.gl_context import GLUnavailable
+
+        from .gpu_sampler import TooCostlyForGPU, sample_on_gpu
         try:
-            from .gpu_sampler import sample_on_gpu
             return sample_on_gpu(tree, box, shape, ctx=ctx, progress=progress), []
         except GLUnavailable as exc:
             if backend == "gpu":
                 raise VolumeError(f"cannot sample on the GPU: {exc}; use the cpu backend") from None
             note = "no GPU context; the expression was sampled with numpy"
+        except TooCostlyForGPU:
+            if backend == "gpu":
+                raise
+            note = "the formula is too long to compile for the GPU quickly; it was sampled with numpy (the same values)"
         except VolumeError:
             raise
         except Exception as exc:  # a driver failure must not cost the user their volume
@@ -91,6 +149,20 @@ def _sample(tree, box: Box, shape, backend: str, ctx, progress):
             note = f"GPU sampling failed ({type(exc).__name__}); the expression was sampled with numpy"
     else:
         note = None
-    data = sample_function(lambda x, y, z: evaluate(tree, x, y, z), box, shape,
-                           what="the expression", progress=progress)
+    data = sample_function(_evaluator(tree, shape), box, shape, what="the expression", progress=progress)
     return data, [note] if note else []
+
+
+def _evaluator(tree, shape):
+    """evaluate(tree, ...) a few axis-0 planes at a time: a formula that holds many grid-sized
+    intermediate values at once (deep parentheses) must not hold them for a whole slab."""
+    plane_bytes = int(shape[1]) * int(shape[2]) * 4
+    planes = max(1, _EVALUATION_BYTES // (plane_bytes * (peak_intermediates(tree) + 2)))
+
+    def fn(x, y, z):
+        if len(x) <= planes:
+            return evaluate(tree, x, y, z)
+        return np.concatenate([np.broadcast_to(evaluate(tree, x[i:i + planes], y, z),
+                                               (len(x[i:i + planes]), shape[1], shape[2]))
+                               for i in range(0, len(x), planes)])
+    return fn
