@@ -48,10 +48,54 @@ VOLUME_HELP = ("a built-in name (isoscope volumes), a file (.npy .npz .nrrd .nii
 
 
 class OneLineParser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line that points at --help."""
+    """argparse, but a usage error is one line that points at --help.
+
+    A VOLUME path that starts with '-' goes after '--' (`isoscope export --out m.stl -- -scan.npy`);
+    options may follow it too (`isoscope export -- -scan.npy --out m.stl`): VOLUME is the one positional,
+    so the word right after '--' is it."""
+
+    _given: list[str] = []
+
+    def parse_args(self, args=None, namespace=None):
+        self._given = list(sys.argv[1:] if args is None else args)
+        return super().parse_args(volume_after_dashes(self._given), namespace)
 
     def error(self, message: str):
-        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        stray = self._stray_option() if "VOLUME" in message else None
+        if stray is not None:
+            message += (f"; {stray!r} is not an option: a path that starts with '-' goes after '--', e.g. "
+                        f"{self.prog} ... -- {stray}")
+        # "isoscope: error:" as every other refusal, whichever subcommand: scripts look for one prefix.
+        self.exit(EXIT_BAD_INPUT, f"isoscope: error: {message} (see {self.prog} --help)\n")
+
+    def _stray_option(self) -> str | None:
+        """The first argument that looks like an option but is none of this parser's (nor a prefix of one)."""
+        for arg in self._given:
+            if arg == "--":
+                return None
+            name = arg.split("=", 1)[0]
+            if len(arg) > 1 and arg.startswith("-") and not _is_number(arg) and not any(
+                    option.startswith(name) for option in self._option_string_actions):
+                return arg
+        return None
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def volume_after_dashes(args: list[str]) -> list[str]:
+    """`A -- VOLUME B` as `A B -- VOLUME`: argparse takes every word after '--' as a positional, and VOLUME is
+    the only one, so options given after it would be refused as extra arguments."""
+    if "--" not in args:
+        return args
+    at = args.index("--")
+    after = args[at + 1:]
+    return args[:at] + after[1:] + ["--", after[0]] if len(after) >= 2 and after[1].startswith("-") else args
 
 
 def window_size(text: str) -> tuple[int, int]:

@@ -39,3 +39,32 @@ def test_three_positive_takes_python_ints_and_refuses_overflow():
             three_positive(bad, "--dims", int, "x")
     with pytest.raises(VolumeError):
         three_positive([float("inf"), 1, 1], "--spacing", float, "x")
+
+
+# --- 7. a path that starts with a dash ----------------------------------------------------------------
+
+@pytest.fixture
+def dash_npy(tmp_path):
+    np.save(tmp_path / "-lead.npy", np.random.default_rng(0).random((12, 12, 12)).astype(np.float32))
+    return tmp_path
+
+
+def test_a_dash_path_without_dashes_says_to_put_it_after_double_dash(dash_npy):
+    line = refused("export", "-lead.npy", "--out", "o.stl", cwd=dash_npy, words=("VOLUME", "'--'", "-lead.npy"))
+    assert line.startswith("isoscope: error:") and line.endswith("(see isoscope export --help)")
+
+
+@pytest.mark.parametrize("order", ["before", "after"])
+def test_a_dash_path_after_double_dash_exports(dash_npy, order):
+    from hostile import succeeded
+    args = ["--", "-lead.npy", "--out", "o.stl", "--iso", "0.5"] if order == "before" else \
+        ["--out", "o.stl", "--iso", "0.5", "--", "-lead.npy"]
+    succeeded("export", *args, cwd=dash_npy)
+    assert (dash_npy / "o.stl").stat().st_size > 84
+
+
+def test_volume_after_dashes_moves_only_options():
+    from isoscope.cli import volume_after_dashes
+    assert volume_after_dashes(["--", "-v.npy", "--out", "o"]) == ["--out", "o", "--", "-v.npy"]
+    assert volume_after_dashes(["--out", "o", "--", "-v.npy"]) == ["--out", "o", "--", "-v.npy"]
+    assert volume_after_dashes(["--", "-v.npy", "extra"]) == ["--", "-v.npy", "extra"]
