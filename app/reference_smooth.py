@@ -27,6 +27,24 @@ even out while the surface stays where the volume puts it.
   edges stay on the border instead of creeping inward).
 * A projection that ends further than ACCEPT x the value range off its level keeps the
   vertex where it was, so every vertex stays as close to the level set as it started.
+* No triangle collapses (`keeps_triangles`): a vertex's move (umbrella and projection together)
+  is kept only if each of its triangles keeps an area of at least min(its area before the move,
+  MIN_AREA of a voxel face) with the triangle's other two corners where they were or where
+  their own moves go (all 4 combinations: every vertex moves at once); else the vertex stays
+  where it was.  Whichever moves are kept, every triangle is then one that was checked, so none
+  ever falls below min(its area before smoothing, MIN_AREA): no zero-area face, no face with
+  coincident corners, from any mesh that had none.
+  Why: on exact ties the level set pinches to a point.  Marching cubes keeps the vertices
+  around a sample equal to the level 1/256 of an edge from it (the tie rule), so those little
+  caps of triangles start off the level by up to 1/256 of the range, and umbrella + projection
+  pulled them into the sample itself: zero-area faces (~2,000 in 40 tie-heavy 6^3-14^3 meshes
+  after one iteration, 5,000 after 12), coincident vertices, and Newton steps there so badly
+  conditioned that the GPU and numpy parted by 0.2 cell.  Now such a cap stays about where
+  marching cubes put it, off the level by up to 1/256 of the range: the level set has no place
+  for it that is not a point.  Turning over is not checked: a triangle that turns over within
+  one move still ends it above the floor, and the 4 combinations' worst cases held back
+  vertices of tetrahedra's meshes (which do not start on the trilinear level set) that must move
+  to reach it.
 * Normals come from the field's gradient at the new position: central differences at the
   8 corners of its cell, blended trilinearly (on a grid edge that is the extractor's normal).
 
@@ -53,6 +71,11 @@ CORRECTION = 5e-4
 """Largest correction of the level for the interpolant's error, as a fraction of the value range."""
 BORDER = 1e-3
 """A coordinate within this many cells of the volume's first or last sample lies on the border."""
+MIN_AREA = 1e-5
+"""No move shrinks a triangle below this fraction of a voxel face (index units), nor one already
+smaller at all (marching cubes' smallest, around a tie, are 7.6e-6 and 1.3e-5)."""
+FLOOR_SQUARED = float(np.float32((2 * MIN_AREA) ** 2))
+"""MIN_AREA as both backends compare it: against |edge x edge|^2, which is 4 area^2 (float32)."""
 
 F32 = np.float32
 
@@ -68,10 +91,12 @@ def check_iterations(iterations) -> int:
     return int(iterations)
 
 
-def half_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(from, to) of every half-edge a->b, b->c, c->a of the triangles."""
+def half_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(from, to, third) of every half-edge a->b, b->c, c->a of the triangles: each half-edge's
+    triangle is (from, to, third) in its winding order, so a vertex's outgoing half-edges name
+    each of its triangles once."""
     faces = np.asarray(faces, np.int64)
-    return faces.ravel(), faces[:, [1, 2, 0]].ravel()
+    return faces.ravel(), faces[:, [1, 2, 0]].ravel(), faces[:, [2, 0, 1]].ravel()
 
 
 def free_axes(x: np.ndarray, shape) -> np.ndarray:
@@ -177,6 +202,36 @@ def umbrella(x, free, starts, ends):
     return moved
 
 
+def cross(a, b):
+    """Row-wise a x b (float32, the shader's order of operations: GLSL's cross())."""
+    a0, a1, a2 = a.T
+    b0, b1, b2 = b.T
+    return np.stack([a1 * b2 - b1 * a2, a2 * b0 - b2 * a0, a0 * b1 - b0 * a1], axis=1)
+
+
+def triangle_kept(before, after):
+    """Whether a triangle whose doubled area vector (edge x edge, index units) was `before` keeps
+    enough area at `after`: |after|^2 >= min(|before|^2, (2 MIN_AREA)^2), in squares as the
+    shader has it (no square roots)."""
+    old = np.einsum("ij,ij->i", before, before)
+    new = np.einsum("ij,ij->i", after, after)
+    return new >= np.minimum(old, F32(FLOOR_SQUARED))
+
+
+def keeps_triangles(x, y, starts, ends, thirds):
+    """Per vertex, whether its move from x to y keeps each of its triangles (`triangle_kept`) with
+    the triangle's other two corners at x or y: half-edge v->b of triangle (v, b, c) tries v at y
+    against b and c each where it was and where it would move (4 combinations)."""
+    here = x[starts]
+    before = cross(x[ends] - here, x[thirds] - here)
+    there = y[starts]
+    ok = np.ones(len(starts), bool)
+    for b in (x, y):
+        for c in (x, y):
+            ok &= triangle_kept(before, cross(b[ends] - there, c[thirds] - there))
+    return np.bincount(starts[~ok], minlength=len(x)) == 0
+
+
 def field_normals(field, x, spacing, fallback):
     """Outward unit normals from the gradient of the (sign-adjusted) field: central differences at the
     cell's corners, blended trilinearly; `fallback` where the gradient vanishes."""
@@ -214,12 +269,13 @@ def smooth_projected(verts, faces, volume, level, iterations, spacing=(1.0, 1.0,
     cap = F32(CORRECTION * (value_range[1] - value_range[0]))
     x = (np.asarray(verts, F32) / spacing).astype(F32)
     free = free_axes(x, field.shape)
-    starts, ends = half_edges(faces)
+    starts, ends, thirds = half_edges(faces)
     k = curvature(field, x)  # once, where each vertex starts: it moves about a cell at most
     for _ in range(check_iterations(iterations)):
         projected, on_level = project(field, lvl, umbrella(x, free, starts, ends), free, spacing, tolerance,
                                      k, cap)
-        x = np.where(on_level[:, None], projected, x).astype(F32)
+        moved = np.where(on_level[:, None], projected, x).astype(F32)
+        x = np.where(keeps_triangles(x, moved, starts, ends, thirds)[:, None], moved, x).astype(F32)
     value, _ = trilinear(field, x)
     fallback = np.zeros_like(x) if normals is None else normals
     return (x * spacing).astype(F32), faces, field_normals(field, x, spacing, fallback), (value * sign).astype(F32)

@@ -8,18 +8,22 @@ numpy mirror and the method: app/reference_smooth.py):
 2. scan              the counts -> each vertex's first slot in the neighbour list
 3. ``smooth_load``   per vertex: positions in index units, axes it may move along, its ring's slots,
                      the field's curvature where it starts (for the level's correction)
-4. ``smooth_fill``   per triangle: each half-edge's end into slot first + rank of its start vertex
-5. ``smooth_step``   per vertex, once per iteration: umbrella move, Newton projection (ping-pong)
-6. ``smooth_store``  per vertex: positions, values and normals back into the mesh
+4. ``smooth_fill``   per triangle: each half-edge's end (and its triangle's third corner) into slot
+                     first + rank of its start vertex
+5. ``smooth_step``   per vertex, once per iteration: umbrella move, Newton projection: a proposed move
+6. ``smooth_keep``   per vertex, once per iteration: the move kept unless one of the vertex's triangles
+                     could collapse (ping-pong)
+7. ``smooth_store``  per vertex: positions, values and normals back into the mesh
 
 Why a neighbour list (CSR) gathered per vertex rather than scattering each triangle into
 fixed-point atomics every iteration: the topology is the same in every iteration, so the list
 is built once (two passes over the triangles) and each iteration is one pass that reads each
 vertex's ~6 neighbours, with no atomics, no clearing pass and no fixed-point rounding; the
-projection fits in the same pass, so an iteration is one dispatch.
-Positions (two, ping-pong), rings, curvatures, neighbour lists and ranks live in 2-D images (an
-imageLoad costs llvmpipe a fraction of an SSBO load), the per-vertex list ends in a buffer (it is
-scanned): 60 bytes of scratch per vertex and 24 per triangle.
+projection fits in the same pass.  The check that no triangle collapses needs every vertex's
+proposed move, so it is a second dispatch per iteration.
+Positions (two, ping-pong, and the proposed moves), rings, curvatures, neighbour lists and ranks
+live in 2-D images (an imageLoad costs llvmpipe a fraction of an SSBO load), the per-vertex list
+ends in a buffer (it is scanned): 76 bytes of scratch per vertex and 36 per triangle.
 """
 from __future__ import annotations
 
@@ -29,13 +33,22 @@ from .gpu_layout import GROUP_SIZE, VERTEX_BYTES
 from .gpu_limits import GPULimitError, GpuLimits
 from .gpu_programs import compute_program, dispatch_groups, set_uniforms
 from .mesh import GpuMesh
-from .reference_smooth import ACCEPT, BORDER, CONVERGED, CORRECTION, NEWTON_STEPS, UMBRELLA_WEIGHT, check_iterations
+from .reference_smooth import (
+    ACCEPT,
+    BORDER,
+    CONVERGED,
+    CORRECTION,
+    FLOOR_SQUARED,
+    NEWTON_STEPS,
+    UMBRELLA_WEIGHT,
+    check_iterations,
+)
 from .scan import ExclusiveScan
 
 IMAGE_SHIFT = 12
 """Position and neighbour images are 2^12 = 4096 texels wide."""
 
-PASSES = ("smooth_valence", "smooth_fill", "smooth_load", "smooth_step", "smooth_store")
+PASSES = ("smooth_valence", "smooth_fill", "smooth_load", "smooth_step", "smooth_keep", "smooth_store")
 
 
 class Smoother:
@@ -51,7 +64,7 @@ class Smoother:
         self._programs = {name: compute_program(self.ctx, f"{name}.comp", {
             **extractor.volume_defines, "UMBRELLA_WEIGHT": f"{UMBRELLA_WEIGHT!r}",
             "NEWTON_STEPS": NEWTON_STEPS, "CONVERGED": f"{CONVERGED!r}", "BORDER": f"{BORDER!r}",
-            "IMAGE_SHIFT": IMAGE_SHIFT}) for name in PASSES}
+            "FLOOR_SQUARED": f"{FLOOR_SQUARED!r}", "IMAGE_SHIFT": IMAGE_SHIFT}) for name in PASSES}
         self._scan = ExclusiveScan(self.ctx)
         self._buffers: dict[str, moderngl.Buffer | moderngl.Texture] = {}
         self._limits = GpuLimits.of(self.ctx)
@@ -97,9 +110,10 @@ class Smoother:
                          u_vertex_count=n_v, u_triangle_count=n_t, u_tolerance=ACCEPT * (high - low),
                          u_correction=CORRECTION * (high - low))
         ends = self._buffer("ends", (n_v + 1) * 4)
-        neighbours = self._image("neighbours", 3 * n_t, 1, "u4")
+        neighbours = self._image("neighbours", 3 * n_t, 2, "u4")
         ranks = self._image("ranks", 3 * n_t, 1, "u4")
         positions = [self._image("positions", n_v, 4, "f4"), self._image("positions 2", n_v, 4, "f4")]
+        moved = self._image("moved", n_v, 4, "f4")
         rings, curvatures = self._image("rings", n_v, 2, "u4"), self._image("curvatures", n_v, 4, "f4")
         ex.volume_texture.bind_to_image(0, read=True, write=False)
         mesh.index_buffer.bind_to_storage_buffer(6, size=max(n_t, 1) * 12)
@@ -121,10 +135,12 @@ class Smoother:
         self._run("smooth_fill", n_t)
         neighbours.bind_to_image(3, read=True, write=False)
         curvatures.bind_to_image(5, read=True, write=False)
+        moved.bind_to_image(2, read=True, write=True)  # written by smooth_step, read by smooth_keep
         for i in range(iterations):
             positions[i % 2].bind_to_image(1, read=True, write=False)
-            positions[(i + 1) % 2].bind_to_image(2, read=False, write=True)
+            positions[(i + 1) % 2].bind_to_image(6, read=False, write=True)
             self._run("smooth_step", n_v)
+            self._run("smooth_keep", n_v)
         positions[iterations % 2].bind_to_image(1, read=True, write=False)
         self._run("smooth_store", n_v)
         self.ctx.finish()

@@ -3,11 +3,12 @@
 // Positions are kept in index units (position / spacing) as vec4(x, free axes), where w holds
 // bits 1, 2, 4: the axes along which the vertex may move (0 where it lies on the volume's border).
 // Neighbour lists: vertex v's neighbours are neighbours[first .. last), (first, last) its ring in
-// u_rings (the scanned counts ends[v], ends[v + 1]), the far ends of its outgoing half-edges.
+// u_rings (the scanned counts ends[v], ends[v + 1]), the far ends of its outgoing half-edges, each
+// with the third corner of the half-edge's triangle.
 // Per-vertex and per-half-edge data live in 2-D images 2^IMAGE_SHIFT texels wide, item i at texel
 // (i mod width, i / width): on llvmpipe an imageLoad costs a fraction of an SSBO load (see
-// mc_common.glsl), and the gather is most of an iteration.  UMBRELLA_WEIGHT, NEWTON_STEPS and BORDER
-// are #defines from app/reference_smooth.py.
+// mc_common.glsl), and the gathers are most of an iteration.  UMBRELLA_WEIGHT, NEWTON_STEPS, BORDER
+// and FLOOR_SQUARED are #defines from app/reference_smooth.py.
 #include "mc_common.glsl"
 
 uniform uint u_vertex_count;

@@ -1,5 +1,5 @@
 #version 430
-// Smoothing pass 2 of 5 (after the scan), one invocation per vertex: the mesh's positions into index units, with
+// Smoothing pass 2 of 6 (after the scan), one invocation per vertex: the mesh's positions into index units, with
 // the axes the vertex may move along (not those where it lies on the volume's border); its ring's
 // slots (first, last + 1) in the neighbour list; and the field's curvature around where it starts
 // (smooth_step.comp corrects the level by it).  Each is stored in an image: smooth_step loads them

@@ -1,19 +1,20 @@
 #version 430
-// Smoothing pass 4 of 5, once per iteration, one invocation per vertex: move UMBRELLA_WEIGHT of
+// Smoothing pass 4 of 6, once per iteration, one invocation per vertex: propose moving UMBRELLA_WEIGHT of
 // the way to the neighbours' average (along free axes), then NEWTON_STEPS Newton steps on the
 // trilinear interpolant toward the level, along the physical gradient, clamped to the 3 cells
 // around where the move went.  The level is corrected by the interpolant's own error estimate
 // E = sum t(1 - t)/2 k (k: second differences around the vertex's first cell, from smooth_load; E
 // capped at +-u_correction; see app/reference_smooth.py).  A projection ending over u_tolerance off
-// the corrected level is discarded.  Per vertex it loads its position, ring and curvature from
-// images, and per neighbour an index and a position: no SSBO loads at all.
+// the corrected level is discarded.  The proposal goes to u_after, and smooth_keep.comp keeps it or
+// not.  Per vertex it loads its position, ring and curvature from images, and per neighbour an index
+// and a position: no SSBO loads at all.
 // NEWTON_STEPS and CONVERGED are #defines from app/reference_smooth.py.
 layout(local_size_x = GROUP_SIZE) in;
 #include "smooth_common.glsl"
 
 uniform float u_tolerance;
 uniform float u_correction;
-layout(r32ui, binding = 3) readonly uniform uimage2D u_neighbours;
+layout(rg32ui, binding = 3) readonly uniform uimage2D u_neighbours;
 layout(rg32ui, binding = 4) readonly uniform uimage2D u_rings;
 layout(rgba32f, binding = 5) readonly uniform image2D u_curvatures;
 layout(rgba32f, binding = 1) readonly uniform image2D u_before;

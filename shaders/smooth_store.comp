@@ -1,5 +1,5 @@
 #version 430
-// Smoothing pass 5 of 5, one invocation per vertex: the smoothed positions back into the mesh,
+// Smoothing pass 6 of 6, one invocation per vertex: the smoothed positions back into the mesh,
 // with the value there and the outward normal from the field's gradient (central differences at
 // the cell's 8 corners, blended trilinearly); where that vanishes the vertex keeps its normal.
 layout(local_size_x = GROUP_SIZE) in;

@@ -1,5 +1,5 @@
 #version 430
-// Smoothing pass 1 of 5, once per mesh, one invocation per triangle: count each vertex's
+// Smoothing pass 1 of 6, once per mesh, one invocation per triangle: count each vertex's
 // outgoing half-edges (a->b, b->c, c->a) into ends[] (zeroed before; scanned after), and keep
 // each half-edge's rank among its start vertex's (the count before it) for smooth_fill.comp.
 layout(local_size_x = GROUP_SIZE) in;
