@@ -13,8 +13,8 @@ import numpy as np
 
 from .errors import VolumeError
 from .frames import select_frame
-from .reading import read_or_explain
-from .volume import Progress, report
+from .reading import library_messages, read_or_explain
+from .volume import Progress, refuse_if_too_big, report
 
 TIFF_SUFFIXES = (".tif", ".tiff")
 
@@ -54,20 +54,25 @@ def load_tiff(path: Path, frame: int | None, progress: Progress | None = None):
             if not tif.series:
                 raise ValueError("no image in it")
             series = tif.series[0]
+            # The size the tags claim, refused before tifffile allocates it (8 pages of 46000^2 reached
+            # the allocator); one frame of a time series is what is kept, but the series is read whole.
+            refuse_if_too_big(series.shape, series.dtype.itemsize, path.name)
             return series.asarray(), series.axes.upper(), _spacing(tif, series.axes.upper())
-    data, axes, spacing = read_or_explain(path, read, (tifffile.TiffFileError,))
+    notes: list[str] = []
+    with library_messages(notes, "tifffile"):  # "invalid page offset" and the like: notes, not stderr
+        data, axes, spacing = read_or_explain(path, read, (tifffile.TiffFileError,))
     keep = [a for a, n in zip(axes, data.shape) if n > 1 or a in "ZYX"]
     data = data.reshape([n for a, n in zip(axes, data.shape) if a in keep])
     axes = "".join(keep)
     if any(a in axes for a in "CS"):
         raise VolumeError(f"{path.name} holds colour channels (axes {axes}); save one channel as a grey "
                           "stack (ImageJ: Image > Color > Split Channels)")
-    notes: list[str] = []
     if "T" in axes:
-        data, notes = select_frame(data, axes.index("T"), frame, path.name)
+        data, frame_notes = select_frame(data, axes.index("T"), frame, path.name)
         axes = axes.replace("T", "")
     else:
-        data, notes = select_frame(data, 0, frame, path.name)  # refuses --frame on a 3-D stack
+        data, frame_notes = select_frame(data, 0, frame, path.name)  # refuses --frame on a 3-D stack
+    notes += frame_notes
     if axes != "ZYX" and data.ndim == 3:
         notes.append(f"{path.name}: axes {axes} read as z, y, x")
     return np.ascontiguousarray(data), spacing, notes
