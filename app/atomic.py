@@ -1,27 +1,176 @@
-"""Write a file so that a failure never leaves half of it, nor harms the file it replaces."""
+"""Write a file so that a failure never leaves half of it, nor harms the file it replaces.
+
+Also when the process is told to stop part-way: while `write_atomically` runs on the main thread,
+SIGINT and SIGTERM are only noted; the temporary file is then removed, never renamed into place, and
+the signal handed on to what handled it before (SIGINT: KeyboardInterrupt, the command exits 130;
+SIGTERM: the process ends by the signal, 143 in a shell). `signals_not_swallowed` keeps code that
+catches BaseException (trimesh's encoders) from hiding an interrupt.
+"""
 from __future__ import annotations
 
 import os
+import signal
+import stat
 import tempfile
+import threading
 from collections.abc import Callable
+from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def current_umask() -> int:
+    """The process's umask, read without changing it where Linux says it (/proc/self/status is
+    thread-safe); elsewhere by setting and restoring it."""
+    try:
+        with open("/proc/self/status", encoding="ascii", errors="replace") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o077)
+    os.umask(mask)
+    return mask
+
+
+class _Signals:
+    """SIGINT and SIGTERM noted while a block runs on the main thread; the first one received is
+    handed on to the previous handlers when the block ends (or at once, with `defer=False`)."""
+
+    def __init__(self, defer: bool):
+        self.defer = defer
+        self.received: int | None = None
+        self.previous: dict[int, object] = {}
+
+    def install(self) -> None:
+        for signum in STOP_SIGNALS:
+            before = signal.getsignal(signum)
+            if before in (signal.SIG_IGN, None):  # ignored (nohup, a background job), or not set from Python
+                continue
+            self.previous[signum] = before
+            signal.signal(signum, self._handler)
+
+    def restore(self) -> None:
+        for signum, before in self.previous.items():
+            signal.signal(signum, before)
+
+    def _handler(self, signum, frame) -> None:
+        first = self.received is None
+        if first:
+            self.received = signum
+        if not self.defer and first:
+            self._hand_on(signum, frame)
+
+    def _hand_on(self, signum, frame) -> None:
+        """What would have happened without us: the previous Python handler called (SIGINT's raises
+        KeyboardInterrupt), or the default action (SIGTERM: the process ends, skipping no file of ours)."""
+        before = self.previous.get(signum, signal.SIG_DFL)
+        if callable(before):
+            before(signum, frame)
+            return
+        signal.signal(signum, signal.SIG_DFL)
+        signal.raise_signal(signum)
+
+    def deliver(self) -> None:
+        """After `restore`: act on the signal noted, if any. Does not return after one: a handler
+        that returns is followed by KeyboardInterrupt (SIGINT) or SystemExit(128 + signal)."""
+        if self.received is None:
+            return
+        signum = self.received
+        self._hand_on(signum, None)
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        raise SystemExit(128 + signum)
+
+
+def _on_main_thread() -> bool:
+    return threading.current_thread() is threading.main_thread()
+
+
+@contextmanager
+def signals_not_swallowed():
+    """Run a block that may catch BaseException (and so swallow KeyboardInterrupt): SIGINT and
+    SIGTERM act at once as usual, and if the block still returns normally after one, it is
+    handed on again as it ends, so an interrupted computation's result is never used.
+    Off the main thread (where handlers cannot be set) the block just runs."""
+    if not _on_main_thread():
+        yield
+        return
+    guard = _Signals(defer=False)
+    guard.install()
+    try:
+        yield
+    finally:
+        guard.restore()
+    guard.deliver()   # reached only when the block returned normally: the signal was swallowed in it
+
+
+@contextmanager
+def _signals_deferred():
+    """SIGINT and SIGTERM only noted while the block runs (main thread); yields the noter, whose
+    `received` the block checks; on leaving, the previous handlers back and the signal handed on."""
+    guard = _Signals(defer=True)
+    if not _on_main_thread():
+        yield guard
+        return
+    guard.install()
+    try:
+        yield guard
+    finally:
+        guard.restore()
+        guard.deliver()
+
+
+def _new_file_mode(target: str) -> int:
+    """The replaced file's permission bits, else what `open` would give a new file (0666 & ~umask)."""
+    try:
+        st = os.stat(target)
+    except OSError:
+        return 0o666 & ~current_umask()
+    if stat.S_ISREG(st.st_mode):
+        return stat.S_IMODE(st.st_mode) & 0o777
+    return 0o666 & ~current_umask()
 
 
 def write_atomically(path, write: Callable[[BinaryIO], object]) -> Path:
     """Call `write` on a temporary file beside `path`, flush it to disk, then rename it over `path`.
 
-    If anything fails, the temporary file is removed and `path` is as it was."""
+    If anything fails, or SIGINT/SIGTERM arrives, the temporary file is removed and `path` is as it
+    was. A `path` that is a symbolic link is written through (its target replaced, the link kept).
+    The file gets the permissions of the file it replaces, or of a new file under the umask.
+    An OSError names `path`, never the temporary file."""
     path = Path(path)
-    handle, temporary = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".",
-                                         prefix=f".{path.name}.", suffix=".partial")
+    target = os.path.realpath(path)
+    directory, name = os.path.split(target)
     try:
-        with os.fdopen(handle, "wb") as out:
-            write(out)
-            out.flush()
-            os.fsync(out.fileno())
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
+        with _signals_deferred() as signals:
+            mode = _new_file_mode(target)
+            handle, temporary = tempfile.mkstemp(dir=directory or ".", prefix=f".{name}.", suffix=".partial")
+            try:
+                with os.fdopen(handle, "wb") as out:
+                    os.fchmod(out.fileno(), mode)
+                    write(out)
+                    out.flush()
+                    os.fsync(out.fileno())
+                if signals.received is not None:  # told to stop: the file must not take the user's name
+                    os.unlink(temporary)
+                else:
+                    os.replace(temporary, target)
+            except BaseException:
+                try:
+                    os.unlink(temporary)
+                except OSError:
+                    pass
+                raise
+    except OSError as exc:
+        named = exc.filename if isinstance(exc.filename, str) else None
+        if named is None or named in (target, directory) or (
+                os.path.basename(named).startswith(f".{name}.") and named.endswith(".partial")):
+            exc.filename = str(path)
+        if exc.filename2 is not None:
+            exc.filename2 = None
         raise
     return path

@@ -7,7 +7,8 @@ as it is (no merging or reordering), with its per-vertex normals where the forma
 carries them (PLY, OBJ, GLB; STL has face normals, OFF none).
 
 A file is written to a temporary name beside the target and renamed over it only
-once complete, so a failure never leaves half a file or harms an existing one.
+once complete, so a failure (or Ctrl-C, or SIGTERM) never leaves half a file or harms
+an existing one (see atomic.py: permissions, symbolic links, error messages).
 """
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_atomically
+from .atomic import signals_not_swallowed, write_atomically
 
 FORMATS = {".ply": "ply", ".obj": "obj", ".stl": "stl", ".glb": "glb", ".off": "off"}
 
@@ -53,13 +54,16 @@ def mesh_bytes(file_type: str, verts, faces, normals, colors=None, comment: str 
         raise ValueError(f"{len(verts)} vertices but {len(normals)} normals; pass one normal per vertex")
     if len(faces) and (faces.min() < 0 or faces.max() >= len(verts)):
         raise ValueError(f"face indices must lie in [0, {len(verts)}); got {faces.min()}..{faces.max()}")
-    mesh = trimesh.Trimesh(vertices=verts, faces=faces, vertex_normals=normals, vertex_colors=colors,
-                           process=False, validate=False)
     options = {"ply": {"encoding": "binary", "vertex_normal": True}, "obj": {"include_normals": True},
                "glb": {"include_normals": True}}.get(file_type, {})
     if comment and file_type == "obj":
         options["header"] = comment
-    data = mesh.export(file_type=file_type, **options)
+    # trimesh catches BaseException in places (and carries on without what failed): a Ctrl-C there
+    # would be swallowed and a wrong file written with exit 0. The guard hands it on as it returns.
+    with signals_not_swallowed():
+        mesh = trimesh.Trimesh(vertices=verts, faces=faces, vertex_normals=normals, vertex_colors=colors,
+                               process=False, validate=False)
+        data = mesh.export(file_type=file_type, **options)
     data = data.encode() if isinstance(data, str) else data
     if comment and file_type == "ply":  # a comment line may stand anywhere in the header: after `format`
         end_of_format = data.index(b"\n", data.index(b"\nformat ") + 1) + 1
