@@ -68,3 +68,26 @@ def test_volume_after_dashes_moves_only_options():
     assert volume_after_dashes(["--", "-v.npy", "--out", "o"]) == ["--out", "o", "--", "-v.npy"]
     assert volume_after_dashes(["--out", "o", "--", "-v.npy"]) == ["--out", "o", "--", "-v.npy"]
     assert volume_after_dashes(["--", "-v.npy", "extra"]) == ["--", "-v.npy", "extra"]
+
+
+# --- 8. colour-bar labels without float noise ---------------------------------------------------------
+
+@pytest.mark.parametrize("value, low, high, text", [
+    (1.251e-17, 1.251e-17, 1.0, "0"), (-3e-12, -3e-12, 255.0, "0"), (1.0, 1.251e-17, 1.0, "1"),
+    (1000.0, 1000.0, 1001.0, "1000"), (1001.0, 1000.0, 1001.0, "1001"), (0.1 + 0.2, 0.0, 0.1 + 0.2, "0.3"),
+    (-10 / 3, -10 / 3, 7.0, "-3.33"), (1e-20, 1e-20, 3e-20, "1e-20"), (123456.789, 0.0, 123456.789, "123457"),
+    (5.0, 5.0, 5.0, "5"), (1000.25, 1000.0, 1000.5, "1000.25")])
+def test_colorbar_tick_labels(value, low, high, text):
+    from isoscope.viewer.colorbar import tick_label
+    assert tick_label(value, low, high) == text
+
+
+def test_colorbar_draws_zero_for_a_noise_low_end():
+    from types import SimpleNamespace
+
+    from isoscope.viewer.colorbar import draw_colorbar
+    pixels = np.zeros((300, 300, 3), np.uint8)
+    lut = np.linspace(0, 1, 256)[:, None].repeat(3, 1)
+    noisy = draw_colorbar(pixels, SimpleNamespace(value_range=(1.251e-17, 1.0), source="dose", lut=lut))
+    clean = draw_colorbar(pixels, SimpleNamespace(value_range=(0.0, 1.0), source="dose", lut=lut))
+    assert np.array_equal(noisy, clean)

@@ -5,6 +5,8 @@ one, so a screenshot of a coloured surface always says what its colours mean.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
@@ -16,6 +18,26 @@ TEXT_COLOR = (235, 235, 235)
 LINE = 13              # pixels per line of the default font
 MAX_BAR_SHARE = 0.6    # of the image's height
 MAX_NAME = 28          # characters of the scalar's name (a file name can be long)
+ZERO_SHARE = 1e-6      # a tick within this share of the larger end is rounding: it reads 0
+MAX_DIGITS = 7         # float32 holds about 7 significant digits; more are noise
+
+
+def tick_label(value: float, low: float, high: float) -> str:
+    """`value`, one end of the bar running `low`..`high`, as text without float noise: a value within
+    rounding (1e-6 of the larger end) of zero is "0", not "1.251e-17"; others get the significant digits
+    that tell the two ends apart (3 for 0..1, 6 for 1000..1001) and at least its whole digits (123457),
+    at most 7 (float32's)."""
+    value, low, high = float(value), float(low), float(high)
+    if not math.isfinite(value):
+        return str(value)
+    scale = max(abs(low), abs(high), abs(value))
+    if scale == 0.0 or abs(value) <= ZERO_SHARE * scale:
+        return "0"
+    span = abs(high - low)
+    digits = 3 if span == 0.0 else max(3, math.ceil(math.log10(scale / span)) + 3)
+    digits = min(MAX_DIGITS, max(digits, math.floor(math.log10(abs(value))) + 1))  # 123457, not 1.23e+05
+    text = f"{value:.{digits}g}"
+    return "0" if float(text) == 0.0 else text
 
 
 def draw_colorbar(pixels: np.ndarray, color_by: ColorBy) -> np.ndarray:
@@ -28,7 +50,7 @@ def draw_colorbar(pixels: np.ndarray, color_by: ColorBy) -> np.ndarray:
     font = ImageFont.load_default()
     low, high = color_by.value_range
     name = color_by.source if len(color_by.source) <= MAX_NAME else color_by.source[:MAX_NAME - 3] + "..."
-    labels = [f"{high:.4g}", f"{low:.4g}", name]
+    labels = [tick_label(high, low, high), tick_label(low, low, high), name]
     widths = [draw.textbbox((0, 0), text, font=font)[2] for text in labels]
     top = MARGIN + 2 * LINE
     bottom = top + min(height - top - MARGIN - LINE, int(MAX_BAR_SHARE * height))
