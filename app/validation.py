@@ -139,16 +139,43 @@ def _numeric_3d(volume, what: str) -> tuple[np.ndarray, list[str]]:
     return np.ascontiguousarray(data), notes
 
 
-def as_spacing(spacing) -> tuple[float, float, float]:
+MIN_SPACING = 2.0 ** -60  # 8.7e-19
+MAX_SPACING = 2.0 ** 60   # 1.2e18
+"""The voxel sizes a mesh survives in float32, whatever the volume's shape (up to 2^31 samples per axis).
+Vertices are index x spacing: under 2^91, finite in float32 (1e300 made inf vertices), and spacing is a
+normal float32 far above its smallest (2^-126) with 23 bits to tell neighbours and in-cell positions apart
+(1e-300 is 0 in float32: every vertex one point).  Normals are a gradient divided by the spacing, whose
+square must stay inside float32's normal range too: (2^60)^2 = 2^120 < 2^128.  Checked at 1e-19 and 1e18:
+the mesh is the spacing-1 mesh scaled, normals of unit length to 1e-7; at 1e-30 and 1e20 they are not."""
+
+
+def as_spacing(spacing, shape=None) -> tuple[float, float, float]:
+    """Three voxel sizes, each finite, positive and within MIN_SPACING..MAX_SPACING; with `shape`, the
+    volume's extent spacing x (n - 1) must be finite in float32 too.  The one rule on spacing: the Python
+    API (marching_cubes, Extractor, label_surfaces) and the command line (--spacing, a header's) both
+    come here."""
     try:
         values = tuple(float(s) for s in spacing)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ValueError(f"spacing {spacing!r} is not three numbers; pass e.g. (1.0, 1.0, 1.0)") from None
     if len(values) != 3:
         raise ValueError(f"spacing needs 3 values, one per axis, got {len(values)}")
     if not all(np.isfinite(v) and v > 0 for v in values):
-        raise ValueError(f"spacing {values} must be finite and positive")
+        raise ValueError(f"spacing {_numbers(values)} must be finite and positive")
+    if not all(MIN_SPACING <= v <= MAX_SPACING for v in values):
+        raise ValueError(f"spacing {_numbers(values)} is out of range: each voxel size must lie within "
+                         f"{MIN_SPACING:.2g} .. {MAX_SPACING:.2g}, or the mesh's float32 vertices and normals "
+                         f"overflow or collapse to a point; give it in other units (e.g. mm instead of m)")
+    if shape is not None:
+        extent = max(v * (int(n) - 1) for v, n in zip(values, shape))
+        if not extent <= FLOAT32_MAX:
+            raise ValueError(f"spacing {_numbers(values)} over {'x'.join(map(str, shape))} samples spans "
+                             f"{extent:.3g}, beyond float32's range; give the spacing in other units")
     return values
+
+
+def _numbers(values) -> str:
+    return "(" + ", ".join(f"{v:g}" for v in values) + ")"
 
 
 def as_gradient_direction(direction: str) -> bool:

@@ -91,3 +91,60 @@ def test_colorbar_draws_zero_for_a_noise_low_end():
     noisy = draw_colorbar(pixels, SimpleNamespace(value_range=(1.251e-17, 1.0), source="dose", lut=lut))
     clean = draw_colorbar(pixels, SimpleNamespace(value_range=(0.0, 1.0), source="dose", lut=lut))
     assert np.array_equal(noisy, clean)
+
+
+# --- 4. spacing whose mesh overflows float32 or collapses to a point ----------------------------------
+
+@pytest.fixture(scope="module")
+def sphere_npy(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("sphere")
+    axis = np.linspace(-1, 1, 24)
+    x, y, z = np.meshgrid(axis, axis, axis, indexing="ij")
+    np.save(folder / "sphere.npy", np.sqrt(x * x + y * y + z * z).astype(np.float32))
+    return folder / "sphere.npy"
+
+
+@pytest.mark.parametrize("spacing", [("1e300", "1", "1"), ("1e-300", "1e-300", "1e-300"), ("1", "1", "inf")])
+def test_spacing_that_breaks_float32_is_refused_on_the_command_line(sphere_npy, tmp_path, spacing):
+    refused("export", sphere_npy, "--iso", "0.5", "--spacing", *spacing, "--out", tmp_path / "o.stl",
+            words=("spacing",))
+    assert not (tmp_path / "o.stl").exists()
+
+
+def test_a_sidecar_spacing_of_1e_minus_300_is_refused(tmp_path):
+    np.linspace(0, 1, 64, dtype=np.float32).tofile(tmp_path / "v.raw")
+    (tmp_path / "v.raw.json").write_text(json.dumps({"dims": [4, 4, 4], "dtype": "float32",
+                                                     "spacing": [1e-300, 1, 1]}))
+    refused("export", tmp_path / "v.raw", "--out", tmp_path / "o.stl", words=("spacing", "out of range"))
+
+
+def test_as_spacing_is_the_one_rule():
+    from isoscope.validation import MAX_SPACING, MIN_SPACING, as_spacing
+    assert as_spacing((MIN_SPACING, 1, MAX_SPACING)) == (MIN_SPACING, 1.0, MAX_SPACING)
+    assert as_spacing([0.5, 0.5, 2], shape=(10, 10, 10)) == (0.5, 0.5, 2.0)
+    for bad in ((1e300, 1, 1), (1e-300, 1, 1), (MIN_SPACING / 2, 1, 1), (MAX_SPACING * 2, 1, 1), (0, 1, 1),
+                (np.inf, 1, 1), (np.nan, 1, 1), (1, 1), "abc"):
+        with pytest.raises(ValueError):
+            as_spacing(bad)
+
+
+def test_the_python_api_refuses_the_same_spacing():
+    import isoscope
+    volume = np.random.default_rng(1).random((8, 8, 8)).astype(np.float32)
+    for spacing in ((1e300, 1, 1), (1e-300, 1e-300, 1e-300)):
+        with pytest.raises(ValueError, match="out of range"):
+            isoscope.marching_cubes(volume, 0.5, spacing=spacing, backend="cpu")
+
+
+def test_spacing_at_the_bounds_keeps_the_mesh_finite_and_distinct():
+    import isoscope
+    from isoscope.validation import MAX_SPACING, MIN_SPACING
+    axis = np.linspace(-1, 1, 16)
+    x, y, z = np.meshgrid(axis, axis, axis, indexing="ij")
+    field = np.sqrt(x * x + y * y + z * z).astype(np.float32)
+    unit = isoscope.marching_cubes(field, 0.6, backend="cpu")[0]
+    for s in (MIN_SPACING, MAX_SPACING):
+        verts, _, normals, _ = isoscope.marching_cubes(field, 0.6, spacing=(s, s, s), backend="cpu")
+        assert np.isfinite(verts).all() and len(np.unique(verts, axis=0)) == len(unit)
+        np.testing.assert_allclose(verts / np.float32(s), unit, rtol=1e-5, atol=1e-5)
+        np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1, atol=1e-5)

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 
+from .errors import VolumeError
 from .raw_format import RAW_DTYPES
 from .volume import Progress, Volume
 
@@ -32,4 +33,17 @@ def open_volume_from_args(spec: str, args: argparse.Namespace, progress: Progres
     from . import open_volume
     names = ("dims", "dtype", "endian", "spacing", "frame", "series", "resolution", "inside")
     options = {name: getattr(args, name) for name in names}
-    return open_volume(spec, progress=progress, backend=backend, **options)
+    if options["spacing"] is not None:
+        _checked_spacing(options["spacing"], None, "--spacing")  # before a big file is read
+    volume = open_volume(spec, progress=progress, backend=backend, **options)
+    _checked_spacing(volume.spacing, volume.data.shape, "--spacing" if options["spacing"] else volume.name)
+    return volume
+
+
+def _checked_spacing(spacing, shape, what: str) -> None:
+    """validation.as_spacing, the rule the Python API applies too, as a one-line VolumeError."""
+    from ..validation import as_spacing
+    try:
+        as_spacing(spacing, shape)
+    except ValueError as exc:
+        raise VolumeError(f"{what}: {exc}") from None
