@@ -11,14 +11,39 @@ its first array.  Leading non-spatial axes (time, channel): --frame N picks alon
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from ..lazy_arrays import Block3D
 from .errors import VolumeError
 from .reading import damaged, reason
-from .volume import Progress, report, shape_text
+from .volume import Progress, refuse_if_too_big, report, shape_text
 
 MARKERS = (".zarray", ".zgroup", "zarr.json")
+# What a store's metadata may claim before a byte is read: each chunk is a read with its own
+# overhead (2000^3 samples in 1^3 chunks ran for minutes), and every sample is scanned once.
+MAX_CHUNKS = 1 << 18  # 4096^3 in 64^3 chunks
+MAX_SAMPLES = 1 << 40  # 4 TiB of float32
+
+
+class CheckedReads:
+    """A Zarr array whose failed reads (random bytes for a chunk: zstd's RuntimeError, a bad
+    codec, a missing shard) are one VolumeError line about the store, wherever the read happens:
+    the value scan, the chunked extractor, or a dask worker (it pickles with its array)."""
+
+    def __init__(self, array, name: str):
+        self.array, self.name = array, name
+        self.shape, self.dtype, self.chunks = tuple(array.shape), array.dtype, tuple(array.chunks)
+
+    def __getitem__(self, index):
+        try:
+            return self.array[index]
+        except (MemoryError, KeyboardInterrupt):
+            raise
+        except Exception as exc:  # zarr and its codecs raise many kinds for a damaged chunk
+            _settle_pending_reads()
+            raise VolumeError(f"{self.name}: a chunk of it cannot be read ({reason(exc)}); the store is damaged, "
+                              "write it again") from None
 
 
 def is_zarr(path: Path) -> bool:
@@ -59,9 +84,36 @@ def load_zarr(path: Path, frame: int | None, progress: Progress | None = None):
         lead[axis] = index
         if shape[axis] > 1:
             notes.append(f"{path.name} is {shape_text(shape)}: showing frame {index} of {shape[axis]} (--frame N)")
+    _refuse_unreadable_size(path, shape[-3:], tuple(node.chunks[-3:]), node.dtype)
     notes.append(f"Zarr {shape_text(shape[-3:])} {node.dtype} in {shape_text(node.chunks[-3:])} chunks, "
                  "read on demand")
-    return Block3D(node, tuple(lead)), spacing, [n for n in notes if n]
+    return Block3D(CheckedReads(node, path.name), tuple(lead)), spacing, [n for n in notes if n]
+
+
+def _settle_pending_reads() -> None:
+    """Let zarr's event loop finish the reads that were in flight beside the one that failed: left
+    pending, asyncio prints "Task was destroyed but it is pending!" for each at exit."""
+    import asyncio
+    try:
+        from zarr.core.sync import sync
+        sync(asyncio.sleep(0.01))
+    except Exception:  # noqa: S110 (a zarr without this module: nothing to settle)
+        pass
+
+
+def _refuse_unreadable_size(path: Path, shape, chunks, dtype) -> None:
+    """Refuse, from the metadata alone, a volume of more chunks or samples than can be read here,
+    or whose one chunk does not fit in memory."""
+    samples = math.prod(int(n) for n in shape)
+    count = math.prod(-(-int(n) // max(1, int(c))) for n, c in zip(shape, chunks))
+    fix = "rechunk it (e.g. 64^3 chunks) or write a smaller level"
+    if samples > MAX_SAMPLES:
+        raise VolumeError(f"{path.name} is {shape_text(shape)} ({samples:,} samples), more than the {MAX_SAMPLES:,} "
+                          "isoscope reads; open a lower-resolution level or a crop of it")
+    if count > MAX_CHUNKS:
+        raise VolumeError(f"{path.name} is {shape_text(shape)} in {shape_text(chunks)} chunks: {count:,} chunks to "
+                          f"read, more than {MAX_CHUNKS:,}; {fix}")
+    refuse_if_too_big(chunks, dtype.itemsize, f"{path.name}'s chunk", fix=fix)
 
 
 def _ome_level(group, multiscale: dict, path: Path):
