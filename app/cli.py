@@ -170,6 +170,16 @@ def feature_angle(text: str) -> float:
                                          "(exclusive), e.g. 30") from None
 
 
+def max_labels(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"--max-labels {text!r} must be a whole number of labels, 1 or more")
+    return value
+
+
 def _add_sharp(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--sharp", type=feature_angle, metavar="DEG",
                         help="sharp edges and corners (Extended Marching Cubes) where normals open wider than DEG "
@@ -256,6 +266,9 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--one-file", action="store_true",
                             help="with --labels: all labels in the one --out file (.ply or .glb), each vertex "
                                  "in its label's colour")
+        parser.add_argument("--max-labels", type=max_labels, metavar="N",
+                            help="with --labels: refuse a volume of more than N labels (default 255), before "
+                                 "writing anything: a scan given --labels by mistake has one per grey value")
         add_big_volume_arguments(parser)
     add_volume_arguments(parser)
     return parser
@@ -423,7 +436,7 @@ def _extract_for_export(volume, iso, args):
 def run_export(args) -> int:
     if args.labels:
         return _export_labels(args)
-    _check_label_options(args, "--one-file")
+    _check_label_options(args, "--one-file", "--max-labels")
     from .export import in_volume_space, mesh_format, write_mesh
     mesh_format(args.out)  # an unknown extension or fraction is refused before any work
     if args.decimate is not None:
@@ -443,11 +456,20 @@ def run_export(args) -> int:
 
 
 def _export_labels(args) -> int:
-    from .labels import check_label_output, write_label_meshes
+    from .labels import DEFAULT_MAX_LABELS, TooManyLabels, check_label_output, label_file, write_label_meshes
     _check_label_options(args, "--iso", "--decimate")
     check_label_output(args.out, args.one_file)
     volume = open_volume_from_args(args.volume, args, _progress)
-    written = write_label_meshes(volume, args.out, one_file=args.one_file, world=args.space == "world")
+    limit = DEFAULT_MAX_LABELS if args.max_labels is None else args.max_labels
+    try:
+        written = write_label_meshes(volume, args.out, one_file=args.one_file, world=args.space == "world",
+                                     max_labels=limit)
+    except TooManyLabels as exc:
+        would = (f"one file holding {exc.count} meshes" if args.one_file else
+                 f"{exc.count} files ({label_file(args.out, 'N').name})")
+        raise ValueError(f"{volume.name} has {exc.count} distinct non-zero values, more than --max-labels {limit}: "
+                         f"--labels would write {would}; if it is a scan, not a segmentation, leave out --labels; "
+                         f"if it is a label map, raise the limit with --max-labels {exc.count}") from None
     space = volume.world[1] if args.space == "world" and volume.world is not None else "index x spacing"
     for path, n_vertices, n_triangles in written:
         print(f"wrote {path}: {n_vertices:,} vertices, {n_triangles:,} triangles, in {space} coordinates")

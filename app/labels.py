@@ -81,19 +81,22 @@ def label_boxes(labels: np.ndarray) -> tuple[np.ndarray, list[tuple[int, int, tu
     return ids, [(value.item(), k + 1, box) for k, (value, box) in enumerate(zip(values, find_objects(ids)))]
 
 
-def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), backend="auto"):
+def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), backend="auto", max_labels: int | None = None):
     """``{label: (verts, faces, normals)}`` for every non-zero label of the 3-D integer array `labels`.
 
     Each surface is closed and 2-manifold, wound counter-clockwise seen from outside with
     normals pointing out of its label; where two labels touch, their surfaces share the
     vertices on the common boundary (identical positions).  `verts` (N, 3) float32 in
     array-index order times `spacing`, `faces` (M, 3) int32, `normals` (N, 3) float32.
-    `backend` as for `marching_cubes` ("auto", "gpu", "cpu"); both give the same meshes.
+    `backend` as for `marching_cubes` ("auto", "gpu", "cpu"); both give the same meshes.  With
+    `max_labels`, more labels than that raise `TooManyLabels` (a ValueError) before any is extracted.
     """
     labels = check_labels(labels)
-    extract = _extractor(backend)
-    spacing = np.asarray(validation.as_spacing(spacing), np.float64)
+    spacing = np.asarray(validation.as_spacing(spacing, labels.shape), np.float64)
     ids, boxes = label_boxes(labels)
+    if max_labels is not None and len(boxes) > max_labels:
+        raise TooManyLabels(len(boxes), max_labels)
+    extract = _extractor(backend)
     surfaces = {}
     for value, key, box in boxes:
         indicator = np.pad((ids[box] == key).view(np.uint8), 1)
@@ -109,16 +112,47 @@ def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), backend="auto"):
 
 def labels_of(volume) -> np.ndarray:
     """A loaded `Volume`'s data as labels: integers as they are, floats only when every value is whole
-    (readers such as nibabel hand back scaled segmentations as floats)."""
+    (readers such as nibabel hand back scaled segmentations as floats), then as the narrowest integer
+    type that holds their range.  Checked a slab at a time: no float-sized temporaries of the whole."""
     data = volume.data
     if data.dtype.kind == "f":
-        fractional = data != np.round(data)
-        if fractional.any():
-            first = tuple(int(i) for i in np.argwhere(fractional)[0])
-            raise ValueError(f"{volume.name} is not a label map: it has fractional values (e.g. {data[first]:g} at "
-                             f"index {first}); leave out --labels to draw an isosurface")
-        data = data.astype(np.int64)
+        step = max(1, _SLAB_BYTES // max(1, data[0].size * data.itemsize))
+        for start in range(0, data.shape[0], step):
+            slab = np.asarray(data[start:start + step])
+            fractional = slab != np.round(slab)
+            if fractional.any():
+                first = tuple(int(i) for i in np.argwhere(fractional)[0])
+                first = (first[0] + start,) + first[1:]
+                raise ValueError(f"{volume.name} is not a label map: it has fractional values (e.g. "
+                                 f"{data[first]:g} at index {first}); leave out --labels to draw an isosurface")
+        low, high = volume.value_range
+        data = data.astype(_narrowest_int(int(low), int(high)))
     return data
+
+
+_SLAB_BYTES = 16 << 20
+
+
+def _narrowest_int(low: int, high: int) -> np.dtype:
+    for kind in ((np.uint8, np.uint16, np.uint32) if low >= 0 else ()) + (np.int16, np.int32, np.int64):
+        info = np.iinfo(kind)
+        if info.min <= low and high <= info.max:
+            return np.dtype(kind)
+    return np.dtype(np.int64)
+
+
+DEFAULT_MAX_LABELS = 255
+"""`isoscope export --labels` writes at most this many labels (a file each) unless --max-labels says more:
+a scan opened with --labels by mistake has a label per grey value (224 files, 713 MB, of one MRI)."""
+
+
+class TooManyLabels(ValueError):
+    """More non-zero labels than the limit; raised before any surface is made."""
+
+    def __init__(self, count: int, limit: int):
+        super().__init__(f"labels has {count} distinct non-zero labels, more than max_labels={limit}; "
+                         f"pass max_labels={count} (or None) if it is a label map")
+        self.count, self.limit = count, limit
 
 
 MAX_HINTED_LABELS = 64
@@ -188,18 +222,23 @@ def check_label_output(path, one_file: bool) -> None:
     """A one-line ValueError, before any work, for a name `write_label_meshes` cannot write."""
     from .export import COLOR_FORMATS, mesh_format
     mesh_format(path)
+    folder = Path(path).parent
+    if not folder.is_dir():
+        raise ValueError(f"the folder {folder} for {Path(path).name} does not exist; create it or write elsewhere")
     if one_file and Path(path).suffix.lower() not in COLOR_FORMATS:
         raise ValueError(f"--one-file needs a format that carries vertex colours ({', '.join(COLOR_FORMATS)}); "
                          f"rename {Path(path).name}, or leave out --one-file for a file per label")
 
 
-def write_label_meshes(volume, path, *, one_file: bool = False, world: bool = True) -> list[tuple[Path, int, int]]:
+def write_label_meshes(volume, path, *, one_file: bool = False, world: bool = True,
+                       max_labels: int | None = DEFAULT_MAX_LABELS) -> list[tuple[Path, int, int]]:
     """Write `volume`'s label surfaces: a file per label (`label_file`), or with `one_file` one PLY/GLB
     holding them all, each vertex in its label's colour.  Returns (path, vertices, triangles) per file.
-    Each file is written atomically; the mesh is in the volume's world space where it has one."""
+    Each file is written atomically; the mesh is in the volume's world space where it has one.
+    More labels than `max_labels` (None: no limit) raise `TooManyLabels` before anything is written."""
     from .export import in_volume_space
     check_label_output(path, one_file)
-    surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing)
+    surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing, max_labels=max_labels)
     if not surfaces:
         raise ValueError(f"{volume.name} has no non-zero labels, so no surface to write; leave out --labels "
                          "to export an isosurface")

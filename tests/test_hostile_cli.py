@@ -148,3 +148,64 @@ def test_spacing_at_the_bounds_keeps_the_mesh_finite_and_distinct():
         assert np.isfinite(verts).all() and len(np.unique(verts, axis=0)) == len(unit)
         np.testing.assert_allclose(verts / np.float32(s), unit, rtol=1e-5, atol=1e-5)
         np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1, atol=1e-5)
+
+
+# --- 5. --labels on a scan: one file per grey value ---------------------------------------------------
+
+@pytest.fixture(scope="module")
+def label_files(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("labels")
+    rng = np.random.default_rng(5)
+    np.save(folder / "mri_whole.npy", np.round(rng.random((32, 32, 32)) * 300).astype(np.float32))
+    np.save(folder / "mri.npy", rng.random((32, 32, 32)).astype(np.float32))
+    seg = np.zeros((24, 24, 24), np.uint8)
+    seg[4:10, 4:10, 4:10], seg[12:20, 12:20, 12:20] = 1, 2
+    np.save(folder / "seg.npy", seg)
+    return folder
+
+
+def test_a_float_scan_with_fractions_is_not_a_label_map(label_files, tmp_path):
+    refused("export", label_files / "mri.npy", "--labels", "--out", tmp_path / "m.stl",
+            words=("not a label map", "leave out --labels"))
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("one_file", [False, True])
+def test_more_labels_than_the_limit_writes_nothing_and_says_how_many(label_files, tmp_path, one_file):
+    out = tmp_path / ("m.ply" if one_file else "m.stl")
+    line = refused("export", label_files / "mri_whole.npy", "--labels", "--out", out,
+                   *(["--one-file"] if one_file else []),
+                   words=("300", "--max-labels 255", "--max-labels 300", "leave out --labels"))
+    assert ("one file holding 300 meshes" if one_file else "300 files") in line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_max_labels_raises_and_lowers_the_limit(label_files, tmp_path):
+    from hostile import succeeded
+    refused("export", label_files / "seg.npy", "--labels", "--max-labels", "1", "--out", tmp_path / "s.stl",
+            words=("2 distinct", "--max-labels 2"))
+    refused("export", label_files / "seg.npy", "--labels", "--max-labels", "0", "--out", tmp_path / "s.stl",
+            words=("--max-labels",))
+    refused("export", label_files / "seg.npy", "--max-labels", "5", "--out", tmp_path / "s.stl",
+            words=("--max-labels needs --labels",))
+    assert list(tmp_path.iterdir()) == []
+    succeeded("export", label_files / "seg.npy", "--labels", "--max-labels", "2", "--out", tmp_path / "s.stl")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s_label1.stl", "s_label2.stl"]
+
+
+def test_label_surfaces_max_labels_refuses_before_extracting():
+    from isoscope.labels import TooManyLabels, label_surfaces, labels_of
+    labels = np.arange(27, dtype=np.int32).reshape(3, 3, 3)
+    with pytest.raises(TooManyLabels) as caught:
+        label_surfaces(labels, max_labels=25, backend="cpu")
+    assert (caught.value.count, caught.value.limit) == (26, 25)
+    assert len(label_surfaces(labels[:2, :2, :2], max_labels=25, backend="cpu")) == 7
+    from types import SimpleNamespace
+    whole = SimpleNamespace(data=np.array([[[0.0, 2.0], [300.0, 1.0]]] * 2, np.float32), value_range=(0.0, 300.0),
+                            name="v")
+    assert labels_of(whole).dtype == np.uint16
+
+
+def test_labels_into_a_missing_folder_is_refused_before_the_work(label_files, tmp_path):
+    refused("export", label_files / "seg.npy", "--labels", "--out", tmp_path / "nowhere" / "s.stl",
+            words=("does not exist",))
