@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import VolumeError
+from .reading import library_messages
 from .volume import Progress, refuse_if_too_big, report, shape_text
 
 MAX_FILES = 20_000
@@ -150,9 +151,15 @@ def _geometry(folder: Path, files):
 
 
 def _rescale(header) -> tuple[float, float]:
-    slope = float(header.get("RescaleSlope", 1) or 1)
-    intercept = float(header.get("RescaleIntercept", 0) or 0)
-    return slope, intercept
+    """(RescaleSlope, RescaleIntercept), 1 and 0 where absent or empty; refuses what is not one number."""
+    values = []
+    for keyword, default in (("RescaleSlope", 1.0), ("RescaleIntercept", 0.0)):
+        value = header.get(keyword)
+        try:
+            values.append(default if value in (None, "") else float(value))
+        except (TypeError, ValueError):
+            raise VolumeError(f"{keyword} {value!r} of a slice is not one number; fix the series' header") from None
+    return values[0], values[1]
 
 
 def _pixels(path: Path, into: np.ndarray) -> None:
@@ -195,6 +202,13 @@ def load_dicom_folder(folder: Path, series: str | None = None, progress: Progres
     except ImportError:
         raise VolumeError(f"{folder.name} is a folder: reading DICOM needs pydicom; "
                           "pip install pydicom") from None
+    notes: list[str] = []
+    with library_messages(notes, "pydicom"):  # pydicom logs odd values as well as warning of them
+        data, spacing, more_notes, world = _load(folder, series, progress)
+    return data, spacing, more_notes + notes, world
+
+
+def _load(folder: Path, series: str | None, progress: Progress | None):
     all_series = _series_files(folder, progress)
     files, spacing, world = _geometry(folder, _pick_series(folder, all_series, series))
     header = files[0][1]

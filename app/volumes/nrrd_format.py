@@ -140,10 +140,16 @@ def load_nrrd(path: Path, frame: int | None, progress: Progress | None = None) -
         header = nrrd.read_header(str(path))
     except (nrrd.NRRDError, OSError, ValueError, UnicodeDecodeError) as exc:
         raise VolumeError(f"{path.name} has no valid NRRD header ({reason(exc)}); check the file") from None
+    missing = [field for field in ("type", "sizes", "encoding") if field not in header]
+    if missing:
+        raise VolumeError(f"{path.name}'s NRRD header has no {' or '.join(missing)} field (cut off or damaged); "
+                          "export it again")
     if header.get("type") == "block":
         raise VolumeError(f"{path.name} holds NRRD 'block' samples, not numbers; save a numeric type")
-    refuse_if_too_big([int(s) for s in header.get("sizes", [])],
-                      _itemsize(str(header.get("type", "double"))), path.name)
+    sizes = [int(s) for s in np.atleast_1d(header["sizes"])]
+    if not sizes or min(sizes) < 1:
+        raise VolumeError(f"{path.name}'s NRRD sizes ({' '.join(map(str, sizes))}) are not positive; fix the header")
+    refuse_if_too_big(sizes, _itemsize(str(header["type"])), path.name)
     report(progress, 0.0, f"reading {path.name}")  # pynrrd reads in one call: no finer progress
     data = read_or_explain(path, lambda: _read_data(path, header), (nrrd.NRRDError,))
     notes: list[str] = []

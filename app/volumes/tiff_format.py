@@ -7,6 +7,7 @@ tags (pixels per unit); OME-TIFF gives PhysicalSizeX/Y/Z.  A time axis is the fr
 from __future__ import annotations
 
 import re
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -60,7 +61,9 @@ def load_tiff(path: Path, frame: int | None, progress: Progress | None = None):
             return series.asarray(), series.axes.upper(), _spacing(tif, series.axes.upper())
     notes: list[str] = []
     with library_messages(notes, "tifffile"):  # "invalid page offset" and the like: notes, not stderr
-        data, axes, spacing = read_or_explain(path, read, (tifffile.TiffFileError,))
+        # tifffile reports a damaged file as any of these (an "incompatible keyframe" is a RuntimeError)
+        data, axes, spacing = read_or_explain(path, read, (tifffile.TiffFileError, RuntimeError, IndexError,
+                                                           KeyError, TypeError, struct.error))
     keep = [a for a, n in zip(axes, data.shape) if n > 1 or a in "ZYX"]
     data = data.reshape([n for a, n in zip(axes, data.shape) if a in keep])
     axes = "".join(keep)
