@@ -372,3 +372,28 @@ def test_generated_dicom_damage(tmp_path, capfd):
             assert "\n" not in str(exc), exc
         shutil.rmtree(folder)
     assert capfd.readouterr().err == ""
+
+
+def test_a_lazy_volume_is_scanned_in_bounded_blocks(monkeypatch):
+    """A lazy volume whose one plane is bigger than the scan's slab is read in pieces of a plane
+    (a Zarr of 10^5 x 10^5 planes asked numpy for a 37 GiB plane), and its range and first bad
+    sample are found all the same."""
+    from isoscope import validation
+
+    class Recording:
+        def __init__(self, array):
+            self.array, self.shape, self.dtype, self.largest = array, array.shape, array.dtype, 0
+
+        def __getitem__(self, index):
+            block = self.array[index]
+            self.largest = max(self.largest, block.nbytes)
+            return block
+
+    monkeypatch.setattr(validation, "CHECK_SLAB_BYTES", 4096)
+    values = np.random.default_rng(3).random((3, 70, 50)).astype(np.float32)  # a plane: 14,000 bytes
+    lazy = Recording(values)
+    assert validation.check_volume(lazy).value_range == (float(values.min()), float(values.max()))
+    assert 0 < lazy.largest <= 4096
+    values[2, 61, 7] = np.nan
+    with pytest.raises(ValueError, match=r"1 NaN/Inf sample\(s\), the first \(nan\) at index \(2, 61, 7\)"):
+        validation.check_volume(Recording(values))
