@@ -36,6 +36,20 @@ def current_umask() -> int:
     return mask
 
 
+@contextmanager
+def _held():
+    """SIGINT and SIGTERM held back while handlers are swapped, so that none arrives half-way
+    (a Python handler raising between two swaps); they arrive, to the new handlers, as it ends."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
 class _Signals:
     """SIGINT and SIGTERM noted while a block runs on the main thread; the first one received is
     handed on to the previous handlers when the block ends (or at once, with `defer=False`)."""
@@ -46,22 +60,23 @@ class _Signals:
         self.previous: dict[int, object] = {}
 
     def install(self) -> None:
-        for signum in STOP_SIGNALS:
-            before = signal.getsignal(signum)
-            if before in (signal.SIG_IGN, None):  # ignored (nohup, a background job), or not set from Python
-                continue
-            self.previous[signum] = before
-            signal.signal(signum, self._handler)
+        with _held():
+            for signum in STOP_SIGNALS:
+                before = signal.getsignal(signum)
+                if before in (signal.SIG_IGN, None):  # ignored (nohup, a background job), or not set from Python
+                    continue
+                self.previous[signum] = before
+                signal.signal(signum, self._handler)
 
     def restore(self) -> None:
-        for signum, before in self.previous.items():
-            signal.signal(signum, before)
+        with _held():
+            for signum, before in self.previous.items():
+                signal.signal(signum, before)
 
     def _handler(self, signum, frame) -> None:
-        first = self.received is None
-        if first:
+        if self.received is None:
             self.received = signum
-        if not self.defer and first:
+        if not self.defer:  # every time: a second Ctrl-C in a block that swallowed the first acts too
             self._hand_on(signum, frame)
 
     def _hand_on(self, signum, frame) -> None:
@@ -100,8 +115,8 @@ def signals_not_swallowed():
         yield
         return
     guard = _Signals(defer=False)
-    guard.install()
     try:
+        guard.install()
         yield
     finally:
         guard.restore()
@@ -116,8 +131,8 @@ def _signals_deferred():
     if not _on_main_thread():
         yield guard
         return
-    guard.install()
     try:
+        guard.install()
         yield guard
     finally:
         guard.restore()
@@ -151,7 +166,10 @@ def write_atomically(path, write: Callable[[BinaryIO], object]) -> Path:
             handle, temporary = tempfile.mkstemp(dir=directory or ".", prefix=f".{name}.", suffix=".partial")
             try:
                 with os.fdopen(handle, "wb") as out:
-                    os.fchmod(out.fileno(), mode)
+                    if hasattr(os, "fchmod"):
+                        os.fchmod(out.fileno(), mode)
+                    else:
+                        os.chmod(temporary, mode)
                     write(out)
                     out.flush()
                     os.fsync(out.fileno())
