@@ -38,13 +38,15 @@ even out while the surface stays where the volume puts it.
   around a sample equal to the level 1/256 of an edge from it (the tie rule), so those little
   caps of triangles start off the level by up to 1/256 of the range, and umbrella + projection
   pulled them into the sample itself: zero-area faces (~2,000 in 40 tie-heavy 6^3-14^3 meshes
-  after one iteration, 5,000 after 12), coincident vertices, and Newton steps there so badly
-  conditioned that the GPU and numpy parted by 0.2 cell.  Now such a cap stays about where
-  marching cubes put it, off the level by up to 1/256 of the range: the level set has no place
-  for it that is not a point.  Turning over is not checked: a triangle that turns over within
-  one move still ends it above the floor, and the 4 combinations' worst cases held back
-  vertices of tetrahedra's meshes (which do not start on the trilinear level set) that must move
-  to reach it.
+  after one iteration, 5,000 after 12), faces with coincident corners, and (issue 22) the GPU
+  and numpy 0.175 cell apart at one vertex.  Now such a cap stays about where marching cubes
+  put it, off the level by up to 1/256 of the range: the level set has no place for it that is
+  not a point.  Turning over is not checked: a triangle that turns over within one move still
+  ends it above the floor, and the 4 combinations' worst cases held back vertices of
+  tetrahedra's meshes (which do not start on the trilinear level set) that must move to reach it.
+  The floor is a threshold like ACCEPT: where a check lands within float rounding of it, the
+  GPU and numpy can decide differently (seen once in 300 random tie-heavy meshes, at the 8th
+  iteration: one vertex 0.08 cell apart, closing again in later iterations).
 * Normals come from the field's gradient at the new position: central differences at the
   8 corners of its cell, blended trilinearly (on a grid edge that is the extractor's normal).
 
@@ -73,7 +75,7 @@ BORDER = 1e-3
 """A coordinate within this many cells of the volume's first or last sample lies on the border."""
 MIN_AREA = 1e-5
 """No move shrinks a triangle below this fraction of a voxel face (index units), nor one already
-smaller at all (marching cubes' smallest, around a tie, are 7.6e-6 and 1.3e-5)."""
+smaller at all (the caps around a tie: 1.3e-5 from marching cubes, 7.6e-6 from tetrahedra)."""
 FLOOR_SQUARED = float(np.float32((2 * MIN_AREA) ** 2))
 """MIN_AREA as both backends compare it: against |edge x edge|^2, which is 4 area^2 (float32)."""
 
