@@ -95,9 +95,14 @@ bool ex_integer(float b) { return ex_finite(b) && floor(b) == b; }
 bool ex_odd_integer(float b) { return abs(b) < 16777216.0 && ex_integer(b) && fract(b * 0.5) == 0.5; }
 
 // C99 pow, as numpy's float32 power (powf) computes it; GLSL's pow is undefined for a < 0,
-// for a == 0 with b <= 0, and for NaN or Inf.
+// for a == 0 with b <= 0, and for NaN or Inf.  Otherwise exp2(b * log2|a|): within a few
+// float32 ulps of powf (more for results near the overflow threshold).
 float ex_pow(float a, float b) {
     if (ex_iszero(b) || a == 1.0) return 1.0;
+    // The commonest powers exactly as numpy's evaluate computes them: a*a, a, 1/a.
+    if (b == 2.0) { precise float square = a * a; return ex_ftz(square); }
+    if (b == 1.0) return a;
+    if (b == -1.0) return ex_div(1.0, a);
     if (ex_isnan(a) || ex_isnan(b)) return ex_nan();
     bool odd = ex_odd_integer(b);
     if (ex_iszero(a)) {
@@ -114,13 +119,9 @@ float ex_pow(float a, float b) {
     }
     if (ex_negative(a) && !ex_integer(b)) return ex_nan();
     precise float magnitude;
-    if (b == 2.0) {
-        magnitude = a * a;          // exact as powf, and the commonest power
-    } else {
-        precise float e = b * log2(abs(a));
-        if (e >= 128.0) magnitude = ex_inf();
-        else if (e < -127.0) magnitude = 0.0;   // below the smallest normal: flushed
-        else magnitude = exp2(e);
-    }
+    precise float e = b * log2(abs(a));
+    if (e >= 128.0) magnitude = ex_inf();
+    else if (e < -127.0) magnitude = 0.0;   // below the smallest normal: flushed
+    else magnitude = exp2(e);
     return ex_ftz(ex_negative(a) && odd ? -magnitude : magnitude);
 }

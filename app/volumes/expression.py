@@ -321,11 +321,35 @@ def _maximum(a, b):
     return np.where(np.isnan(a) | np.isnan(b), result.dtype.type(np.nan), result)
 
 
+def _odd_integer(b):
+    return (np.abs(b) < 2 ** 24) & (np.floor(b) == b) & (np.fmod(b, 2) != 0)
+
+
+def _power(a, b):
+    # C99 powf, except the commonest powers, which the GPU computes exactly so: a*a, a, 1/a.
+    result = np.power(a, b)
+    # numpy's SIMD and scalar loops disagree with each other and C99 on some of these:
+    # (-inf)^0.5 is NaN or Inf, (-0)^0.5 is -0 rather than +0.  So they are spelled out.
+    special = ((a == 0) | np.isinf(a)) & ~np.isnan(b) & (b != 0)
+    if np.any(special):
+        grows = np.where(a == 0, b < 0, b > 0)  # 0^-2 and inf^2 are Inf, 0^2 and inf^-2 are 0
+        magnitude = np.where(grows, np.inf, 0.0).astype(result.dtype)
+        negative = np.signbit(a) & _odd_integer(b)
+        result = np.where(special, np.where(negative, -magnitude, magnitude), result)
+    if np.any(b == 2):
+        result = np.where(b == 2, np.multiply(a, a), result)
+    if np.any(b == 1):
+        result = np.where(b == 1, a, result)
+    if np.any(b == -1):
+        result = np.where(b == -1, np.divide(result.dtype.type(1), a), result)
+    return result
+
+
 _NUMPY_FUNCTIONS = {
     "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log,
     "sqrt": np.sqrt, "abs": np.abs, "min": _minimum, "max": _maximum,
 }
-_NUMPY_OPERATORS = {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.divide, "^": np.power}
+_NUMPY_OPERATORS = {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.divide, "^": _power}
 
 
 def evaluate(tree, x, y, z, dtype=np.float32):
@@ -379,16 +403,17 @@ class GlslCode:
     numbers: np.ndarray  # float32, as `evaluate` rounds and flushes them
 
 
-def to_glsl(tree) -> GlslCode:
+def to_glsl(tree, first_input: int = 0) -> GlslCode:
     """One GLSL statement per operation, then a return: straight-line code, so a formula of a
     thousand terms is a thousand short statements rather than a thousand nested parentheses
-    for the GLSL compiler to recurse through."""
+    for the GLSL compiler to recurse through.  The numbers are read from inputs[first_input]
+    on (several formulas can share one buffer)."""
     statements, values, numbers = [], [], {}
     for node in postorder(tree):
         if isinstance(node, Number):
             value = flush_denormals(np.float32(node.value))
             index = numbers.setdefault(value.tobytes(), len(numbers))  # by bits: 0 and -0 differ
-            values.append(f"inputs[{index}]")
+            values.append(f"inputs[{first_input + index}]")
             continue
         if isinstance(node, Variable):
             values.append(node.name)
