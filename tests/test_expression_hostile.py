@@ -135,14 +135,14 @@ def both(text, ctx, shape=(5, 3, 4)):
             sample_function(lambda x, y, z: evaluate(tree, x, y, z), box, shape))
 
 
-def assert_alike(on_gpu, on_cpu, what):
+def assert_alike(on_gpu, on_cpu, what, rtol=1e-5):
     """NaN in the same places; infinities and zeros bit for bit (their signs matter: 1/-0 is -Inf);
     other values within the few ulps by which sin, exp, log or pow may differ."""
     nan = np.isnan(on_cpu)
     np.testing.assert_array_equal(np.isnan(on_gpu), nan, err_msg=what)
     exact = ~nan & (np.isinf(on_cpu) | (on_cpu == 0) | np.isinf(on_gpu) | (on_gpu == 0))
     np.testing.assert_array_equal(on_gpu[exact].view(np.uint32), on_cpu[exact].view(np.uint32), err_msg=what)
-    np.testing.assert_allclose(on_gpu[~nan & ~exact], on_cpu[~nan & ~exact], rtol=1e-5, err_msg=what)
+    np.testing.assert_allclose(on_gpu[~nan & ~exact], on_cpu[~nan & ~exact], rtol=rtol, err_msg=what)
 
 
 @pytest.mark.parametrize("text", SPECIAL)
@@ -350,3 +350,26 @@ def test_2000_random_formulas_agree_on_both_back_ends(gl_ctx, monkeypatch):
         if keep.all():
             assert np.isfinite(gpu).all() == np.isfinite(cpu).all(), text
     assert not failures, f"{len(failures)} of {len(texts)} formulas disagree, e.g.\n" + "\n".join(failures[:15])
+
+
+@pytest.mark.parametrize("text", [
+    "exp(88.7 + 0.05*x)", "exp(-87.3 + 0.05*x)", "2^(128 + 0.01*x)", "2^(-126 + 0.01*x)", "(2 + x*0.001)^127.9",
+    "10^(38.5 + x*0.1)", "1/(1e38*(1 + x))", "(x*1e19)*(x*1e19)", "(x*1e-19)*(x*1e-19)", "log(x*1e-37)",
+    "tan(1.5707963 + x*1e-7)",
+])
+def test_overflow_and_underflow_thresholds_agree(gl_ctx, text):
+    """Across the float32 overflow and normal-underflow thresholds, in 2001 steps: Inf, 0 and
+    finite samples in the same places on both back ends."""
+    tree, box, shape = parse(text), Box((-1.0, 0.0, 0.0), (1.0, 1.0, 1.0)), (2001, 2, 2)
+    on_gpu = sample_on_gpu(tree, box, shape, ctx=gl_ctx)
+    on_cpu = sample_function(lambda x, y, z: evaluate(tree, x, y, z), box, shape)
+    assert_alike(on_gpu, on_cpu, text, rtol=1e-4)  # pow near 2^128: exp2(b*log2(a)) loses ~|b*log2(a)| ulps
+
+
+def test_deep_formulas_are_evaluated_a_few_planes_at_a_time(monkeypatch):
+    from isoscope.volumes import expression_volume
+    text = "x*y + (" * 40 + "z" + ")" * 40
+    assert ex.peak_intermediates(parse(text)) >= 40
+    whole = open_volume(f"expr:{text}; res=12", backend="cpu").data
+    monkeypatch.setattr(expression_volume, "_EVALUATION_BYTES", 12 * 12 * 4 * 45)  # about one plane at a time
+    np.testing.assert_array_equal(open_volume(f"expr:{text}; res=12", backend="cpu").data, whole)
