@@ -119,7 +119,7 @@ def open_expression(spec: str, *, resolution=None, progress: Progress | None = N
 
     name = formula if len(formula) <= 40 else formula[:37] + "..."
     return finish_volume(data, spacing=spacing, name=name, source=spec, gradient_direction="ascent",
-                         default_level=0.0, notes=notes, what=f"expression {formula!r}",
+                         default_level=0.0, notes=notes, what=f"expression {name!r}",
                          progress=progress, where=where)
 
 
