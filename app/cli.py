@@ -429,7 +429,8 @@ def _extract_for_export(volume, iso, args):
     if distributed:
         from .cluster import marching_cubes_on_cluster
         return marching_cubes_on_cluster(volume.data, level, volume.spacing, descent, chunks,
-                                         scheduler=args.scheduler, workers=args.workers, progress=_progress)
+                                         scheduler=args.scheduler, workers=args.workers, progress=_progress,
+                                         path=volume.source)
     return marching_cubes_chunked(volume.data, level, volume.spacing, descent, chunks, progress=_progress)
 
 
@@ -517,7 +518,7 @@ def main(argv: list[str] | None = None) -> int:
         return runner(args)
     except ClusterError as exc:
         print(f"isoscope: error: {exc}", file=sys.stderr)
-        return EXIT_CLUSTER_FAILED
+        return exc.exit_status  # 2 for an address that is no dask scheduler: the input
     except (VolumeError, ValueError) as exc:
         # VolumeError and the extractor's ValueErrors carry one-line, user-facing messages.
         print(f"isoscope: error: {exc}", file=sys.stderr)

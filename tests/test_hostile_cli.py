@@ -209,3 +209,170 @@ def test_label_surfaces_max_labels_refuses_before_extracting():
 def test_labels_into_a_missing_folder_is_refused_before_the_work(label_files, tmp_path):
     refused("export", label_files / "seg.npy", "--labels", "--out", tmp_path / "nowhere" / "s.stl",
             words=("does not exist",))
+
+
+# --- 2. --scheduler at something that is no dask scheduler; Ctrl-C on a local cluster -----------------
+
+pytest.importorskip("dask.distributed")
+
+
+@pytest.fixture
+def serving():
+    """serve(handler class) -> the port of a TCP server on 127.0.0.1 running in a thread until the test ends."""
+    import socketserver
+    import threading
+    servers = []
+
+    def serve(handler, server_class=socketserver.ThreadingTCPServer):
+        server = server_class(("127.0.0.1", 0), handler)
+        server.daemon_threads = True
+        threading.Thread(target=server.serve_forever, daemon=True).start()
+        servers.append(server)
+        return server.server_address[1]
+    yield serve
+    for server in servers:
+        server.shutdown()
+        server.server_close()
+
+
+def test_an_http_server_as_scheduler_is_refused_in_seconds(serving, sphere_npy, tmp_path):
+    import http.server
+
+    class Quiet(http.server.SimpleHTTPRequestHandler):
+        def log_message(self, *args):
+            pass
+    port = serving(Quiet, http.server.ThreadingHTTPServer)
+    refused("export", sphere_npy, "--iso", "0.5", "--out", tmp_path / "o.stl", "--scheduler",
+            f"tcp://127.0.0.1:{port}", words=("not greet as a dask scheduler", "8786"), seconds=8)
+    assert not (tmp_path / "o.stl").exists()
+
+
+@pytest.mark.parametrize("reply", ["random", "huge length"])
+def test_a_server_replying_garbage_is_refused_without_allocating_it(serving, sphere_npy, tmp_path, reply):
+    import os
+    import socketserver
+    import struct
+    import time
+    greeting = os.urandom(4096) if reply == "random" else struct.pack("<Q", 3_540_000_000_000_000_000) + bytes(64)
+
+    class Garbage(socketserver.BaseRequestHandler):
+        def handle(self):
+            self.request.sendall(greeting)
+            time.sleep(2)
+    port = serving(Garbage)
+    refused("export", sphere_npy, "--iso", "0.5", "--out", tmp_path / "o.stl", "--scheduler",
+            f"tcp://127.0.0.1:{port}", words=("did not answer as a dask scheduler",), seconds=8)
+
+
+def test_probe_scheduler_tells_silence_garbage_and_nothing_apart(serving):
+    import socket
+    import socketserver
+    import time
+
+    from isoscope.cluster import ClusterError, NotAScheduler, probe_scheduler
+
+    class Silent(socketserver.BaseRequestHandler):
+        def handle(self):
+            time.sleep(2)
+
+    class Hangs_up(socketserver.BaseRequestHandler):
+        def handle(self):
+            self.request.sendall(b"\x10\x00\x00\x00\x00\x00\x00\x00abc")
+    start = time.monotonic()
+    with pytest.raises(NotAScheduler, match="within 0.5 s"):
+        probe_scheduler(f"tcp://127.0.0.1:{serving(Silent)}", timeout=0.5)
+    assert time.monotonic() - start < 2
+    with pytest.raises(NotAScheduler, match="closed the connection after 3 of 16 bytes"):
+        probe_scheduler(f"127.0.0.1:{serving(Hangs_up)}")
+    with socket.socket() as unused:
+        unused.bind(("127.0.0.1", 0))
+        port = unused.getsockname()[1]
+    with pytest.raises(ClusterError, match="cannot reach") as caught:
+        probe_scheduler(f"tcp://127.0.0.1:{port}")
+    assert caught.value.exit_status == 1
+    with pytest.raises(NotAScheduler, match="no port"):
+        probe_scheduler("tcp://127.0.0.1")
+    probe_scheduler("tls://127.0.0.1:1")  # other schemes are left to dask
+
+
+@pytest.fixture(scope="module")
+def big_npy(tmp_path_factory):
+    """A smooth 205^3 float64 field saved with np.save: 65.7 MiB, over the old 64 MiB limit for dask."""
+    folder = tmp_path_factory.mktemp("big")
+    axis = np.linspace(-1, 1, 205)
+    x, y, z = np.meshgrid(axis, axis, axis, indexing="ij")
+    np.save(folder / "big.npy", np.sqrt(x * x + y * y + z * z))
+    assert (folder / "big.npy").stat().st_size > 64 << 20
+    return folder / "big.npy"
+
+
+def test_a_big_npy_opened_by_path_goes_to_dask_workers_by_path(big_npy, tmp_path):
+    from hostile import succeeded
+    succeeded("export", big_npy, "--iso", "0.5", "--out", tmp_path / "spread.stl", "--workers", "1")
+    succeeded("export", big_npy, "--iso", "0.5", "--out", tmp_path / "single.stl")
+    assert (tmp_path / "spread.stl").read_bytes() == (tmp_path / "single.stl").read_bytes()
+
+
+def test_shippable_maps_an_npy_read_whole_and_sends_its_name(big_npy, tmp_path):
+    import pickle
+
+    from isoscope.cluster import ClusterError, shippable
+    whole = np.load(big_npy)
+    assert len(pickle.dumps(shippable(whole, str(big_npy)))) < 4096
+    with pytest.raises(ClusterError, match="open it by path"):
+        shippable(whole)  # an array of no file
+    other = tmp_path / "other.npy"
+    np.save(other, whole[:, :, :100])
+    with pytest.raises(ClusterError):
+        shippable(whole, str(other))  # a file holding something else is not taken for it
+
+
+def _children(pid: int) -> set[str]:
+    import glob
+    found = set()
+    for path in glob.glob(f"/proc/{pid}/task/*/children"):
+        try:
+            with open(path) as listing:
+                found |= set(listing.read().split())
+        except OSError:
+            pass
+    return found
+
+
+@pytest.mark.parametrize("delay", [0.0, 1.0])
+def test_ctrl_c_during_a_local_cluster_export_is_exit_130_without_tracebacks(big_npy, tmp_path, delay):
+    """Ctrl-C as a terminal sends it: SIGINT to the whole process group, workers included."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    process = subprocess.Popen([sys.executable, "-m", "isoscope", "export", str(big_npy), "--iso", "0.5",
+                                "--chunk", "40", "--workers", "2", "--out", str(tmp_path / "o.stl")],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60
+        while len(_children(process.pid)) < 2 and time.monotonic() < deadline and process.poll() is None:
+            time.sleep(0.05)
+        time.sleep(delay)
+        os.killpg(process.pid, signal.SIGINT)
+        _, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+    assert process.returncode == 130, err
+    assert len(err.splitlines()) <= 1 and "Traceback" not in err, err
+    assert not (tmp_path / "o.stl").exists()
+
+
+def test_no_dask_chatter_when_the_dashboard_port_is_taken(sphere_npy, tmp_path):
+    import socket
+
+    from hostile import succeeded
+    with socket.socket() as taken:
+        try:
+            taken.bind(("127.0.0.1", 8787))
+            taken.listen()
+        except OSError:
+            pass  # already in use: the case itself
+        succeeded("export", sphere_npy, "--iso", "0.5", "--out", tmp_path / "o.stl", "--workers", "1")
