@@ -150,14 +150,34 @@ def _new_file_mode(target: str) -> int:
     return 0o666 & ~current_umask()
 
 
+def _write_in_place(path: Path, write: Callable[[BinaryIO], object]) -> Path:
+    try:
+        with open(path, "wb") as out:
+            write(out)
+    except OSError as exc:
+        if exc.filename is None:
+            exc.filename = str(path)
+        raise
+    return path
+
+
 def write_atomically(path, write: Callable[[BinaryIO], object]) -> Path:
     """Call `write` on a temporary file beside `path`, flush it to disk, then rename it over `path`.
 
     If anything fails, or SIGINT/SIGTERM arrives, the temporary file is removed and `path` is as it
-    was. A `path` that is a symbolic link is written through (its target replaced, the link kept).
+    was. A `path` that is a symbolic link is written through (its target replaced, the link kept);
+    one that is a device or a pipe (/dev/null, /dev/stdout, a FIFO) is written into, not replaced.
     The file gets the permissions of the file it replaces, or of a new file under the umask.
     An OSError names `path`, never the temporary file."""
     path = Path(path)
+    try:
+        existing = os.stat(path)
+    except OSError:
+        existing = None
+    if existing is not None and not (stat.S_ISREG(existing.st_mode) or stat.S_ISDIR(existing.st_mode)):
+        # a device, pipe or socket (/dev/null, /dev/stdout, a FIFO): written into where it is, as
+        # `open` would; renaming over it would put a regular file in its place (as root, /dev/null's)
+        return _write_in_place(path, write)
     target = os.path.realpath(path)
     directory, name = os.path.split(target)
     try:

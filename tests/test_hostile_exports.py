@@ -299,3 +299,25 @@ def test_off_the_main_thread_writes_as_before(tmp_path):
     thread.start()
     thread.join()
     assert not errors and (tmp_path / "t.ply").read_bytes() == b"ply"
+
+
+def test_a_named_pipe_is_written_into_not_replaced(tmp_path, references):
+    """A device or a pipe (/dev/null, /dev/stdout, a FIFO) is written into: renaming over it would put a
+    regular file in its place (as root, over /dev/null for everyone). Checked on a FIFO of our own."""
+    import threading
+    reference_bytes, _ = references
+    fifo = tmp_path / "pipe.stl"
+    os.mkfifo(fifo)
+    received = []
+    reader = threading.Thread(target=lambda: received.append(fifo.read_bytes()), daemon=True)
+    reader.start()
+    try:
+        succeeded(*command("mesh", fifo)[3:])
+        reader.join(10)
+    finally:
+        if reader.is_alive():  # nothing opened the pipe: let the reader see its end
+            os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+            reader.join(5)
+    assert received == [reference_bytes[".stl"]]
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    assert [p.name for p in tmp_path.iterdir()] == ["pipe.stl"]
