@@ -139,15 +139,30 @@ def _signals_deferred():
         guard.deliver()
 
 
-def _new_file_mode(target: str) -> int:
-    """The replaced file's permission bits, else what `open` would give a new file (0666 & ~umask)."""
+def _replaced(target: str):
+    """os.stat of the regular file `target` names, or None when there is none."""
     try:
         st = os.stat(target)
     except OSError:
-        return 0o666 & ~current_umask()
-    if stat.S_ISREG(st.st_mode):
-        return stat.S_IMODE(st.st_mode) & 0o777
-    return 0o666 & ~current_umask()
+        return None
+    return st if stat.S_ISREG(st.st_mode) else None
+
+
+def _take_over(handle: int, temporary: str, replaced) -> None:
+    """Give the temporary file the replaced file's permission bits (and, where allowed, its owner and
+    group), or a new file's: 0666 & ~umask (mkstemp makes it 0600)."""
+    if replaced is not None and hasattr(os, "fchown"):
+        uid = replaced.st_uid if os.geteuid() == 0 else -1   # only root may give a file away
+        if (uid, replaced.st_gid) != (-1, os.getegid()):
+            try:
+                os.fchown(handle, uid, replaced.st_gid)
+            except OSError:
+                pass  # not one of our groups: the file is ours, as any new file would be
+    mode = stat.S_IMODE(replaced.st_mode) & 0o777 if replaced is not None else 0o666 & ~current_umask()
+    if hasattr(os, "fchmod"):
+        os.fchmod(handle, mode)
+    else:
+        os.chmod(temporary, mode)
 
 
 def _write_in_place(path: Path, write: Callable[[BinaryIO], object]) -> Path:
@@ -167,7 +182,8 @@ def write_atomically(path, write: Callable[[BinaryIO], object]) -> Path:
     If anything fails, or SIGINT/SIGTERM arrives, the temporary file is removed and `path` is as it
     was. A `path` that is a symbolic link is written through (its target replaced, the link kept);
     one that is a device or a pipe (/dev/null, /dev/stdout, a FIFO) is written into, not replaced.
-    The file gets the permissions of the file it replaces, or of a new file under the umask.
+    The file gets the permissions (and where allowed the owner and group) of the file it replaces,
+    or those of a new file under the umask.
     An OSError names `path`, never the temporary file."""
     path = Path(path)
     try:
@@ -182,14 +198,11 @@ def write_atomically(path, write: Callable[[BinaryIO], object]) -> Path:
     directory, name = os.path.split(target)
     try:
         with _signals_deferred() as signals:
-            mode = _new_file_mode(target)
+            replaced = _replaced(target)
             handle, temporary = tempfile.mkstemp(dir=directory or ".", prefix=f".{name}.", suffix=".partial")
             try:
                 with os.fdopen(handle, "wb") as out:
-                    if hasattr(os, "fchmod"):
-                        os.fchmod(out.fileno(), mode)
-                    else:
-                        os.chmod(temporary, mode)
+                    _take_over(out.fileno(), temporary, replaced)
                     write(out)
                     out.flush()
                     os.fsync(out.fileno())

@@ -180,14 +180,19 @@ def test_new_files_follow_the_umask(umask, mode, tmp_path):
 
 
 def test_a_replaced_file_keeps_its_mode(tmp_path):
+    """Replacing a 0644 file under umask 077 leaves it 0644 (and, run as root, owned by whom it was)."""
     out = tmp_path / "kept.ply"
     out.write_bytes(OLD_BYTES)
     os.chmod(out, 0o644)
+    if os.geteuid() == 0:
+        os.chown(out, 4321, 4322)
     process = subprocess.run(command("mesh", out), preexec_fn=lambda: os.umask(0o077), capture_output=True,
                              text=True, stdin=subprocess.DEVNULL, timeout=120)
     assert process.returncode == 0, process.stderr
     assert out.read_bytes() != OLD_BYTES
     assert stat.S_IMODE(out.stat().st_mode) == 0o644, oct(out.stat().st_mode)
+    if os.geteuid() == 0:
+        assert (out.stat().st_uid, out.stat().st_gid) == (4321, 4322)
 
 
 def test_a_symlinked_output_is_written_through(tmp_path, references):
