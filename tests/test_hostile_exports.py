@@ -7,8 +7,12 @@ Each run is `python -m isoscope export|render ... --out X` in a subprocess:
   same bytes as an uninterrupted run, which trimesh/PIL read); and the exit status is 0 only if the
   new file is there;
 - under umask 022 and 077 (new files 0644, 0600), replacing a 0644 file under umask 077 (stays 0644);
-- writing through a symbolic link (the link stays, its target gets the new file);
-- failing to write (a read-only folder, a folder in the way): the message names the user's path.
+- writing through a symbolic link (the link stays, its target gets the new file), into a named pipe
+  (it stays a pipe and gets the file);
+- failing to write (a read-only folder, or sysfs as root; a folder in the way): the message names
+  the user's path.
+In process: a Ctrl-C swallowed inside trimesh's encoder still stops the export; one during the write
+is held until the temporary file is gone; off the main thread the write works as before.
 """
 from __future__ import annotations
 
