@@ -356,6 +356,9 @@ def _check_label_options(args, *options: str) -> None:
 
 
 def run_render(args) -> int:
+    from .gl_context import current_or_standalone
+    from .viewer.headless import check_render_size
+    check_render_size(args.size, current_or_standalone())  # before the volume is read: the driver's limits
     if args.labels:
         _check_label_options(args, "--iso", "--panel")
         from .viewer.label_scene import render_labels_png

@@ -376,3 +376,40 @@ def test_no_dask_chatter_when_the_dashboard_port_is_taken(sphere_npy, tmp_path):
         except OSError:
             pass  # already in use: the case itself
         succeeded("export", sphere_npy, "--iso", "0.5", "--out", tmp_path / "o.stl", "--workers", "1")
+
+
+# --- 1. render sizes the driver cannot make, or that take gigabytes -----------------------------------
+
+@pytest.mark.parametrize("size", ["16384x16384", "11585x11585", "16384x8193", "5000x4000"])
+def test_a_render_size_of_gigabytes_is_refused_before_allocating(sphere_npy, tmp_path, size):
+    refused("render", sphere_npy, "--iso", "0.5", "--size", size, "--out", tmp_path / "r.png",
+            words=("--size", "million pixels", "smaller --size"))
+    assert not (tmp_path / "r.png").exists()
+
+
+class FakeContext:
+    def __init__(self, **info):
+        self.info = {"GL_RENDERER": "FakeGL", **info}
+
+
+def test_the_drivers_size_limits_are_the_least_of_them():
+    from isoscope.viewer.headless import check_render_size, max_render_size
+    ctx = FakeContext(GL_MAX_RENDERBUFFER_SIZE=8192, GL_MAX_TEXTURE_SIZE=16384, GL_MAX_VIEWPORT_DIMS=(4096, 16384),
+                      GL_MAX_FRAMEBUFFER_HEIGHT=2048)
+    assert max_render_size(ctx) == (4096, 2048)
+    assert max_render_size(FakeContext()) == (1 << 30, 1 << 30)
+    check_render_size((4096, 2048), ctx)
+    for size in ((4097, 100), (100, 2049)):
+        with pytest.raises(ValueError, match="FakeGL can render, 4096x2048"):
+            check_render_size(size, ctx)
+    with pytest.raises(ValueError, match="million pixels"):
+        check_render_size((4097, 4096))
+
+
+def test_big_renders_get_fewer_samples():
+    from isoscope.viewer.headless import MULTISAMPLE_BYTES, render_samples
+    assert render_samples((800, 600)) == render_samples((3840, 2160)) == 4
+    assert render_samples((4096, 4096)) == 2
+    for size in ((800, 600), (3840, 2160), (4096, 4096)):
+        samples = render_samples(size)
+        assert samples == 1 or 8 * size[0] * size[1] * samples <= MULTISAMPLE_BYTES

@@ -17,6 +17,59 @@ from .renderer import OffscreenTarget, SceneRenderer
 from .screenshot import save_png
 from .state import ViewerState
 
+MAX_RENDER_PIXELS = 4096 * 4096
+"""A render's pixels at most (16.8 million: 4096x4096, 5120x3276, 3840x2160 twice over).  Its buffers
+and the read-back grow with them (llvmpipe, where they are host memory, peak RSS): 3840x2160 0.5 GB
+(0.9 GB with --transparent), 4096x4096 0.9 GB (1.5 GB), 7680x4320 1.6 GB (2.9 GB); 16384x16384
+would take 10-20 GB, and llvmpipe's framebuffer is not complete there."""
+MULTISAMPLE_BYTES = 256 << 20  # the multisampled colour + depth buffers (8 bytes a sample) at most
+MAX_SAMPLES = 4
+GL_SIZE_LIMITS = ("GL_MAX_RENDERBUFFER_SIZE", "GL_MAX_TEXTURE_SIZE", "GL_MAX_FRAMEBUFFER_WIDTH",
+                  "GL_MAX_FRAMEBUFFER_HEIGHT", "GL_MAX_VIEWPORT_DIMS")
+
+
+def max_render_size(ctx) -> tuple[int, int]:
+    """The widest and tallest framebuffer the GL driver of `ctx` can make: the least of its renderbuffer,
+    texture, framebuffer and viewport limits (a limit it does not report is not one)."""
+    width = height = 1 << 30
+    for name in GL_SIZE_LIMITS:
+        value = ctx.info.get(name)
+        if value is None:
+            continue
+        if isinstance(value, (tuple, list)):
+            width, height = min(width, int(value[0])), min(height, int(value[1]))
+        elif name.endswith("_WIDTH"):
+            width = min(width, int(value))
+        elif name.endswith("_HEIGHT"):
+            height = min(height, int(value))
+        else:
+            width, height = min(width, int(value)), min(height, int(value))
+    return width, height
+
+
+def check_render_size(size, ctx=None) -> None:
+    """A one-line ValueError, before anything is allocated, for an image no render can make: more than
+    MAX_RENDER_PIXELS, or (with `ctx`) wider or taller than the GL driver allows."""
+    width, height = int(size[0]), int(size[1])
+    if width * height > MAX_RENDER_PIXELS:
+        raise ValueError(f"--size {width}x{height} is {width * height / 1e6:.0f} million pixels, more than a "
+                         f"render makes ({MAX_RENDER_PIXELS / 1e6:.1f} million, e.g. 4096x4096 or 5120x3276: "
+                         "its buffers would take gigabytes); choose a smaller --size")
+    if ctx is not None:
+        max_width, max_height = max_render_size(ctx)
+        if width > max_width or height > max_height:
+            renderer = ctx.info.get("GL_RENDERER", "this OpenGL driver")
+            raise ValueError(f"--size {width}x{height} is beyond the largest image {renderer} can render, "
+                             f"{max_width}x{max_height} (its GL_MAX_RENDERBUFFER_SIZE, GL_MAX_VIEWPORT_DIMS, "
+                             "GL_MAX_TEXTURE_SIZE); choose a smaller --size")
+
+
+def render_samples(size) -> int:
+    """Multisamples for a render of `size`: 4, fewer where 4 would pass MULTISAMPLE_BYTES (a 4096x4096
+    render gets 2; past the pixels' resolution a sample more matters less than a gigabyte less)."""
+    per_sample = 8 * int(size[0]) * int(size[1])
+    return max(1, min(MAX_SAMPLES, MULTISAMPLE_BYTES // per_sample))
+
 
 class HeadlessViewer:
     def __init__(self, size=(800, 600), ctx=None):
@@ -24,10 +77,11 @@ class HeadlessViewer:
         # The process's one headless context (the API's too): a second standalone context would
         # become current and leave the first one's compiled programs running in the wrong context.
         self.ctx = ctx if ctx is not None else current_or_standalone()
+        check_render_size(self.size, self.ctx)  # "the framebuffer is not complete" is no message
         self.state = ViewerState(self.ctx)
         self.camera = OrbitCamera()
         self.renderer = SceneRenderer(self.ctx)
-        self.target = OffscreenTarget(self.ctx, self.size)
+        self.target = OffscreenTarget(self.ctx, self.size, samples=render_samples(self.size))
         self._imgui: ImguiLayer | None = None   # made on the first render with the panel
         self._panel = Panel(can_browse=False)
 
