@@ -406,6 +406,23 @@ def add_big_volume_arguments(parser) -> None:
                              "(e.g. tcp://10.0.0.5:8786); its workers must reach the volume's path")
 
 
+def max_workers() -> int:
+    """--workers at most: each worker is a process with its own OpenGL context and chunk buffers."""
+    return max(4, 4 * (os.cpu_count() or 1))
+
+
+def _check_workers(args) -> None:
+    """--workers within 1..max_workers(), refused before the volume is read."""
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers {args.workers}: give 1 or more worker processes")
+    if args.workers is not None and args.workers > max_workers():
+        raise ValueError(f"--workers {args.workers} is more worker processes than this machine runs "
+                         f"({os.cpu_count()} cores: at most {max_workers()}); give fewer, or --scheduler for a "
+                         "cluster of machines")
+    if args.workers is not None and args.scheduler is not None:
+        raise ValueError("--workers starts a local cluster, --scheduler uses another one; give one of them")
+
+
 def _extract_for_export(volume, iso, args):
     """The export's mesh: whole, a chunk at a time here, or a chunk per task on a dask cluster."""
     from .lazy_arrays import is_lazy
@@ -427,8 +444,6 @@ def _extract_for_export(volume, iso, args):
     chunks = as_chunks(DEFAULT_CHUNK if args.chunk is None else args.chunk, volume.data.shape)
     level = as_level(iso, volume.value_range)
     descent = volume.gradient_direction == "descent"
-    if args.workers is not None and args.workers < 1:
-        raise ValueError(f"--workers {args.workers}: give 1 or more worker processes")
     if distributed:
         from .cluster import marching_cubes_on_cluster
         return marching_cubes_on_cluster(volume.data, level, volume.spacing, descent, chunks,
@@ -441,6 +456,7 @@ def run_export(args) -> int:
     if args.labels:
         return _export_labels(args)
     _check_label_options(args, "--one-file", "--max-labels")
+    _check_workers(args)
     from .export import in_volume_space, mesh_format, write_mesh
     mesh_format(args.out)  # an unknown extension or fraction is refused before any work
     if args.decimate is not None:
@@ -462,6 +478,10 @@ def run_export(args) -> int:
 def _export_labels(args) -> int:
     from .labels import DEFAULT_MAX_LABELS, TooManyLabels, check_label_output, label_file, write_label_meshes
     _check_label_options(args, "--iso", "--decimate")
+    for option in ("--chunk", "--workers", "--scheduler"):
+        if getattr(args, option.strip("-")) is not None:
+            raise ValueError(f"export --labels makes every label's surface here, from the whole volume; "
+                             f"leave out {option}")
     check_label_output(args.out, args.one_file)
     volume = open_volume_from_args(args.volume, args, _progress)
     limit = DEFAULT_MAX_LABELS if args.max_labels is None else args.max_labels

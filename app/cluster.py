@@ -21,7 +21,8 @@ CONNECT_TIMEOUT_S = 10  # seconds to reach a scheduler before giving up
 
 
 PROBE_TIMEOUT_S = 3     # seconds for the scheduler to greet a new connection (dask's own greets at once)
-MAX_GREETING_BYTES = 1 << 20  # a scheduler's handshake is a few hundred bytes
+MAX_GREETING_BYTES = 1 << 20
+DASK_SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")  # a scheduler's handshake is a few hundred bytes
 
 
 class ClusterError(RuntimeError):
@@ -173,11 +174,16 @@ def probe_scheduler(address: str, timeout: float = PROBE_TIMEOUT_S) -> None:
     import time
     scheme, _, location = address.rpartition("://")
     if scheme not in ("", "tcp"):
+        if scheme not in DASK_SCHEMES:
+            raise NotAScheduler(f"--scheduler {address}: a dask scheduler's address is tcp://HOST:PORT (or "
+                                f"{', '.join(s + '://' for s in DASK_SCHEMES[1:])}), not {scheme}://; e.g. "
+                                "tcp://10.0.0.5:8786")
         return
     host, _, port = location.rpartition(":")
     host = host.strip("[]") or "127.0.0.1"
     if not port.isdigit() or not 0 < int(port) < 65536:
-        raise NotAScheduler(f"--scheduler {address} has no port; give HOST:PORT, e.g. tcp://10.0.0.5:8786")
+        raise NotAScheduler(f"--scheduler {address!r} has no port (1-65535); give HOST:PORT, e.g. "
+                            "tcp://10.0.0.5:8786")
     deadline = time.monotonic() + timeout
     try:
         sock = socket.create_connection((host, int(port)), timeout=timeout)

@@ -413,3 +413,13 @@ def test_big_renders_get_fewer_samples():
     for size in ((800, 600), (3840, 2160), (4096, 4096)):
         samples = render_samples(size)
         assert samples == 1 or 8 * size[0] * size[1] * samples <= MULTISAMPLE_BYTES
+
+
+@pytest.mark.parametrize("options, words", [
+    (("--workers", "100000"), ("--workers 100000", "at most")),
+    (("--workers", "2", "--scheduler", "tcp://127.0.0.1:9"), ("give one of them",)),
+    (("--scheduler", "http://127.0.0.1:80"), ("tcp://HOST:PORT", "not http://")),
+    (("--scheduler", "tcp://127.0.0.1:99999"), ("no port",)),
+    (("--labels", "--workers", "2"), ("leave out --workers",))])
+def test_cluster_options_that_cannot_work_are_refused_before_any_cluster(sphere_npy, tmp_path, options, words):
+    refused("export", sphere_npy, "--out", tmp_path / "o.stl", *options, words=words, seconds=5)
