@@ -358,7 +358,8 @@ def _check_label_options(args, *options: str) -> None:
 def run_render(args) -> int:
     from .gl_context import current_or_standalone
     from .viewer.headless import check_render_size
-    check_render_size(args.size, current_or_standalone())  # before the volume is read: the driver's limits
+    check_render_size(args.size)  # pixels: before a GL context is made
+    check_render_size(args.size, current_or_standalone())  # the driver's limits, before the volume is read
     if args.labels:
         _check_label_options(args, "--iso", "--panel")
         from .viewer.label_scene import render_labels_png
