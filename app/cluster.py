@@ -91,13 +91,16 @@ def connect(scheduler: str | None, workers: int | None):
         raise ClusterError("--scheduler/--workers need dask.distributed: pip install 'isoscope[big]'") from None
     import logging
     import warnings
-    logging.getLogger("distributed").setLevel(logging.CRITICAL)
+    quiet = logging.getLogger("distributed")  # no dask log lines: failures come back as one ClusterError line
+    quiet.setLevel(logging.CRITICAL + 1)
+    for handler in quiet.handlers:  # its children (distributed.client ...) have levels of their own
+        handler.setLevel(logging.CRITICAL + 1)
     # "Port 8787 is already in use ... Hosting the HTTP server on port N instead": the scheduler's HTTP
     # server (health, metrics) takes port 8787 even with no dashboard.
     warnings.filterwarnings("ignore", module=r"distributed(\.|$)")
     if scheduler is None:
         cluster = LocalCluster(n_workers=0, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=logging.CRITICAL)
+                               silence_logs=logging.CRITICAL + 1)
         try:
             client = Client(cluster)
             _start_workers_deaf_to_sigint(cluster, workers or 2)

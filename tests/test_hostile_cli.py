@@ -297,11 +297,18 @@ def test_probe_scheduler_tells_silence_garbage_and_nothing_apart(serving):
 
 @pytest.fixture(scope="module")
 def big_npy(tmp_path_factory):
-    """A smooth 205^3 float64 field saved with np.save: 65.7 MiB, over the old 64 MiB limit for dask."""
+    """A smooth 205^3 float64 field as np.save writes it: 65.7 MiB, over the old 64 MiB limit for dask.
+
+    Written a plane at a time: this process stays small, since a child's peak RSS as wait4 reports it
+    starts from its parent's (exec keeps the old memory's high-water mark), which would spoil refused()."""
     folder = tmp_path_factory.mktemp("big")
-    axis = np.linspace(-1, 1, 205)
-    x, y, z = np.meshgrid(axis, axis, axis, indexing="ij")
-    np.save(folder / "big.npy", np.sqrt(x * x + y * y + z * z))
+    n = 205
+    axis = np.linspace(-1, 1, n)
+    y, z = np.meshgrid(axis, axis, indexing="ij")
+    with open(folder / "big.npy", "wb") as out:
+        np.lib.format.write_array_header_1_0(out, {"descr": "<f8", "fortran_order": False, "shape": (n, n, n)})
+        for x in axis:
+            out.write(np.sqrt(x * x + y * y + z * z).tobytes())
     assert (folder / "big.npy").stat().st_size > 64 << 20
     return folder / "big.npy"
 
@@ -313,18 +320,20 @@ def test_a_big_npy_opened_by_path_goes_to_dask_workers_by_path(big_npy, tmp_path
     assert (tmp_path / "spread.stl").read_bytes() == (tmp_path / "single.stl").read_bytes()
 
 
-def test_shippable_maps_an_npy_read_whole_and_sends_its_name(big_npy, tmp_path):
+def test_shippable_maps_an_npy_read_whole_and_sends_its_name(sphere_npy, tmp_path):
     import pickle
 
-    from isoscope.cluster import ClusterError, shippable
-    whole = np.load(big_npy)
-    assert len(pickle.dumps(shippable(whole, str(big_npy)))) < 4096
-    with pytest.raises(ClusterError, match="open it by path"):
-        shippable(whole)  # an array of no file
+    from isoscope.cluster import ClusterError, mapped_npy, shippable
+    whole = np.load(sphere_npy)
+    shipped = shippable(whole, str(sphere_npy))
+    assert len(pickle.dumps(shipped)) < 1024 and np.array_equal(np.asarray(pickle.loads(pickle.dumps(shipped))), whole)
     other = tmp_path / "other.npy"
-    np.save(other, whole[:, :, :100])
-    with pytest.raises(ClusterError):
-        shippable(whole, str(other))  # a file holding something else is not taken for it
+    np.save(other, whole[:, :, :10])
+    assert mapped_npy(whole, str(other)) is whole  # a file holding something else is not taken for it
+    assert mapped_npy(whole.astype(np.float64), str(sphere_npy)).dtype == np.float64
+    big = np.broadcast_to(np.float64(0), (205, 205, 205))  # 65.7 MiB by its nbytes, none of it in memory
+    with pytest.raises(ClusterError, match="open it by path"):
+        shippable(big)  # an array of no file
 
 
 def _children(pid: int) -> set[str]:
@@ -348,7 +357,7 @@ def test_ctrl_c_during_a_local_cluster_export_is_exit_130_without_tracebacks(big
     import sys
     import time
     process = subprocess.Popen([sys.executable, "-m", "isoscope", "export", str(big_npy), "--iso", "0.5",
-                                "--chunk", "40", "--workers", "2", "--out", str(tmp_path / "o.stl")],
+                                "--chunk", "16", "--workers", "2", "--out", str(tmp_path / "o.stl")],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
         deadline = time.monotonic() + 60
