@@ -453,6 +453,16 @@ def _extract_for_export(volume, iso, args):
     return marching_cubes_chunked(volume.data, level, volume.spacing, descent, chunks, progress=_progress)
 
 
+def _one_extraction_limit(args) -> dict:
+    """An export that is not chunked hands an in-memory volume to one extractor: a file whose header
+    says it is bigger is refused from the header, before gigabytes are read for nothing."""
+    if args.chunk is not None or args.workers is not None or args.scheduler is not None:
+        return {}
+    from .gpu_layout import MAX_WORDS, WORD_BITS
+    return dict(max_samples=MAX_WORDS * WORD_BITS,
+                max_samples_fix="export it a chunk at a time (--chunk 128), or crop or downsample it")
+
+
 def run_export(args) -> int:
     if args.labels:
         return _export_labels(args)
@@ -463,7 +473,7 @@ def run_export(args) -> int:
     if args.decimate is not None:
         from .decimate import check_fraction
         check_fraction(args.decimate)
-    volume = open_volume_from_args(args.volume, args, _progress)
+    volume = open_volume_from_args(args.volume, args, _progress, **_one_extraction_limit(args))
     isos = _checked_levels(volume, args.iso)
     for iso in isos:
         verts, faces, normals, _ = _extract_for_export(volume, iso, args)

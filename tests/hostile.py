@@ -2,8 +2,9 @@
 
 The promise (README, "Bad input"): exit 2 and one line on stderr with nothing before it, within a few
 seconds, and under 200 MB of resident memory beyond what the command needs to start and refuse a
-missing file. Each run is a real subprocess; its peak RSS is the kernel's rusage for that one child
-(os.wait4), not a sample.
+missing file. Each run is a real subprocess; its peak RSS is the kernel's high-water mark of its
+own memory (VmHWM), which exec starts afresh. (wait4's ru_maxrss would not do: Linux carries the
+pre-exec high-water mark into it, so a child of a big pytest process starts at pytest's size.)
 """
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ import tempfile
 import threading
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 EXTRA_RSS_MB = 200
 HARD_STOP_SECONDS = 120
@@ -29,26 +31,44 @@ class Run:
     peak_rss_mb: float
 
 
+# `python -m isoscope ARGS`, which on its way out (sys.exit, as the command ends) writes its own
+# VmHWM to the file named by the environment. The command itself is unchanged.
+_WRAPPER = """
+import atexit, os, runpy, sys
+def _peak(path=os.environ.pop("ISOSCOPE_TEST_PEAK_FILE")):
+    with open("/proc/self/status") as status, open(path, "w") as out:
+        out.write(next(line.split()[1] for line in status if line.startswith("VmHWM:")))
+atexit.register(_peak)
+sys.argv[0] = "isoscope"
+runpy.run_module("isoscope", run_name="__main__", alter_sys=True)
+"""
+
+
 def run_isoscope(*args, timeout: float = HARD_STOP_SECONDS, env: dict | None = None, cwd=None) -> Run:
-    """`python -m isoscope ARGS` in a subprocess: its exit status, output, wall time and peak RSS (MB)."""
-    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+    """`python -m isoscope ARGS` in a subprocess: its exit status, output, wall time and peak RSS (MB;
+    NaN where it ended without exiting: a signal)."""
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err, \
+            tempfile.TemporaryDirectory() as scratch:
+        peak_file = Path(scratch) / "peak"
         start = time.monotonic()
-        process = subprocess.Popen([sys.executable, "-m", "isoscope", *map(str, args)], stdout=out, stderr=err,
-                                   stdin=subprocess.DEVNULL, text=True, env=env, cwd=cwd)
+        process = subprocess.Popen([sys.executable, "-c", _WRAPPER, *map(str, args)], stdout=out, stderr=err,
+                                   stdin=subprocess.DEVNULL, text=True, cwd=cwd,
+                                   env={**(os.environ if env is None else env),
+                                        "ISOSCOPE_TEST_PEAK_FILE": str(peak_file)})
         killer = threading.Timer(timeout, process.kill)
         killer.start()
         try:
-            _, status, usage = os.wait4(process.pid, 0)
+            process.wait()
         finally:
             killer.cancel()
         seconds = time.monotonic() - start
-        process.returncode = os.waitstatus_to_exitcode(status)  # reaped here: Popen must not wait again
         out.seek(0)
         err.seek(0)
         stdout, stderr = out.read(), err.read()
+        peak_mb = int(peak_file.read_text()) / 1024.0 if peak_file.exists() else float("nan")
     if seconds >= timeout:
         raise AssertionError(f"isoscope {' '.join(map(str, args))} ran past {timeout} s; stderr:\n{stderr[-2000:]}")
-    return Run(process.returncode, stdout, stderr, seconds, usage.ru_maxrss / 1024.0)
+    return Run(process.returncode, stdout, stderr, seconds, peak_mb)
 
 
 @functools.cache

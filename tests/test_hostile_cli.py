@@ -299,8 +299,7 @@ def test_probe_scheduler_tells_silence_garbage_and_nothing_apart(serving):
 def big_npy(tmp_path_factory):
     """A smooth 205^3 float64 field as np.save writes it: 65.7 MiB, over the old 64 MiB limit for dask.
 
-    Written a plane at a time: this process stays small, since a child's peak RSS as wait4 reports it
-    starts from its parent's (exec keeps the old memory's high-water mark), which would spoil refused()."""
+    Written a plane at a time, so the test process stays small."""
     folder = tmp_path_factory.mktemp("big")
     n = 205
     axis = np.linspace(-1, 1, n)

@@ -137,6 +137,7 @@ def add_volume_arguments(parser) -> None:
     add(parser)
 
 
-def open_volume_from_args(spec: str, args, progress: Progress | None = None, backend: str = "auto") -> Volume:
+def open_volume_from_args(spec: str, args, progress: Progress | None = None, backend: str = "auto",
+                          **limits) -> Volume:
     from .cli_options import open_volume_from_args as open_from
-    return open_from(spec, args, progress, backend)
+    return open_from(spec, args, progress, backend, **limits)

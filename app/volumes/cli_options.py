@@ -28,14 +28,15 @@ def add_volume_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def open_volume_from_args(spec: str, args: argparse.Namespace, progress: Progress | None = None,
-                          backend: str = "auto") -> Volume:
-    """The volume the flags describe; `backend` samples expr: volumes ("auto", "gpu" or "cpu")."""
+                          backend: str = "auto", **limits) -> Volume:
+    """The volume the flags describe; `backend` samples expr: volumes ("auto", "gpu" or "cpu");
+    `limits` (max_samples, max_samples_fix) go to open_volume."""
     from . import open_volume
     names = ("dims", "dtype", "endian", "spacing", "frame", "series", "resolution", "inside")
     options = {name: getattr(args, name) for name in names}
     if options["spacing"] is not None:
         _checked_spacing(options["spacing"], None, "--spacing")  # before a big file is read
-    volume = open_volume(spec, progress=progress, backend=backend, **options)
+    volume = open_volume(spec, progress=progress, backend=backend, **options, **limits)
     _checked_spacing(volume.spacing, volume.data.shape, "--spacing" if options["spacing"] else volume.name)
     return volume
 
