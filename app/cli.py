@@ -458,9 +458,11 @@ def _one_extraction_limit(args) -> dict:
     says it is bigger is refused from the header, before gigabytes are read for nothing."""
     if args.chunk is not None or args.workers is not None or args.scheduler is not None:
         return {}
-    from .gpu_layout import MAX_WORDS, WORD_BITS
-    return dict(max_samples=MAX_WORDS * WORD_BITS,
-                max_samples_fix="export it a chunk at a time (--chunk 128), or crop or downsample it")
+    from .gpu_layout import MAX_WORDS, WORD_BITS, fits_one_extraction
+    return dict(fits=fits_one_extraction,
+                fits_refusal=f"more than one extraction takes ({MAX_WORDS * WORD_BITS:,}, in rows of whole "
+                             f"{WORD_BITS}-sample words): export it a chunk at a time (--chunk 128), or crop or "
+                             "downsample it")
 
 
 def run_export(args) -> int:

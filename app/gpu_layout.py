@@ -51,6 +51,18 @@ MAX_WORDS = 1 << 25
 """A vertex job of a grid too large for job_coordinate_bits packs its word id into the top 25 bits of a
 uint (word << 7 | axis << 5 | bit)."""
 
+
+def sign_words(shape) -> int:
+    """The extractor's sign words for a grid: one bit per sample, WORD_BITS samples per word along
+    axis 2, rows padded to whole words. Python integers: a header's dimensions cannot wrap."""
+    n0, n1, n2 = (int(n) for n in shape)
+    return n0 * n1 * -(-n2 // WORD_BITS)
+
+
+def fits_one_extraction(shape) -> bool:
+    """Whether one extractor takes a grid of `shape`: at most MAX_WORDS sign words (about 2^30 samples)."""
+    return sign_words(shape) <= MAX_WORDS
+
 JOB_BITS = 32
 """Bits of a marching-cubes vertex job (mc_common.glsl)."""
 

@@ -21,6 +21,7 @@ from .gpu_layout import (
     SAMPLES_PER_TEXEL,
     STORAGE_OFFSET_ALIGNMENT,
     WORD_BITS,
+    sign_words,
 )
 
 
@@ -98,7 +99,7 @@ def plan_extractor(shape, limits: GpuLimits) -> ExtractorPlan:
     """Every size an extractor for `shape` needs, or a GPULimitError naming the first limit passed."""
     n0, n1, n2 = (int(n) for n in shape)
     words_per_row = -(-n2 // WORD_BITS)
-    word_count = n0 * n1 * words_per_row
+    word_count = sign_words((n0, n1, n2))
     bricks = (-(-n0 // BRICK_I), -(-n1 // BRICK_J))
     # Per-word images have rows of 2^shift texels: at most 4096, and fewer than 1/8 of the
     # words (2^(b-1) < words <= 2^b), so the last row's padding is under 1/8 of the image.

@@ -148,6 +148,22 @@ def test_nifti_header_of_more_samples_than_one_extraction_is_refused_before_read
     assert "2,744,000,000 samples" in line
 
 
+def test_the_header_check_is_the_extractors_own_rule():
+    """Rows are whole 32-sample words: 1100x1000x970 has fewer samples than 2^30 and still more words than
+    one extractor takes, and the open refuses it as plan_extractor would; 1024^3 passes both."""
+    from isoscope.gpu_layout import fits_one_extraction
+    from isoscope.gpu_limits import GPULimitError, GpuLimits, plan_extractor
+    roomy = GpuLimits(max_3d_texture_size=1 << 30, max_texture_size=1 << 30, max_storage_block_bytes=1 << 40)
+    for shape in [(1100, 1000, 970), (1024, 1024, 1024), (1024, 1024, 1025), (2, 2, 1 << 30)]:
+        try:
+            plan_extractor(shape, roomy)
+            planned = True
+        except GPULimitError as exc:
+            planned = "sign words" not in str(exc)
+        assert fits_one_extraction(shape) == planned, shape
+    assert 1100 * 1000 * 970 < 1 << 30 and not fits_one_extraction((1100, 1000, 970))
+
+
 def test_nifti_library_chatter_becomes_notes(tmp_path, blob):
     nibabel.save(nibabel.Nifti1Image(blob, np.eye(4)), tmp_path / "pix.nii")
     data = bytearray((tmp_path / "pix.nii").read_bytes())

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from imgui_bundle import imgui
 
+from .colorbar import tick_label
 from .colorby import SOURCES
 from .colormaps import COLORMAPS
 from .levels import MAX_LEVELS
@@ -101,8 +102,8 @@ def _colorbar(color_by) -> None:
     imgui.dummy(imgui.ImVec2(width, COLORBAR_HEIGHT))
     low, high = color_by.value_range
     start_x = imgui.get_cursor_pos_x()
-    imgui.text(f"{low:.4g}")
-    for text, at in ((color_by.source, 0.5), (f"{high:.4g}", 1.0)):
+    imgui.text(tick_label(low, low, high))
+    for text, at in ((color_by.source, 0.5), (tick_label(high, low, high), 1.0)):
         imgui.same_line(start_x + max((width - imgui.calc_text_size(text).x) * at, 0.0))
         imgui.text(text)
 

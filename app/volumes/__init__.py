@@ -45,7 +45,7 @@ from pathlib import Path
 
 from .builtins import BUILTINS, open_builtin, split_builtin_spec
 from .errors import VolumeError
-from .volume import Progress, Volume, sample_limit
+from .volume import Progress, Volume, extraction_limit
 
 __all__ = [
     "Volume", "VolumeError", "DEFAULT_VOLUME", "open_volume", "builtin_names",
@@ -78,8 +78,8 @@ INSIDE_SIDES = {"above": "descent", "below": "ascent"}  # --inside -> Volume.gra
 
 def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, frame=None,
                 series=None, resolution=None, progress: Progress | None = None, backend: str = "auto",
-                ctx=None, inside: str | None = None, max_samples: int | None = None,
-                max_samples_fix: str = "crop or downsample it first") -> Volume:
+                ctx=None, inside: str | None = None, fits=None,
+                fits_refusal: str = "more than one extraction takes; crop or downsample it") -> Volume:
     """Open a volume from a spec (see the module docstring); raise VolumeError on bad input.
 
     dims/dtype/endian: raw files only; spacing overrides a header; frame picks
@@ -89,12 +89,13 @@ def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, 
     moderngl context) only matter for expr: specs; "auto" samples on the GPU
     when a GL 4.3 context can be had and says so in `notes` when it falls back.
     inside ("above" or "below"), if given, overrides which side of the level
-    the object is on. max_samples, if given, refuses from the file's header (before reading
-    its data) a 3-D volume of more samples, with max_samples_fix as the fix.
+    the object is on. fits, if given, is a test on a 3-D shape (gpu_layout.fits_one_extraction):
+    a file whose header gives a shape it rejects is refused before its data is read, in words
+    ending with fits_refusal.
     """
     if inside is not None and inside not in INSIDE_SIDES:
         raise VolumeError(f"inside must be 'above' or 'below' the level, not {inside!r}")
-    with sample_limit(max_samples, max_samples_fix):
+    with extraction_limit(fits, fits_refusal):
         volume = _open(spec, dims=dims, dtype=dtype, endian=endian, spacing=spacing, frame=frame, series=series,
                        resolution=resolution, progress=progress, backend=backend, ctx=ctx)
     if inside is not None:

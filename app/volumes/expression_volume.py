@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from isoscope.gpu_layout import MAX_WORDS, WORD_BITS
+from isoscope.gpu_layout import MAX_WORDS, WORD_BITS, fits_one_extraction
 
 from .errors import VolumeError
 from .expression import FLOAT32_MAX, evaluate, parse, peak_intermediates
@@ -24,24 +24,17 @@ _OPTIONS_HELP = "use box=LO,HI or box=X0,X1,Y0,Y1,Z0,Z1 and res=N"
 _EVALUATION_BYTES = 64 << 20
 
 
-def extractor_words(shape) -> int:
-    """The extractor's sign words for a grid: one bit per sample, WORD_BITS samples per word
-    along axis 2 (gpu_limits.plan_extractor's count, which must stay within MAX_WORDS)."""
-    n0, n1, n2 = (int(n) for n in shape)
-    return n0 * n1 * -(-n2 // WORD_BITS)
-
-
 def largest_cube_resolution() -> int:
     """The largest res=N whose N^3 grid the extractor takes (1024)."""
     n = 1
-    while extractor_words((n + 1,) * 3) <= MAX_WORDS:
+    while fits_one_extraction((n + 1,) * 3):
         n += 1
     return n
 
 
 def check_grid_size(shape) -> None:
     """Refuse, before any allocation or sampling, a grid the extractor would refuse after it."""
-    if extractor_words(shape) > MAX_WORDS:
+    if not fits_one_extraction(shape):
         samples = int(np.prod([int(n) for n in shape], dtype=np.int64))
         limit = MAX_WORDS * WORD_BITS
         raise VolumeError(

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..lazy_arrays import is_lazy
-from ..validation import CheckedVolume, Progress, check_volume
+from ..validation import CheckedVolume, Progress, as_spacing, check_volume
 from .errors import VolumeError
 
 
@@ -84,26 +84,30 @@ def available_memory_bytes() -> int:
         return 1 << 34
 
 
-# (most samples, the fix) that the caller of an open will take in one piece: an export that is not
-# chunked hands the whole volume to one extractor, so a header that implies more is refused before
-# a byte of data is read, not after minutes of reading and gigabytes of memory.
-_SAMPLE_LIMIT: ContextVar[tuple[int, str] | None] = ContextVar("sample_limit", default=None)
+# (whether one extraction takes a 3-D shape, the refusal's words) for the caller of an open that
+# will take the volume in one piece: an export that is not chunked hands it to one extractor, so
+# a header that implies more is refused before a byte of data is read, not after minutes of
+# reading and gigabytes of memory.
+_EXTRACTION_LIMIT: ContextVar[tuple[Callable[[tuple], bool], str] | None] = ContextVar("extraction_limit",
+                                                                                        default=None)
 
 
 @contextlib.contextmanager
-def sample_limit(max_samples: int | None, fix: str):
-    """Within this block, refuse_if_too_big also refuses a 3-D volume of more than `max_samples` samples."""
-    token = _SAMPLE_LIMIT.set(None if max_samples is None else (int(max_samples), fix))
+def extraction_limit(fits: Callable[[tuple], bool] | None, refusal: str):
+    """Within this block, refuse_if_too_big also refuses a whole 3-D volume whose shape `fits` rejects,
+    saying "<what> is <shape> voxels (<n> samples), <refusal>"."""
+    token = _EXTRACTION_LIMIT.set(None if fits is None else (fits, refusal))
     try:
         yield
     finally:
-        _SAMPLE_LIMIT.reset(token)
+        _EXTRACTION_LIMIT.reset(token)
 
 
 def refuse_if_too_big(shape, itemsize: int, what: str, *, copies: int = 1,
-                      fix: str = "crop or downsample it first") -> None:
-    """Refuse, before allocating, a volume that cannot fit in memory (or, inside `sample_limit`, that
-    has more samples than the caller can take).
+                      fix: str = "crop or downsample it first", whole_volume: bool = True) -> None:
+    """Refuse, before allocating, a volume that cannot fit in memory (or, inside `extraction_limit`,
+    a whole 3-D volume that the caller's one extraction cannot take; `whole_volume=False` for a
+    piece of one, such as a Zarr chunk).
 
     The budget is half of what is available: the checks, a dtype conversion or
     the extractor's upload may need a second copy while the first is alive.
@@ -113,10 +117,9 @@ def refuse_if_too_big(shape, itemsize: int, what: str, *, copies: int = 1,
     n_voxels = 1
     for n in shape:
         n_voxels *= int(n)
-    limit = _SAMPLE_LIMIT.get()
-    if limit is not None and len(shape) == 3 and n_voxels > limit[0]:
-        raise VolumeError(f"{what} is {shape_text(shape)} ({n_voxels:,} samples), more than the "
-                          f"{limit[0]:,} that one extraction takes: {limit[1]}")
+    limit = _EXTRACTION_LIMIT.get()
+    if limit is not None and whole_volume and len(shape) == 3 and not limit[0](shape):
+        raise VolumeError(f"{what} is {shape_text(shape)} voxels ({n_voxels:,} samples), {limit[1]}")
     n_bytes = n_voxels * int(itemsize) * copies
     budget = available_memory_bytes() // 2
     if n_bytes > budget:
@@ -158,9 +161,10 @@ def finish_volume(data: np.ndarray, *, spacing, name: str, source: str, gradient
             f"{what} is constant (every sample is {lo:g}), so no level has a surface; "
             f"check the file, frame or formula"
         )
-    spacing = tuple(float(s) for s in spacing)
-    if len(spacing) != 3 or not all(np.isfinite(s) and s > 0 for s in spacing):
-        raise VolumeError(f"{what}: spacing {spacing} must be three positive numbers")
+    try:
+        spacing = as_spacing(spacing, checked.data.shape)  # the one rule, as for the Python API's arrays
+    except ValueError as exc:
+        raise VolumeError(f"{what}: {exc}") from None
     notes = list(notes or [])
     if world is not None and (problem := world_problem(world[0])) is not None:
         notes.append(f"{what}: its header's index-to-world matrix {problem}; shown and exported in "

@@ -113,7 +113,7 @@ def _refuse_unreadable_size(path: Path, shape, chunks, dtype) -> None:
     if count > MAX_CHUNKS:
         raise VolumeError(f"{path.name} is {shape_text(shape)} in {shape_text(chunks)} chunks: {count:,} chunks to "
                           f"read, more than {MAX_CHUNKS:,}; {fix}")
-    refuse_if_too_big(chunks, dtype.itemsize, f"{path.name}'s chunk", fix=fix)
+    refuse_if_too_big(chunks, dtype.itemsize, f"{path.name}'s chunk", fix=fix, whole_volume=False)
 
 
 def _ome_level(group, multiscale: dict, path: Path):
