@@ -248,6 +248,15 @@ def test_dicom_truncated_uncompressed_slice_is_called_damaged(tmp_path):
     assert "compressed" not in line
 
 
+def test_dicom_slice_of_another_sample_type_is_not_cast_silently(tmp_path):
+    folder, files = _series(tmp_path, "mixed")
+    _edit(files[5], lambda ds: setattr(ds, "PixelRepresentation", 0))  # uint16 among int16 slices
+    for path in files:
+        _edit(path, lambda ds: (setattr(ds, "RescaleSlope", 1), setattr(ds, "RescaleIntercept", 0)))
+    with pytest.raises(VolumeError, match=f"{files[5].name} stores its samples as uint16 .* int16"):
+        open_volume(str(folder))
+
+
 def test_dicom_size_is_refused_from_the_headers(tmp_path):
     folder, files = _series(tmp_path, "huge")
     for path in files:

@@ -162,8 +162,8 @@ def _rescale(header) -> tuple[float, float]:
     return values[0], values[1]
 
 
-def _pixels(path: Path, into: np.ndarray) -> None:
-    """One slice's samples, rescaled, written into `into` (a plane of the volume)."""
+def _pixels(path: Path, shape: tuple[int, int]) -> np.ndarray:
+    """One slice's samples, as stored, or rescaled (float64, checked to fit float32)."""
     import pydicom
     dataset = pydicom.dcmread(path)
     syntax = getattr(getattr(dataset, "file_meta", None), "TransferSyntaxUID", None)
@@ -180,19 +180,18 @@ def _pixels(path: Path, into: np.ndarray) -> None:
         raise VolumeError(f"{path.name} is compressed as {name}, which pydicom cannot decode here "
                           f"({detail}); install a decoder: "
                           "pip install pylibjpeg pylibjpeg-libjpeg pylibjpeg-openjpeg") from None
-    if pixels.shape != into.shape:
+    if pixels.shape != tuple(shape):
         raise VolumeError(f"{path.name}'s pixels are {'x'.join(map(str, pixels.shape))} where its header and the "
-                          f"series say {'x'.join(map(str, into.shape))}; remove it or export the series again")
+                          f"series say {'x'.join(map(str, shape))}; remove it or export the series again")
     slope, intercept = _rescale(dataset)
     if slope == 1 and intercept == 0:
-        into[...] = pixels
-        return
+        return pixels
     with np.errstate(all="ignore"):
         scaled = pixels * np.float64(slope) + np.float64(intercept)
     if not np.all(np.abs(scaled) <= np.finfo(np.float32).max):
         raise VolumeError(f"{path.name}: its RescaleSlope {slope:g} and RescaleIntercept {intercept:g} take "
                           "samples beyond what float32 holds (or are not finite); fix the header")
-    into[...] = scaled
+    return scaled
 
 
 def load_dicom_folder(folder: Path, series: str | None = None, progress: Progress | None = None):
@@ -212,18 +211,23 @@ def _load(folder: Path, series: str | None, progress: Progress | None):
     all_series = _series_files(folder, progress)
     files, spacing, world = _geometry(folder, _pick_series(folder, all_series, series))
     header = files[0][1]
-    # Stored integers stay integers unless a slice is rescaled; the volume is allocated once, after
-    # the size check, and filled a slice at a time (no list of slices and a stacked copy beside it).
+    # The size is refused from the headers before a pixel is read (4 bytes a sample where any slice
+    # is rescaled); the volume is then allocated once, in the first slice's type (float32 where any is
+    # rescaled or stored as floats), and filled a slice at a time: no list of slices and a stacked copy.
     rescaled = any(_rescale(h) != (1.0, 0.0) for _, h in files)
-    bits = header.get("BitsAllocated", 16)
-    signed = header.get("PixelRepresentation", 0) == 1
-    dtype = np.dtype(np.float32) if rescaled or bits not in (8, 16, 32) else \
-        np.dtype(f"{'i' if signed else 'u'}{bits // 8}")
     rows, columns = _image_size(folder, files[0][0], header)
-    refuse_if_too_big((len(files), rows, columns), dtype.itemsize, folder.name)
-    data = np.empty((len(files), rows, columns), dtype)
+    bytes_per_sample = 4 if rescaled else max(1, int(header.get("BitsAllocated", 16) or 16) // 8)
+    refuse_if_too_big((len(files), rows, columns), bytes_per_sample, folder.name)
+    data = None
     for number, (path, _) in enumerate(files, 1):
-        _pixels(path, data[number - 1])
+        pixels = _pixels(path, (rows, columns))
+        if data is None:
+            floats = rescaled or pixels.dtype.kind == "f"
+            data = np.empty((len(files), rows, columns), np.float32 if floats else pixels.dtype)
+        elif data.dtype.kind != "f" and not np.can_cast(pixels.dtype, data.dtype):
+            raise VolumeError(f"{path.name} stores its samples as {pixels.dtype} where the series' first slice "
+                              f"has {data.dtype}; export the series again as one")
+        data[number - 1] = pixels
         if number % 10 == 0:
             report(progress, 0.3 + 0.7 * number / len(files), f"reading {folder.name} slices")
     notes = [f"DICOM series {_describe(files)}, {shape_text(data.shape)} "

@@ -70,6 +70,7 @@ def nrrd_world(path: Path):
 
 _COMPRESSED = {"gzip": "gzip", "gz": "gzip", "bzip2": "bzip2", "bz2": "bzip2"}
 _LINE_LIMIT = 1 << 16  # a "line skip" line longer than this is not a text line
+_TEXT_BYTES_PER_SAMPLE = 64  # a number written as text, with its separator, at its longest
 
 
 def _data_file(path: Path, header: dict) -> tuple[Path, bool]:
@@ -95,15 +96,19 @@ def _read_data(path: Path, header: dict) -> np.ndarray:
     endianness, axis order) from a header whose data is those bytes, raw and in memory."""
     import nrrd
     encoding = str(header.get("encoding", "raw")).lower()
-    if encoding not in ("raw", *_COMPRESSED):  # text encodings: pynrrd parses them, bounded by the file
+    count = math.prod(int(n) for n in header["sizes"])
+    data_path, attached = _data_file(path, header)
+    if encoding not in ("raw", *_COMPRESSED):  # text: pynrrd parses it, after a bound on the file's size
+        if data_path.stat().st_size > _TEXT_BYTES_PER_SAMPLE * count + _LINE_LIMIT:
+            raise VolumeError(f"{path.name}'s text data is {data_path.stat().st_size:,} bytes, far more than "
+                              f"{count:,} numbers take; check its sizes or export it again")
         return nrrd.read(str(path))[0]
-    needed = math.prod(int(n) for n in header["sizes"]) * _itemsize(str(header.get("type", "")))
+    needed = count * _itemsize(str(header.get("type", "")))
     line_skip = int(header.get("line skip", header.get("lineskip", 0)))
     byte_skip = int(header.get("byte skip", header.get("byteskip", 0)))
     if line_skip < 0 or byte_skip < -1:
         raise VolumeError(f"{path.name}: line skip {line_skip} / byte skip {byte_skip} are not valid NRRD "
                           "(line skip >= 0, byte skip >= -1); fix the header")
-    data_path, attached = _data_file(path, header)
     with open(data_path, "rb") as stream:
         if attached:  # the samples follow the header's blank line
             while stream.readline(_LINE_LIMIT).strip():

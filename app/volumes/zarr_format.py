@@ -12,6 +12,7 @@ its first array.  Leading non-spatial axes (time, channel): --frame N picks alon
 from __future__ import annotations
 
 import math
+import zlib
 from pathlib import Path
 
 from ..lazy_arrays import Block3D
@@ -38,9 +39,8 @@ class CheckedReads:
     def __getitem__(self, index):
         try:
             return self.array[index]
-        except (MemoryError, KeyboardInterrupt):
-            raise
-        except Exception as exc:  # zarr and its codecs raise many kinds for a damaged chunk
+        except (ValueError, RuntimeError, OSError, KeyError, EOFError, zlib.error) as exc:  # what zarr and its
+            # codecs raise for a damaged chunk: zstd and blosc a RuntimeError, a bad shape a ValueError
             _settle_pending_reads()
             raise VolumeError(f"{self.name}: a chunk of it cannot be read ({reason(exc)}); the store is damaged, "
                               "write it again") from None
