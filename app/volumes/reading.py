@@ -4,6 +4,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import stat
+import threading
 import warnings
 import zlib
 from pathlib import Path
@@ -147,7 +148,9 @@ def library_messages(notes: list[str], *loggers: str):
     """Warnings and log records that a reading library prints (nibabel's pixdim notice, tifffile's
     page offsets, numpy's overflow), kept as the volume's notes instead: stderr stays isoscope's.
 
-    Import the library first: the loggers it makes on import are the ones taken."""
+    Import the library first: the loggers it makes on import are the ones taken. Warnings are taken
+    on the main thread only: the warnings filters are process-wide, and a loader thread (the viewer's)
+    must not swallow the main thread's; there they go where Python sends them."""
     records: list[str] = []
 
     class Keep(logging.Handler):
@@ -161,9 +164,13 @@ def library_messages(notes: list[str], *loggers: str):
         logger = logging.getLogger(name)
         saved.append((logger, logger.propagate, list(logger.handlers)))
         logger.handlers, logger.propagate = [handler], False
+    caught: list = []
     try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
+        if threading.current_thread() is threading.main_thread():
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                yield
+        else:
             yield
     finally:
         for logger, propagate, handlers in saved:
