@@ -122,7 +122,8 @@ def test_nifti_gz_with_flipped_bytes_fails_its_crc(tmp_path, blob):
     for i in range(middle, middle + 64):
         data[i] ^= 0xFF
     (tmp_path / "scan.nii.gz").write_bytes(bytes(data))
-    export(tmp_path / "scan.nii.gz", words=("scan.nii.gz", "gzip data is corrupt", "export it again"))
+    line = export(tmp_path / "scan.nii.gz", words=("scan.nii.gz", "export it again"))
+    assert "CRC check failed" in line or "corrupt" in line, line
 
 
 def test_nifti_gz_whose_body_inflates_past_its_header(tmp_path):

@@ -5,6 +5,7 @@ also applies the header's scaling (scaled integers come back as floats).
 """
 from __future__ import annotations
 
+import gzip
 import math
 from pathlib import Path
 
@@ -13,8 +14,8 @@ import numpy as np
 from .errors import VolumeError
 from .frames import frame_index, frame_note, refuse_frame
 from .reading import (
+    GZIP_CHUNK,
     Loaded,
-    check_gzip_file,
     library_messages,
     raise_if_corrupt_compression,
     read_in_slabs,
@@ -35,10 +36,38 @@ def load_nifti(path: Path, frame: int | None, progress: Progress | None = None) 
 
 
 def _load(path: Path, frame: int | None, notes: list[str], progress: Progress | None):
+    if not path.name.lower().endswith(".gz"):
+        return _read(path, frame, notes, progress, None)[0]
+    # One pass through the gzip stream, nibabel reading from it and then the rest read to its end:
+    # nibabel alone stops once it has its samples, so a corrupt tail (a failed CRC) would go unseen;
+    # and the stream may not inflate past what the header implies (a decompression bomb).
+    with open(path, "rb") as compressed, gzip.GzipFile(fileobj=compressed) as stream:
+        result, limit = _read(path, frame, notes, progress, stream)
+        read_or_explain(path, lambda: _read_to_end(stream, limit, path.name))
+    return result
+
+
+def _read_to_end(stream, limit: int, what: str) -> None:
+    """Read a gzip stream to its end (checking its CRC and length), refusing it past `limit` bytes."""
+    while stream.read(GZIP_CHUNK):
+        if stream.tell() > limit:
+            raise VolumeError(f"{what}: its compressed data inflates to more than the {limit:,} bytes its header "
+                              "implies (corrupt, or a decompression bomb); export it again")
+
+
+def _read(path: Path, frame: int | None, notes: list[str], progress: Progress | None, stream):
+    """((data, spacing), the most bytes the file's stream may hold) of the file, or of `stream` (its
+    uncompressed contents) where given."""
     import nibabel
     from nibabel.filebasedimages import ImageFileError
     try:
-        image = nibabel.load(str(path))
+        if stream is None:
+            image = nibabel.load(str(path))
+        else:
+            size_of_header = stream.read(4)
+            stream.seek(0)
+            nifti2 = size_of_header in (b"\x1c\x02\x00\x00", b"\x00\x00\x02\x1c")  # 540, either byte order
+            image = (nibabel.Nifti2Image if nifti2 else nibabel.Nifti1Image).from_stream(stream)
         shape = tuple(int(n) for n in image.shape)
         zooms = tuple(float(z) for z in image.header.get_zooms())
     except (ImageFileError, OSError, EOFError, ValueError) as exc:
@@ -49,16 +78,13 @@ def _load(path: Path, frame: int | None, notes: list[str], progress: Progress | 
         raise
     scaled = getattr(image.dataobj, "slope", 1.0) != 1.0 or getattr(image.dataobj, "inter", 0.0) != 0.0
     itemsize = 8 if scaled else image.header.get_data_dtype().itemsize
-    if path.name.lower().endswith(".gz"):
-        # nibabel stops reading once it has its samples, so a corrupt tail (a failed CRC) would go
-        # unseen, and a gzip body may inflate far past what the header says: read it to its end first.
-        stored = math.prod(shape) * image.header.get_data_dtype().itemsize
-        check_gzip_file(path, int(image.header.get("vox_offset", 352)) + stored + HEADER_SLACK)
+    limit = int(image.header.get("vox_offset", 352)) + math.prod(shape) * image.header.get_data_dtype().itemsize \
+        + HEADER_SLACK
     if len(shape) < 3 or any(n != 1 for n in shape[4:]):
         # Not a volume or a series of them: read it so the common checks can say what it is.
         refuse_if_too_big(shape, itemsize, path.name)
         refuse_frame(frame, path.name, len(shape))
-        return read_or_explain(path, lambda: np.asarray(image.dataobj)), None
+        return (read_or_explain(path, lambda: np.asarray(image.dataobj)), None), limit
     refuse_if_too_big(shape[:3], itemsize, path.name)
     which = ()
     if len(shape) >= 4:
@@ -71,7 +97,7 @@ def _load(path: Path, frame: int | None, notes: list[str], progress: Progress | 
     # z is slowest in the file: z slabs keep the reads sequential, even through gzip.
     data = read_or_explain(path, lambda: read_in_slabs(
         lambda slab: np.asarray(image.dataobj[slab + which]), shape[:3], 2, path.name, progress))
-    return data, zooms[:3] if len(zooms) >= 3 else None
+    return (data, zooms[:3] if len(zooms) >= 3 else None), limit
 
 
 def nifti_world(path: Path):

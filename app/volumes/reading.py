@@ -107,37 +107,6 @@ def inflate_bounded(stream, limit: int, what: str, decompressor=None) -> bytes:
     return bytes(out)
 
 
-def check_gzip_file(path: Path, limit: int, what: str | None = None) -> None:
-    """Read a .gz file to its end without keeping it: its CRC and length are checked (readers that stop
-    once they have their data never see a corrupt tail), and it may not inflate past `limit` bytes.
-
-    Every member of a multi-member file is checked, zero padding after them is allowed; memory
-    stays at a chunk."""
-    what = what or path.name
-    total, started, pending = 0, False, b""
-    inflate = zlib.decompressobj(zlib.MAX_WBITS | 16)
-    with open(path, "rb") as stream:
-        while True:
-            data = pending or inflate.unconsumed_tail or stream.read(GZIP_CHUNK)
-            pending = b""
-            if not data:
-                if started:
-                    raise VolumeError(f"{what}: its gzip data ends early (truncated); export it again")
-                return
-            if not started and not data.strip(b"\0"):
-                continue  # padding after the last member
-            started = True
-            try:
-                total += len(inflate.decompress(data, GZIP_CHUNK))
-            except zlib.error as exc:
-                raise VolumeError(f"{what}: its gzip data is corrupt ({reason(exc)}); export it again") from None
-            if total > limit:
-                raise _bomb(what, limit)
-            if inflate.eof:  # one member whole and its CRC right; another may follow
-                pending, started = inflate.unused_data, False
-                inflate = zlib.decompressobj(zlib.MAX_WBITS | 16)
-
-
 def _bomb(what: str, limit: int) -> VolumeError:
     return VolumeError(f"{what}: its compressed data inflates to more than the {limit:,} bytes its header "
                        "implies (corrupt, or a decompression bomb); export it again")
