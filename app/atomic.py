@@ -90,15 +90,15 @@ class _Signals:
         signal.raise_signal(signum)
 
     def deliver(self) -> None:
-        """After `restore`: act on the signal noted, if any. Does not return after one: a handler
-        that returns is followed by KeyboardInterrupt (SIGINT) or SystemExit(128 + signal)."""
+        """After `restore`: act on the signal noted, if any. Does not return after one. Python's own
+        SIGINT handler raises KeyboardInterrupt and the default actions end the process; a handler of
+        the caller's that returns has chosen to carry on, so the process is not ended for it, but the
+        guarded work was cut short all the same: InterruptedError says so."""
         if self.received is None:
             return
         signum = self.received
         self._hand_on(signum, None)
-        if signum == signal.SIGINT:
-            raise KeyboardInterrupt
-        raise SystemExit(128 + signum)
+        raise InterruptedError(f"{signal.Signals(signum).name} arrived while writing; nothing was written")
 
 
 def _on_main_thread() -> bool:

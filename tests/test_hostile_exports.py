@@ -292,6 +292,29 @@ def test_ctrl_c_while_writing_keeps_the_old_file_and_restores_the_handlers(tmp_p
     assert {s: signal.getsignal(s) for s in handlers} == handlers
 
 
+def test_a_callers_handler_that_carries_on_is_called_and_nothing_is_written(tmp_path):
+    """A program embedding isoscope with its own SIGTERM handler that returns keeps running: the handler
+    is called once the write is abandoned, and InterruptedError (not an exit) says nothing was written."""
+    from isoscope.atomic import write_atomically
+
+    target = tmp_path / "kept.stl"
+    target.write_bytes(OLD_BYTES)
+    calls = []
+    previous = signal.signal(signal.SIGTERM, lambda signum, frame: calls.append(signum))
+    try:
+        def write(out):
+            out.write(b"half")
+            signal.raise_signal(signal.SIGTERM)
+            out.write(b" and the rest")
+
+        with pytest.raises(InterruptedError, match="SIGTERM"):
+            write_atomically(target, write)
+        assert calls == [signal.SIGTERM] and target.read_bytes() == OLD_BYTES
+        assert [p.name for p in tmp_path.iterdir()] == ["kept.stl"]
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def test_off_the_main_thread_writes_as_before(tmp_path):
     import threading
 
