@@ -8,6 +8,7 @@ catches BaseException (trimesh's encoders) from hiding an interrupt.
 """
 from __future__ import annotations
 
+import errno
 import os
 import signal
 import stat
@@ -98,7 +99,7 @@ class _Signals:
             return
         signum = self.received
         self._hand_on(signum, None)
-        raise InterruptedError(f"{signal.Signals(signum).name} arrived while writing; nothing was written")
+        raise InterruptedError(errno.EINTR, f"{signal.Signals(signum).name} arrived while writing; nothing was written")
 
 
 def _on_main_thread() -> bool:
