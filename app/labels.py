@@ -113,24 +113,20 @@ def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), backend="auto", max_label
 def labels_of(volume) -> np.ndarray:
     """A loaded `Volume`'s data as labels: integers as they are, floats only when every value is whole
     (readers such as nibabel hand back scaled segmentations as floats), then as the narrowest integer
-    type that holds their range.  Checked a slab at a time: no float-sized temporaries of the whole."""
+    type that holds their range.  Checked a block at a time (validation.blocks, as the value scan): no
+    float-sized temporaries of the whole."""
     data = volume.data
     if data.dtype.kind == "f":
-        step = max(1, _SLAB_BYTES // max(1, data[0].size * data.itemsize))
-        for start in range(0, data.shape[0], step):
-            slab = np.asarray(data[start:start + step])
+        for block in validation.blocks(data.shape, data.dtype.itemsize):
+            slab = np.asarray(data[block])
             fractional = slab != np.round(slab)
             if fractional.any():
-                first = tuple(int(i) for i in np.argwhere(fractional)[0])
-                first = (first[0] + start,) + first[1:]
+                first = tuple(int(i) + part.start for i, part in zip(np.argwhere(fractional)[0], block))
                 raise ValueError(f"{volume.name} is not a label map: it has fractional values (e.g. "
                                  f"{data[first]:g} at index {first}); leave out --labels to draw an isosurface")
         low, high = volume.value_range
         data = data.astype(_narrowest_int(int(low), int(high)))
     return data
-
-
-_SLAB_BYTES = 16 << 20
 
 
 def _narrowest_int(low: int, high: int) -> np.dtype:

@@ -81,8 +81,8 @@ def check_volume(volume, what: str = "volume", *, progress: Progress | None = No
     if not scan_values and not is_lazy(data) and str(data.dtype) in GPU_SCANNED_DTYPES:
         return CheckedVolume(data, None, tuple(notes))
     lo, hi = np.inf, -np.inf
-    blocks = list(_blocks(data.shape, data.dtype.itemsize))
-    for number, block in enumerate(blocks, 1):
+    pieces = list(blocks(data.shape, data.dtype.itemsize))
+    for number, block in enumerate(pieces, 1):
         slab = np.asarray(data[block])
         release_pages(data)  # a memory-mapped file: keep only one slab resident
         slab_lo, slab_hi = float(slab.min()), float(slab.max())
@@ -93,19 +93,19 @@ def check_volume(volume, what: str = "volume", *, progress: Progress | None = No
             if bad.any():
                 index = tuple(int(i) + part.start for i, part in
                               zip(np.unravel_index(int(np.argmax(bad)), slab.shape), block))
-                count = sum(int(np.count_nonzero(~np.isfinite(np.asarray(data[b])))) for b in blocks)
+                count = sum(int(np.count_nonzero(~np.isfinite(np.asarray(data[b])))) for b in pieces)
                 raise ValueError(f"{what} has {count} NaN/Inf sample(s), the first ({data[index]}) "
                                  f"{where(index)}")
         lo, hi = min(lo, slab_lo), max(hi, slab_hi)
-        if len(blocks) > 1 and progress is not None:
-            progress(number / len(blocks), f"checking {what}")
+        if len(pieces) > 1 and progress is not None:
+            progress(number / len(pieces), f"checking {what}")
     if max(-lo, hi) > FLOAT32_MAX:
         raise ValueError(f"{what} has values up to {max(-lo, hi):g}, beyond float32's range "
                          f"(+-{FLOAT32_MAX:.3g}) that the GPU computes in; rescale the data")
     return CheckedVolume(data, (lo, hi), tuple(notes))
 
 
-def _blocks(shape, itemsize: int):
+def blocks(shape, itemsize: int):
     """Slices covering a 3-D array in C order, each of at most CHECK_SLAB_BYTES where a row allows:
     slabs of axis-0 planes, a plane split along axis 1 when one is bigger (a lazy 10^5 x 10^5
     plane would be 37 GiB read at once), a row along axis 2 when even that is."""
@@ -117,7 +117,7 @@ def _blocks(shape, itemsize: int):
             yield slice(i, min(i + step, n0)), slice(0, n1), slice(0, n2)
         return
     rows = max(1, CHECK_SLAB_BYTES // max(1, row))
-    columns = n2 if rows > 1 or row <= CHECK_SLAB_BYTES else max(1, CHECK_SLAB_BYTES // itemsize)
+    columns = n2 if row <= CHECK_SLAB_BYTES else max(1, CHECK_SLAB_BYTES // itemsize)
     for i in range(n0):
         for j in range(0, n1, rows):
             for k in range(0, n2, columns):
