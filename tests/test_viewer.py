@@ -178,6 +178,20 @@ def test_expression_box_opens_an_implicit_function(viewer):
     assert viewer.state.n_triangles > 0
 
 
+@pytest.mark.parametrize("formula", ["+".join(["x"] * 999), "*".join(["x"] * 999), "-" * 1500 + "x",
+                                     "(" * 900 + "x" + ")" * 900, "sin(" * 400 + "x" + ")" * 400])
+def test_a_hostile_expression_typed_in_the_panel_keeps_the_window(viewer, formula):
+    """Issue 22: ~1000 terms typed into the panel closed the viewer (RecursionError). Each opens, or is
+    refused in one line with the last good volume still on show."""
+    state = viewer.state
+    volume = state.volume
+    if state.open(f"expr:{formula}; res=8"):
+        assert state.volume.data.shape == (8, 8, 8)
+    else:
+        assert state.error and "\n" not in state.error and state.volume is volume
+    assert state.open("sphere") is True
+
+
 def test_object_side_toggle_reverses_the_normals_and_keeps_the_view(viewer):
     state = viewer.state
     serial, iso = state.volume_serial, state.iso

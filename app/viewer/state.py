@@ -99,8 +99,11 @@ class ViewerState(SurfaceLevels, LabelLayers):
         except USER_ERRORS as exc:
             self.error = one_line(exc)
             return False
+        except Exception as exc:  # a loader's bug (a RecursionError) must not close the window: as PendingLoad
+            self.error = f"could not open {spec[:80]}: {type(exc).__name__}: {one_line(exc)[:200]}"
+            return False
         shown = self.show(volume)
-        if shown and Path(spec).is_file():
+        if shown and _names_a_file(spec):
             self.recent.add(spec)
         return shown
 
@@ -423,3 +426,14 @@ class ViewerState(SurfaceLevels, LabelLayers):
         if self.surface is not None:
             self.surface.release()
             self.surface = None
+
+
+def _names_a_file(spec: str) -> bool:
+    """Whether `spec` is a file's path (for the recent files); a 2,000-character expr: is no file name,
+    and asking the file system would raise "File name too long"."""
+    if spec.strip().lower().startswith("expr:"):
+        return False
+    try:
+        return Path(spec).is_file()
+    except (OSError, ValueError):
+        return False
