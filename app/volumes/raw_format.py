@@ -102,20 +102,12 @@ def raw_layout(path: Path, dims=None, dtype=None, endian=None, spacing=None) -> 
     return RawLayout(dims, np.dtype(dtype_name).newbyteorder(ENDIANS[endian_name]), spacing, notes)
 
 
-def _product(dims) -> int:
-    """Python ints: np.prod's int64 wraps (4294967296 x 4294967296 x 8 is 0) and would pass the size checks."""
-    n = 1
-    for d in dims:
-        n *= int(d)
-    return n
-
-
 def _bytes(n: int) -> str:
     return f"{n} bytes" if n < 1 << 30 else f"{size_text(n)} ({n} bytes)"
 
 
 def _check_file_size(path: Path, layout: RawLayout) -> None:
-    n_voxels = _product(layout.dims)
+    n_voxels = math.prod(int(d) for d in layout.dims)  # Python ints: int64 would wrap
     expected = n_voxels * layout.dtype.itemsize
     actual = path.stat().st_size
     if actual == expected:
@@ -137,7 +129,7 @@ def load_raw(path: Path, dims=None, dtype=None, endian=None, spacing=None,
     """The array, axes transposed to x first: read whole when small, memory-mapped (read from disk a
     block at a time, so it may exceed RAM) from MAP_BYTES up."""
     layout = raw_layout(path, dims, dtype, endian, spacing)
-    n_bytes = _product(layout.dims) * layout.dtype.itemsize
+    n_bytes = math.prod(int(d) for d in layout.dims) * layout.dtype.itemsize
     if path.stat().st_size < n_bytes:
         refuse_if_too_big(layout.dims, layout.dtype.itemsize, path.name)  # a header-less monster, or truncated
     _check_file_size(path, layout)
