@@ -423,3 +423,86 @@ def test_a_lazy_volume_is_scanned_in_bounded_blocks(monkeypatch):
     values[2, 61, 7] = np.nan
     with pytest.raises(ValueError, match=r"1 NaN/Inf sample\(s\), the first \(nan\) at index \(2, 61, 7\)"):
         validation.check_volume(Recording(values))
+
+
+# ---- generated headers (hypothesis) --------------------------------------------------------------
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_FUZZ = settings(max_examples=120, deadline=None, derandomize=True,
+                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+_SIZES = st.one_of(st.integers(-3, 12), st.integers(2**31 - 2, 2**33), st.sampled_from([0, 1, 10**18]))
+_NRRD_TYPES = ["uint8", "short", "int", "float", "double", "long long", "block", "complex", "uchar"]
+_ENCODINGS = ["raw", "gzip", "bzip2", "ascii", "hex", "zip"]
+
+
+def _opens_or_one_line(spec: str, **options) -> None:
+    try:
+        open_volume(spec, **options)
+    except VolumeError as exc:
+        assert str(exc) and "\n" not in str(exc), exc
+
+
+@_FUZZ
+@given(sizes=st.lists(_SIZES, min_size=0, max_size=5), kind=st.sampled_from(_NRRD_TYPES),
+       encoding=st.sampled_from(_ENCODINGS), byte_skip=st.integers(-3, 100), line_skip=st.integers(-2, 3),
+       body=st.binary(max_size=600), detached=st.booleans(), data_file=st.sampled_from(["data.raw", "missing.raw",
+                                                                                          "LIST", "d%03d.raw"]))
+def test_generated_nrrd_headers(tmp_path_factory, sizes, kind, encoding, byte_skip, line_skip, body, detached,
+                                data_file):
+    """Any header pynrrd parses (sizes of every size, every type and encoding, skips, detached data
+    files that are missing or lists), over a short random body: a volume or one line, quickly."""
+    folder = tmp_path_factory.mktemp("nrrd")
+    header = (f"NRRD0004\ntype: {kind}\ndimension: {max(1, len(sizes))}\nsizes: {' '.join(map(str, sizes))}\n"
+              f"encoding: {encoding}\nbyte skip: {byte_skip}\nline skip: {line_skip}\n")
+    if detached:
+        (folder / "data.raw").write_bytes(body)
+        (folder / "v.nhdr").write_text(header + f"data file: {data_file}\n\n")
+        _opens_or_one_line(str(folder / "v.nhdr"))
+    else:
+        (folder / "v.nrrd").write_bytes(header.encode() + b"\n" + body)
+        _opens_or_one_line(str(folder / "v.nrrd"))
+
+
+_JSON = st.recursive(st.one_of(st.none(), st.booleans(), st.integers(-2**40, 2**40), st.floats(allow_nan=True),
+                               st.text(max_size=8)),
+                     lambda inner: st.lists(inner, max_size=4), max_leaves=8)
+
+
+@_FUZZ
+@given(dims=_JSON, dtype=st.one_of(st.sampled_from(["uint8", "float32", "int16", "f8", "object"]), _JSON),
+       spacing=_JSON, endian=st.one_of(st.sampled_from(["little", "big"]), _JSON), size=st.integers(0, 300))
+def test_generated_raw_sidecars(tmp_path_factory, dims, dtype, spacing, endian, size):
+    """A raw file's JSON sidecar with any values where its keys are (nested lists, huge numbers, NaN,
+    strings): a volume or one line."""
+    import json
+    folder = tmp_path_factory.mktemp("raw")
+    (folder / "v.raw").write_bytes((bytes(range(256)) * 2)[:size])
+    (folder / "v.raw.json").write_text(json.dumps({"dims": dims, "dtype": dtype, "spacing": spacing,
+                                                   "endian": endian}))
+    _opens_or_one_line(str(folder / "v.raw"))
+
+
+@_FUZZ
+@given(dims=st.lists(st.integers(-5, 40), min_size=8, max_size=8), datatype=st.sampled_from(
+    [0, 1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 768, 1024, 1536, 2048, 2304, 77]),
+    pixdim=st.lists(st.floats(allow_nan=True, allow_infinity=True, width=32), min_size=8, max_size=8),
+    vox_offset=st.sampled_from([0.0, 348.0, 352.0, 400.0, -4.0, 1e30]), slope=st.floats(width=32),
+    gz=st.booleans())
+def test_generated_nifti_headers(tmp_path_factory, dims, datatype, pixdim, vox_offset, slope, gz):
+    """NIfTI-1 headers with any dim, datatype, pixdim, vox_offset and scl_slope over 4 KiB of data:
+    a volume or one line (nibabel's own complaints become notes or the line)."""
+    header = bytearray(348)
+    struct.pack_into("<i", header, 0, 348)
+    struct.pack_into("<8h", header, 40, *dims)
+    struct.pack_into("<h", header, 70, datatype)
+    struct.pack_into("<8f", header, 76, *pixdim)
+    struct.pack_into("<f", header, 108, vox_offset)
+    struct.pack_into("<f", header, 112, slope)
+    header[344:348] = b"n+1\0"
+    data = bytes(header) + bytes(4) + np.random.default_rng(len(dims)).bytes(4096)
+    folder = tmp_path_factory.mktemp("nii")
+    path = folder / ("v.nii.gz" if gz else "v.nii")
+    path.write_bytes(gzip.compress(data) if gz else data)
+    _opens_or_one_line(str(path))

@@ -27,6 +27,13 @@ from .volume import Progress, refuse_if_too_big, report, world_problem
 HEADER_SLACK = 1 << 20  # bytes a .nii.gz may hold past its data (extensions sit before vox_offset)
 
 
+def _nibabel_errors() -> tuple[type[Exception], ...]:
+    """What nibabel raises for a header it cannot take (several are not ValueErrors)."""
+    from nibabel.filebasedimages import ImageFileError
+    from nibabel.spatialimages import HeaderDataError, HeaderTypeError, ImageDataError
+    return ImageFileError, HeaderDataError, HeaderTypeError, ImageDataError
+
+
 def load_nifti(path: Path, frame: int | None, progress: Progress | None = None) -> Loaded:
     import nibabel  # noqa: F401  (first: its loggers must exist for library_messages to take them)
     notes: list[str] = []
@@ -59,7 +66,6 @@ def _read(path: Path, frame: int | None, notes: list[str], progress: Progress | 
     """((data, spacing), the most bytes the file's stream may hold) of the file, or of `stream` (its
     uncompressed contents) where given."""
     import nibabel
-    from nibabel.filebasedimages import ImageFileError
     try:
         if stream is None:
             image = nibabel.load(str(path))
@@ -70,16 +76,23 @@ def _read(path: Path, frame: int | None, notes: list[str], progress: Progress | 
             image = (nibabel.Nifti2Image if nifti2 else nibabel.Nifti1Image).from_stream(stream)
         shape = tuple(int(n) for n in image.shape)
         zooms = tuple(float(z) for z in image.header.get_zooms())
-    except (ImageFileError, OSError, EOFError, ValueError) as exc:
+    except (*_nibabel_errors(), OSError, EOFError, ValueError, OverflowError) as exc:
         _raise_if_broken_gzip(path)
         raise VolumeError(f"{path.name} is not a readable NIfTI file ({reason(exc)}); check the file") from None
     except Exception as exc:
         raise_if_corrupt_compression(exc, path)
         raise
+    if any(n < 0 for n in shape):
+        raise VolumeError(f"{path.name}'s header gives the shape {shape}, with a negative size; the file is "
+                          "damaged: export it again")
+    offset = float(image.header.get("vox_offset", 352))
+    available = path.stat().st_size if stream is None else None
+    if not 0 <= offset <= (available if available is not None else 2**62):
+        raise VolumeError(f"{path.name}'s header puts its samples at byte {offset:g}, outside the file; the file "
+                          "is damaged or truncated: export it again")
     scaled = getattr(image.dataobj, "slope", 1.0) != 1.0 or getattr(image.dataobj, "inter", 0.0) != 0.0
     itemsize = 8 if scaled else image.header.get_data_dtype().itemsize
-    limit = int(image.header.get("vox_offset", 352)) + math.prod(shape) * image.header.get_data_dtype().itemsize \
-        + HEADER_SLACK
+    limit = int(offset) + math.prod(shape) * image.header.get_data_dtype().itemsize + HEADER_SLACK
     if len(shape) < 3 or any(n != 1 for n in shape[4:]):
         # Not a volume or a series of them: read it so the common checks can say what it is.
         refuse_if_too_big(shape, itemsize, path.name)
@@ -105,11 +118,14 @@ def nifti_world(path: Path):
     is set and usable (a zeroed sform is skipped, as ITK does); nibabel's own choice otherwise."""
     import nibabel
     with library_messages([], "nibabel"):  # load_nifti already kept its messages
-        image = nibabel.load(str(path))
-        for matrix, code in (image.header.get_sform(coded=True), image.header.get_qform(coded=True)):
-            if code and world_problem(matrix) is None:
-                return np.asarray(matrix, np.float64), "RAS"
-        return np.asarray(image.affine, np.float64), "RAS"
+        try:
+            image = nibabel.load(str(path))
+            for matrix, code in (image.header.get_sform(coded=True), image.header.get_qform(coded=True)):
+                if code and world_problem(matrix) is None:
+                    return np.asarray(matrix, np.float64), "RAS"
+            return np.asarray(image.affine, np.float64), "RAS"
+        except (*_nibabel_errors(), OSError, EOFError, ValueError, np.linalg.LinAlgError):
+            return None  # no usable orientation: index x spacing (the samples were read)
 
 
 def _raise_if_broken_gzip(path: Path) -> None:

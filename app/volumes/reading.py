@@ -50,8 +50,8 @@ def read_or_explain(path: Path, read, errors: tuple[type[BaseException], ...] = 
         return read()
     except VolumeError:  # already one line about the file
         raise
-    except (OSError, EOFError, ValueError, *errors) as exc:
-        raise damaged(path, exc) from None
+    except (OSError, EOFError, ValueError, OverflowError, *errors) as exc:  # OverflowError: an mmap or
+        raise damaged(path, exc) from None                                    # a count past what C takes
     except Exception as exc:
         raise_if_corrupt_compression(exc, path)
         raise
