@@ -82,6 +82,9 @@ def _read(path: Path, frame: int | None, notes: list[str], progress: Progress | 
     except Exception as exc:
         raise_if_corrupt_compression(exc, path)
         raise
+    if image.header.get_data_dtype().fields is not None:
+        raise VolumeError(f"{path.name} holds colour samples ({', '.join(image.header.get_data_dtype().names)} "
+                          "per voxel); a volume needs one value per voxel: save one channel")
     if any(n < 0 for n in shape):
         raise VolumeError(f"{path.name}'s header gives the shape {shape}, with a negative size; the file is "
                           "damaged: export it again")

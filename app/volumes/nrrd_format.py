@@ -68,6 +68,12 @@ def nrrd_world(path: Path):
     return world, "LPS"
 
 
+_TYPES = {"signed char", "int8", "int8_t", "uchar", "unsigned char", "uint8", "uint8_t", "short", "short int",
+          "signed short", "signed short int", "int16", "int16_t", "ushort", "unsigned short", "unsigned short int",
+          "uint16", "uint16_t", "int", "signed int", "int32", "int32_t", "uint", "unsigned int", "uint32",
+          "uint32_t", "longlong", "long long", "long long int", "signed long long", "signed long long int",
+          "int64", "int64_t", "ulonglong", "unsigned long long", "unsigned long long int", "uint64", "uint64_t",
+          "float", "double"}  # the NRRD format's sample types, each spelling it allows
 _COMPRESSED = {"gzip": "gzip", "gz": "gzip", "bzip2": "bzip2", "bz2": "bzip2"}
 _LINE_LIMIT = 1 << 16  # a "line skip" line longer than this is not a text line
 _TEXT_BYTES_PER_SAMPLE = 64  # a number written as text, with its separator, at its longest
@@ -151,6 +157,9 @@ def load_nrrd(path: Path, frame: int | None, progress: Progress | None = None) -
                           "export it again")
     if header.get("type") == "block":
         raise VolumeError(f"{path.name} holds NRRD 'block' samples, not numbers; save a numeric type")
+    if str(header["type"]).lower() not in _TYPES:
+        raise VolumeError(f"{path.name}'s NRRD type {header['type']!r} is not one of the format's sample types "
+                          "(uchar, short, int, float, double, ...); fix the header")
     sizes = [int(s) for s in np.atleast_1d(header["sizes"])]
     if not sizes or min(sizes) < 1:
         raise VolumeError(f"{path.name}'s NRRD sizes ({' '.join(map(str, sizes))}) are not positive; fix the header")

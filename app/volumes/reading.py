@@ -28,6 +28,8 @@ def read_in_slabs(read, shape, axis: int, what: str, progress: Progress | None) 
     Slabbing along the axis the file stores slowest keeps each read contiguous.
     The array takes the dtype of the first slab (a scaled NIfTI reads as float).
     """
+    if 0 in tuple(shape):  # nothing to read: the common checks say what is wrong with its shape
+        return np.asarray(read(tuple(slice(None) for _ in shape)))
     out, start, step = None, 0, 1  # one plane first, to learn the dtype; then ~SLAB_BYTES at a time
     plane_voxels = max(1, int(np.prod(shape, dtype=np.float64)) // shape[axis])
     while start < shape[axis]:
