@@ -506,3 +506,23 @@ def test_generated_nifti_headers(tmp_path_factory, dims, datatype, pixdim, vox_o
     path = folder / ("v.nii.gz" if gz else "v.nii")
     path.write_bytes(gzip.compress(data) if gz else data)
     _opens_or_one_line(str(path))
+
+
+_DESCR = st.one_of(st.sampled_from(["<f4", ">f8", "|u1", "<i2", "|b1", "<c8", "|O", "<U3", "|V4", "<M8[s]",
+                                    "[('a', '<f4')]", "<f2", "|S2"]), st.text(max_size=6))
+_SHAPE = st.one_of(st.lists(st.integers(-2, 40), max_size=5).map(tuple),
+                   st.lists(st.integers(2**31, 2**62), min_size=3, max_size=3).map(tuple), st.text(max_size=5))
+
+
+@_FUZZ
+@given(descr=_DESCR, shape=_SHAPE, fortran=st.one_of(st.booleans(), st.integers(), st.none()),
+       body=st.binary(max_size=2000), version=st.sampled_from([(1, 0), (2, 0), (3, 0), (9, 9)]))
+def test_generated_npy_headers(tmp_path_factory, descr, shape, fortran, body, version):
+    """An .npy header dict with any descr, shape and fortran_order (written as text, as numpy writes
+    it), over a random body: a volume or one line; never unpickled."""
+    text = f"{{'descr': {descr!r}, 'fortran_order': {fortran!r}, 'shape': {shape!r}, }}"
+    text += " " * (63 - (len(text) + 10) % 64) + "\n"
+    size = struct.pack("<H", len(text)) if version[0] == 1 else struct.pack("<I", len(text))
+    path = tmp_path_factory.mktemp("npy") / "v.npy"
+    path.write_bytes(b"\x93NUMPY" + bytes(version) + size + text.encode("latin1", "replace") + body)
+    _opens_or_one_line(str(path))
