@@ -119,10 +119,19 @@ def connect(scheduler: str | None, workers: int | None):
     except (OSError, TimeoutError) as exc:
         raise ClusterError(f"cannot reach the dask scheduler at {scheduler} ({_first_line(exc)}); check the "
                            "address and that `dask scheduler` is running there") from None
-    except Exception as exc:  # a reply dask could not read: MemoryError, ValueError, a msgpack error
+    except (MemoryError, ValueError, TypeError, KeyError, *_unpack_errors()) as exc:  # a reply dask could not read
         raise NotAScheduler(f"{scheduler} did not answer as a dask scheduler ({type(exc).__name__}: "
                             f"{_first_line(exc)}); check the address (dask schedulers listen on port 8786 "
                             "by default)") from None
+
+
+def _unpack_errors() -> tuple[type[Exception], ...]:
+    """msgpack's errors for bytes that are not its messages (some are not ValueErrors)."""
+    try:
+        from msgpack import UnpackException
+    except ImportError:
+        return ()
+    return (UnpackException,)
 
 
 def _first_line(exc: BaseException) -> str:
