@@ -1,6 +1,6 @@
 """`python -m isoscope` is the `isoscope` command."""
 import sys
 
-from .cli import main
+from .launch import main
 
 sys.exit(main())

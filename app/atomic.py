@@ -125,7 +125,7 @@ def signals_not_swallowed():
 
 
 @contextmanager
-def _signals_deferred():
+def signals_deferred():
     """SIGINT and SIGTERM only noted while the block runs (main thread); yields the noter, whose
     `received` the block checks; on leaving, the previous handlers back and the signal handed on."""
     guard = _Signals(defer=True)
@@ -198,7 +198,7 @@ def write_atomically(path, write: Callable[[BinaryIO], object]) -> Path:
     target = os.path.realpath(path)
     directory, name = os.path.split(target)
     try:
-        with _signals_deferred() as signals:
+        with signals_deferred() as signals:
             replaced = _replaced(target)
             handle, temporary = tempfile.mkstemp(dir=directory or ".", prefix=f".{name}.", suffix=".partial")
             try:

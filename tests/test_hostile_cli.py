@@ -432,3 +432,34 @@ def test_big_renders_get_fewer_samples():
     (("--labels", "--workers", "2"), ("leave out --workers",))])
 def test_cluster_options_that_cannot_work_are_refused_before_any_cluster(sphere_npy, tmp_path, options, words):
     refused("export", sphere_npy, "--out", tmp_path / "o.stl", *options, words=words, seconds=5)
+
+
+# --- Ctrl-C while the command starts ------------------------------------------------------------------------
+
+def test_ctrl_c_at_any_moment_of_start_up_prints_nothing(tmp_path):
+    """SIGINT at 24 seeded moments of a render's first 0.6 s (imports, argument parsing, imgui's native start,
+    the GL context): never a traceback, nor nanobind's abort (one render in ten printed one or the other, a
+    KeyboardInterrupt inside imgui's module start aborted the process); the command ends non-zero unless its
+    PNG was written whole."""
+    import random
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from PIL import Image
+
+    rng = random.Random(22)
+    out = tmp_path / "r.png"
+    for _ in range(24):
+        out.unlink(missing_ok=True)
+        process = subprocess.Popen([sys.executable, "-m", "isoscope", "render", "torus", "--size", "160x120",
+                                    "--out", out], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        time.sleep(rng.uniform(0.03, 0.6))
+        process.send_signal(signal.SIGINT)
+        _, stderr = process.communicate(timeout=60)
+        assert stderr == "", stderr[-2000:]
+        if process.returncode == 0:
+            assert Image.open(out).size == (160, 120)
+        else:
+            assert not out.exists() and not list(tmp_path.glob("*.partial"))

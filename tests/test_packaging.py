@@ -43,7 +43,7 @@ def test_wheel_contains_shaders_volumes_and_the_console_script(tmp_path):
     modules = {"isoscope/" + str(p.relative_to(ROOT / "app")) for p in (ROOT / "app").rglob("*.py")}
     assert modules <= set(names), f"modules missing from the wheel: {sorted(modules - set(names))}"
     entry_points = next(n for n in names if n.endswith("entry_points.txt"))
-    assert "isoscope = isoscope.cli:main" in zipfile.ZipFile(wheel).read(entry_points).decode()
+    assert "isoscope = isoscope.launch:main" in zipfile.ZipFile(wheel).read(entry_points).decode()
 
     # Installed from the wheel (not editable), far from the checkout, it finds its own data.
     site = tmp_path / "site"

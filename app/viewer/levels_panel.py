@@ -2,11 +2,10 @@
 and its colour bar.  Every change goes through `ViewerState` (levels.py)."""
 from __future__ import annotations
 
-from imgui_bundle import imgui
-
 from .colorbar import tick_label
 from .colorby import SOURCES
 from .colormaps import COLORMAPS
+from .gui import imgui
 from .levels import MAX_LEVELS
 from .state import ViewerState
 

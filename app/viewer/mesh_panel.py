@@ -2,8 +2,7 @@
 surfaces, each shown or hidden).  Every change goes through `ViewerState`."""
 from __future__ import annotations
 
-from imgui_bundle import imgui
-
+from .gui import imgui
 from .levels_panel import tooltip
 from .state import ViewerState
 from .surface import CELLS

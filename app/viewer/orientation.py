@@ -11,7 +11,8 @@ raw, built-ins) get no letters: their axes mean nothing anatomical.
 from __future__ import annotations
 
 import numpy as np
-from imgui_bundle import imgui
+
+from .gui import imgui
 
 # The letter for the positive and the negative end of each world axis, per convention.
 _AXIS_LETTERS = {

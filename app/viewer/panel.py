@@ -11,9 +11,8 @@ import shutil
 import sys
 from pathlib import Path
 
-from imgui_bundle import imgui
-
 from ..volumes import builtin_names
+from .gui import imgui
 from .histogram import fraction_of, level_at
 from .levels_panel import LevelsSection
 from .mesh_panel import LabelsSection, MeshSection

@@ -4,9 +4,8 @@ Every change goes through ViewerState's methods, which check it against the volu
 """
 from __future__ import annotations
 
-from imgui_bundle import imgui
-
 from .colormaps import COLORMAPS
+from .gui import imgui
 from .slices import AXES, default_window
 from .state import ViewerState
 

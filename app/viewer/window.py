@@ -12,7 +12,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import glfw
-import imgui_bundle  # noqa: F401  -- before glfw: pyGLFW then loads the libglfw imgui-bundle ships
 import moderngl
 import numpy as np
 
@@ -196,7 +195,7 @@ class ViewerWindow:
     def _scale_ui_to_monitor(self) -> None:
         scale = max(glfw.get_window_content_scale(self.window))
         if scale > 1.0:
-            from imgui_bundle import imgui
+            from .gui import imgui
             style = imgui.get_style()
             style.scale_all_sizes(scale)
             style.font_scale_dpi = scale
@@ -221,7 +220,7 @@ class ViewerWindow:
         glfw.set_drop_callback(self.window, self._on_drop)
 
     def _typing_in_panel(self) -> bool:
-        from imgui_bundle import imgui
+        from .gui import imgui
         return imgui.get_io().want_text_input
 
     def _on_char(self, window, codepoint: int) -> None:
@@ -269,7 +268,7 @@ class ViewerWindow:
         imgui may hold an event over to a later frame (its input trickling: one change per button
         and frame, no move after a press or a wheel turn), so events wait, in order, for the frame
         in which imgui handled them; ROUTE_WAIT_FRAMES bounds the wait should imgui drop one."""
-        from imgui_bundle import imgui
+        from .gui import imgui
         io = imgui.get_io()
         handled = {(button, glfw.PRESS) for button in range(3) if io.mouse_clicked[button]}
         handled |= {(button, glfw.RELEASE) for button in range(3) if io.mouse_released[button]}
