@@ -10,7 +10,7 @@ from __future__ import annotations
 __version__ = "0.1.0"
 
 __all__ = ["marching_cubes", "marching_tetrahedra", "smooth_mesh", "find_contours", "label_surfaces", "Extractor",
-           "release_gpu_memory", "__version__"]
+           "release_gpu_memory", "IsoscopeError", "__version__"]
 
 
 def __getattr__(name):
@@ -33,6 +33,9 @@ def __getattr__(name):
     if name == "release_gpu_memory":
         from .extractor_pool import release_gpu_memory
         return release_gpu_memory
+    if name == "IsoscopeError":
+        from .errors import IsoscopeError
+        return IsoscopeError
     if name == "Extractor":
         from .extractor import Extractor
         return Extractor

@@ -16,6 +16,8 @@ import threading
 
 import numpy as np
 
+from .errors import IsoscopeError
+
 _local = threading.local()
 CONNECT_TIMEOUT_S = 10  # seconds to reach a scheduler before giving up
 
@@ -25,7 +27,7 @@ MAX_GREETING_BYTES = 1 << 20
 DASK_SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")  # a scheduler's handshake is a few hundred bytes
 
 
-class ClusterError(RuntimeError):
+class ClusterError(IsoscopeError, RuntimeError):
     """The cluster could not run the extraction; the message is one line naming the fix."""
     exit_status = 1  # the machine or the network, not the input
 

@@ -11,12 +11,14 @@ import ctypes
 
 import moderngl
 
+from .errors import IsoscopeError
+
 REQUIRED_GL = 430  # compute shaders and SSBOs
 
 _standalone: moderngl.Context | None = None
 
 
-class GLUnavailable(RuntimeError):
+class GLUnavailable(IsoscopeError, RuntimeError):
     """No OpenGL 4.3 context could be made here."""
 
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import moderngl
 
+from .errors import IsoscopeError
 from .gpu_layout import (
     BRICK_I,
     BRICK_J,
@@ -25,7 +26,7 @@ from .gpu_layout import (
 )
 
 
-class GPULimitError(ValueError):
+class GPULimitError(IsoscopeError, ValueError):
     """The volume or its mesh does not fit this GL implementation's limits."""
 
 

@@ -40,6 +40,7 @@ import numpy as np
 
 from . import validation
 from .case_table import label_table
+from .errors import IsoscopeError
 
 # Labels from 1 up to this are their own ids for scipy's find_objects; others (negative, or
 # wide such as 32-bit ids) are numbered 1.. first, by sorting.
@@ -142,7 +143,7 @@ DEFAULT_MAX_LABELS = 255
 a scan opened with --labels by mistake has a label per grey value (224 files, 713 MB, of one MRI)."""
 
 
-class TooManyLabels(ValueError):
+class TooManyLabels(IsoscopeError, ValueError):
     """More non-zero labels than the limit; raised before any surface is made."""
 
     def __init__(self, count: int, limit: int):

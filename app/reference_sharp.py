@@ -57,6 +57,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import IsoscopeError
 from .sharp_planes import any_clean_corner, kink_vertices, level_of, plane_feature_points
 
 SINGULAR_CUTOFF = 0.1  # singular values below this fraction of the largest are treated as zero
@@ -585,7 +586,7 @@ def vertex_normals_from_faces(verts, faces, vertices):
     return (picked / np.maximum(np.linalg.norm(picked, axis=1, keepdims=True), 1e-30)).astype(np.float32)
 
 
-class Stopped(Exception):
+class Stopped(IsoscopeError):
     """`sharpen` gave up at a `stop` check (its result was no longer wanted)."""
 
 

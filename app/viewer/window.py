@@ -15,6 +15,7 @@ import glfw
 import moderngl
 import numpy as np
 
+from ..errors import IsoscopeError
 from ..volumes import Volume
 from .camera import OrbitCamera
 from .panel import ImguiLayer, Panel
@@ -43,7 +44,7 @@ class MouseEvent:
     frames_waited: int = 0
 
 
-class WindowUnavailable(RuntimeError):
+class WindowUnavailable(IsoscopeError, RuntimeError):
     """No window could be opened (no display, no OpenGL 4.3)."""
 
 

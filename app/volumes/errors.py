@@ -1,8 +1,10 @@
 """The one exception type every bad volume input becomes."""
 from __future__ import annotations
 
+from ..errors import IsoscopeError
 
-class VolumeError(ValueError):
+
+class VolumeError(IsoscopeError, ValueError):
     """One-line, user-facing: names the problem and the fix.
 
     The CLI prints str(err) and exits 2; the viewer panel shows it and keeps
