@@ -11,7 +11,8 @@ import os
 import sys
 
 from .viewer.slice_options import add_slice_arguments, apply_slice_arguments
-from .volumes import DEFAULT_VOLUME, VolumeError, add_volume_arguments, open_volume_from_args
+from .volumes import DEFAULT_VOLUME, VolumeError
+from .volumes.cli_options import add_volume_arguments, open_volume_from_args
 
 EXIT_BAD_INPUT = 2
 EXIT_NO_GL = 1
@@ -362,7 +363,7 @@ def run_render(args) -> int:
     check_render_size(args.size, current_or_standalone())  # the driver's limits, before the volume is read
     if args.labels:
         _check_label_options(args, "--iso", "--panel")
-        from .viewer.label_scene import render_labels_png
+        from .viewer.headless import render_labels_png
         volume = open_volume_from_args(args.volume, args, _progress)
         path = render_labels_png(volume, args.out, size=args.size, azimuth=args.azimuth, elevation=args.elevation,
                                  transparent=args.transparent)
@@ -379,7 +380,7 @@ def run_render(args) -> int:
                 raise ValueError(f"render --sharp draws the one sharp-featured surface; leave out {option}")
         if len(isos) > 1:
             raise ValueError("render --sharp draws one level; give one --iso")
-        from .sharp_features import render_sharp_png
+        from .viewer.headless import render_sharp_png
         path = render_sharp_png(volume, args.out, isos[0], args.sharp, size=args.size, azimuth=args.azimuth,
                                 elevation=args.elevation, transparent=args.transparent)
         print(f"wrote {path} ({args.size[0]}x{args.size[1]})")

@@ -58,7 +58,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import IsoscopeError
-from .sharp_planes import any_clean_corner, kink_vertices, level_of, plane_feature_points
+from .sharp_planes import any_clean_corner, edge_of_vertex, kink_vertices, level_of, plane_feature_points
 
 SINGULAR_CUTOFF = 0.1  # singular values below this fraction of the largest are treated as zero
 MAX_PATCH_VERTICES = 12
@@ -85,17 +85,6 @@ def check_feature_angle(sharp_features) -> float | None:
         raise ValueError(f"sharp_features={sharp_features!r} must be a feature angle in degrees between 0 and 180 "
                          "(exclusive), e.g. 30, or None for plain marching cubes")
     return angle
-
-
-def edge_of_vertex(verts, ids, spacing):
-    """The grid edge of each vertex `ids`, from its position: (start point (N, 3), axis mask (N, 3), t).
-
-    A vertex lies strictly inside its edge along one axis (EDGE_MARGIN from either end) and on grid
-    planes along the other two."""
-    g = verts[ids].astype(np.float64) / spacing
-    along = np.abs(g - np.rint(g)) > 1e-3
-    start = np.where(along, np.floor(g), np.rint(g)).astype(np.int64)
-    return start, along, (g - start)[along]
 
 
 def _edge_starts(verts, spacing):

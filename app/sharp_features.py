@@ -1,4 +1,4 @@
-"""Extended Marching Cubes for the GPU extractor's meshes, and `isoscope render --sharp`.
+"""Extended Marching Cubes for the GPU extractor's meshes (`isoscope render --sharp` draws one: viewer/headless.py).
 
 First pass 0 (`SharpExtractor.may_bend`, shaders/emc_flags.comp) asks the GPU whether any cell
 may bend past the feature angle; where none may, the plain mesh is the answer and nothing is read
@@ -54,28 +54,6 @@ def marching_cubes_sharp_gpu(checked, level, spacing, gradient_direction, angle)
     with Extractor(checked, spacing=spacing, gradient_direction=gradient_direction) as extractor:
         extractor.extract(level)
         return sharp_mesh_of(extractor, checked.data, angle)[:4]
-
-
-def render_sharp_png(volume, out, iso, angle, size=(800, 600), azimuth=None, elevation=None,
-                     transparent: bool = False):
-    """`viewer.headless.render_png`, drawing the Extended-MC mesh (crisp normals) instead of the plain one."""
-    from .viewer.headless import HeadlessViewer
-    from .viewer.screenshot import save_png
-    viewer = HeadlessViewer(size)
-    mesh = None
-    try:
-        viewer.state.style.transparent_background = transparent
-        viewer.show(volume, iso, azimuth, elevation)
-        extractor = viewer.state.extractor
-        mesh = GpuMesh.upload(viewer.ctx, *crisp_normals(*sharp_mesh_of(extractor, volume.data, angle)))
-        viewer.target.use()
-        viewer.renderer.draw([mesh], viewer.camera, viewer.target.viewport, viewer.state.style)
-        target = viewer.target
-        return save_png(target.read_rgba() if transparent else target.read_rgb(), out)
-    finally:
-        if mesh is not None:
-            mesh.release()
-        viewer.release()
 
 
 class SharpenedMesh:

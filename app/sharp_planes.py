@@ -32,9 +32,19 @@ PLANE_GRAIN = 0.01  # planes whose normals' components and offsets (cells) round
 MAX_PLANES = 12  # distinct planes kept per cell (the most often seen)
 
 
+def edge_of_vertex(verts, ids, spacing):
+    """The grid edge of each vertex `ids`, from its position: (start point (N, 3), axis mask (N, 3), t).
+
+    A vertex lies strictly inside its edge along one axis (EDGE_MARGIN from either end) and on grid
+    planes along the other two."""
+    g = verts[ids].astype(np.float64) / spacing
+    along = np.abs(g - np.rint(g)) > 1e-3
+    start = np.where(along, np.floor(g), np.rint(g)).astype(np.int64)
+    return start, along, (g - start)[along]
+
+
 def level_of(field, verts, spacing):
     """The level the plain mesh was extracted at: the field interpolated along its first vertex's edge."""
-    from .reference_sharp import edge_of_vertex
     start, along, t = edge_of_vertex(verts, np.arange(1), spacing)
     f0 = field[tuple(start[0])]
     f1 = field[tuple(start[0] + along[0])]
@@ -92,7 +102,6 @@ def kink_vertices(field, verts, ids, spacing, level):
     straight the plane's crossing is linear interpolation's, so nothing moves; smooth fields have no clean
     samples.  Vertices stay EDGE_MARGIN from their edge's ends, on the same edge."""
     from .gpu_layout import EDGE_MARGIN
-    from .reference_sharp import edge_of_vertex
     spacing = np.asarray(spacing, np.float64)
     start, along, t = edge_of_vertex(verts, ids, spacing)
     ends = (start, start + along)

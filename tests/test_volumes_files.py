@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from isoscope.resources import volumes_dir
-from isoscope.volumes import add_volume_arguments, open_volume, open_volume_from_args
+from isoscope.volumes import open_volume
+from isoscope.volumes.cli_options import add_volume_arguments, open_volume_from_args
 
 NIBABEL_DATA = Path(nibabel.__file__).parent / "tests" / "data"
 

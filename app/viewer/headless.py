@@ -9,9 +9,15 @@ from __future__ import annotations
 import numpy as np
 
 from ..gl_context import current_or_standalone
+from ..labels import label_surfaces, labels_of
+from ..mesh import GpuMesh
+from ..reference_sharp import crisp_normals
+from ..sharp_features import sharp_mesh_of
 from ..volumes import Volume
 from .camera import OrbitCamera
 from .colorbar import draw_colorbar
+from .label_scene import label_scene, release_scene
+from .levels import SurfaceLook
 from .panel import ImguiLayer, Panel
 from .renderer import OffscreenTarget, SceneRenderer
 from .screenshot import save_png
@@ -167,4 +173,48 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
             pixels = draw_colorbar(pixels, viewer.state.color_by)
         return save_png(pixels, out)
     finally:
+        viewer.release()
+
+
+def render_labels_png(volume, out, size=(800, 600), azimuth=None, elevation=None, transparent: bool = False):
+    """Render every non-zero label of `volume` as its own coloured surface to the PNG `out`."""
+    surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing)
+    if not surfaces:
+        raise ValueError(f"{volume.name} has no non-zero labels, so no surface to draw; leave out --labels "
+                         "to draw an isosurface")
+    viewer = HeadlessViewer(size)
+    scene = []
+    try:
+        style = viewer.state.style
+        style.transparent_background = transparent
+        upper = tuple((n - 1) * s for n, s in zip(volume.data.shape, volume.spacing))
+        viewer.camera.fit((0.0, 0.0, 0.0), upper, azimuth, elevation)
+        viewer.renderer.set_box((0.0, 0.0, 0.0), upper)
+        scene = label_scene(viewer.ctx, surfaces)
+        viewer.target.use()
+        viewer.renderer.draw([mesh for _, mesh, _ in scene], viewer.camera, viewer.target.viewport, style,
+                             looks=[SurfaceLook(tuple(color), 1.0) for _, _, color in scene])
+        return save_png(viewer.target.read_rgba() if transparent else viewer.target.read_rgb(), out)
+    finally:
+        release_scene(scene)
+        viewer.release()
+
+
+def render_sharp_png(volume, out, iso, angle, size=(800, 600), azimuth=None, elevation=None,
+                     transparent: bool = False):
+    """`render_png`, drawing the Extended-MC mesh (crisp normals) instead of the plain one."""
+    viewer = HeadlessViewer(size)
+    mesh = None
+    try:
+        viewer.state.style.transparent_background = transparent
+        viewer.show(volume, iso, azimuth, elevation)
+        extractor = viewer.state.extractor
+        mesh = GpuMesh.upload(viewer.ctx, *crisp_normals(*sharp_mesh_of(extractor, volume.data, angle)))
+        viewer.target.use()
+        viewer.renderer.draw([mesh], viewer.camera, viewer.target.viewport, viewer.state.style)
+        target = viewer.target
+        return save_png(target.read_rgba() if transparent else target.read_rgb(), out)
+    finally:
+        if mesh is not None:
+            mesh.release()
         viewer.release()

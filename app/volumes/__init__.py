@@ -49,7 +49,7 @@ from .volume import Progress, Volume, extraction_limit
 
 __all__ = [
     "Volume", "VolumeError", "DEFAULT_VOLUME", "open_volume", "builtin_names",
-    "describe_builtins", "sample_names", "add_volume_arguments", "open_volume_from_args",
+    "describe_builtins", "sample_names",
 ]
 
 # Smooth, blended blobs: a closed surface with varied curvature that looks good lit
@@ -131,14 +131,3 @@ def _refuse_options(spec: str, kind: str, **options) -> None:
     if given:
         flags = " ".join(f"--{name}" for name in given)
         raise VolumeError(f"{spec} is {kind}; {flags} only apply to files: drop {flags}")
-
-
-def add_volume_arguments(parser) -> None:
-    from .cli_options import add_volume_arguments as add
-    add(parser)
-
-
-def open_volume_from_args(spec: str, args, progress: Progress | None = None, backend: str = "auto",
-                          **limits) -> Volume:
-    from .cli_options import open_volume_from_args as open_from
-    return open_from(spec, args, progress, backend, **limits)

@@ -1,0 +1,110 @@
+"""The package's import graph, read from the source (imports inside functions count): no import circle,
+and nothing below the viewer and the command imports them (issue 23, point 1).
+
+A package's lazy `__getattr__` re-exports and `if TYPE_CHECKING:` imports are not edges; `from . import
+sibling` is an edge to the sibling, not to the package."""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import isoscope
+
+ROOT = Path(isoscope.__file__).parent
+FRONT_ENDS = ("isoscope.viewer", "isoscope.cli", "isoscope.launch", "isoscope.__main__")
+
+
+def _name(path: Path) -> str:
+    parts = ["isoscope", *path.relative_to(ROOT).with_suffix("").parts]
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _skipped(tree: ast.Module) -> set[int]:
+    """Nodes under `if TYPE_CHECKING:` and in a module-level `__getattr__` (lazy re-exports)."""
+    skipped = set()
+    for node in ast.walk(tree):
+        lazy = isinstance(node, ast.FunctionDef) and node.name == "__getattr__" and node in tree.body
+        if lazy or (isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test)):
+            skipped.update(id(sub) for sub in ast.walk(node))
+    return skipped
+
+
+def import_graph() -> dict[str, set[str]]:
+    modules = {_name(path): path for path in ROOT.rglob("*.py")}
+    graph = {name: set() for name in modules}
+    for name, path in modules.items():
+        tree = ast.parse(path.read_text())
+        skipped = _skipped(tree)
+        package = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+        for node in ast.walk(tree):
+            if id(node) in skipped:
+                continue
+            if isinstance(node, ast.Import):
+                targets = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                base = ".".join(package[:len(package) - node.level + 1] + ([node.module] if node.module else [])) \
+                    if node.level else (node.module or "")
+                targets = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in modules else base
+                           for alias in node.names]
+            else:
+                continue
+            graph[name].update(t for t in targets if t in modules and t != name)
+    return graph
+
+
+def circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan's algorithm, iteratively)."""
+    index, low, on_stack, stack, found, counter = {}, {}, set(), [], [], 0
+    for root in graph:
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = counter
+        counter += 1
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is None:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[node])
+                if low[node] == index[node]:
+                    component = []
+                    while True:
+                        member = stack.pop()
+                        on_stack.discard(member)
+                        component.append(member)
+                        if member == node:
+                            break
+                    if len(component) > 1:
+                        found.append(sorted(component))
+            elif child not in index:
+                index[child] = low[child] = counter
+                counter += 1
+                stack.append(child)
+                on_stack.add(child)
+                work.append((child, iter(sorted(graph[child]))))
+            elif child in on_stack:
+                low[node] = min(low[node], index[child])
+    return found
+
+
+def test_the_checker_finds_a_circle():
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
+    assert circles(graph) == [["a", "b", "c"]]
+    assert circles({"a": {"b"}, "b": set()}) == []
+
+
+def test_no_import_circle():
+    assert circles(import_graph()) == []
+
+
+def test_only_the_front_ends_import_the_front_ends():
+    graph = import_graph()
+    front = [name for name in graph if name.startswith(FRONT_ENDS)]
+    assert "isoscope.viewer.headless" in front and "isoscope.cli" in front
+    wrong = sorted(f"{name} -> {target}" for name, targets in graph.items() for target in targets
+                   if target.startswith(FRONT_ENDS) and not name.startswith(FRONT_ENDS))
+    assert not wrong, wrong
