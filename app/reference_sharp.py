@@ -161,12 +161,6 @@ def vertex_may_bend(verts, normals, field, spacing, angle):
     return flagged
 
 
-def _candidate_cells(faces, normals, n_tri, cos_half):
-    """Cells where some vertex normal is more than half the feature angle from the cell's mean normal:
-    only there can a patch's normals open wider than the angle (a cheap test over the whole mesh)."""
-    return _normal_spread(faces, normals, n_tri) < cos_half
-
-
 def _normal_spread(faces, normals, n_tri):
     """Per cell (faces in runs of `n_tri`), the least cosine between a vertex normal and the cell's mean."""
     starts = np.cumsum(n_tri) - n_tri
