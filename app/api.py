@@ -5,6 +5,7 @@ import numpy as np
 
 from . import validation
 from .masking import check_mask, keep_masked_cells
+from .options import MeshOptions
 from .reference import marching_cubes_reference
 from .reference_sharp import check_feature_angle, sharpen_extracted
 from .reference_smooth import check_iterations, smooth_projected
@@ -71,15 +72,8 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     if method not in METHODS:
         raise ValueError(f"method {method!r} is not one of {METHODS}")
     angle = check_feature_angle(sharp_features)
-    if angle is not None and iterations:
-        raise ValueError("sharp_features= keeps corners that smooth= would round off; use one of them")
-    if mask is not None and (iterations or angle is not None or chunks is not None):
-        raise ValueError("mask= keeps cells of the plain mesh; it cannot be combined with smooth=, "
-                         "sharp_features= or chunks=")
+    MeshOptions(smooth=iterations, sharp=angle, masked=mask is not None, chunked=chunks is not None).check()
     if chunks is not None:
-        if iterations or angle is not None:
-            raise ValueError("smooth= and sharp_features= work on a whole-volume mesh, not a chunked one; "
-                             "drop chunks, or drop those")
         return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks)
     # The plain GPU mesh of every sample leaves the value scan to the upload (check_volume's scan_values).
     every_sample = isinstance(step_size, (int, np.integer)) and step_size == 1
@@ -133,8 +127,7 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     backend = _backend(backend, TETRA_BACKENDS)
     checked = validation.check_volume(volume, scan_values=backend == "cpu")  # else scanned on upload
     mask = check_mask(mask, checked.data.shape)
-    if mask is not None and iterations:
-        raise ValueError("mask= keeps cells of the plain mesh; it cannot be combined with smooth=")
+    MeshOptions(cells="tetrahedra", smooth=iterations, masked=mask is not None).check()
     spacing = validation.as_spacing(spacing)
     descent = validation.as_gradient_direction(gradient_direction)
     if checked.value_range is not None:

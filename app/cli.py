@@ -428,19 +428,22 @@ def _check_workers(args) -> None:
 def _extract_for_export(volume, iso, args):
     """The export's mesh: whole, a chunk at a time here, or a chunk per task on a dask cluster."""
     from .lazy_arrays import is_lazy
+    from .options import MeshOptions
     distributed = args.scheduler is not None or args.workers is not None
-    if args.chunk is None and not distributed and not is_lazy(volume.data):
+    chunked = args.chunk is not None or distributed or is_lazy(volume.data)
+    problem = MeshOptions(cells="tetrahedra" if args.tetrahedra else "cubes", smooth=args.smooth, sharp=args.sharp,
+                          chunked=chunked).problem()
+    if problem is not None:
+        why = "" if not chunked else ("this export is chunked (--chunk, --workers, --scheduler, or a Zarr or "
+                                      "memory-mapped volume): ")
+        raise ValueError(why + problem)
+    if not chunked:
         from . import marching_cubes, marching_tetrahedra
         if args.tetrahedra:
-            if args.sharp is not None:
-                raise ValueError("--sharp is Extended Marching Cubes: drop --tetrahedra or --sharp")
             return marching_tetrahedra(volume.checked, iso, spacing=volume.spacing,
                                        gradient_direction=volume.gradient_direction, smooth=args.smooth)
         return marching_cubes(volume.checked, iso, spacing=volume.spacing, gradient_direction=volume.gradient_direction,
                               smooth=args.smooth, sharp_features=args.sharp)
-    if args.tetrahedra or args.smooth or args.sharp is not None:
-        raise ValueError("a chunked export (--chunk, --workers, --scheduler, or a Zarr/memory-mapped volume) "
-                         "makes plain marching cubes; drop --tetrahedra, --smooth and --sharp")
     from .chunked import DEFAULT_CHUNK, as_chunks, marching_cubes_chunked
     from .validation import as_level
     chunks = as_chunks(DEFAULT_CHUNK if args.chunk is None else args.chunk, volume.data.shape)

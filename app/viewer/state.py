@@ -17,6 +17,7 @@ import moderngl
 
 from ..labels import label_count_hint
 from ..mesh import GpuMesh
+from ..options import MeshOptions
 from ..reference_sharp import check_feature_angle
 from ..reference_smooth import check_iterations
 from ..volumes import Volume, open_volume
@@ -28,7 +29,7 @@ from .loading import USER_ERRORS, PendingLoad, one_line
 from .recent import RecentFiles
 from .slices import SliceScene, SliceSettings
 from .style import SurfaceStyle
-from .surface import CELLS, GpuSurface
+from .surface import GpuSurface
 
 ANIMATION_PERIOD_S = 6.0          # one sweep up and back down
 ANIMATION_SPAN = (0.02, 0.98)     # fractions of the range; the very ends give empty surfaces
@@ -173,10 +174,9 @@ class ViewerState(SurfaceLevels, LabelLayers):
 
     def set_cells(self, cells: str) -> bool:
         """March "cubes" or "tetrahedra" (every level, from the same resident volume: no re-upload)."""
-        if cells not in CELLS:
-            return self._refuse(f"unknown cells {cells!r}; use one of {', '.join(CELLS)}")
-        if cells != "cubes" and self.sharp is not None:
-            return self._refuse("sharp features are a marching-cubes method; turn them off before tetrahedra")
+        problem = MeshOptions(cells=cells, smooth=self.smooth, sharp=self.sharp).problem()
+        if problem is not None:
+            return self._refuse(problem)
         self.cells = cells
         return self._apply_mesh_options()
 
@@ -186,8 +186,9 @@ class ViewerState(SurfaceLevels, LabelLayers):
             iterations = check_iterations(iterations)
         except ValueError as exc:
             return self._refuse(one_line(exc))
-        if iterations and self.sharp is not None:
-            return self._refuse("smoothing would round off the sharp features; turn them off first")
+        problem = MeshOptions(cells=self.cells, smooth=iterations, sharp=self.sharp).problem()
+        if problem is not None:
+            return self._refuse(problem)
         self.smooth = iterations
         return self._apply_mesh_options()
 
@@ -197,8 +198,9 @@ class ViewerState(SurfaceLevels, LabelLayers):
             angle = check_feature_angle(angle)
         except ValueError as exc:
             return self._refuse(one_line(exc))
-        if angle is not None and (self.smooth or self.cells != "cubes"):
-            return self._refuse("sharp features need cubes without smoothing; set cells to cubes and smoothing to 0")
+        problem = MeshOptions(cells=self.cells, smooth=self.smooth, sharp=angle).problem()
+        if problem is not None:
+            return self._refuse(problem)
         self.sharp = angle
         return self._apply_mesh_options()
 

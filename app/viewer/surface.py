@@ -22,7 +22,6 @@ PREVIEW_TRIANGLES = 60_000
 """Triangles a preview mesh aims to stay under: llvmpipe draws about that many in 10-15 ms."""
 
 MAX_PREVIEW_STEP = 4
-CELLS = ("cubes", "tetrahedra")   # what a surface's extractors can march
 
 
 def preview_step(full_triangles: int, shape, budget: int | None = None) -> int:
