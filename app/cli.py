@@ -153,13 +153,12 @@ def _add_smooth(parser: argparse.ArgumentParser) -> None:
 
 
 def smooth_iterations(text: str) -> int:
+    from .reference_smooth import check_iterations  # the API's rule, in the flag's words
     try:
-        value = int(text)
+        return check_iterations(int(text))
     except ValueError:
-        value = -1
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"--smooth {text!r} must be a whole number of iterations, 0 or more")
-    return value
+        raise argparse.ArgumentTypeError(f"--smooth {text!r} must be a whole number of iterations, 0 or more") \
+            from None
 
 
 def feature_angle(text: str) -> float:

@@ -11,7 +11,9 @@ import numpy as np
 from ..gl_context import current_or_standalone
 from ..labels import label_surfaces, labels_of
 from ..mesh import GpuMesh
+from ..options import MeshOptions
 from ..reference_sharp import crisp_normals
+from ..reference_smooth import check_iterations
 from ..sharp_features import sharp_mesh_of
 from ..volumes import Volume
 from .camera import OrbitCamera
@@ -160,7 +162,9 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
     viewer = HeadlessViewer(size)
     try:
         viewer.state.style.transparent_background = transparent
-        viewer.state.smooth = smooth
+        # Set before the levels are shown, so their first meshes are smoothed; checked as set_smooth would.
+        cells = "tetrahedra" if tetrahedra else "cubes"
+        viewer.state.smooth = MeshOptions(cells=cells, smooth=check_iterations(smooth)).check().smooth
         viewer.state.style.wireframe = wireframe
         isos = list(iso) if isinstance(iso, (list, tuple)) else [iso]
         viewer.show_levels(volume, isos, opacities, color_by, colormap, azimuth, elevation)
