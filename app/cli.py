@@ -355,6 +355,16 @@ def _check_label_options(args, *options: str) -> None:
                              f"leave out {option}" if args.labels else f"{option} needs --labels; add --labels")
 
 
+def _wrote(path, what: str) -> None:
+    """Say what was written, on stdout; on stderr where the file written is stdout itself (`--out
+    /dev/stdout | viewer`), so the line does not land in the PNG or mesh."""
+    try:
+        into_stdout = os.path.samefile(path, "/dev/stdout")
+    except (OSError, ValueError):
+        into_stdout = False
+    print(f"wrote {path}{'' if what.startswith(':') else ' '}{what}", file=sys.stderr if into_stdout else sys.stdout)
+
+
 def run_render(args) -> int:
     from .gl_context import current_or_standalone
     from .viewer.headless import check_render_size
@@ -366,7 +376,7 @@ def run_render(args) -> int:
         volume = open_volume_from_args(args.volume, args, _progress)
         path = render_labels_png(volume, args.out, size=args.size, azimuth=args.azimuth, elevation=args.elevation,
                                  transparent=args.transparent)
-        print(f"wrote {path} ({args.size[0]}x{args.size[1]})")
+        _wrote(path, f"({args.size[0]}x{args.size[1]})")
         return 0
     from .viewer.colormaps import check_colormap
     if args.color_by_map:
@@ -382,7 +392,7 @@ def run_render(args) -> int:
         from .viewer.headless import render_sharp_png
         path = render_sharp_png(volume, args.out, isos[0], args.sharp, size=args.size, azimuth=args.azimuth,
                                 elevation=args.elevation, transparent=args.transparent)
-        print(f"wrote {path} ({args.size[0]}x{args.size[1]})")
+        _wrote(path, f"({args.size[0]}x{args.size[1]})")
         return 0
     from .viewer.headless import render_png
     path = render_png(volume, args.out, isos, size=args.size, azimuth=args.azimuth,
@@ -391,7 +401,7 @@ def run_render(args) -> int:
                       color_by=args.color_by, colormap=args.color_by_map,
                       tetrahedra=args.tetrahedra, smooth=args.smooth, wireframe=args.wireframe,
                       prepare=lambda state: apply_slice_arguments(state, args))
-    print(f"wrote {path} ({args.size[0]}x{args.size[1]})")
+    _wrote(path, f"({args.size[0]}x{args.size[1]})")
     return 0
 
 
@@ -487,7 +497,7 @@ def run_export(args) -> int:
         verts, faces, normals, space = in_volume_space(volume, verts, faces, normals, world=args.space == "world")
         out = args.out if len(isos) == 1 else level_path(args.out, iso)
         path = write_mesh(out, verts, faces, normals, space=space)
-        print(f"wrote {path}: {len(verts):,} vertices, {len(faces):,} triangles, in {space} coordinates")
+        _wrote(path, f": {len(verts):,} vertices, {len(faces):,} triangles, in {space} coordinates")
     return 0
 
 
@@ -512,7 +522,7 @@ def _export_labels(args) -> int:
                          f"if it is a label map, raise the limit with --max-labels {exc.count}") from None
     space = volume.world[1] if args.space == "world" and volume.world is not None else "index x spacing"
     for path, n_vertices, n_triangles in written:
-        print(f"wrote {path}: {n_vertices:,} vertices, {n_triangles:,} triangles, in {space} coordinates")
+        _wrote(path, f": {n_vertices:,} vertices, {n_triangles:,} triangles, in {space} coordinates")
     return 0
 
 

@@ -463,3 +463,19 @@ def test_ctrl_c_at_any_moment_of_start_up_prints_nothing(tmp_path):
             assert Image.open(out).size == (160, 120)
         else:
             assert not out.exists() and not list(tmp_path.glob("*.partial"))
+
+
+def test_a_png_written_to_stdout_is_only_the_png():
+    """`render --out /dev/stdout | viewer`: the 'wrote' line goes to stderr, not into the PNG."""
+    import io
+    import subprocess
+    import sys
+
+    from PIL import Image
+
+    run = subprocess.run([sys.executable, "-m", "isoscope", "render", "torus", "--size", "64x48", "--out",
+                          "/dev/stdout"], capture_output=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert Image.open(io.BytesIO(run.stdout)).size == (64, 48)
+    assert run.stdout.endswith(b"IEND\xaeB`\x82")
+    assert run.stderr.decode().strip() == "wrote /dev/stdout (64x48)"
