@@ -7,6 +7,24 @@ import subprocess
 import numpy as np
 import pytest
 
+GL_FIXTURES = {"gl_ctx", "gpu_mesh", "x_display"}  # a test that uses one needs a GL context (or a display)
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "gl: needs OpenGL 4.3 (EGL, or Xvfb for the window); `pytest -m 'not gl'` "
+                                       "runs the rest where there is none")
+
+
+def pytest_collection_modifyitems(items):
+    """Mark `gl` every test that takes a GL fixture (directly or through another) or a backend "gpu"
+    parameter; the others that reach GL (a command that renders, a GPU call) carry the mark themselves."""
+    for item in items:
+        callspec = getattr(item, "callspec", None)
+        on_gpu = callspec is not None and any(isinstance(value, str) and value == "gpu"
+                                                  for value in callspec.params.values())
+        if on_gpu or GL_FIXTURES & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.gl)
+
 
 @pytest.fixture(scope="session")
 def gl_ctx():

@@ -43,6 +43,7 @@ def test_level_none_is_the_middle_of_the_range():
     np.testing.assert_array_equal(a[1], b[1])
 
 
+@pytest.mark.gl
 def test_ascent_on_a_field_equals_descent_on_its_negation():
     volume = sphere()
     a = isoscope.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="gpu")
@@ -54,6 +55,7 @@ def test_ascent_on_a_field_equals_descent_on_its_negation():
 
 
 @pytest.mark.parametrize("backend, runs_on_gpu", [("auto", True), ("gpu", True), ("cpu", False)])
+@pytest.mark.gl
 def test_auto_backend_uses_the_gpu_here(monkeypatch, backend, runs_on_gpu):
     # GPU and numpy meshes are identical by design, so only the extractor's own record of an
     # extraction can tell which ran: a spy on Extractor.extract that still runs the real one.
@@ -66,6 +68,7 @@ def test_auto_backend_uses_the_gpu_here(monkeypatch, backend, runs_on_gpu):
     assert len(faces) > 0
 
 
+@pytest.mark.gl
 def test_integer_and_boolean_volumes_are_accepted():
     volume = (sphere(16) < 0).astype(np.uint8) * 200
     verts, faces, _, _ = isoscope.marching_cubes(volume, 100, backend="gpu")
@@ -100,6 +103,7 @@ def test_bad_input_raises_one_line_value_error(volume, level, kwargs, words):
 
 
 @pytest.mark.parametrize("step", [2, 3])
+@pytest.mark.gl
 def test_step_size_gives_scikit_image_s_coarse_mesh(step):
     from scipy.spatial import cKDTree
     from skimage import measure

@@ -5,9 +5,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 SCRIPT = Path(__file__).resolve().parent.parent / "benchmarks" / "bench_big.py"
 
 
+@pytest.mark.gl
 def test_bench_big_runs_at_48_cubed(tmp_path):
     result = subprocess.run([sys.executable, str(SCRIPT), "--size", "48", "--period", "24", "--chunk", "20",
                              "--dir", str(tmp_path), "--modes", "chunked"], capture_output=True, text=True, timeout=120)

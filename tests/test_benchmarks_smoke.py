@@ -14,6 +14,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 SCRIPT = Path(__file__).resolve().parent.parent / "benchmarks" / "bench_extract.py"
 PEER_COLUMNS = {  # column label -> module whose absence makes the script skip it
     "scikit-image (lewiner)": "skimage",
@@ -40,6 +42,7 @@ def table_rows(stdout: str, title: str) -> tuple[list[str], list[list[str]]]:
     return table[0], table[2:]
 
 
+@pytest.mark.gl
 def test_benchmark_script_prints_every_peer(tmp_path):
     hidden = tmp_path / "hidden"
     hidden.mkdir()
@@ -78,6 +81,7 @@ def test_benchmark_script_prints_every_peer(tmp_path):
         assert case["peers"]["mcubes"]["skipped"] == "not importable"
 
 
+@pytest.mark.gl
 def test_load_cost_benchmark_measures_every_kind_of_load():
     script = SCRIPT.parent / "bench_loads.py"
     done = subprocess.run([sys.executable, str(script), "--invocations", "65536"],

@@ -69,6 +69,7 @@ def test_boxes_cover_every_cell_once():
 
 
 @pytest.mark.parametrize("chunks", [0, (4, 4), 2.5, True])
+@pytest.mark.gl
 def test_bad_chunks_are_one_line_errors(chunks):
     with pytest.raises(ValueError, match="chunks must be"):
         isoscope.marching_cubes(np.zeros((4, 4, 4), np.float32) + np.arange(4), 1.5, chunks=chunks)
@@ -87,6 +88,7 @@ print(json.dumps({"grew_kib": after - before, "triangles": len(faces)}))
 """
 
 
+@pytest.mark.gl
 def test_peak_memory_is_bounded_by_the_chunk_not_the_volume(tmp_path):
     """A 256^3 float32 file (64 MiB) memory-mapped, in boxes of 64^3 cells (1.2 MiB): the process's
     peak resident memory grows by far less than the volume (the mesh: ~30 k vertices)."""
@@ -105,6 +107,7 @@ def test_peak_memory_is_bounded_by_the_chunk_not_the_volume(tmp_path):
     assert measured["grew_kib"] < 16 * 1024, measured  # the whole volume would be 65,536 KiB
 
 
+@pytest.mark.gl
 def test_a_nan_is_reported_at_its_place_in_the_whole_volume():
     volume = smooth_noise((30, 30, 30))
     volume[21, 17, 25] = np.nan

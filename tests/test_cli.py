@@ -46,6 +46,7 @@ def test_volumes_lists_the_builtins():
     assert listed == builtin_names()
 
 
+@pytest.mark.gl
 def test_render_writes_the_scene_and_the_panel(tmp_path):
     plain, with_panel = tmp_path / "plain.png", tmp_path / "panel.png"
     common = ("render", "sphere", "--resolution", "32", "--iso", "0.1", "--size", "320x200",
@@ -83,10 +84,12 @@ def test_export_writes_the_same_mesh_as_the_api(tmp_path):
     (("export", "sphere", "--iso", "-5", "--out", "x.ply"), ["--iso"]),
     (("no_such_volume.npy",), ["no_such_volume.npy"]),
 ])
+@pytest.mark.gl
 def test_bad_input_is_one_line_and_exit_2(tmp_path, args, words):
     assert_one_line_error(isoscope(*args, cwd=tmp_path), *words)
 
 
+@pytest.mark.gl
 def test_a_broken_file_is_one_line_and_exit_2(tmp_path):
     broken = tmp_path / "broken.npy"
     broken.write_bytes(b"\x93NUMPY garbage")

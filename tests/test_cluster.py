@@ -24,6 +24,7 @@ def noise_zarr(tmp_path_factory):
     return folder, field
 
 
+@pytest.mark.gl
 def test_two_worker_local_cluster_writes_the_single_process_file(noise_zarr):
     folder, _ = noise_zarr
     single = isoscope("export", folder / "v.npy", "--iso", "0", "--out", folder / "single.ply")
@@ -75,6 +76,7 @@ def test_unreachable_scheduler_is_one_line_exit_1_and_no_file(noise_zarr, tmp_pa
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.gl
 def test_a_full_disk_is_one_line_exit_1_and_no_partial_file(noise_zarr, tmp_path):
     """The file size limit (RLIMIT_FSIZE) stands in for a full disk: writes past it fail as ENOSPC would."""
     import resource

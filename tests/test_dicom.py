@@ -91,6 +91,7 @@ def test_a_folder_without_dicom_and_series_on_a_file_are_one_line_errors(tmp_pat
         open_volume(str(tmp_path / "a.npy"), series="1")
 
 
+@pytest.mark.gl
 def test_the_command_line_renders_a_dicom_folder_and_picks_a_series(tmp_path):
     write_series(tmp_path / "study", ct_ball(), number=1)
     write_series(tmp_path / "study", ct_ball(), number=2)

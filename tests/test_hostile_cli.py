@@ -312,6 +312,7 @@ def big_npy(tmp_path_factory):
     return folder / "big.npy"
 
 
+@pytest.mark.gl
 def test_a_big_npy_opened_by_path_goes_to_dask_workers_by_path(big_npy, tmp_path):
     from hostile import succeeded
     succeeded("export", big_npy, "--iso", "0.5", "--out", tmp_path / "spread.stl", "--workers", "1")
@@ -348,6 +349,7 @@ def _children(pid: int) -> set[str]:
 
 
 @pytest.mark.parametrize("delay", [0.3, 1.0])
+@pytest.mark.gl
 def test_ctrl_c_during_a_local_cluster_export_is_exit_130_without_tracebacks(big_npy, tmp_path, delay):
     """Ctrl-C as a terminal sends it: SIGINT to the whole process group, workers included, once the workers
     are spawned (while they are, some 20 ms, this process ignores SIGINT: see cluster.py)."""
@@ -374,6 +376,7 @@ def test_ctrl_c_during_a_local_cluster_export_is_exit_130_without_tracebacks(big
     assert not (tmp_path / "o.stl").exists()
 
 
+@pytest.mark.gl
 def test_no_dask_chatter_when_the_dashboard_port_is_taken(sphere_npy, tmp_path):
     import socket
 
@@ -436,6 +439,7 @@ def test_cluster_options_that_cannot_work_are_refused_before_any_cluster(sphere_
 
 # --- Ctrl-C while the command starts ------------------------------------------------------------------------
 
+@pytest.mark.gl
 def test_ctrl_c_at_any_moment_of_start_up_prints_nothing(tmp_path):
     """SIGINT at 24 seeded moments of a render's first 0.6 s (imports, argument parsing, imgui's native start,
     the GL context): never a traceback, nor nanobind's abort (one render in ten printed one or the other, a
@@ -465,6 +469,7 @@ def test_ctrl_c_at_any_moment_of_start_up_prints_nothing(tmp_path):
             assert not out.exists() and not list(tmp_path.glob("*.partial"))
 
 
+@pytest.mark.gl
 def test_a_png_written_to_stdout_is_only_the_png():
     """`render --out /dev/stdout | viewer`: the 'wrote' line goes to stderr, not into the PNG."""
     import io

@@ -133,6 +133,7 @@ def kill_many(kind: str, suffixes, signum: int, references, tmp_path, seed: int,
 
 
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+@pytest.mark.gl
 def test_mesh_export_killed_at_random_moments(signum, references, tmp_path):
     outcomes = kill_many("mesh", MESH_SUFFIXES, signum, references, tmp_path, seed=22 + signum,
                          at_random=KILLS_AT_RANDOM, while_writing=KILLS_WHILE_WRITING)
@@ -141,6 +142,7 @@ def test_mesh_export_killed_at_random_moments(signum, references, tmp_path):
 
 
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+@pytest.mark.gl
 def test_render_png_killed_at_random_moments(signum, references, tmp_path):
     kill_many("png", (".png",), signum, references, tmp_path, seed=122 + signum, at_random=3, while_writing=2)
 
@@ -173,6 +175,7 @@ def test_sigint_in_trimesh_encoding_is_not_swallowed(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("umask, mode", [(0o022, 0o644), (0o077, 0o600)])
+@pytest.mark.gl
 def test_new_files_follow_the_umask(umask, mode, tmp_path):
     kinds = {0o022: ("mesh", "new.stl"), 0o077: ("png", "new.png")}
     kind, name = kinds[umask]
@@ -199,6 +202,7 @@ def test_a_replaced_file_keeps_its_mode(tmp_path):
         assert (out.stat().st_uid, out.stat().st_gid) == (4321, 4322)
 
 
+@pytest.mark.gl
 def test_a_symlinked_output_is_written_through(tmp_path, references):
     reference_bytes, _ = references
     real = tmp_path / "store" / "torus.stl"
@@ -236,6 +240,7 @@ def test_a_read_only_folder_is_named_in_the_error(tmp_path):
     assert not out.exists()
 
 
+@pytest.mark.gl
 def test_a_folder_in_the_way_is_named_in_the_error(tmp_path):
     """A folder where the PNG should go: the message names the path the user gave, never the temporary file."""
     blocker = tmp_path / "x.png"
@@ -333,6 +338,7 @@ def test_off_the_main_thread_writes_as_before(tmp_path):
     assert not errors and (tmp_path / "t.ply").read_bytes() == b"ply"
 
 
+@pytest.mark.gl
 def test_a_named_pipe_is_written_into_not_replaced(tmp_path, references):
     """A device or a pipe (/dev/null, /dev/stdout, a FIFO) is written into: renaming over it would put a
     regular file in its place (as root, over /dev/null for everyone). Checked on a FIFO of our own."""

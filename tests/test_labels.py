@@ -82,6 +82,7 @@ def test_each_label_is_closed_manifold_and_wound_outward(backend):
         assert (normals[rows, axis] * toward >= 0).all() and (normals[rows, axis] * toward > 0).mean() > 0.9
 
 
+@pytest.mark.gl
 def test_gpu_and_numpy_give_the_same_surfaces():
     labels = three_labels()
     gpu, cpu = label_surfaces(labels, backend="gpu"), label_surfaces(labels, backend="cpu")
@@ -194,6 +195,7 @@ def test_export_one_file_colours_each_vertex_by_its_label(tmp_path, segmentation
     assert {tuple(c) for c in colors} == {tuple(c) for c in expected.astype(np.uint8)}
 
 
+@pytest.mark.gl
 def test_render_draws_each_label_in_its_colour(tmp_path, segmentation):
     path, _ = segmentation
     out = tmp_path / "seg.png"
@@ -214,6 +216,7 @@ def test_render_draws_each_label_in_its_colour(tmp_path, segmentation):
     (["render", "{seg}", "--labels", "--panel", "--out", "{tmp}/seg.png"], "--panel does not apply"),
     (["export", "sphere", "--resolution", "16", "--labels", "--out", "{tmp}/s.ply"], "not a label map"),
 ])
+@pytest.mark.gl
 def test_label_options_that_do_not_fit_are_one_line_errors(tmp_path, segmentation, capsys, argv, words):
     argv = [a.format(seg=segmentation[0], tmp=tmp_path) for a in argv]
     assert main(argv) == 2

@@ -290,6 +290,7 @@ def test_feature_angle_outside_the_open_range_is_refused_in_one_line(angle):
     assert check_feature_angle(None) is None and check_feature_angle(30) == 30.0
 
 
+@pytest.mark.gl
 def test_cli_export_and_render_take_sharp(tmp_path):
     plain, sharp = tmp_path / "plain.ply", tmp_path / "sharp.ply"
     for out, extra in ((plain, ()), (sharp, ("--sharp", "30"))):
@@ -301,6 +302,7 @@ def test_cli_export_and_render_take_sharp(tmp_path):
     assert_one_line_error(isoscope("render", "box", "--out", tmp_path / "x.png", "--sharp", "30", "--panel"), "--panel")
 
 
+@pytest.mark.gl
 def test_rendered_box_fills_its_edges_and_corners(tmp_path):
     """Plain MC cuts a box's edges and corners off, so its silhouette is smaller than the box's."""
     from PIL import Image

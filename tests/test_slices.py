@@ -192,6 +192,7 @@ def isoscope(*args):
                           cwd=REPO, timeout=120)
 
 
+@pytest.mark.gl
 def test_render_command_draws_slices_and_refuses_bad_values_in_one_line(tmp_path):
     out = tmp_path / "slice.png"
     result = isoscope("render", "torus", "--slice", "z=32", "--clip", "x=40:-", "--colormap", "viridis",

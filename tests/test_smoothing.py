@@ -189,6 +189,7 @@ def test_an_empty_mesh_and_zero_iterations_change_nothing(gl_ctx):
         smoother.release()
 
 
+@pytest.mark.gl
 def test_smooth_mesh_smooths_another_extractors_mesh():
     from skimage.measure import marching_cubes as skimage_mc
     volume = smooth_noise()
@@ -209,6 +210,7 @@ def test_bad_iteration_counts_are_one_line_errors(bad):
     assert "\n" not in str(error.value)
 
 
+@pytest.mark.gl
 def test_cli_smooth(tmp_path):
     from mesh_checks import read_ply
     assert_one_line_error(run_cli("export", "torus", "--out", tmp_path / "t.ply", "--smooth", "-2"), "--smooth")

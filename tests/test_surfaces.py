@@ -137,6 +137,7 @@ def test_colour_by_a_second_volume_follows_it_across_the_surface(viewer, tmp_pat
     assert np.abs(low - 255 * color_by.color_at(0.0)).max() <= 1
 
 
+@pytest.mark.gl
 def test_render_draws_a_colour_bar_and_export_writes_one_file_per_level(tmp_path):
     import trimesh
     out = tmp_path / "shells.png"
@@ -169,6 +170,7 @@ def test_render_draws_a_colour_bar_and_export_writes_one_file_per_level(tmp_path
     (("--color-by-map", "no-such-map"), ("colour map",)),
     (("--color-by", "gyroid"), ("same shape",)),
 ])
+@pytest.mark.gl
 def test_bad_levels_and_looks_are_one_line_errors(tmp_path, args, words):
     result = isoscope("render", "sphere", "--resolution", "32", *args, "--out", tmp_path / "x.png")
     assert_one_line_error(result, *words)

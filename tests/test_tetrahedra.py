@@ -93,6 +93,7 @@ CLOSED = {  # name: (volume, level, gradient direction); every surface closes in
 
 
 @pytest.mark.parametrize("name", list(CLOSED))
+@pytest.mark.gl
 def test_closed_manifold_outward_no_zero_area_and_gpu_equals_numpy(name):
     make, level, direction = CLOSED[name]
     volume = make()
@@ -248,6 +249,7 @@ def test_bad_arguments_are_one_line_value_errors(volume, level, kwargs, words):
     assert "\n" not in message and words in message
 
 
+@pytest.mark.gl
 def test_cli_exports_and_renders_tetrahedra(tmp_path):
     from isoscope.volumes import open_volume
     out = tmp_path / "amb.ply"
@@ -273,6 +275,7 @@ def test_cli_exports_and_renders_tetrahedra(tmp_path):
     assert changed.mean() > 0.01 and not changed[:5, :5].any()
 
 
+@pytest.mark.gl
 def test_bench_modes_reports_tetrahedra_against_cubes():
     script = REPO / "benchmarks" / "bench_modes.py"
     result = subprocess.run([sys.executable, str(script), "--sizes", "16", "--repeats", "1", "--warmup", "0"],
