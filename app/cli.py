@@ -466,10 +466,13 @@ def _extract_for_export(volume, iso, args):
     return marching_cubes_chunked(volume.data, level, volume.spacing, descent, chunks, progress=_progress)
 
 
-def _one_extraction_limit(args) -> dict:
+def _export_open_options(args) -> dict:
     """An export that is not chunked hands an in-memory volume to one extractor: a file whose header
-    says it is bigger is refused from the header, before gigabytes are read for nothing."""
-    if args.chunk is not None or args.workers is not None or args.scheduler is not None:
+    says it is bigger is refused from the header, before gigabytes are read for nothing. One on a dask
+    cluster maps a raw file whatever its size, so its workers read it by name."""
+    if args.workers is not None or args.scheduler is not None:
+        return {"map_files": True}
+    if args.chunk is not None:
         return {}
     from .gpu_layout import MAX_WORDS, WORD_BITS, fits_one_extraction
     return dict(fits=fits_one_extraction,
@@ -488,7 +491,7 @@ def run_export(args) -> int:
     if args.decimate is not None:
         from .decimate import check_fraction
         check_fraction(args.decimate)
-    volume = open_volume_from_args(args.volume, args, _progress, **_one_extraction_limit(args))
+    volume = open_volume_from_args(args.volume, args, _progress, **_export_open_options(args))
     isos = _checked_levels(volume, args.iso)
     for iso in isos:
         verts, faces, normals, _ = _extract_for_export(volume, iso, args)

@@ -320,6 +320,22 @@ def test_a_big_npy_opened_by_path_goes_to_dask_workers_by_path(big_npy, tmp_path
     assert (tmp_path / "spread.stl").read_bytes() == (tmp_path / "single.stl").read_bytes()
 
 
+@pytest.mark.gl
+def test_a_big_raw_file_goes_to_dask_workers_by_path(big_npy, tmp_path):
+    """A raw file of 64-256 MiB (read whole otherwise) is mapped for a cluster export, so its workers read it
+    by name: the same file as the single-process export."""
+    from hostile import succeeded
+    field = np.load(big_npy, mmap_mode="r")
+    raw = tmp_path / "big.raw"
+    with open(raw, "wb") as out:
+        for k in range(field.shape[2]):  # x fastest on disk: z planes of (y, x)
+            out.write(np.ascontiguousarray(field[:, :, k].T).tobytes())
+    flags = ("--dims", *map(str, field.shape), "--dtype", "float64", "--iso", "0.5")
+    succeeded("export", raw, *flags, "--out", tmp_path / "spread.stl", "--workers", "1")
+    succeeded("export", raw, *flags, "--out", tmp_path / "single.stl")
+    assert (tmp_path / "spread.stl").read_bytes() == (tmp_path / "single.stl").read_bytes()
+
+
 def test_shippable_maps_an_npy_read_whole_and_sends_its_name(sphere_npy, tmp_path):
     import pickle
 

@@ -79,7 +79,8 @@ INSIDE_SIDES = {"above": "descent", "below": "ascent"}  # --inside -> Volume.gra
 def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, frame=None,
                 series=None, resolution=None, progress: Progress | None = None, backend: str = "auto",
                 ctx=None, inside: str | None = None, fits=None,
-                fits_refusal: str = "more than one extraction takes; crop or downsample it") -> Volume:
+                fits_refusal: str = "more than one extraction takes; crop or downsample it",
+                map_files: bool = False) -> Volume:
     """Open a volume from a spec (see the module docstring); raise VolumeError on bad input.
 
     dims/dtype/endian: raw files only; spacing overrides a header; frame picks
@@ -91,13 +92,14 @@ def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, 
     inside ("above" or "below"), if given, overrides which side of the level
     the object is on. fits, if given, is a test on a 3-D shape (gpu_layout.fits_one_extraction):
     a file whose header gives a shape it rejects is refused before its data is read, in words
-    ending with fits_refusal.
+    ending with fits_refusal. map_files: a raw file is memory-mapped whatever its size (its data is then
+    read by name, as dask workers do), not read whole when small.
     """
     if inside is not None and inside not in INSIDE_SIDES:
         raise VolumeError(f"inside must be 'above' or 'below' the level, not {inside!r}")
     with extraction_limit(fits, fits_refusal):
         volume = _open(spec, dims=dims, dtype=dtype, endian=endian, spacing=spacing, frame=frame, series=series,
-                       resolution=resolution, progress=progress, backend=backend, ctx=ctx)
+                       resolution=resolution, progress=progress, backend=backend, ctx=ctx, map_files=map_files)
     if inside is not None:
         volume.gradient_direction = INSIDE_SIDES[inside]  # in place: keeps the checked value range
     given = dict(dims=dims, dtype=dtype, endian=endian, spacing=spacing, frame=frame, series=series,
@@ -107,7 +109,7 @@ def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, 
 
 
 def _open(spec: str, *, dims, dtype, endian, spacing, frame, series, resolution, progress, backend,
-          ctx) -> Volume:
+          ctx, map_files) -> Volume:
     if not isinstance(spec, str) or not spec.strip():
         raise VolumeError("no volume given; name a file, a built-in (isoscope volumes) or expr:FORMULA")
     spec = spec.strip()
@@ -123,7 +125,7 @@ def _open(spec: str, *, dims, dtype, endian, spacing, frame, series, resolution,
         raise VolumeError(f"--resolution applies to built-ins and expr: volumes, not to the file "
                           f"{spec}; drop it")
     from .loaders import open_file
-    return open_file(spec, progress=progress, spacing=spacing, **file_only)
+    return open_file(spec, progress=progress, spacing=spacing, map_files=map_files, **file_only)
 
 
 def _refuse_options(spec: str, kind: str, **options) -> None:

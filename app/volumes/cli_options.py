@@ -28,16 +28,16 @@ def add_volume_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def open_volume_from_args(spec: str, args: argparse.Namespace, progress: Progress | None = None,
-                          backend: str = "auto", **limits) -> Volume:
+                          backend: str = "auto", **more) -> Volume:
     """The volume the flags describe; `backend` samples expr: volumes ("auto", "gpu" or "cpu");
-    `limits` (fits, fits_refusal) go to open_volume."""
+    `more` (fits, fits_refusal, map_files) goes to open_volume."""
     from . import open_volume
     names = ("dims", "dtype", "endian", "spacing", "frame", "series", "resolution", "inside")
     options = {name: getattr(args, name) for name in names}
     if options["spacing"] is not None:
         _checked_spacing(options["spacing"], None, "--spacing")  # before a big file is read
     # finish_volume holds the spacing (the header's, or --spacing) to the same rule against the shape.
-    return open_volume(spec, progress=progress, backend=backend, **options, **limits)
+    return open_volume(spec, progress=progress, backend=backend, **options, **more)
 
 
 def _checked_spacing(spacing, shape, what: str) -> None:

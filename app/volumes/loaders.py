@@ -75,7 +75,7 @@ def _format_of(path: Path, has_raw_flags: bool) -> str:
 
 
 def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, frame=None,
-              series=None, progress: Progress | None = None) -> Volume:
+              series=None, progress: Progress | None = None, map_files: bool = False) -> Volume:
     path, array_name = resolve_path(spec)
     if not path.is_dir():
         refuse_unless_regular(path)  # a named pipe would block the read for good
@@ -94,7 +94,7 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, fr
             data, header_spacing, notes, world = load_dicom_folder(path, None if series is None else str(series),
                                                                    progress)
         elif kind == "raw":
-            data, header_spacing, notes = load_raw(path, dims, dtype, endian, spacing, progress)
+            data, header_spacing, notes = load_raw(path, dims, dtype, endian, spacing, progress, map_file=map_files)
         elif kind == "zarr":
             data, header_spacing, notes = load_zarr(path, frame, progress)
         elif kind == "npy":

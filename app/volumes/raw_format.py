@@ -125,9 +125,10 @@ def _check_file_size(path: Path, layout: RawLayout) -> None:
 
 
 def load_raw(path: Path, dims=None, dtype=None, endian=None, spacing=None,
-             progress: Progress | None = None):
+             progress: Progress | None = None, map_file: bool = False):
     """The array, axes transposed to x first: read whole when small, memory-mapped (read from disk a
-    block at a time, so it may exceed RAM) from MAP_BYTES up."""
+    block at a time, so it may exceed RAM) from MAP_BYTES up, or at any size with `map_file` (dask
+    workers then read the file by its name)."""
     layout = raw_layout(path, dims, dtype, endian, spacing)
     n_bytes = math.prod(int(d) for d in layout.dims) * layout.dtype.itemsize
     if path.stat().st_size < n_bytes:
@@ -135,7 +136,7 @@ def load_raw(path: Path, dims=None, dtype=None, endian=None, spacing=None,
     _check_file_size(path, layout)
     x, y, z = layout.dims
     layout.notes.append(f"raw {shape_text(layout.dims)} {layout.dtype.name}")
-    if n_bytes >= MAP_BYTES:
+    if n_bytes >= MAP_BYTES or map_file:
         mapped = np.memmap(path, dtype=layout.dtype, mode="r", shape=(z, y, x))
         return Block3D(mapped, reverse=True), layout.spacing, layout.notes
     file_order = np.empty((z, y, x), dtype=layout.dtype)
