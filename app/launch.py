@@ -4,6 +4,7 @@ traceback."""
 from __future__ import annotations
 
 import sys
+import threading
 
 
 def main() -> int:
@@ -19,11 +20,21 @@ def main() -> int:
         return 130
 
 
+_interrupted = threading.Event()
+
+
 def _interrupt_again(unraisable) -> None:
-    """A Ctrl-C that lands in a callback Python cannot raise from (importlib's module-lock cleanup during
-    an import) would print "Exception ignored in ..." and be lost: raise it again in the main thread."""
-    if isinstance(unraisable.exc_value, KeyboardInterrupt):
+    """A Ctrl-C that lands where Python cannot raise it (importlib's module-lock callback, a garbage
+    collector callback of dask's) would print "Exception ignored in ..." and be lost: it is raised again
+    in the main thread, from another thread so that it arrives after this hook, not inside it. What
+    such an interrupted callback leaves broken (dask's gc timer asserts next time) is not printed
+    either: the command is on its way out with 130."""
+    if isinstance(unraisable.exc_value, KeyboardInterrupt) and not _interrupted.is_set():
         import _thread
-        _thread.interrupt_main()
+        _interrupted.set()
+        later = threading.Timer(0.05, _thread.interrupt_main)  # once this hook (and Thread.start) returned
+        later.daemon = True
+        later.start()
         return
-    sys.__unraisablehook__(unraisable)
+    if not _interrupted.is_set():
+        sys.__unraisablehook__(unraisable)
