@@ -16,6 +16,7 @@ from .frames import frame_index, frame_note, refuse_frame
 from .reading import (
     GZIP_CHUNK,
     Loaded,
+    inflated_past,
     library_messages,
     raise_if_corrupt_compression,
     read_in_slabs,
@@ -58,8 +59,7 @@ def _read_to_end(stream, limit: int, what: str) -> None:
     """Read a gzip stream to its end (checking its CRC and length), refusing it past `limit` bytes."""
     while stream.read(GZIP_CHUNK):
         if stream.tell() > limit:
-            raise VolumeError(f"{what}: its compressed data inflates to more than the {limit:,} bytes its header "
-                              "implies (corrupt, or a decompression bomb); export it again")
+            raise inflated_past(what, limit)
 
 
 def _read(path: Path, frame: int | None, notes: list[str], progress: Progress | None, stream):

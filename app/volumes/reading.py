@@ -103,13 +103,14 @@ def inflate_bounded(stream, limit: int, what: str, decompressor=None) -> bytes:
                 raise VolumeError(f"{what}: its compressed data ends early (truncated); export it again")
             out += inflate.decompress(chunk, limit + 1 - len(out))
             if len(out) > limit:
-                raise _bomb(what, limit)
+                raise inflated_past(what, limit)
     except (zlib.error, OSError, EOFError) as exc:
         raise VolumeError(f"{what}: its compressed data is corrupt ({reason(exc)}); export it again") from None
     return bytes(out)
 
 
-def _bomb(what: str, limit: int) -> VolumeError:
+def inflated_past(what: str, limit: int) -> VolumeError:
+    """The refusal of compressed data that inflates past what its header implies."""
     return VolumeError(f"{what}: its compressed data inflates to more than the {limit:,} bytes its header "
                        "implies (corrupt, or a decompression bomb); export it again")
 
