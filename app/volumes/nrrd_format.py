@@ -22,18 +22,6 @@ from .volume import Progress, refuse_if_too_big, report
 _SPATIAL_KINDS = {"domain", "space"}
 
 
-def _itemsize(type_name: str) -> int:
-    """Bytes per sample from an NRRD "type" name; only for the size check before reading."""
-    name = type_name.lower()
-    if "char" in name or name.endswith(("int8", "int8_t")):
-        return 1
-    if "short" in name or "16" in name:
-        return 2
-    if "long" in name or "64" in name or name == "double":
-        return 8
-    return 4
-
-
 def _spacing(header: dict, spatial_axes: list[int]):
     if "spacings" in header:
         values = [float(header["spacings"][a]) for a in spatial_axes]
@@ -68,12 +56,15 @@ def nrrd_world(path: Path):
     return world, "LPS"
 
 
-_TYPES = {"signed char", "int8", "int8_t", "uchar", "unsigned char", "uint8", "uint8_t", "short", "short int",
-          "signed short", "signed short int", "int16", "int16_t", "ushort", "unsigned short", "unsigned short int",
-          "uint16", "uint16_t", "int", "signed int", "int32", "int32_t", "uint", "unsigned int", "uint32",
-          "uint32_t", "longlong", "long long", "long long int", "signed long long", "signed long long int",
-          "int64", "int64_t", "ulonglong", "unsigned long long", "unsigned long long int", "uint64", "uint64_t",
-          "float", "double"}  # the NRRD format's sample types, each spelling it allows
+# The NRRD format's sample types, each spelling it allows, and their bytes per sample.
+_TYPES = {**dict.fromkeys(("signed char", "int8", "int8_t", "uchar", "unsigned char", "uint8", "uint8_t"), 1),
+          **dict.fromkeys(("short", "short int", "signed short", "signed short int", "int16", "int16_t", "ushort",
+                           "unsigned short", "unsigned short int", "uint16", "uint16_t"), 2),
+          **dict.fromkeys(("int", "signed int", "int32", "int32_t", "uint", "unsigned int", "uint32", "uint32_t",
+                           "float"), 4),
+          **dict.fromkeys(("longlong", "long long", "long long int", "signed long long", "signed long long int",
+                           "int64", "int64_t", "ulonglong", "unsigned long long", "unsigned long long int",
+                           "uint64", "uint64_t", "double"), 8)}
 _COMPRESSED = {"gzip": "gzip", "gz": "gzip", "bzip2": "bzip2", "bz2": "bzip2"}
 _LINE_LIMIT = 1 << 16  # a "line skip" line longer than this is not a text line
 _TEXT_BYTES_PER_SAMPLE = 64  # a number written as text, with its separator, at its longest
@@ -109,7 +100,7 @@ def _read_data(path: Path, header: dict) -> np.ndarray:
             raise VolumeError(f"{path.name}'s text data is {data_path.stat().st_size:,} bytes, far more than "
                               f"{count:,} numbers take; check its sizes or export it again")
         return nrrd.read(str(path))[0]
-    needed = count * _itemsize(str(header.get("type", "")))
+    needed = count * _TYPES[str(header["type"]).lower()]
     line_skip = int(header.get("line skip", header.get("lineskip", 0)))
     byte_skip = int(header.get("byte skip", header.get("byteskip", 0)))
     if line_skip < 0 or byte_skip < -1:
@@ -163,7 +154,7 @@ def load_nrrd(path: Path, frame: int | None, progress: Progress | None = None) -
     sizes = [int(s) for s in np.atleast_1d(header["sizes"])]
     if not sizes or min(sizes) < 1:
         raise VolumeError(f"{path.name}'s NRRD sizes ({' '.join(map(str, sizes))}) are not positive; fix the header")
-    refuse_if_too_big(sizes, _itemsize(str(header["type"])), path.name)
+    refuse_if_too_big(sizes, _TYPES[str(header["type"]).lower()], path.name)
     report(progress, 0.0, f"reading {path.name}")  # pynrrd reads in one call: no finer progress
     data = read_or_explain(path, lambda: _read_data(path, header), (nrrd.NRRDError,))
     notes: list[str] = []
