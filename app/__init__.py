@@ -25,18 +25,18 @@ def __getattr__(name):
         from .api import smooth_mesh
         return smooth_mesh
     if name == "find_contours":
-        from .contours import find_contours
+        from .core.contours import find_contours
         return find_contours
     if name == "label_surfaces":
         from .labels import label_surfaces
         return label_surfaces
     if name == "release_gpu_memory":
-        from .extractor_pool import release_gpu_memory
+        from .gpu.pool import release_gpu_memory
         return release_gpu_memory
     if name == "IsoscopeError":
         from .errors import IsoscopeError
         return IsoscopeError
     if name == "Extractor":
-        from .extractor import Extractor
+        from .gpu.cubes import Extractor
         return Extractor
     raise AttributeError(name)

@@ -4,12 +4,12 @@ from __future__ import annotations
 import numpy as np
 
 from . import validation
-from .masking import check_mask, keep_masked_cells
+from .core.masking import check_mask, keep_masked_cells
+from .cpu.cubes import marching_cubes_reference
+from .cpu.sharp.features import check_feature_angle, sharpen_extracted
+from .cpu.smooth import check_iterations, smooth_projected
+from .cpu.tetra import marching_tetrahedra_reference
 from .options import MeshOptions
-from .reference import marching_cubes_reference
-from .reference_sharp import check_feature_angle, sharpen_extracted
-from .reference_smooth import check_iterations, smooth_projected
-from .reference_tetra import marching_tetrahedra_reference
 
 BACKENDS = ("auto", "gpu", "cpu")
 METHODS = ("lewiner", "lorensen")
@@ -46,16 +46,16 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         iterations remove the sliver triangles; the faces stay the same.
     chunks : None (the whole volume at once), or N or (a, b, c): extract boxes of at most
         that many cells per axis on the GPU, one at a time, and stitch them by global
-        edge id into the same mesh (see isoscope.chunked).  Memory then grows with the box,
+        edge id into the same mesh (see isoscope.big.chunked).  Memory then grows with the box,
         not the volume: use it for volumes larger than the GPU or RAM (a memory-mapped
         array, np.load(path, mmap_mode="r"), or a Zarr array is read a box at a time).
 
     mask : None, or a boolean array of the volume's shape: as in scikit-image, only the
         cells whose far corner (i + 1, j + 1, k + 1) the mask holds true get triangles, so
-        the surface is open where it leaves the mask (isoscope.masking).
+        the surface is open where it leaves the mask (isoscope.core.masking).
     sharp_features : None for plain marching cubes, or a feature angle in degrees
         (0 < angle < 180, e.g. 30): Extended Marching Cubes (Kobbelt et al. 2001,
-        `app.reference_sharp`) adds a vertex on the sharp edge or corner of each cell
+        `isoscope.cpu.sharp.features`) adds a vertex on the sharp edge or corner of each cell
         whose normals open wider than the angle, so boxes keep their edges.  The
         extra vertices come after the plain ones; the mesh stays watertight.  The
         plain mesh is made on the chosen backend; on "gpu" the feature step's per-patch
@@ -91,7 +91,7 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     if backend == "cpu":
         mesh = _on_cpu(marching_cubes_reference, checked, level, spacing, descent, iterations)
     elif angle is not None:
-        from .sharp_features import marching_cubes_sharp_gpu
+        from .gpu.sharp_features import marching_cubes_sharp_gpu
         return marching_cubes_sharp_gpu(checked, level, spacing, gradient_direction, angle)
     else:
         mesh = _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra=False)
@@ -110,7 +110,7 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     """Extract the isosurface ``volume == level`` by marching tetrahedra (Müller and Wehle).
 
     Every cell is split into six tetrahedra along its main diagonal, the same way in every
-    cell, so they meet face to face across cells (see `isoscope.reference_tetra`).  Inside a
+    cell, so they meet face to face across cells (see `isoscope.cpu.tetra`).  Inside a
     tetrahedron the field is linear, so no cell is ambiguous: the surface is the level set
     of the piecewise-linear interpolant, watertight and 2-manifold by construction, at the
     price of about three times marching cubes' triangles and vertices.
@@ -151,7 +151,7 @@ def _on_cpu(reference, checked, level, spacing, descent, iterations):
 
 def _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra):
     """Upload, extract (cubes, or tetrahedra from the same resident volume), smooth, read back."""
-    from .extractor_pool import pooled_extractor
+    from .gpu.pool import pooled_extractor
     bad_level = None
     with pooled_extractor(checked, spacing, gradient_direction) as cubes:
         if checked.value_range is None:  # its values were scanned on upload
@@ -166,8 +166,8 @@ def _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra)
 
 def _extract_and_read(cubes, level, iterations, tetrahedra):
     """Extract at `level` from the resident volume of `cubes` (or from a TetraExtractor on it), smooth, read back."""
-    from .smoothing import Smoother
-    from .tetra_extractor import TetraExtractor
+    from .gpu.smooth import Smoother
+    from .gpu.tetra import TetraExtractor
     extractor = TetraExtractor(cubes) if tetrahedra else cubes
     smoother = None
     try:
@@ -187,7 +187,7 @@ def _backend(backend: str, allowed=BACKENDS) -> str:
     if backend not in allowed:
         raise ValueError(f"backend {backend!r} is not one of {allowed}")
     if backend == "auto":
-        from .gl_context import gl_available
+        from .gpu.context import gl_available
         return "gpu" if gl_available() else "cpu"
     return "cpu" if backend == "numpy" else backend
 
@@ -198,7 +198,7 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
 
     Each of `iterations` rounds moves every vertex half-way to the average of its mesh
     neighbours, then pulls it back onto the level set of the volume's trilinear interpolant
-    by Newton steps along the gradient (see `isoscope.reference_smooth`).  Sliver triangles
+    by Newton steps along the gradient (see `isoscope.cpu.smooth`).  Sliver triangles
     even out; the surface stays where the volume puts it (no shrinking), the faces are kept.
     verts are in array-index order times spacing.  Returns verts, faces, normals, values
     (normals from the field's gradient at the new positions; `normals` are kept where it is flat).
@@ -219,9 +219,9 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
         return smooth_projected(verts, faces, checked.data.astype(np.float32, copy=False), level, iterations,
                                 spacing, descent=descent, normals=normals, value_range=checked.value_range)
 
-    from .extractor import Extractor
-    from .mesh import GpuMesh
-    from .smoothing import Smoother
+    from .gpu.cubes import Extractor
+    from .gpu.mesh import GpuMesh
+    from .gpu.smooth import Smoother
     with Extractor(checked, spacing=spacing, gradient_direction=gradient_direction) as extractor:
         mesh = GpuMesh.upload(extractor.ctx, verts, faces, normals)
         smoother = None
@@ -236,8 +236,8 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
 
 
 def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks):
-    from .chunked import as_chunks, marching_cubes_chunked, value_range
-    from .lazy_arrays import is_lazy
+    from .big.chunked import as_chunks, marching_cubes_chunked, value_range
+    from .core.lazy_arrays import is_lazy
     if backend == "cpu" or step_size != 1:
         raise ValueError("chunks= runs on the GPU at step_size 1; drop chunks, or use backend='gpu' and step_size=1")
     source = volume.data if isinstance(volume, validation.CheckedVolume) else volume

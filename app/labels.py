@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from . import validation
-from .case_table import label_table
+from .core.case_table import label_table
 from .errors import IsoscopeError
 
 # Labels from 1 up to this are their own ids for scipy's find_objects; others (negative, or
@@ -179,14 +179,14 @@ def _extractor(backend: str):
     """indicator -> (verts, faces, normals) at level 0.5: one GL context found once for all labels
     (asking for the current context costs a few ms each time), else the numpy reference."""
     from .api import BACKENDS
-    from .gl_context import current_or_standalone, gl_available
+    from .gpu.context import current_or_standalone, gl_available
     if backend not in BACKENDS:
         raise ValueError(f"backend {backend!r} is not one of {BACKENDS}")
     table = label_table()
     if backend == "cpu" or (backend == "auto" and not gl_available()):
-        from .reference import marching_cubes_reference
+        from .cpu.cubes import marching_cubes_reference
         return lambda indicator: marching_cubes_reference(indicator.astype(np.float32), 0.5, table=table)[:3]
-    from .extractor import Extractor
+    from .gpu.cubes import Extractor
     ctx = current_or_standalone()
 
     def extract(indicator):
@@ -217,7 +217,7 @@ def label_file(path, label) -> Path:
 
 def check_label_output(path, one_file: bool) -> None:
     """A one-line ValueError, before any work, for a name `write_label_meshes` cannot write."""
-    from .export import COLOR_FORMATS, mesh_format
+    from .io.export import COLOR_FORMATS, mesh_format
     mesh_format(path)
     folder = Path(path).parent
     if not folder.is_dir():
@@ -233,7 +233,7 @@ def write_label_meshes(volume, path, *, one_file: bool = False, world: bool = Tr
     holding them all, each vertex in its label's colour.  Returns (path, vertices, triangles) per file.
     Each file is written atomically; the mesh is in the volume's world space where it has one.
     More labels than `max_labels` (None: no limit) raise `TooManyLabels` before anything is written."""
-    from .export import in_volume_space
+    from .io.export import in_volume_space
     check_label_output(path, one_file)
     surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing, max_labels=max_labels)
     if not surfaces:
@@ -249,7 +249,7 @@ def write_labelled(path, meshes: dict, colors, space: str, one_file: bool) -> li
     """Write label meshes ``{label: (verts, faces, normals)}`` (already placed in `space`): a file per
     label (`label_file`), or with `one_file` one PLY/GLB with each vertex in its label's colour
     (`colors`: (labels, 3) RGB in 0..1, in the meshes' order).  Returns (path, vertices, triangles)."""
-    from .export import write_mesh
+    from .io.export import write_mesh
     if not one_file:
         return [(write_mesh(label_file(path, label), *mesh, space=space), len(mesh[0]), len(mesh[1]))
                 for label, mesh in meshes.items()]

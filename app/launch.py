@@ -10,11 +10,11 @@ import threading
 def main() -> int:
     sys.unraisablehook = _interrupt_again
     try:
-        from .atomic import signals_deferred
+        from .io.atomic import signals_deferred
         # A Ctrl-C inside a C extension's start (numpy's, as the command's modules import) comes out as
         # an ImportError with a page of advice: the imports run with it held off, and it acts after them.
         with signals_deferred():
-            from .cli import main as run
+            from .cli.main import main as run
         return run()
     except KeyboardInterrupt:
         return 130

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .lazy_arrays import is_lazy, release_pages
+from .core.lazy_arrays import is_lazy, release_pages
 
 GRADIENT_DIRECTIONS = ("descent", "ascent")
 

@@ -52,8 +52,8 @@ if mode == "vtk":
     result["triangles"] = fe.GetOutput().GetNumberOfPolys()
     result["total_s"] = result["read_s"] + result["extract_s"]
 else:
-    from isoscope.chunked import marching_cubes_chunked
-    from isoscope.export import write_mesh
+    from isoscope.big.chunked import marching_cubes_chunked
+    from isoscope.io.export import write_mesh
     from isoscope.volumes import open_volume
     client = None
     if workers:
@@ -67,7 +67,7 @@ else:
     result["open_s"] = time.perf_counter() - start
     t = time.perf_counter()
     if workers:
-        from isoscope.cluster import marching_cubes_on_cluster
+        from isoscope.big.cluster import marching_cubes_on_cluster
         verts, faces, normals, _ = marching_cubes_on_cluster(volume.data, level, volume.spacing, True, chunk,
                                                              scheduler=cluster.scheduler_address)
         result["worker_peak_mib"] = sorted(v / 1024 for v in client.run(

@@ -264,7 +264,7 @@ def bench_ours_first(volume, gd, level, repeats, backend, untimed, fresh=False):
 
 
 def bench_ours_iso_change(volume, gd, levels, repeats, untimed):
-    from isoscope.extractor import Extractor
+    from isoscope.gpu.cubes import Extractor
     ex = Extractor(volume, gradient_direction=gd)
     try:
         scratch, gpu_ms, active = [ex.scratch_bytes()], [], []

@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from isoscope.gl_context import current_or_standalone
+from isoscope.gpu.context import current_or_standalone
 
 LOADS = 8
 GROUP = 64

@@ -32,8 +32,8 @@ sys.path.insert(0, str(HERE))
 
 from bench_extract import LEVEL_STEP, fmt_ms, log, summary, timed  # noqa: E402
 
-from isoscope.extractor import Extractor  # noqa: E402
-from isoscope.tetra_extractor import TetraExtractor  # noqa: E402
+from isoscope.gpu.cubes import Extractor  # noqa: E402
+from isoscope.gpu.tetra import TetraExtractor  # noqa: E402
 
 from volumes import VOLUMES  # noqa: E402
 

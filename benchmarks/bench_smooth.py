@@ -33,9 +33,9 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import isoscope  # noqa: E402
-from isoscope.extractor import Extractor  # noqa: E402
-from isoscope.reference_smooth import trilinear  # noqa: E402
-from isoscope.smoothing import Smoother  # noqa: E402
+from isoscope.cpu.smooth import trilinear  # noqa: E402
+from isoscope.gpu.cubes import Extractor  # noqa: E402
+from isoscope.gpu.smooth import Smoother  # noqa: E402
 
 from volumes import VOLUMES  # noqa: E402
 
@@ -170,7 +170,7 @@ def main(argv=None) -> int:
             row, quality_rows = bench(name, size, args.iterations, args.repeats)
             times.append(row)
             qualities.extend(quality_rows)
-    from isoscope.gl_context import current_or_standalone
+    from isoscope.gpu.context import current_or_standalone
     renderer = current_or_standalone().info["GL_RENDERER"]
     print(f"## Smoothing projected onto the level set: {renderer}, isoscope {isoscope.__version__}\n")
     print(f"### Time (median ms of {args.repeats}; smoothing = {args.iterations} iterations)\n")

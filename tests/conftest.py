@@ -28,7 +28,7 @@ def pytest_collection_modifyitems(items):
 
 @pytest.fixture(scope="session")
 def gl_ctx():
-    from isoscope.gl_context import current_or_standalone
+    from isoscope.gpu.context import current_or_standalone
     return current_or_standalone()
 
 
@@ -47,7 +47,7 @@ def sphere_sdf():
 @pytest.fixture
 def gpu_mesh(gl_ctx):
     """extract(volume, level, **Extractor options) -> the GPU mesh as numpy arrays."""
-    from isoscope.extractor import Extractor
+    from isoscope.gpu.cubes import Extractor
 
     def extract(volume, level, **kwargs):
         with Extractor(volume, ctx=gl_ctx, **kwargs) as ex:

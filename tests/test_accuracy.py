@@ -2,10 +2,9 @@
 import numpy as np
 import pytest
 from skimage.draw import ellipsoid, ellipsoid_stats
+from support.mesh_checks import assert_closed_manifold, euler_characteristic, signed_volume, triangle_areas
 
 import isoscope
-
-from mesh_checks import assert_closed_manifold, euler_characteristic, signed_volume, triangle_areas
 
 
 @pytest.mark.parametrize("backend", ["cpu", "gpu"])

@@ -2,11 +2,10 @@
 import numpy as np
 import pytest
 from skimage import measure
+from support.mesh_checks import sign_changing_edges
 
 import isoscope
-from isoscope.gpu_layout import EDGE_MARGIN
-
-from mesh_checks import sign_changing_edges
+from isoscope.core.layout import EDGE_MARGIN
 
 
 def sphere(n=32, r=0.55, centre=(0.02, -0.03, 0.01)):
@@ -59,7 +58,7 @@ def test_ascent_on_a_field_equals_descent_on_its_negation():
 def test_auto_backend_uses_the_gpu_here(monkeypatch, backend, runs_on_gpu):
     # GPU and numpy meshes are identical by design, so only the extractor's own record of an
     # extraction can tell which ran: a spy on Extractor.extract that still runs the real one.
-    from isoscope.extractor import Extractor
+    from isoscope.gpu.cubes import Extractor
     levels = []
     real_extract = Extractor.extract
     monkeypatch.setattr(Extractor, "extract", lambda self, level: levels.append(level) or real_extract(self, level))

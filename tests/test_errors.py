@@ -26,9 +26,9 @@ def test_every_exception_the_package_defines_derives_from_isoscope_error():
 
 
 def test_callers_catching_the_builtin_bases_still_catch_them():
-    from isoscope.cluster import ClusterError
-    from isoscope.gl_context import GLUnavailable
-    from isoscope.gpu_limits import GPULimitError
+    from isoscope.big.cluster import ClusterError
+    from isoscope.gpu.context import GLUnavailable
+    from isoscope.gpu.limits import GPULimitError
     from isoscope.labels import TooManyLabels
     for cls, builtin in ((VolumeError, ValueError), (GPULimitError, ValueError), (TooManyLabels, ValueError),
                          (ClusterError, RuntimeError), (GLUnavailable, RuntimeError)):

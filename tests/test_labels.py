@@ -5,12 +5,11 @@ import numpy as np
 import pytest
 import trimesh
 from PIL import Image
+from support.mesh_checks import assert_closed_manifold, signed_volume
 
 from isoscope import label_surfaces
-from isoscope.cli import main
+from isoscope.cli.main import main
 from isoscope.labels import label_colors
-
-from mesh_checks import assert_closed_manifold, signed_volume
 
 
 def ball(shape, centre, radius):

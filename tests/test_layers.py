@@ -104,7 +104,7 @@ def test_no_import_circle():
 def test_only_the_front_ends_import_the_front_ends():
     graph = import_graph()
     front = [name for name in graph if name.startswith(FRONT_ENDS)]
-    assert "isoscope.viewer.headless" in front and "isoscope.cli" in front
+    assert "isoscope.viewer.headless" in front and "isoscope.cli.main" in front
     wrong = sorted(f"{name} -> {target}" for name, targets in graph.items() for target in targets
                    if target.startswith(FRONT_ENDS) and not name.startswith(FRONT_ENDS))
     assert not wrong, wrong

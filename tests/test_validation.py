@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import isoscope
-from isoscope.extractor import Extractor
+from isoscope.gpu.cubes import Extractor
 from isoscope.validation import check_volume
 from isoscope.volumes import VolumeError, open_volume
 

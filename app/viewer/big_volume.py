@@ -20,7 +20,7 @@ import threading
 
 import numpy as np
 
-from ..lazy_arrays import read_block
+from ..core.lazy_arrays import read_block
 from ..volumes import Volume
 
 VIEWER_MAX_VOXELS = 256 ** 3

@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..gl_context import current_or_standalone
+from ..cpu.sharp.features import crisp_normals
+from ..cpu.smooth import check_iterations
+from ..gpu.context import current_or_standalone
+from ..gpu.mesh import GpuMesh
+from ..gpu.sharp_features import sharp_mesh_of
 from ..labels import label_surfaces, labels_of
-from ..mesh import GpuMesh
 from ..options import MeshOptions
-from ..reference_sharp import crisp_normals
-from ..reference_smooth import check_iterations
-from ..sharp_features import sharp_mesh_of
 from ..volumes import Volume
 from .camera import OrbitCamera
 from .colorbar import draw_colorbar

@@ -17,8 +17,8 @@ from dataclasses import dataclass, field
 
 import moderngl
 
-from ..gpu_layout import INDEX_BYTES, VERTEX_BYTES
-from ..mesh import GpuMesh
+from ..core.layout import INDEX_BYTES, VERTEX_BYTES
+from ..gpu.mesh import GpuMesh
 from ..volumes import open_volume
 from . import surface as surface_module
 from .big_volume import viewer_level

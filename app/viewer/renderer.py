@@ -14,8 +14,8 @@ from collections.abc import Sequence
 import moderngl
 import numpy as np
 
-from ..gpu_layout import VERTEX_FORMAT, vertex_format
-from ..mesh import GpuMesh
+from ..core.layout import VERTEX_FORMAT, vertex_format
+from ..gpu.mesh import GpuMesh
 from ..resources import shader_source
 from .levels import SurfaceLook
 from .oit import OitTargets

@@ -26,7 +26,7 @@ from typing import NamedTuple
 import moderngl
 import numpy as np
 
-from ..gpu_layout import EDGE_MARGIN
+from ..core.layout import EDGE_MARGIN
 from ..resources import shader_source
 from .colormaps import LUT_SIZE, check_colormap, colormap_rgba
 from .slice_options import AXES

@@ -15,11 +15,11 @@ from pathlib import Path
 
 import moderngl
 
+from ..cpu.sharp.features import check_feature_angle
+from ..cpu.smooth import check_iterations
+from ..gpu.mesh import GpuMesh
 from ..labels import label_count_hint
-from ..mesh import GpuMesh
 from ..options import MeshOptions
-from ..reference_sharp import check_feature_angle
-from ..reference_smooth import check_iterations
 from ..volumes import Volume, open_volume
 from .big_volume import FullResolutionExport, viewer_level
 from .histogram import value_histogram
@@ -356,7 +356,7 @@ class ViewerState(SurfaceLevels, LabelLayers):
     def save_mesh(self, path) -> bool:
         """Write the surface on show (at full resolution) to `path`, in the format of its extension
         and the volume's world coordinates where its file defines them; False with `error` set."""
-        from ..export import COLOR_FORMATS, in_volume_space, write_mesh
+        from ..io.export import COLOR_FORMATS, in_volume_space, write_mesh
         if self.label_layers:   # a label map: its visible labels, in one coloured file where the format can
             return self.save_labels(path, one_file=Path(path).suffix.lower() in COLOR_FORMATS)
         if self.surface is None:

@@ -10,11 +10,11 @@ the value rests (`ViewerState` decides when).
 """
 from __future__ import annotations
 
-from ..extractor import Extractor
-from ..mesh import GpuMesh
-from ..sharp_features import SharpenedMesh
-from ..smoothing import Smoother
-from ..tetra_extractor import TetraExtractor
+from ..gpu.cubes import Extractor
+from ..gpu.mesh import GpuMesh
+from ..gpu.sharp_features import SharpenedMesh
+from ..gpu.smooth import Smoother
+from ..gpu.tetra import TetraExtractor
 from ..validation import subsampled
 from ..volumes import Volume
 

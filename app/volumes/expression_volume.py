@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from isoscope.gpu_layout import MAX_WORDS, WORD_BITS, fits_one_extraction
+from isoscope.core.layout import MAX_WORDS, WORD_BITS, fits_one_extraction
 
 from .errors import VolumeError
 from .expression import FLOAT32_MAX, evaluate, parse, peak_intermediates
@@ -120,7 +120,7 @@ def _sample(tree, box: Box, shape, backend: str, ctx, progress):
     if backend not in ("auto", "gpu", "cpu"):
         raise ValueError(f"backend must be 'auto', 'gpu' or 'cpu', not {backend!r}")
     if backend != "cpu":
-        from isoscope.gl_context import GLUnavailable
+        from isoscope.gpu.context import GLUnavailable
 
         from .gpu_sampler import TooCostlyForGPU, sample_on_gpu
         try:

@@ -45,7 +45,7 @@ def sample_on_gpu(tree, box: Box, shape: tuple[int, int, int], ctx=None,
                   progress: Progress | None = None) -> np.ndarray:
     """float32 samples of the expression tree at lo + index * step, axis 0 first."""
     if ctx is None:
-        from isoscope.gl_context import current_or_standalone
+        from isoscope.gpu.context import current_or_standalone
         ctx = current_or_standalone()
     refuse_if_too_big(shape, 4, "the expression grid", fix=LOWER_RESOLUTION)
     estimate = glsl_compile_ms(tree)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..lazy_arrays import Block3D
+from ..core.lazy_arrays import Block3D
 from .errors import VolumeError
 from .reading import MAP_BYTES
 from .volume import Progress, refuse_if_too_big, report, shape_text, size_text

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..lazy_arrays import is_lazy
+from ..core.lazy_arrays import is_lazy
 from ..validation import CheckedVolume, Progress, as_spacing, check_volume
 from .errors import VolumeError
 

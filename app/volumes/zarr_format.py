@@ -15,7 +15,7 @@ import math
 import zlib
 from pathlib import Path
 
-from ..lazy_arrays import Block3D
+from ..core.lazy_arrays import Block3D
 from .errors import VolumeError
 from .reading import damaged, reason
 from .volume import Progress, refuse_if_too_big, report, shape_text

@@ -1,0 +1,140 @@
+"""Marching tetrahedra in numpy: the same table and output order as the shaders `mt_*.comp`.
+
+Every cube cell is split into six tetrahedra the same way, the Freudenthal (Kuhn) split
+along the main diagonal: tetrahedron ``p`` (a permutation of the axes) walks from corner
+(0, 0, 0) to (1, 1, 1) one axis at a time, in the order ``p``.  Why this split: it is the
+same in every cell (a translation of one pattern, no alternating parity), and it cuts each
+square face along the diagonal from its lowest corner to its highest one.  The cell on the
+other side of that face cuts it along the same diagonal, so the two cells' tetrahedra meet
+face to face (triangle to triangle) and the surface has no cracks.  The split needs no
+choice at ambiguous faces: inside one tetrahedron the linear interpolant has one plane.
+
+Every edge of every tetrahedron goes from a grid point ``q`` to ``q + d`` with ``d`` one of
+the seven non-zero 0/1 vectors (`KINDS`: the three axes, the three face diagonals, the body
+diagonal), so a grid point owns seven kinds of edges, and each edge whose ends differ gets
+one vertex, shared by the triangles of every tetrahedron around it.
+
+Conventions are those of `isoscope.cpu.cubes` (marching cubes): a sample is inside when
+``sign * value >= sign * level`` (ties count as inside), vertices keep EDGE_MARGIN off
+grid points (so a tie never makes two vertices coincide or a triangle collapse), normals
+come from central differences, and triangles wind counter-clockwise seen from outside.
+Output order: vertices by (brick, word in brick, kind, k); triangles by (brick, word in
+brick, k), then the table's order (tetrahedron, then its one or two triangles).
+"""
+from __future__ import annotations
+
+import itertools
+from functools import cache
+
+import numpy as np
+
+from ..core.case_table import CORNER_OFFSETS, CaseTable
+from .cubes import brick_order_key, cube_cases, inside_mask, ordered_triangles, place_vertices
+
+KINDS = np.array([(1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 0), (1, 0, 1), (0, 1, 1), (1, 1, 1)], dtype=np.int64)
+"""The edge kinds a grid point owns: its edge to q + KINDS[kind]; the axes first, as in cubes."""
+
+TETRAHEDRA = [[sum(1 << a for a in p[:n]) for n in range(4)] for p in itertools.permutations(range(3))]
+"""The six tetrahedra of a cell, each as its four cell corners (bit a of a corner: offset along axis a)."""
+
+
+def edge_code(low: int, high: int) -> int:
+    """A tetrahedron edge as the table stores it: owning corner | kind << 3 (corner `low` <= `high`)."""
+    kind = [tuple(k) for k in KINDS.tolist()].index(tuple(CORNER_OFFSETS[high] - CORNER_OFFSETS[low]))
+    return low | kind << 3
+
+
+def _midpoint(code: int) -> np.ndarray:
+    return CORNER_OFFSETS[code & 7] + KINDS[code >> 3] / 2.0
+
+
+def _outward(triangle, inside_corners, outside_corners):
+    """The triangle wound counter-clockwise seen from the outside corners' side."""
+    p = [_midpoint(c) for c in triangle]
+    normal = np.cross(p[1] - p[0], p[2] - p[0])
+    away = CORNER_OFFSETS[outside_corners].mean(0) - CORNER_OFFSETS[inside_corners].mean(0)
+    return tuple(triangle) if np.dot(normal, away) > 0 else (triangle[0], triangle[2], triangle[1])
+
+
+def tetrahedron_triangles(corners, case: int) -> list[tuple[int, int, int]]:
+    """The triangles (edge codes) of one tetrahedron for a cube case (bit c: corner c inside)."""
+    inside = [c for c in corners if case >> c & 1]
+    outside = [c for c in corners if not case >> c & 1]
+    edge = lambda a, b: edge_code(min(a, b), max(a, b))  # noqa: E731  (corners of a tetrahedron are ordered)
+    if len(inside) in (1, 3):
+        lone, others = (inside[0], outside) if len(inside) == 1 else (outside[0], inside)
+        return [_outward([edge(lone, o) for o in others], inside, outside)]
+    if len(inside) != 2:
+        return []
+    (a, b), (c, d) = inside, outside
+    quad = [edge(a, c), edge(a, d), edge(b, d), edge(b, c)]  # in order around the quadrilateral
+    # Split along the shorter diagonal (at edge midpoints): fixed per case, so both extractors agree.
+    diagonal = [np.linalg.norm(_midpoint(quad[n]) - _midpoint(quad[n + 2])) for n in (0, 1)]
+    if diagonal[0] > diagonal[1]:
+        quad = quad[1:] + quad[:1]
+    return [_outward(t, inside, outside) for t in ([quad[0], quad[1], quad[2]], [quad[0], quad[2], quad[3]])]
+
+
+class TetraTable(CaseTable):
+    """Per cube case, the triangles of its six tetrahedra in order, as triples of edge codes
+    (corner | kind << 3), packed 6 bits apart for the GPU."""
+
+    code_bits = 6
+
+
+@cache
+def tetra_table() -> TetraTable:
+    per_case = [[t for corners in TETRAHEDRA for t in tetrahedron_triangles(corners, case)] for case in range(256)]
+    width = max(len(t) for t in per_case)
+    table = np.full((256, width, 3), -1, dtype=np.int8)
+    for case, triangles in enumerate(per_case):
+        if triangles:
+            table[case, : len(triangles)] = triangles
+    return TetraTable(table, np.array([len(t) for t in per_case], dtype=np.uint8))
+
+
+def crossing_edges(inside: np.ndarray) -> list[np.ndarray]:
+    """mt_classify.comp: per kind, a mask over owning grid points of edges whose ends differ."""
+    n = inside.shape
+    masks = []
+    for d in KINDS:
+        lo = tuple(slice(0, n[a] - d[a]) for a in range(3))
+        hi = tuple(slice(d[a], n[a]) for a in range(3))
+        masks.append(np.pad(inside[lo] != inside[hi], [(0, int(d[a])) for a in range(3)]))
+    return masks
+
+
+def marching_tetrahedra_reference(volume: np.ndarray, level: float, spacing=(1.0, 1.0, 1.0),
+                                  descent: bool = True):
+    """verts (N,3) float32, faces (M,3) int32, normals (N,3) float32, values (N,) float32.
+
+    `volume` must already be validated (3-D float32, finite, every axis >= 2).
+    """
+    table = tetra_table()
+    sign = 1.0 if descent else -1.0
+    field = volume if descent else -volume
+    lvl = np.float32(sign * level)
+    spacing = np.asarray(spacing, dtype=np.float64)
+    inside = inside_mask(field, lvl)
+
+    # Vertices: one per crossing edge, in the GPU's (brick, word, kind, k) order.
+    owners = [np.argwhere(m) for m in crossing_edges(inside)]
+    points = np.concatenate(owners).astype(np.int64)
+    kinds = np.concatenate([np.full(len(o), kind) for kind, o in enumerate(owners)]).astype(np.int64)
+    order = np.lexsort((points[:, 2], kinds, brick_order_key(points, field.shape)))
+    points, kinds = points[order], kinds[order]
+    edge_ids = np.ravel_multi_index(points.T, field.shape) * len(KINDS) + kinds
+    by_id = np.argsort(edge_ids)
+    sorted_ids = edge_ids[by_id]
+    verts, normals, values = place_vertices(field, inside, lvl, points, None, spacing, sign, steps=KINDS[kinds])
+
+    # Triangles: mt_triangles.comp, cells in (brick, word, k) order, the table's triangles in order.
+    cells, cell_of_tri, codes = ordered_triangles(table, cube_cases(inside), field.shape)
+
+    owner = cells[cell_of_tri][:, None, :] + CORNER_OFFSETS[codes & 7]  # (M, 3 corners, 3 coords)
+    wanted = np.ravel_multi_index(np.moveaxis(owner, -1, 0), field.shape) * len(KINDS) + (codes >> 3)
+    found = np.searchsorted(sorted_ids, wanted)
+    if wanted.size and not np.array_equal(sorted_ids[np.minimum(found, len(sorted_ids) - 1)], wanted):
+        raise AssertionError("a triangle uses an edge with no vertex: the tetrahedra table is broken")
+    faces = by_id[found] if wanted.size else np.zeros((0, 3), np.int64)
+    return verts, faces.astype(np.int32), normals, values

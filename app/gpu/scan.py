@@ -1,0 +1,58 @@
+"""Exclusive prefix sum of a uint32 GPU buffer, in place, any length (multi-level)."""
+from __future__ import annotations
+
+import moderngl
+
+from ..core.layout import SCAN_BLOCK
+from .programs import compute_program, dispatch_groups, set_uniforms
+
+
+class ExclusiveScan:
+    """Scans uint32 buffers of any length in place; keeps one scratch buffer of block sums per level."""
+
+    def __init__(self, ctx: moderngl.Context):
+        self.ctx = ctx
+        self._reduce = compute_program(ctx, "scan_reduce.comp")
+        self._apply = compute_program(ctx, "scan_apply.comp")
+        self._scratch: dict[int, moderngl.Buffer] = {}  # level -> block sums
+
+    def _sums_buffer(self, level: int, blocks: int) -> moderngl.Buffer:
+        buf = self._scratch.get(level)
+        if buf is None or buf.size < blocks * 4:
+            if buf is not None:
+                buf.release()
+            buf = self.ctx.buffer(reserve=max(blocks, 1) * 4)
+            self._scratch[level] = buf
+        return buf
+
+    def __call__(self, data: moderngl.Buffer, count: int, level: int = 0) -> None:
+        """data[i] <- sum(data[:i]) for i < count."""
+        blocks = -(-count // SCAN_BLOCK)
+        if blocks <= 1:
+            data.bind_to_storage_buffer(0)
+            set_uniforms(self._apply, u_count=count, u_blocks=1, u_has_offsets=False)
+            dispatch_groups(self._apply, 1)
+            self.ctx.memory_barrier()
+            return
+        sums = self._sums_buffer(level, blocks)
+        data.bind_to_storage_buffer(0)
+        sums.bind_to_storage_buffer(1)
+        set_uniforms(self._reduce, u_count=count, u_blocks=blocks)
+        dispatch_groups(self._reduce, blocks)
+        self.ctx.memory_barrier()
+
+        self(sums, blocks, level + 1)
+
+        data.bind_to_storage_buffer(0)
+        sums.bind_to_storage_buffer(1)
+        set_uniforms(self._apply, u_count=count, u_blocks=blocks, u_has_offsets=True)
+        dispatch_groups(self._apply, blocks)
+        self.ctx.memory_barrier()
+
+    def scratch_bytes(self) -> int:
+        return sum(buf.size for buf in self._scratch.values())
+
+    def release(self) -> None:
+        for buf in self._scratch.values():
+            buf.release()
+        self._scratch.clear()

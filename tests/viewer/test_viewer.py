@@ -1,0 +1,372 @@
+"""ViewerState and the imgui panel, driven the way the window drives them, rendered through EGL."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from isoscope.viewer.headless import HeadlessViewer
+from isoscope.viewer.recent import RecentFiles
+from isoscope.viewer.style import SurfaceStyle
+from isoscope.volumes import open_volume
+
+SIZE = (480, 360)
+
+
+@pytest.fixture
+def viewer(gl_ctx):
+    headless = HeadlessViewer(SIZE, ctx=gl_ctx)
+    headless.show(open_volume("sphere", resolution=32), iso=0.0)
+    yield headless
+    headless.release()
+
+
+def test_changing_the_iso_through_the_state_re_extracts_once(viewer):
+    state = viewer.state
+    triangles_before = state.n_triangles
+    assert state.update(0.0) is False          # nothing moved: no extraction
+    state.set_iso(0.25)
+    assert state.update(0.0) is True
+    assert state.extractor.level == pytest.approx(0.25)
+    assert state.n_triangles > triangles_before
+    assert state.update(0.0) is False
+
+
+def test_iso_is_kept_inside_the_range_and_keys_step_by_fractions(viewer):
+    state = viewer.state
+    low, high = state.value_range
+    state.set_iso(high + 100)
+    assert state.iso == high
+    state.set_iso(low + 0.5 * (high - low))
+    state.nudge_iso(+0.01)
+    assert state.iso == pytest.approx(low + 0.51 * (high - low))
+    state.nudge_iso(-0.10)
+    assert state.iso == pytest.approx(low + 0.41 * (high - low))
+
+
+def test_animation_sweeps_the_iso_through_the_range(viewer):
+    state = viewer.state
+    low, high = state.value_range
+    state.toggle_animation()
+    seen = []
+    for _ in range(12):
+        state.update(0.5)   # 6 s period: 12 half-second frames are one sweep up and down
+        seen.append(state.iso)
+    assert low < min(seen) < low + 0.1 * (high - low)
+    assert high - 0.1 * (high - low) < max(seen) < high
+    state.toggle_animation()
+    frozen = state.iso
+    state.update(0.5)
+    assert state.iso == frozen
+
+
+BACKGROUND = np.round(255 * np.array(SurfaceStyle().background)).astype(int)
+
+
+def scene_pixels(image):
+    """Where something other than the background colour is drawn."""
+    return (np.abs(image.astype(int) - BACKGROUND) > 3).any(axis=2)
+
+
+def test_panel_draws_over_its_corner_only(gl_ctx):
+    size = (960, 600)  # wide enough that the scene fits beside the panel
+    viewer = HeadlessViewer(size, ctx=gl_ctx)
+    try:
+        viewer.show(open_volume("sphere", resolution=32), iso=0.0)
+        without_panel = viewer.render(panel=False)
+        with_panel = viewer.render(panel=True)
+        x, y, width, height = (int(round(v)) for v in viewer._panel.box)
+    finally:
+        viewer.release()
+    assert (x, y) == (8, 8) and 200 < width < size[0] // 2 and 100 < height <= size[1]
+    inside = np.zeros(size[::-1], bool)
+    inside[y:y + height, x:x + width] = True
+    changed = np.abs(with_panel.astype(int) - without_panel.astype(int)).max(axis=2) > 0
+    assert changed[inside].mean() > 0.5, "the panel is not drawn in its box"
+    # Outside its box the panel draws nothing: the scene is all there, moved right to centre in
+    # the uncovered part of the window.
+    scene_before, scene_after = scene_pixels(without_panel), scene_pixels(with_panel)
+    assert scene_after[~inside].sum() == pytest.approx(scene_before.sum(), rel=0.1)
+    left = x + width
+    centre_after = np.nonzero(scene_after[:, left:])[1].mean() + left
+    assert centre_after == pytest.approx((left + size[0]) / 2, abs=0.05 * size[0])
+
+
+def find_slider_grab(image):
+    """Centre (x, y) of the iso slider's grab: imgui's default SliderGrab colour (0.24, 0.52, 0.88)."""
+    rows, cols = np.nonzero((np.abs(image.astype(int) - [61, 133, 224]) <= 3).all(axis=2))
+    assert len(rows) > 20, "no slider grab in the image"
+    return cols.mean(), rows.mean()
+
+
+def test_panel_slider_follows_the_iso_value(viewer):
+    def slider_grab_column(image):
+        return find_slider_grab(image)[0]
+
+    low, high = viewer.state.value_range
+    viewer.state.set_iso(low + 0.1 * (high - low))
+    left = slider_grab_column(viewer.render(panel=True))
+    viewer.state.set_iso(low + 0.9 * (high - low))
+    right = slider_grab_column(viewer.render(panel=True))
+    assert right - left > 150
+
+
+def test_dragging_the_panel_slider_with_the_mouse_re_extracts(viewer):
+    from imgui_bundle import imgui  # the headless panel gets its mouse from imgui's io, as GLFW feeds it
+
+    low, high = viewer.state.value_range
+    viewer.state.set_iso(low + 0.5 * (high - low))
+    x, y = find_slider_grab(viewer.render(panel=True))
+    triangles_before = viewer.state.n_triangles
+    io = imgui.get_io()
+    io.add_mouse_pos_event(x, y)
+    viewer.render(panel=True)
+    io.add_mouse_button_event(0, True)
+    viewer.render(panel=True)
+    io.add_mouse_pos_event(x + 60, y)
+    viewer.render(panel=True)
+    io.add_mouse_button_event(0, False)
+    viewer.render(panel=True)
+    assert viewer.state.iso > low + 0.6 * (high - low)
+    assert viewer.state.extractor.level == pytest.approx(viewer.state.iso)
+    assert viewer.state.n_triangles != triangles_before
+
+
+def error_pixels(image, panel_right):
+    r, g, b = (image[:, :panel_right, k].astype(int) for k in range(3))
+    return int(((r > 200) & (g < 140) & (b < 140)).sum())
+
+
+def test_bad_file_shows_its_error_in_the_panel_and_keeps_the_volume(viewer, tmp_path):
+    state = viewer.state
+    volume, extractor, iso = state.volume, state.extractor, state.iso
+    clean = viewer.render(panel=True)
+
+    broken = tmp_path / "broken.npy"
+    broken.write_bytes(b"this is not a numpy file")
+    assert state.open(str(broken)) is False
+    assert state.error and "\n" not in state.error and "broken.npy" in state.error
+    assert state.volume is volume and state.extractor is extractor and state.iso == iso
+    shown = viewer.render(panel=True)
+    panel_right = int(viewer._panel.covered_width)
+    assert error_pixels(shown, panel_right) > 50 + error_pixels(clean, panel_right)
+
+    assert state.open("sphere") is True   # the next good volume clears the error
+    assert state.error is None
+
+
+def test_opening_a_file_adds_it_to_recent_files(gl_ctx, tmp_path):
+    recent_path = tmp_path / "config" / "recent.json"
+    viewer = HeadlessViewer((64, 64), ctx=gl_ctx)
+    viewer.state.recent = RecentFiles(recent_path)
+    try:
+        data = np.random.default_rng(1).normal(size=(12, 10, 8)).astype(np.float32)
+        path = tmp_path / "noise.npy"
+        np.save(path, data)
+        assert viewer.state.open(str(path)), viewer.state.error
+        assert viewer.state.volume.data.shape == (12, 10, 8)
+        assert json.loads(recent_path.read_text()) == [str(path.resolve())]
+        assert RecentFiles(recent_path).paths == [str(path.resolve())]
+    finally:
+        viewer.release()
+
+
+def test_expression_box_opens_an_implicit_function(viewer):
+    assert viewer.state.open("expr:x*x + y*y + z*z - 0.25; res=24"), viewer.state.error
+    assert viewer.state.volume.data.shape == (24, 24, 24)
+    assert viewer.state.n_triangles > 0
+
+
+@pytest.mark.parametrize("formula", ["+".join(["x"] * 999), "*".join(["x"] * 999), "-" * 1500 + "x",
+                                     "(" * 900 + "x" + ")" * 900, "sin(" * 400 + "x" + ")" * 400])
+def test_a_hostile_expression_typed_in_the_panel_keeps_the_window(viewer, formula):
+    """Issue 22: ~1000 terms typed into the panel closed the viewer (RecursionError). Each opens, or is
+    refused in one line with the last good volume still on show."""
+    state = viewer.state
+    volume = state.volume
+    if state.open(f"expr:{formula}; res=8"):
+        assert state.volume.data.shape == (8, 8, 8)
+    else:
+        assert state.error and "\n" not in state.error and state.volume is volume
+    assert state.open("sphere") is True
+
+
+def test_object_side_toggle_reverses_the_normals_and_keeps_the_view(viewer):
+    state = viewer.state
+    serial, iso = state.volume_serial, state.iso
+    assert state.inside_below                              # the built-in sphere is a signed distance
+    _, _, outward, _ = state.extractor.read_mesh()
+    assert state.set_inside_below(False)
+    assert not state.inside_below and state.volume.gradient_direction == "descent"
+    assert (state.volume_serial, state.iso) == (serial, iso)  # no refit, same level
+    _, _, inward, _ = state.extractor.read_mesh()
+    np.testing.assert_allclose(inward, -outward, atol=1e-6)
+    assert state.set_inside_below(False) is False          # already so: nothing re-extracted
+
+
+def test_a_volume_read_in_the_background_reports_progress_then_shows(viewer, tmp_path):
+    """Files open on a worker thread: the panel's bar follows the loader; the upload happens in update()."""
+    path = tmp_path / "ramp.npy"
+    np.save(path, np.broadcast_to(np.arange(192, dtype=np.float32), (256, 256, 192)))  # 48 MiB: read in slabs
+    state = viewer.state
+    state.open_in_background(str(path))
+    pending = state.loading
+    assert pending.done(wait_s=60)
+    assert pending.message != f"opening {path}" and 0 < pending.fraction <= 1  # the loader reported
+    assert state.volume.name != "ramp"                  # not shown until the main thread takes it
+    viewer.render()                                      # a frame: update() uploads and extracts it
+    assert state.loading is None and state.error is None
+    assert state.volume.data.shape == (256, 256, 192) and state.n_triangles > 0
+    assert str(path.resolve()) in state.recent.paths
+
+
+def test_a_bad_file_read_in_the_background_keeps_the_volume(viewer, tmp_path):
+    state = viewer.state
+    before = state.volume
+    bad = tmp_path / "broken.npy"
+    bad.write_bytes(b"\x93NUMPY garbage")
+    state.open_in_background(str(bad))
+    assert state.loading.done(wait_s=60)
+    viewer.render()
+    assert state.volume is before and state.extractor is not None
+    assert state.error and "broken.npy" in state.error and "\n" not in state.error
+
+
+def test_progress_bar_is_drawn_while_loading(viewer, tmp_path):
+    """The panel draws a bar while a load is pending: pixels in the panel differ from a frame without."""
+    state = viewer.state
+    idle = viewer.render(panel=True)
+
+    class Stalled:  # a load that has not finished: what the panel sees mid-read
+        fraction, message = 0.5, "reading ramp"
+
+        def done(self, wait_s=0.0):
+            return False
+
+    state.loading = Stalled()
+    loading = viewer.render(panel=True)
+    state.loading = None
+    assert np.abs(loading.astype(int) - idle.astype(int)).max(axis=2)[:, :300].sum() > 0
+
+
+def test_a_dragged_value_shows_a_coarse_preview_then_the_full_mesh_at_rest(gl_ctx, monkeypatch):
+    from support.mesh_checks import assert_same_mesh
+
+    import isoscope.viewer.surface as surface_module
+    from isoscope.cpu.cubes import marching_cubes_reference
+    from isoscope.viewer.state import REST_S, ViewerState
+
+    monkeypatch.setattr(surface_module, "PREVIEW_TRIANGLES", 3000)  # a small volume's mesh is "big"
+    state = ViewerState(gl_ctx, level_of_detail=True)
+    try:
+        volume = open_volume("gyroid", resolution=48)
+        assert state.show(volume, iso=0.0)
+        full = state.n_triangles
+        assert full > 4 * 3000 and state.preview_step == 1
+        low, high = state.value_range
+        drag = [low + f * (high - low) for f in (0.45, 0.47, 0.49, 0.51)]
+
+        state.set_iso(drag[0])
+        state.update(0.04)                 # one change alone (a key, a typed value): full mesh
+        assert state.preview_step == 1 and state.extractor.level == drag[0]
+        for value in drag[1:]:             # changing frame after frame: a drag
+            state.set_iso(value)
+            assert state.update(0.04)
+            step = state.preview_step
+            assert step > 1 and state.n_triangles < full / 2
+        # The preview is exactly the mesh of every step-th sample, in the same world units.
+        sign = 1.0 if volume.gradient_direction == "descent" else -1.0
+        coarse = volume.data[::step, ::step, ::step].astype(np.float32)
+        assert_same_mesh(state.meshes[0].read(),
+                         marching_cubes_reference(coarse, drag[-1], tuple(s * step for s in volume.spacing),
+                                                  descent=sign > 0))
+
+        assert state.update(REST_S / 2) is False and state.preview_step == step  # not rested yet
+        assert state.update(REST_S / 2) is True and state.preview_step == 1      # rested: full mesh
+        assert state.extractor.level == drag[-1]
+        assert state.n_triangles == len(marching_cubes_reference(volume.data.astype(np.float32), drag[-1],
+                                                                 volume.spacing, descent=sign > 0)[1])
+        assert state.update(1.0) is False                                        # and stays
+    finally:
+        state.release()
+
+
+def test_headless_renders_never_show_a_preview(viewer, monkeypatch):
+    import isoscope.viewer.surface as surface_module
+    monkeypatch.setattr(surface_module, "PREVIEW_TRIANGLES", 10)
+    state = viewer.state
+    for value in (0.1, 0.2, 0.3):
+        state.set_iso(value)
+        viewer.render()
+        assert state.preview_step == 1 and state.extractor.level == pytest.approx(value)
+
+
+def test_value_histogram_counts_every_sample_on_a_log_scale():
+    from isoscope.viewer.histogram import BINS, value_histogram
+    data = np.zeros((10, 10, 10), np.uint8)
+    data[:5] = 200                                   # 500 samples at 200, 500 at 0
+    data[0, 0, 0] = 100
+    counts = np.expm1(value_histogram(data, (0.0, 200.0)).astype(np.float64))
+    assert len(counts) == BINS and round(counts.sum()) == 1000
+    assert round(counts[0]) == 500 and round(counts[-1]) == 499 and round(counts[BINS // 2]) == 1
+
+
+def marker_columns(image, box, colour):
+    """Columns inside the histogram's box drawn in the level marker's colour."""
+    (left, top), (right, bottom) = (tuple(int(round(v)) for v in corner) for corner in box)
+    region = image[top:bottom, left:right].astype(int)
+    hits = (np.abs(region - np.round(255 * np.array(colour))) <= 3).all(axis=2).sum(axis=0)
+    return left + np.nonzero(hits > (bottom - top) // 2)[0]
+
+
+def assert_marker_at(image, box, colour, level, value_range):
+    """The histogram shows a marker in `colour` where `level` falls in `value_range`."""
+    from isoscope.viewer.histogram import fraction_of
+    (left, _), (right, _) = box
+    columns = marker_columns(image, box, colour)
+    expected = left + fraction_of(level, value_range) * (right - left)
+    assert len(columns) and abs(columns.mean() - expected) <= 2, (level, columns)
+
+
+def click_histogram(viewer, fraction):
+    """A press and release on the panel's histogram, `fraction` of the way across, over three frames."""
+    from imgui_bundle import imgui
+    (left, top), (right, bottom) = viewer._panel.histogram_box
+    io = imgui.get_io()
+    io.add_mouse_pos_event(left + fraction * (right - left), (top + bottom) / 2)
+    for down in (True, True, False):
+        io.add_mouse_button_event(0, down)
+        viewer.render(panel=True)
+
+
+def test_histogram_marks_the_level_and_a_click_on_it_sets_the_level(gl_ctx):
+    viewer = HeadlessViewer((900, 700), ctx=gl_ctx)
+    try:
+        viewer.show(open_volume("bucky"), iso=64)
+        state, colour = viewer.state, viewer.state.style.front_color
+        for level in (64.0, 190.0):
+            state.set_iso(level)
+            image = viewer.render(panel=True)
+            assert_marker_at(image, viewer._panel.histogram_box, colour, level, state.value_range)
+        click_histogram(viewer, 0.25)   # a press a quarter of the way across sets the level there
+        low, high = state.value_range
+        assert state.iso == pytest.approx(low + 0.25 * (high - low), abs=0.01 * (high - low))
+        assert state.extractor.level == pytest.approx(state.iso)
+    finally:
+        viewer.release()
+
+
+def test_save_mesh_writes_the_surface_on_show_in_the_format_of_its_name(viewer, tmp_path):
+    from support.mesh_checks import assert_closed_manifold, read_ply
+    state = viewer.state
+    assert state.save_mesh(tmp_path / "shown.ply")
+    verts, normals, _, faces = read_ply(tmp_path / "shown.ply")
+    assert len(faces) == state.n_triangles > 100 and len(verts) == state.n_vertices
+    np.testing.assert_array_equal(faces, state.extractor.read_mesh()[1])
+    assert_closed_manifold(faces)
+    assert "mesh saved" in state.message and str(tmp_path / "shown.ply") in state.message
+    # A bad name: one line in the panel, nothing written, the viewer as it was.
+    assert not state.save_mesh(tmp_path / "shown.vtk")
+    assert ".ply, .obj, .stl, .glb, .off" in state.error and "\n" not in state.error
+    assert not (tmp_path / "shown.vtk").exists()
