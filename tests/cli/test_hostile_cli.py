@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from support.hostile import refused
+from support.hostile import STRESS, refused
 
 
 @pytest.fixture
@@ -470,10 +470,11 @@ def _wait_for_numpy(process, seconds: float = 60.0) -> None:
 
 
 def test_ctrl_c_at_any_moment_of_start_up_prints_nothing(tmp_path):
-    """SIGINT at 24 seeded moments of a render's first half second once its imports begin (imports, argument
-    parsing, imgui's native start, the GL context): never a traceback, nor nanobind's abort (one render in
-    ten printed one or the other: a KeyboardInterrupt inside imgui's module start aborted the process); no
-    half file, and a PNG that is there is whole (an interrupt after its rename still ends the command 130)."""
+    """SIGINT at 8 (times ISOSCOPE_STRESS) seeded moments of a render's first half second once its imports
+    begin (imports, argument parsing, imgui's native start, the GL context): never a traceback, nor nanobind's
+    abort (one render in ten printed one or the other: a KeyboardInterrupt inside imgui's module start aborted
+    the process); no half file, and a PNG that is there is whole (an interrupt after its rename still ends the
+    command 130)."""
     import random
     import signal
     import subprocess
@@ -484,7 +485,7 @@ def test_ctrl_c_at_any_moment_of_start_up_prints_nothing(tmp_path):
 
     rng = random.Random(22)
     out = tmp_path / "r.png"
-    for _ in range(24):
+    for _ in range(8 * STRESS):
         out.unlink(missing_ok=True)
         process = subprocess.Popen([sys.executable, "-m", "isoscope", "render", "torus", "--size", "160x120",
                                     "--out", out], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)

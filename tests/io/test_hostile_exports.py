@@ -26,14 +26,14 @@ import time
 from pathlib import Path
 
 import pytest
-from support.hostile import run_isoscope, succeeded
+from support.hostile import STRESS, run_isoscope, succeeded
 
 MESH_VOLUME = ("gyroid", "--resolution", "80")         # 3-6 MB files: encoding and writing take a while
 RENDER_ARGS = ("torus", "--size", "800x600")
 MESH_SUFFIXES = (".stl", ".ply", ".glb")
 OLD_BYTES = b"an old file that must survive an interrupted export untouched\n"
-KILLS_AT_RANDOM = 11   # per signal, for the meshes (spread over the formats), at seeded random moments
-KILLS_WHILE_WRITING = 4  # per signal, for the meshes: a few ms after the temporary file appears
+KILLS_AT_RANDOM = 4 * STRESS   # per signal, for the meshes (spread over the formats), at seeded random moments
+KILLS_WHILE_WRITING = 2 * STRESS  # per signal, for the meshes: a few ms after the temporary file appears
 
 
 def command(kind: str, out) -> list[str]:
@@ -144,7 +144,8 @@ def test_mesh_export_killed_at_random_moments(signum, references, tmp_path):
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
 @pytest.mark.gl
 def test_render_png_killed_at_random_moments(signum, references, tmp_path):
-    kill_many("png", (".png",), signum, references, tmp_path, seed=122 + signum, at_random=3, while_writing=2)
+    kill_many("png", (".png",), signum, references, tmp_path, seed=122 + signum, at_random=2 * STRESS,
+              while_writing=STRESS)
 
 
 def test_sigint_in_trimesh_encoding_is_not_swallowed(tmp_path, monkeypatch):

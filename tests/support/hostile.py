@@ -19,6 +19,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 EXTRA_RSS_MB = 200
+# Interrupt tests kill real commands at seeded random moments; each kill costs a command's start.  CI runs
+# a few per path; ISOSCOPE_STRESS=N multiplies them (N=3 is what they were first run with).
+STRESS = max(1, int(os.environ.get("ISOSCOPE_STRESS", "1") or "1"))
 HARD_STOP_SECONDS = 120
 
 
