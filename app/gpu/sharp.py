@@ -37,16 +37,11 @@ import moderngl
 import numpy as np
 
 from ..core.layout import GROUP_SIZE, VERTEX_BYTES, VERTEX_FLOATS
-from ..cpu.sharp.features import (
-    CLUSTER_ANGLE,
-    JACOBI_SWEEPS,
-    LINE_MARGIN,
-    MAX_PATCH_VERTICES,
-    SINGULAR_CUTOFF,
-    bend_cos,
-    third_side_bound,
-)
-from ..cpu.sharp.features import patch_points as numpy_patch_points
+from ..cpu.sharp.cells import bend_cos
+from ..cpu.sharp.patches import MAX_PATCH_VERTICES
+from ..cpu.sharp.points import CLUSTER_ANGLE, LINE_MARGIN, third_side_bound
+from ..cpu.sharp.points import patch_points as numpy_patch_points
+from ..cpu.sharp.qef import JACOBI_SWEEPS, SINGULAR_CUTOFF
 from .mesh import GpuMesh
 from .programs import compute_program, dispatch_groups, set_uniforms
 

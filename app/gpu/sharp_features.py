@@ -17,7 +17,8 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from concurrent.futures import wait as wait_for
 
-from ..cpu.sharp.features import Stopped, crisp_normals, sharpen, signed_field
+from ..cpu.sharp.features import Stopped, sharpen, signed_field
+from ..cpu.sharp.normals import crisp_normals
 from .mesh import GpuMesh
 from .sharp import SharpExtractor
 
