@@ -20,52 +20,145 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
                    chunks=None, sharp_features=None, mask=None):
     """Extract the isosurface ``volume == level`` as an indexed, watertight triangle mesh.
 
-    Parameters follow ``skimage.measure.marching_cubes``:
+    The call and its conventions follow ``skimage.measure.marching_cubes``.
 
-    volume : 3-D array, every axis at least 2 long, finite values (or a
-        `validation.CheckedVolume`, which is not scanned again).
-    level : float, default the middle of the data range; must lie within it.
-    spacing : voxel size along axes 0, 1, 2; vertices are scaled by it.
-    gradient_direction : "descent" when the object is where values are above
-        the level (densities, CT), "ascent" when below (signed distances).
-        Normals point out of the object and triangles wind counter-clockwise
-        seen from outside.
-    step_size : sample every step_size-th grid point along each axis (a coarser,
-        faster mesh in the same units); 1 is every sample.
-    allow_degenerate : accepted for scikit-image's sake; this mesh never has
-        degenerate (zero-area) triangles, so either value gives the same mesh.
-    method : "lewiner" or "lorensen", accepted for scikit-image's sake; both give
-        this extractor's mesh, whose case table resolves ambiguous faces from their
-        four corners (Montani et al. 1994), so it is watertight as "lewiner" is, and
-        unlike "lorensen" never has holes.
-    backend : "gpu" (OpenGL 4.3 compute shaders; a standalone EGL context when
-        none is current), "cpu" (the numpy reference), or "auto" (GPU when an
-        OpenGL 4.3 context can be had).
-    smooth : iterations of smoothing, each projected back onto the level set
-        (`smooth_mesh`); 0 (default) is the plain marching-cubes mesh.  A few
-        iterations remove the sliver triangles; the faces stay the same.
-    chunks : None (the whole volume at once), or N or (a, b, c): extract boxes of at most
-        that many cells per axis on the GPU, one at a time, and stitch them by global
-        edge id into the same mesh (see isoscope.big.chunked).  Memory then grows with the box,
-        not the volume: use it for volumes larger than the GPU or RAM (a memory-mapped
-        array, np.load(path, mmap_mode="r"), or a Zarr array is read a box at a time).
+    Parameters
+    ----------
+    volume : (I, J, K) array_like
+        Every axis at least 2 long, finite values (or a `validation.CheckedVolume`,
+        which is not scanned again).
+    level : float, optional
+        The iso value; default the middle of the data range.  Must lie within it.
+    spacing : tuple of 3 floats, default (1.0, 1.0, 1.0)
+        Voxel size along axes 0, 1, 2; vertices are scaled by it.
+    gradient_direction : {"descent", "ascent"}, default "descent"
+        "descent" when the object is where values are above the level
+        (densities, CT), "ascent" when below (signed distances).  Normals point
+        out of the object and triangles wind counter-clockwise seen from outside.
+    step_size : int, default 1
+        Sample every step_size-th grid point along each axis (a coarser, faster
+        mesh in the same units); 1 is every sample.
+    allow_degenerate : bool, default True
+        Accepted for scikit-image's sake; this mesh never has degenerate
+        (zero-area) triangles, so either value gives the same mesh.
+    method : {"lewiner", "lorensen"}, default "lewiner"
+        Accepted for scikit-image's sake; both give this extractor's mesh, whose
+        case table resolves ambiguous faces from their four corners [2]_, so it is
+        watertight as "lewiner" [4]_ is, and unlike "lorensen" [1]_ never has holes.
+    backend : {"auto", "gpu", "cpu"}, default "auto"
+        "gpu" (OpenGL 4.3 compute shaders; a standalone EGL context when none is
+        current), "cpu" (the numpy extractor), or "auto" (GPU when an OpenGL 4.3
+        context can be had).
+    smooth : int, default 0
+        Iterations of smoothing, each projected back onto the level set
+        (`smooth_mesh`); 0 is the plain marching-cubes mesh.  A few iterations
+        remove the sliver triangles; the faces stay the same.
+    chunks : None, int or tuple of 3 ints, optional
+        None (the whole volume at once), or N or (a, b, c): extract boxes of at
+        most that many cells per axis on the GPU, one at a time, and stitch them
+        by global edge id into the same mesh (see `isoscope.big.chunked`).  Memory
+        then grows with the box, not the volume: use it for volumes larger than
+        the GPU or RAM (a memory-mapped array, ``np.load(path, mmap_mode="r")``,
+        or a Zarr array is read a box at a time).
+    sharp_features : float, optional
+        None for plain marching cubes, or a feature angle in degrees
+        (0 < angle < 180, e.g. 30): Extended Marching Cubes [3]_
+        (`isoscope.cpu.sharp.features`) adds a vertex on the sharp edge or corner
+        of each cell whose normals open wider than the angle, so boxes keep their
+        edges.  The extra vertices come after the plain ones; the mesh stays
+        watertight.  The plain mesh is made on the chosen backend; on "gpu" the
+        feature step's per-patch solve runs there too (shaders/emc_solve.comp:
+        the numpy mesh), the rest of it in numpy; on "cpu" all of it in numpy.
+    mask : (I, J, K) bool array, optional
+        As in scikit-image, only the cells whose far corner (i + 1, j + 1, k + 1)
+        the mask holds true get triangles, so the surface is open where it leaves
+        the mask (`isoscope.core.masking`).
 
-    mask : None, or a boolean array of the volume's shape: as in scikit-image, only the
-        cells whose far corner (i + 1, j + 1, k + 1) the mask holds true get triangles, so
-        the surface is open where it leaves the mask (isoscope.core.masking).
-    sharp_features : None for plain marching cubes, or a feature angle in degrees
-        (0 < angle < 180, e.g. 30): Extended Marching Cubes (Kobbelt et al. 2001,
-        `isoscope.cpu.sharp.features`) adds a vertex on the sharp edge or corner of each cell
-        whose normals open wider than the angle, so boxes keep their edges.  The
-        extra vertices come after the plain ones; the mesh stays watertight.  The
-        plain mesh is made on the chosen backend; on "gpu" the feature step's per-patch
-        solve runs there too (shaders/emc_solve.comp: the numpy reference's mesh), the
-        rest of it in numpy; on "cpu" all of it in numpy.
+    Returns
+    -------
+    verts : (N, 3) float32
+        Vertex positions in array-index order times `spacing`.
+    faces : (M, 3) int32
+        Triangles as indices into `verts`.
+    normals : (N, 3) float32
+        Unit normals, pointing out of the object.
+    values : (N,) float32
+        The volume at each vertex, interpolated along its grid edge (the level,
+        up to rounding and the tie rule below); sharp-feature vertices take the
+        mean of the plain ones.
 
-    Returns ``verts`` (N, 3) float32 in array-index order times spacing,
-    ``faces`` (M, 3) int32, ``normals`` (N, 3) float32 unit vectors, ``values``
-    (N,) float32.  Every grid edge whose ends lie on different sides of the
-    level has exactly one vertex, shared by the triangles that use it.
+    Raises
+    ------
+    ValueError
+        A volume, level or option the call cannot take; modes that do not go
+        together (`isoscope.options.MeshOptionsError`, e.g. `smooth` with
+        `sharp_features`) name the rule.
+
+    Notes
+    -----
+    A sample is inside when it lies on the object's side of the level or on it:
+    ties count as inside, and a vertex never lands on a grid point (it keeps
+    1/256 of an edge off), so no two vertices coincide and no triangle has zero
+    area.  Every grid edge whose ends lie on different sides of the level has
+    exactly one vertex, shared by the triangles that use it.  Away from ties the
+    vertices are scikit-image's (linear interpolation along the edge); the
+    triangles may differ in the ambiguous cells, where the case table [2]_
+    decides from the cell's faces.  Both backends give the same mesh.
+
+    References
+    ----------
+    .. [1] W. E. Lorensen and H. E. Cline, "Marching cubes: a high resolution 3D
+       surface construction algorithm", Computer Graphics (SIGGRAPH '87) 21(4),
+       163-169, 1987.
+    .. [2] C. Montani, R. Scateni and R. Scopigno, "A modified look-up table for
+       implicit disambiguation of Marching Cubes", The Visual Computer 10(6),
+       353-355, 1994.
+    .. [3] L. P. Kobbelt, M. Botsch, U. Schwanecke and H.-P. Seidel, "Feature
+       sensitive surface extraction from volume data", SIGGRAPH 2001, 57-66.
+    .. [4] T. Lewiner, H. Lopes, A. W. Vieira and G. Tavares, "Efficient
+       implementation of Marching Cubes' cases with topological guarantees",
+       Journal of Graphics Tools 8(2), 1-15, 2003.
+
+    Examples
+    --------
+    A ball of radius 0.7 as a distance field: the object is where the values are
+    below the level, so the gradient ascends out of it.
+
+    >>> import numpy as np
+    >>> import isoscope
+    >>> x = np.mgrid[-1:1:20j, -1:1:20j, -1:1:20j]
+    >>> distance = np.sqrt((x ** 2).sum(axis=0)).astype(np.float32)
+    >>> verts, faces, normals, values = isoscope.marching_cubes(
+    ...     distance, 0.7, gradient_direction="ascent", backend="cpu")
+    >>> verts.shape, faces.shape, faces.dtype.name
+    ((840, 3), (1676, 3), 'int32')
+
+    A closed surface: every edge has two triangles, and the Euler characteristic
+    is a sphere's.
+
+    >>> edges = {tuple(sorted(e)) for a, b, c in faces.tolist() for e in ((a, b), (b, c), (c, a))}
+    >>> len(verts) - len(edges) + len(faces)
+    2
+
+    scikit-image's mesh of the same ball has the same vertices:
+
+    >>> from skimage import measure
+    >>> theirs = measure.marching_cubes(distance, 0.7, gradient_direction="ascent")[0]
+    >>> bool(np.allclose(verts[np.lexsort(verts.T)], theirs[np.lexsort(theirs.T)], atol=1e-5))
+    True
+
+    A box keeps its corners with sharp features: the plain mesh cuts each one off
+    half a cell from it; Extended Marching Cubes puts a vertex on it.
+
+    >>> box = np.abs(np.mgrid[-1:1:21j, -1:1:21j, -1:1:21j]).max(axis=0) - 0.45
+    >>> plain = isoscope.marching_cubes(box, 0.0, gradient_direction="ascent", backend="cpu")[0]
+    >>> sharp = isoscope.marching_cubes(box, 0.0, gradient_direction="ascent", backend="cpu",
+    ...                                 sharp_features=30)[0]
+    >>> corner = (14.5, 14.5, 14.5)
+    >>> float(np.abs(plain - corner).max(axis=1).min()), float(np.abs(sharp - corner).max(axis=1).min())
+    (0.5, 0.0)
+    >>> bool(np.array_equal(sharp[:len(plain)], plain))  # the plain vertices come first
+    True
     """
     iterations = check_iterations(smooth)
     backend = _backend(backend)
@@ -107,21 +200,69 @@ TETRA_BACKENDS = ("auto", "gpu", "cpu", "numpy")
 
 def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
                         backend="auto", smooth=0, mask=None):
-    """Extract the isosurface ``volume == level`` by marching tetrahedra (Müller and Wehle).
+    """Extract the isosurface ``volume == level`` by marching tetrahedra [1]_.
 
-    Every cell is split into six tetrahedra along its main diagonal, the same way in every
-    cell, so they meet face to face across cells (see `isoscope.cpu.tetra`).  Inside a
-    tetrahedron the field is linear, so no cell is ambiguous: the surface is the level set
-    of the piecewise-linear interpolant, watertight and 2-manifold by construction, at the
-    price of about three times marching cubes' triangles and vertices.
+    Every cell is split into six tetrahedra along its main diagonal [2]_, the same
+    way in every cell, so they meet face to face across cells (see
+    `isoscope.cpu.tetra`).  Inside a tetrahedron the field is linear, so no cell
+    is ambiguous: the surface is the level set of the piecewise-linear
+    interpolant, watertight and 2-manifold by construction, at the price of about
+    three times marching cubes' triangles and vertices.
 
-    Arguments, returns and conventions are `marching_cubes`'s (ties count as inside,
-    normals point out of the object, triangles wind counter-clockwise seen from outside).
-    Every edge of the tetrahedral grid (the three axes, the three face diagonals and the
-    body diagonal of each cell) whose ends lie on different sides of the level has exactly
-    one vertex.  backend: "gpu", "cpu" (or "numpy": the numpy reference), or "auto".
-    smooth: iterations of smoothing projected back onto the level set, as in `marching_cubes`.
-    mask: a boolean array of the volume's shape: only cells where it is true, as in `marching_cubes`.
+    Parameters
+    ----------
+    volume, level, spacing, gradient_direction
+        As for `marching_cubes`.
+    backend : {"auto", "gpu", "cpu", "numpy"}, default "auto"
+        "gpu", "cpu" (or its other name "numpy": the numpy extractor), or "auto".
+    smooth : int, default 0
+        Iterations of smoothing projected back onto the level set, as in
+        `marching_cubes`.
+    mask : (I, J, K) bool array, optional
+        Only cells where it is true get triangles, as in `marching_cubes`.
+
+    Returns
+    -------
+    verts, faces, normals, values
+        As from `marching_cubes`.
+
+    Raises
+    ------
+    ValueError
+        As `marching_cubes`.
+
+    Notes
+    -----
+    The conventions are `marching_cubes`'s: ties count as inside, normals point
+    out of the object, triangles wind counter-clockwise seen from outside.  Every
+    edge of the tetrahedral grid (the three axes, the three face diagonals and the
+    body diagonal of each cell) whose ends lie on different sides of the level has
+    exactly one vertex.
+
+    References
+    ----------
+    .. [1] H. Müller and M. Wehle, "Visualization of implicit surfaces using
+       adaptive tetrahedrizations", Scientific Visualization Conference
+       (Dagstuhl '97), 243-250, 1997.
+    .. [2] H. Freudenthal, "Simplizialzerlegungen von beschränkter Flachheit",
+       Annals of Mathematics 43(3), 580-582, 1942.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import isoscope
+    >>> x = np.mgrid[-1:1:20j, -1:1:20j, -1:1:20j]
+    >>> distance = np.sqrt((x ** 2).sum(axis=0)).astype(np.float32)
+    >>> verts, faces, normals, values = isoscope.marching_tetrahedra(
+    ...     distance, 0.7, gradient_direction="ascent", backend="cpu")
+    >>> verts.shape, faces.shape
+    ((2486, 3), (4968, 3))
+    >>> cubes = isoscope.marching_cubes(distance, 0.7, gradient_direction="ascent", backend="cpu")
+    >>> round(len(faces) / len(cubes[1]), 1)  # about three times marching cubes' triangles
+    3.0
+    >>> edges = {tuple(sorted(e)) for a, b, c in faces.tolist() for e in ((a, b), (b, c), (c, a))}
+    >>> len(verts) - len(edges) + len(faces)  # closed, a sphere's Euler characteristic
+    2
     """
     iterations = check_iterations(smooth)
     backend = _backend(backend, TETRA_BACKENDS)
@@ -196,12 +337,82 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
                 gradient_direction="descent", normals=None, backend="auto"):
     """Smooth a mesh on ``volume == level`` (e.g. from `marching_cubes`) and project it back onto the level set.
 
-    Each of `iterations` rounds moves every vertex half-way to the average of its mesh
-    neighbours, then pulls it back onto the level set of the volume's trilinear interpolant
-    by Newton steps along the gradient (see `isoscope.cpu.smooth`).  Sliver triangles
-    even out; the surface stays where the volume puts it (no shrinking), the faces are kept.
-    verts are in array-index order times spacing.  Returns verts, faces, normals, values
-    (normals from the field's gradient at the new positions; `normals` are kept where it is flat).
+    Each of `iterations` rounds moves every vertex half-way to the average of its
+    mesh neighbours (the umbrella operator [1]_), then pulls it back onto the
+    level set of the volume's trilinear interpolant by Newton steps along the
+    gradient (see `isoscope.cpu.smooth`).  Sliver triangles even out; the surface
+    stays where the volume puts it (no shrinking, so no need for Taubin's
+    inflating step [2]_), and the faces are kept.
+
+    Parameters
+    ----------
+    volume : (I, J, K) array_like
+        The volume the mesh was extracted from.
+    verts : (N, 3) array_like
+        Vertex positions in array-index order times `spacing`.
+    faces : (M, 3) array_like of int
+        Triangles as indices into `verts`.
+    level : float
+        The iso value the mesh lies on; must lie within the volume's range.
+    iterations : int, default 5
+        Rounds of smoothing and projection.
+    spacing : tuple of 3 floats, default (1.0, 1.0, 1.0)
+        Voxel size along axes 0, 1, 2, as for `marching_cubes`.
+    gradient_direction : {"descent", "ascent"}, default "descent"
+        Which side of the level is the object, as for `marching_cubes`.
+    normals : (N, 3) array_like, optional
+        Kept where the field is flat (its gradient vanishes); zeros if not given.
+    backend : {"auto", "gpu", "cpu"}, default "auto"
+        As for `marching_cubes`; both give the same mesh.
+
+    Returns
+    -------
+    verts : (N, 3) float32
+        The smoothed positions.
+    faces : (M, 3) int32
+        The faces, unchanged.
+    normals : (N, 3) float32
+        Unit normals from the field's gradient at the new positions.
+    values : (N,) float32
+        The trilinear interpolant at the new positions.
+
+    Raises
+    ------
+    ValueError
+        A volume, level or iteration count the call cannot take, or faces that
+        index past `verts`.
+
+    Notes
+    -----
+    A vertex on the volume's border keeps its coordinate along that axis, a
+    projection that would end further off the level than it started keeps the
+    vertex where it was, and no move shrinks a triangle to zero area.
+
+    References
+    ----------
+    .. [1] L. Kobbelt, S. Campagna, J. Vorsatz and H.-P. Seidel, "Interactive
+       multi-resolution modeling on arbitrary meshes", SIGGRAPH 1998, 105-114.
+    .. [2] G. Taubin, "A signal processing approach to fair surface design",
+       SIGGRAPH 1995, 351-358.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import isoscope
+    >>> x = np.mgrid[-1:1:20j, -1:1:20j, -1:1:20j]
+    >>> distance = np.sqrt((x ** 2).sum(axis=0)).astype(np.float32)
+    >>> verts, faces, _, _ = isoscope.marching_cubes(distance, 0.7, gradient_direction="ascent", backend="cpu")
+    >>> smoothed, same_faces, normals, values = isoscope.smooth_mesh(
+    ...     distance, verts, faces, 0.7, 3, gradient_direction="ascent", backend="cpu")
+    >>> bool(np.array_equal(same_faces, faces))
+    True
+
+    The vertices stay on the ball of radius 0.7 (the grid's centre is index 9.5,
+    and 9.5 index steps span a distance of 1):
+
+    >>> radius = np.linalg.norm(smoothed - 9.5, axis=1) / 9.5
+    >>> bool(np.abs(radius - 0.7).max() < 0.005)
+    True
     """
     iterations = check_iterations(iterations)
     backend = _backend(backend)
