@@ -10,7 +10,7 @@ import errno
 import os
 import sys
 
-from ..viewer.slice_options import add_slice_arguments, apply_slice_arguments
+from ..viewer.model.slice_options import add_slice_arguments, apply_slice_arguments
 from ..volumes import DEFAULT_VOLUME, VolumeError
 from .volume_options import add_volume_arguments, open_volume_from_args
 
@@ -297,7 +297,7 @@ def _checked_iso(volume, iso: float | None) -> float | None:
 def _checked_levels(volume, isos: list[float] | None, opacity_lists=None) -> list[float | None]:
     """The --iso values (one None: the default level), each in range, at most MAX_LEVELS; and
     no more --opacity values than levels."""
-    from ..viewer.levels import MAX_LEVELS
+    from ..viewer.gfx.levels import MAX_LEVELS
     isos = isos or [None]
     if len(isos) > MAX_LEVELS:
         raise VolumeError(f"--iso given {len(isos)} times; at most {MAX_LEVELS} surfaces at once")
@@ -320,7 +320,7 @@ def run_viewer(args) -> int:
     # Inside the window the panel samples on the GPU, in the window's own context.
     volume = open_volume_from_args(args.volume, args, _progress, backend="cpu")
     iso = _checked_iso(volume, args.iso)
-    from ..viewer.window import ViewerWindow, WindowUnavailable
+    from ..viewer.ui.window import ViewerWindow, WindowUnavailable
     try:
         window = ViewerWindow(volume, iso, size=args.size, screenshot_dir=args.screenshot_dir, msaa=args.msaa,
                               screenshot_scale=args.screenshot_scale)
@@ -367,18 +367,18 @@ def _wrote(path, what: str) -> None:
 
 def run_render(args) -> int:
     from ..gpu.context import current_or_standalone
-    from ..viewer.headless import check_render_size
+    from ..viewer.ui.headless import check_render_size
     check_render_size(args.size)  # pixels: before a GL context is made
     check_render_size(args.size, current_or_standalone())  # the driver's limits, before the volume is read
     if args.labels:
         _check_label_options(args, "--iso", "--panel")
-        from ..viewer.headless import render_labels_png
+        from ..viewer.ui.headless import render_labels_png
         volume = open_volume_from_args(args.volume, args, _progress)
         path = render_labels_png(volume, args.out, size=args.size, azimuth=args.azimuth, elevation=args.elevation,
                                  transparent=args.transparent)
         _wrote(path, f"({args.size[0]}x{args.size[1]})")
         return 0
-    from ..viewer.colormaps import check_colormap
+    from ..viewer.model.colormaps import check_colormap
     if args.color_by_map:
         check_colormap(args.color_by_map)  # an unknown map is refused before any work
     volume = open_volume_from_args(args.volume, args, _progress)
@@ -389,12 +389,12 @@ def run_render(args) -> int:
                 raise ValueError(f"render --sharp draws the one sharp-featured surface; leave out {option}")
         if len(isos) > 1:
             raise ValueError("render --sharp draws one level; give one --iso")
-        from ..viewer.headless import render_sharp_png
+        from ..viewer.ui.headless import render_sharp_png
         path = render_sharp_png(volume, args.out, isos[0], args.sharp, size=args.size, azimuth=args.azimuth,
                                 elevation=args.elevation, transparent=args.transparent)
         _wrote(path, f"({args.size[0]}x{args.size[1]})")
         return 0
-    from ..viewer.headless import render_png
+    from ..viewer.ui.headless import render_png
     path = render_png(volume, args.out, isos, size=args.size, azimuth=args.azimuth,
                       elevation=args.elevation, panel=args.panel, transparent=args.transparent,
                       opacities=[a for values in args.opacity or [] for a in values],

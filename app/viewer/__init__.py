@@ -1,13 +1,12 @@
-"""The desktop viewer and its headless twin.
+"""The desktop viewer and its headless twin, in three layers.
 
-window.py    GLFW window, frame loop, mouse and keys
-headless.py  the same scene rendered into an EGL framebuffer (`isoscope render`, tests)
-state.py     what is shown: volume, extractor, iso value, flags, messages
-renderer.py  the lit mesh, wireframe and bounding box (owns the scene's GL objects)
-panel.py     the imgui panel (owns imgui and its native backends)
-camera.py    orbit camera, pyrr matrices
-slices.py    slice planes, window/level, colour maps, the clip plane (slice_panel.py, slice_options.py)
-screenshot.py PNG files
+model/  what is shown and how it may change, without GL (no moderngl import): the camera, style,
+        slice settings, value histogram, recent files, big volumes' step and export, colour maps
+gfx/    GL: the GPU surface of the volume on show, the scene renderer, slices, translucency,
+        colour by a scalar, screenshots
+ui/     the glfw window and its frame loop, the imgui panel and its sections, the headless
+        viewer (`isoscope render`, tests) that draws the same panel into an EGL framebuffer
 
+model/ imports nothing of gfx/ or ui/; gfx/ imports model/; ui/ imports both.
 Nothing is imported here: `isoscope --help` must not load GL or GLFW.
 """

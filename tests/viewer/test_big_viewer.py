@@ -9,8 +9,8 @@ import pytest
 import trimesh
 
 import isoscope
-from isoscope.viewer import big_volume
-from isoscope.viewer.state import ViewerState
+from isoscope.viewer.gfx.state import ViewerState
+from isoscope.viewer.model import big_volume
 from isoscope.volumes import open_volume
 
 

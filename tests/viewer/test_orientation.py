@@ -5,9 +5,9 @@ import nibabel
 import numpy as np
 import pytest
 
-from isoscope.viewer.camera import OrbitCamera
-from isoscope.viewer.headless import HeadlessViewer
-from isoscope.viewer.orientation import direction_letters, screen_letters
+from isoscope.viewer.model.camera import OrbitCamera
+from isoscope.viewer.ui.headless import HeadlessViewer
+from isoscope.viewer.ui.orientation import direction_letters, screen_letters
 from isoscope.volumes import open_volume
 
 

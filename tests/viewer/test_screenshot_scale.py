@@ -19,8 +19,8 @@ def test_key_s_saves_the_scene_at_the_screenshot_scale(x_display, tmp_path):
 def drive_window(x_display, tmp_path):
     """Run in a spawned process (a GLX context cannot share a process with the tests' EGL one)."""
     os.environ["DISPLAY"] = x_display
-    from isoscope.viewer.recent import RecentFiles
-    from isoscope.viewer.window import ViewerWindow
+    from isoscope.viewer.model.recent import RecentFiles
+    from isoscope.viewer.ui.window import ViewerWindow
     from isoscope.volumes import open_volume
 
     window = ViewerWindow(open_volume("sphere", resolution=24), size=(200, 120), screenshot_dir=tmp_path,

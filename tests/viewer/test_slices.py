@@ -19,8 +19,8 @@ from cmap import Colormap
 from PIL import Image
 
 from isoscope import marching_cubes
-from isoscope.viewer.headless import HeadlessViewer
-from isoscope.viewer.slices import inset_box
+from isoscope.viewer.gfx.slices import inset_box
+from isoscope.viewer.ui.headless import HeadlessViewer
 from isoscope.volumes.volume import finish_volume
 
 SIZE = (320, 240)
@@ -226,8 +226,8 @@ def click_slice_checkbox(x_display, tmp_path):
     from support.x_window import frames_until
     from test_window_input import Pointer
 
-    from isoscope.viewer.recent import RecentFiles
-    from isoscope.viewer.window import ViewerWindow
+    from isoscope.viewer.model.recent import RecentFiles
+    from isoscope.viewer.ui.window import ViewerWindow
     from isoscope.volumes import open_volume
 
     window = ViewerWindow(open_volume("sphere", resolution=32), size=(720, 760), recent=RecentFiles(None),

@@ -10,7 +10,7 @@ from PIL import Image
 from support.command import assert_one_line_error, isoscope
 from support.x_window import frames_until, run_spawned
 
-from isoscope.viewer.headless import HeadlessViewer
+from isoscope.viewer.ui.headless import HeadlessViewer
 from isoscope.volumes import open_volume
 
 SIZE = (160, 120)
@@ -144,9 +144,9 @@ def test_render_draws_a_colour_bar_and_export_writes_one_file_per_level(tmp_path
                       "--color-by", "gradient", "--color-by-map", "viridis", "--size", "320x240", "--out", out)
     assert result.returncode == 0, result.stderr
     image = np.asarray(Image.open(out).convert("RGB")).astype(int)
-    from isoscope.viewer.colorby import colormap_rgb
+    from isoscope.viewer.gfx.colorby import colormap_rgb
     lut = np.round(colormap_rgb("viridis") * 255)
-    from isoscope.viewer.colorbar import BAR_WIDTH, LINE, MARGIN, MAX_BAR_SHARE
+    from isoscope.viewer.gfx.colorbar import BAR_WIDTH, LINE, MARGIN, MAX_BAR_SHARE
     bar = image[:, 320 - MARGIN - BAR_WIDTH // 2]   # the map from top (high) to bottom (low), at the right
     top = MARGIN + 2 * LINE
     bottom = top + int(MAX_BAR_SHARE * 240)
@@ -177,8 +177,8 @@ def test_bad_levels_and_looks_are_one_line_errors(tmp_path, args, words):
 
 
 def test_a_drag_previews_the_moving_level_within_what_the_other_levels_leave_of_the_budget(gl_ctx, monkeypatch):
-    import isoscope.viewer.surface as surface_module
-    from isoscope.viewer.state import ViewerState
+    import isoscope.viewer.gfx.surface as surface_module
+    from isoscope.viewer.gfx.state import ViewerState
 
     state = ViewerState(gl_ctx, level_of_detail=True)
     try:
@@ -227,8 +227,8 @@ def test_the_real_window_blends_a_translucent_shell_over_an_opaque_one(x_display
 def drive_window_with_two_surfaces(x_display, tmp_path):
     import os
     os.environ["DISPLAY"] = x_display
-    from isoscope.viewer.recent import RecentFiles
-    from isoscope.viewer.window import ViewerWindow
+    from isoscope.viewer.model.recent import RecentFiles
+    from isoscope.viewer.ui.window import ViewerWindow
 
     window = ViewerWindow(sphere(), iso=OUTER, size=(640, 400), screenshot_dir=tmp_path, recent=RecentFiles(None))
     try:

@@ -6,9 +6,9 @@ import json
 import numpy as np
 import pytest
 
-from isoscope.viewer.headless import HeadlessViewer
-from isoscope.viewer.recent import RecentFiles
-from isoscope.viewer.style import SurfaceStyle
+from isoscope.viewer.model.recent import RecentFiles
+from isoscope.viewer.model.style import SurfaceStyle
+from isoscope.viewer.ui.headless import HeadlessViewer
 from isoscope.volumes import open_volume
 
 SIZE = (480, 360)
@@ -253,9 +253,9 @@ def test_progress_bar_is_drawn_while_loading(viewer, tmp_path):
 def test_a_dragged_value_shows_a_coarse_preview_then_the_full_mesh_at_rest(gl_ctx, monkeypatch):
     from support.mesh_checks import assert_same_mesh
 
-    import isoscope.viewer.surface as surface_module
+    import isoscope.viewer.gfx.surface as surface_module
     from isoscope.cpu.cubes import marching_cubes_reference
-    from isoscope.viewer.state import REST_S, ViewerState
+    from isoscope.viewer.gfx.state import REST_S, ViewerState
 
     monkeypatch.setattr(surface_module, "PREVIEW_TRIANGLES", 3000)  # a small volume's mesh is "big"
     state = ViewerState(gl_ctx, level_of_detail=True)
@@ -293,7 +293,7 @@ def test_a_dragged_value_shows_a_coarse_preview_then_the_full_mesh_at_rest(gl_ct
 
 
 def test_headless_renders_never_show_a_preview(viewer, monkeypatch):
-    import isoscope.viewer.surface as surface_module
+    import isoscope.viewer.gfx.surface as surface_module
     monkeypatch.setattr(surface_module, "PREVIEW_TRIANGLES", 10)
     state = viewer.state
     for value in (0.1, 0.2, 0.3):
@@ -303,7 +303,7 @@ def test_headless_renders_never_show_a_preview(viewer, monkeypatch):
 
 
 def test_value_histogram_counts_every_sample_on_a_log_scale():
-    from isoscope.viewer.histogram import BINS, value_histogram
+    from isoscope.viewer.model.histogram import BINS, value_histogram
     data = np.zeros((10, 10, 10), np.uint8)
     data[:5] = 200                                   # 500 samples at 200, 500 at 0
     data[0, 0, 0] = 100
@@ -322,7 +322,7 @@ def marker_columns(image, box, colour):
 
 def assert_marker_at(image, box, colour, level, value_range):
     """The histogram shows a marker in `colour` where `level` falls in `value_range`."""
-    from isoscope.viewer.histogram import fraction_of
+    from isoscope.viewer.model.histogram import fraction_of
     (left, _), (right, _) = box
     columns = marker_columns(image, box, colour)
     expected = left + fraction_of(level, value_range) * (right - left)

@@ -10,7 +10,7 @@ from scipy.ndimage import map_coordinates
 from support.command import assert_one_line_error, isoscope
 
 import isoscope as api
-from isoscope.viewer.headless import HeadlessViewer
+from isoscope.viewer.ui.headless import HeadlessViewer
 from isoscope.volumes import open_volume
 
 

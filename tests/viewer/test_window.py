@@ -32,8 +32,8 @@ def drive_window(x_display, tmp_path):
     os.environ["DISPLAY"] = x_display
     import glfw
 
-    from isoscope.viewer.recent import RecentFiles
-    from isoscope.viewer.window import ViewerWindow
+    from isoscope.viewer.model.recent import RecentFiles
+    from isoscope.viewer.ui.window import ViewerWindow
     from isoscope.volumes import open_volume
 
     window = ViewerWindow(open_volume("sphere", resolution=32), size=(640, 400),

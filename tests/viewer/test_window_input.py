@@ -72,8 +72,8 @@ def camera_pose(camera):
 
 def open_window_and_run(x_display, body):
     os.environ["DISPLAY"] = x_display
-    from isoscope.viewer.recent import RecentFiles
-    from isoscope.viewer.window import ViewerWindow
+    from isoscope.viewer.model.recent import RecentFiles
+    from isoscope.viewer.ui.window import ViewerWindow
     from isoscope.volumes import open_volume
 
     window = ViewerWindow(open_volume("sphere", resolution=32), size=(640, 400), recent=RecentFiles(None))
@@ -130,8 +130,8 @@ def panel_placement(window, pointer):
     import glfw
     from imgui_bundle import imgui
 
-    from isoscope.viewer.camera import HOME_AZIMUTH
-    from isoscope.viewer.panel import PANEL_HOME, PANEL_KEEP_VISIBLE, PANEL_TITLE
+    from isoscope.viewer.model.camera import HOME_AZIMUTH
+    from isoscope.viewer.ui.panel import PANEL_HOME, PANEL_KEEP_VISIBLE, PANEL_TITLE
 
     def panel_box():
         panel = imgui.internal.find_window_by_name(PANEL_TITLE)

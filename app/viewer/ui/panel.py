@@ -11,14 +11,14 @@ import shutil
 import sys
 from pathlib import Path
 
-from ..volumes import builtin_names
+from ...volumes import builtin_names
+from ..gfx.state import ViewerState
+from ..model.histogram import fraction_of, level_at
 from .gui import imgui
-from .histogram import fraction_of, level_at
 from .levels_panel import LevelsSection
 from .mesh_panel import LabelsSection, MeshSection
 from .orientation import draw_orientation
 from .slice_panel import SlicePanel
-from .state import ViewerState
 
 PANEL_TITLE = "isoscope"
 PANEL_WIDTH = 330

@@ -20,8 +20,8 @@ import threading
 
 import numpy as np
 
-from ..core.lazy_arrays import read_block
-from ..volumes import Volume
+from ...core.lazy_arrays import read_block
+from ...volumes import Volume
 
 VIEWER_MAX_VOXELS = 256 ** 3
 """Samples the viewer shows live; a larger volume is shown at every step-th sample."""

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from ..io.atomic import write_atomically
+from ...io.atomic import write_atomically
 
 
 def save_png(pixels: np.ndarray, path) -> Path:

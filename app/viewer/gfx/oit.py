@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import moderngl
 
-from ..resources import shader_source
+from ...resources import shader_source
 
 # Additive for the weighted sums; the accum target's alpha multiplies by (1 - a): the revealage.
 ACCUM_BLEND = (moderngl.ONE, moderngl.ONE, moderngl.ZERO, moderngl.ONE_MINUS_SRC_ALPHA)

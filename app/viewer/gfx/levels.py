@@ -17,11 +17,11 @@ from dataclasses import dataclass, field
 
 import moderngl
 
-from ..core.layout import INDEX_BYTES, VERTEX_BYTES
-from ..gpu.mesh import GpuMesh
-from ..volumes import open_volume
+from ...core.layout import INDEX_BYTES, VERTEX_BYTES
+from ...gpu.mesh import GpuMesh
+from ...volumes import open_volume
+from ..model.big_volume import viewer_level
 from . import surface as surface_module
-from .big_volume import viewer_level
 from .colorby import DEFAULT_COLORMAP, SOURCES, ColorBy, make_color_by
 from .loading import USER_ERRORS, one_line
 

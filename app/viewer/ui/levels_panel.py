@@ -2,12 +2,12 @@
 and its colour bar.  Every change goes through `ViewerState` (levels.py)."""
 from __future__ import annotations
 
-from .colorbar import tick_label
-from .colorby import SOURCES
-from .colormaps import COLORMAPS
+from ..gfx.colorbar import tick_label
+from ..gfx.colorby import SOURCES
+from ..gfx.levels import MAX_LEVELS
+from ..gfx.state import ViewerState
+from ..model.colormaps import COLORMAPS
 from .gui import imgui
-from .levels import MAX_LEVELS
-from .state import ViewerState
 
 NEW_LEVEL_STEP = 0.1    # an added level starts this fraction of the range above the selected one
 COLORBAR_HEIGHT = 14.0

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..gpu.mesh import GpuMesh
-from ..labels import check_label_output, label_surfaces, labels_of, write_labelled
+from ...gpu.mesh import GpuMesh
+from ...labels import check_label_output, label_surfaces, labels_of, write_labelled
 from .label_scene import label_scene
 from .levels import SurfaceLook
 from .loading import USER_ERRORS, one_line
@@ -70,7 +70,7 @@ class LabelLayers:
     def save_labels(self, path, one_file: bool = False) -> bool:
         """The visible labels' surfaces, in the volume's world space: STEM_label<N>.EXT each, or with
         `one_file` all in `path` (PLY, GLB) with per-vertex colours.  False with `error` set."""
-        from ..io.export import in_volume_space
+        from ...io.export import in_volume_space
         layers = [layer for layer in self.label_layers if layer.visible]
         try:
             check_label_output(path, one_file)

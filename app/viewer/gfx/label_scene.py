@@ -5,8 +5,8 @@ panel can too); `headless.render_labels_png` draws one to a PNG, as `isoscope re
 """
 from __future__ import annotations
 
-from ..gpu.mesh import GpuMesh
-from ..labels import label_colors
+from ...gpu.mesh import GpuMesh
+from ...labels import label_colors
 
 
 def label_scene(ctx, surfaces: dict) -> list[tuple[int, GpuMesh, tuple[float, float, float]]]:

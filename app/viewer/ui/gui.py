@@ -7,7 +7,7 @@ the process ("Critical nanobind error"). So the import runs with SIGINT and SIGT
 """
 from __future__ import annotations
 
-from ..io.atomic import signals_deferred
+from ...io.atomic import signals_deferred
 
 with signals_deferred():
     from imgui_bundle import imgui

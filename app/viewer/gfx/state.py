@@ -15,20 +15,21 @@ from pathlib import Path
 
 import moderngl
 
-from ..cpu.sharp.features import check_feature_angle
-from ..cpu.smooth import check_iterations
-from ..gpu.mesh import GpuMesh
-from ..labels import label_count_hint
-from ..options import MeshOptions
-from ..volumes import Volume, open_volume
-from .big_volume import FullResolutionExport, viewer_level
-from .histogram import value_histogram
+from ...cpu.sharp.features import check_feature_angle
+from ...cpu.smooth import check_iterations
+from ...gpu.mesh import GpuMesh
+from ...labels import label_count_hint
+from ...options import MeshOptions
+from ...volumes import Volume, open_volume
+from ..model.big_volume import FullResolutionExport, viewer_level
+from ..model.histogram import value_histogram
+from ..model.recent import RecentFiles
+from ..model.slices import SliceSettings
+from ..model.style import SurfaceStyle
 from .label_layers import LabelLayers
 from .levels import SurfaceLevels, SurfaceLook
 from .loading import USER_ERRORS, PendingLoad, one_line
-from .recent import RecentFiles
-from .slices import SliceScene, SliceSettings
-from .style import SurfaceStyle
+from .slices import SliceScene
 from .surface import GpuSurface
 
 ANIMATION_PERIOD_S = 6.0          # one sweep up and back down
@@ -356,7 +357,7 @@ class ViewerState(SurfaceLevels, LabelLayers):
     def save_mesh(self, path) -> bool:
         """Write the surface on show (at full resolution) to `path`, in the format of its extension
         and the volume's world coordinates where its file defines them; False with `error` set."""
-        from ..io.export import COLOR_FORMATS, in_volume_space, write_mesh
+        from ...io.export import COLOR_FORMATS, in_volume_space, write_mesh
         if self.label_layers:   # a label map: its visible labels, in one coloured file where the format can
             return self.save_labels(path, one_file=Path(path).suffix.lower() in COLOR_FORMATS)
         if self.surface is None:

@@ -5,7 +5,7 @@ import threading
 
 import moderngl
 
-from ..volumes import Volume, open_volume
+from ...volumes import Volume, open_volume
 
 # What a bad volume or extraction can raise: one-line messages meant for the user.
 USER_ERRORS = (ValueError, OSError, moderngl.Error)

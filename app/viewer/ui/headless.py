@@ -8,22 +8,22 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..cpu.sharp.features import crisp_normals
-from ..cpu.smooth import check_iterations
-from ..gpu.context import current_or_standalone
-from ..gpu.mesh import GpuMesh
-from ..gpu.sharp_features import sharp_mesh_of
-from ..labels import label_surfaces, labels_of
-from ..options import MeshOptions
-from ..volumes import Volume
-from .camera import OrbitCamera
-from .colorbar import draw_colorbar
-from .label_scene import label_scene, release_scene
-from .levels import SurfaceLook
+from ...cpu.sharp.normals import crisp_normals
+from ...cpu.smooth import check_iterations
+from ...gpu.context import current_or_standalone
+from ...gpu.mesh import GpuMesh
+from ...gpu.sharp_features import sharp_mesh_of
+from ...labels import label_surfaces, labels_of
+from ...options import MeshOptions
+from ...volumes import Volume
+from ..gfx.colorbar import draw_colorbar
+from ..gfx.label_scene import label_scene, release_scene
+from ..gfx.levels import SurfaceLook
+from ..gfx.renderer import OffscreenTarget, SceneRenderer
+from ..gfx.screenshot import save_png
+from ..gfx.state import ViewerState
+from ..model.camera import OrbitCamera
 from .panel import ImguiLayer, Panel
-from .renderer import OffscreenTarget, SceneRenderer
-from .screenshot import save_png
-from .state import ViewerState
 
 MAX_RENDER_PIXELS = 4096 * 4096
 """A render's pixels at most (16.8 million: 4096x4096, 5120x3276, 3840x2160 twice over).  Its buffers

@@ -15,14 +15,14 @@ import glfw
 import moderngl
 import numpy as np
 
-from ..errors import IsoscopeError
-from ..volumes import Volume
-from .camera import OrbitCamera
+from ...errors import IsoscopeError
+from ...volumes import Volume
+from ..gfx.renderer import OffscreenTarget, SceneRenderer, read_rgb
+from ..gfx.screenshot import next_screenshot_path, save_png
+from ..gfx.state import ViewerState
+from ..model.camera import OrbitCamera
+from ..model.recent import RecentFiles
 from .panel import ImguiLayer, Panel
-from .recent import RecentFiles
-from .renderer import OffscreenTarget, SceneRenderer, read_rgb
-from .screenshot import next_screenshot_path, save_png
-from .state import ViewerState
 
 # GLFW errors reach the user through WindowUnavailable's one line, not as Python warnings.
 glfw.ERROR_REPORTING = "ignore"

@@ -15,46 +15,30 @@ no CPU work and no upload.
 The clip plane hides the surface on one side of an axis-aligned plane (hardware
 clip distance in mesh.vert) and the cut is capped by the slice at the clip
 position, drawn only inside the object (so the surface beyond the cut still shows
-around it).  `SliceSettings` is what the panel and the command line change (through
-ViewerState); `SliceRenderer` owns the GL objects that draw it.
+around it).  `SliceSettings` (model/slices.py) is what the panel and the command line change
+(through ViewerState); `SliceRenderer` owns the GL objects that draw it.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import moderngl
 import numpy as np
 
-from ..core.layout import EDGE_MARGIN
-from ..resources import shader_source
-from .colormaps import LUT_SIZE, check_colormap, colormap_rgba
-from .slice_options import AXES
+from ...core.layout import EDGE_MARGIN
+from ...resources import shader_source
+from ..model.colormaps import LUT_SIZE, colormap_rgba
+from ..model.slices import SliceSettings
 
 INSET_FRACTION = 0.34     # the 2-D view's longer side, as a fraction of the scene's shorter side
 INSET_MARGIN = 10         # pixels from the scene's bottom-right corner
 INSET_BORDER = 2          # pixels of frame around it
-WINDOW_PERCENTILES = (0.5, 99.5)   # the default window spans these percentiles of the values
-MAX_PERCENTILE_SAMPLES = 1 << 21
 GL_CLIP_DISTANCE0 = 0x3000
 
 
 def colormap_rgba8(name: str) -> np.ndarray:
     """(LUT_SIZE, 4) uint8 RGBA of the `cmap` colour map `name`; ValueError for an unknown name."""
     return np.clip(np.round(colormap_rgba(name) * 255), 0, 255).astype(np.uint8)
-
-
-def default_window(data: np.ndarray, value_range: tuple[float, float]) -> tuple[float, float]:
-    """(window, level) spanning WINDOW_PERCENTILES of the values: a scan's few extreme voxels do
-    not wash out the rest.  Big volumes are sampled on a regular sub-grid."""
-    step = 1
-    while data.size > MAX_PERCENTILE_SAMPLES * step**3:
-        step += 1
-    low, high = np.percentile(data[::step, ::step, ::step], WINDOW_PERCENTILES)
-    if not high > low:
-        low, high = value_range
-    window = float(high - low) if high > low else 1.0
-    return window, float(low + high) / 2
 
 
 def slice_image(data: np.ndarray, axis: int, position: float) -> np.ndarray:
@@ -66,90 +50,6 @@ def slice_image(data: np.ndarray, axis: int, position: float) -> np.ndarray:
     if t > 0:
         image += np.float32(t) * (np.take(data, below + 1, axis=axis).astype(np.float32) - image)
     return np.ascontiguousarray(image)
-
-
-@dataclass
-class Clip:
-    axis: int = 2
-    position: float = 0.0      # array index along `axis`; may be fractional
-    hide_above: bool = True    # hide the surface where the index is above `position` (else below)
-
-    def plane(self, spacing) -> tuple[float, float, float, float]:
-        """(a, b, c, d): a world point p is kept where a*px + b*py + c*pz + d >= 0."""
-        sign = -1.0 if self.hide_above else 1.0
-        normal = [0.0, 0.0, 0.0]
-        normal[self.axis] = sign
-        return (*normal, -sign * self.position * spacing[self.axis])
-
-
-@dataclass
-class SliceSettings:
-    """What slices show: the panel and the command line change it through ViewerState's methods,
-    which check each value against the volume on show (`fit` records its shape)."""
-    shown: list[bool] = field(default_factory=lambda: [False, False, False])
-    index: list[int] = field(default_factory=lambda: [0, 0, 0])
-    active: int = 2            # the slice in the 2-D view
-    window: float = 1.0
-    level: float = 0.5
-    colormap: str = "gray"
-    clip: Clip | None = None   # None: the surface is whole
-    inset: bool = True         # the 2-D view of the active slice, bottom right
-    shape: tuple[int, int, int] = (2, 2, 2)
-
-    def fit(self, data: np.ndarray, value_range: tuple[float, float]) -> None:
-        """A new volume: slices (and the clip) to the middle, the window to its values."""
-        self.shape = tuple(data.shape)
-        self.index = [(n - 1) // 2 for n in self.shape]
-        if self.clip is not None:
-            self.clip.position = (self.shape[self.clip.axis] - 1) / 2
-        self.window, self.level = default_window(data, value_range)
-
-    def show(self, axis: int, shown: bool = True, index: int | None = None) -> None:
-        if index is not None:
-            n = self.shape[axis]
-            if not (float(index).is_integer() and 0 <= index < n):
-                raise ValueError(f"slice {AXES[axis]}={index} is outside the volume; "
-                                 f"{AXES[axis]} runs from 0 to {n - 1}")
-            self.index[axis] = int(index)
-        self.shown[axis] = bool(shown)
-        self.active = axis
-
-    def set_clip(self, axis: int | None, position: float | None = None, hide_above: bool = True) -> None:
-        """Clip at `position` (default: the middle) along `axis`; axis None removes the clip."""
-        if axis is None:
-            self.clip = None
-            return
-        n = self.shape[axis]
-        position = (n - 1) / 2 if position is None else float(position)
-        if not 0 <= position <= n - 1:
-            raise ValueError(f"clip {AXES[axis]}={position:g} is outside the volume; "
-                             f"{AXES[axis]} runs from 0 to {n - 1}")
-        self.clip = Clip(axis, position, hide_above)
-
-    def set_window_level(self, window: float | None, level: float | None) -> None:
-        window = self.window if window is None else float(window)
-        level = self.level if level is None else float(level)
-        if not (np.isfinite(window) and window > 0 and np.isfinite(level)):
-            raise ValueError(f"window {window:g} must be a positive number (and the level finite)")
-        self.window, self.level = window, level
-
-    def set_colormap(self, name: str) -> None:
-        check_colormap(name)
-        self.colormap = name
-
-    def planes(self) -> list[tuple[int, float, bool]]:
-        """(axis, index, cap) of every plane to draw: the shown slices, then the clip's cut (a cap:
-        drawn only inside the object)."""
-        planes = [(axis, float(self.index[axis]), False) for axis in range(3) if self.shown[axis]]
-        if self.clip is not None:
-            planes.append((self.clip.axis, self.clip.position, True))
-        return planes
-
-    def inset_axis(self) -> int | None:
-        """The slice in the 2-D view: the active one if shown, else the first shown."""
-        if not self.inset or not any(self.shown):
-            return None
-        return self.active if self.shown[self.active] else self.shown.index(True)
 
 
 class SliceScene(NamedTuple):

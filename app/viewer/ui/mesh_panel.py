@@ -2,10 +2,10 @@
 surfaces, each shown or hidden).  Every change goes through `ViewerState`."""
 from __future__ import annotations
 
-from ..options import CELLS
+from ...options import CELLS
+from ..gfx.state import ViewerState
 from .gui import imgui
 from .levels_panel import tooltip
-from .state import ViewerState
 
 MAX_SMOOTH_SLIDER = 10
 DEFAULT_SHARP_ANGLE = 30.0

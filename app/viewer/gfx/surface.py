@@ -10,13 +10,13 @@ the value rests (`ViewerState` decides when).
 """
 from __future__ import annotations
 
-from ..gpu.cubes import Extractor
-from ..gpu.mesh import GpuMesh
-from ..gpu.sharp_features import SharpenedMesh
-from ..gpu.smooth import Smoother
-from ..gpu.tetra import TetraExtractor
-from ..validation import subsampled
-from ..volumes import Volume
+from ...gpu.cubes import Extractor
+from ...gpu.mesh import GpuMesh
+from ...gpu.sharp_features import SharpenedMesh
+from ...gpu.smooth import Smoother
+from ...gpu.tetra import TetraExtractor
+from ...validation import subsampled
+from ...volumes import Volume
 
 PREVIEW_TRIANGLES = 60_000
 """Triangles a preview mesh aims to stay under: llvmpipe draws about that many in 10-15 ms."""

@@ -14,13 +14,13 @@ from collections.abc import Sequence
 import moderngl
 import numpy as np
 
-from ..core.layout import VERTEX_FORMAT, vertex_format
-from ..gpu.mesh import GpuMesh
-from ..resources import shader_source
+from ...core.layout import VERTEX_FORMAT, vertex_format
+from ...gpu.mesh import GpuMesh
+from ...resources import shader_source
+from ..model.style import SurfaceStyle
 from .levels import SurfaceLook
 from .oit import OitTargets
 from .slices import GL_CLIP_DISTANCE0, SliceRenderer, SliceScene
-from .style import SurfaceStyle
 
 WIRE_COLOR = (0.02, 0.02, 0.05)
 WIRE_OPACITY = 0.45

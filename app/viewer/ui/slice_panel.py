@@ -4,10 +4,11 @@ Every change goes through ViewerState's methods, which check it against the volu
 """
 from __future__ import annotations
 
-from .colormaps import COLORMAPS
+from ..gfx.state import ViewerState
+from ..model.colormaps import COLORMAPS
+from ..model.slice_options import AXES
+from ..model.slices import default_window
 from .gui import imgui
-from .slices import AXES, default_window
-from .state import ViewerState
 
 CLIP_SIDES = ("hide above", "hide below")
 

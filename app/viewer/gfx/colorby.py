@@ -15,8 +15,8 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from ..volumes import Volume
-from .colormaps import LUT_SIZE, colormap_rgba
+from ...volumes import Volume
+from ..model.colormaps import LUT_SIZE, colormap_rgba
 
 SOURCES = ("value", "gradient")
 DEFAULT_COLORMAP = "viridis"
