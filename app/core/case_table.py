@@ -251,10 +251,15 @@ def _table(score) -> CaseTable:
         for loop in _loops(case):
             triangles.extend(_triangulate(loop, score))
         per_case.append(triangles)
+    return CaseTable(*padded_cases(per_case))
+
+
+def padded_cases(per_case: list[list]) -> tuple[np.ndarray, np.ndarray]:
+    """A table's (triangles (256, widest case, 3) int8 padded with -1, counts (256,) uint8) from each case's
+    list of triangles."""
     width = max(len(t) for t in per_case)
     table = np.full((256, width, 3), -1, dtype=np.int8)
     for case, triangles in enumerate(per_case):
         if triangles:
             table[case, : len(triangles)] = triangles
-    counts = np.array([len(t) for t in per_case], dtype=np.uint8)
-    return CaseTable(table, counts)
+    return table, np.array([len(t) for t in per_case], dtype=np.uint8)

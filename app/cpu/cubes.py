@@ -5,8 +5,9 @@ Read it beside `shaders/mc_*.comp`; each step below names the pass it mirrors.
 Conventions shared with the GPU (see `isoscope.core.case_table` for the cell geometry):
 
 * A sample is *inside* when ``sign * value >= sign * level``, with
-  ``sign = +1`` for gradient_direction "descent" (object above the level) and
-  ``-1`` for "ascent".  Ties count as inside: a symbolic form of perturbing exact
+  ``sign = +1`` where ``descent`` is true (object above the level: the API's
+  gradient_direction "descent") and ``-1`` where it is false ("ascent"); `oriented`
+  turns field and level so.  Ties count as inside: a symbolic form of perturbing exact
   zeros to a tiny non-zero (Bridson, Fluid Simulation for Computer Graphics),
   so a sample equal to the level never needs a special case.
 * Every grid edge whose ends differ gets one vertex, owned by the edge's lower
@@ -37,6 +38,15 @@ def brick_order_key(points: np.ndarray, shape) -> np.ndarray:
     i, j, k = points[:, 0], points[:, 1], points[:, 2]
     brick = ((i // BRICK_I) * bricks_j + j // BRICK_J) * words + k // WORD_BITS
     return brick * (BRICK_I * BRICK_J) + (i % BRICK_I) * BRICK_J + j % BRICK_J
+
+
+def oriented(volume: np.ndarray, level: float, descent: bool) -> tuple[np.ndarray, np.float32]:
+    """`volume` and `level` turned so that the object is where the field is at or above the level: as they
+    are where `descent` (object above the level), both negated where not.  The field is `volume` itself, not
+    a copy, where `descent`; the level is float32."""
+    if descent:
+        return volume, np.float32(level)
+    return -volume, np.float32(-level)
 
 
 def inside_mask(field: np.ndarray, level: float) -> np.ndarray:
@@ -99,13 +109,13 @@ def vertex_positions(field, level, points, axes, spacing, origin=(0, 0, 0), para
     return (positions, t, v0, v1) if parameters else positions
 
 
-def place_vertices(field, inside, level, points, axes, spacing, sign, steps=None):
-    """mc_vertices.comp: position, outward normal and value of each edge's vertex (`steps`: as in
-    `vertex_positions`)."""
+def place_vertices(field, inside, level, points, axes, spacing, descent: bool, steps=None):
+    """mc_vertices.comp: position, outward normal and value of each edge's vertex, of the `oriented` field
+    (`steps`: as in `vertex_positions`; values are the volume's, turned back where not `descent`)."""
     positions, t, v0, v1 = vertex_positions(field, level, points, axes, spacing, parameters=True, steps=steps)
     step = np.eye(3, dtype=np.int64)[axes] if steps is None else steps
     ends = points + step
-    values = (v0 + t * (v1 - v0)) * np.float32(sign)
+    values = (v0 + t * (v1 - v0)) * np.float32(1.0 if descent else -1.0)
 
     g0 = gradient_at(field, points, spacing)
     g1 = gradient_at(field, ends, spacing)
@@ -120,6 +130,28 @@ def place_vertices(field, inside, level, points, axes, spacing, sign, steps=None
     along /= np.linalg.norm(along, axis=1, keepdims=True)  # exactly `step` for an axis edge
     normals[~ok] = np.where(start_inside[~ok, None], 1.0, -1.0) * along[~ok]
     return positions, normals.astype(np.float32), values.astype(np.float32)
+
+
+def ordered_edges(masks: list[np.ndarray], shape) -> tuple[np.ndarray, np.ndarray]:
+    """The crossing edges (`masks[kind]`: the grid points owning one of that kind; for cubes the kind is
+    the axis) as owner points (E, 3) and kinds (E,), in the GPU's (brick, word in brick, kind, k) order."""
+    owners = [np.argwhere(m) for m in masks]
+    points = np.concatenate(owners).astype(np.int64)
+    kinds = np.concatenate([np.full(len(o), kind) for kind, o in enumerate(owners)]).astype(np.int64)
+    order = np.lexsort((points[:, 2], kinds, brick_order_key(points, shape)))
+    return points[order], kinds[order]
+
+
+def vertex_of_edges(edge_ids: np.ndarray, wanted: np.ndarray, table_name: str) -> np.ndarray:
+    """The vertex of each `wanted` edge id (M, 3), the vertices being numbered in `edge_ids` order; found
+    through the sorted ids: memory in proportion to the mesh, not the volume (a dense map is 24 bytes a
+    voxel).  AssertionError where a wanted edge has no vertex: `table_name` is broken."""
+    by_id = np.argsort(edge_ids)
+    sorted_ids = edge_ids[by_id]
+    slot = np.searchsorted(sorted_ids, wanted)
+    if wanted.size and not np.array_equal(sorted_ids[np.minimum(slot, len(sorted_ids) - 1)], wanted):
+        raise AssertionError(f"a triangle uses an edge with no vertex: the {table_name} is broken")
+    return by_id[slot] if wanted.size else np.zeros((0, 3), np.int64)
 
 
 def ordered_triangles(table: CaseTable, cases: np.ndarray, shape):
@@ -141,36 +173,19 @@ def marching_cubes_reference(volume: np.ndarray, level: float, spacing=(1.0, 1.0
     `volume` must already be validated (3-D float32, finite, every axis >= 2).
     """
     table = table or montani_table()
-    sign = 1.0 if descent else -1.0
-    field = volume if descent else -volume
-    lvl = np.float32(sign * level)
+    field, lvl = oriented(volume, level, descent)
     spacing = np.asarray(spacing, dtype=np.float64)
-    n0, n1, n2 = field.shape
-
     inside = inside_mask(field, lvl)
 
     # Vertices: one per crossing edge, in the GPU's (brick, word, axis, k) order.
-    masks = crossing_edges(inside)
-    owners = [np.argwhere(m) for m in masks]
-    points = np.concatenate(owners).astype(np.int64)
-    axes = np.concatenate([np.full(len(o), a) for a, o in enumerate(owners)]).astype(np.int64)
-    order = np.lexsort((points[:, 2], axes, brick_order_key(points, field.shape)))
-    points, axes = points[order], axes[order]
-
-    # (owner point, axis) -> vertex index, through the sorted ids of the crossing edges: memory
-    # in proportion to the mesh, not the volume (a dense map is 24 bytes a voxel).
-    edge_ids = np.ravel_multi_index(points.T, field.shape) * 3 + axes
-    by_id = np.argsort(edge_ids)
-    sorted_ids = edge_ids[by_id]
-    verts, normals, values = place_vertices(field, inside, lvl, points, axes, spacing, sign)
+    points, axes = ordered_edges(crossing_edges(inside), field.shape)
+    verts, normals, values = place_vertices(field, inside, lvl, points, axes, spacing, descent)
 
     # Triangles: mc_triangles.comp, cells in (brick, word, k) order, the table's triangles in order.
     cells, cell_of_tri, edges = ordered_triangles(table, cube_cases(inside), field.shape)
 
+    # (owner point, axis) -> vertex index.
     owner = cells[cell_of_tri][:, None, :] + EDGE_ORIGIN[edges]  # (M, 3 corners, 3 coords)
     wanted = np.ravel_multi_index(np.moveaxis(owner, -1, 0), field.shape) * 3 + EDGE_AXIS[edges]
-    slot = np.searchsorted(sorted_ids, wanted)
-    if wanted.size and not np.array_equal(sorted_ids[np.minimum(slot, len(sorted_ids) - 1)], wanted):
-        raise AssertionError("a triangle uses an edge with no vertex: the case table is broken")
-    faces = by_id[slot] if wanted.size else np.zeros((0, 3), np.int64)
+    faces = vertex_of_edges(np.ravel_multi_index(points.T, field.shape) * 3 + axes, wanted, "case table")
     return verts, faces.astype(np.int32), normals, values

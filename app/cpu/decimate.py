@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .interpolate import trilinear_value
+
 
 def open_edges(faces: np.ndarray) -> int:
     """Edges used by one triangle only: 0 for a closed surface."""
@@ -51,30 +53,16 @@ def decimate(verts, faces, fraction: float):
     return out_verts, out_faces, vertex_normals(out_verts, out_faces)
 
 
-def trilinear(field: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """The field's trilinear interpolant at `points` (N, 3) in index coordinates, clamped to the grid."""
-    upper = np.array(field.shape) - 1
-    points = np.clip(points, 0, upper)
-    low = np.minimum(np.floor(points).astype(np.int64), np.maximum(upper - 1, 0))
-    t = points - low
-    value = np.zeros(len(points))
-    for corner in range(8):
-        offset = np.array([(corner >> a) & 1 for a in range(3)])
-        weight = np.prod(np.where(offset, t, 1 - t), axis=1)
-        index = tuple((low + offset).T)
-        value += weight * field[index]
-    return value
-
-
 def distance_off_level_set(field: np.ndarray, spacing, level: float, verts: np.ndarray) -> np.ndarray:
     """Each vertex's distance (world units) from the level set: |F - level| / |grad F|, with F the
     trilinear interpolant of the samples and its gradient by central differences half a voxel wide."""
     spacing = np.asarray(spacing, np.float64)
     points = np.asarray(verts, np.float64) / spacing
-    off = np.abs(trilinear(field, points) - level)
+    off = np.abs(trilinear_value(field, points) - level)
     gradient = np.empty((len(points), 3))
     for axis in range(3):
         step = np.zeros(3)
         step[axis] = 0.5
-        gradient[:, axis] = (trilinear(field, points + step) - trilinear(field, points - step)) / spacing[axis]
+        ahead, behind = trilinear_value(field, points + step), trilinear_value(field, points - step)
+        gradient[:, axis] = (ahead - behind) / spacing[axis]
     return off / np.maximum(np.linalg.norm(gradient, axis=1), 1e-12)

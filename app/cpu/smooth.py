@@ -58,7 +58,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .cubes import gradient_at
+from .cubes import gradient_at, oriented
+from .interpolate import trilinear
 
 UMBRELLA_WEIGHT = 0.5
 """Fraction of the way to the neighbours' average moved per iteration (0.5 damps every mode)."""
@@ -105,26 +106,6 @@ def free_axes(x: np.ndarray, shape) -> np.ndarray:
     """1.0 per coordinate a vertex may move along, 0.0 where it lies on the volume's border."""
     top = np.array(shape, F32) - 1
     return ((x > BORDER) & (x < top - BORDER)).astype(F32)
-
-
-def trilinear(field: np.ndarray, x: np.ndarray):
-    """F and its gradient (index units) at points x (N, 3) inside the grid: the trilinear interpolant."""
-    top = np.array(field.shape) - 2
-    cell = np.clip(np.floor(x).astype(np.int64), 0, top)
-    f = (x - cell).astype(F32)
-    i, j, k = cell.T
-    v = {(a, b, c): field[i + a, j + b, k + c] for a in (0, 1) for b in (0, 1) for c in (0, 1)}
-    f0, f1, f2 = f.T
-
-    def lerp(lo, hi, t):
-        return lo + t * (hi - lo)
-    c00, c01 = lerp(v[0, 0, 0], v[0, 0, 1], f2), lerp(v[0, 1, 0], v[0, 1, 1], f2)
-    c10, c11 = lerp(v[1, 0, 0], v[1, 0, 1], f2), lerp(v[1, 1, 0], v[1, 1, 1], f2)
-    d0, d1 = lerp(c00, c01, f1), lerp(c10, c11, f1)
-    e0 = lerp(v[0, 0, 1] - v[0, 0, 0], v[0, 1, 1] - v[0, 1, 0], f1)
-    e1 = lerp(v[1, 0, 1] - v[1, 0, 0], v[1, 1, 1] - v[1, 1, 0], f1)
-    grad = np.stack([d1 - d0, lerp(c01 - c00, c11 - c10, f0), lerp(e0, e1, f0)], axis=1)
-    return lerp(d0, d1, f0), grad
 
 
 def curvature(field: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -261,9 +242,7 @@ def smooth_projected(verts, faces, volume, level, iterations, spacing=(1.0, 1.0,
     on this volume's level set.  Returns verts, faces (the same), normals, values like
     marching_cubes.  `normals` are kept where the field is flat (default: none there).
     """
-    sign = F32(1.0 if descent else -1.0)
-    field = np.asarray(volume, F32) * sign
-    lvl = F32(level) * sign
+    field, lvl = oriented(np.asarray(volume, F32), level, descent)
     spacing = np.asarray(spacing, F32)
     if value_range is None:
         value_range = (float(volume.min()), float(volume.max()))
@@ -279,5 +258,6 @@ def smooth_projected(verts, faces, volume, level, iterations, spacing=(1.0, 1.0,
         moved = np.where(on_level[:, None], projected, x).astype(F32)
         x = np.where(keeps_triangles(x, moved, starts, ends, thirds)[:, None], moved, x).astype(F32)
     value, _ = trilinear(field, x)
+    value = value if descent else -value  # the volume's, turned back
     fallback = np.zeros_like(x) if normals is None else normals
-    return (x * spacing).astype(F32), faces, field_normals(field, x, spacing, fallback), (value * sign).astype(F32)
+    return (x * spacing).astype(F32), faces, field_normals(field, x, spacing, fallback), value.astype(F32)

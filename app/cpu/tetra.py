@@ -28,8 +28,16 @@ from functools import cache
 
 import numpy as np
 
-from ..core.case_table import CORNER_OFFSETS, CaseTable
-from .cubes import brick_order_key, cube_cases, inside_mask, ordered_triangles, place_vertices
+from ..core.case_table import CORNER_OFFSETS, CaseTable, padded_cases
+from .cubes import (
+    cube_cases,
+    inside_mask,
+    ordered_edges,
+    ordered_triangles,
+    oriented,
+    place_vertices,
+    vertex_of_edges,
+)
 
 KINDS = np.array([(1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 0), (1, 0, 1), (0, 1, 1), (1, 1, 1)], dtype=np.int64)
 """The edge kinds a grid point owns: its edge to q + KINDS[kind]; the axes first, as in cubes."""
@@ -85,12 +93,7 @@ class TetraTable(CaseTable):
 @cache
 def tetra_table() -> TetraTable:
     per_case = [[t for corners in TETRAHEDRA for t in tetrahedron_triangles(corners, case)] for case in range(256)]
-    width = max(len(t) for t in per_case)
-    table = np.full((256, width, 3), -1, dtype=np.int8)
-    for case, triangles in enumerate(per_case):
-        if triangles:
-            table[case, : len(triangles)] = triangles
-    return TetraTable(table, np.array([len(t) for t in per_case], dtype=np.uint8))
+    return TetraTable(*padded_cases(per_case))
 
 
 def crossing_edges(inside: np.ndarray) -> list[np.ndarray]:
@@ -111,30 +114,19 @@ def marching_tetrahedra_reference(volume: np.ndarray, level: float, spacing=(1.0
     `volume` must already be validated (3-D float32, finite, every axis >= 2).
     """
     table = tetra_table()
-    sign = 1.0 if descent else -1.0
-    field = volume if descent else -volume
-    lvl = np.float32(sign * level)
+    field, lvl = oriented(volume, level, descent)
     spacing = np.asarray(spacing, dtype=np.float64)
     inside = inside_mask(field, lvl)
 
     # Vertices: one per crossing edge, in the GPU's (brick, word, kind, k) order.
-    owners = [np.argwhere(m) for m in crossing_edges(inside)]
-    points = np.concatenate(owners).astype(np.int64)
-    kinds = np.concatenate([np.full(len(o), kind) for kind, o in enumerate(owners)]).astype(np.int64)
-    order = np.lexsort((points[:, 2], kinds, brick_order_key(points, field.shape)))
-    points, kinds = points[order], kinds[order]
-    edge_ids = np.ravel_multi_index(points.T, field.shape) * len(KINDS) + kinds
-    by_id = np.argsort(edge_ids)
-    sorted_ids = edge_ids[by_id]
-    verts, normals, values = place_vertices(field, inside, lvl, points, None, spacing, sign, steps=KINDS[kinds])
+    points, kinds = ordered_edges(crossing_edges(inside), field.shape)
+    verts, normals, values = place_vertices(field, inside, lvl, points, None, spacing, descent, steps=KINDS[kinds])
 
     # Triangles: mt_triangles.comp, cells in (brick, word, k) order, the table's triangles in order.
     cells, cell_of_tri, codes = ordered_triangles(table, cube_cases(inside), field.shape)
 
     owner = cells[cell_of_tri][:, None, :] + CORNER_OFFSETS[codes & 7]  # (M, 3 corners, 3 coords)
     wanted = np.ravel_multi_index(np.moveaxis(owner, -1, 0), field.shape) * len(KINDS) + (codes >> 3)
-    found = np.searchsorted(sorted_ids, wanted)
-    if wanted.size and not np.array_equal(sorted_ids[np.minimum(found, len(sorted_ids) - 1)], wanted):
-        raise AssertionError("a triangle uses an edge with no vertex: the tetrahedra table is broken")
-    faces = by_id[found] if wanted.size else np.zeros((0, 3), np.int64)
+    faces = vertex_of_edges(np.ravel_multi_index(points.T, field.shape) * len(KINDS) + kinds, wanted,
+                            "tetrahedra table")
     return verts, faces.astype(np.int32), normals, values

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..decimate import trilinear
+from ..interpolate import trilinear_value
 
 LINEAR_TOLERANCE = 1e-3  # second difference, as a fraction of the first: the field is straight there
 PLANE_REACH = 1.0  # cells: a sample plane counts for a cell when it passes this close to the cell's centre
@@ -265,7 +265,7 @@ def _surface_pair(normal, anchor, valid, cos_angle, centre, field, spacing, leve
             det = np.where(usable, 1 - c * c, 1.0)
             alpha, beta = (ri - c * rj) / det, (rj - c * ri) / det
             x = centre + alpha[:, None] * n[:, i] + beta[:, None] * n[:, j]
-            score = np.abs(trilinear(field, x / spacing) - level)
+            score = np.abs(trilinear_value(field, x / spacing) - level)
             better = usable & (score < best_score)
             best[better], best_score[better] = (i, j), score[better]
     found = np.isfinite(best_score)
