@@ -13,30 +13,15 @@ __all__ = ["marching_cubes", "marching_tetrahedra", "smooth_mesh", "find_contour
            "release_gpu_memory", "IsoscopeError", "__version__"]
 
 
+# Each public name and the module that defines it, imported on first use: `import isoscope` must not need a
+# GL driver or load every module.
+_HOMES = {"marching_cubes": "api", "marching_tetrahedra": "api", "smooth_mesh": "api",
+          "find_contours": "core.contours", "label_surfaces": "labels", "release_gpu_memory": "gpu.pool",
+          "IsoscopeError": "errors", "Extractor": "gpu.cubes"}
+
+
 def __getattr__(name):
-    # Import lazily: `import app` must not need a GL driver or load every module.
-    if name == "marching_cubes":
-        from .api import marching_cubes
-        return marching_cubes
-    if name == "marching_tetrahedra":
-        from .api import marching_tetrahedra
-        return marching_tetrahedra
-    if name == "smooth_mesh":
-        from .api import smooth_mesh
-        return smooth_mesh
-    if name == "find_contours":
-        from .core.contours import find_contours
-        return find_contours
-    if name == "label_surfaces":
-        from .labels import label_surfaces
-        return label_surfaces
-    if name == "release_gpu_memory":
-        from .gpu.pool import release_gpu_memory
-        return release_gpu_memory
-    if name == "IsoscopeError":
-        from .errors import IsoscopeError
-        return IsoscopeError
-    if name == "Extractor":
-        from .gpu.cubes import Extractor
-        return Extractor
-    raise AttributeError(name)
+    if name not in _HOMES:
+        raise AttributeError(name)
+    from importlib import import_module
+    return getattr(import_module(f".{_HOMES[name]}", __name__), name)
