@@ -6,10 +6,11 @@ Conventions shared with the GPU (see `isoscope.core.case_table` for the cell geo
 
 * A sample is *inside* when ``sign * value >= sign * level``, with
   ``sign = +1`` where ``descent`` is true (object above the level: the API's
-  gradient_direction "descent") and ``-1`` where it is false ("ascent"); `oriented`
-  turns field and level so.  Ties count as inside: a symbolic form of perturbing exact
-  zeros to a tiny non-zero (Bridson, Fluid Simulation for Computer Graphics),
-  so a sample equal to the level never needs a special case.
+  gradient_direction "descent") and ``-1`` where it is false ("ascent"); `signed`
+  turns field and level so (the *signed* field grows into the object).  Ties
+  count as inside: a symbolic form of perturbing exact zeros to a tiny non-zero
+  (Bridson, Fluid Simulation for Computer Graphics), so a sample equal to the
+  level never needs a special case.
 * Every grid edge whose ends differ gets one vertex, owned by the edge's lower
   end, shared by all triangles that use it.  Its parameter along the edge is
   kept within ``[EDGE_MARGIN, 1 - EDGE_MARGIN]`` so that vertices from
@@ -40,17 +41,17 @@ def brick_order_key(points: np.ndarray, shape) -> np.ndarray:
     return brick * (BRICK_I * BRICK_J) + (i % BRICK_I) * BRICK_J + j % BRICK_J
 
 
-def oriented(volume: np.ndarray, level: float, descent: bool) -> tuple[np.ndarray, np.float32]:
-    """`volume` and `level` turned so that the object is where the field is at or above the level: as they
-    are where `descent` (object above the level), both negated where not.  The field is `volume` itself, not
-    a copy, where `descent`; the level is float32."""
+def signed(volume: np.ndarray, level: float, descent: bool) -> tuple[np.ndarray, np.float32]:
+    """The signed field and level: `volume` and `level` turned so that the object is where the field is at
+    or above the level, as they are where `descent` (object above the level), both negated where not.  The
+    field is `volume` itself, not a copy, where `descent`; the level is float32."""
     if descent:
         return volume, np.float32(level)
     return -volume, np.float32(-level)
 
 
 def inside_mask(field: np.ndarray, level: float) -> np.ndarray:
-    """mc_signs.comp: True where a (sign-adjusted) sample is on the object's side, ties included."""
+    """mc_signs.comp: True where a sample of the signed field is on the object's side, ties included."""
     return field >= np.float32(level)
 
 
@@ -110,7 +111,7 @@ def vertex_positions(field, level, points, axes, spacing, origin=(0, 0, 0), para
 
 
 def place_vertices(field, inside, level, points, axes, spacing, descent: bool, steps=None):
-    """mc_vertices.comp: position, outward normal and value of each edge's vertex, of the `oriented` field
+    """mc_vertices.comp: position, outward normal and value of each edge's vertex, of the signed field
     (`steps`: as in `vertex_positions`; values are the volume's, turned back where not `descent`)."""
     positions, t, v0, v1 = vertex_positions(field, level, points, axes, spacing, parameters=True, steps=steps)
     step = np.eye(3, dtype=np.int64)[axes] if steps is None else steps
@@ -173,7 +174,7 @@ def marching_cubes_reference(volume: np.ndarray, level: float, spacing=(1.0, 1.0
     `volume` must already be validated (3-D float32, finite, every axis >= 2).
     """
     table = table or montani_table()
-    field, lvl = oriented(volume, level, descent)
+    field, lvl = signed(volume, level, descent)
     spacing = np.asarray(spacing, dtype=np.float64)
     inside = inside_mask(field, lvl)
 

@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .cubes import gradient_at, oriented
+from .cubes import gradient_at, signed
 from .interpolate import trilinear
 
 UMBRELLA_WEIGHT = 0.5
@@ -216,7 +216,7 @@ def keeps_triangles(x, y, starts, ends, thirds):
 
 
 def field_normals(field, x, spacing, fallback):
-    """Outward unit normals from the gradient of the (sign-adjusted) field: central differences at the
+    """Outward unit normals from the gradient of the signed field: central differences at the
     cell's corners, blended trilinearly; `fallback` where the gradient vanishes."""
     cell = np.clip(np.floor(x).astype(np.int64), 0, np.array(field.shape) - 2)
     f = (x - cell).astype(F32)
@@ -242,7 +242,7 @@ def smooth_projected(verts, faces, volume, level, iterations, spacing=(1.0, 1.0,
     on this volume's level set.  Returns verts, faces (the same), normals, values like
     marching_cubes.  `normals` are kept where the field is flat (default: none there).
     """
-    field, lvl = oriented(np.asarray(volume, F32), level, descent)
+    field, lvl = signed(np.asarray(volume, F32), level, descent)
     spacing = np.asarray(spacing, F32)
     if value_range is None:
         value_range = (float(volume.min()), float(volume.max()))

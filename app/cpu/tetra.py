@@ -34,8 +34,8 @@ from .cubes import (
     inside_mask,
     ordered_edges,
     ordered_triangles,
-    oriented,
     place_vertices,
+    signed,
     vertex_of_edges,
 )
 
@@ -114,7 +114,7 @@ def marching_tetrahedra_reference(volume: np.ndarray, level: float, spacing=(1.0
     `volume` must already be validated (3-D float32, finite, every axis >= 2).
     """
     table = tetra_table()
-    field, lvl = oriented(volume, level, descent)
+    field, lvl = signed(volume, level, descent)
     spacing = np.asarray(spacing, dtype=np.float64)
     inside = inside_mask(field, lvl)
 

@@ -47,7 +47,7 @@ def bend_cos(angle) -> np.float32:
 
 
 def vertex_may_bend(verts, normals, field, spacing, angle):
-    """Per vertex of a plain MC mesh of `field` (sign-adjusted), whether a cell around its edge may
+    """Per vertex of a plain MC mesh of the signed field `field`, whether a cell around its edge may
     hold a feature: its normal is more than half the feature angle (less BEND_MARGIN) from some
     around cell's outward direction r_C, minus its mean gradient (or r_C is zero; or the vertex lies
     on no grid edge, as after smoothing).  Conservative: if no vertex of cell C is flagged, each of

@@ -105,8 +105,8 @@ def _check(stop) -> None:
 
 
 def sharpen(mesh, field, spacing, angle, solver=patch_points, stop=None):
-    """Extended MC on the plain mesh `mesh` (verts, faces, normals, values) of `field` (sign-adjusted: it
-    grows into the object).  Returns (verts, faces, normals, values, n_plain_vertices).
+    """Extended MC on the plain mesh `mesh` (verts, faces, normals, values) of the signed `field`
+    (it grows into the object: `signed_field`).  Returns (verts, faces, normals, values, n_plain_vertices).
 
     `solver`: `patch_points` or a stand-in that computes the same (the GPU's, isoscope.gpu.sharp).
     `stop`: a threading.Event; once set, the step raises `Stopped` at its next check (a viewer's worker
@@ -239,7 +239,8 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points, stop=None):
 
 
 def signed_field(volume, descent: bool) -> np.ndarray:
-    """The float32 field `sharpen` takes: `volume`, negated when the object is below the level."""
+    """The signed field `sharpen` takes, as a float32 copy: `volume`, negated where not `descent` (the object
+    below the level), as isoscope.cpu.cubes.signed turns it."""
     return volume.astype(np.float32, copy=False) * np.float32(1.0 if descent else -1.0)
 
 
