@@ -9,9 +9,9 @@ from support.mesh_checks import assert_closed_manifold, edge_use_counts, signed_
 from support.sdf_boxes import Box, distance_to_mesh, grid_points, rotation
 
 import isoscope as iso
+from isoscope.cpu.sharp.eno import edge_of_vertex
 from isoscope.cpu.sharp.features import check_feature_angle, sharpen_extracted
 from isoscope.cpu.sharp.normals import crisp_normals
-from isoscope.cpu.sharp.planes import edge_of_vertex
 
 N = 24  # samples per axis: boxes about 10 cells wide
 SCENES = {

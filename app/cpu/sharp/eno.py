@@ -1,21 +1,32 @@
 """ENO normals (Harten and Osher 1987) for the sharp-feature step (`isoscope.cpu.sharp.features`).
 
 Central differences straddle an edge and blend its two sides; each axis's one-sided difference
-from the smoother side does not.
+from the smoother side does not (`one_sided_differences`, which the sample planes' exactness test,
+`isoscope.cpu.sharp.planes.clean_gradient`, shares).  A vertex's normal is interpolated along its grid
+edge (`edge_of_vertex`).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .planes import edge_of_vertex
+
+def edge_of_vertex(verts, ids, spacing):
+    """The grid edge of each vertex `ids`, from its position: (start point (N, 3), axis mask (N, 3), t).
+
+    A vertex lies strictly inside its edge along one axis (EDGE_MARGIN from either end) and on grid
+    planes along the other two."""
+    g = verts[ids].astype(np.float64) / spacing
+    along = np.abs(g - np.rint(g)) > 1e-3
+    start = np.where(along, np.floor(g), np.rint(g)).astype(np.int64)
+    return start, along, (g - start)[along]
 
 
-def eno_gradient(field, points, spacing):
-    """The field's gradient at grid points (N, 3), each axis by the one-sided difference whose side is
-    smoother (smaller second difference: ENO, Harten and Osher 1987).  Central differences straddle an
-    edge and blend its two sides; a one-sided difference from the flat side does not."""
+def one_sided_differences(field, points, spacing):
+    """ENO's choice at grid points (N, 3), per axis the one-sided difference whose side is smoother (smaller
+    second difference; the other where the grid ends): (gradient (N, 3), those differences (N, 3), and the
+    smaller second differences (N, 3): how straight the chosen side runs)."""
     shape = np.array(field.shape)
-    grad = np.empty(points.shape, np.float64)
+    grad, steps, rough = (np.empty(points.shape, np.float64) for _ in range(3))
     flat_field = field.reshape(-1)
     strides = np.array([shape[1] * shape[2], shape[2], 1])
     flat = points @ strides
@@ -28,8 +39,17 @@ def eno_gradient(field, points, spacing):
         rough_fwd = np.where(k + 2 < shape[axis], np.abs(fpp - 2 * fp + f0), np.inf)
         rough_bwd = np.where(k - 2 >= 0, np.abs(f0 - 2 * fm + fmm), np.inf)
         use_fwd = (k == 0) | ((k + 1 < shape[axis]) & (rough_fwd < rough_bwd))
-        grad[:, axis] = np.where(use_fwd, fp - f0, f0 - fm) / spacing[axis]
-    return grad
+        steps[:, axis] = np.where(use_fwd, fp - f0, f0 - fm)
+        grad[:, axis] = steps[:, axis] / spacing[axis]
+        rough[:, axis] = np.minimum(rough_fwd, rough_bwd)
+    return grad, steps, rough
+
+
+def eno_gradient(field, points, spacing):
+    """The field's gradient at grid points (N, 3), each axis by the one-sided difference whose side is
+    smoother (smaller second difference: ENO, Harten and Osher 1987).  Central differences straddle an
+    edge and blend its two sides; a one-sided difference from the flat side does not."""
+    return one_sided_differences(field, points, spacing)[0]
 
 
 def _eno_gradients_at(field, points, spacing):

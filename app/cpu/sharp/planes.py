@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..interpolate import trilinear_value
+from .eno import edge_of_vertex, one_sided_differences
 
 LINEAR_TOLERANCE = 1e-3  # second difference, as a fraction of the first: the field is straight there
 PLANE_REACH = 1.0  # cells: a sample plane counts for a cell when it passes this close to the cell's centre
@@ -30,17 +31,6 @@ EDGE_NEIGHBOURS = np.array([o for o in np.ndindex(3, 3, 3) if sum(v != 1 for v i
 CORNER_REACH = 0.5  # cells: a corner this close outside a cell is its point (see _plane_qef)
 PLANE_GRAIN = 0.01  # planes whose normals' components and offsets (cells) round alike to this are one
 MAX_PLANES = 12  # distinct planes kept per cell (the most often seen)
-
-
-def edge_of_vertex(verts, ids, spacing):
-    """The grid edge of each vertex `ids`, from its position: (start point (N, 3), axis mask (N, 3), t).
-
-    A vertex lies strictly inside its edge along one axis (EDGE_MARGIN from either end) and on grid
-    planes along the other two."""
-    g = verts[ids].astype(np.float64) / spacing
-    along = np.abs(g - np.rint(g)) > 1e-3
-    start = np.where(along, np.floor(g), np.rint(g)).astype(np.int64)
-    return start, along, (g - start)[along]
 
 
 def level_of(field, verts, spacing):
@@ -54,24 +44,11 @@ def level_of(field, verts, spacing):
 def clean_gradient(field, points, spacing):
     """ENO gradients at grid points (N, 3) (`isoscope.cpu.sharp.eno.eno_gradient`) and whether each is exact: the
     chosen one-sided differences are straight (second difference under LINEAR_TOLERANCE of the first)."""
-    shape = np.array(field.shape)
-    grad = np.empty(points.shape, np.float64)
+    grad, steps, rough = one_sided_differences(field, points, spacing)
     clean = np.ones(len(points), bool)
     for axis in range(3):
-        samples = []
-        for offset in (0, 1, -1, 2, -2):
-            q = points.copy()
-            q[:, axis] = np.clip(points[:, axis] + offset, 0, shape[axis] - 1)
-            samples.append(field[tuple(q.T)].astype(np.float64))
-        f0, fp, fm, fpp, fmm = samples
-        k = points[:, axis]
-        rough_fwd = np.where(k + 2 < shape[axis], np.abs(fpp - 2 * fp + f0), np.inf)
-        rough_bwd = np.where(k - 2 >= 0, np.abs(f0 - 2 * fm + fmm), np.inf)
-        use_fwd = (k == 0) | ((k + 1 < shape[axis]) & (rough_fwd < rough_bwd))
-        step = np.where(use_fwd, fp - f0, f0 - fm)
-        grad[:, axis] = step / spacing[axis]
-        rough = np.minimum(rough_fwd, rough_bwd)
-        clean &= rough <= LINEAR_TOLERANCE * np.maximum(np.abs(step), 1e-3 * np.abs(step).max(initial=0))
+        step = steps[:, axis]
+        clean &= rough[:, axis] <= LINEAR_TOLERANCE * np.maximum(np.abs(step), 1e-3 * np.abs(step).max(initial=0))
     return grad, clean
 
 
