@@ -249,10 +249,11 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
 
     Examples
     --------
+    The ball of `marching_cubes`'s example:
+
     >>> import numpy as np
     >>> import isoscope
-    >>> x = np.mgrid[-1:1:20j, -1:1:20j, -1:1:20j]
-    >>> distance = np.sqrt((x ** 2).sum(axis=0)).astype(np.float32)
+    >>> distance = np.linalg.norm(np.mgrid[-1:1:20j, -1:1:20j, -1:1:20j], axis=0).astype(np.float32)
     >>> verts, faces, normals, values = isoscope.marching_tetrahedra(
     ...     distance, 0.7, gradient_direction="ascent", backend="cpu")
     >>> verts.shape, faces.shape
@@ -399,8 +400,7 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
     --------
     >>> import numpy as np
     >>> import isoscope
-    >>> x = np.mgrid[-1:1:20j, -1:1:20j, -1:1:20j]
-    >>> distance = np.sqrt((x ** 2).sum(axis=0)).astype(np.float32)
+    >>> distance = np.linalg.norm(np.mgrid[-1:1:20j, -1:1:20j, -1:1:20j], axis=0).astype(np.float32)
     >>> verts, faces, _, _ = isoscope.marching_cubes(distance, 0.7, gradient_direction="ascent", backend="cpu")
     >>> smoothed, same_faces, normals, values = isoscope.smooth_mesh(
     ...     distance, verts, faces, 0.7, 3, gradient_direction="ascent", backend="cpu")
