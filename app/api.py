@@ -281,10 +281,10 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     return mesh if mask is None else keep_masked_cells(mesh, mask, spacing)
 
 
-def _on_cpu(reference, checked, level, spacing, descent, iterations):
-    """The numpy reference's mesh, smoothed `iterations` times."""
+def _on_cpu(extract, checked, level, spacing, descent, iterations):
+    """The numpy extractor's mesh (`extract`: cubes' or tetrahedra's), smoothed `iterations` times."""
     field = checked.data.astype(np.float32, copy=False)
-    verts, faces, normals, values = reference(field, level, spacing, descent)
+    verts, faces, normals, values = extract(field, level, spacing, descent)
     if iterations:
         return smooth_projected(verts, faces, field, level, iterations, spacing, descent=descent,
                                 normals=normals, value_range=checked.value_range)

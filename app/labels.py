@@ -3,7 +3,7 @@
     surfaces = isoscope.label_surfaces(labels, spacing=(1, 1, 1))   # {label: (verts, faces, normals)}
 
 How, and why so: each label's inside is ``labels == label``.  Its surface is our marching cubes
-(GPU, or the byte-identical numpy reference) run on that label's indicator field (1 inside, 0
+(GPU, or the byte-identical numpy extractor) run on that label's indicator field (1 inside, 0
 outside) at the fixed level 0.5, as VTK's discrete flying edges and the zmesh package do.  At
 that level every vertex lies at the midpoint of a grid edge whose two ends differ, whichever the
 labels at its ends: where labels A and B touch, A's surface and B's surface put a vertex at the
@@ -240,7 +240,7 @@ def label_count_hint(data) -> int:
 
 def _extractor(backend: str):
     """indicator -> (verts, faces, normals) at level 0.5: one GL context found once for all labels
-    (asking for the current context costs a few ms each time), else the numpy reference."""
+    (asking for the current context costs a few ms each time), else the numpy extractor."""
     from .api import BACKENDS
     from .gpu.context import current_or_standalone, gl_available
     if backend not in BACKENDS:

@@ -99,7 +99,7 @@ def vertex_positions(field, level, points, axes, spacing, origin=(0, 0, 0), para
 
     `field` may be a block of a larger volume whose sample 0 is sample `origin` of the whole:
     positions are then the whole volume's (chunked.py).  `steps` (N, 3) of 0/1 replaces `axes`
-    for edges that are not along one axis (the tetrahedra's diagonals, app/reference_tetra.py)."""
+    for edges that are not along one axis (the tetrahedra's diagonals, isoscope.cpu.tetra)."""
     step = np.eye(3, dtype=np.int64)[axes] if steps is None else steps
     v0 = field[tuple(points.T)]
     v1 = field[tuple((points + step).T)]
