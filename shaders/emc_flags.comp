@@ -12,8 +12,8 @@ layout(local_size_x = GROUP_SIZE) in;
 
 uniform uint u_vertex_count;
 uniform float u_cos_half;
-layout(std430, binding = 8) readonly buffer Vertices { float vertex_data[]; };
-layout(std430, binding = 5) buffer Flags { uint flags[]; };
+layout(std430, binding = BLOCK_MESH_VERTICES) readonly buffer Vertices { float vertex_data[]; };
+layout(std430, binding = BLOCK_FLAGS) buffer Flags { uint flags[]; };
 
 // field_at(p) for p inside the grid: unsigned / and % by the constant compile to a shift and a mask
 // (sample_at's signed ones cost this pass over half its time).

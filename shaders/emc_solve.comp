@@ -10,11 +10,11 @@ layout(local_size_x = GROUP_SIZE) in;
 uniform uint u_patch_count;
 uniform int u_ring_width;      // entries per ring list (patch lists have MAX_PATCH_VERTICES)
 uniform double u_out_of_plane; // sqrt(1 - cos^2): a third side's normal is farther out of the plane
-layout(std430, binding = 1) readonly buffer PatchMembers { int patch_members[]; };
-layout(std430, binding = 2) readonly buffer RingMembers { int ring_members[]; };
-layout(std430, binding = 3) readonly buffer Cells { int cells[]; };
-layout(std430, binding = 4) writeonly buffer Points { double points[]; };
-layout(std430, binding = 8) readonly buffer Vertices { float vertex_data[]; };
+layout(std430, binding = BLOCK_PATCH_MEMBERS) readonly buffer PatchMembers { int patch_members[]; };
+layout(std430, binding = BLOCK_RING_MEMBERS) readonly buffer RingMembers { int ring_members[]; };
+layout(std430, binding = BLOCK_CELLS) readonly buffer Cells { int cells[]; };
+layout(std430, binding = BLOCK_POINTS) writeonly buffer Points { double points[]; };
+layout(std430, binding = BLOCK_MESH_VERTICES) readonly buffer Vertices { float vertex_data[]; };
 
 dvec3 pos[RING_CAPACITY];
 dvec3 nrm[RING_CAPACITY];

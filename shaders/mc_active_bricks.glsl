@@ -3,7 +3,7 @@
 // No pass here uses barrier(): on llvmpipe a work group with barriers runs its invocations as
 // coroutines and costs two to four times as much, so per-brick sums and offsets are serial loops
 // in one invocation per brick (mc_brick_sums.comp, mc_word_offsets.comp).
-layout(std430, binding = 7) readonly buffer ActiveBricks { uint active_count; uint active_bricks[]; };
+layout(std430, binding = BLOCK_ACTIVE_BRICKS) readonly buffer ActiveBricks { uint active_count; uint active_bricks[]; };
 
 // The brick of this work group (one invocation per word), or false past the end of the list.
 bool active_brick(out uint brick) {

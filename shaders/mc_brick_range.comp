@@ -5,8 +5,8 @@
 layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
 
-layout(std430, binding = 8) readonly buffer RowRanges { vec2 row_ranges[]; };
-layout(std430, binding = 9) writeonly buffer BrickRanges { vec2 brick_ranges[]; };
+layout(std430, binding = BLOCK_ROW_RANGES) readonly buffer RowRanges { vec2 row_ranges[]; };
+layout(std430, binding = BLOCK_BRICK_RANGES) writeonly buffer BrickRanges { vec2 brick_ranges[]; };
 
 void main() {
     uint brick = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;

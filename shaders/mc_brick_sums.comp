@@ -4,9 +4,9 @@ layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
 #include "mc_active_bricks.glsl"
 
-layout(std430, binding = 1) writeonly buffer BrickVertexCounts { uint brick_vertex_counts[]; };
-layout(std430, binding = 2) writeonly buffer BrickTriangleCounts { uint brick_triangle_counts[]; };
-layout(r32ui, binding = 2) readonly uniform uimage2D u_word_counts;
+layout(std430, binding = BLOCK_BRICK_VERTICES) writeonly buffer BrickVertexCounts { uint brick_vertex_counts[]; };
+layout(std430, binding = BLOCK_BRICK_TRIANGLES) writeonly buffer BrickTriangleCounts { uint brick_triangle_counts[]; };
+layout(r32ui, binding = UNIT_WORD_COUNTS) readonly uniform uimage2D u_word_counts;
 
 void main() {
     uint brick;

@@ -9,14 +9,14 @@
 layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
 
-layout(r32ui, binding = 1) writeonly uniform uimage2D u_sign_words;
-layout(std430, binding = 1) writeonly buffer BrickVertexCounts { uint brick_vertex_counts[]; };
-layout(std430, binding = 2) writeonly buffer BrickTriangleCounts { uint brick_triangle_counts[]; };
-layout(std430, binding = 7) buffer ActiveBricks { uint active_count; uint active_bricks[]; };
-layout(std430, binding = 8) readonly buffer BrickRanges { vec2 brick_ranges[]; };
+layout(r32ui, binding = UNIT_SIGN_WORDS) writeonly uniform uimage2D u_sign_words;
+layout(std430, binding = BLOCK_BRICK_VERTICES) writeonly buffer BrickVertexCounts { uint brick_vertex_counts[]; };
+layout(std430, binding = BLOCK_BRICK_TRIANGLES) writeonly buffer BrickTriangleCounts { uint brick_triangle_counts[]; };
+layout(std430, binding = BLOCK_ACTIVE_BRICKS) buffer ActiveBricks { uint active_count; uint active_bricks[]; };
+layout(std430, binding = BLOCK_BRICK_RANGES) readonly buffer BrickRanges { vec2 brick_ranges[]; };
 // What each brick's sign words hold: UNKNOWN (as allocated, or written by mc_signs.comp at some
 // level), or a side's constants.  Only this pass and mc_signs.comp (active bricks) write them.
-layout(std430, binding = 3) buffer BrickStates { uint brick_states[]; };
+layout(std430, binding = BLOCK_BRICK_STATES) buffer BrickStates { uint brick_states[]; };
 const uint UNKNOWN = 0u, ALL_OUTSIDE = 1u, ALL_INSIDE = 2u;
 
 void main() {

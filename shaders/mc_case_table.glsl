@@ -4,7 +4,7 @@
 // block: a cell's case differs from lane to lane, and on llvmpipe a uniform uvec4 at a varying
 // index is four loads per lane before pick() takes one, where an imageLoad of one r32ui texel is
 // one gather (noise 160^3: the tetrahedra's triangle pass ~8-16% faster).
-layout(r32ui, binding = 5) readonly uniform uimage2D u_case_table;
+layout(r32ui, binding = UNIT_CASE_TABLE) readonly uniform uimage2D u_case_table;
 
 uint case_table_word(uint index) {
     return imageLoad(u_case_table, ivec2(index & ((1u << CASE_TABLE_SHIFT) - 1u), index >> CASE_TABLE_SHIFT)).x;

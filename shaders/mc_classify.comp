@@ -8,7 +8,7 @@ layout(local_size_x = BRICK_WORDS) in;
 #include "mc_active_bricks.glsl"
 #include "mc_case_table.glsl"
 
-layout(r32ui, binding = 2) writeonly uniform uimage2D u_word_counts;
+layout(r32ui, binding = UNIT_WORD_COUNTS) writeonly uniform uimage2D u_word_counts;
 
 void main() {
     uint brick;

@@ -33,7 +33,7 @@ uniform uvec3 u_div_rows;
 uniform uvec3 u_div_bricks_j;
 // VOLUME_FORMAT/VOLUME_IMAGE: rgba32f image3D, or for 8- and 16-bit scans their integer formats
 // (gpu_layout.VOLUME_TEXEL_FORMATS), read as exact floats.
-layout(VOLUME_FORMAT, binding = 0) readonly uniform VOLUME_IMAGE u_volume;
+layout(VOLUME_FORMAT, binding = UNIT_VOLUME) readonly uniform VOLUME_IMAGE u_volume;
 
 const uint WORDS_PER_BRICK = uint(BRICK_WORDS);  // BRICK_I * BRICK_J, injected as a literal for local_size_x
 const int QUADS_PER_WORD = WORD_BITS / SAMPLES_PER_TEXEL;  // volume texels (4 samples each) per sign word

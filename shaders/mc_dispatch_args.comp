@@ -3,9 +3,9 @@
 // 2-D because one dimension holds at most MAX_GROUPS_PER_DIMENSION work groups.
 layout(local_size_x = 1) in;
 
-layout(std430, binding = 7) readonly buffer ActiveBricks { uint active_count; uint active_bricks[]; };
+layout(std430, binding = BLOCK_ACTIVE_BRICKS) readonly buffer ActiveBricks { uint active_count; uint active_bricks[]; };
 // Two sets: one work group per active brick, and one invocation per active brick (GROUP_SIZE a group).
-layout(std430, binding = 9) writeonly buffer DispatchArgs { uint groups[6]; };
+layout(std430, binding = BLOCK_DISPATCH_ARGS) writeonly buffer DispatchArgs { uint groups[6]; };
 
 // As evenly as gpu_programs.dispatch_groups folds (x * y - count < y): empty groups are not free on
 // llvmpipe, and count = 65,536 as 65,535 x 2 would add ~65,000 of them.

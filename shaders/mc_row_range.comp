@@ -9,10 +9,10 @@ layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
 
 uniform uint u_word_count;
-layout(std430, binding = 8) writeonly buffer RowRanges { vec2 row_ranges[]; };
+layout(std430, binding = BLOCK_ROW_RANGES) writeonly buffer RowRanges { vec2 row_ranges[]; };
 // Set where a sample is NaN or infinite: a volume whose values nothing else scanned
-// (app/extractor.py's _value_range; the ranges are then meaningless).
-layout(std430, binding = 7) buffer NonFinite { uint non_finite; };
+// (app/gpu/resident.py's value range; the ranges are then meaningless).
+layout(std430, binding = BLOCK_NON_FINITE) buffer NonFinite { uint non_finite; };
 
 void main() {
     uint id = linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex;

@@ -1,5 +1,5 @@
 // Read access to the packed inside bits written by mc_bricks.comp and mc_signs.comp (image 1).
-layout(r32ui, binding = 1) readonly uniform uimage2D u_sign_words;
+layout(r32ui, binding = UNIT_SIGN_WORDS) readonly uniform uimage2D u_sign_words;
 
 uint row_word(int i, int j, int w) { return imageLoad(u_sign_words, word_texel(word_id_of(i, j, w))).x; }
 

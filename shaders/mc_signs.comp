@@ -6,7 +6,7 @@ layout(local_size_x = BRICK_WORDS) in;
 #include "mc_common.glsl"
 #include "mc_active_bricks.glsl"
 
-layout(r32ui, binding = 1) writeonly uniform uimage2D u_sign_words;
+layout(r32ui, binding = UNIT_SIGN_WORDS) writeonly uniform uimage2D u_sign_words;
 
 void main() {
     uint brick;

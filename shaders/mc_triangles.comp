@@ -12,10 +12,10 @@ layout(local_size_x = BRICK_WORDS) in;
 #include "vertex_jobs.glsl"
 #include "triangle_runs.glsl"
 
-layout(r32ui, binding = 2) readonly uniform uimage2D u_word_counts;
-layout(rg32ui, binding = 3) readonly uniform uimage2D u_word_offsets;  // (first vertex, first triangle)
-layout(std430, binding = 6) writeonly buffer Indices { uint indices[]; };
-layout(std430, binding = 4) writeonly buffer VertexJobs { uint vertex_jobs[]; };  // JOB_BINDING
+layout(r32ui, binding = UNIT_WORD_COUNTS) readonly uniform uimage2D u_word_counts;
+layout(rg32ui, binding = UNIT_WORD_OFFSETS) readonly uniform uimage2D u_word_offsets;  // (first vertex, first triangle)
+layout(std430, binding = BLOCK_MESH_INDICES) writeonly buffer Indices { uint indices[]; };
+layout(std430, binding = BLOCK_VERTEX_JOBS) writeonly buffer VertexJobs { uint vertex_jobs[]; };
 
 // Where each axis's vertices start in the words owning a cell row's edges, per sign row around
 // the cells (component d0 | d1 << 1): in word w, and in word w + 1 (reached from cell 31, only

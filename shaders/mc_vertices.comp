@@ -7,10 +7,10 @@ layout(local_size_x = GROUP_SIZE) in;
 
 // The window of the vertex buffer (and of the job buffer) bound below: its vertex count.
 uniform uint u_vertex_count;
-layout(std430, binding = 4) readonly buffer VertexJobs { uint vertex_jobs[]; };  // this run's window
+layout(std430, binding = BLOCK_VERTEX_JOBS) readonly buffer VertexJobs { uint vertex_jobs[]; };  // this run's window
 
 struct Vertex { vec4 position_value; vec4 normal; };
-layout(std430, binding = 6) writeonly buffer Vertices { Vertex vertices[]; };
+layout(std430, binding = BLOCK_MESH_VERTICES) writeonly buffer Vertices { Vertex vertices[]; };
 
 // Central differences, one-sided at the border, in physical units.  Written per axis without
 // indexing vectors by a variable: llvmpipe turns such indexing into scratch-memory traffic.

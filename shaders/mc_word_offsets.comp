@@ -13,10 +13,10 @@ layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
 #include "mc_active_bricks.glsl"
 
-layout(std430, binding = 1) readonly buffer BrickVertexOffsets { uint brick_vertex_offsets[]; };
-layout(std430, binding = 2) readonly buffer BrickTriangleOffsets { uint brick_triangle_offsets[]; };
-layout(r32ui, binding = 2) uniform uimage2D u_word_counts;  // this pass sets the taken words
-layout(rg32ui, binding = 3) writeonly uniform uimage2D u_word_offsets;  // (first vertex, first triangle)
+layout(std430, binding = BLOCK_BRICK_VERTICES) readonly buffer BrickVertexOffsets { uint brick_vertex_offsets[]; };
+layout(std430, binding = BLOCK_BRICK_TRIANGLES) readonly buffer BrickTriangleOffsets { uint brick_triangle_offsets[]; };
+layout(r32ui, binding = UNIT_WORD_COUNTS) uniform uimage2D u_word_counts;  // this pass sets the taken words
+layout(rg32ui, binding = UNIT_WORD_OFFSETS) writeonly uniform uimage2D u_word_offsets;  // (first vertex, first triangle)
 
 const uint SORT_BUCKETS = 16u;  // four uints of byte counters (a brick's 64 words fit a byte)
 

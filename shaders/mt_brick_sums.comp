@@ -6,9 +6,9 @@ layout(local_size_x = GROUP_SIZE) in;
 #include "mc_active_bricks.glsl"
 #include "mt_common.glsl"
 
-layout(std430, binding = 1) writeonly buffer BrickVertexCounts { uint brick_vertex_counts[]; };
-layout(std430, binding = 2) writeonly buffer BrickTriangleCounts { uint brick_triangle_counts[]; };
-layout(rgba32ui, binding = 2) readonly uniform uimage2D u_word_counts;  // see mt_common.glsl
+layout(std430, binding = BLOCK_BRICK_VERTICES) writeonly buffer BrickVertexCounts { uint brick_vertex_counts[]; };
+layout(std430, binding = BLOCK_BRICK_TRIANGLES) writeonly buffer BrickTriangleCounts { uint brick_triangle_counts[]; };
+layout(rgba32ui, binding = UNIT_WORD_COUNTS) readonly uniform uimage2D u_word_counts;  // see mt_common.glsl
 
 void main() {
     uint brick;

@@ -11,10 +11,10 @@ layout(local_size_x = BRICK_WORDS) in;
 #include "mt_jobs.glsl"
 #include "triangle_runs.glsl"
 
-layout(rgba32ui, binding = 2) readonly uniform uimage2D u_word_counts;  // see mt_common.glsl
-layout(rg32ui, binding = 3) readonly uniform uimage2D u_word_offsets;   // (first vertex, first triangle)
-layout(std430, binding = 6) writeonly buffer Indices { uint indices[]; };
-layout(std430, binding = 4) writeonly buffer VertexJobs { uvec2 vertex_jobs[]; };  // JOB_BINDING
+layout(rgba32ui, binding = UNIT_WORD_COUNTS) readonly uniform uimage2D u_word_counts;  // see mt_common.glsl
+layout(rg32ui, binding = UNIT_WORD_OFFSETS) readonly uniform uimage2D u_word_offsets;   // (first vertex, first triangle)
+layout(std430, binding = BLOCK_MESH_INDICES) writeonly buffer Indices { uint indices[]; };
+layout(std430, binding = BLOCK_VERTEX_JOBS) writeonly buffer VertexJobs { uvec2 vertex_jobs[]; };
 
 // Per sign row around the cells (component d0 | d1 << 1), its word's first vertex and kind starts.
 struct Owners { uvec4 first; uvec4 starts_x; uvec4 starts_y; };

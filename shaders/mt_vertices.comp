@@ -9,8 +9,8 @@ layout(local_size_x = GROUP_SIZE) in;
 uniform uint u_vertex_count;
 
 struct Vertex { vec4 position_value; vec4 normal; };
-layout(std430, binding = 6) writeonly buffer Vertices { Vertex vertices[]; };
-layout(std430, binding = 4) readonly buffer VertexJobs { uvec2 vertex_jobs[]; };  // this run's window
+layout(std430, binding = BLOCK_MESH_VERTICES) writeonly buffer Vertices { Vertex vertices[]; };
+layout(std430, binding = BLOCK_VERTEX_JOBS) readonly buffer VertexJobs { uvec2 vertex_jobs[]; };  // this run's window
 
 // Central differences, one-sided at the border, in physical units (as mc_vertices.comp).
 vec3 gradient_at(ivec3 p) {

@@ -3,8 +3,8 @@
 // the block's offset (the scanned block sums), when there is more than one block.
 layout(local_size_x = SCAN_GROUP) in;
 
-layout(std430, binding = 0) buffer Data { uint data[]; };
-layout(std430, binding = 1) readonly buffer BlockOffsets { uint block_offsets[]; };
+layout(std430, binding = BLOCK_SCAN_DATA) buffer Data { uint data[]; };
+layout(std430, binding = BLOCK_SCAN_SUMS) readonly buffer BlockOffsets { uint block_offsets[]; };
 uniform uint u_count;
 uniform uint u_blocks;
 uniform bool u_has_offsets;

@@ -2,8 +2,8 @@
 // Exclusive scan, step 1 of 2: the sum of each block of SCAN_BLOCK elements.
 layout(local_size_x = SCAN_GROUP) in;
 
-layout(std430, binding = 0) readonly buffer Data { uint data[]; };
-layout(std430, binding = 1) writeonly buffer BlockSums { uint block_sums[]; };
+layout(std430, binding = BLOCK_SCAN_DATA) readonly buffer Data { uint data[]; };
+layout(std430, binding = BLOCK_SCAN_SUMS) writeonly buffer BlockSums { uint block_sums[]; };
 uniform uint u_count;
 uniform uint u_blocks;
 

@@ -13,7 +13,7 @@
 
 uniform uint u_vertex_count;
 
-layout(std430, binding = 2) buffer Ends { uint ends[]; };
+layout(std430, binding = BLOCK_ENDS) buffer Ends { uint ends[]; };
 
 vec3 free_axes(float bits) {
     uint b = uint(bits);

@@ -8,10 +8,10 @@ layout(local_size_x = GROUP_SIZE) in;
 #include "smooth_common.glsl"
 
 uniform uint u_triangle_count;
-layout(std430, binding = 6) readonly buffer Triangles { uint corners[]; };
-layout(rg32ui, binding = 3) writeonly uniform uimage2D u_neighbours;
-layout(rg32ui, binding = 4) readonly uniform uimage2D u_rings;
-layout(r32ui, binding = 5) readonly uniform uimage2D u_ranks;
+layout(std430, binding = BLOCK_MESH_INDICES) readonly buffer Triangles { uint corners[]; };
+layout(rg32ui, binding = UNIT_NEIGHBOURS) writeonly uniform uimage2D u_neighbours;
+layout(rg32ui, binding = UNIT_RINGS) readonly uniform uimage2D u_rings;
+layout(r32ui, binding = UNIT_RANKS) readonly uniform uimage2D u_ranks;
 
 void place(uint half_edge, uint from, uint to, uint third) {
     uint slot = imageLoad(u_rings, item_texel(from)).x + imageLoad(u_ranks, item_texel(half_edge)).x;

@@ -10,11 +10,11 @@
 layout(local_size_x = GROUP_SIZE) in;
 #include "smooth_common.glsl"
 
-layout(rg32ui, binding = 3) readonly uniform uimage2D u_neighbours;
-layout(rg32ui, binding = 4) readonly uniform uimage2D u_rings;
-layout(rgba32f, binding = 1) readonly uniform image2D u_before;
-layout(rgba32f, binding = 2) readonly uniform image2D u_moved;
-layout(rgba32f, binding = 6) writeonly uniform image2D u_after;
+layout(rg32ui, binding = UNIT_NEIGHBOURS) readonly uniform uimage2D u_neighbours;
+layout(rg32ui, binding = UNIT_RINGS) readonly uniform uimage2D u_rings;
+layout(rgba32f, binding = UNIT_POSITIONS) readonly uniform image2D u_before;
+layout(rgba32f, binding = UNIT_MOVED) readonly uniform image2D u_moved;
+layout(rgba32f, binding = UNIT_NEXT_POSITIONS) writeonly uniform image2D u_after;
 
 bool kept(vec3 before, vec3 after) {
     float old = dot(before, before), now = dot(after, after);

@@ -8,10 +8,10 @@ layout(local_size_x = GROUP_SIZE) in;
 #include "smooth_common.glsl"
 
 struct Vertex { vec4 position_value; vec4 normal; };
-layout(std430, binding = 8) readonly buffer Vertices { Vertex vertices[]; };
-layout(rgba32f, binding = 1) writeonly uniform image2D u_positions;
-layout(rg32ui, binding = 4) writeonly uniform uimage2D u_rings;
-layout(rgba32f, binding = 5) writeonly uniform image2D u_curvatures;
+layout(std430, binding = BLOCK_MESH_VERTICES) readonly buffer Vertices { Vertex vertices[]; };
+layout(rgba32f, binding = UNIT_POSITIONS) writeonly uniform image2D u_positions;
+layout(rg32ui, binding = UNIT_RINGS) writeonly uniform uimage2D u_rings;
+layout(rgba32f, binding = UNIT_CURVATURES) writeonly uniform image2D u_curvatures;
 
 // Per axis, the mean second difference along the 4 grid lines through cell c along that axis, at
 // the cell's two ends (app/reference_smooth.py's curvature(), in its order of operations): the

@@ -14,11 +14,11 @@ layout(local_size_x = GROUP_SIZE) in;
 
 uniform float u_tolerance;
 uniform float u_correction;
-layout(rg32ui, binding = 3) readonly uniform uimage2D u_neighbours;
-layout(rg32ui, binding = 4) readonly uniform uimage2D u_rings;
-layout(rgba32f, binding = 5) readonly uniform image2D u_curvatures;
-layout(rgba32f, binding = 1) readonly uniform image2D u_before;
-layout(rgba32f, binding = 2) writeonly uniform image2D u_after;
+layout(rg32ui, binding = UNIT_NEIGHBOURS) readonly uniform uimage2D u_neighbours;
+layout(rg32ui, binding = UNIT_RINGS) readonly uniform uimage2D u_rings;
+layout(rgba32f, binding = UNIT_CURVATURES) readonly uniform image2D u_curvatures;
+layout(rgba32f, binding = UNIT_POSITIONS) readonly uniform image2D u_before;
+layout(rgba32f, binding = UNIT_MOVED) writeonly uniform image2D u_after;
 
 // F(x) - E(x) - level and its gradient (index units): vec4(gradient, residual); x in cell c, whose
 // samples are s.

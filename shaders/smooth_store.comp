@@ -6,8 +6,8 @@ layout(local_size_x = GROUP_SIZE) in;
 #include "smooth_common.glsl"
 
 struct Vertex { vec4 position_value; vec4 normal; };
-layout(std430, binding = 8) buffer Vertices { Vertex vertices[]; };
-layout(rgba32f, binding = 1) readonly uniform image2D u_positions;
+layout(std430, binding = BLOCK_MESH_VERTICES) buffer Vertices { Vertex vertices[]; };
+layout(rgba32f, binding = UNIT_POSITIONS) readonly uniform image2D u_positions;
 
 // Central differences (one-sided at the border) at corner d of cell c, physical units.  Along each
 // axis one neighbour is another corner of the cell, already in s: only the other is loaded, so the

@@ -6,8 +6,8 @@ layout(local_size_x = GROUP_SIZE) in;
 #include "smooth_common.glsl"
 
 uniform uint u_triangle_count;
-layout(std430, binding = 6) readonly buffer Triangles { uint corners[]; };
-layout(r32ui, binding = 3) writeonly uniform uimage2D u_ranks;
+layout(std430, binding = BLOCK_MESH_INDICES) readonly buffer Triangles { uint corners[]; };
+layout(r32ui, binding = UNIT_RANKS) writeonly uniform uimage2D u_ranks;
 
 void main() {
     uint t = vertex_index();

@@ -1,6 +1,6 @@
 // Vertex jobs: the triangle pass (mc_triangles.comp, mt_triangles.comp) writes each vertex's job,
 // the edge it lies on, into the vertex's slot of a job buffer, and the vertex pass (mc_vertices.comp,
-// mt_vertices.comp) reads it back; each declares the buffer at binding JOB_BINDING (app/extractor.py)
+// mt_vertices.comp) reads it back; each declares the buffer at BLOCK_VERTEX_JOBS (app/core/layout.py)
 // with its own element type (one uint for cubes, a uvec2 for tetrahedra).  Like the mesh buffers the
 // job buffer is bound a window at a time: a triangle run binds the window that holds its words'
 // vertices and writes vertex v at v - u_job_first; a vertex run binds the window of its vertices.

@@ -124,9 +124,70 @@ def divisor_magic(d: int) -> tuple[int, int, int]:
     return ((1 << 32) * ((1 << bits) - d)) // d + 1, min(bits, 1), max(bits - 1, 0)
 
 
+# --- binding slots --------------------------------------------------------------------------------
+# Image units and storage-block bindings are set per dispatch: a slot means what the pass bound to it
+# says, so one number serves several roles, never two in one shader (tests/core/test_layout.py checks
+# each shader).  Python binds by these names and the shaders declare them by their #defines
+# (UNIT_<NAME> for images, BLOCK_<NAME> for storage blocks): no shader spells a binding number.
+
+
+class ImageUnit:
+    """Image units of the compute passes (`layout(binding = UNIT_...)`)."""
+    VOLUME = 0  # the resident volume (mc_common.glsl): every pass that samples it
+    # extraction (mc_*, mt_*)
+    SIGN_WORDS = 1
+    WORD_COUNTS = 2
+    WORD_OFFSETS = 3
+    CASE_TABLE = 5
+    # smoothing (smooth_*)
+    POSITIONS = 1  # where the vertices are (ping-pong: the iteration's input)
+    MOVED = 2  # smooth_step's proposed moves
+    NEIGHBOURS = 3
+    RINGS = 4
+    CURVATURES = 5
+    RANKS = 5
+    NEXT_POSITIONS = 6  # smooth_keep's output
+
+
+class StorageBlock:
+    """Storage-block bindings of the compute passes (`layout(std430, binding = BLOCK_...)`)."""
+    # the exclusive scan (scan_*)
+    SCAN_DATA = 0
+    SCAN_SUMS = 1
+    # the mesh, as the extraction writes it and smoothing and sharp features read it
+    MESH_INDICES = 6
+    MESH_VERTICES = 8
+    # extraction (mc_*, mt_*)
+    BRICK_VERTICES = 1  # per brick: vertex counts, scanned in place into offsets
+    BRICK_TRIANGLES = 2
+    BRICK_STATES = 3
+    VERTEX_JOBS = 4
+    ACTIVE_BRICKS = 7
+    BRICK_RANGES = 8
+    DISPATCH_ARGS = 9
+    # the resident volume's range pass (mc_row_range, mc_brick_range)
+    NON_FINITE = 7
+    ROW_RANGES = 9
+    # smoothing
+    ENDS = 2
+    # sharp features (emc_*)
+    PATCH_MEMBERS = 1
+    RING_MEMBERS = 2
+    CELLS = 3
+    POINTS = 4
+    FLAGS = 5
+
+
+def binding_defines() -> dict[str, int]:
+    """The binding slots as #defines: UNIT_VOLUME, BLOCK_BRICK_RANGES, ..."""
+    return {f"{prefix}_{name}": value for prefix, slots in (("UNIT", ImageUnit), ("BLOCK", StorageBlock))
+            for name, value in vars(slots).items() if name.isupper()}
+
+
 def shader_defines() -> dict[str, object]:
     """The layout constants as GLSL `#define`s (integer literals, so usable in layout qualifiers)."""
     return {
+        **binding_defines(),
         "WORD_BITS": WORD_BITS,
         "BRICK_I": BRICK_I,
         "BRICK_J": BRICK_J,

@@ -46,6 +46,8 @@ from ..core.layout import (
     STORAGE_OFFSET_ALIGNMENT,
     VERTEX_BYTES,
     WORD_BITS,
+    ImageUnit,
+    StorageBlock,
     divisor_magic,
     job_coordinate_bits,
     volume_texel_format,
@@ -90,8 +92,6 @@ class Extractor:
 
     JOB_COMPONENTS = 1
     """uints per vertex job (shaders/vertex_jobs.glsl): the cubes' (word id, axis, bit) is one."""
-    JOB_BINDING = 4
-    """The storage binding of the vertex jobs' window (shaders/vertex_jobs.glsl)."""
 
     _run_list: moderngl.Buffer | None = None
     """A large mesh's per-run brick list (`_run_bricks`), made when first needed."""
@@ -231,14 +231,14 @@ class Extractor:
         return self._own(self.ctx.buffer(reserve=max(elements, 1) * 4))
 
     def _bind_images(self) -> None:
-        self._volume.bind_to_image(0, read=True, write=False)
-        self._sign_words.bind_to_image(1, read=True, write=True)
-        self._word_counts.bind_to_image(2, read=True, write=True)
-        self._word_offsets.bind_to_image(3, read=True, write=True)
+        self._volume.bind_to_image(ImageUnit.VOLUME, read=True, write=False)
+        self._sign_words.bind_to_image(ImageUnit.SIGN_WORDS, read=True, write=True)
+        self._word_counts.bind_to_image(ImageUnit.WORD_COUNTS, read=True, write=True)
+        self._word_offsets.bind_to_image(ImageUnit.WORD_OFFSETS, read=True, write=True)
         self._bind_case_table()
 
     def _bind_case_table(self) -> None:
-        self._case_table.bind_to_image(5, read=True, write=False)  # see mc_case_table.glsl
+        self._case_table.bind_to_image(ImageUnit.CASE_TABLE, read=True, write=False)  # see mc_case_table.glsl
 
     @property
     def job_record_bytes(self) -> int:
@@ -295,7 +295,8 @@ class Extractor:
         row_ranges = self.ctx.buffer(reserve=self.plan.storage_elements()["row ranges"] * 4)
         self._non_finite.clear()
         try:
-            self._bind((8, row_ranges), (9, self._brick_ranges), (7, self._non_finite))
+            self._bind((StorageBlock.ROW_RANGES, row_ranges), (StorageBlock.BRICK_RANGES, self._brick_ranges),
+                       (StorageBlock.NON_FINITE, self._non_finite))
             dispatch_groups(self._passes["mc_row_range"], -(-word_count // GROUP_SIZE))
             self.ctx.memory_barrier()
             dispatch_groups(self._passes["mc_brick_range"], -(-self.brick_count // GROUP_SIZE))
@@ -347,8 +348,10 @@ class Extractor:
 
     def _count(self) -> tuple[int, int]:
         """Passes 1-5: skip, pack signs, classify, brick sums, scan; returns the totals (read back)."""
-        self._bind((1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets), (7, self._active_bricks),
-                   (8, self._brick_ranges), (9, self._dispatch_args), (3, self._brick_states))
+        self._bind((StorageBlock.BRICK_VERTICES, self._brick_vertex_offsets),
+                   (StorageBlock.BRICK_TRIANGLES, self._brick_triangle_offsets),
+                   (StorageBlock.ACTIVE_BRICKS, self._active_bricks), (StorageBlock.BRICK_RANGES, self._brick_ranges),
+                   (StorageBlock.DISPATCH_ARGS, self._dispatch_args), (StorageBlock.BRICK_STATES, self._brick_states))
         dispatch_groups(self._passes["mc_bricks"], -(-(self.brick_count + 1) // GROUP_SIZE))
         self.ctx.memory_barrier()
         dispatch_groups(self._passes["mc_dispatch_args"], 1)
@@ -366,28 +369,30 @@ class Extractor:
 
     def _generate(self, n_vertices: int, runs, dispatches) -> None:
         """Passes 6-8: offsets per word, triangles and vertex jobs, vertices, into the mesh buffers."""
-        # The scan used slots 0 and 1; bind the passes' buffers again.
-        self._bind((1, self._brick_vertex_offsets), (2, self._brick_triangle_offsets))
+        # The scan used its own slots; bind the passes' buffers again.
+        self._bind((StorageBlock.BRICK_VERTICES, self._brick_vertex_offsets),
+                   (StorageBlock.BRICK_TRIANGLES, self._brick_triangle_offsets))
         self._run_over_active_bricks("mc_word_offsets", per_brick=True)
         triangles, vertices = self._passes["mc_triangles"], self._passes["mc_vertices"]
         for (window, job_slots), run_dispatches in zip(runs, dispatches):
             # Each run writes the triangles in its window of the index buffer (usually the only one)
             # and the vertex jobs of the words whose triangles start there (triangle_runs.glsl), into
             # the window of the job buffer that holds their vertices (vertex_jobs.glsl).
-            self._bind_window(6, self.index_buffer, window, INDEX_BYTES)
+            self._bind_window(StorageBlock.MESH_INDICES, self.index_buffer, window, INDEX_BYTES)
             for bricks, jobs in run_dispatches:
-                self._bind_window(self.JOB_BINDING, self.vertex_jobs, jobs, self.job_record_bytes)
+                self._bind_window(StorageBlock.VERTEX_JOBS, self.vertex_jobs, jobs, self.job_record_bytes)
                 set_uniforms(triangles, u_triangle_window=window, u_job_slots=job_slots, u_job_first=jobs[0])
                 if bricks is None:
                     self._run_over_active_bricks("mc_triangles")
                     continue
                 self._run_list.write(np.concatenate([[len(bricks)], bricks]).astype(np.uint32))
-                self._run_list.bind_to_storage_buffer(7)  # in the active list's place (mc_active_bricks.glsl)
+                # In the active list's place (mc_active_bricks.glsl).
+                self._run_list.bind_to_storage_buffer(StorageBlock.ACTIVE_BRICKS)
                 dispatch_groups(triangles, len(bricks))
                 self.ctx.memory_barrier()
         for window in self.plan.windows(n_vertices, VERTEX_BYTES, self.job_record_bytes):
-            self._bind_window(6, self.vertex_buffer, window, VERTEX_BYTES)
-            self._bind_window(self.JOB_BINDING, self.vertex_jobs, window, self.job_record_bytes)
+            self._bind_window(StorageBlock.MESH_VERTICES, self.vertex_buffer, window, VERTEX_BYTES)
+            self._bind_window(StorageBlock.VERTEX_JOBS, self.vertex_jobs, window, self.job_record_bytes)
             set_uniforms(vertices, u_vertex_count=window[1])
             dispatch_groups(vertices, -(-window[1] // GROUP_SIZE))
         self.ctx.memory_barrier()

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import moderngl
 
-from ..core.layout import SCAN_BLOCK
+from ..core.layout import SCAN_BLOCK, StorageBlock
 from .programs import compute_program, dispatch_groups, set_uniforms
 
 
@@ -29,22 +29,22 @@ class ExclusiveScan:
         """data[i] <- sum(data[:i]) for i < count."""
         blocks = -(-count // SCAN_BLOCK)
         if blocks <= 1:
-            data.bind_to_storage_buffer(0)
+            data.bind_to_storage_buffer(StorageBlock.SCAN_DATA)
             set_uniforms(self._apply, u_count=count, u_blocks=1, u_has_offsets=False)
             dispatch_groups(self._apply, 1)
             self.ctx.memory_barrier()
             return
         sums = self._sums_buffer(level, blocks)
-        data.bind_to_storage_buffer(0)
-        sums.bind_to_storage_buffer(1)
+        data.bind_to_storage_buffer(StorageBlock.SCAN_DATA)
+        sums.bind_to_storage_buffer(StorageBlock.SCAN_SUMS)
         set_uniforms(self._reduce, u_count=count, u_blocks=blocks)
         dispatch_groups(self._reduce, blocks)
         self.ctx.memory_barrier()
 
         self(sums, blocks, level + 1)
 
-        data.bind_to_storage_buffer(0)
-        sums.bind_to_storage_buffer(1)
+        data.bind_to_storage_buffer(StorageBlock.SCAN_DATA)
+        sums.bind_to_storage_buffer(StorageBlock.SCAN_SUMS)
         set_uniforms(self._apply, u_count=count, u_blocks=blocks, u_has_offsets=True)
         dispatch_groups(self._apply, blocks)
         self.ctx.memory_barrier()

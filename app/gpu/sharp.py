@@ -36,7 +36,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ..core.layout import GROUP_SIZE, VERTEX_BYTES, VERTEX_FLOATS
+from ..core.layout import GROUP_SIZE, VERTEX_BYTES, VERTEX_FLOATS, ImageUnit, StorageBlock
 from ..cpu.sharp.cells import bend_cos
 from ..cpu.sharp.patches import MAX_PATCH_VERTICES
 from ..cpu.sharp.points import CLUSTER_ANGLE, LINE_MARGIN, third_side_bound
@@ -105,10 +105,10 @@ class SharpExtractor:
         program = self._program("emc_flags", **({"FLAG_EACH": 1} if each else {}))
         set_uniforms(program, **ex.grid_uniforms, u_sign=1.0 if ex.descent else -1.0, u_vertex_count=n,
                      u_cos_half=float(bend_cos(angle)))
-        ex.volume_texture.bind_to_image(0, read=True, write=False)
+        ex.volume_texture.bind_to_image(ImageUnit.VOLUME, read=True, write=False)
         flags = self._upload("flags", np.zeros(1 + n if each else 1, np.uint32))
-        flags.bind_to_storage_buffer(5)
-        mesh.vertex_buffer.bind_to_storage_buffer(8, size=n * VERTEX_BYTES)
+        flags.bind_to_storage_buffer(StorageBlock.FLAGS)
+        mesh.vertex_buffer.bind_to_storage_buffer(StorageBlock.MESH_VERTICES, size=n * VERTEX_BYTES)
         dispatch_groups(program, -(-n // GROUP_SIZE))
         self.ctx.memory_barrier()
         if each:
@@ -143,13 +143,13 @@ class SharpExtractor:
                      u_ring_width=ring_width)
         program["u_spacing_d"].value = tuple(float(s) for s in spacing)
         program["u_out_of_plane"].value = third_side_bound(cos_angle)
-        ex.volume_texture.bind_to_image(0, read=True, write=False)
-        self._upload("members", renumbered(members)).bind_to_storage_buffer(1)
-        self._upload("ring", renumbered(ring_members)).bind_to_storage_buffer(2)
-        self._upload("cells", cells).bind_to_storage_buffer(3)
+        ex.volume_texture.bind_to_image(ImageUnit.VOLUME, read=True, write=False)
+        self._upload("members", renumbered(members)).bind_to_storage_buffer(StorageBlock.PATCH_MEMBERS)
+        self._upload("ring", renumbered(ring_members)).bind_to_storage_buffer(StorageBlock.RING_MEMBERS)
+        self._upload("cells", cells).bind_to_storage_buffer(StorageBlock.CELLS)
         out = self._upload("points", np.zeros(8 * n_patches, np.float64))
-        out.bind_to_storage_buffer(4)
-        self._upload("vertices", records).bind_to_storage_buffer(8)
+        out.bind_to_storage_buffer(StorageBlock.POINTS)
+        self._upload("vertices", records).bind_to_storage_buffer(StorageBlock.MESH_VERTICES)
         dispatch_groups(program, -(-n_patches // GROUP_SIZE))
         self.ctx.memory_barrier()
         result = np.frombuffer(out.read(size=64 * n_patches), np.float64).reshape(-1, 8)

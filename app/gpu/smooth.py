@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import moderngl
 
-from ..core.layout import GROUP_SIZE, VERTEX_BYTES
+from ..core.layout import GROUP_SIZE, VERTEX_BYTES, ImageUnit, StorageBlock
 from ..cpu.smooth import (
     ACCEPT,
     BORDER,
@@ -115,33 +115,33 @@ class Smoother:
         positions = [self._image("positions", n_v, 4, "f4"), self._image("positions 2", n_v, 4, "f4")]
         moved = self._image("moved", n_v, 4, "f4")
         rings, curvatures = self._image("rings", n_v, 2, "u4"), self._image("curvatures", n_v, 4, "f4")
-        ex.volume_texture.bind_to_image(0, read=True, write=False)
-        mesh.index_buffer.bind_to_storage_buffer(6, size=max(n_t, 1) * 12)
-        mesh.vertex_buffer.bind_to_storage_buffer(8, size=n_v * VERTEX_BYTES)
+        ex.volume_texture.bind_to_image(ImageUnit.VOLUME, read=True, write=False)
+        mesh.index_buffer.bind_to_storage_buffer(StorageBlock.MESH_INDICES, size=max(n_t, 1) * 12)
+        mesh.vertex_buffer.bind_to_storage_buffer(StorageBlock.MESH_VERTICES, size=n_v * VERTEX_BYTES)
 
         ends.clear()
-        ends.bind_to_storage_buffer(2)
-        ranks.bind_to_image(3, read=False, write=True)
+        ends.bind_to_storage_buffer(StorageBlock.ENDS)
+        ranks.bind_to_image(ImageUnit.RANKS, read=False, write=True)
         self._run("smooth_valence", n_t)
         self._scan(ends, n_v + 1)
-        ends.bind_to_storage_buffer(2)
-        positions[0].bind_to_image(1, read=False, write=True)
-        rings.bind_to_image(4, read=False, write=True)
-        curvatures.bind_to_image(5, read=False, write=True)
+        ends.bind_to_storage_buffer(StorageBlock.ENDS)
+        positions[0].bind_to_image(ImageUnit.POSITIONS, read=False, write=True)
+        rings.bind_to_image(ImageUnit.RINGS, read=False, write=True)
+        curvatures.bind_to_image(ImageUnit.CURVATURES, read=False, write=True)
         self._run("smooth_load", n_v)
-        neighbours.bind_to_image(3, read=False, write=True)
-        rings.bind_to_image(4, read=True, write=False)
-        ranks.bind_to_image(5, read=True, write=False)
+        neighbours.bind_to_image(ImageUnit.NEIGHBOURS, read=False, write=True)
+        rings.bind_to_image(ImageUnit.RINGS, read=True, write=False)
+        ranks.bind_to_image(ImageUnit.RANKS, read=True, write=False)
         self._run("smooth_fill", n_t)
-        neighbours.bind_to_image(3, read=True, write=False)
-        curvatures.bind_to_image(5, read=True, write=False)
-        moved.bind_to_image(2, read=True, write=True)  # written by smooth_step, read by smooth_keep
+        neighbours.bind_to_image(ImageUnit.NEIGHBOURS, read=True, write=False)
+        curvatures.bind_to_image(ImageUnit.CURVATURES, read=True, write=False)
+        moved.bind_to_image(ImageUnit.MOVED, read=True, write=True)  # written by smooth_step, read by smooth_keep
         for i in range(iterations):
-            positions[i % 2].bind_to_image(1, read=True, write=False)
-            positions[(i + 1) % 2].bind_to_image(6, read=False, write=True)
+            positions[i % 2].bind_to_image(ImageUnit.POSITIONS, read=True, write=False)
+            positions[(i + 1) % 2].bind_to_image(ImageUnit.NEXT_POSITIONS, read=False, write=True)
             self._run("smooth_step", n_v)
             self._run("smooth_keep", n_v)
-        positions[iterations % 2].bind_to_image(1, read=True, write=False)
+        positions[iterations % 2].bind_to_image(ImageUnit.POSITIONS, read=True, write=False)
         self._run("smooth_store", n_v)
         self.ctx.finish()
 

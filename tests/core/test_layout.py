@@ -1,5 +1,6 @@
-"""gpu_layout.py is the one place the shaders' layout numbers are written: they reach every
-compute program as #defines, and no marching-cubes or scan shader spells one as a literal."""
+"""core/layout.py is the one place the shaders' layout numbers are written: they reach every
+compute program as #defines, and no marching-cubes or scan shader spells one as a literal, nor any
+compute shader a binding slot."""
 from __future__ import annotations
 
 import re
@@ -9,7 +10,7 @@ import pytest
 
 from isoscope.core import layout as gpu_layout
 from isoscope.gpu.programs import compute_program
-from isoscope.resources import shaders_dir
+from isoscope.resources import shader_source, shaders_dir
 
 LAYOUT_SHADERS = sorted(p.name for p in shaders_dir().iterdir() if p.name.startswith(("mc_", "scan_")))
 # Numbers that are layout constants here: word bits, group sizes, scan block, dispatch limit, 1/256.
@@ -72,3 +73,60 @@ def test_divisor_magic_divides_every_32_bit_number_exactly():
         assert np.array_equal(emulated_divide(n, gpu_layout.divisor_magic(d)), n // np.uint64(d)), d
     with pytest.raises(ValueError):
         gpu_layout.divisor_magic(0)
+
+
+# -- binding slots ----------------------------------------------------------------------------------
+BINDING = re.compile(r"layout\s*\(([^)]*)\)\s*(?:readonly\s+|writeonly\s+|coherent\s+|restrict\s+)*"
+                     r"(buffer|uniform)\s+(\w+)(?:\s+(\w+))?")
+SLOT = re.compile(r"binding\s*=\s*(\w+)")
+OWN_SLOTS = {"expr_sample.comp"}
+"""Shaders with bindings of their own: compiled outside compute_program (volumes/gpu_sampler.py, which
+binds its two buffers itself), not by any pass that shares a slot with another."""
+
+
+def compute_shaders() -> list[str]:
+    return sorted(p.name for p in shaders_dir().iterdir() if p.suffix == ".comp" and p.name not in OWN_SLOTS)
+
+
+def declared_slots(source: str) -> list[tuple[str, str, str]]:
+    """(kind "image" or "block", slot as written, declared name) of each binding in `source`."""
+    out = []
+    for qualifiers, storage, type_or_block, name in BINDING.findall(source):
+        slot = SLOT.search(qualifiers)
+        if slot:
+            kind = "block" if storage == "buffer" else "image"
+            out.append((kind, slot.group(1), type_or_block if storage == "buffer" else name))
+    return out
+
+
+def test_the_slot_names_are_the_defines_every_program_gets():
+    defines = gpu_layout.shader_defines()
+    assert defines["UNIT_VOLUME"] == gpu_layout.ImageUnit.VOLUME == 0
+    assert defines["BLOCK_BRICK_RANGES"] == gpu_layout.StorageBlock.BRICK_RANGES
+    assert gpu_layout.binding_defines().items() <= defines.items()
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in shaders_dir().iterdir() if p.name not in OWN_SLOTS))
+def test_no_shader_spells_a_binding_number(name):
+    assert not re.search(r"binding\s*=\s*\d", code_of(name)), f"{name}: bind by a UNIT_/BLOCK_ name of core/layout.py"
+
+
+def test_the_binding_check_reads_what_the_shaders_declare():
+    source = ("layout(std430, binding = BLOCK_MESH_VERTICES) readonly buffer Vertices { float v[]; };\n"
+              "layout(rgba32f, binding = UNIT_MOVED) writeonly uniform image2D u_after;")
+    assert declared_slots(source) == [("block", "BLOCK_MESH_VERTICES", "Vertices"), ("image", "UNIT_MOVED", "u_after")]
+    assert re.search(r"binding\s*=\s*\d", "layout(std430, binding = 3) buffer B { uint b[]; };")
+
+
+@pytest.mark.parametrize("name", compute_shaders())
+def test_each_pass_binds_every_slot_by_a_known_name_and_no_number_twice(name):
+    """Slots are reused between passes (core/layout.py): within one program, with its includes,
+    every binding is a name layout.py defines, and no two images or two blocks share a number."""
+    defines = gpu_layout.binding_defines()
+    slots = declared_slots(re.sub(r"//[^\n]*", "", shader_source(name)))
+    assert slots, name
+    for kind, prefix in (("image", "UNIT_"), ("block", "BLOCK_")):
+        named = [slot for k, slot, _ in slots if k == kind]
+        assert all(slot.startswith(prefix) and slot in defines for slot in named), (name, named)
+        numbers = [defines[slot] for slot in named]
+        assert len(numbers) == len(set(numbers)), f"{name}: two {kind}s at one slot: {named}"
