@@ -1,4 +1,4 @@
-"""Compiled compute programs, one set per GL context, and the dispatch helper they share."""
+"""Compiled compute programs and timer queries, one set per GL context, and the dispatch helper they share."""
 from __future__ import annotations
 
 import weakref
@@ -9,6 +9,7 @@ from ..core.layout import MAX_GROUPS_PER_DIMENSION, shader_defines
 from ..resources import shader_source
 
 _cache: weakref.WeakKeyDictionary[moderngl.Context, dict] = weakref.WeakKeyDictionary()
+_timers: weakref.WeakKeyDictionary[moderngl.Context, tuple] = weakref.WeakKeyDictionary()
 
 
 def compute_program(ctx: moderngl.Context, name: str, defines: dict | None = None) -> moderngl.ComputeShader:
@@ -21,6 +22,17 @@ def compute_program(ctx: moderngl.Context, name: str, defines: dict | None = Non
     if key not in programs:
         programs[key] = ctx.compute_shader(shader_source(name, {**shader_defines(), **(defines or {})}))
     return programs[key]
+
+
+def timer_queries(ctx: moderngl.Context) -> tuple[moderngl.Query, moderngl.Query]:
+    """Two GL_TIME_ELAPSED queries of ctx, shared by the extractors made in it.
+
+    moderngl (5.x) has no way to delete a query: one pair per extractor outlived every `release()`
+    (two GL objects leaked per extractor made), so the context keeps one pair, as it keeps the
+    programs.  Extractions are synchronous, so no two extractors time with them at once."""
+    if ctx not in _timers:
+        _timers[ctx] = (ctx.query(time=True), ctx.query(time=True))
+    return _timers[ctx]
 
 
 def dispatch_groups(program: moderngl.ComputeShader, groups: int) -> None:

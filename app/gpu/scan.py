@@ -4,6 +4,7 @@ from __future__ import annotations
 import moderngl
 
 from ..core.layout import SCAN_BLOCK, StorageBlock
+from .buffers import GrowableBuffer
 from .programs import compute_program, dispatch_groups, set_uniforms
 
 
@@ -14,16 +15,12 @@ class ExclusiveScan:
         self.ctx = ctx
         self._reduce = compute_program(ctx, "scan_reduce.comp")
         self._apply = compute_program(ctx, "scan_apply.comp")
-        self._scratch: dict[int, moderngl.Buffer] = {}  # level -> block sums
+        self._scratch: dict[int, GrowableBuffer] = {}  # level -> block sums
 
     def _sums_buffer(self, level: int, blocks: int) -> moderngl.Buffer:
-        buf = self._scratch.get(level)
-        if buf is None or buf.size < blocks * 4:
-            if buf is not None:
-                buf.release()
-            buf = self.ctx.buffer(reserve=max(blocks, 1) * 4)
-            self._scratch[level] = buf
-        return buf
+        if level not in self._scratch:
+            self._scratch[level] = GrowableBuffer(self.ctx)
+        return self._scratch[level].ensure(blocks * 4)
 
     def __call__(self, data: moderngl.Buffer, count: int, level: int = 0) -> None:
         """data[i] <- sum(data[:i]) for i < count."""

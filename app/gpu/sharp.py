@@ -1,8 +1,8 @@
-"""Extended Marching Cubes' feature step on the GPU, on the mesh an `Extractor` already holds.
+"""Extended Marching Cubes' feature step on the GPU, on a mesh of a resident volume (an `Extractor`'s).
 
     >>> ex = Extractor(volume); ex.extract(level)
-    >>> sharp = SharpExtractor(ex)                  # borrows its volume image and mesh buffers
-    >>> sharp.may_bend(angle)                       # False: the sharp mesh is the plain one
+    >>> sharp = SharpExtractor(ex.resident)         # reads its volume image
+    >>> sharp.may_bend(angle, ex.mesh)              # False: the sharp mesh is the plain one
     >>> sharp.patch_points(...)                     # reference_sharp.patch_points, on the GPU
 
 Passes (shaders/emc_*.comp; numpy mirror and the method: app/reference_sharp.py):
@@ -36,14 +36,16 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ..core.layout import GROUP_SIZE, VERTEX_BYTES, VERTEX_FLOATS, ImageUnit, StorageBlock
+from ..core.layout import GROUP_SIZE, VERTEX_BYTES, VERTEX_FLOATS, StorageBlock
 from ..cpu.sharp.cells import bend_cos
 from ..cpu.sharp.patches import MAX_PATCH_VERTICES
 from ..cpu.sharp.points import CLUSTER_ANGLE, LINE_MARGIN, third_side_bound
 from ..cpu.sharp.points import patch_points as numpy_patch_points
 from ..cpu.sharp.qef import JACOBI_SWEEPS, SINGULAR_CUTOFF
+from .buffers import GrowableBuffers
 from .mesh import GpuMesh
 from .programs import compute_program, dispatch_groups, set_uniforms
+from .resident import ResidentVolume, resident_of
 
 RING_STEP = 48
 """Ring lists' capacity in the shader is their width rounded up to this (one program per capacity).
@@ -60,17 +62,21 @@ def _double(value) -> str:
 
 
 class SharpExtractor:
-    """Runs the Extended-MC passes on meshes of one extractor's volume; keeps its scratch buffers."""
+    """Runs the Extended-MC passes on meshes of one resident volume; keeps its scratch buffers.
 
-    def __init__(self, extractor):
-        self.extractor = extractor
-        self.ctx = extractor.ctx
-        self._defines = {**extractor.volume_defines, "JACOBI_SWEEPS": JACOBI_SWEEPS,
+    `volume`: a ResidentVolume, or an extractor, whose resident volume it reads and whose last mesh
+    `may_bend` then takes by default."""
+
+    def __init__(self, volume: ResidentVolume):
+        self.volume = resident_of(volume)
+        self.extractor = None if volume is self.volume else volume  # only for may_bend's default mesh
+        self.ctx = self.volume.ctx
+        self._defines = {**self.volume.defines, "JACOBI_SWEEPS": JACOBI_SWEEPS,
                          "SINGULAR_CUTOFF_SQ": _double(SINGULAR_CUTOFF ** 2),
                          "CLUSTER_COS": _double(np.cos(np.radians(CLUSTER_ANGLE))),
                          "LINE_MARGIN": _double(LINE_MARGIN), "MAX_PATCH_VERTICES": MAX_PATCH_VERTICES}
-        self._buffers: dict[str, moderngl.Buffer] = {}
-        self._block_bytes = extractor.plan.limits.max_storage_block_bytes
+        self._buffers = GrowableBuffers(self.ctx)
+        self._block_bytes = self.volume.plan.limits.max_storage_block_bytes
 
     def _fits(self, *sizes: int) -> bool:
         """Whether storage blocks of these byte sizes can be bound (GL_MAX_SHADER_STORAGE_BLOCK_SIZE)."""
@@ -80,32 +86,27 @@ class SharpExtractor:
         return compute_program(self.ctx, f"{name}.comp", {**self._defines, **defines})
 
     def _upload(self, name: str, array: np.ndarray) -> moderngl.Buffer:
-        data = np.ascontiguousarray(array).tobytes()
-        buf = self._buffers.get(name)
-        if buf is None or buf.size < max(len(data), 4):
-            if buf is not None:
-                buf.release()
-            buf = self._buffers[name] = self.ctx.buffer(reserve=max(len(data), 4))
-        if data:
-            buf.write(data)
-        return buf
+        return self._buffers[name].write(np.ascontiguousarray(array).tobytes())
 
     def may_bend(self, angle: float, mesh: GpuMesh | None = None, each: bool = False):
-        """Pass 0 (emc_flags.comp) on the extractor's mesh (or `mesh`): whether some vertex may sit in a
+        """Pass 0 (emc_flags.comp) on `mesh` (default: the extractor's): whether some vertex may sit in a
         feature cell (reference_sharp.vertex_may_bend).  False: `sharpen` would return the plain mesh
         as it is, so nothing need be read back.  `each`: the per-vertex flags instead (for tests).
         None: the mesh is too large for one storage block, so the pass did not run (ask numpy)."""
-        ex = self.extractor
-        mesh = ex.mesh if mesh is None else mesh
+        if mesh is None:
+            if self.extractor is None:
+                raise ValueError("may_bend needs the mesh: this SharpExtractor was made from a resident volume")
+            mesh = self.extractor.mesh
+        volume = self.volume
         n = mesh.n_vertices
         if n == 0:
             return np.zeros(0, bool) if each else False
         if not self._fits(n * VERTEX_BYTES, 4 * (1 + n) if each else 4):
             return None
         program = self._program("emc_flags", **({"FLAG_EACH": 1} if each else {}))
-        set_uniforms(program, **ex.grid_uniforms, u_sign=1.0 if ex.descent else -1.0, u_vertex_count=n,
+        set_uniforms(program, **volume.grid_uniforms, u_sign=volume.sign, u_vertex_count=n,
                      u_cos_half=float(bend_cos(angle)))
-        ex.volume_texture.bind_to_image(ImageUnit.VOLUME, read=True, write=False)
+        volume.bind()
         flags = self._upload("flags", np.zeros(1 + n if each else 1, np.uint32))
         flags.bind_to_storage_buffer(StorageBlock.FLAGS)
         mesh.vertex_buffer.bind_to_storage_buffer(StorageBlock.MESH_VERTICES, size=n * VERTEX_BYTES)
@@ -116,10 +117,10 @@ class SharpExtractor:
         return bool(np.frombuffer(flags.read(size=4), np.uint32)[0])
 
     def patch_points(self, verts, plane_normals, members, ring_members, lower, upper, spacing, cos_angle):
-        """reference_sharp.patch_points on the GPU for meshes of the extractor's volume.  The planes'
+        """isoscope.cpu.sharp.features.patch_points on the GPU for meshes of the resident volume.  The planes'
         normals are made from the volume at `verts` (so `plane_normals` is not read); only the vertices
         the lists name go up, renumbered (sharpen may have moved some next to a kink: sharp_planes)."""
-        ex = self.extractor
+        volume = self.volume
         n_patches = len(members)
         if n_patches == 0:
             return np.zeros((0, 3)), np.zeros(0, bool), np.zeros((0, 3))
@@ -139,11 +140,11 @@ class SharpExtractor:
         cells = np.rint(lower / np.asarray(spacing, np.float64)).astype(np.int32)
         program = self._program("emc_solve", RING_CAPACITY=-(-max(ring_width, MAX_PATCH_VERTICES) // RING_STEP)
                                 * RING_STEP)
-        set_uniforms(program, **ex.grid_uniforms, u_sign=1.0 if ex.descent else -1.0, u_patch_count=n_patches,
+        set_uniforms(program, **volume.grid_uniforms, u_sign=volume.sign, u_patch_count=n_patches,
                      u_ring_width=ring_width)
         program["u_spacing_d"].value = tuple(float(s) for s in spacing)
         program["u_out_of_plane"].value = third_side_bound(cos_angle)
-        ex.volume_texture.bind_to_image(ImageUnit.VOLUME, read=True, write=False)
+        volume.bind()
         self._upload("members", renumbered(members)).bind_to_storage_buffer(StorageBlock.PATCH_MEMBERS)
         self._upload("ring", renumbered(ring_members)).bind_to_storage_buffer(StorageBlock.RING_MEMBERS)
         self._upload("cells", cells).bind_to_storage_buffer(StorageBlock.CELLS)
@@ -157,6 +158,4 @@ class SharpExtractor:
         return result[:, :3].copy(), result[:, 3] > 0, corner
 
     def release(self) -> None:
-        for buf in self._buffers.values():
-            buf.release()
-        self._buffers.clear()
+        self._buffers.release()

@@ -7,7 +7,7 @@ back (the viewer draws the extractor's own buffers).  Else the feature step
 its per-patch solve (ENO normals, the planes' point) on the GPU: `SharpExtractor.patch_points`,
 shaders/emc_solve.comp, which gives the numpy reference's points to ~1e-14.  Grouping triangles
 into patches, the one-ring lists, fans, edge flips, the feature vertices' normals and the crisp
-normals for drawing are still numpy (see app/sharp_extractor.py).  For drawing, triangles at
+normals for drawing are still numpy (see isoscope.gpu.sharp).  For drawing, triangles at
 feature vertices get face normals (reference_sharp.crisp_normals), so edges render crisp.
 """
 from __future__ import annotations
@@ -27,8 +27,8 @@ def sharp_mesh_of(extractor, volume_data, angle, field=None, gpu: SharpExtractor
     """The extractor's last mesh with sharp features: verts, faces, normals, values, n_plain_vertices.
 
     `field`: signed_field(volume_data, extractor.descent) if already made; `gpu`: a SharpExtractor of
-    `extractor` to reuse (else one is made and released here)."""
-    solver = SharpExtractor(extractor) if gpu is None else gpu
+    `extractor`'s resident volume to reuse (else one is made and released here)."""
+    solver = SharpExtractor(extractor.resident) if gpu is None else gpu
     try:
         sharpened = _sharpened(extractor, volume_data, angle, field, solver)
     finally:
@@ -43,7 +43,7 @@ def sharp_mesh_of(extractor, volume_data, angle, field=None, gpu: SharpExtractor
 def _sharpened(extractor, volume_data, angle, field, gpu: SharpExtractor):
     """sharpen's result for the extractor's last mesh, or None where it is the plain mesh as it is, which
     pass 0 (SharpExtractor.may_bend) tells without reading the mesh back."""
-    if gpu.may_bend(angle) is False:  # None: too large for the GPU's pass 0; sharpen tells in numpy
+    if gpu.may_bend(angle, extractor.mesh) is False:  # None: too large for the GPU's pass 0; sharpen tells
         return None
     field = signed_field(volume_data, extractor.descent) if field is None else field
     return sharpen(extractor.read_mesh(), field, extractor.spacing, angle, solver=gpu.patch_points)
@@ -97,13 +97,13 @@ class SharpenedMesh:
         key = (id(volume_data), extractor.descent)
         if self._field_key != key:
             self._field, self._field_key = signed_field(volume_data, extractor.descent), key
-        if self._gpu is None or self._gpu.extractor is not extractor:
+        if self._gpu is None or self._gpu.volume is not extractor.resident:
             self._release_gpu()
-            self._gpu = SharpExtractor(extractor)
+            self._gpu = SharpExtractor(extractor.resident)
         if wait:
             self._show(extractor, _sharpened(extractor, volume_data, angle, self._field, self._gpu), start)
             return
-        if self._gpu.may_bend(angle) is False:  # pass 0: no cell can bend, so the plain mesh (no read-back)
+        if self._gpu.may_bend(angle, extractor.mesh) is False:  # pass 0: no cell can bend: the plain mesh
             self._show(extractor, None, start)
             return
         plain = extractor.read_mesh()

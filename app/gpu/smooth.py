@@ -1,6 +1,6 @@
 """Smoothing projected onto the level set, on the GPU: a `GpuMesh` smoothed in place.
 
-The volume is the one already resident in an `Extractor`; the mesh is usually its last
+The volume is a `ResidentVolume` (resident.py), usually an extractor's; the mesh is usually its last
 extraction (any indexed mesh on that volume's level set works).  Passes (shaders/smooth_*.comp;
 numpy mirror and the method: app/reference_smooth.py):
 
@@ -40,9 +40,11 @@ from ..cpu.smooth import (
     UMBRELLA_WEIGHT,
     check_iterations,
 )
+from .buffers import GrowableBuffer
 from .limits import GPULimitError, GpuLimits
 from .mesh import GpuMesh
 from .programs import compute_program, dispatch_groups, set_uniforms
+from .resident import ResidentVolume, resident_of
 from .scan import ExclusiveScan
 
 IMAGE_SHIFT = 12
@@ -52,47 +54,48 @@ PASSES = ("smooth_valence", "smooth_fill", "smooth_load", "smooth_step", "smooth
 
 
 class Smoother:
-    """Smooths meshes of one extractor's volume on the GPU; keeps its scratch buffers between calls.
+    """Smooths meshes on the level sets of one resident volume on the GPU; keeps its scratch between calls.
 
-    >>> smoother = Smoother(extractor)
-    >>> extractor.extract(level); smoother.smooth(extractor.mesh, 5)   # the mesh is changed in place
+    >>> smoother = Smoother(volume)                 # a ResidentVolume (or an extractor: its resident volume)
+    >>> extractor.extract(level); smoother.smooth(extractor.mesh, 5, level)   # the mesh is changed in place
+
+    Made from an extractor, `smooth`'s level defaults to that extractor's last one.
     """
 
-    def __init__(self, extractor):
-        self.extractor = extractor
-        self.ctx = extractor.ctx
+    def __init__(self, volume: ResidentVolume):
+        self.volume = resident_of(volume)
+        self._extractor = None if volume is self.volume else volume  # only for smooth's default level
+        self.ctx = self.volume.ctx
         self._programs = {name: compute_program(self.ctx, f"{name}.comp", {
-            **extractor.volume_defines, "UMBRELLA_WEIGHT": f"{UMBRELLA_WEIGHT!r}",
+            **self.volume.defines, "UMBRELLA_WEIGHT": f"{UMBRELLA_WEIGHT!r}",
             "NEWTON_STEPS": NEWTON_STEPS, "CONVERGED": f"{CONVERGED!r}", "BORDER": f"{BORDER!r}",
             "FLOOR_SQUARED": f"{FLOOR_SQUARED!r}", "IMAGE_SHIFT": IMAGE_SHIFT}) for name in PASSES}
         self._scan = ExclusiveScan(self.ctx)
-        self._buffers: dict[str, moderngl.Buffer | moderngl.Texture] = {}
+        self._ends = GrowableBuffer(self.ctx)
+        self._images: dict[str, moderngl.Texture] = {}
         self._limits = GpuLimits.of(self.ctx)
-
-    def _buffer(self, name: str, size: int) -> moderngl.Buffer:
-        buf = self._buffers.get(name)
-        if buf is None or buf.size < size:
-            if buf is not None:
-                buf.release()
-            buf = self._buffers[name] = self.ctx.buffer(reserve=max(size, 4))
-        return buf
 
     def _image(self, name: str, items: int, components: int, dtype: str) -> moderngl.Texture:
         """A 2-D image of at least `items` texels, 2^IMAGE_SHIFT wide (grown by half again)."""
         rows = -(-items >> IMAGE_SHIFT) or 1
-        image = self._buffers.get(name)
+        image = self._images.pop(name, None)
         if image is None or image.height < rows:
+            held = 0
             if image is not None:
+                held = image.height
                 image.release()
-            rows = min(max(rows, int((image.height if image else 0) * 1.5)), self._limits.max_texture_size)
-            image = self._buffers[name] = self.ctx.texture((1 << IMAGE_SHIFT, rows), components, dtype=dtype)
+            rows = min(max(rows, int(held * 1.5)), self._limits.max_texture_size)
+            image = self.ctx.texture((1 << IMAGE_SHIFT, rows), components, dtype=dtype)
+        self._images[name] = image
         return image
 
     def smooth(self, mesh: GpuMesh, iterations: int, level: float | None = None) -> None:
-        """`iterations` rounds of smoothing, each projected onto `level` (default: the extractor's last)."""
+        """`iterations` rounds of smoothing, each projected onto `level` (default: the last level of the
+        extractor this smoother was made from)."""
         iterations = check_iterations(iterations)
-        ex = self.extractor
-        level = ex.level if level is None else level
+        volume = self.volume
+        if level is None and self._extractor is not None:
+            level = self._extractor.level
         if level is None:
             raise ValueError("smoothing needs a level: extract one first, or pass level=")
         if iterations == 0 or mesh.n_vertices == 0:
@@ -103,19 +106,19 @@ class Smoother:
             raise GPULimitError(f"smoothing needs the whole mesh ({n_v:,} vertices, {n_t:,} triangles) in one "
                                 f"storage block of {block >> 20} MiB; crop or downsample the volume, or use "
                                 "backend='cpu', which has no such limit")
-        sign = 1.0 if ex.descent else -1.0
-        low, high = ex.value_range
+        sign = volume.sign
+        low, high = volume.value_range
         for program in self._programs.values():
-            set_uniforms(program, **ex.grid_uniforms, u_level=sign * level, u_sign=sign,
+            set_uniforms(program, **volume.grid_uniforms, u_level=sign * level, u_sign=sign,
                          u_vertex_count=n_v, u_triangle_count=n_t, u_tolerance=ACCEPT * (high - low),
                          u_correction=CORRECTION * (high - low))
-        ends = self._buffer("ends", (n_v + 1) * 4)
+        ends = self._ends.ensure((n_v + 1) * 4)
         neighbours = self._image("neighbours", 3 * n_t, 2, "u4")
         ranks = self._image("ranks", 3 * n_t, 1, "u4")
         positions = [self._image("positions", n_v, 4, "f4"), self._image("positions 2", n_v, 4, "f4")]
         moved = self._image("moved", n_v, 4, "f4")
         rings, curvatures = self._image("rings", n_v, 2, "u4"), self._image("curvatures", n_v, 4, "f4")
-        ex.volume_texture.bind_to_image(ImageUnit.VOLUME, read=True, write=False)
+        volume.bind()
         mesh.index_buffer.bind_to_storage_buffer(StorageBlock.MESH_INDICES, size=max(n_t, 1) * 12)
         mesh.vertex_buffer.bind_to_storage_buffer(StorageBlock.MESH_VERTICES, size=n_v * VERTEX_BYTES)
 
@@ -150,12 +153,12 @@ class Smoother:
         self.ctx.memory_barrier()
 
     def scratch_bytes(self) -> int:
-        sizes = [b.size if isinstance(b, moderngl.Buffer) else b.width * b.height * b.components * 4
-                 for b in self._buffers.values()]
-        return sum(sizes) + self._scan.scratch_bytes()
+        images = sum(image.width * image.height * image.components * 4 for image in self._images.values())
+        return images + self._ends.size + self._scan.scratch_bytes()
 
     def release(self) -> None:
-        for buf in self._buffers.values():
-            buf.release()
-        self._buffers.clear()
+        for image in self._images.values():
+            image.release()
+        self._images.clear()
+        self._ends.release()
         self._scan.release()

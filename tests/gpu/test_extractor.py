@@ -10,8 +10,9 @@ from support.mesh_checks import (
     signed_volume,
 )
 
+from isoscope.core.layout import VERTEX_BYTES
 from isoscope.cpu.cubes import marching_cubes_reference
-from isoscope.gpu.cubes import VERTEX_BYTES, Extractor
+from isoscope.gpu.cubes import Extractor
 from isoscope.gpu.scan import ExclusiveScan
 
 RNG = np.random.default_rng(20261122)
@@ -142,15 +143,15 @@ def test_vertex_jobs_hold_coordinates_where_they_fit_in_32_bits():
 @pytest.mark.parametrize("shape", [(17, 5, 33), (6, 70, 97)])
 def test_word_id_vertex_jobs_give_the_same_mesh(gl_ctx, monkeypatch, shape):
     """The encoding for grids too large for coordinates in a job (mc_common.glsl), forced on a small one."""
-    import isoscope.gpu.cubes as extractor_module
+    import isoscope.gpu.resident as resident_module
     volume = RNG.normal(size=shape).astype(np.float32)
     with Extractor(volume, ctx=gl_ctx) as packed:
         packed.extract(0.1)
         expected = [a.copy() for a in packed.read_mesh()]
-        assert packed._job_bits is not None
-    monkeypatch.setattr(extractor_module, "job_coordinate_bits", lambda shape: None)
+        assert packed.resident.job_bits is not None
+    monkeypatch.setattr(resident_module, "job_coordinate_bits", lambda shape: None)
     with Extractor(volume, ctx=gl_ctx) as by_word:
-        assert by_word._job_bits is None
+        assert by_word.resident.job_bits is None
         by_word.extract(0.1)
         for a, b in zip(expected, by_word.read_mesh()):
             assert a.tobytes() == b.tobytes()

@@ -12,6 +12,7 @@ from isoscope.core.layout import INDEX_BYTES, STORAGE_OFFSET_ALIGNMENT, VERTEX_B
 from isoscope.cpu.cubes import marching_cubes_reference
 from isoscope.gpu.cubes import Extractor, GPULimitError
 from isoscope.gpu.limits import GpuLimits, plan_extractor
+from isoscope.gpu.resident import ResidentVolume
 
 RNG = np.random.default_rng(7)
 
@@ -75,9 +76,9 @@ def test_a_failure_late_in_the_set_up_releases_what_was_allocated(gl_ctx, monkey
     Extractor(volume, ctx=gl_ctx).release()  # warm-up: shaders compiled, allocator primed
     before = resident_bytes()
 
-    def fail(self):
+    def fail(self, checked):
         raise moderngl.Error("the last set-up step failed")
-    monkeypatch.setattr(Extractor, "_measure_brick_ranges", fail)
+    monkeypatch.setattr(ResidentVolume, "_measure", fail)
     for _ in range(8):
         with pytest.raises(moderngl.Error):
             Extractor(volume, ctx=gl_ctx)
@@ -258,11 +259,14 @@ def test_a_failed_output_allocation_leaves_an_empty_mesh_and_a_working_extractor
 
     with Extractor(volume, ctx=gl_ctx) as ex:
         ex.extract(few)
-        ex.ctx = FailingThird(gl_ctx)
+        failing = FailingThird(gl_ctx)
+        for output in ex._outputs.values():  # the growable mesh and job buffers (buffers.GrowableBuffer)
+            output.ctx = failing
         with pytest.raises(GPULimitError) as refusal:
             ex.extract(0.0)
         assert "\n" not in str(refusal.value) and "could not allocate" in str(refusal.value)
         assert ex.n_vertices == ex.n_triangles == 0 and len(ex.read_mesh()[1]) == 0
-        ex.ctx = gl_ctx
+        for output in ex._outputs.values():
+            output.ctx = gl_ctx
         ex.extract(0.0)
         assert_same_mesh(ex.read_mesh(), marching_cubes_reference(volume, 0.0))

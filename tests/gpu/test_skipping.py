@@ -8,7 +8,7 @@ from isoscope.gpu.cubes import Extractor
 
 def brick_ranges(ex):
     """The (min, max) the extractor measured for each brick."""
-    return np.frombuffer(ex._brick_ranges.read(), np.float32).reshape(-1, 2)[: ex.brick_count]
+    return np.frombuffer(ex.resident.brick_ranges.read(), np.float32).reshape(-1, 2)[: ex.brick_count]
 
 
 def independent_brick_ranges(volume):

@@ -173,7 +173,7 @@ def test_shares_the_resident_volume_and_leaves_the_cubes_alone(gl_ctx):
     volume = RNG.normal(size=(30, 40, 50)).astype(np.float32)
     with Extractor(volume, ctx=gl_ctx) as cubes:
         with TetraExtractor(cubes) as tetra:
-            assert tetra.volume_texture is cubes.volume_texture and tetra.brick_ranges is cubes.brick_ranges
+            assert tetra.resident is cubes.resident  # its volume image and brick ranges
             cubes.extract(0.3)
             tetra.extract(-0.2)  # between the cubes' extraction and its read-back
             assert_same_mesh(cubes.read_mesh(), marching_cubes_reference(volume, 0.3))
