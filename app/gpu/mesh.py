@@ -4,6 +4,10 @@ An extractor produces a `GpuMesh`; the renderer draws any number of them, and
 `read()` brings one back as numpy arrays.  Nothing else about its maker is assumed,
 so several meshes per volume (levels, labels, chunks, a coarse preview) are just
 several records.
+
+Who frees the buffers is said by the type: a `GpuMesh` is a view of buffers that belong to
+someone else (an extractor's, reused for its next mesh), and has no `release`; an `OwnedMesh`
+(what `GpuMesh.upload` makes) owns its buffers, and whoever holds it releases it.
 """
 from __future__ import annotations
 
@@ -25,9 +29,9 @@ def empty_mesh():
 class GpuMesh:
     """An indexed triangle mesh in GPU buffers.
 
-    `vertex_buffer` holds `n_vertices` records of `vertex_format` (see gpu_layout.VERTEX_FIELDS:
+    `vertex_buffer` holds `n_vertices` records of `vertex_format` (see layout.VERTEX_FIELDS:
     position, value, normal), `index_buffer` `n_triangles` triples of uint32 vertex indices.
-    The buffers belong to the mesh's maker, which may reuse them for its next mesh.
+    The buffers belong to the mesh's maker, which may reuse them for its next mesh: a view.
     """
     vertex_buffer: moderngl.Buffer
     index_buffer: moderngl.Buffer
@@ -36,9 +40,9 @@ class GpuMesh:
     vertex_format: str = VERTEX_FORMAT
 
     @classmethod
-    def upload(cls, ctx: moderngl.Context, verts, faces, normals, values=0.0) -> GpuMesh:
-        """Numpy arrays (or one value for every vertex) into new buffers of `ctx`, which the
-        caller owns: `release()` them."""
+    def upload(cls, ctx: moderngl.Context, verts, faces, normals, values=0.0) -> OwnedMesh:
+        """Numpy arrays (or one value for every vertex) into new buffers of `ctx`: an `OwnedMesh`,
+        which the caller releases."""
         records = np.zeros((len(verts), VERTEX_FLOATS), np.float32)
         start = 0
         for name, width in VERTEX_FIELDS:
@@ -46,12 +50,13 @@ class GpuMesh:
             records[:, start:start + width] = np.reshape(column, (-1, width)) if np.ndim(column) else column
             start += width
         faces = np.ascontiguousarray(faces, np.uint32)
-        return cls(ctx.buffer(records.tobytes()), ctx.buffer(faces.tobytes()), len(verts), len(faces))
-
-    def release(self) -> None:
-        """Release the buffers: only for a mesh made by `upload`."""
-        self.vertex_buffer.release()
-        self.index_buffer.release()
+        vertex_buffer = ctx.buffer(records.tobytes())
+        try:
+            index_buffer = ctx.buffer(faces.tobytes())
+        except BaseException:
+            vertex_buffer.release()
+            raise
+        return OwnedMesh(vertex_buffer, index_buffer, len(verts), len(faces))
 
     def read(self):
         """verts (N, 3), faces (M, 3) int32, normals (N, 3), values (N,): scikit-image's layout."""
@@ -64,6 +69,15 @@ class GpuMesh:
         faces = np.empty((self.n_triangles, 3), np.int32)
         self.index_buffer.read_into(faces, self.n_triangles * INDEX_BYTES)
         return fields["position"], faces, fields["normal"], np.ascontiguousarray(fields["value"][:, 0])
+
+
+@dataclass(frozen=True)
+class OwnedMesh(GpuMesh):
+    """A `GpuMesh` whose buffers are its own (`GpuMesh.upload`): its holder releases them."""
+
+    def release(self) -> None:
+        self.vertex_buffer.release()
+        self.index_buffer.release()
 
 
 SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast")

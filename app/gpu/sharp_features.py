@@ -19,7 +19,7 @@ from concurrent.futures import wait as wait_for
 
 from ..cpu.sharp.features import Stopped, sharpen, signed_field
 from ..cpu.sharp.normals import crisp_normals
-from .mesh import GpuMesh
+from .mesh import GpuMesh, OwnedMesh
 from .sharp import SharpExtractor
 
 
@@ -73,14 +73,14 @@ class SharpenedMesh:
 
     def __init__(self, ctx):
         self.ctx = ctx
-        self.mesh: GpuMesh | None = None
+        self.mesh: GpuMesh | None = None  # on show: the extractor's (a view) or `_uploaded`
+        self._uploaded: OwnedMesh | None = None  # the sharp mesh with crisp normals, this object's to release
         self.level = None
         self.n_vertices = self.n_triangles = 0
         self.last_extract_ms = 0.0
         self._arrays = None
         self._field, self._field_key = None, None
         self._gpu: SharpExtractor | None = None
-        self._borrowed = False  # `mesh` is the extractor's own (drawn, not uploaded, when it has no feature)
         self._worker: ThreadPoolExecutor | None = None
         self._pending = None  # (future, stop event, the extractor, when it started) of a step on the worker
         self._generation = 0
@@ -135,9 +135,10 @@ class SharpenedMesh:
     def _show(self, extractor, sharpened, start: float, plain_arrays=None) -> None:
         # No feature at this level: the extractor's mesh as it is (without a read-back where pass 0 says so).
         plain = sharpened is None or len(sharpened[0]) == sharpened[4]
-        drawn = extractor.mesh if plain else GpuMesh.upload(self.ctx, *crisp_normals(*sharpened))
+        uploaded = None if plain else GpuMesh.upload(self.ctx, *crisp_normals(*sharpened))
         self._release_mesh()
-        self.mesh, self._borrowed = drawn, plain
+        self._uploaded = uploaded
+        self.mesh = extractor.mesh if plain else uploaded
         self._arrays = plain_arrays if sharpened is None else sharpened[:4]
         self.level = extractor.level
         self.n_vertices, self.n_triangles = ((extractor.n_vertices, extractor.n_triangles) if sharpened is None
@@ -175,9 +176,9 @@ class SharpenedMesh:
             self._gpu = None
 
     def _release_mesh(self) -> None:
-        if self.mesh is not None and not self._borrowed:
-            self.mesh.release()
-        self.mesh, self._borrowed = None, False
+        if self._uploaded is not None:
+            self._uploaded.release()
+        self.mesh = self._uploaded = None
 
 
 _STOPPED = object()

@@ -2,13 +2,14 @@
 
 One `ResidentVolume` owns the volume image, the brick ranges, the grid uniforms and the value range;
 extractors of each cell kind, smoothing and sharp features take it; each owner releases every GL
-object it made."""
+object it made; a `GpuMesh` says by its type whether its holder frees its buffers."""
 from __future__ import annotations
 
 import moderngl
 import numpy as np
 import pytest
 from support.mesh_checks import assert_same_mesh
+from support.sdf_boxes import Box, grid_points
 
 from isoscope.cpu.cubes import marching_cubes_reference
 from isoscope.cpu.tetra import marching_tetrahedra_reference
@@ -16,6 +17,7 @@ from isoscope.gpu.buffers import GROWTH, GrowableBuffer
 from isoscope.gpu.cubes import CUBES, Extractor
 from isoscope.gpu.extraction import SurfaceExtractor
 from isoscope.gpu.limits import GpuLimits
+from isoscope.gpu.mesh import GpuMesh, OwnedMesh
 from isoscope.gpu.programs import timer_queries
 from isoscope.gpu.resident import ResidentVolume
 from isoscope.gpu.sharp import SharpExtractor
@@ -142,6 +144,41 @@ def test_extractors_share_the_contexts_timer_queries(gl_ctx):
     # moderngl cannot delete a query: the context keeps one pair, rather than each extractor leaking two.
     with Extractor(noise(), ctx=gl_ctx) as a, Extractor(noise(), ctx=gl_ctx) as b:
         assert a._timers is b._timers is timer_queries(gl_ctx)
+
+
+def test_who_frees_a_mesh_is_said_by_its_type(gl_ctx):
+    with Extractor(noise(), ctx=gl_ctx) as ex:
+        ex.extract(0.1)
+        view = ex.mesh
+        assert type(view) is GpuMesh and not hasattr(view, "release")  # the extractor's buffers
+        uploaded = GpuMesh.upload(gl_ctx, *ex.read_mesh())
+        assert isinstance(uploaded, OwnedMesh) and isinstance(uploaded, GpuMesh)
+        for a, b in zip(uploaded.read(), ex.read_mesh()):
+            np.testing.assert_array_equal(a, b)
+        uploaded.release()
+        assert released([uploaded.vertex_buffer, uploaded.index_buffer]) and not released([ex.vertex_buffer])
+
+
+def test_a_sharpened_mesh_releases_its_upload_and_never_the_extractors_buffers(gl_ctx):
+    from isoscope.gpu.sharp_features import SharpenedMesh
+    box = -Box([11.3, 12.4, 11.6], [6.2, 4.7, 5.4]).sdf(grid_points(24)).astype(np.float32)
+    ball = (10.5 - np.linalg.norm(grid_points(24) - 11.7, axis=-1)).astype(np.float32)
+    with Extractor(box, ctx=gl_ctx) as ex:
+        ex.extract(0.0)
+        shown = SharpenedMesh(gl_ctx)
+        try:
+            shown.take(ex, box, 30.0)
+            upload = shown.mesh
+            assert isinstance(upload, OwnedMesh)  # a box has features: their mesh was uploaded
+            with Extractor(ball, ctx=gl_ctx) as round_one:  # no feature: the extractor's mesh is shown
+                round_one.extract(0.0)
+                shown.take(round_one, ball, 30.0)
+                assert released([upload.vertex_buffer, upload.index_buffer])
+                assert type(shown.mesh) is GpuMesh and shown.mesh.vertex_buffer is round_one.vertex_buffer
+                shown.release()
+                assert not released([round_one.vertex_buffer, round_one.index_buffer])  # not the step's to free
+        finally:
+            shown.release()
 
 
 def test_a_growable_buffer_grows_by_half_and_keeps_its_size_for_less(gl_ctx):
