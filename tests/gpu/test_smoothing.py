@@ -226,7 +226,7 @@ def test_cli_smooth(tmp_path):
 
 
 def test_viewer_state_re_extracts_when_smoothing_changes(gl_ctx):
-    from isoscope.viewer.state import ViewerState
+    from isoscope.viewer.gfx.state import ViewerState
     state = ViewerState(gl_ctx)
     assert state.show(open_volume("torus", resolution=24))
     plain = smallest_angles(*state.extractor.read_mesh()[:2])
