@@ -1,11 +1,11 @@
 #version 430
 // Extended-MC pass 0, one invocation per vertex of the plain mesh: can this vertex's cells hold a
-// feature?  reference_sharp.vertex_may_bend step for step (see there why the test is conservative):
+// feature?  cpu.sharp.cells.vertex_may_bend step for step (see there why the test is conservative):
 // for each of the (up to) four cells around the vertex's edge, is its normal more than the feature
 // half-angle (u_cos_half, with a margin) from the cell's mean gradient direction?  The four cells'
 // 18 samples are loaded once; all is done in the edge's frame (u, w across it, a along it).  Where no vertex
 // says yes, no cell's normals open wider than the feature angle and the Extended-MC mesh is the
-// plain one: app/sharp_extractor.py then skips reading the mesh back.
+// plain one: isoscope.gpu.sharp_features then skips reading the mesh back.
 // Writes flags[0] = 1 if any vertex says yes; with FLAG_EACH (tests) flags[1 + vertex] per vertex.
 layout(local_size_x = GROUP_SIZE) in;
 #include "mc_common.glsl"
@@ -42,7 +42,7 @@ bool vertex_may_bend(uint index) {
     uint base = index * uint(VERTEX_FLOATS);
     vec3 position = vec3(vertex_data[base], vertex_data[base + 1u], vertex_data[base + 2u]);
     vec3 normal = vec3(vertex_data[base + 4u], vertex_data[base + 5u], vertex_data[base + 6u]);
-    // The vertex's edge, as reference_sharp.edge_of_vertex finds it; a vertex off the grid's edges
+    // The vertex's edge, as cpu.sharp.eno.edge_of_vertex finds it; a vertex off the grid's edges
     // (a smoothed mesh) has no cells to test: yes.
     vec3 g = position / u_spacing;
     vec3 off = abs(g - roundEven(g));

@@ -1,4 +1,4 @@
-// The case table of app/case_table.py in an r32ui image 2^CASE_TABLE_SHIFT texels wide: per case,
+// The case table of isoscope.core.case_table in an r32ui image 2^CASE_TABLE_SHIFT texels wide: per case,
 // MAX_TRIANGLES_PER_CELL packed triangles (for the cubes, cell edges e0 | e1 << 4 | e2 << 8; the
 // tetrahedra's codes are in mt_common.glsl), then the 256 triangle counts.  An image, not a uniform
 // block: a cell's case differs from lane to lane, and on llvmpipe a uniform uvec4 at a varying

@@ -11,7 +11,7 @@
 // the renderer draws, and for the per-brick lists.
 //
 // Every layout number (WORD_BITS, BRICK_I, BRICK_J, BRICK_WORDS, SAMPLES_PER_TEXEL, EDGE_MARGIN,
-// GROUP_SIZE, ...) is a #define injected from app/gpu_layout.py, the one place it is written.
+// GROUP_SIZE, ...) is a #define injected from app/core/layout.py, the one place it is written.
 //
 // Words are grouped into bricks of BRICK_I x BRICK_J rows x 1 word.  A brick is one work group
 // of the per-word passes, one invocation per word;
@@ -130,7 +130,7 @@ float sample_at(ivec3 p) {
 float field_at(ivec3 p) { return u_sign * sample_at(p); }
 
 // Per word, packed counts: vertices it owns along axes 0, 1, 2 (6 bits each), triangles of its cells
-// (8 bits: at most 32 cells x MAX_TRIANGLES_PER_CELL, checked in app/extractor.py), and in the top 6
+// (8 bits: at most 32 cells x MAX_TRIANGLES_PER_CELL, checked in isoscope.gpu.cubes), and in the top 6
 // bits the brick-local index of the word that mc_triangles.comp's invocation at this word's place
 // takes (mc_word_offsets.comp orders them; mc_classify.comp writes each word its own place).
 uint vertices_along(uint counts, uint axis) { return (counts >> (6u * axis)) & 63u; }

@@ -45,7 +45,7 @@ uvec3 crossing_from_rows(CellRows rows, int w) {
                  (here ^ rows.at_k1.x) & axis2_edge_bits(w));
 }
 
-// Case index of cell k: bit c = corner (c & 1, c >> 1 & 1, c >> 2 & 1), as app/case_table.py.
+// Case index of cell k: bit c = corner (c & 1, c >> 1 & 1, c >> 2 & 1), as isoscope.core.case_table.
 uint cell_case(CellRows rows, uint k) {
     uvec4 low = (rows.at_k >> k) & 1u, high = (rows.at_k1 >> k) & 1u;
     return low.x | (low.y << 1) | (low.z << 2) | (low.w << 3)

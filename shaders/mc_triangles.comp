@@ -50,7 +50,7 @@ OwnerStarts owner_starts(ivec3 word, bool need_next) {
     return s;
 }
 
-// The word's crossing masks per owner row (app/case_table.py: edge = axis * 4 + low; low's bits are
+// The word's crossing masks per owner row (isoscope.core.case_table: edge = axis * 4 + low; low's bits are
 // the owner's offsets along the other two axes, the lower axis first): along axis 0 rows 0 and 2,
 // along axis 1 rows 0 and 1 (edges 0, 1 and 4, 5 start at the cell's k; 2, 3 and 6, 7 at k + 1),
 // along axis 2 the four rows (edges 8-11).

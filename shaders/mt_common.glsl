@@ -1,11 +1,11 @@
 // Shared by the marching-tetrahedra passes (mt_*.comp), after mc_common.glsl and mc_sign_words.glsl.
 //
-// Each cell is split into six tetrahedra along its main diagonal (app/reference_tetra.py says
+// Each cell is split into six tetrahedra along its main diagonal (isoscope.cpu.tetra says
 // why), so a grid point owns seven kinds of edges: kind q runs from the point to the point plus
 // kind_dir(q), a 0/1 vector whose bit a is its step along axis a: the axes 0, 1, 2, the face
 // diagonals (0, 1), (0, 2), (1, 2), then the body diagonal.  The table (mc_case_table.glsl's
 // layout and image) names a triangle's vertices by 6-bit codes, not edges: the owning cell corner
-// (bits 0-2, as app/case_table.py numbers corners) | kind << 3.
+// (bits 0-2, as isoscope.core.case_table numbers corners) | kind << 3.
 //
 // Per word, the counts image (rgba32ui) holds: x = where kinds 1-4 start among the word's own
 // vertices (8 bits each), y = where kinds 5 and 6 start and the word's vertex total (8 bits each),

@@ -1,4 +1,4 @@
-// Shared by the smoothing passes (app/smoothing.py; numpy mirror: app/reference_smooth.py).
+// Shared by the smoothing passes (isoscope.gpu.smooth; numpy mirror: isoscope.cpu.smooth).
 //
 // Positions are kept in index units (position / spacing) as vec4(x, free axes), where w holds
 // bits 1, 2, 4: the axes along which the vertex may move (0 where it lies on the volume's border).
@@ -8,7 +8,7 @@
 // Per-vertex and per-half-edge data live in 2-D images 2^IMAGE_SHIFT texels wide, item i at texel
 // (i mod width, i / width): on llvmpipe an imageLoad costs a fraction of an SSBO load (see
 // mc_common.glsl), and the gathers are most of an iteration.  UMBRELLA_WEIGHT, NEWTON_STEPS, BORDER
-// and FLOOR_SQUARED are #defines from app/reference_smooth.py.
+// and FLOOR_SQUARED are #defines from isoscope.cpu.smooth.
 #include "mc_common.glsl"
 
 uniform uint u_vertex_count;

@@ -1,12 +1,12 @@
 #version 430
 // Smoothing pass 5 of 6, once per iteration after smooth_step.comp, one invocation per vertex: keep
-// the vertex's proposed move only if none of its triangles collapses (app/reference_smooth.py's
+// the vertex's proposed move only if none of its triangles collapses (isoscope.cpu.smooth's
 // keeps_triangles(), in its order of operations).  Each outgoing half-edge v->b names one triangle
 // (v, b, c) (c stored next to b by smooth_fill.comp); with v moved, b and c each where it was or
 // where its own move would take it (all 4 combinations: every vertex moves at once), the doubled
 // area |edge x edge|^2 must stay >= min(what it was, FLOOR_SQUARED).  Whichever moves are kept,
 // every triangle then is one that was checked, so none falls below min(its first area, MIN_AREA).
-// FLOOR_SQUARED is a #define from app/reference_smooth.py.
+// FLOOR_SQUARED is a #define from isoscope.cpu.smooth.
 layout(local_size_x = GROUP_SIZE) in;
 #include "smooth_common.glsl"
 

@@ -14,7 +14,7 @@ layout(rg32ui, binding = UNIT_RINGS) writeonly uniform uimage2D u_rings;
 layout(rgba32f, binding = UNIT_CURVATURES) writeonly uniform image2D u_curvatures;
 
 // Per axis, the mean second difference along the 4 grid lines through cell c along that axis, at
-// the cell's two ends (app/reference_smooth.py's curvature(), in its order of operations): the
+// the cell's two ends (isoscope.cpu.smooth's curvature(), in its order of operations): the
 // cell's corners come from s, so each line loads only its sample beyond each end.
 float axis_curvature(ivec3 c, mat2x4 s, int a, ivec3 along, ivec3 u, ivec3 w) {
     if (u_dims[a] < 3) return 0.0;

@@ -4,11 +4,11 @@
 // trilinear interpolant toward the level, along the physical gradient, clamped to the 3 cells
 // around where the move went.  The level is corrected by the interpolant's own error estimate
 // E = sum t(1 - t)/2 k (k: second differences around the vertex's first cell, from smooth_load; E
-// capped at +-u_correction; see app/reference_smooth.py).  A projection ending over u_tolerance off
+// capped at +-u_correction; see isoscope.cpu.smooth).  A projection ending over u_tolerance off
 // the corrected level is discarded.  The proposal goes to u_after, and smooth_keep.comp keeps it or
 // not.  Per vertex it loads its position, ring and curvature from images, and per neighbour an index
 // and a position: no SSBO loads at all.
-// NEWTON_STEPS and CONVERGED are #defines from app/reference_smooth.py.
+// NEWTON_STEPS and CONVERGED are #defines from isoscope.cpu.smooth.
 layout(local_size_x = GROUP_SIZE) in;
 #include "smooth_common.glsl"
 

@@ -3,12 +3,12 @@
     >>> ex = Extractor(volume); ex.extract(level)
     >>> sharp = SharpExtractor(ex.resident)         # reads its volume image
     >>> sharp.may_bend(angle, ex.mesh)              # False: the sharp mesh is the plain one
-    >>> sharp.patch_points(...)                     # reference_sharp.patch_points, on the GPU
+    >>> sharp.patch_points(...)                     # cpu.sharp.points.patch_points, on the GPU
 
-Passes (shaders/emc_*.comp; numpy mirror and the method: app/reference_sharp.py):
+Passes (shaders/emc_*.comp; numpy mirror and the method: isoscope.cpu.sharp):
 
 0. ``emc_flags``  per vertex of the plain mesh: is its normal more than half the feature angle
-   from the mean-gradient direction of a cell around its edge (reference_sharp.vertex_may_bend)?
+   from the mean-gradient direction of a cell around its edge (cpu.sharp.cells.vertex_may_bend)?
    Where no vertex is, no cell's normals open wider than the angle and `sharpen` would return
    the plain mesh: the caller skips the read-back and the numpy step (sphere, gyroid).
 1. ``emc_solve``  per feature patch: ENO normals of its vertices and one-ring from the volume
@@ -19,7 +19,7 @@ What is not on the GPU yet (numpy, on the mesh read back where pass 0 flags a ve
 each triangle's cell and the candidate cells, grouping into patches, the feature test, the
 one-ring lists, the side normals, the grid samples' own planes where the field is locally linear
 (isoscope.cpu.sharp.planes), corners in empty cells, fans and the test that none folds, edge flips, the
-feature vertices' normals and the crisp normals for drawing (reference_sharp.crisp_normals; the
+feature vertices' normals and the crisp normals for drawing (cpu.sharp.normals.crisp_normals; the
 drawn mesh is uploaded).
 `sharpen(..., solver=SharpExtractor(ex).patch_points)` is the numpy reference with pass 1
 swapped in; it gives the same mesh (tests/test_sharp_features.py), except where a decision rests on
@@ -90,7 +90,7 @@ class SharpExtractor:
 
     def may_bend(self, angle: float, mesh: GpuMesh | None = None, each: bool = False):
         """Pass 0 (emc_flags.comp) on `mesh` (default: the extractor's): whether some vertex may sit in a
-        feature cell (reference_sharp.vertex_may_bend).  False: `sharpen` would return the plain mesh
+        feature cell (cpu.sharp.cells.vertex_may_bend).  False: `sharpen` would return the plain mesh
         as it is, so nothing need be read back.  `each`: the per-vertex flags instead (for tests).
         None: the mesh is too large for one storage block, so the pass did not run (ask numpy)."""
         if mesh is None:

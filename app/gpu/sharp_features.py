@@ -8,7 +8,7 @@ its per-patch solve (ENO normals, the planes' point) on the GPU: `SharpExtractor
 shaders/emc_solve.comp, which gives the numpy reference's points to ~1e-14.  Grouping triangles
 into patches, the one-ring lists, fans, edge flips, the feature vertices' normals and the crisp
 normals for drawing are still numpy (see isoscope.gpu.sharp).  For drawing, triangles at
-feature vertices get face normals (reference_sharp.crisp_normals), so edges render crisp.
+feature vertices get face normals (cpu.sharp.normals.crisp_normals), so edges render crisp.
 """
 from __future__ import annotations
 

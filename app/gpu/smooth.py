@@ -2,7 +2,7 @@
 
 The volume is a `ResidentVolume` (resident.py), usually an extractor's; the mesh is usually its last
 extraction (any indexed mesh on that volume's level set works).  Passes (shaders/smooth_*.comp;
-numpy mirror and the method: app/reference_smooth.py):
+numpy mirror and the method: isoscope.cpu.smooth):
 
 1. ``smooth_valence`` per triangle: outgoing half-edges per vertex (atomic counts), each half-edge's rank
 2. scan              the counts -> each vertex's first slot in the neighbour list

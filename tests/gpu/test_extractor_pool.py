@@ -1,4 +1,4 @@
-"""The extractor kept between one-shot calls (app/extractor_pool.py): reused only where it fits, and every
+"""The extractor kept between one-shot calls (isoscope.gpu.pool): reused only where it fits, and every
 call's mesh is its own volume's (against the numpy reference, which never touches the GPU)."""
 from __future__ import annotations
 
@@ -119,7 +119,7 @@ def test_reload_refuses_a_volume_that_does_not_fit_and_keeps_the_old_one(gl_ctx)
                          isoscope.marching_cubes(wider.astype(np.float32), 0.0, spacing=(2, 1, 1), backend="cpu"))
 
 
-# -- values scanned on upload (check_volume(scan_values=False), Extractor._value_range) ----------------
+# -- values scanned on upload (check_volume(scan_values=False), ResidentVolume._value_range) ----------------
 
 @pytest.mark.parametrize("dtype", ["float32", "uint8", "int8", "uint16", "int16"])
 def test_the_upload_scan_finds_numpys_value_range(gl_ctx, dtype):
