@@ -297,7 +297,7 @@ def _checked_iso(volume, iso: float | None) -> float | None:
 def _checked_levels(volume, isos: list[float] | None, opacity_lists=None) -> list[float | None]:
     """The --iso values (one None: the default level), each in range, at most MAX_LEVELS; and
     no more --opacity values than levels."""
-    from ..viewer.gfx.levels import MAX_LEVELS
+    from ..viewer.model.levels import MAX_LEVELS
     isos = isos or [None]
     if len(isos) > MAX_LEVELS:
         raise VolumeError(f"--iso given {len(isos)} times; at most {MAX_LEVELS} surfaces at once")

@@ -9,8 +9,9 @@ import pytest
 import trimesh
 
 import isoscope
-from isoscope.viewer.gfx.state import ViewerState
 from isoscope.viewer.model import big_volume
+from isoscope.viewer.model.errors import ViewerError
+from isoscope.viewer.ui.headless import HeadlessViewer
 from isoscope.volumes import open_volume
 
 
@@ -26,89 +27,97 @@ def big_npy(tmp_path, monkeypatch):
 
 
 @pytest.fixture
-def state(gl_ctx):
-    state = ViewerState(gl_ctx)
-    yield state
-    state.release()
+def viewer(gl_ctx):
+    viewer = HeadlessViewer((64, 64), ctx=gl_ctx)
+    yield viewer
+    viewer.release()
 
 
-def wait_for_export(state, seconds) -> int:
-    """Frames of `state.update` until the running export is over (or `seconds` pass); their count."""
-    frames, deadline = 0, time.monotonic() + seconds
+def wait_for_export(viewer, seconds) -> int:
+    """Frames of the scene's update until the running export is over (or `seconds` pass); their count."""
+    frames, deadline, state = 0, time.monotonic() + seconds, viewer.state
     while state.exporting is not None and time.monotonic() < deadline:
-        state.update(0.02)          # the viewer keeps drawing frames meanwhile
+        viewer.scene.update(0.02)          # the viewer keeps drawing frames meanwhile
         frames += 1
         time.sleep(0.02)
     return frames
 
 
-def test_a_big_volume_is_shown_downsampled_with_a_note(state, big_npy):
+def test_a_big_volume_is_shown_downsampled_with_a_note(viewer, big_npy):
     full = np.load(big_npy)
-    assert state.open(str(big_npy))
-    assert state.full_volume is not None and state.full_volume.data.shape == (61, 61, 61)
+    viewer.open(str(big_npy))
+    state = viewer.state
+    assert state.full_volume is not None and state.step == 3 and state.full_volume.data.shape == (61, 61, 61)
     assert state.volume.data.shape == (21, 21, 21)               # every 3rd sample: 21^3 <= 25^3
     np.testing.assert_array_equal(state.volume.data, full[::3, ::3, ::3])
     assert state.volume.spacing == (3.0, 3.0, 3.0)
     assert state.bounds() == ((0, 0, 0), (60.0, 60.0, 60.0))     # the full volume's box
     assert any("one sample in 3" in note for note in state.volume.notes)
-    assert state.n_triangles > 0
+    assert viewer.scene.n_triangles > 0
 
 
-@pytest.mark.parametrize("inside_below", [False, True])
-def test_the_full_resolution_export_runs_in_the_background_and_matches_the_api(state, big_npy, tmp_path,
-                                                                               inside_below):
-    assert state.open(str(big_npy))
-    state.set_inside_below(inside_below)   # the side chosen in the panel reaches the export
-    state.set_iso(0.3)
-    state.update(0.0)
+@pytest.mark.parametrize("direction", ["descent", "ascent"])
+def test_the_full_resolution_export_runs_in_the_background_and_matches_the_api(viewer, big_npy, tmp_path,
+                                                                               direction):
+    viewer.open(str(big_npy))
+    state = viewer.state
+    state.set_gradient_direction(direction)   # the side chosen in the panel reaches the export
+    state.iso = 0.3
+    viewer.scene.update(0.0)
     out = tmp_path / "full.ply"
-    assert state.export_full_resolution(out)
-    assert not state.export_full_resolution(tmp_path / "again.ply") and "still running" in state.error
-    frames = wait_for_export(state, 120)
+    state.export_full_resolution(out)
+    with pytest.raises(ViewerError, match="still running"):
+        state.export_full_resolution(tmp_path / "again.ply")
+    frames = wait_for_export(viewer, 120)
     assert state.exporting is None and state.error is None and "wrote" in state.message
     assert frames > 1
     mesh = trimesh.load(out, process=False)
-    expected = isoscope.marching_cubes(np.load(big_npy), 0.3,
-                                       gradient_direction="ascent" if inside_below else "descent")
+    expected = isoscope.marching_cubes(np.load(big_npy), 0.3, gradient_direction=direction)
     assert len(mesh.faces) == len(expected[1]) and len(mesh.vertices) == len(expected[0])
     np.testing.assert_array_equal(mesh.faces, expected[1])   # the same winding: the same side out
 
 
-def test_a_failed_export_is_one_line_in_the_panel_and_leaves_no_file(state, big_npy, tmp_path):
-    assert state.open(str(big_npy))
+def test_a_failed_export_is_one_line_in_the_panel_and_leaves_no_file(viewer, big_npy, tmp_path):
+    viewer.open(str(big_npy))
+    state = viewer.state
     out = tmp_path / "no-such-folder" / "full.ply"
-    assert state.export_full_resolution(out)
-    wait_for_export(state, 60)
+    state.export_full_resolution(out)
+    wait_for_export(viewer, 60)
     assert state.error.startswith("full-resolution export failed") and "\n" not in state.error
     assert not out.exists() and not out.parent.exists()
 
 
-def test_a_small_volume_is_shown_whole(state):
-    assert state.show(open_volume("torus"))
-    assert state.full_volume is None
-    assert not state.export_full_resolution("x.ply") and "Save mesh" in state.error
+def test_a_small_volume_is_shown_whole(viewer):
+    viewer.show(open_volume("torus"))
+    assert viewer.state.full_volume is None and viewer.state.step == 1
+    with pytest.raises(ViewerError, match="Save mesh"):
+        viewer.state.export_full_resolution("x.ply")
 
 
-def test_colour_by_a_second_big_volume_of_the_full_shape(state, big_npy, tmp_path):
-    assert state.open(str(big_npy))
+def test_colour_by_a_second_big_volume_of_the_full_shape(viewer, big_npy, tmp_path):
+    viewer.open(str(big_npy))
+    state = viewer.state
     partner = tmp_path / "dose.npy"
     np.save(partner, np.random.default_rng(3).random((61, 61, 61)).astype(np.float32))
-    assert state.set_color_by(str(partner)), state.error
-    assert state.color_by.scalar_texture.size == (21, 21, 21)   # downsampled like the volume on show
+    state.set_color_by(str(partner))
+    viewer.update()
+    assert viewer.scene.color_by.scalar_texture.size == (21, 21, 21)   # downsampled like the volume on show
     np.save(partner, np.random.default_rng(4).random((60, 61, 61)).astype(np.float32))
-    assert not state.set_color_by(str(partner)) and "same shape" in state.error
+    with pytest.raises(ValueError, match="same shape"):
+        state.set_color_by(str(partner))
 
 
-def test_the_export_reopens_a_raw_file_with_the_options_it_was_opened_with(state, big_npy, tmp_path):
+def test_the_export_reopens_a_raw_file_with_the_options_it_was_opened_with(viewer, big_npy, tmp_path):
     data = np.load(big_npy)
     raw = tmp_path / "big.raw"
     data.tofile(raw)                    # headerless: only --dims and --dtype say what it is
-    assert state.open(str(raw), dims=(61, 61, 61), dtype="float32"), state.error
+    viewer.open(str(raw), dims=(61, 61, 61), dtype="float32")
+    state = viewer.state
     assert state.full_volume.open_options == {"dims": (61, 61, 61), "dtype": "float32"}
-    state.set_iso(0.3)
+    state.iso = 0.3
     out = tmp_path / "raw.ply"
-    assert state.export_full_resolution(out)
-    wait_for_export(state, 120)
+    state.export_full_resolution(out)
+    wait_for_export(viewer, 120)
     assert state.error is None, state.error
     full = state.full_volume.checked.data
     assert len(trimesh.load(out, process=False).faces) == len(isoscope.marching_cubes(full, 0.3)[1])

@@ -55,8 +55,8 @@ def to_pixels(viewer, points) -> np.ndarray:
     return np.c_[(ndc[:, 0] + 1) / 2 * width, (1 - ndc[:, 1]) / 2 * height]
 
 
-def expected_colors(values, window, level, name) -> np.ndarray:
-    return Colormap(name)(np.clip((values - (level - window / 2)) / window, 0, 1))[:, :3] * 255
+def expected_colors(values, window, centre, name) -> np.ndarray:
+    return Colormap(name)(np.clip((values - (centre - window / 2)) / window, 0, 1))[:, :3] * 255
 
 
 def surface_mask(image, background) -> np.ndarray:
@@ -71,10 +71,11 @@ def test_a_slice_shows_the_data_through_the_colour_map(viewer, colormap):
     # The surface (level 15.5) lies near x index 3, behind the slice at x = 20 seen from +x.
     volume = volume_of(pattern + 5.0 * i, spacing=(1.0, 1.5, 0.8))
     viewer.show(volume, iso=15.5, azimuth=0, elevation=0)
-    window, level = 1.2, 100.5
-    assert viewer.state.show_slice(0, True, 20)
-    assert viewer.state.set_window_level(window, level)
-    assert viewer.state.set_colormap(colormap)
+    window, centre = 1.2, 100.5
+    slices = viewer.state.slices
+    slices.show(0, True, 20)
+    slices.set_window(window, centre)
+    slices.set_colormap(colormap)
     viewer.state.slices.inset = False
     image = viewer.render().astype(float)
 
@@ -82,7 +83,7 @@ def test_a_slice_shows_the_data_through_the_colour_map(viewer, colormap):
     points = np.c_[np.full(rows.size, 20.0), rows.ravel() * 1.5, columns.ravel() * 0.8]
     pixels = np.floor(to_pixels(viewer, points)).astype(int)
     shown = image[pixels[:, 1], pixels[:, 0]]
-    expected = expected_colors(volume.data[20][rows, columns].ravel(), window, level, colormap)
+    expected = expected_colors(volume.data[20][rows, columns].ravel(), window, centre, colormap)
     difference = np.abs(shown - expected).max(axis=1)
     assert np.percentile(difference, 95) <= 6 and difference.max() <= 12, difference.max()
     assert np.ptp(expected[:, :3]) > 100   # the pattern spans the map, so a flat slice would fail
@@ -93,8 +94,8 @@ def test_the_isocurve_on_a_slice_is_where_the_mesh_crosses_it(viewer):
     viewer.show(volume, iso=0.0, azimuth=0, elevation=0)
     state, index = viewer.state, 24
     state.style.front_color = RED   # the curve's colour; the grey map has no red pixel
-    assert state.show_slice(0, True, index)
-    assert state.set_clip(0, index, hide_above=True)   # the surface in front of the slice goes
+    state.slices.show(0, True, index)
+    state.slices.set_clip(0, index, hide_above=True)   # the surface in front of the slice goes
     state.slices.inset = False
     image = viewer.render().astype(int)
     curve = (image[:, :, 0] - image[:, :, 1:].max(axis=2)) > 60
@@ -127,26 +128,26 @@ def test_the_clipped_half_has_no_surface_and_the_cut_is_capped_with_the_slice(vi
     assert whole[:half - 2].sum() > 1000 and whole[half + 2:].sum() > 1000
 
     middle = (volume.data.shape[2] - 1) / 2   # the camera's height: the cut is seen edge-on
-    assert state.set_clip(2, middle, hide_above=True)
+    state.slices.set_clip(2, middle, hide_above=True)
     clipped = surface_mask(viewer.render(), background)
     assert not clipped[:half - 2].any()
     assert (clipped[half + 2:] == whole[half + 2:]).mean() > 0.99
 
-    assert state.set_clip(2, middle, hide_above=False)
+    state.slices.set_clip(2, middle, hide_above=False)
     flipped = surface_mask(viewer.render(), background)
     assert not flipped[half + 2:].any() and flipped[:half - 2].sum() > 1000
-    assert state.set_clip(None)
+    state.slices.set_clip(None)
     assert (surface_mask(viewer.render(), background) == whole).all()
 
     # From above, the cut shows the slice's values where the surface would be.
     viewer.camera.elevation = 60
-    assert state.set_clip(2, 19.0, hide_above=True)
+    state.slices.set_clip(2, 19.0, hide_above=True)
     image = viewer.render().astype(float)
     centre = np.array([[19.5, 19.5, 19.0]]) * volume.spacing
     column, row = np.floor(to_pixels(viewer, centre)[0]).astype(int)
     value = volume.data[19:21, 19:21, 19].mean()
     settings = state.slices
-    expected = expected_colors(np.array([value]), settings.window, settings.level, "gray")[0]
+    expected = expected_colors(np.array([value]), settings.window, settings.centre, "gray")[0]
     assert np.abs(image[row, column] - expected).max() <= 6
 
 
@@ -155,7 +156,8 @@ def test_the_2d_view_shows_the_active_slice(viewer):
     viewer.show(volume, iso=0.0)
     state = viewer.state
     state.style.front_color = RED
-    assert state.show_slice(1, True, 19) and state.show_slice(2, True, 10)
+    state.slices.show(1, True, 19)
+    state.slices.show(2, True, 10)
     image = viewer.render().astype(int)
     x, y, width, height = inset_box(volume.data.shape, volume.spacing, 2, (0, 0, *SIZE))
     top = SIZE[1] - y - height
@@ -172,16 +174,17 @@ def test_the_2d_view_shows_the_active_slice(viewer):
 
 def test_bad_values_are_refused_and_the_state_keeps_what_it_showed(viewer):
     viewer.show(sphere(), iso=0.0)
-    state = viewer.state
-    assert state.show_slice(2, True, 5)
+    state, slices = viewer.state, viewer.state.slices
+    slices.show(2, True, 5)
     before = (list(state.slices.shown), list(state.slices.index), state.slices.colormap, state.slices.window)
-    for refused, words in ((lambda: state.show_slice(2, True, 40), "z=40"),
-                           (lambda: state.show_slice(0, True, -1), "x=-1"),
-                           (lambda: state.set_colormap("no-such-map"), "no-such-map"),
-                           (lambda: state.set_window_level(-1.0, None), "window"),
-                           (lambda: state.set_clip(1, 99.0), "y=99")):
-        assert not refused()
-        assert words in state.error and "\n" not in state.error
+    for refused, words in ((lambda: slices.show(2, True, 40), "z=40"),
+                           (lambda: slices.show(0, True, -1), "x=-1"),
+                           (lambda: slices.set_colormap("no-such-map"), "no-such-map"),
+                           (lambda: slices.set_window(-1.0, None), "window"),
+                           (lambda: slices.set_clip(1, 99.0), "y=99")):
+        with pytest.raises(ValueError, match=words) as caught:
+            refused()
+        assert "\n" not in str(caught.value)
         assert (list(state.slices.shown), list(state.slices.index), state.slices.colormap,
                 state.slices.window) == before
         assert state.slices.clip is None

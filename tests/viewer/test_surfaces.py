@@ -36,7 +36,8 @@ def nested_shells(viewer, azimuth, opacity):
     """An outer translucent shell (level OUTER) around an inner opaque one (level INNER)."""
     viewer.show_levels(sphere(), [OUTER, INNER], [opacity], azimuth=azimuth, elevation=0)
     state = viewer.state
-    assert state.set_level_color(0, OUTER_RGB) and state.set_level_color(1, INNER_RGB)
+    state.levels.set_color(0, OUTER_RGB)
+    state.levels.set_color(1, INNER_RGB)
     return viewer.render().astype(float)
 
 
@@ -56,7 +57,7 @@ def test_an_inner_opaque_shell_shows_through_an_outer_translucent_one_as_the_ble
     reveal = (1 - opacity) ** 2
     assert np.abs(ring - 255 * (OUTER_RGB * (1 - reveal) + background * reveal)).max() <= 2
     # Opaque, the outer shell hides the inner one.
-    viewer.state.set_level_opacity(0, 1.0)
+    viewer.state.levels.set_opacity(0, 1.0)
     assert np.abs(viewer.render()[CENTRE].astype(float) - 255 * OUTER_RGB).max() <= 1
 
 
@@ -78,21 +79,25 @@ def test_levels_share_one_volume_and_only_the_selected_one_moves(viewer, gl_ctx)
 
     volume = sphere()
     viewer.show_levels(volume, [OUTER, INNER, 0.3])
-    state = viewer.state
-    extractor = state.extractor
-    assert len(state.levels) == 3 and state.selected == 0
-    state.select_level(2)
-    state.set_iso(0.35)   # the slider moves level 3 only
+    state, scene = viewer.state, viewer.scene
+    extractor = scene.extractor
+    assert len(state.levels) == 3 and state.levels.selected == 0
+    state.levels.select(2)
+    state.iso = 0.35   # the slider moves level 3 only
     viewer.render()
-    assert state.extractor is extractor   # one upload, one set of brick ranges
-    assert state.level_values() == pytest.approx([OUTER, INNER, 0.35])
+    assert scene.extractor is extractor   # one upload, one set of brick ranges
+    assert state.levels.values() == pytest.approx([OUTER, INNER, 0.35])
     reference = [marching_cubes_reference(volume.data.astype(np.float32), level, volume.spacing, descent=False)
-                 for level in state.level_values()]
-    for mesh, expected in zip(state.meshes, reference):
+                 for level in state.levels.values()]
+    for mesh, expected in zip(scene.meshes, reference):
         assert_same_mesh(mesh.read(), expected)
-    assert [state.level_stats(i)[0] for i in range(3)] == [len(r[1]) for r in reference]
-    assert state.set_level_visible(1, False) and len(state.meshes) == 2
-    assert state.remove_level(0) and state.level_values() == pytest.approx([INNER, 0.35]) and state.selected == 1
+    assert [scene.level_stats(i)[0] for i in range(3)] == [len(r[1]) for r in reference]
+    state.levels.set_visible(1, False)
+    assert len(scene.meshes) == 2
+    state.levels.remove(0)
+    assert state.levels.values() == pytest.approx([INNER, 0.35]) and state.levels.selected == 1
+    viewer.render()
+    assert len(scene.meshes) == 1 and all(level in state.levels.items for level in scene._copies)   # its copy went
 
 
 def test_more_than_four_levels_or_bad_values_keep_what_was_shown(viewer):
@@ -100,13 +105,13 @@ def test_more_than_four_levels_or_bad_values_keep_what_was_shown(viewer):
     state = viewer.state
     before = viewer.render()
     low, high = state.value_range
-    for refused in (lambda: state.add_level(0.4), lambda: state.add_level(high + 1),
-                    lambda: state.set_level_opacity(0, 1.5), lambda: state.select_level(7),
-                    lambda: state.set_color_by("sphere", None)):   # the built-in is 64^3, not 40^3
-        state.error = None
-        assert refused() is False
-        assert state.error and "\n" not in state.error
-    assert "same shape" in state.error
+    levels = state.levels
+    for refused, words in ((lambda: levels.add(0.4), "at most 4"), (lambda: levels.add(high + 1), "at most 4"),
+                           (lambda: levels.set_opacity(0, 1.5), "0..1"), (lambda: levels.select(7), "no surface 8"),
+                           (lambda: state.set_color_by("sphere", None), "same shape")):   # the built-in is 64^3
+        with pytest.raises(ValueError, match=words) as caught:
+            refused()
+        assert "\n" not in str(caught.value)
     assert len(state.levels) == 4 and state.color_by is None
     assert np.array_equal(viewer.render(), before)
 
@@ -119,7 +124,7 @@ def test_colour_by_value_gives_each_level_the_map_colour_of_its_value(viewer):
     # The outer level hidden (opacity 0): the centre shows the inner level in the map's colour.
     assert np.abs(image[CENTRE] - 255 * state.color_by.color_at(INNER)).max() <= 1
     assert state.color_by.value_range == pytest.approx(state.value_range)
-    state.set_level_opacity(0, 1.0)
+    state.levels.set_opacity(0, 1.0)
     assert np.abs(viewer.render()[CENTRE].astype(float) - 255 * state.color_by.color_at(OUTER)).max() <= 1
 
 
@@ -144,7 +149,7 @@ def test_render_draws_a_colour_bar_and_export_writes_one_file_per_level(tmp_path
                       "--color-by", "gradient", "--color-by-map", "viridis", "--size", "320x240", "--out", out)
     assert result.returncode == 0, result.stderr
     image = np.asarray(Image.open(out).convert("RGB")).astype(int)
-    from isoscope.viewer.gfx.colorby import colormap_rgb
+    from isoscope.viewer.model.colorby import colormap_rgb
     lut = np.round(colormap_rgb("viridis") * 255)
     from isoscope.viewer.gfx.colorbar import BAR_WIDTH, LINE, MARGIN, MAX_BAR_SHARE
     bar = image[:, 320 - MARGIN - BAR_WIDTH // 2]   # the map from top (high) to bottom (low), at the right
@@ -178,27 +183,32 @@ def test_bad_levels_and_looks_are_one_line_errors(tmp_path, args, words):
 
 def test_a_drag_previews_the_moving_level_within_what_the_other_levels_leave_of_the_budget(gl_ctx, monkeypatch):
     import isoscope.viewer.gfx.surface as surface_module
-    from isoscope.viewer.gfx.state import ViewerState
+    from isoscope.viewer.gfx.scene import GpuScene
+    from isoscope.viewer.model.state import ViewerState
 
-    state = ViewerState(gl_ctx, level_of_detail=True)
+    state = ViewerState()
+    scene = GpuScene(gl_ctx, state, level_of_detail=True)
     try:
-        assert state.show(open_volume("gyroid", resolution=48), iso=0.0)
-        alone = state.n_triangles
+        scene.show(open_volume("gyroid", resolution=48), 0.0)
+        alone = scene.n_triangles
         monkeypatch.setattr(surface_module, "PREVIEW_TRIANGLES", int(alone * 1.5))  # one level: no preview
 
         def drag():
             for value in (0.02, 0.04, 0.06):
-                state.set_iso(value)
-                state.update(0.04)
-            return state.preview_step
+                state.iso = value
+                scene.update(0.04)
+            return scene.preview_step
         assert drag() == 1
-        assert state.add_level(0.3) and state.select_level(0)   # the other level takes most of the budget
-        other = state.levels[1].n_triangles
+        state.levels.add(0.3)
+        scene.update(0.0)
+        state.levels.select(0)   # the other level takes most of the budget
+        scene.update(0.0)
+        other = scene.level_stats(1)[0]
         assert other > alone // 2
         assert drag() > 1
-        assert state.meshes[1].n_triangles == other   # the level not dragged stays in full
+        assert scene.meshes[1].n_triangles == other   # the level not dragged stays in full
     finally:
-        state.release()
+        scene.release()
 
 
 def test_the_histogram_marks_every_level_and_a_click_sets_only_the_selected_one(gl_ctx):
@@ -209,11 +219,12 @@ def test_the_histogram_marks_every_level_and_a_click_sets_only_the_selected_one(
         state = viewer.state
         image = viewer.render(panel=True)
         for i, level in enumerate((64.0, 190.0)):
-            assert_marker_at(image, viewer._panel.histogram_box, state.level_color(i), level, state.value_range)
-        state.select_level(1)
+            assert_marker_at(image, viewer._panel.histogram_box, state.levels.color(i, state.style.front_color),
+                             level, state.value_range)
+        state.levels.select(1)
         click_histogram(viewer, 0.25)
         low, high = state.value_range
-        assert state.level_values() == pytest.approx([64.0, low + 0.25 * (high - low)], abs=0.01 * (high - low))
+        assert state.levels.values() == pytest.approx([64.0, low + 0.25 * (high - low)], abs=0.01 * (high - low))
     finally:
         viewer.release()
 
@@ -234,8 +245,10 @@ def drive_window_with_two_surfaces(x_display, tmp_path):
     try:
         state, opacity = window.state, 0.4
         state.style.lighting = state.style.show_box = False
-        assert state.add_level(INNER) and state.set_level_color(1, INNER_RGB)
-        assert state.set_level_color(0, OUTER_RGB) and state.set_level_opacity(0, opacity)
+        state.levels.add(INNER)
+        state.levels.set_color(1, INNER_RGB)
+        state.levels.set_color(0, OUTER_RGB)
+        state.levels.set_opacity(0, opacity)
 
         def matching(rgb):
             window.request_screenshot()
@@ -246,7 +259,7 @@ def drive_window_with_two_surfaces(x_display, tmp_path):
 
         blend = opacity * OUTER_RGB + (1 - opacity) * INNER_RGB
         assert matching(blend) > 200          # the inner shell's disc, seen through the outer one
-        state.set_level_opacity(0, 1.0)
+        state.levels.set_opacity(0, 1.0)
         assert matching(blend) == 0 and matching(OUTER_RGB) > 200
     finally:
         window.close()

@@ -1,4 +1,4 @@
-"""ViewerState and the imgui panel, driven the way the window drives them, rendered through EGL."""
+"""ViewerState, its GPU scene and the imgui panel, driven the way the window drives them, rendered through EGL."""
 from __future__ import annotations
 
 import json
@@ -6,6 +6,7 @@ import json
 import numpy as np
 import pytest
 
+from isoscope.viewer.model.errors import ViewerError
 from isoscope.viewer.model.recent import RecentFiles
 from isoscope.viewer.model.style import SurfaceStyle
 from isoscope.viewer.ui.headless import HeadlessViewer
@@ -23,41 +24,43 @@ def viewer(gl_ctx):
 
 
 def test_changing_the_iso_through_the_state_re_extracts_once(viewer):
-    state = viewer.state
-    triangles_before = state.n_triangles
-    assert state.update(0.0) is False          # nothing moved: no extraction
-    state.set_iso(0.25)
-    assert state.update(0.0) is True
-    assert state.extractor.level == pytest.approx(0.25)
-    assert state.n_triangles > triangles_before
-    assert state.update(0.0) is False
+    state, scene = viewer.state, viewer.scene
+    triangles_before = scene.n_triangles
+    assert scene.update(0.0) is False          # nothing moved: no extraction
+    state.iso = 0.25
+    assert scene.extractor.level != pytest.approx(0.25)   # the state changes; the GPU follows in the frame
+    assert scene.update(0.0) is True
+    assert scene.extractor.level == pytest.approx(0.25)
+    assert scene.n_triangles > triangles_before
+    assert scene.update(0.0) is False
 
 
 def test_iso_is_kept_inside_the_range_and_keys_step_by_fractions(viewer):
     state = viewer.state
     low, high = state.value_range
-    state.set_iso(high + 100)
+    assert (low, high) == state.volume.value_range   # the volume's range, not the extractor's
+    state.iso = high + 100
     assert state.iso == high
-    state.set_iso(low + 0.5 * (high - low))
-    state.nudge_iso(+0.01)
+    state.iso = low + 0.5 * (high - low)
+    state.levels.nudge(+0.01)
     assert state.iso == pytest.approx(low + 0.51 * (high - low))
-    state.nudge_iso(-0.10)
+    state.levels.nudge(-0.10)
     assert state.iso == pytest.approx(low + 0.41 * (high - low))
 
 
 def test_animation_sweeps_the_iso_through_the_range(viewer):
     state = viewer.state
     low, high = state.value_range
-    state.toggle_animation()
+    state.levels.toggle_animation()
     seen = []
     for _ in range(12):
-        state.update(0.5)   # 6 s period: 12 half-second frames are one sweep up and down
+        viewer.scene.update(0.5)   # 6 s period: 12 half-second frames are one sweep up and down
         seen.append(state.iso)
     assert low < min(seen) < low + 0.1 * (high - low)
     assert high - 0.1 * (high - low) < max(seen) < high
-    state.toggle_animation()
+    state.levels.toggle_animation()
     frozen = state.iso
-    state.update(0.5)
+    viewer.scene.update(0.5)
     assert state.iso == frozen
 
 
@@ -105,20 +108,35 @@ def test_panel_slider_follows_the_iso_value(viewer):
         return find_slider_grab(image)[0]
 
     low, high = viewer.state.value_range
-    viewer.state.set_iso(low + 0.1 * (high - low))
+    viewer.state.iso = low + 0.1 * (high - low)
     left = slider_grab_column(viewer.render(panel=True))
-    viewer.state.set_iso(low + 0.9 * (high - low))
+    viewer.state.iso = low + 0.9 * (high - low)
     right = slider_grab_column(viewer.render(panel=True))
     assert right - left > 150
 
 
-def test_dragging_the_panel_slider_with_the_mouse_re_extracts(viewer):
+def test_dragging_the_panel_slider_with_the_mouse_re_extracts(viewer, monkeypatch):
     from imgui_bundle import imgui  # the headless panel gets its mouse from imgui's io, as GLFW feeds it
 
     low, high = viewer.state.value_range
-    viewer.state.set_iso(low + 0.5 * (high - low))
+    viewer.state.iso = low + 0.5 * (high - low)
     x, y = find_slider_grab(viewer.render(panel=True))
-    triangles_before = viewer.state.n_triangles
+    triangles_before = viewer.scene.n_triangles
+    # No extraction while the panel lays itself out: only in the frame's update after it.
+    extract, draw, laying_out = viewer.scene.surface.extract, viewer._panel.draw, []
+
+    def extract_outside_layout(*args, **kwargs):
+        assert not laying_out, "the panel's layout extracted"
+        return extract(*args, **kwargs)
+
+    def layout(*args):
+        laying_out.append(True)
+        try:
+            draw(*args)
+        finally:
+            laying_out.clear()
+    monkeypatch.setattr(viewer.scene.surface, "extract", extract_outside_layout)
+    monkeypatch.setattr(viewer._panel, "draw", layout)
     io = imgui.get_io()
     io.add_mouse_pos_event(x, y)
     viewer.render(panel=True)
@@ -129,8 +147,8 @@ def test_dragging_the_panel_slider_with_the_mouse_re_extracts(viewer):
     io.add_mouse_button_event(0, False)
     viewer.render(panel=True)
     assert viewer.state.iso > low + 0.6 * (high - low)
-    assert viewer.state.extractor.level == pytest.approx(viewer.state.iso)
-    assert viewer.state.n_triangles != triangles_before
+    assert viewer.scene.extractor.level == pytest.approx(viewer.state.iso)
+    assert viewer.scene.n_triangles != triangles_before
 
 
 def error_pixels(image, panel_right):
@@ -140,19 +158,23 @@ def error_pixels(image, panel_right):
 
 def test_bad_file_shows_its_error_in_the_panel_and_keeps_the_volume(viewer, tmp_path):
     state = viewer.state
-    volume, extractor, iso = state.volume, state.extractor, state.iso
+    volume, extractor, iso = state.volume, viewer.scene.extractor, state.iso
     clean = viewer.render(panel=True)
 
     broken = tmp_path / "broken.npy"
     broken.write_bytes(b"this is not a numpy file")
-    assert state.open(str(broken)) is False
+    with pytest.raises(ValueError, match="broken.npy"):
+        viewer.open(str(broken))
+    state.open(str(broken))       # as the panel asks: the answer comes in a frame, shown in the panel
+    assert state.loading.done(wait_s=60)
+    viewer.render(panel=True)              # the frame that takes the answer: after its panel's layout
+    shown = viewer.render(panel=True)      # the next frame's panel shows it
     assert state.error and "\n" not in state.error and "broken.npy" in state.error
-    assert state.volume is volume and state.extractor is extractor and state.iso == iso
-    shown = viewer.render(panel=True)
+    assert state.volume is volume and viewer.scene.extractor is extractor and state.iso == iso
     panel_right = int(viewer._panel.covered_width)
     assert error_pixels(shown, panel_right) > 50 + error_pixels(clean, panel_right)
 
-    assert state.open("sphere") is True   # the next good volume clears the error
+    viewer.open("sphere")   # the next good volume clears the error
     assert state.error is None
 
 
@@ -164,7 +186,7 @@ def test_opening_a_file_adds_it_to_recent_files(gl_ctx, tmp_path):
         data = np.random.default_rng(1).normal(size=(12, 10, 8)).astype(np.float32)
         path = tmp_path / "noise.npy"
         np.save(path, data)
-        assert viewer.state.open(str(path)), viewer.state.error
+        viewer.open(str(path))
         assert viewer.state.volume.data.shape == (12, 10, 8)
         assert json.loads(recent_path.read_text()) == [str(path.resolve())]
         assert RecentFiles(recent_path).paths == [str(path.resolve())]
@@ -173,9 +195,9 @@ def test_opening_a_file_adds_it_to_recent_files(gl_ctx, tmp_path):
 
 
 def test_expression_box_opens_an_implicit_function(viewer):
-    assert viewer.state.open("expr:x*x + y*y + z*z - 0.25; res=24"), viewer.state.error
+    viewer.open("expr:x*x + y*y + z*z - 0.25; res=24")
     assert viewer.state.volume.data.shape == (24, 24, 24)
-    assert viewer.state.n_triangles > 0
+    assert viewer.scene.n_triangles > 0
 
 
 @pytest.mark.parametrize("formula", ["+".join(["x"] * 999), "*".join(["x"] * 999), "-" * 1500 + "x",
@@ -185,24 +207,29 @@ def test_a_hostile_expression_typed_in_the_panel_keeps_the_window(viewer, formul
     refused in one line with the last good volume still on show."""
     state = viewer.state
     volume = state.volume
-    if state.open(f"expr:{formula}; res=8"):
+    state.open(f"expr:{formula}; res=8")   # as the panel's expr box asks
+    viewer.render()
+    if state.error is None:
         assert state.volume.data.shape == (8, 8, 8)
     else:
-        assert state.error and "\n" not in state.error and state.volume is volume
-    assert state.open("sphere") is True
+        assert "\n" not in state.error and state.volume is volume
+    viewer.open("sphere")
 
 
 def test_object_side_toggle_reverses_the_normals_and_keeps_the_view(viewer):
     state = viewer.state
     serial, iso = state.volume_serial, state.iso
-    assert state.inside_below                              # the built-in sphere is a signed distance
-    _, _, outward, _ = state.extractor.read_mesh()
-    assert state.set_inside_below(False)
-    assert not state.inside_below and state.volume.gradient_direction == "descent"
+    assert state.gradient_direction == "ascent"             # the built-in sphere is a signed distance
+    _, _, outward, _ = viewer.scene.extractor.read_mesh()
+    assert state.set_gradient_direction("descent")
+    viewer.render()
+    assert state.volume.gradient_direction == "descent"
     assert (state.volume_serial, state.iso) == (serial, iso)  # no refit, same level
-    _, _, inward, _ = state.extractor.read_mesh()
+    _, _, inward, _ = viewer.scene.extractor.read_mesh()
     np.testing.assert_allclose(inward, -outward, atol=1e-6)
-    assert state.set_inside_below(False) is False          # already so: nothing re-extracted
+    assert state.set_gradient_direction("descent") is False   # already so: nothing re-extracted
+    with pytest.raises(ViewerError, match="descent, ascent"):
+        state.set_gradient_direction("inside")
 
 
 def test_a_volume_read_in_the_background_reports_progress_then_shows(viewer, tmp_path):
@@ -210,14 +237,15 @@ def test_a_volume_read_in_the_background_reports_progress_then_shows(viewer, tmp
     path = tmp_path / "ramp.npy"
     np.save(path, np.broadcast_to(np.arange(192, dtype=np.float32), (256, 256, 192)))  # 48 MiB: read in slabs
     state = viewer.state
-    state.open_in_background(str(path))
+    request = state.open(str(path))
     pending = state.loading
-    assert pending.done(wait_s=60)
+    assert pending.request_id == request and pending.done(wait_s=60)
     assert pending.message != f"opening {path}" and 0 < pending.fraction <= 1  # the loader reported
+    assert pending.response.request_id == request          # the answer carries the request's id
     assert state.volume.name != "ramp"                  # not shown until the main thread takes it
-    viewer.render()                                      # a frame: update() uploads and extracts it
+    viewer.render()                                      # a frame: the scene uploads and extracts it
     assert state.loading is None and state.error is None
-    assert state.volume.data.shape == (256, 256, 192) and state.n_triangles > 0
+    assert state.volume.data.shape == (256, 256, 192) and viewer.scene.n_triangles > 0
     assert str(path.resolve()) in state.recent.paths
 
 
@@ -226,27 +254,29 @@ def test_a_bad_file_read_in_the_background_keeps_the_volume(viewer, tmp_path):
     before = state.volume
     bad = tmp_path / "broken.npy"
     bad.write_bytes(b"\x93NUMPY garbage")
-    state.open_in_background(str(bad))
+    state.open(str(bad))
     assert state.loading.done(wait_s=60)
     viewer.render()
-    assert state.volume is before and state.extractor is not None
+    assert state.volume is before and viewer.scene.extractor is not None
     assert state.error and "broken.npy" in state.error and "\n" not in state.error
 
 
 def test_progress_bar_is_drawn_while_loading(viewer, tmp_path):
     """The panel draws a bar while a load is pending: pixels in the panel differ from a frame without."""
+    import threading
     state = viewer.state
     idle = viewer.render(panel=True)
+    release = threading.Event()
 
-    class Stalled:  # a load that has not finished: what the panel sees mid-read
-        fraction, message = 0.5, "reading ramp"
-
-        def done(self, wait_s=0.0):
-            return False
-
-    state.loading = Stalled()
+    def stalled(spec, progress=None):   # a read that has not finished: what the panel sees mid-read
+        progress(0.5, "reading ramp")
+        release.wait(60)
+        raise OSError("not read")
+    state.jobs.submit("open", stalled, "ramp")
     loading = viewer.render(panel=True)
-    state.loading = None
+    release.set()
+    state.loading.done(wait_s=60)
+    viewer.render()
     assert np.abs(loading.astype(int) - idle.astype(int)).max(axis=2)[:, :300].sum() > 0
 
 
@@ -255,41 +285,43 @@ def test_a_dragged_value_shows_a_coarse_preview_then_the_full_mesh_at_rest(gl_ct
 
     import isoscope.viewer.gfx.surface as surface_module
     from isoscope.cpu.cubes import marching_cubes_reference
-    from isoscope.viewer.gfx.state import REST_S, ViewerState
+    from isoscope.viewer.gfx.scene import REST_S, GpuScene
+    from isoscope.viewer.model.state import ViewerState
 
     monkeypatch.setattr(surface_module, "PREVIEW_TRIANGLES", 3000)  # a small volume's mesh is "big"
-    state = ViewerState(gl_ctx, level_of_detail=True)
+    state = ViewerState()
+    scene = GpuScene(gl_ctx, state, level_of_detail=True)
     try:
         volume = open_volume("gyroid", resolution=48)
-        assert state.show(volume, iso=0.0)
-        full = state.n_triangles
-        assert full > 4 * 3000 and state.preview_step == 1
+        scene.show(volume, 0.0)
+        full = scene.n_triangles
+        assert full > 4 * 3000 and scene.preview_step == 1
         low, high = state.value_range
         drag = [low + f * (high - low) for f in (0.45, 0.47, 0.49, 0.51)]
 
-        state.set_iso(drag[0])
-        state.update(0.04)                 # one change alone (a key, a typed value): full mesh
-        assert state.preview_step == 1 and state.extractor.level == drag[0]
+        state.iso = drag[0]
+        scene.update(0.04)                 # one change alone (a key, a typed value): full mesh
+        assert scene.preview_step == 1 and scene.extractor.level == drag[0]
         for value in drag[1:]:             # changing frame after frame: a drag
-            state.set_iso(value)
-            assert state.update(0.04)
-            step = state.preview_step
-            assert step > 1 and state.n_triangles < full / 2
+            state.iso = value
+            assert scene.update(0.04)
+            step = scene.preview_step
+            assert step > 1 and scene.n_triangles < full / 2
         # The preview is exactly the mesh of every step-th sample, in the same world units.
         sign = 1.0 if volume.gradient_direction == "descent" else -1.0
         coarse = volume.data[::step, ::step, ::step].astype(np.float32)
-        assert_same_mesh(state.meshes[0].read(),
+        assert_same_mesh(scene.meshes[0].read(),
                          marching_cubes_reference(coarse, drag[-1], tuple(s * step for s in volume.spacing),
                                                   descent=sign > 0))
 
-        assert state.update(REST_S / 2) is False and state.preview_step == step  # not rested yet
-        assert state.update(REST_S / 2) is True and state.preview_step == 1      # rested: full mesh
-        assert state.extractor.level == drag[-1]
-        assert state.n_triangles == len(marching_cubes_reference(volume.data.astype(np.float32), drag[-1],
+        assert scene.update(REST_S / 2) is False and scene.preview_step == step  # not rested yet
+        assert scene.update(REST_S / 2) is True and scene.preview_step == 1      # rested: full mesh
+        assert scene.extractor.level == drag[-1]
+        assert scene.n_triangles == len(marching_cubes_reference(volume.data.astype(np.float32), drag[-1],
                                                                  volume.spacing, descent=sign > 0)[1])
-        assert state.update(1.0) is False                                        # and stays
+        assert scene.update(1.0) is False                                        # and stays
     finally:
-        state.release()
+        scene.release()
 
 
 def test_headless_renders_never_show_a_preview(viewer, monkeypatch):
@@ -297,9 +329,9 @@ def test_headless_renders_never_show_a_preview(viewer, monkeypatch):
     monkeypatch.setattr(surface_module, "PREVIEW_TRIANGLES", 10)
     state = viewer.state
     for value in (0.1, 0.2, 0.3):
-        state.set_iso(value)
+        state.iso = value
         viewer.render()
-        assert state.preview_step == 1 and state.extractor.level == pytest.approx(value)
+        assert viewer.scene.preview_step == 1 and viewer.scene.extractor.level == pytest.approx(value)
 
 
 def test_value_histogram_counts_every_sample_on_a_log_scale():
@@ -346,27 +378,31 @@ def test_histogram_marks_the_level_and_a_click_on_it_sets_the_level(gl_ctx):
         viewer.show(open_volume("bucky"), iso=64)
         state, colour = viewer.state, viewer.state.style.front_color
         for level in (64.0, 190.0):
-            state.set_iso(level)
+            state.iso = level
             image = viewer.render(panel=True)
             assert_marker_at(image, viewer._panel.histogram_box, colour, level, state.value_range)
         click_histogram(viewer, 0.25)   # a press a quarter of the way across sets the level there
         low, high = state.value_range
         assert state.iso == pytest.approx(low + 0.25 * (high - low), abs=0.01 * (high - low))
-        assert state.extractor.level == pytest.approx(state.iso)
+        assert viewer.scene.extractor.level == pytest.approx(state.iso)
     finally:
         viewer.release()
 
 
 def test_save_mesh_writes_the_surface_on_show_in_the_format_of_its_name(viewer, tmp_path):
     from support.mesh_checks import assert_closed_manifold, read_ply
-    state = viewer.state
-    assert state.save_mesh(tmp_path / "shown.ply")
+    state, scene = viewer.state, viewer.scene
+    state.request_save(tmp_path / "shown.ply")   # as the panel's save dialog asks: written in the frame
+    viewer.render()
     verts, normals, _, faces = read_ply(tmp_path / "shown.ply")
-    assert len(faces) == state.n_triangles > 100 and len(verts) == state.n_vertices
-    np.testing.assert_array_equal(faces, state.extractor.read_mesh()[1])
+    assert len(faces) == scene.n_triangles > 100 and len(verts) == scene.n_vertices
+    np.testing.assert_array_equal(faces, scene.extractor.read_mesh()[1])
     assert_closed_manifold(faces)
     assert "mesh saved" in state.message and str(tmp_path / "shown.ply") in state.message
-    # A bad name: one line in the panel, nothing written, the viewer as it was.
-    assert not state.save_mesh(tmp_path / "shown.vtk")
+    # A bad name: one line (raised, or in the panel), nothing written, the viewer as it was.
+    with pytest.raises(ValueError, match=r"\.ply, \.obj, \.stl, \.glb, \.off"):
+        scene.save_mesh(tmp_path / "shown.vtk")
+    state.request_save(tmp_path / "shown.vtk")
+    viewer.render()
     assert ".ply, .obj, .stl, .glb, .off" in state.error and "\n" not in state.error
     assert not (tmp_path / "shown.vtk").exists()

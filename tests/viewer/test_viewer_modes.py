@@ -1,5 +1,6 @@
 """The viewer's mesh modes (cells, smoothing, sharp features) and label maps, through ViewerState as the
-panel and the viewer's flags use them: what is drawn and saved must be what the API makes."""
+panel and the viewer's flags use them, drawn by its GPU scene: what is drawn and saved must be what the
+API makes."""
 from __future__ import annotations
 
 import nibabel
@@ -10,6 +11,8 @@ from scipy.ndimage import map_coordinates
 from support.command import assert_one_line_error, isoscope
 
 import isoscope as api
+from isoscope.options import MeshOptionsError
+from isoscope.viewer.model.errors import ViewerError
 from isoscope.viewer.ui.headless import HeadlessViewer
 from isoscope.volumes import open_volume
 
@@ -21,24 +24,29 @@ def viewer(gl_ctx):
     viewer.release()
 
 
-def drawn_triangles(state):
-    return [mesh.n_triangles for mesh in state.meshes]
+def drawn_triangles(viewer):
+    viewer.update()   # the frame in which the GPU follows the state
+    return [mesh.n_triangles for mesh in viewer.scene.meshes]
 
 
 def test_tetrahedra_apply_to_every_level_without_a_new_upload(viewer):
     volume = open_volume("torus", resolution=32)
     viewer.show_levels(volume, [0.0, 0.1])
     state = viewer.state
-    cubes = drawn_triangles(state)
-    extractor = state.extractor
+    cubes = drawn_triangles(viewer)
+    extractor = viewer.scene.extractor
     assert state.set_cells("tetrahedra")
-    assert state.extractor is extractor    # the same resident volume
+    assert drawn_triangles(viewer) != cubes and viewer.scene.extractor is extractor   # the same resident volume
     expected = [len(api.marching_tetrahedra(volume.checked, level, spacing=volume.spacing,
                                             gradient_direction=volume.gradient_direction)[1]) for level in (0.0, 0.1)]
-    assert drawn_triangles(state) == expected
+    assert drawn_triangles(viewer) == expected
     assert all(t > 2 * c for t, c in zip(expected, cubes))
-    assert state.set_cells("cubes") and drawn_triangles(state) == cubes
-    assert not state.set_cells("hexahedra") and "cubes" in state.error and drawn_triangles(state) == cubes
+    assert state.set_cells("cubes") and drawn_triangles(viewer) == cubes
+    with pytest.raises(MeshOptionsError, match="cubes"):
+        state.set_cells("hexahedra")
+    assert state.cells == "cubes" and drawn_triangles(viewer) == cubes
+    # One source for the options: the GPU surface keeps none of its own.
+    assert not {"cells", "smooth", "sharp"} & set(vars(viewer.scene.surface))
 
 
 def test_smoothing_moves_every_level_onto_its_own_level_set(viewer, tmp_path):
@@ -46,36 +54,47 @@ def test_smoothing_moves_every_level_onto_its_own_level_set(viewer, tmp_path):
     viewer.show_levels(volume, [0.5, 0.8])
     state = viewer.state
     assert state.set_smooth(3)
+    viewer.update()
     data = volume.data.astype(np.float64)
-    for mesh, level in zip(state.meshes, (0.5, 0.8)):
+    for mesh, level in zip(viewer.scene.meshes, (0.5, 0.8)):
         verts = mesh.read()[0]
         values = map_coordinates(data, (verts / np.asarray(volume.spacing)).T, order=1, mode="nearest")
         assert np.abs(values - level).max() <= 1e-3 * (data.max() - data.min())
-    state.select_level(0)
-    assert state.save_mesh(tmp_path / "smooth.ply")
+    state.levels.select(0)
+    viewer.update()
+    viewer.scene.save_mesh(tmp_path / "smooth.ply")
     saved = trimesh.load(tmp_path / "smooth.ply", process=False)
     expected = api.marching_cubes(volume.checked, 0.5, spacing=volume.spacing, smooth=3)
     assert len(saved.faces) == len(expected[1])
-    assert not state.set_smooth(-1) and "smooth" in state.error and state.smooth == 3
+    with pytest.raises(ValueError, match="smooth"):
+        state.set_smooth(-1)
+    assert state.smooth == 3
 
 
 def test_sharp_features_are_drawn_and_saved_as_the_api_makes_them(viewer, tmp_path):
     volume = open_volume("box", resolution=24)
     viewer.show(volume)
-    state = viewer.state
-    plain = state.n_triangles
+    state, scene = viewer.state, viewer.scene
+    plain = scene.n_triangles
     assert state.set_sharp(30)
+    viewer.update()
     verts, faces, _, _ = api.marching_cubes(volume.checked, state.iso, spacing=volume.spacing,
                                             gradient_direction=volume.gradient_direction, sharp_features=30)
-    assert state.n_triangles == len(faces) and len(faces) != plain
-    assert state.save_mesh(tmp_path / "box.stl")
+    assert scene.n_triangles == len(faces) and len(faces) != plain
+    scene.save_mesh(tmp_path / "box.stl")
     saved = trimesh.load(tmp_path / "box.stl", process=False)
     assert len(saved.faces) == len(faces)
-    # Smoothing or tetrahedra would undo the features: refused, and the sharp mesh stays.
-    assert not state.set_smooth(2) and state.smooth == 0
-    assert not state.set_cells("tetrahedra") and state.cells == "cubes"
-    assert state.n_triangles == len(faces)
-    assert state.set_sharp(None) and state.n_triangles == plain
+    # Smoothing or tetrahedra would undo the features: refused in the rule's words, and the sharp mesh stays.
+    with pytest.raises(MeshOptionsError, match="smoothing would round off the sharp features"):
+        state.set_smooth(2)
+    with pytest.raises(MeshOptionsError, match="not with tetrahedra"):
+        state.set_cells("tetrahedra")
+    assert (state.smooth, state.cells) == (0, "cubes")
+    viewer.update()
+    assert scene.n_triangles == len(faces)
+    assert state.set_sharp(None)
+    viewer.update()
+    assert scene.n_triangles == plain
 
 
 def test_sharp_features_at_rest_are_made_on_a_worker_while_the_plain_mesh_shows(viewer, tmp_path):
@@ -85,8 +104,9 @@ def test_sharp_features_at_rest_are_made_on_a_worker_while_the_plain_mesh_shows(
     import time
     volume = open_volume("box", resolution=24)
     viewer.show(volume)
-    state = viewer.state
+    state, scene = viewer.state, viewer.scene
     assert state.set_sharp(30)  # an explicit option: made at once
+    viewer.update()
     lo, hi = state.value_range
 
     def meshes(iso):
@@ -97,25 +117,25 @@ def test_sharp_features_at_rest_are_made_on_a_worker_while_the_plain_mesh_shows(
     # Below the box's own level its offsets are smaller boxes, with edges (above, they round off).
     first, second = state.iso - 0.02 * (hi - lo), state.iso - 0.04 * (hi - lo)
     state.iso = first
-    state.update(0.0)
+    scene.update(0.0)
     state.iso = second  # before the first level's features are in
-    state.update(0.0)
+    scene.update(0.0)
     plain, sharp = meshes(second)
     assert len(sharp[1]) != len(plain[1])  # the level has features
-    assert state.surface.sharp_pending and state.n_triangles == len(plain[1])
+    assert scene.surface.sharp_pending and scene.n_triangles == len(plain[1])
     deadline = time.monotonic() + 60
-    while state.surface.sharp_pending and time.monotonic() < deadline:
+    while scene.surface.sharp_pending and time.monotonic() < deadline:
         time.sleep(0.01)
-        state.update(0.0)
-    assert not state.surface.sharp_pending and state.n_triangles == len(sharp[1])
-    np.testing.assert_allclose(state.surface.shown.read_mesh()[0], sharp[0], atol=1e-5)
+        scene.update(0.0)
+    assert not scene.surface.sharp_pending and scene.n_triangles == len(sharp[1])
+    np.testing.assert_allclose(scene.surface.shown.read_mesh()[0], sharp[0], atol=1e-5)
 
     state.iso = first
-    state.update(0.0)
-    assert state.surface.sharp_pending
-    assert state.save_mesh(tmp_path / "box.stl")  # waits for the features
+    scene.update(0.0)
+    assert scene.surface.sharp_pending
+    scene.save_mesh(tmp_path / "box.stl")  # waits for the features
     assert len(trimesh.load(tmp_path / "box.stl", process=False).faces) == len(meshes(first)[1][1])
-    assert not state.surface.sharp_pending and state.n_triangles == len(meshes(first)[1][1])
+    assert not scene.surface.sharp_pending and scene.n_triangles == len(meshes(first)[1][1])
 
 
 def test_a_failed_extraction_or_feature_step_leaves_a_drawable_plain_mesh(viewer, monkeypatch):
@@ -128,15 +148,16 @@ def test_a_failed_extraction_or_feature_step_leaves_a_drawable_plain_mesh(viewer
     from isoscope.core.layout import VERTEX_BYTES
     from isoscope.gpu.cubes import GPULimitError
     viewer.show(open_volume("box", resolution=24))
-    state = viewer.state
+    state, scene = viewer.state, viewer.scene
     assert state.set_sharp(30)
+    viewer.update()
     lo, hi = state.value_range
     step = sharp_features._step
     monkeypatch.setattr(sharp_features, "_step", lambda *args: (time.sleep(0.3), step(*args))[1])
     state.iso -= 0.02 * (hi - lo)
-    state.update(0.0)
-    assert state.surface.sharp_pending
-    extractor = state.surface.extractor
+    scene.update(0.0)
+    assert scene.surface.sharp_pending
+    extractor = scene.surface.extractor
 
     def cannot_allocate(n_vertices, n_triangles):  # as _ensure_output fails: a buffer already replaced
         extractor.vertex_buffer.release()
@@ -145,26 +166,26 @@ def test_a_failed_extraction_or_feature_step_leaves_a_drawable_plain_mesh(viewer
         raise GPULimitError("the mesh at this level needs a buffer that this GPU could not allocate")
     monkeypatch.setattr(extractor, "_ensure_output", cannot_allocate)
     state.iso -= 0.01 * (hi - lo)
-    state.update(0.0)
-    assert "could not allocate" in state.error and not state.surface.sharp_pending
+    scene.update(0.0)
+    assert "could not allocate" in state.error and not scene.surface.sharp_pending
     viewer.render()  # no released buffer is drawn
     time.sleep(0.5)
-    state.update(0.0)
-    assert state.n_triangles == 0  # the dropped step's mesh did not come back
+    scene.update(0.0)
+    assert scene.n_triangles == 0  # the dropped step's mesh did not come back
     monkeypatch.undo()
 
     def broken(*args):
         raise IndexError("a bug in the feature step")
     monkeypatch.setattr(sharp_features, "_step", broken)
     state.iso -= 0.01 * (hi - lo)
-    state.update(0.0)
-    plain = state.n_triangles
+    scene.update(0.0)
+    plain = scene.n_triangles
     deadline = time.monotonic() + 30
-    while state.surface.sharp_pending and time.monotonic() < deadline:
+    while scene.surface.sharp_pending and time.monotonic() < deadline:
         time.sleep(0.01)
-        state.update(0.0)
+        scene.update(0.0)
     assert "sharp features failed" in state.error and "IndexError" in state.error and "\n" not in state.error
-    assert state.n_triangles == plain > 0
+    assert scene.n_triangles == plain > 0
     viewer.render()
 
 
@@ -194,29 +215,33 @@ def two_labels(tmp_path):
 
 def test_a_label_map_shows_one_coloured_surface_per_label(viewer, two_labels, tmp_path):
     volume = open_volume(str(two_labels))
-    state = viewer.state
+    state, scene = viewer.state, viewer.scene
     viewer.show(volume)
     assert state.show_labels(volume)
+    assert scene.label_counts() == (0, 0, 0)   # asked for; the surfaces are made in the frame, not here
     surfaces = api.label_surfaces(volume.data, spacing=volume.spacing)
-    assert drawn_triangles(state) == [len(surfaces[label][1]) for label in (1, 7)]
-    colors = [look.color for look in state.looks]
+    assert drawn_triangles(viewer) == [len(surfaces[label][1]) for label in (1, 7)]
+    colors = [look.color for look in scene.looks]
     assert colors[0] != colors[1]
     both = viewer.render()
-    assert state.label_counts() == (2, sum(len(s[0]) for s in surfaces.values()),
+    assert scene.label_counts() == (2, sum(len(s[0]) for s in surfaces.values()),
                                     sum(len(s[1]) for s in surfaces.values()))
-    assert state.set_label_visible(7, False) and drawn_triangles(state) == [len(surfaces[1][1])]
-    assert state.label_counts() == (1, len(surfaces[1][0]), len(surfaces[1][1]))   # the stats: what is drawn
+    state.labels.set_visible(7, False)
+    assert drawn_triangles(viewer) == [len(surfaces[1][1])]
+    assert scene.label_counts() == (1, len(surfaces[1][0]), len(surfaces[1][1]))   # the stats: what is drawn
     assert not np.array_equal(viewer.render(), both)
+    with pytest.raises(ViewerError, match="no label 3"):
+        state.labels.set_visible(3, False)
     # Save writes what is shown: the visible label, one file each (STL), in the file's world space.
-    assert state.save_mesh(tmp_path / "out.stl")
+    scene.save_mesh(tmp_path / "out.stl")
     assert (tmp_path / "out_label1.stl").exists() and not (tmp_path / "out_label7.stl").exists()
-    state.set_label_visible(7, True)
-    assert state.save_mesh(tmp_path / "all.ply")   # PLY carries colours: one file
+    state.labels.set_visible(7, True)
+    scene.save_mesh(tmp_path / "all.ply")   # PLY carries colours: one file
     mesh = trimesh.load(tmp_path / "all.ply", process=False)
     assert len(mesh.faces) == sum(len(s[1]) for s in surfaces.values())
     assert len(np.unique(mesh.visual.vertex_colors[:, :3], axis=0)) == 2
-    state.hide_labels()
-    assert len(state.meshes) == 1     # back to the isosurface
+    state.labels.hide()
+    assert len(drawn_triangles(viewer)) == 1     # back to the isosurface
 
 
 HISTOGRAM_RGB = (230, 179, 0)   # imgui's default PlotHistogram colour (0.90, 0.70, 0.00)
@@ -238,7 +263,7 @@ def test_a_label_map_takes_the_place_of_the_iso_value_section(gl_ctx, two_labels
         assert viewer.state.show_labels(volume)
         assert histogram_pixels(viewer.render(panel=True)) == 0
         assert viewer._panel.iso_slider_box is None
-        viewer.state.hide_labels()
+        viewer.state.labels.hide()
         assert histogram_pixels(viewer.render(panel=True)) > 20
     finally:
         viewer.release()
@@ -247,9 +272,12 @@ def test_a_label_map_takes_the_place_of_the_iso_value_section(gl_ctx, two_labels
 def test_a_volume_without_labels_is_refused_and_the_view_stays(viewer):
     state = viewer.state
     viewer.show(open_volume("sphere", resolution=20))
-    before = drawn_triangles(state)
-    assert not state.show_labels(open_volume("sphere", resolution=20))   # fractional values
-    assert "label" in state.error and drawn_triangles(state) == before
+    before = drawn_triangles(viewer)
+    with pytest.raises(ValueError, match="fractional values"):
+        state.show_labels(open_volume("sphere", resolution=20))
+    with pytest.raises(ValueError, match="not a label map"):
+        state.show_labels()
+    assert not state.labels and drawn_triangles(viewer) == before
 
 
 def test_the_viewer_takes_the_mode_flags_and_refuses_bad_pairs(x_display, two_labels, monkeypatch):
@@ -267,7 +295,7 @@ def test_a_volume_that_looks_like_a_label_map_is_offered_as_one(viewer, two_labe
     assert label_count_hint(np.arange(256, dtype=np.uint8).reshape(4, 8, 8)) == 0   # a scan: too many values
     assert label_count_hint(np.zeros((2, 2, 2), np.float32)) == 0
     viewer.show(open_volume(str(two_labels)))
-    assert viewer.state.label_hint == 2 and not viewer.state.label_layers   # offered, not switched
+    assert viewer.state.label_hint == 2 and not viewer.state.labels   # offered, not switched
     viewer.show(open_volume("bucky"))
     assert viewer.state.label_hint == 0
 
@@ -291,7 +319,8 @@ def test_the_pointer_can_rest_on_every_part_of_the_panel(gl_ctx, two_labels):
 
         io.add_mouse_pos_event(160.0, 8.0)
         sweep()
-        viewer.state.show_labels(open_volume(str(two_labels)))
+        viewer.show(open_volume(str(two_labels)))
+        viewer.state.show_labels()
         sweep()
     finally:
         viewer.release()
@@ -300,12 +329,13 @@ def test_the_pointer_can_rest_on_every_part_of_the_panel(gl_ctx, two_labels):
 def test_a_level_that_cannot_be_kept_is_refused_in_one_line_and_nothing_changes(viewer, monkeypatch):
     viewer.show_levels(open_volume("torus", resolution=24), [0.0])
     state = viewer.state
-    before = (len(state.levels), state.selected, drawn_triangles(state))
+    before = (len(state.levels), state.levels.selected, drawn_triangles(viewer))
 
     def out_of_memory(*args, **kwargs):
         raise ValueError("the mesh needs 2 GiB of GPU memory; lower the resolution")
-    monkeypatch.setattr(state.surface, "extract", out_of_memory)
-    state.set_iso(0.05)   # moved, not yet extracted: keeping the level needs an extraction
-    assert not state.add_level(0.1)
+    monkeypatch.setattr(viewer.scene.surface, "extract", out_of_memory)
+    state.iso = 0.05   # moved, not yet extracted: keeping the level needs an extraction
+    state.levels.add(0.1)
+    viewer.scene.update(0.0)   # the frame in which the GPU would keep the level: it cannot
     assert state.error == "the mesh needs 2 GiB of GPU memory; lower the resolution"
-    assert (len(state.levels), state.selected) == before[:2]
+    assert (len(state.levels), state.levels.selected) == before[:2]

@@ -43,7 +43,7 @@ def drive_window(x_display, tmp_path):
         for _ in range(3):
             assert window.draw_frame()
         assert state.error is None, state.error
-        assert state.n_triangles > 0
+        assert window.scene.n_triangles > 0
 
         press_key(window, "w")
         assert frames_until(window, lambda: state.style.wireframe)
@@ -51,7 +51,7 @@ def drive_window(x_display, tmp_path):
         iso = state.iso
         press_key(window, "equal", shift=True)   # '+': up 10% of the range
         assert frames_until(window, lambda: state.iso == pytest.approx(iso + 0.1 * (high - low)))
-        assert state.extractor.level == pytest.approx(state.iso)
+        assert window.scene.extractor.level == pytest.approx(state.iso)
 
         press_key(window, "s")
         assert frames_until(window, lambda: window.last_screenshot is not None)

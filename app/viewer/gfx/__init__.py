@@ -1,1 +1,2 @@
-"""The viewer's GL side: GPU surfaces and meshes of the volume on show, and the renderers that draw them."""
+"""The viewer's GL side: GpuScene (the GPU following a ViewerState), the GPU surface of a volume, and the
+renderers that draw them."""

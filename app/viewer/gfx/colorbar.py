@@ -10,7 +10,7 @@ import math
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from .colorby import ColorBy
+from ..model.colorby import ColorBy
 
 BAR_WIDTH = 14
 MARGIN = 10

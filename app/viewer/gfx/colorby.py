@@ -1,92 +1,39 @@
-"""Colour surfaces by a scalar at their vertices, through a colour map of the `cmap` library.
-
-The scalar is one of
-- "value": each vertex's own value, carried in its record (the level, so several levels take
-  the colours of where they sit in the volume's range);
-- "gradient": |gradient| of the volume (world units), where the surface is sharp or soft;
-- a second volume of the same shape, e.g. a PET or dose map over an anatomy surface.
-The last two live in a float 3-D texture with linear filtering, sampled at each vertex by the
-vertex shader: nothing is read back per extraction, so a drag costs no more than without.
+"""Colour by a scalar on the GPU: the colour map as a 1-D texture and the scalar (|gradient| or a
+second volume) as a float 3-D texture with linear filtering, sampled at each vertex by the vertex
+shader (what model/colorby.py works out, uploaded).  Nothing is read back per extraction, so a drag
+costs no more than without.
 """
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import moderngl
 import numpy as np
 
-from ...volumes import Volume
-from ..model.colormaps import LUT_SIZE, colormap_rgba
-
-SOURCES = ("value", "gradient")
-DEFAULT_COLORMAP = "viridis"
+from ..model.colorby import ColorBy
+from ..model.colormaps import LUT_SIZE
 
 
-def colormap_rgb(name: str) -> np.ndarray:
-    """(LUT_SIZE, 3) float32 RGB of the `cmap` colour map `name`; a one-line ValueError for an unknown one."""
-    return np.ascontiguousarray(colormap_rgba(name)[:, :3], np.float32)
+class GpuColorBy:
+    """The textures of one `ColorBy`, and what the renderer reads of it."""
 
-
-def gradient_magnitude(data: np.ndarray, spacing) -> np.ndarray:
-    """|gradient| of `data` by central differences in world units, float32."""
-    parts = np.gradient(data.astype(np.float32, copy=False), *spacing)
-    return np.sqrt(sum(part * part for part in parts)).astype(np.float32)
-
-
-@dataclass
-class ColorBy:
-    """A scalar and a colour map, on the GPU: what the renderer needs to colour a surface."""
-    source: str                      # "value", "gradient" or the second volume's name
-    colormap: str
-    value_range: tuple[float, float]  # the scalar values at the two ends of the map
-    lut: np.ndarray                  # (LUT_SIZE, 3) float RGB, for the colour bars
-    lut_texture: moderngl.Texture
-    scalar_texture: moderngl.Texture3D | None  # None for "value"
-    shape: tuple[int, int, int]
-    spacing: tuple[float, float, float]
-    spec: str = ""                   # what set_color_by was given: "value", "gradient" or a volume spec
-
-    def color_at(self, scalar: float) -> np.ndarray:
-        """The map's RGB at `scalar` (as the shader picks it: nearest of LUT_SIZE entries)."""
-        low, high = self.value_range
-        t = 0.0 if high <= low else min(max((scalar - low) / (high - low), 0.0), 1.0)
-        return self.lut[min(int(t * LUT_SIZE), LUT_SIZE - 1)]
+    def __init__(self, ctx: moderngl.Context, color_by: ColorBy):
+        self.color_by = color_by
+        self.value_range, self.shape, self.spacing = color_by.value_range, color_by.shape, color_by.spacing
+        self.lut_texture = ctx.texture((LUT_SIZE, 1), 3, color_by.lut.tobytes(), dtype="f4")
+        self.lut_texture.filter = moderngl.NEAREST, moderngl.NEAREST
+        self.lut_texture.repeat_x = self.lut_texture.repeat_y = False
+        self.scalar_texture = None
+        if color_by.scalar is not None:
+            n0, n1, n2 = color_by.scalar.shape   # texel (k, j, i) holds scalar[i, j, k]: axis 2 is the texture's x
+            try:
+                self.scalar_texture = ctx.texture3d((n2, n1, n0), 1, np.ascontiguousarray(color_by.scalar).tobytes(),
+                                                    dtype="f4")
+            except BaseException:   # out of GPU memory: the colour map's texture goes with it
+                self.lut_texture.release()
+                raise
+            self.scalar_texture.filter = moderngl.LINEAR, moderngl.LINEAR
+            self.scalar_texture.repeat_x = self.scalar_texture.repeat_y = self.scalar_texture.repeat_z = False
 
     def release(self) -> None:
         for texture in (self.lut_texture, self.scalar_texture):
             if texture is not None:
                 texture.release()
-
-
-def make_color_by(ctx: moderngl.Context, volume: Volume, source: str, colormap: str,
-                  second: Volume | None = None, spec: str = "") -> ColorBy:
-    """Colour by `source` ("value", "gradient", or "volume" with `second`, opened from `spec`)
-    through `colormap`."""
-    lut = colormap_rgb(colormap)
-    if source == "value":
-        scalar, value_range, name = None, volume.value_range, "value"
-    elif source == "gradient":
-        scalar = gradient_magnitude(volume.data, volume.spacing)
-        value_range, name = (float(scalar.min()), float(scalar.max())), "|gradient|"
-    else:
-        if second.data.shape != volume.data.shape:
-            shape = "x".join(map(str, second.data.shape))
-            raise ValueError(f"{second.name} is {shape} but {volume.name} is {'x'.join(map(str, volume.data.shape))}; "
-                             "colour by a volume of the same shape")
-        scalar = np.asarray(second.data, np.float32)
-        value_range, name = second.value_range, second.name
-    lut_texture = ctx.texture((LUT_SIZE, 1), 3, lut.tobytes(), dtype="f4")
-    lut_texture.filter = moderngl.NEAREST, moderngl.NEAREST
-    lut_texture.repeat_x = lut_texture.repeat_y = False
-    scalar_texture = None
-    if scalar is not None:
-        n0, n1, n2 = scalar.shape   # texel (k, j, i) holds scalar[i, j, k]: axis 2 is the texture's x
-        try:
-            scalar_texture = ctx.texture3d((n2, n1, n0), 1, np.ascontiguousarray(scalar).tobytes(), dtype="f4")
-        except BaseException:   # out of GPU memory: the colour map's texture goes with it
-            lut_texture.release()
-            raise
-        scalar_texture.filter = moderngl.LINEAR, moderngl.LINEAR
-        scalar_texture.repeat_x = scalar_texture.repeat_y = scalar_texture.repeat_z = False
-    return ColorBy(name, colormap, (float(value_range[0]), float(value_range[1])), lut, lut_texture,
-                   scalar_texture, tuple(volume.data.shape), tuple(volume.spacing), spec)

@@ -1,6 +1,6 @@
 """Draws the scene: lit isosurface meshes, their wireframe overlay, the slices and the volume's bounding box.
 
-Each mesh has a look (levels.SurfaceLook): its colour, opacity and colour map; translucent
+Each mesh has a look (`SurfaceLook`): its colour, opacity and colour map; translucent
 ones go through weighted blended OIT (oit.py) after the opaque scene.
 
 Meshes are `GpuMesh` records, drawn straight from their GPU buffers (no read-back).
@@ -10,6 +10,7 @@ buffer, and the multisampled offscreen target used by headless renders.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import moderngl
 import numpy as np
@@ -17,10 +18,11 @@ import numpy as np
 from ...core.layout import VERTEX_FORMAT, vertex_format
 from ...gpu.mesh import GpuMesh
 from ...resources import shader_source
+from ..model.slices import SliceScene
 from ..model.style import SurfaceStyle
-from .levels import SurfaceLook
+from .colorby import GpuColorBy
 from .oit import OitTargets
-from .slices import GL_CLIP_DISTANCE0, SliceRenderer, SliceScene
+from .slices import GL_CLIP_DISTANCE0, SliceRenderer
 
 WIRE_COLOR = (0.02, 0.02, 0.05)
 WIRE_OPACITY = 0.45
@@ -28,6 +30,14 @@ COLORMAP_UNIT, SCALAR_UNIT = 3, 4   # texture units of a look's colour map and s
 
 # The 12 edges of a box as pairs of corner indices; corner i has bit k set when axis k is at `upper`.
 _BOX_EDGES = [(a, b) for a in range(8) for b in range(8) if a < b and bin(a ^ b).count("1") == 1]
+
+
+@dataclass(frozen=True)
+class SurfaceLook:
+    """How the renderer draws one mesh."""
+    color: tuple[float, float, float]
+    opacity: float
+    color_by: GpuColorBy | None = None
 
 
 class SceneRenderer:
@@ -156,10 +166,10 @@ class SceneRenderer:
             self._draw_translucent(translucent, viewport, destination)
         ctx.disable_direct(GL_CLIP_DISTANCE0)   # imgui's shaders write no clip distance
 
-    def draw_state(self, state, camera, viewport: tuple[int, int, int, int], covered_left: int = 0) -> None:
-        """What a ViewerState shows: its meshes in their looks, its slices and clip, then the 2-D view."""
-        drawn, slices = state.drawn(), state.slice_scene   # each worked out once a frame
-        self.draw([mesh for mesh, _ in drawn], camera, viewport, state.style, covered_left=covered_left,
+    def draw_scene(self, scene, camera, viewport: tuple[int, int, int, int], covered_left: int = 0) -> None:
+        """What a GpuScene shows of its state: the meshes in their looks, the slices and clip, then the 2-D view."""
+        drawn, slices = scene.drawn(), scene.state.slice_scene   # each worked out once a frame
+        self.draw([mesh for mesh, _ in drawn], camera, viewport, scene.state.style, covered_left=covered_left,
                   looks=[look for _, look in drawn], slices=slices)
         self.draw_inset(slices, viewport)
 

@@ -2,7 +2,7 @@
 
 Three axis-aligned planes (x, y, z = array axes 0, 1, 2) show the data through a
 colour map (from the `cmap` library) with a window/level, as medical viewers do:
-values from level - window/2 to level + window/2 span the map.  The isocurve at
+values from centre - window/2 to centre + window/2 span the map (model/slices.py).  The isocurve at
 the current level is drawn on each slice in the fragment shader (slice.frag), by
 marching squares on the pixel's own grid square: the same vertices (linear along
 sign-changing edges, ties moved off grid points) and the same rule on ambiguous
@@ -20,15 +20,13 @@ around it).  `SliceSettings` (model/slices.py) is what the panel and the command
 """
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import moderngl
 import numpy as np
 
 from ...core.layout import EDGE_MARGIN
 from ...resources import shader_source
 from ..model.colormaps import LUT_SIZE, colormap_rgba
-from ..model.slices import SliceSettings
+from ..model.slices import SliceScene
 
 INSET_FRACTION = 0.34     # the 2-D view's longer side, as a fraction of the scene's shorter side
 INSET_MARGIN = 10         # pixels from the scene's bottom-right corner
@@ -50,16 +48,6 @@ def slice_image(data: np.ndarray, axis: int, position: float) -> np.ndarray:
     if t > 0:
         image += np.float32(t) * (np.take(data, below + 1, axis=axis).astype(np.float32) - image)
     return np.ascontiguousarray(image)
-
-
-class SliceScene(NamedTuple):
-    """What the renderer needs to draw slices: ViewerState.slice_scene."""
-    data: np.ndarray
-    spacing: tuple[float, float, float]
-    settings: SliceSettings
-    iso: float
-    inside_above: bool         # the object is where values are above the level (gradient descent)
-    curve_color: tuple[float, float, float]
 
 
 def plane_corners(shape, spacing, axis: int, position: float, flat: bool = False) -> np.ndarray:
@@ -126,9 +114,9 @@ class SliceRenderer:
         program["u_slice"].value = 0
         program["u_colormap"].value = 1
         program["u_window"].value = settings.window
-        program["u_level"].value = settings.level
+        program["u_level"].value = settings.centre   # the shader's name for the window's centre
         program["u_iso"].value = scene.iso
-        program["u_inside_above"].value = scene.inside_above
+        program["u_inside_above"].value = scene.gradient_direction == "descent"   # the shader's encoding
         program["u_curve_color"].value = tuple(scene.curve_color)
 
     def draw(self, scene: SliceScene | None, view: bytes, projection: bytes) -> None:

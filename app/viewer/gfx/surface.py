@@ -6,7 +6,9 @@ per million triangles, measured on a brain MRI; the window's size hardly matters
 So, as ParaView does while interacting, a moving value is extracted from a coarser
 copy of the volume (every `step`-th sample along each axis, resident beside the full
 one) whose mesh stays under `PREVIEW_TRIANGLES`, and the full mesh comes back once
-the value rests (`ViewerState` decides when).
+the value rests (the scene decides when, scene.py).  What each extraction makes (cells,
+smoothing, sharp features) is the `MeshOptions` it is given: the surface keeps no setting
+of its own, only what is on show.
 """
 from __future__ import annotations
 
@@ -15,6 +17,7 @@ from ...gpu.mesh import GpuMesh
 from ...gpu.sharp_features import SharpenedMesh
 from ...gpu.smooth import Smoother
 from ...gpu.tetra import TetraExtractor
+from ...options import MeshOptions
 from ...validation import subsampled
 from ...volumes import Volume
 
@@ -48,19 +51,16 @@ class GpuSurface:
                                    gradient_direction=gradient_direction, ctx=ctx)
         self._previews: dict[int, Extractor] = {}  # sample step -> extractor of the subsampled volume
         self.shown_step = 1  # the step of the mesh on show: 1 is full resolution
-        # "cubes" or "tetrahedra": which cells the next extraction marches.  Tetrahedra borrow the
-        # cubes extractor's resident volume of the same step (app/tetra_extractor.py): no re-upload.
-        self.cells = "cubes"
+        # The cells of the mesh on show.  Tetrahedra borrow the cubes extractor's resident volume of
+        # the same step (gpu/tetra.py): no re-upload.
         self.shown_cells = "cubes"
         self._tetrahedra: dict[int, TetraExtractor] = {}  # sample step -> its tetrahedra extractor
         # The full mesh's triangle count, estimated from the last mesh of any step (a surface's
         # count grows with the square of the resolution): sizes the next preview's step.
         self.full_triangles = 0
-        self.smooth = 0  # smoothing iterations applied after each extraction (app/smoothing.py)
         self._smoothers: dict[tuple[str, int], Smoother] = {}  # (cells, sample step) -> its extractor's smoother
-        # Extended MC's feature angle (degrees) or None.  The feature step runs in numpy on the read-back
-        # mesh, so only full-resolution cubes meshes get it: previews while dragging stay plain.
-        self.sharp: float | None = None
+        # The feature step of Extended MC runs in numpy on the read-back mesh, so only full-resolution
+        # cubes meshes get it: previews while dragging stay plain.
         self._sharpened = SharpenedMesh(ctx)
         self.shown_sharp = False
 
@@ -81,15 +81,16 @@ class GpuSurface:
     def mesh(self) -> GpuMesh:
         return self.shown.mesh
 
-    def extract(self, iso: float, preview: bool = False, budget: int | None = None, wait: bool = True) -> None:
-        """Extract at `iso`: the full mesh, or with `preview` a coarse one if the full one is big
-        (more than `budget` triangles, default PREVIEW_TRIANGLES).  Without `wait`, sharp features are
-        made on a worker thread (the plain mesh shows until `poll` brings them in)."""
+    def extract(self, iso: float, options: MeshOptions, preview: bool = False, budget: int | None = None,
+                wait: bool = True) -> None:
+        """Extract at `iso` as `options` say: the full mesh, or with `preview` a coarse one if the full
+        one is big (more than `budget` triangles, default PREVIEW_TRIANGLES).  Without `wait`, sharp
+        features are made on a worker thread (the plain mesh shows until `poll` brings them in)."""
         step = preview_step(self.full_triangles, self.volume.data.shape, budget) if preview else 1
         if step > 1 and step not in self._previews:
             self._previews[step] = self._make_preview(step)
         extractor = self.extractor if step == 1 else self._previews[step]
-        if self.cells == "tetrahedra":
+        if options.cells == "tetrahedra":
             if step not in self._tetrahedra:
                 self._tetrahedra[step] = TetraExtractor(extractor)
             extractor = self._tetrahedra[step]
@@ -99,17 +100,17 @@ class GpuSurface:
             self._sharpened.drop_pending()
             self.shown_sharp = False
             raise
-        if self.smooth:
-            key = (self.cells, step)
+        if options.smooth:
+            key = (options.cells, step)
             if key not in self._smoothers:
                 self._smoothers[key] = Smoother(extractor)
-            self._smoothers[key].smooth(extractor.mesh, self.smooth)
-        self.shown_sharp = self.sharp is not None and step == 1 and self.cells == "cubes"
+            self._smoothers[key].smooth(extractor.mesh, options.smooth)
+        self.shown_sharp = options.sharp is not None and step == 1 and options.cells == "cubes"
         if self.shown_sharp:
-            self._sharpened.take(extractor, self.volume.checked.data, self.sharp, wait=wait)
+            self._sharpened.take(extractor, self.volume.checked.data, options.sharp, wait=wait)
         else:  # a preview or another mode: a step still on the worker is not wanted
             self._sharpened.drop_pending()
-        self.shown_step, self.shown_cells = step, self.cells
+        self.shown_step, self.shown_cells = step, options.cells
         self.full_triangles = extractor.n_triangles * step * step
 
     @property

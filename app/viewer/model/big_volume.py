@@ -1,4 +1,4 @@
-"""A volume too big to drag live: the viewer shows a downsampled level, and exports the full one
+"""A volume too big to drag live: the viewer shows every `step`-th sample, and exports the full one
 in the background.
 
 Above `VIEWER_MAX_VOXELS` samples the window would neither fit a modest GPU nor re-extract
@@ -28,7 +28,7 @@ VIEWER_MAX_VOXELS = 256 ** 3
 EXPORT_CHUNK = 128
 
 
-def viewer_level(volume: Volume, max_voxels: int | None = None) -> tuple[Volume, int]:
+def downsampled(volume: Volume, max_voxels: int | None = None) -> tuple[Volume, int]:
     """(`volume`, 1), or a volume of every step-th sample of it and that step, the smallest step
     that brings it under `max_voxels` (default VIEWER_MAX_VOXELS).  Spacing, world transform and
     value range stay the full volume's (the range bounds the samples kept)."""

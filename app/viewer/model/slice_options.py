@@ -1,7 +1,7 @@
 """`isoscope render`'s flags for slices, window/level, colour map and the clip plane.
 
 Parsed here without loading GL (so `--help` stays light); checked against the
-volume by ViewerState once it is shown, where a slice index outside it is refused.
+volume by the state's SliceSettings once it is shown, where a slice index outside it is refused.
 """
 from __future__ import annotations
 
@@ -65,15 +65,15 @@ def add_slice_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def apply_slice_arguments(state, args: argparse.Namespace) -> None:
-    """Set the flags on a ViewerState showing the volume; ValueError with its one line if one does not fit."""
-    changes = [(state.show_slice, (axis, True, index)) for axis, index in args.slice or ()]
+    """Set the flags on a ViewerState showing the volume; a ValueError with its one line if one does not
+    fit.  --window/--level are the field's words: the window's width and centre."""
+    slices = state.slices
+    for axis, index in args.slice or ():
+        slices.show(axis, True, index)
     if args.clip is not None:
-        changes.append((state.set_clip, args.clip))
+        slices.set_clip(*args.clip)
     if args.window is not None or args.level is not None:
-        changes.append((state.set_window_level, (args.window, args.level)))
+        slices.set_window(args.window, args.level)
     if args.colormap is not None:
-        changes.append((state.set_colormap, (args.colormap,)))
-    for change, values in changes:
-        if not change(*values):
-            raise ValueError(state.error)
-    state.slices.inset = not args.no_inset
+        slices.set_colormap(args.colormap)
+    slices.inset = not args.no_inset

@@ -1,11 +1,14 @@
 """What slices show, as the panel and the command line set it: three axis-aligned planes, a window
 over the values for the colour map, the map, and a clip plane.  No GL here (gfx/slices.py draws it).
 
-Values from level - window/2 to level + window/2 span the colour map (the field's "window/level").
+Values from centre - window/2 to centre + window/2 span the colour map: the field's "window/level",
+whose words the command line's flags and the panel keep; the code calls the window's middle its
+`centre`, as "level" is the iso value.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -17,7 +20,7 @@ MAX_PERCENTILE_SAMPLES = 1 << 21
 
 
 def default_window(data: np.ndarray, value_range: tuple[float, float]) -> tuple[float, float]:
-    """(window, level) spanning WINDOW_PERCENTILES of the values: a scan's few extreme voxels do
+    """(window, centre) spanning WINDOW_PERCENTILES of the values: a scan's few extreme voxels do
     not wash out the rest.  Big volumes are sampled on a regular sub-grid."""
     step = 1
     while data.size > MAX_PERCENTILE_SAMPLES * step**3:
@@ -45,13 +48,14 @@ class Clip:
 
 @dataclass
 class SliceSettings:
-    """What slices show: the panel and the command line change it through ViewerState's methods,
-    which check each value against the volume on show (`fit` records its shape)."""
+    """What slices show: the panel and the command line change it through these methods, which check
+    each value against the volume on show (`fit` records its shape) and raise a one-line ValueError
+    for one that does not fit, changing nothing."""
     shown: list[bool] = field(default_factory=lambda: [False, False, False])
     index: list[int] = field(default_factory=lambda: [0, 0, 0])
     active: int = 2            # the slice in the 2-D view
     window: float = 1.0
-    level: float = 0.5
+    centre: float = 0.5        # the value at the colour map's middle
     colormap: str = "gray"
     clip: Clip | None = None   # None: the surface is whole
     inset: bool = True         # the 2-D view of the active slice, bottom right
@@ -63,7 +67,7 @@ class SliceSettings:
         self.index = [(n - 1) // 2 for n in self.shape]
         if self.clip is not None:
             self.clip.position = (self.shape[self.clip.axis] - 1) / 2
-        self.window, self.level = default_window(data, value_range)
+        self.window, self.centre = default_window(data, value_range)
 
     def show(self, axis: int, shown: bool = True, index: int | None = None) -> None:
         if index is not None:
@@ -87,12 +91,13 @@ class SliceSettings:
                              f"{AXES[axis]} runs from 0 to {n - 1}")
         self.clip = Clip(axis, position, hide_above)
 
-    def set_window_level(self, window: float | None, level: float | None) -> None:
+    def set_window(self, window: float | None, centre: float | None = None) -> None:
+        """The width of the values the colour map spans, and their middle (None: as it is)."""
         window = self.window if window is None else float(window)
-        level = self.level if level is None else float(level)
-        if not (np.isfinite(window) and window > 0 and np.isfinite(level)):
+        centre = self.centre if centre is None else float(centre)
+        if not (np.isfinite(window) and window > 0 and np.isfinite(centre)):
             raise ValueError(f"window {window:g} must be a positive number (and the level finite)")
-        self.window, self.level = window, level
+        self.window, self.centre = window, centre
 
     def set_colormap(self, name: str) -> None:
         check_colormap(name)
@@ -111,3 +116,13 @@ class SliceSettings:
         if not self.inset or not any(self.shown):
             return None
         return self.active if self.shown[self.active] else self.shown.index(True)
+
+
+class SliceScene(NamedTuple):
+    """What the renderer needs to draw slices: ViewerState.slice_scene."""
+    data: np.ndarray
+    spacing: tuple[float, float, float]
+    settings: SliceSettings
+    iso: float                 # the isocurve's level
+    gradient_direction: str    # which side of it is inside ("descent": above)
+    curve_color: tuple[float, float, float]

@@ -1,28 +1,30 @@
 """The viewer's scene without a window: render into a multisampled FBO of an EGL context.
 
 `isoscope render` and the tests use this; it draws exactly what the window
-draws (same state, renderer and panel), so a PNG from here shows what a user
-would see.
+draws (same state, scene, renderer and panel), so a PNG from here shows what a
+user would see.  Where the window shows a failure in its panel, the headless
+viewer's `show`, `open` and `show_levels` raise it.
 """
 from __future__ import annotations
+
+from functools import partial
 
 import numpy as np
 
 from ...cpu.sharp.normals import crisp_normals
-from ...cpu.smooth import check_iterations
 from ...gpu.context import current_or_standalone
 from ...gpu.mesh import GpuMesh
 from ...gpu.sharp_features import sharp_mesh_of
 from ...labels import label_surfaces, labels_of
-from ...options import MeshOptions
-from ...volumes import Volume
+from ...volumes import Volume, open_volume
 from ..gfx.colorbar import draw_colorbar
 from ..gfx.label_scene import label_scene, release_scene
-from ..gfx.levels import SurfaceLook
-from ..gfx.renderer import OffscreenTarget, SceneRenderer
+from ..gfx.renderer import OffscreenTarget, SceneRenderer, SurfaceLook
+from ..gfx.scene import GpuScene
 from ..gfx.screenshot import save_png
-from ..gfx.state import ViewerState
 from ..model.camera import OrbitCamera
+from ..model.errors import ViewerError
+from ..model.state import ViewerState
 from .panel import ImguiLayer, Panel
 
 MAX_RENDER_PIXELS = 4096 * 4096
@@ -86,7 +88,8 @@ class HeadlessViewer:
         # become current and leave the first one's compiled programs running in the wrong context.
         self.ctx = ctx if ctx is not None else current_or_standalone()
         check_render_size(self.size, self.ctx)  # "the framebuffer is not complete" is no message
-        self.state = ViewerState(self.ctx)
+        self.state = ViewerState(opener=partial(open_volume, ctx=self.ctx))
+        self.scene = GpuScene(self.ctx, self.state)
         self.camera = OrbitCamera()
         self.renderer = SceneRenderer(self.ctx)
         self.target = OffscreenTarget(self.ctx, self.size, samples=render_samples(self.size))
@@ -94,27 +97,50 @@ class HeadlessViewer:
         self._panel = Panel(can_browse=False)
 
     def show(self, volume: Volume, iso: float | None = None, azimuth=None, elevation=None) -> None:
-        """Load `volume` and frame it; raises ValueError with the state's one-line error on failure."""
-        if not self.state.show(volume, iso):
-            raise ValueError(self.state.error)
+        """Load `volume` and frame it; what fails is raised (the old volume stays)."""
+        self.scene.show(volume, iso)
+        self.frame(azimuth, elevation)
+
+    def frame(self, azimuth=None, elevation=None) -> None:
+        """The camera and box fitted to the volume on show."""
         lower, upper = self.state.bounds()
         self.camera.fit(lower, upper, azimuth, elevation)
         self.renderer.set_box(lower, upper)
 
+    def open(self, spec: str, wait_s: float = 60.0, **open_options) -> None:
+        """`ViewerState.open`, its answer waited for and shown (as a frame of the window would); what
+        fails is raised, the old volume staying on show."""
+        request = self.state.open(spec, **open_options)
+        for response in self.state.jobs.poll(wait_s):
+            if response.request_id == request:
+                self.scene.show_opened(self.state.opened(response))
+                self.frame()
+                return
+        raise ViewerError(f"{spec[:80]} was not read within {wait_s:g} s")
+
     def show_levels(self, volume: Volume, isos, opacities=(), color_by=None, colormap=None,
                     azimuth=None, elevation=None) -> None:
         """`show` with several levels (the first selected), their opacities in order, and colour by;
-        raises ValueError with the state's one-line error on a bad value."""
+        a bad value raises."""
         self.show(volume, isos[0], azimuth, elevation)
         state = self.state
-        ok = all(state.add_level(value) for value in isos[1:])
-        ok = ok and all(state.set_level_opacity(i, a) for i, a in enumerate(opacities))
-        ok = ok and (color_by is None and colormap is None or state.set_color_by(color_by or "value", colormap))
-        if not ok:
-            raise ValueError(state.error)
+        for value in isos[1:]:
+            state.levels.add(value)
+            self.update()   # each level's mesh made (and kept) before the next moves the extractor
+        for i, opacity in enumerate(opacities):
+            state.levels.set_opacity(i, opacity)
+        if color_by is not None or colormap is not None:
+            state.set_color_by(color_by or "value", colormap)
         if len(isos) > 1:
-            state.select_level(0)
-        state.update(0.0, wait=True)
+            state.levels.select(0)
+        self.update()
+
+    def update(self) -> None:
+        """A frame's GPU work, finished (sharp features too); what fails is raised."""
+        self.state.error = None
+        self.scene.update(0.0, wait=True)
+        if self.state.error is not None:
+            raise ViewerError(self.state.error)
 
     def render(self, panel: bool = False) -> np.ndarray:
         """Re-extract if the iso value changed, draw, and return (height, width, 3) uint8 pixels
@@ -122,9 +148,9 @@ class HeadlessViewer:
         if panel:
             self._layout_panel()   # the panel may change the state, as in the window
             self._panel.draw_view_labels(self.state, self.camera)
-        self.state.update(0.0, wait=True)  # a render shows the finished scene
+        self.scene.update(0.0, wait=True)  # a render shows the finished scene
         self.target.use()
-        self.renderer.draw_state(self.state, self.camera, self.target.viewport,
+        self.renderer.draw_scene(self.scene, self.camera, self.target.viewport,
                                  covered_left=int(self._panel.covered_width) if panel else 0)
         if panel:
             self._imgui.render()
@@ -135,15 +161,16 @@ class HeadlessViewer:
             self._imgui = ImguiLayer()
             # imgui hides a new auto-sized window for its first frame while it measures it.
             self._imgui.new_frame(self.size)
-            self._panel.draw(self.state)
+            self._panel.draw(self.state, self.scene)
             self._imgui.render()
         self._imgui.new_frame(self.size)
-        self._panel.draw(self.state)
+        self._panel.draw(self.state, self.scene)
 
     def release(self) -> None:
         if self._imgui is not None:
             self._imgui.shutdown()
         self.state.release()
+        self.scene.release()
         self.renderer.release()
         self.target.release()
 
@@ -162,14 +189,12 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
     viewer = HeadlessViewer(size)
     try:
         viewer.state.style.transparent_background = transparent
-        # Set before the levels are shown, so their first meshes are smoothed; checked as set_smooth would.
-        cells = "tetrahedra" if tetrahedra else "cubes"
-        viewer.state.smooth = MeshOptions(cells=cells, smooth=check_iterations(smooth)).check().smooth
+        # Set before the levels are shown, so their first meshes are made with them.
+        viewer.state.set_cells("tetrahedra" if tetrahedra else "cubes")
+        viewer.state.set_smooth(smooth)
         viewer.state.style.wireframe = wireframe
         isos = list(iso) if isinstance(iso, (list, tuple)) else [iso]
         viewer.show_levels(volume, isos, opacities, color_by, colormap, azimuth, elevation)
-        if tetrahedra and not viewer.state.set_cells("tetrahedra"):
-            raise ValueError(viewer.state.error)
         if prepare is not None:
             prepare(viewer.state)
         pixels = viewer.render(panel=panel)
@@ -212,7 +237,7 @@ def render_sharp_png(volume, out, iso, angle, size=(800, 600), azimuth=None, ele
     try:
         viewer.state.style.transparent_background = transparent
         viewer.show(volume, iso, azimuth, elevation)
-        extractor = viewer.state.extractor
+        extractor = viewer.scene.extractor
         mesh = GpuMesh.upload(viewer.ctx, *crisp_normals(*sharp_mesh_of(extractor, volume.data, angle)))
         viewer.target.use()
         viewer.renderer.draw([mesh], viewer.camera, viewer.target.viewport, viewer.state.style)

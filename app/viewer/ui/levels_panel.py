@@ -1,13 +1,13 @@
 """The panel's Surfaces section: the levels (select, show, colour, opacity, remove, add), colour by
-and its colour bar.  Every change goes through `ViewerState` (levels.py)."""
+and its colour bar.  Every change goes through `ViewerState`'s levels (model/levels.py) and colour by."""
 from __future__ import annotations
 
 from ..gfx.colorbar import tick_label
-from ..gfx.colorby import SOURCES
-from ..gfx.levels import MAX_LEVELS
-from ..gfx.state import ViewerState
+from ..model.colorby import SOURCES
 from ..model.colormaps import COLORMAPS
-from .gui import imgui
+from ..model.levels import MAX_LEVELS
+from ..model.state import ViewerState
+from .gui import act, imgui, tooltip
 
 NEW_LEVEL_STEP = 0.1    # an added level starts this fraction of the range above the selected one
 COLORBAR_HEIGHT = 14.0
@@ -20,39 +20,39 @@ class LevelsSection:
 
     def draw(self, state: ViewerState) -> None:
         imgui.separator_text("Surfaces")
-        if state.surface is None:
+        if state.volume is None:
             return
-        values = state.level_values()
-        for i, level in enumerate(list(state.levels)):
+        levels = state.levels
+        for i, level in enumerate(list(levels)):
             imgui.push_id(i)
-            if imgui.radio_button("##selected", state.selected == i):
-                state.select_level(i)
+            if imgui.radio_button("##selected", levels.selected == i):
+                act(state, levels.select, i)
             tooltip("the slider and histogram edit this level")
             imgui.same_line()
             toggled, visible = imgui.checkbox("##visible", level.visible)
             if toggled:
-                state.set_level_visible(i, visible)
+                act(state, levels.set_visible, i, visible)
             tooltip("show / hide")
             imgui.same_line()
-            changed, color = imgui.color_edit3("##color", list(state.level_color(i)),
+            changed, color = imgui.color_edit3("##color", list(levels.color(i, state.style.front_color)),
                                                imgui.ColorEditFlags_.no_inputs)
             if changed:
-                state.set_level_color(i, color)
+                act(state, levels.set_color, i, color)
             imgui.same_line()
             imgui.set_next_item_width(135)  # wide enough that the grab at 1.00 leaves the text readable
             changed, opacity = imgui.slider_float("##opacity", level.opacity, 0.0, 1.0, "opacity %.2f")
             if changed:
-                state.set_level_opacity(i, opacity)
+                act(state, levels.set_opacity, i, opacity)
             imgui.same_line()
-            imgui.text(f"{values[i]:.4g}")
-            if len(state.levels) > 1:
+            imgui.text(f"{level.value:.4g}")
+            if len(levels) > 1:
                 imgui.same_line()
                 if imgui.small_button("x"):
-                    state.remove_level(i)
+                    act(state, levels.remove, i)
             imgui.pop_id()
-        if len(state.levels) < MAX_LEVELS and imgui.button("Add surface"):
+        if len(levels) < MAX_LEVELS and imgui.button("Add surface"):
             low, high = state.value_range
-            state.add_level(min(state.iso + NEW_LEVEL_STEP * (high - low), high))
+            act(state, levels.add, min(state.iso + NEW_LEVEL_STEP * (high - low), high))
         self._color_by(state)
 
     def _color_by(self, state: ViewerState) -> None:
@@ -61,7 +61,7 @@ class LevelsSection:
         if imgui.begin_combo("colour by", current):
             for choice in ("off", *SOURCES):
                 if imgui.selectable(choice, choice == current)[0]:
-                    state.set_color_by(None if choice == "off" else choice)
+                    act(state, state.set_color_by, None if choice == "off" else choice)
             imgui.end_combo()
         imgui.set_next_item_width(-imgui.calc_text_size("Colour by it").x - 2 * imgui.get_style().frame_padding.x
                                   - imgui.get_style().item_spacing.x)
@@ -69,21 +69,16 @@ class LevelsSection:
             "##second", "a volume of the same shape", self.volume_text, imgui.InputTextFlags_.enter_returns_true)
         imgui.same_line()
         if (imgui.button("Colour by it") or entered) and self.volume_text.strip():
-            state.set_color_by(self.volume_text.strip())
+            act(state, state.set_color_by, self.volume_text.strip())
         if state.color_by is None:
             return
         imgui.set_next_item_width(150)
         if imgui.begin_combo("colour map", state.color_by.colormap):
             for name in COLORMAPS:
                 if imgui.selectable(name, name == state.color_by.colormap)[0]:
-                    state.set_color_by(state.color_by.spec, name)
+                    act(state, state.set_color_by, state.color_by.spec, name)
             imgui.end_combo()
         _colorbar(state.color_by)
-
-
-def tooltip(text: str) -> None:
-    if imgui.is_item_hovered():
-        imgui.set_tooltip(text)
 
 
 def _colorbar(color_by) -> None:

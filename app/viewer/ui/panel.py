@@ -3,7 +3,9 @@
 `ImguiLayer` owns imgui's GL objects (through imgui-bundle's C++ OpenGL3
 backend, no PyOpenGL) and, in a window, its GLFW input backend; headless
 renders feed it a display size instead.  `Panel` lays out the widgets and
-changes the viewer only through `ViewerState`.
+changes the viewer only through `ViewerState` (model/state.py), whose refusals
+(exceptions) it shows in one line (`act`); it reads the GPU side's stats from the
+scene but changes nothing there, so laying it out extracts nothing.
 """
 from __future__ import annotations
 
@@ -12,9 +14,9 @@ import sys
 from pathlib import Path
 
 from ...volumes import builtin_names
-from ..gfx.state import ViewerState
 from ..model.histogram import fraction_of, level_at
-from .gui import imgui
+from ..model.state import ViewerState
+from .gui import act, imgui
 from .levels_panel import LevelsSection
 from .mesh_panel import LabelsSection, MeshSection
 from .orientation import draw_orientation
@@ -86,7 +88,8 @@ class Panel:
         self.mesh_section = MeshSection()
         self.labels_section = LabelsSection()
 
-    def draw(self, state: ViewerState) -> None:
+    def draw(self, state: ViewerState, scene) -> None:
+        """Lay the panel out for `state`; `scene` (gfx/scene.py) for its stats."""
         self._collect_file_dialog(state)
         self._place()
         imgui.set_next_window_size(imgui.ImVec2(PANEL_WIDTH, 0), imgui.Cond_.first_use_ever)
@@ -96,16 +99,16 @@ class Panel:
         if expanded:
             self._messages(state)   # first: an error must be seen, even in a short window
             self._volume_section(state)
-            if state.label_layers:   # a label map on show: its labels stand in for the iso value and the levels
+            if state.labels:   # a label map on show: its labels stand in for the iso value and the levels
                 self.iso_slider_box = self.histogram_box = None
-                self.labels_section.draw(state)
+                self.labels_section.draw(state, scene)
             else:
                 self._iso_section(state)
                 self.levels_section.draw(state)
                 self.mesh_section.draw(state)
             self._display_section(state)
             self.slices.draw(state)
-            self._stats_section(state)
+            self._stats_section(state, scene)
         imgui.end()
 
     def draw_view_labels(self, state: ViewerState, camera) -> None:
@@ -155,28 +158,29 @@ class Panel:
             for note in volume.notes:
                 imgui.text_wrapped(note)
             LabelsSection.offer(state)
-            toggled, below = imgui.checkbox("object below the level", state.inside_below)
+            # The checkbox's words for the package's gradient direction: "ascent" is inside below.
+            toggled, below = imgui.checkbox("object below the level", state.gradient_direction == "ascent")
             if imgui.is_item_hovered():
                 imgui.set_tooltip("on for signed distances (negative inside), off for densities such as CT;\n"
                                   "normals point out of the object and ties count as inside (--inside)")
             if toggled:
-                state.set_inside_below(below)
+                act(state, state.set_gradient_direction, "ascent" if below else "descent")
         current = state.volume.name if state.volume is not None else ""
         if imgui.begin_combo("built-in", current if current in builtin_names() else ""):
             for name in builtin_names():
                 if imgui.selectable(name, name == current)[0]:
-                    state.open_in_background(name)
+                    act(state, state.open, name)
             imgui.end_combo()
         if state.recent.paths and imgui.begin_combo("recent", ""):
             for path in state.recent.paths:
                 if imgui.selectable(Path(path).name + "##" + path, False)[0]:
-                    state.open_in_background(path)
+                    act(state, state.open, path)
                 if imgui.is_item_hovered():
                     imgui.set_tooltip(path)
             imgui.end_combo()
         if self.can_browse and imgui.button("Open file...") and self._file_dialog is None:
             self._open_file_dialog(state)
-        if self.can_browse and state.surface is not None:
+        if self.can_browse and state.volume is not None:
             imgui.same_line()
             if imgui.button("Save mesh...") and self._save_dialog is None:
                 self._open_save_dialog(state)
@@ -190,29 +194,30 @@ class Panel:
         entered, self.expr_text = imgui.input_text_with_hint(
             "expr", EXPR_HINT, self.expr_text, imgui.InputTextFlags_.enter_returns_true)
         if (entered or imgui.button("Show expr")) and self.expr_text.strip():
-            state.open("expr:" + self.expr_text.strip())
+            act(state, state.open, "expr:" + self.expr_text.strip())
 
     def _iso_section(self, state: ViewerState) -> None:
         imgui.separator_text("Iso value")
-        if state.extractor is None:
+        if state.volume is None:
             return
-        low, high = state.value_range
+        low, high = state.value_range   # the volume's
         imgui.set_next_item_width(-1)
         changed, value = imgui.slider_float("##iso", state.iso, low, high, "%.5g")
         self.iso_slider_box = (tuple(imgui.get_item_rect_min()), tuple(imgui.get_item_rect_max()))
         if changed:
-            state.set_iso(value)
+            state.levels.set_value(value)
         if state.histogram is not None:
             self._histogram(state, (low, high))
         # Typing an exact value: applied on Enter, so half-typed numbers do not extract.
         typed, value = imgui.input_double("exact", state.iso, 0.0, 0.0, "%.6g",
                                           imgui.InputTextFlags_.enter_returns_true)
         if typed:
-            state.set_iso(value)
+            state.levels.set_value(value)
         imgui.text(f"range {low:.5g} .. {high:.5g}")
-        toggled, animate = imgui.checkbox("animate (space)", state.animating)
-        if toggled and animate != state.animating:
-            state.toggle_animation()
+        running = state.levels.animation.running
+        toggled, animate = imgui.checkbox("animate (space)", running)
+        if toggled and animate != running:
+            state.levels.toggle_animation()
 
     def _histogram(self, state: ViewerState, value_range: tuple[float, float]) -> None:
         """The values' histogram (log counts) with the level marked; a click or drag on it sets the level."""
@@ -222,16 +227,17 @@ class Panel:
         # The button first: of overlapping items, the first submitted takes the mouse.
         imgui.invisible_button("##histogram_pick", size)
         if imgui.is_item_active():
-            state.set_iso(level_at((imgui.get_io().mouse_pos.x - top_left.x) / size.x, value_range))
+            state.levels.set_value(level_at((imgui.get_io().mouse_pos.x - top_left.x) / size.x, value_range))
         elif imgui.is_item_hovered():
             imgui.set_tooltip("values in the volume (log counts): click or drag to set the level")
         imgui.set_cursor_screen_pos(top_left)
         imgui.plot_histogram("##histogram", state.histogram, graph_size=size)
-        for i, level in enumerate(state.level_values()):   # every level, the selected one thicker
+        levels = state.levels
+        for i, level in enumerate(levels.values()):   # every level, the selected one thicker
             x = top_left.x + fraction_of(level, value_range) * size.x
-            colour = imgui.get_color_u32(imgui.ImVec4(*state.level_color(i), 1.0))
+            colour = imgui.get_color_u32(imgui.ImVec4(*levels.color(i, state.style.front_color), 1.0))
             imgui.get_window_draw_list().add_line(imgui.ImVec2(x, top_left.y), imgui.ImVec2(x, top_left.y + size.y),
-                                                  colour, 3.0 if i == state.selected else 2.0)
+                                                  colour, 3.0 if i == levels.selected else 2.0)
 
     def _display_section(self, state: ViewerState) -> None:
         imgui.separator_text("Display")
@@ -243,28 +249,28 @@ class Panel:
         style.front_color = tuple(imgui.color_edit3("front", list(style.front_color))[1])
         style.back_color = tuple(imgui.color_edit3("back", list(style.back_color))[1])
 
-    def _stats_section(self, state: ViewerState) -> None:
+    def _stats_section(self, state: ViewerState, scene) -> None:
         imgui.separator_text("Stats")
-        if state.label_layers:   # what is drawn: the visible labels, not the (hidden) level's mesh
-            shown, vertices, triangles = state.label_counts()
-            imgui.text(f"labels     {shown} of {len(state.label_layers)} shown")
+        if state.labels:   # what is drawn: the visible labels, not the (hidden) level's mesh
+            shown, vertices, triangles = scene.label_counts()
+            imgui.text(f"labels     {shown} of {len(state.labels.layers)} shown")
             imgui.text(f"vertices   {vertices:,}")
             imgui.text(f"triangles  {triangles:,}")
         else:
-            self._level_stats(state)
+            self._level_stats(state, scene)
         imgui.text(f"frame      {state.frame_ms:.1f} ms" if state.frame_ms else "frame      -")
         imgui.text_wrapped(f"GL: {state.gl_renderer}")
 
     @staticmethod
-    def _level_stats(state: ViewerState) -> None:
-        imgui.text(f"vertices   {state.n_vertices:,}")
-        imgui.text(f"triangles  {state.n_triangles:,}")
-        if state.preview_step > 1:
-            imgui.text_colored(NOTE_COLOR, f"preview at 1/{state.preview_step} resolution")
-        imgui.text(f"extraction {state.extract_ms:.1f} ms")
+    def _level_stats(state: ViewerState, scene) -> None:
+        imgui.text(f"vertices   {scene.n_vertices:,}")
+        imgui.text(f"triangles  {scene.n_triangles:,}")
+        if scene.preview_step > 1:
+            imgui.text_colored(NOTE_COLOR, f"preview at 1/{scene.preview_step} resolution")
+        imgui.text(f"extraction {scene.extract_ms:.1f} ms")
         if len(state.levels) > 1:
             for i in range(len(state.levels)):
-                triangles, ms = state.level_stats(i)
+                triangles, ms = scene.level_stats(i)
                 imgui.text(f"surface {i + 1}  {triangles:,} triangles, {ms:.1f} ms")
 
     def _messages(self, state: ViewerState) -> None:
@@ -306,9 +312,9 @@ class Panel:
             paths = self._file_dialog.result()
             self._file_dialog = None
             if paths:
-                state.open_in_background(paths[0])
+                act(state, state.open, paths[0])
         if self._save_dialog is not None and self._save_dialog.ready(0):
             path = self._save_dialog.result()
             self._save_dialog = None
             if path:
-                (state.export_full_resolution if self._save_full_resolution else state.save_mesh)(path)
+                act(state, state.export_full_resolution if self._save_full_resolution else state.request_save, path)

@@ -1,14 +1,14 @@
-"""The panel's Slices section: the three slice planes, window/level, colour map and the clip plane.
-
-Every change goes through ViewerState's methods, which check it against the volume.
+"""The panel's Slices section: the three slice planes, the window over the values, colour map and the
+clip plane.  Every change goes through the state's `SliceSettings` (model/slices.py), which check it
+against the volume.
 """
 from __future__ import annotations
 
-from ..gfx.state import ViewerState
 from ..model.colormaps import COLORMAPS
 from ..model.slice_options import AXES
 from ..model.slices import default_window
-from .gui import imgui
+from ..model.state import ViewerState
+from .gui import act, imgui
 
 CLIP_SIDES = ("hide above", "hide below")
 
@@ -26,30 +26,32 @@ class SlicePanel:
             toggled, shown = imgui.checkbox(f"{AXES[axis]}##slice", settings.shown[axis])
             self.checkbox_boxes[axis] = (tuple(imgui.get_item_rect_min()), tuple(imgui.get_item_rect_max()))
             if toggled:
-                state.show_slice(axis, shown)
+                act(state, settings.show, axis, shown)
             imgui.same_line()
             imgui.set_next_item_width(-1)
             moved, index = imgui.slider_int(f"##slice{axis}", settings.index[axis], 0, settings.shape[axis] - 1)
             if moved:   # moving a slice shows it, in the 2-D view too
-                state.show_slice(axis, True, index)
+                act(state, settings.show, axis, True, index)
         settings.inset = imgui.checkbox("2-D view of the last moved slice", settings.inset)[1]
 
         low, high = state.value_range
         span = max(high - low, 1e-12)
+        # "window" and "level" are the field's words (and the command line's flags); the code's
+        # word for the window's middle is its centre: "level" is the iso value.
         changed_w, window = imgui.drag_float("window", settings.window, span / 400, span * 1e-4, span * 4, "%.4g")
-        changed_l, level = imgui.drag_float("level", settings.level, span / 400, low - span, high + span, "%.4g")
-        if changed_w or changed_l:
-            state.set_window_level(window, level)
+        changed_c, centre = imgui.drag_float("level", settings.centre, span / 400, low - span, high + span, "%.4g")
+        if changed_w or changed_c:
+            act(state, settings.set_window, window, centre)
         if imgui.is_item_hovered():
             imgui.set_tooltip("values level -+ window/2 span the colour map (drag, or ctrl+click to type)")
         if imgui.button("auto window"):
-            state.set_window_level(*default_window(state.volume.data, state.value_range))
+            act(state, settings.set_window, *default_window(state.volume.data, state.value_range))
         imgui.same_line()
         imgui.set_next_item_width(-1)
         if imgui.begin_combo("##colormap", settings.colormap):
             for name in COLORMAPS:
                 if imgui.selectable(name, name == settings.colormap)[0]:
-                    state.set_colormap(name)
+                    act(state, settings.set_colormap, name)
             imgui.end_combo()
         self._clip(state)
 
@@ -58,7 +60,7 @@ class SlicePanel:
         clip = state.slices.clip
         toggled, on = imgui.checkbox("clip", clip is not None)
         if toggled:
-            state.set_clip(2 if on else None)
+            act(state, state.slices.set_clip, 2 if on else None)
         if clip is None:
             return
         imgui.same_line()
@@ -66,7 +68,7 @@ class SlicePanel:
         if imgui.begin_combo("##clip_axis", AXES[clip.axis]):
             for axis in range(3):
                 if imgui.selectable(AXES[axis], axis == clip.axis)[0]:
-                    state.set_clip(axis, None, clip.hide_above)
+                    act(state, state.slices.set_clip, axis, None, clip.hide_above)
             imgui.end_combo()
         imgui.same_line()
         imgui.set_next_item_width(-1)
@@ -74,10 +76,10 @@ class SlicePanel:
         if imgui.begin_combo("##clip_side", side):
             for name in CLIP_SIDES:
                 if imgui.selectable(name, name == side)[0]:
-                    state.set_clip(clip.axis, clip.position, name == CLIP_SIDES[0])
+                    act(state, state.slices.set_clip, clip.axis, clip.position, name == CLIP_SIDES[0])
             imgui.end_combo()
         imgui.set_next_item_width(-1)
         moved, position = imgui.slider_float("##clip_position", clip.position, 0.0,
                                              float(state.slices.shape[clip.axis] - 1), "%.1f")
         if moved:
-            state.set_clip(clip.axis, position, clip.hide_above)
+            act(state, state.slices.set_clip, clip.axis, position, clip.hide_above)

@@ -1,14 +1,16 @@
 """The desktop window: GLFW + an OpenGL 4.3 core context, the frame loop, mouse and keys.
 
-Each frame: poll input -> lay out the panel (which may move the iso value) ->
-`state.update()` re-extracts on the GPU if the value moved -> draw the mesh
-straight from the extractor's buffers -> draw imgui on top -> swap.
+Each frame: poll input -> lay out the panel (which changes the state, `ViewerState`,
+and extracts nothing) -> `scene.update()` brings the GPU in line with the state and
+re-extracts if the value moved -> draw the mesh straight from the extractor's
+buffers -> draw imgui on top -> swap.
 """
 from __future__ import annotations
 
 import ctypes
 import time
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import glfw
@@ -16,12 +18,14 @@ import moderngl
 import numpy as np
 
 from ...errors import IsoscopeError
-from ...volumes import Volume
+from ...volumes import Volume, open_volume
 from ..gfx.renderer import OffscreenTarget, SceneRenderer, read_rgb
+from ..gfx.scene import USER_ERRORS, GpuScene
 from ..gfx.screenshot import next_screenshot_path, save_png
-from ..gfx.state import ViewerState
 from ..model.camera import OrbitCamera
+from ..model.errors import one_line
 from ..model.recent import RecentFiles
+from ..model.state import ViewerState
 from .panel import ImguiLayer, Panel
 
 # GLFW errors reach the user through WindowUnavailable's one line, not as Python warnings.
@@ -94,8 +98,10 @@ class ViewerWindow:
             self.window, self.ctx = _open_gl_window(size, title, 0)
         self.screenshot_dir = Path(screenshot_dir)
         self.screenshot_scale = int(screenshot_scale)
-        self.state = ViewerState(self.ctx, recent if recent is not None else RecentFiles(RecentFiles.default_path()),
-                                 level_of_detail=True)
+        # expr: volumes typed in the panel are sampled on the GPU, in the window's context.
+        self.state = ViewerState(recent if recent is not None else RecentFiles(RecentFiles.default_path()),
+                                 opener=partial(open_volume, ctx=self.ctx))
+        self.scene = GpuScene(self.ctx, self.state, level_of_detail=True)
         self.renderer = SceneRenderer(self.ctx)
         self.camera = OrbitCamera()
         self._framed_serial = -1
@@ -110,7 +116,10 @@ class ViewerWindow:
         self._last_frame_start: float | None = None
         self.last_screenshot: Path | None = None
         if volume is not None:
-            self.state.show(volume, iso)
+            try:
+                self.scene.show(volume, iso)
+            except USER_ERRORS as exc:   # the window opens, with the reason in its panel
+                self.state.error = one_line(exc)
 
     # --- loop --------------------------------------------------------------
     def run(self, max_frames: int | None = None) -> None:
@@ -140,15 +149,15 @@ class ViewerWindow:
 
         self.imgui.new_frame()
         self._route_mouse_events()
-        self.panel.draw(self.state)
-        self.state.update(dt)
+        self.panel.draw(self.state, self.scene)
+        self.scene.update(dt)
         if self.state.volume_serial != self._framed_serial:
             self._frame_volume()
         self.panel.draw_view_labels(self.state, self.camera)
 
         self.ctx.screen.use()
         pixels_per_unit = fb_width / max(glfw.get_window_size(self.window)[0], 1)  # framebuffer scale
-        self.renderer.draw_state(self.state, self.camera, (0, 0, fb_width, fb_height),
+        self.renderer.draw_scene(self.scene, self.camera, (0, 0, fb_width, fb_height),
                                  covered_left=int(self.panel.covered_width * pixels_per_unit))
         self.imgui.render()
         if self._screenshot_requested:
@@ -187,7 +196,7 @@ class ViewerWindow:
         target = OffscreenTarget(self.ctx, scaled)
         try:
             target.use()
-            self.renderer.draw_state(self.state, self.camera, target.viewport)
+            self.renderer.draw_scene(self.scene, self.camera, target.viewport)
             return target.read_rgba() if self.state.style.transparent_background else target.read_rgb()
         finally:
             target.release()
@@ -205,6 +214,7 @@ class ViewerWindow:
         if self.window is None:
             return
         self.state.release()
+        self.scene.release()
         self.renderer.release()
         self.imgui.shutdown()
         glfw.destroy_window(self.window)
@@ -228,13 +238,13 @@ class ViewerWindow:
         if self._typing_in_panel():
             return
         character = chr(codepoint)
-        state = self.state
+        state, levels = self.state, self.state.levels
         actions = {
-            "=": lambda: state.nudge_iso(+0.01),
-            "-": lambda: state.nudge_iso(-0.01),
-            "+": lambda: state.nudge_iso(+0.10),
-            "_": lambda: state.nudge_iso(-0.10),
-            " ": state.toggle_animation,
+            "=": lambda: levels.nudge(+0.01),
+            "-": lambda: levels.nudge(-0.01),
+            "+": lambda: levels.nudge(+0.10),
+            "_": lambda: levels.nudge(-0.10),
+            " ": levels.toggle_animation,
             "w": lambda: setattr(state.style, "wireframe", not state.style.wireframe),
             "l": lambda: setattr(state.style, "lighting", not state.style.lighting),
             "r": self._reset_view,
@@ -310,4 +320,4 @@ class ViewerWindow:
 
     def _on_drop(self, window, paths) -> None:
         if paths:
-            self.state.open_in_background(paths[0])
+            self.state.open(paths[0])

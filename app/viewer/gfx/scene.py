@@ -1,0 +1,401 @@
+"""The GPU side of a `ViewerState`: the volume on the GPU, each level's mesh, a label map's surfaces and
+colour by's textures, brought in line with the state once a frame.
+
+`update` runs after the panel's layout (the window's frame loop, a headless render): it answers the
+state's background jobs (a volume read: uploaded and put on show), follows what changed (the object's
+side: uploaded again; the mesh options: every level made again; another level selected: the one that
+leaves keeps its mesh), advances the animation and re-extracts the selected level when its value moved,
+on every frame in which it moved and never when it did not.  With `level_of_detail` (the window), a
+value that keeps moving is extracted from a coarser copy of the volume when the full mesh is big, and
+the full mesh comes back once the value has rested for `REST_S` (surface.py).
+
+All levels come from the one `GpuSurface` (one upload, one set of brick ranges, one extractor and its
+previews).  The selected level is drawn straight from the extractor's buffers; every other level keeps
+its last full-resolution mesh in buffers of its own (`MeshCopy`, a GPU-to-GPU copy made when it stops
+being the selected one), so a drag re-extracts one level per frame, not all.
+
+`show` and `save_mesh` raise what goes wrong; `update`, the frame's step, shows it in the panel
+(`state.error`) and keeps what was drawn.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import moderngl
+
+from ...core.layout import INDEX_BYTES, VERTEX_BYTES
+from ...gpu.mesh import GpuMesh
+from ...labels import check_label_output, label_surfaces, labels_of, write_labelled
+from ...volumes import Volume
+from ..model.big_volume import downsampled
+from ..model.errors import USER_ERRORS as STATE_ERRORS
+from ..model.errors import ViewerError, one_line
+from ..model.levels import Level
+from ..model.state import Opened, ViewerState
+from . import surface as surface_module
+from .colorby import GpuColorBy
+from .label_scene import label_scene, release_scene
+from .renderer import SurfaceLook
+from .surface import GpuSurface
+
+USER_ERRORS = (*STATE_ERRORS, moderngl.Error)
+"""What a bad volume, value or extraction raises: one-line messages meant for the user."""
+REST_S = 0.15                # a value unchanged this long gets its full-resolution mesh
+MIN_PREVIEW_SHARE = 8        # the moving level's preview keeps at least 1/8 of the frame's triangle budget
+
+
+class MeshCopy:
+    """A mesh copied on the GPU into buffers of its own (grown by half again as needed)."""
+
+    def __init__(self, ctx: moderngl.Context):
+        self.ctx = ctx
+        self.vertex_buffer = ctx.buffer(reserve=VERTEX_BYTES)
+        self.index_buffer = ctx.buffer(reserve=INDEX_BYTES)
+        self.n_vertices = self.n_triangles = 0
+        self.extract_ms = 0.0       # of the extraction it was copied from
+
+    def take(self, mesh: GpuMesh, extract_ms: float) -> None:
+        for attr, size in (("vertex_buffer", mesh.n_vertices * VERTEX_BYTES),
+                           ("index_buffer", mesh.n_triangles * INDEX_BYTES)):
+            if getattr(self, attr).size < size:
+                getattr(self, attr).release()
+                setattr(self, attr, self.ctx.buffer(reserve=int(size * 1.5)))
+        if mesh.n_triangles:
+            self.ctx.copy_buffer(self.vertex_buffer, mesh.vertex_buffer, mesh.n_vertices * VERTEX_BYTES)
+            self.ctx.copy_buffer(self.index_buffer, mesh.index_buffer, mesh.n_triangles * INDEX_BYTES)
+        self.n_vertices, self.n_triangles, self.extract_ms = mesh.n_vertices, mesh.n_triangles, extract_ms
+
+    @property
+    def mesh(self) -> GpuMesh:
+        return GpuMesh(self.vertex_buffer, self.index_buffer, self.n_vertices, self.n_triangles)
+
+    def release(self) -> None:
+        self.vertex_buffer.release()
+        self.index_buffer.release()
+
+
+class GpuScene:
+    def __init__(self, ctx: moderngl.Context, state: ViewerState, level_of_detail: bool = False):
+        self.ctx, self.state = ctx, state
+        self.level_of_detail = level_of_detail   # coarse meshes while the value moves (the window)
+        state.gl_renderer = ctx.info.get("GL_RENDERER", "unknown")
+        self.surface: GpuSurface | None = None   # the GL side of state.volume
+        self.color_by: GpuColorBy | None = None  # the textures of state.color_by
+        self._options = state.mesh_options        # what the meshes on the GPU were made with
+        self._on_extractor: Level | None = None   # the level whose mesh the extractor holds
+        self._extracted: float | None = None      # the value it was extracted at (None: extract it again)
+        self._copies: dict[Level, MeshCopy] = {}  # the other levels' meshes
+        self._labels: dict[int, GpuMesh] = {}     # a label map's surfaces, by label
+        self._labels_serial: int | None = None    # the label map they are of
+        self._wait = False                        # the next extraction makes its sharp features at once
+        self._moved_last_frame = False
+        self._rest_s = 0.0                        # how long the value has not moved
+
+    # --- volumes -----------------------------------------------------------
+    def show(self, volume: Volume, level: float | None = None) -> None:
+        """Upload `volume` and extract its first level (at `level`, default the volume's own); the old
+        volume stays on a failed upload.  A volume too big to drag live is shown downsampled
+        (big_volume.py), the full one kept for 'Export full resolution'."""
+        shown, step = downsampled(volume)
+        self.show_opened(Opened("", volume, shown, step), level)
+
+    def show_opened(self, opened: Opened, level: float | None = None) -> None:
+        """`show` of a volume read (and downsampled) by an "open" job."""
+        surface = GpuSurface(self.ctx, opened.shown, opened.shown.gradient_direction)
+        self._release_meshes()
+        if self.surface is not None:
+            self.surface.release()
+        self.surface = surface
+        self.state.show(opened.shown, level, opened.volume if opened.step > 1 else None, opened.step)
+        self._on_extractor, self._extracted = self.state.levels.current, None
+        self._extract_selected(0.0, wait=True)
+
+    # --- per frame ---------------------------------------------------------
+    def update(self, dt_seconds: float, wait: bool = False) -> bool:
+        """Bring the GPU in line with the state (see the module's docstring); True when the selected
+        level was extracted.  Sharp features are made on a worker thread (the plain mesh shows until
+        they are in) unless `wait`, or after a change of the mesh options."""
+        state = self.state
+        for response in state.jobs.poll():
+            if response.kind == "open":
+                self._attempt(self._answer_open, response)
+        state.poll_export()
+        self._attempt(self._follow)
+        if state.save_request is not None:
+            path, state.save_request = state.save_request, None
+            self._attempt(self.save_mesh, path)
+        try:
+            return self._extract_selected(dt_seconds, wait)
+        except USER_ERRORS as exc:
+            state.error = one_line(exc)
+            state.levels.animation.running = False
+            return True
+
+    def _answer_open(self, response) -> None:
+        self.show_opened(self.state.opened(response))
+
+    def _attempt(self, step, *args) -> None:
+        try:
+            step(*args)
+        except USER_ERRORS as exc:
+            self.state.error = one_line(exc)
+
+    def _follow(self) -> None:
+        state = self.state
+        if self.surface is None:
+            return
+        if state.gradient_direction != self.surface.gradient_direction:
+            self._upload_again()
+        if state.mesh_options != self._options:
+            self._apply_mesh_options()
+        for level in [level for level in self._copies if level not in state.levels.items]:
+            self._copies.pop(level).release()
+        if state.levels.current is not self._on_extractor:
+            self._move_extractor()
+        self._follow_labels()
+        self._follow_color_by()
+
+    def _upload_again(self) -> None:
+        """The object's side changed: the volume uploaded again with its new gradient direction (a
+        failed upload puts the old side back); camera and levels stay."""
+        volume = self.state.volume
+        try:
+            surface = GpuSurface(self.ctx, volume, volume.gradient_direction)
+        except BaseException:
+            volume.gradient_direction = self.surface.gradient_direction
+            raise
+        self.surface.release()
+        self.surface = surface
+        self._extracted, self._wait = None, True
+        self._refresh_copies()
+
+    def _apply_mesh_options(self) -> None:
+        """Every level made again with the state's mesh options; on failure (e.g. a mesh too big to
+        smooth on this GPU) the options and meshes go back to what was shown."""
+        before, self._options = self._options, self.state.mesh_options
+        self._extracted, self._wait = None, True
+        try:
+            self._refresh_copies()
+        except USER_ERRORS:
+            self._options = self.state.mesh_options = before
+            self._refresh_copies()
+            raise
+
+    def _refresh_copies(self) -> None:
+        for level, copy in self._copies.items():
+            if level is not self._on_extractor:
+                self.surface.extract(level.value, self._options)
+                copy.take(self.surface.mesh, self.surface.shown.last_extract_ms)
+        self._extracted = None
+
+    def _move_extractor(self) -> None:
+        """Another level was selected (or added): the one leaving the extractor keeps its full mesh in
+        its own buffers.  If that fails (e.g. out of GPU memory), the selection goes back and a level
+        that never had a mesh goes: nothing changes."""
+        levels, leaving = self.state.levels, self._on_extractor
+        if leaving is not None and leaving in levels.items:
+            try:
+                self._keep(leaving)
+            except USER_ERRORS:
+                levels.restore([level for level in levels if level is leaving or level in self._copies], leaving)
+                raise
+        self._on_extractor, self._extracted, self._moved_last_frame = levels.current, None, False
+
+    def _keep(self, level: Level) -> None:
+        surface = self.surface
+        if surface.shown_step != 1 or surface.shown_cells != self._options.cells or surface.shown.level != level.value:
+            surface.extract(level.value, self._options)
+        surface.settle()  # sharp features still on the worker: the copy must have them
+        if level not in self._copies:
+            self._copies[level] = MeshCopy(self.ctx)
+        self._copies[level].take(surface.mesh, surface.shown.last_extract_ms)
+
+    def _follow_labels(self) -> None:
+        labels = self.state.labels
+        if labels.serial == self._labels_serial and labels:
+            return
+        self._release_labels()
+        if not labels:
+            return
+        volume = self.state.volume
+        try:
+            scene = label_scene(self.ctx, label_surfaces(labels_of(volume), spacing=volume.spacing))
+        except BaseException:
+            labels.hide()
+            raise
+        self._labels = {label: mesh for label, mesh, _ in scene}
+        self._labels_serial = labels.serial
+
+    def _follow_color_by(self) -> None:
+        wanted = self.state.color_by
+        shown = self.color_by.color_by if self.color_by is not None else None
+        if wanted is shown:
+            return
+        try:
+            textures = GpuColorBy(self.ctx, wanted) if wanted is not None else None
+        except BaseException:
+            self.state.color_by = shown
+            raise
+        if self.color_by is not None:
+            self.color_by.release()
+        self.color_by = textures
+
+    def _extract_selected(self, dt_seconds: float, wait: bool) -> bool:
+        state = self.state
+        if self.surface is None or state.labels:   # a label map draws its labels, not the levels
+            return False
+        try:
+            self.surface.poll()   # sharp features made on the worker since the last frame
+        except USER_ERRORS as exc:   # the plain mesh stays on show
+            state.error = one_line(exc)
+        state.levels.animate(dt_seconds)
+        value = state.iso
+        moved = value != self._extracted
+        if moved:
+            # A value that moved in the last frame too is being dragged (or animated): a preview
+            # will do.  A single change (a key, a typed value, a new volume) gets the full mesh.
+            preview = self.level_of_detail and self._moved_last_frame
+            self._rest_s = 0.0
+        else:
+            self._rest_s += dt_seconds
+            if self.surface.shown_step == 1 or self._rest_s < REST_S:
+                self._moved_last_frame = False
+                return False
+            preview = False  # rested long enough: back to full resolution
+        self._moved_last_frame = moved and self._extracted is not None  # a new volume's first is no move
+        self._extracted, wait, self._wait = value, wait or self._wait, False  # no retry of a failed value
+        self.surface.extract(value, self._options, preview=preview, budget=self.preview_budget(), wait=wait)
+        return True
+
+    def preview_budget(self) -> int:
+        """Triangles the moving level's preview may have: the frame's budget less what the other
+        visible levels draw (full meshes), so a drag's frame time stays bounded with several."""
+        others = sum(copy.n_triangles for level, copy in self._copies.items()
+                     if level is not self._on_extractor and level.visible and level.opacity > 0)
+        budget = surface_module.PREVIEW_TRIANGLES
+        return max(budget - others, budget // MIN_PREVIEW_SHARE)
+
+    # --- saving ------------------------------------------------------------
+    def save_mesh(self, path) -> None:
+        """Write the surface on show (at full resolution) to `path`, in the format of its extension
+        and the volume's world coordinates where its file defines them."""
+        from ...io.export import COLOR_FORMATS, in_volume_space, write_mesh
+        state = self.state
+        if state.labels:   # a label map: its visible labels, in one coloured file where the format can
+            self.save_labels(path, one_file=Path(path).suffix.lower() in COLOR_FORMATS)
+            return
+        if self.surface is None:
+            raise ViewerError("no surface to save yet; open a volume first")
+        if self.surface.shown_step != 1:  # a preview is on show: save the full mesh at its level
+            self.surface.extract(state.iso, self._options)
+        verts, faces, normals, _ = self.surface.shown.read_mesh()   # cubes' or tetrahedra's
+        verts, faces, normals, space = in_volume_space(state.volume, verts, faces, normals)
+        write_mesh(path, verts, faces, normals, space=space)
+        state.error = None
+        state.message = f"mesh saved: {path} ({len(faces):,} triangles, {space} coordinates)"
+
+    def save_labels(self, path, one_file: bool = False) -> None:
+        """The visible labels' surfaces, in the volume's world space: STEM_label<N>.EXT each, or with
+        `one_file` all in `path` (PLY, GLB) with per-vertex colours."""
+        from ...io.export import in_volume_space
+        state = self.state
+        layers = [layer for layer in state.labels.visible() if layer.label in self._labels]
+        check_label_output(path, one_file)
+        if not layers:
+            raise ViewerError("no label is visible; tick the labels to save")
+        placed = [in_volume_space(state.volume, *self._labels[layer.label].read()[:3]) for layer in layers]
+        meshes = {layer.label: mesh[:3] for layer, mesh in zip(layers, placed)}
+        written = write_labelled(path, meshes, [layer.color for layer in layers], placed[0][3], one_file)
+        state.error = None
+        state.message = f"saved {len(layers)} label surface(s): {', '.join(p.name for p, _, _ in written)}"
+
+    # --- what the renderer draws, and stats for the panel ---------------------
+    def drawn(self) -> list[tuple[GpuMesh, SurfaceLook]]:
+        """A label map's visible labels while one is on show, else the visible levels."""
+        state = self.state
+        if state.labels:
+            return [(self._labels[layer.label], SurfaceLook(layer.color, 1.0))
+                    for layer in state.labels.visible() if layer.label in self._labels]
+        shown = []
+        for i, level in enumerate(state.levels):
+            mesh = self._level_mesh(level) if level.visible else None
+            if mesh is not None:
+                shown.append((mesh, SurfaceLook(state.levels.color(i, state.style.front_color), level.opacity,
+                                                self.color_by)))
+        return shown
+
+    def _level_mesh(self, level: Level) -> GpuMesh | None:
+        if self.surface is None:
+            return None
+        if level is self._on_extractor:
+            return self.surface.mesh
+        copy = self._copies.get(level)
+        return copy.mesh if copy is not None else None
+
+    @property
+    def meshes(self) -> list[GpuMesh]:
+        """The visible levels' (or labels') meshes; their looks: `looks`."""
+        return [mesh for mesh, _ in self.drawn()]
+
+    @property
+    def looks(self) -> list[SurfaceLook]:
+        return [look for _, look in self.drawn()]
+
+    @property
+    def extractor(self):
+        """The full-resolution extractor of the volume on show (None before one is shown)."""
+        return self.surface.extractor if self.surface is not None else None
+
+    @property
+    def preview_step(self) -> int:
+        """1 when the full-resolution mesh is on show, else the sample step of the preview."""
+        return self.surface.shown_step if self.surface is not None else 1
+
+    @property
+    def n_vertices(self) -> int:
+        return self.surface.shown.n_vertices if self.surface is not None else 0
+
+    @property
+    def n_triangles(self) -> int:
+        return self.surface.shown.n_triangles if self.surface is not None else 0
+
+    @property
+    def extract_ms(self) -> float:
+        return self.surface.shown.last_extract_ms if self.surface is not None else 0.0
+
+    def level_stats(self, index: int) -> tuple[int, float]:
+        """(triangles, extraction ms) of the mesh on show for level `index`."""
+        level = self.state.levels[index]
+        if level is self._on_extractor:
+            return self.n_triangles, self.extract_ms
+        copy = self._copies.get(level)
+        return (copy.n_triangles, copy.extract_ms) if copy is not None else (0, 0.0)
+
+    def label_triangles(self, label: int) -> int:
+        mesh = self._labels.get(label)
+        return mesh.n_triangles if mesh is not None else 0
+
+    def label_counts(self) -> tuple[int, int, int]:
+        """(labels shown, vertices, triangles) of the visible labels' surfaces: the stats of what is drawn."""
+        shown = [self._labels[layer.label] for layer in self.state.labels.visible() if layer.label in self._labels]
+        return len(shown), sum(m.n_vertices for m in shown), sum(m.n_triangles for m in shown)
+
+    # --- releasing ---------------------------------------------------------
+    def _release_labels(self) -> None:
+        release_scene([(label, mesh, None) for label, mesh in self._labels.items()])
+        self._labels, self._labels_serial = {}, None
+
+    def _release_meshes(self) -> None:
+        for copy in self._copies.values():
+            copy.release()
+        self._copies.clear()
+        self._release_labels()
+        if self.color_by is not None:
+            self.color_by.release()
+            self.color_by = None
+
+    def release(self) -> None:
+        self._release_meshes()
+        if self.surface is not None:
+            self.surface.release()
+            self.surface = None

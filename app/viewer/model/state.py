@@ -1,0 +1,270 @@
+"""The viewer's state without GL: the volume on show, and the parts that say how it is shown.
+
+Each part owns its settings and refuses a bad value with an exception (ViewerError, MeshOptionsError,
+ValueError), leaving everything as it was; the panel shows the exception's one line in `error`:
+- `levels`: the iso values, their looks, the selected one and its sweep (model/levels.py);
+- `mesh_options`: cells, smoothing, sharp features: one `MeshOptions` (app/options.py);
+- `slices`: slice planes, the window over the values, colour map, clip plane (model/slices.py);
+- `labels`: a label map's layers (model/labels.py);
+- `color_by`: a scalar through a colour map (model/colorby.py);
+- `jobs`: volumes read in the background, a request id in and a response out (model/jobs.py);
+- `style`, `recent`, and the panel's messages (`error`, `message`).
+
+The GPU side (gfx/scene.py) follows the state once a frame, after the panel's layout: it answers the
+jobs' responses, uploads, extracts.  Nothing here touches GL, so no change made while the panel lays
+itself out extracts anything, and the state can be built and tested without a GL context.
+"""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import NamedTuple
+
+from ...cpu.sharp.features import check_feature_angle
+from ...cpu.smooth import check_iterations
+from ...labels import label_count_hint, labels_of
+from ...options import MeshOptions
+from ...volumes import Volume, open_volume
+from .big_volume import FullResolutionExport, downsampled
+from .colorby import DEFAULT_COLORMAP, SOURCES, ColorBy, make_color_by
+from .errors import ViewerError
+from .histogram import value_histogram
+from .jobs import Jobs, Response
+from .labels import LabelMap
+from .levels import Levels
+from .recent import RecentFiles
+from .slices import SliceScene, SliceSettings
+from .style import SurfaceStyle
+
+GRADIENT_DIRECTIONS = ("descent", "ascent")
+
+
+class Opened(NamedTuple):
+    """An "open" job's answer: the volume read, and what the viewer shows of it (every `step`-th sample
+    of a big one)."""
+    spec: str
+    volume: Volume
+    shown: Volume
+    step: int
+
+
+def read_for_viewer(opener, spec: str, open_options: dict, progress=None) -> Opened:
+    """Read `spec` with `opener` (open_volume's signature) and downsample it if it is big."""
+    volume = opener(spec, progress=progress, **open_options)
+    shown, step = downsampled(volume)
+    return Opened(spec, volume, shown, step)
+
+
+class ViewerState:
+    def __init__(self, recent: RecentFiles | None = None, opener=None):
+        """`opener`: reads expr: volumes in the caller's thread (the window passes open_volume with
+        its GL context, to sample them on its GPU); other volumes are read on a worker thread."""
+        self.volume: Volume | None = None     # on show (downsampled, for a big one)
+        self.full_volume: Volume | None = None  # a big volume shown at every `step`-th sample (big_volume.py)
+        self.step = 1
+        self.histogram = None                 # log counts of `volume`'s values, for the panel (histogram.py)
+        self.label_hint = 0                   # labels in the volume if it looks like a label map, else 0
+        self.volume_serial = 0                # bumps on every new volume: the window refits its camera
+        self.levels = Levels()
+        self.mesh_options = MeshOptions()
+        self.slices = SliceSettings()
+        self.labels = LabelMap()
+        self.color_by: ColorBy | None = None
+        self.style = SurfaceStyle()
+        self.jobs = Jobs()
+        self.exporting: FullResolutionExport | None = None   # a big volume's full-resolution export, running
+        self.save_request: str | None = None   # "Save mesh..." chosen in the panel: the GPU side writes it
+        self.error: str | None = None         # shown in the panel until the next successful action
+        self.message: str | None = None       # e.g. where the last screenshot went
+        self.recent = recent if recent is not None else RecentFiles(None)
+        self.frame_ms = 0.0
+        self.gl_renderer = "unknown"          # the GPU side says which
+        self._opener = opener if opener is not None else open_volume
+
+    # --- volumes -----------------------------------------------------------
+    def open(self, spec: str, **open_options) -> int:
+        """Ask for the built-in name, file path or 'expr:...' `spec`: read on a worker thread (the panel
+        shows its progress; expr: at once, with the opener); the GPU side puts it on show when the answer
+        to this request, the newest, comes in.  The request's id."""
+        failure = f"could not open {spec[:80]}"
+        if spec.strip().lower().startswith("expr:"):
+            return self.jobs.submit("open", read_for_viewer, self._opener, spec, open_options, inline=True,
+                                    failure=failure)
+        return self.jobs.submit("open", read_for_viewer, open_volume, spec, open_options,
+                                message=f"opening {spec}", failure=failure)
+
+    @property
+    def loading(self):
+        """The volume being read (its `fraction` and `message`), or None."""
+        return self.jobs.current("open")
+
+    def opened(self, response: Response) -> Opened:
+        """An "open" job's answer: its volume, or its error raised."""
+        if response.error is not None:
+            raise response.error
+        if _names_a_file(response.value.spec):
+            self.recent.add(response.value.spec)
+        return response.value
+
+    def show(self, volume: Volume, level: float | None = None, full_volume: Volume | None = None,
+             step: int = 1) -> None:
+        """Put `volume` on show (the GPU side has taken it): one level at `level` (default: the volume's
+        default level, else the middle of its value range), slices fitted, no label map or colour by."""
+        self.volume, self.full_volume, self.step = volume, full_volume, step
+        self.label_hint = label_count_hint(volume.data)   # the panel offers "Show as labels"
+        self.histogram = value_histogram(volume.data, volume.value_range)
+        self.slices.fit(volume.data, volume.value_range)
+        self.levels.reset(volume.value_range, level if level is not None else volume.default_level)
+        self.labels.hide()
+        self.color_by = None
+        self.volume_serial += 1
+        self.error = None
+
+    @property
+    def gradient_direction(self) -> str:
+        """Which side of a level the object is on: "descent" (values fall outwards: inside is above the
+        level, a density) or "ascent" (inside is below, a signed distance)."""
+        return self.volume.gradient_direction if self.volume is not None else "descent"
+
+    def set_gradient_direction(self, direction: str) -> bool:
+        """The object's side for the volume on show (its normals turn to point out of it); whether it
+        changed.  Camera and levels stay."""
+        if direction not in GRADIENT_DIRECTIONS:
+            raise ViewerError(f"gradient direction {direction!r} is not one of {', '.join(GRADIENT_DIRECTIONS)}")
+        if self.volume is None or direction == self.volume.gradient_direction:
+            return False
+        self.volume.gradient_direction = direction
+        return True
+
+    # --- the selected level ---------------------------------------------------
+    @property
+    def value_range(self) -> tuple[float, float]:
+        """The volume's value range: the slider's ends."""
+        return self.levels.value_range
+
+    @property
+    def iso(self) -> float:
+        """The selected level's value."""
+        return self.levels.value
+
+    @iso.setter
+    def iso(self, value: float) -> None:
+        self.levels.set_value(value)   # clamped to the value range
+
+    # --- mesh options: one MeshOptions, replaced whole --------------------------
+    @property
+    def cells(self) -> str:
+        return self.mesh_options.cells
+
+    @property
+    def smooth(self) -> int:
+        return self.mesh_options.smooth
+
+    @property
+    def sharp(self) -> float | None:
+        return self.mesh_options.sharp
+
+    def set_cells(self, cells: str) -> bool:
+        """March "cubes" or "tetrahedra" on every level; whether the options changed."""
+        return self._set_mesh_options(cells=cells)
+
+    def set_smooth(self, iterations) -> bool:
+        """Smooth every level's mesh `iterations` times, each projected back onto the level set."""
+        return self._set_mesh_options(smooth=check_iterations(iterations))
+
+    def set_sharp(self, angle) -> bool:
+        """Extended Marching Cubes with feature angle `angle` (degrees) on every level, or None for off."""
+        return self._set_mesh_options(sharp=check_feature_angle(angle))
+
+    def _set_mesh_options(self, **change) -> bool:
+        options = dataclasses.replace(self.mesh_options, **change).check()   # MeshOptionsError: nothing changes
+        changed, self.mesh_options = options != self.mesh_options, options
+        return changed
+
+    # --- label map, colour by ---------------------------------------------------
+    def show_labels(self, volume: Volume | None = None) -> bool:
+        """Show the volume on show (`volume`, if given, must be it) as a label map: every non-zero
+        label's surface in its own colour.  A volume that is no label map raises; the view stays."""
+        volume = self.volume if volume is None else volume
+        if volume is None:
+            raise ViewerError("open a volume before showing it as a label map")
+        if volume is not self.volume:
+            labels_of(volume)   # no label map: say that first
+            raise ViewerError(f"{volume.name} is not the volume on show; show it before showing its labels")
+        self.labels.show(volume)
+        return True
+
+    def set_color_by(self, source: str | None, colormap: str | None = None) -> None:
+        """Colour every surface by `source` through `colormap` (colorby.py): "value", "gradient", a
+        volume spec of the same shape, or None for plain colours."""
+        if source is None:
+            self.color_by = None
+            return
+        if self.volume is None:
+            raise ViewerError("open a volume before colouring by a scalar")
+        colormap = colormap or (self.color_by.colormap if self.color_by is not None else DEFAULT_COLORMAP)
+        if source in SOURCES:
+            self.color_by = make_color_by(self.volume, source, colormap, spec=source)
+            return
+        second = self._opener(source)
+        if self.full_volume is not None and second.data.shape == self.full_volume.data.shape:
+            second = downsampled(second)[0]   # a big volume's partner, at the step on show
+        self.color_by = make_color_by(self.volume, "volume", colormap, second, spec=source)
+
+    # --- saving ------------------------------------------------------------
+    def request_save(self, path) -> None:
+        """Save the mesh on show to `path` (the GPU side reads it back and writes it on its next frame)."""
+        if self.volume is None:
+            raise ViewerError("no surface to save yet; open a volume first")
+        self.save_request = str(path)
+
+    def export_full_resolution(self, path) -> None:
+        """Write the full-resolution mesh of a downsampled big volume at the selected level to `path`,
+        a chunk at a time in a child process; `poll_export` reports when it is written (or why not)."""
+        if self.full_volume is None:
+            raise ViewerError("the whole volume is on show; use Save mesh")
+        if self.exporting is not None and not self.exporting.done():
+            raise ViewerError("an export is still running; wait for it to finish")
+        self.exporting = FullResolutionExport(self.full_volume, self.iso, path, self.gradient_direction)
+        self.error = None
+
+    def poll_export(self) -> None:
+        """Once a frame: a finished export's message, or its error."""
+        if self.exporting is None or not self.exporting.done():
+            return
+        export, self.exporting = self.exporting, None
+        if export.error is not None:
+            self.error = f"full-resolution export failed: {export.error}"
+        else:
+            self.error, self.message = None, export.message
+
+    # --- for the renderer -------------------------------------------------------
+    def bounds(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """The volume's box in world units: [0, (n-1) * spacing] along each axis."""
+        if self.volume is None:
+            return (0.0, 0.0, 0.0), (1.0, 1.0, 1.0)
+        upper = tuple((n - 1) * s for n, s in zip(self.volume.data.shape, self.volume.spacing))
+        return (0.0, 0.0, 0.0), upper
+
+    @property
+    def slice_scene(self) -> SliceScene | None:
+        """What the renderer needs to draw the slices (None before a volume is shown)."""
+        if self.volume is None:
+            return None
+        return SliceScene(self.volume.data, self.volume.spacing, self.slices, self.iso,
+                          self.gradient_direction, self.style.front_color)
+
+    def release(self) -> None:
+        if self.exporting is not None:   # the window closes: stop the child (its file is written whole or not at all)
+            self.exporting.cancel()
+
+
+def _names_a_file(spec: str) -> bool:
+    """Whether `spec` is a file's path (for the recent files); a 2,000-character expr: is no file name,
+    and asking the file system would raise "File name too long"."""
+    if spec.strip().lower().startswith("expr:"):
+        return False
+    try:
+        return Path(spec).is_file()
+    except (OSError, ValueError):
+        return False
