@@ -118,7 +118,8 @@ class ResidentVolume:
         pass and the OS a page fault per page).  A volume that does not fit raises ValueError and changes
         nothing."""
         checked = validation.check_volume(volume)
-        validation.as_spacing(spacing), validation.as_gradient_direction(gradient_direction)  # before any change
+        validation.as_spacing(spacing)  # every argument checked before anything changes
+        validation.as_gradient_direction(gradient_direction)
         if not self.fits(checked):
             raise ValueError(f"a {checked.data.dtype} volume of shape {checked.data.shape} does not fit this "
                              f"extractor's {self.plan.dims_text} image; make a new Extractor for it")
