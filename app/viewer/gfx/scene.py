@@ -2,12 +2,13 @@
 colour by's textures, brought in line with the state once a frame.
 
 `update` runs after the panel's layout (the window's frame loop, a headless render): it answers the
-state's background jobs (a volume read: uploaded and put on show), follows what changed (the object's
-side: uploaded again; the mesh options: every level made again; another level selected: the one that
-leaves keeps its mesh), advances the animation and re-extracts the selected level when its value moved,
-on every frame in which it moved and never when it did not.  With `level_of_detail` (the window), a
-value that keeps moving is extracted from a coarser copy of the volume when the full mesh is big, and
-the full mesh comes back once the value has rested for `REST_S` (surface.py).
+state's background jobs (a volume read: uploaded and put on show; an export: its message), follows
+what changed (the object's side: uploaded again; the mesh options: every level made again; another
+level selected: the one that leaves keeps its mesh), advances the animation and re-extracts the
+selected level when its value moved, on every frame in which it moved and never when it did not.
+With `level_of_detail` (the window), a value that keeps moving is extracted from a coarser copy of the
+volume when the full mesh is big, and the full mesh comes back once the value has rested for `REST_S`
+(surface.py).
 
 All levels come from the one `GpuSurface` (one upload, one set of brick ranges, one extractor and its
 previews).  The selected level is drawn straight from the extractor's buffers; every other level keeps
@@ -117,9 +118,7 @@ class GpuScene:
         they are in) unless `wait`, or after a change of the mesh options."""
         state = self.state
         for response in state.jobs.poll():
-            if response.kind == "open":
-                self._attempt(self._answer_open, response)
-        state.poll_export()
+            self._attempt(self._answer_open if response.kind == "open" else state.exported, response)
         self._attempt(self._follow)
         if state.save_request is not None:
             path, state.save_request = state.save_request, None

@@ -16,12 +16,12 @@ import math
 import os
 import subprocess
 import sys
-import threading
 
 import numpy as np
 
 from ...core.lazy_arrays import read_block
 from ...volumes import Volume
+from .errors import ViewerError
 
 VIEWER_MAX_VOXELS = 256 ** 3
 """Samples the viewer shows live; a larger volume is shown at every step-th sample."""
@@ -53,16 +53,15 @@ def downsampled(volume: Volume, max_voxels: int | None = None) -> tuple[Volume, 
 
 
 class FullResolutionExport:
-    """`isoscope export SOURCE --iso LEVEL --out PATH --chunk N` in a child process, its progress read
-    from its stderr.  `fraction`, `message`; `done()`; then `error` (one line) or None."""
+    """`isoscope export SOURCE --iso LEVEL --out PATH --chunk N` in a child process, started at once;
+    `wait` (a background job's work, model/jobs.py) reads its progress from its stderr."""
 
     def __init__(self, volume: Volume, level: float, out, gradient_direction: str):
         """`volume`: the full volume (its source is re-opened by the child, with its open options);
         `gradient_direction`: the side the viewer shows as inside now."""
         self.out = str(out)
-        self.fraction, self.message = 0.0, f"exporting {os.path.basename(self.out)}"
-        self.error: str | None = None
-        inside = "below" if gradient_direction == "ascent" else "above"
+        self.message = f"exporting {os.path.basename(self.out)}"
+        inside = "below" if gradient_direction == "ascent" else "above"   # the command line's word for it
         reopen = []   # the flags it was opened with: --dims X Y Z, --frame N, ...
         for name, value in volume.open_options.items():
             reopen += [f"--{name}", *map(str, value if isinstance(value, (list, tuple)) else [value])]
@@ -71,31 +70,26 @@ class FullResolutionExport:
         env = dict(os.environ, ISOSCOPE_PROGRESS="1")   # progress lines even though stderr is a pipe
         self._process = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                          stderr=subprocess.PIPE, text=True, env=env)
-        self._last_line = ""
-        self._reader = threading.Thread(target=self._read_progress, daemon=True, name="isoscope export progress")
-        self._reader.start()
 
-    def _read_progress(self) -> None:
+    def wait(self, progress) -> str:
+        """Report the child's progress lines to `progress(fraction, message)` until it ends; its
+        "wrote" line, or a ViewerError with its last line."""
+        last = ""
         for line in self._process.stderr:
             line = line.strip()
             if not line:
                 continue
-            self._last_line = line
+            last = line
             words = line.rsplit(" ", 1)
             if len(words) == 2 and words[1].endswith("%"):
                 try:
-                    self.fraction = float(words[1][:-1]) / 100
-                    self.message = words[0]
+                    progress(float(words[1][:-1]) / 100, words[0])
                 except ValueError:
                     pass
         code = self._process.wait()
         if code != 0:
-            self.error = self._last_line or f"the export stopped (exit code {code})"
-        else:
-            self.fraction, self.message = 1.0, f"wrote {self.out}"
-
-    def done(self) -> bool:
-        return not self._reader.is_alive()
+            raise ViewerError(last or f"the export stopped (exit code {code})")
+        return f"wrote {self.out}"
 
     def cancel(self) -> None:
         if self._process.poll() is None:

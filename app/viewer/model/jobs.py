@@ -33,8 +33,17 @@ class Job:
         self.fraction, self.message = 0.0, message
         self.failure = failure          # the start of the one line for a bug in the work
         self.response: Response | None = None
-        self._thread: threading.Thread | None = threading.Thread(
-            target=self._run, args=(work, args), daemon=True, name=f"isoscope {kind} {request_id}")
+        self._work, self._args = work, args
+        self._thread: threading.Thread | None = None
+
+    def start(self, inline: bool = False) -> None:
+        """Run the work on a worker thread, or `inline` in this one."""
+        if inline:
+            self._run(self._work, self._args)
+        else:
+            self._thread = threading.Thread(target=self._run, args=(self._work, self._args), daemon=True,
+                                            name=f"isoscope {self.kind} {self.request_id}")
+            self._thread.start()
 
     def _run(self, work: Callable, args: tuple) -> None:
         try:
@@ -51,7 +60,7 @@ class Job:
         self.fraction, self.message = float(fraction), message
 
     def done(self, wait_s: float = 0.0) -> bool:
-        if self._thread is None:   # run inline
+        if self._thread is None:   # run inline (the work is done)
             return True
         self._thread.join(wait_s)
         return not self._thread.is_alive()
@@ -73,11 +82,7 @@ class Jobs:
         job = Job(next(self._ids), kind, work, args, message or kind, failure or f"{kind} failed")
         self._latest[kind] = job.request_id
         self._running.append(job)
-        if inline:
-            job._thread = None
-            job._run(work, args)
-        else:
-            job._thread.start()
+        job.start(inline)
         return job.request_id
 
     def current(self, kind: str) -> Job | None:

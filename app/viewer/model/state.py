@@ -7,7 +7,8 @@ ValueError), leaving everything as it was; the panel shows the exception's one l
 - `slices`: slice planes, the window over the values, colour map, clip plane (model/slices.py);
 - `labels`: a label map's layers (model/labels.py);
 - `color_by`: a scalar through a colour map (model/colorby.py);
-- `jobs`: volumes read in the background, a request id in and a response out (model/jobs.py);
+- `jobs`: volumes read and full-resolution exports in the background, a request id in and a response
+  out (model/jobs.py);
 - `style`, `recent`, and the panel's messages (`error`, `message`).
 
 The GPU side (gfx/scene.py) follows the state once a frame, after the panel's layout: it answers the
@@ -27,7 +28,7 @@ from ...options import MeshOptions
 from ...volumes import Volume, open_volume
 from .big_volume import FullResolutionExport, downsampled
 from .colorby import DEFAULT_COLORMAP, SOURCES, ColorBy, make_color_by
-from .errors import ViewerError
+from .errors import ViewerError, one_line
 from .histogram import value_histogram
 from .jobs import Jobs, Response
 from .labels import LabelMap
@@ -72,7 +73,7 @@ class ViewerState:
         self.color_by: ColorBy | None = None
         self.style = SurfaceStyle()
         self.jobs = Jobs()
-        self.exporting: FullResolutionExport | None = None   # a big volume's full-resolution export, running
+        self._export: FullResolutionExport | None = None   # the child of the last export, to stop on closing
         self.save_request: str | None = None   # "Save mesh..." chosen in the panel: the GPU side writes it
         self.error: str | None = None         # shown in the panel until the next successful action
         self.message: str | None = None       # e.g. where the last screenshot went
@@ -218,25 +219,28 @@ class ViewerState:
             raise ViewerError("no surface to save yet; open a volume first")
         self.save_request = str(path)
 
-    def export_full_resolution(self, path) -> None:
+    def export_full_resolution(self, path) -> int:
         """Write the full-resolution mesh of a downsampled big volume at the selected level to `path`,
-        a chunk at a time in a child process; `poll_export` reports when it is written (or why not)."""
+        a chunk at a time in a child process, a background job; its answer (`exported`) says when it is
+        written, or why not.  The request's id."""
         if self.full_volume is None:
             raise ViewerError("the whole volume is on show; use Save mesh")
-        if self.exporting is not None and not self.exporting.done():
+        if self.exporting is not None:
             raise ViewerError("an export is still running; wait for it to finish")
-        self.exporting = FullResolutionExport(self.full_volume, self.iso, path, self.gradient_direction)
-        self.error = None
+        self._export = FullResolutionExport(self.full_volume, self.iso, path, self.gradient_direction)
+        return self.jobs.submit("export", self._export.wait, message=self._export.message,
+                                failure="the export's progress could not be read")
 
-    def poll_export(self) -> None:
-        """Once a frame: a finished export's message, or its error."""
-        if self.exporting is None or not self.exporting.done():
-            return
-        export, self.exporting = self.exporting, None
-        if export.error is not None:
-            self.error = f"full-resolution export failed: {export.error}"
-        else:
-            self.error, self.message = None, export.message
+    @property
+    def exporting(self):
+        """The full-resolution export running (its `fraction` and `message`), or None."""
+        return self.jobs.current("export")
+
+    def exported(self, response: Response) -> None:
+        """An "export" job's answer: its "wrote" message, or its error raised."""
+        if response.error is not None:
+            raise ViewerError(f"full-resolution export failed: {one_line(response.error)}")
+        self.error, self.message = None, response.value
 
     # --- for the renderer -------------------------------------------------------
     def bounds(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
@@ -255,8 +259,8 @@ class ViewerState:
                           self.gradient_direction, self.style.front_color)
 
     def release(self) -> None:
-        if self.exporting is not None:   # the window closes: stop the child (its file is written whole or not at all)
-            self.exporting.cancel()
+        if self._export is not None:   # the window closes: stop the child (its file is written whole or not at all)
+            self._export.cancel()
 
 
 def _names_a_file(spec: str) -> bool:
