@@ -187,7 +187,7 @@ def test_a_drag_previews_the_moving_level_within_what_the_other_levels_leave_of_
     from isoscope.viewer.model.state import ViewerState
 
     state = ViewerState()
-    scene = GpuScene(gl_ctx, state, level_of_detail=True)
+    scene = GpuScene(gl_ctx, state, previews=True)
     try:
         scene.show(open_volume("gyroid", resolution=48), 0.0)
         alone = scene.n_triangles

@@ -290,7 +290,7 @@ def test_a_dragged_value_shows_a_coarse_preview_then_the_full_mesh_at_rest(gl_ct
 
     monkeypatch.setattr(surface_module, "PREVIEW_TRIANGLES", 3000)  # a small volume's mesh is "big"
     state = ViewerState()
-    scene = GpuScene(gl_ctx, state, level_of_detail=True)
+    scene = GpuScene(gl_ctx, state, previews=True)
     try:
         volume = open_volume("gyroid", resolution=48)
         scene.show(volume, 0.0)

@@ -6,7 +6,7 @@ state's background jobs (a volume read: uploaded and put on show; an export: its
 what changed (the object's side: uploaded again; the mesh options: every level made again; another
 level selected: the one that leaves keeps its mesh), advances the animation and re-extracts the
 selected level when its value moved, on every frame in which it moved and never when it did not.
-With `level_of_detail` (the window), a value that keeps moving is extracted from a coarser copy of the
+With `previews` (the window), a value that keeps moving is extracted from a coarser copy of the
 volume when the full mesh is big, and the full mesh comes back once the value has rested for `REST_S`
 (surface.py).
 
@@ -76,9 +76,9 @@ class MeshCopy:
 
 
 class GpuScene:
-    def __init__(self, ctx: moderngl.Context, state: ViewerState, level_of_detail: bool = False):
+    def __init__(self, ctx: moderngl.Context, state: ViewerState, previews: bool = False):
         self.ctx, self.state = ctx, state
-        self.level_of_detail = level_of_detail   # coarse meshes while the value moves (the window)
+        self.previews = previews   # coarse meshes while the value moves (the window)
         state.gl_renderer = ctx.info.get("GL_RENDERER", "unknown")
         self.surface: GpuSurface | None = None   # the GL side of state.volume
         self.color_by: GpuColorBy | None = None  # the textures of state.color_by
@@ -253,7 +253,7 @@ class GpuScene:
         if moved:
             # A value that moved in the last frame too is being dragged (or animated): a preview
             # will do.  A single change (a key, a typed value, a new volume) gets the full mesh.
-            preview = self.level_of_detail and self._moved_last_frame
+            preview = self.previews and self._moved_last_frame
             self._rest_s = 0.0
         else:
             self._rest_s += dt_seconds

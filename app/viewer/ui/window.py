@@ -101,7 +101,7 @@ class ViewerWindow:
         # expr: volumes typed in the panel are sampled on the GPU, in the window's context.
         self.state = ViewerState(recent if recent is not None else RecentFiles(RecentFiles.default_path()),
                                  opener=partial(open_volume, ctx=self.ctx))
-        self.scene = GpuScene(self.ctx, self.state, level_of_detail=True)
+        self.scene = GpuScene(self.ctx, self.state, previews=True)
         self.renderer = SceneRenderer(self.ctx)
         self.camera = OrbitCamera()
         self._framed_serial = -1
