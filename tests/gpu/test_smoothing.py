@@ -226,16 +226,18 @@ def test_cli_smooth(tmp_path):
 
 
 def test_viewer_state_re_extracts_when_smoothing_changes(gl_ctx):
-    from isoscope.viewer.gfx.state import ViewerState
-    state = ViewerState(gl_ctx)
-    assert state.show(open_volume("torus", resolution=24))
-    plain = smallest_angles(*state.extractor.read_mesh()[:2])
-    state.smooth = 4
-    assert state.update(0.0)
-    smoothed = smallest_angles(*state.extractor.read_mesh()[:2])
+    from isoscope.viewer.gfx.scene import GpuScene
+    from isoscope.viewer.model.state import ViewerState
+    state = ViewerState()
+    scene = GpuScene(gl_ctx, state)
+    scene.show(open_volume("torus", resolution=24))
+    plain = smallest_angles(*scene.extractor.read_mesh()[:2])
+    assert state.set_smooth(4)
+    assert scene.update(0.0)
+    smoothed = smallest_angles(*scene.extractor.read_mesh()[:2])
     assert (smoothed < 10).mean() * 5 <= (plain < 10).mean()
-    assert not state.update(0.0)
-    state.release()
+    assert not scene.update(0.0)
+    scene.release()
 
 
 @pytest.mark.parametrize("backend", ["gpu", "cpu"])
