@@ -261,6 +261,31 @@ def test_a_bad_file_read_in_the_background_keeps_the_volume(viewer, tmp_path):
     assert state.error and "broken.npy" in state.error and "\n" not in state.error
 
 
+def test_a_newer_open_request_wins_over_an_older_slower_one(viewer):
+    """Each read answers with its request's id; the answer to an older request that comes in after a
+    newer one's is stale, and dropped: the volume asked for last stays on show."""
+    import threading
+
+    from isoscope.viewer.model.state import read_for_viewer
+    state, release = viewer.state, threading.Event()
+
+    def slow(spec, progress=None):
+        release.wait(60)
+        return read_for_viewer(open_volume, spec, {"resolution": 16}, progress)
+    old = state.jobs.submit("open", slow, "gyroid")
+    new = state.open("torus", resolution=16)
+    assert new > old and state.loading.request_id == new
+    assert state.loading.done(wait_s=60)
+    viewer.render()
+    assert state.volume.name == "torus:16"
+    release.set()
+    (stale,) = [job for job in state.jobs._running if job.request_id == old]
+    assert stale.done(wait_s=60) and stale.response.request_id == old
+    assert stale.response.value.volume.name == "gyroid:16"   # it did answer ...
+    viewer.render()
+    assert state.volume.name == "torus:16" and state.error is None   # ... and was dropped
+
+
 def test_progress_bar_is_drawn_while_loading(viewer, tmp_path):
     """The panel draws a bar while a load is pending: pixels in the panel differ from a frame without."""
     import threading
