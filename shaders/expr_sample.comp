@@ -5,13 +5,13 @@
 // Invocation x -> axis 2 (fastest in memory), y -> axis 1, z -> axis-0 plane of the slab.
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
-layout(std430, binding = 0) writeonly buffer Samples { float samples[]; };
+layout(std430, binding = BLOCK_EXPR_SAMPLES) writeonly buffer Samples { float samples[]; };
 // The very float32 values the numpy back end uses: first the formula's EXPR_NUMBERS
 // numbers (read from here, not written as literals, so the compiler cannot fold 0*v to 0),
 // then the sample coordinates: axis 0's u_shape.x values, then axis 1's, then axis 2's
 // (lo + index * step computed here would round differently, and log(x) at x = 0 or
 // 1e-17 is -Inf or finite).
-layout(std430, binding = 1) readonly buffer Inputs { float inputs[]; };
+layout(std430, binding = BLOCK_EXPR_INPUTS) readonly buffer Inputs { float inputs[]; };
 
 uniform uvec3 u_shape;     // the whole grid: samples along axes 0, 1, 2
 uniform uint u_first;      // axis-0 index of this slab's first plane

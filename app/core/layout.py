@@ -175,6 +175,9 @@ class StorageBlock:
     RING_MEMBERS = 2
     CELLS = 3
     POINTS = 4
+    # an expression volume sampled on the GPU (expr_sample.comp, volumes/gpu_sampler.py)
+    EXPR_SAMPLES = 0
+    EXPR_INPUTS = 1
     FLAGS = 5
 
 

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from isoscope.resources import shader_source
-
+from ..core.layout import StorageBlock, shader_defines
+from ..resources import shader_source
 from .errors import VolumeError
 from .expression import flush_denormals, glsl_compile_ms, to_glsl
 from .grid import LOWER_RESOLUTION, Box
@@ -56,16 +56,17 @@ def sample_on_gpu(tree, box: Box, shape: tuple[int, int, int], ctx=None,
     code = to_glsl(tree)
     out = np.empty(shape, dtype=np.float32)
     inputs = np.concatenate([code.numbers, *(sample_axis(box, axis, n) for axis, n in enumerate(shape))])
+    # Not through gpu.programs' cache: each formula compiles once, and the program goes with it.
     program = ctx.compute_shader(shader_source("expr_sample.comp", defines={
-        "EXPR_BODY": code.body, "EXPR_NUMBERS": f"{len(code.numbers)}u"}))
+        **shader_defines(), "EXPR_BODY": code.body, "EXPR_NUMBERS": f"{len(code.numbers)}u"}))
     planes = _slab_planes(ctx, shape)
     buffer = inputs_buffer = None
     try:
         buffer = ctx.buffer(reserve=planes * shape[1] * shape[2] * 4)
         inputs_buffer = ctx.buffer(inputs.tobytes())
         _set_uniform(program, "u_shape", tuple(int(n) for n in shape))
-        buffer.bind_to_storage_buffer(0)
-        inputs_buffer.bind_to_storage_buffer(1)
+        buffer.bind_to_storage_buffer(StorageBlock.EXPR_SAMPLES)
+        inputs_buffer.bind_to_storage_buffer(StorageBlock.EXPR_INPUTS)
         groups_x = -(-shape[2] // LOCAL_SIZE[0])
         groups_y = -(-shape[1] // LOCAL_SIZE[1])
         for first in range(0, shape[0], planes):

@@ -79,13 +79,10 @@ def test_divisor_magic_divides_every_32_bit_number_exactly():
 BINDING = re.compile(r"layout\s*\(([^)]*)\)\s*(?:readonly\s+|writeonly\s+|coherent\s+|restrict\s+)*"
                      r"(buffer|uniform)\s+(\w+)(?:\s+(\w+))?")
 SLOT = re.compile(r"binding\s*=\s*(\w+)")
-OWN_SLOTS = {"expr_sample.comp"}
-"""Shaders with bindings of their own: compiled outside compute_program (volumes/gpu_sampler.py, which
-binds its two buffers itself), not by any pass that shares a slot with another."""
 
 
 def compute_shaders() -> list[str]:
-    return sorted(p.name for p in shaders_dir().iterdir() if p.suffix == ".comp" and p.name not in OWN_SLOTS)
+    return sorted(p.name for p in shaders_dir().iterdir() if p.suffix == ".comp")
 
 
 def declared_slots(source: str) -> list[tuple[str, str, str]]:
@@ -106,7 +103,7 @@ def test_the_slot_names_are_the_defines_every_program_gets():
     assert gpu_layout.binding_defines().items() <= defines.items()
 
 
-@pytest.mark.parametrize("name", sorted(p.name for p in shaders_dir().iterdir() if p.name not in OWN_SLOTS))
+@pytest.mark.parametrize("name", sorted(p.name for p in shaders_dir().iterdir()))
 def test_no_shader_spells_a_binding_number(name):
     assert not re.search(r"binding\s*=\s*\d", code_of(name)), f"{name}: bind by a UNIT_/BLOCK_ name of core/layout.py"
 
