@@ -430,14 +430,14 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
         return smooth_projected(verts, faces, checked.data.astype(np.float32, copy=False), level, iterations,
                                 spacing, descent=descent, normals=normals, value_range=checked.value_range)
 
-    from .gpu.cubes import Extractor
     from .gpu.mesh import GpuMesh
+    from .gpu.resident import ResidentVolume
     from .gpu.smooth import Smoother
-    with Extractor(checked, spacing=spacing, gradient_direction=gradient_direction) as extractor:
-        mesh = GpuMesh.upload(extractor.ctx, verts, faces, normals)
+    with ResidentVolume(checked, spacing=spacing, gradient_direction=gradient_direction) as resident:
+        mesh = GpuMesh.upload(resident.ctx, verts, faces, normals)
         smoother = None
         try:
-            smoother = Smoother(extractor)
+            smoother = Smoother(resident)
             smoother.smooth(mesh, iterations, level)
             return mesh.read()
         finally:

@@ -82,7 +82,7 @@ def test_scans_stay_integers_on_the_gpu_and_give_the_mesh_of_their_float32_value
     rng = np.random.default_rng(3)
     volume = rng.integers(-100 if dtype.startswith("int") else 0, 100, size=(19, 23, n2)).astype(dtype)
     with Extractor(volume, ctx=gl_ctx) as ex:
-        assert ex._volume.dtype == texel  # 8- and 16-bit samples keep their size on the GPU
+        assert ex.resident.texture.dtype == texel  # 8- and 16-bit samples keep their size on the GPU
         ex.extract(50)
         from_scan = ex.read_mesh()
     with Extractor(volume.astype(np.float32), ctx=gl_ctx) as ex:

@@ -75,11 +75,6 @@ class Extractor(SurfaceExtractor):
         self.n_vertices = self.n_triangles = self.active_bricks = 0
         self.level = None
 
-    @property
-    def _volume(self) -> moderngl.Texture3D | None:
-        """The volume image (tests/test_validation.py reads its texel type)."""
-        return self.resident.texture
-
     def scratch_bytes(self) -> int:
         """GPU memory beyond the volume image and the mesh buffers: the extractor's and the brick ranges."""
         return super().scratch_bytes() + self.resident.scratch_bytes()
