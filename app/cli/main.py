@@ -338,13 +338,16 @@ def run_viewer(args) -> int:
 
 
 def _apply_mesh_arguments(state, args) -> None:
-    """--labels, --tetrahedra, --smooth, --sharp on the viewer: through ViewerState, as the panel does."""
-    done = ((not args.labels or state.show_labels(state.volume))
-            and (not args.tetrahedra or state.set_cells("tetrahedra"))
-            and (not args.smooth or state.set_smooth(args.smooth))
-            and (args.sharp is None or state.set_sharp(args.sharp)))
-    if not done:
-        raise ValueError(state.error)
+    """--labels, --tetrahedra, --smooth, --sharp on the viewer: through ViewerState, as the panel does;
+    a refusal raises its one line (MeshOptionsError, a ValueError) and changes nothing."""
+    if args.labels:
+        state.show_labels()
+    if args.tetrahedra:
+        state.set_cells("tetrahedra")
+    if args.smooth:
+        state.set_smooth(args.smooth)
+    if args.sharp is not None:
+        state.set_sharp(args.sharp)
 
 
 def _check_label_options(args, *options: str) -> None:

@@ -78,14 +78,14 @@ def test_volume_after_dashes_moves_only_options():
     (-10 / 3, -10 / 3, 7.0, "-3.33"), (1e-20, 1e-20, 3e-20, "1e-20"), (123456.789, 0.0, 123456.789, "123457"),
     (5.0, 5.0, 5.0, "5"), (1000.25, 1000.0, 1000.5, "1000.25")])
 def test_colorbar_tick_labels(value, low, high, text):
-    from isoscope.viewer.colorbar import tick_label
+    from isoscope.viewer.gfx.colorbar import tick_label
     assert tick_label(value, low, high) == text
 
 
 def test_colorbar_draws_zero_for_a_noise_low_end():
     from types import SimpleNamespace
 
-    from isoscope.viewer.colorbar import draw_colorbar
+    from isoscope.viewer.gfx.colorbar import draw_colorbar
     pixels = np.zeros((300, 300, 3), np.uint8)
     lut = np.linspace(0, 1, 256)[:, None].repeat(3, 1)
     noisy = draw_colorbar(pixels, SimpleNamespace(value_range=(1.251e-17, 1.0), source="dose", lut=lut))
@@ -421,7 +421,7 @@ class FakeContext:
 
 
 def test_the_drivers_size_limits_are_the_least_of_them():
-    from isoscope.viewer.headless import check_render_size, max_render_size
+    from isoscope.viewer.ui.headless import check_render_size, max_render_size
     ctx = FakeContext(GL_MAX_RENDERBUFFER_SIZE=8192, GL_MAX_TEXTURE_SIZE=16384, GL_MAX_VIEWPORT_DIMS=(4096, 16384),
                       GL_MAX_FRAMEBUFFER_HEIGHT=2048)
     assert max_render_size(ctx) == (4096, 2048)
@@ -435,7 +435,7 @@ def test_the_drivers_size_limits_are_the_least_of_them():
 
 
 def test_big_renders_get_fewer_samples():
-    from isoscope.viewer.headless import MULTISAMPLE_BYTES, render_samples
+    from isoscope.viewer.ui.headless import MULTISAMPLE_BYTES, render_samples
     assert render_samples((800, 600)) == render_samples((3840, 2160)) == 4
     assert render_samples((4096, 4096)) == 2
     for size in ((800, 600), (3840, 2160), (4096, 4096)):

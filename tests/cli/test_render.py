@@ -6,7 +6,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from isoscope.viewer.headless import HeadlessViewer
+from isoscope.viewer.ui.headless import HeadlessViewer
 from isoscope.volumes import open_volume
 
 SIZE = (160, 120)
@@ -61,10 +61,10 @@ def test_sphere_renders_as_a_lit_disc(viewer):
 def test_larger_iso_gives_a_larger_disc_and_reuses_the_viewer(viewer):
     viewer.show(small_sphere(), iso=-0.2, azimuth=0, elevation=0)
     small = surface_mask(viewer.render(), viewer.state.style.background).sum()
-    small_triangles = viewer.state.n_triangles
-    viewer.state.set_iso(0.2)   # radius 0.5 -> 0.9: the mesh grows, the extractor may reallocate
+    small_triangles = viewer.scene.n_triangles
+    viewer.state.iso = 0.2   # radius 0.5 -> 0.9: the mesh grows, the extractor may reallocate
     large = surface_mask(viewer.render(), viewer.state.style.background).sum()
-    assert viewer.state.n_triangles > 2 * small_triangles
+    assert viewer.scene.n_triangles > 2 * small_triangles
     assert large / small == pytest.approx((0.9 / 0.5) ** 2, rel=0.15)
 
 
@@ -161,7 +161,7 @@ def test_the_renderer_draws_any_gpu_mesh_record(viewer, gl_ctx):
 def test_a_transparent_background_gives_alpha_only_where_the_scene_is(gl_ctx, tmp_path):
     from PIL import Image
 
-    from isoscope.viewer.headless import render_png
+    from isoscope.viewer.ui.headless import render_png
     volume = small_sphere()
     opaque = HeadlessViewer(SIZE, ctx=gl_ctx)
     try:
@@ -194,7 +194,7 @@ def test_screenshots_may_be_larger_than_any_window(gl_ctx):
 def test_a_failed_png_write_keeps_the_old_file(tmp_path, monkeypatch):
     from PIL import Image
 
-    from isoscope.viewer.screenshot import save_png
+    from isoscope.viewer.gfx.screenshot import save_png
     target = tmp_path / "shot.png"
     target.write_bytes(b"the good screenshot")
 
@@ -213,7 +213,7 @@ def test_a_headless_render_leaves_the_shared_context_working(gl_ctx, tmp_path):
     # shared context had compiled then ran in the wrong one and found no triangles.
     from isoscope.cpu.cubes import marching_cubes_reference
     from isoscope.gpu.cubes import Extractor
-    from isoscope.viewer.headless import render_png
+    from isoscope.viewer.ui.headless import render_png
     field = small_sphere().data
     expected = marching_cubes_reference(field, 0.0, descent=False)[1]
 
