@@ -64,7 +64,7 @@ def test_a_dash_path_after_double_dash_exports(dash_npy, order):
 
 
 def test_volume_after_dashes_moves_only_options():
-    from isoscope.cli.main import volume_after_dashes
+    from isoscope.cli.arguments import volume_after_dashes
     assert volume_after_dashes(["--", "-v.npy", "--out", "o"]) == ["--out", "o", "--", "-v.npy"]
     assert volume_after_dashes(["--out", "o", "--", "-v.npy"]) == ["--out", "o", "--", "-v.npy"]
     assert volume_after_dashes(["--", "-v.npy", "extra"]) == ["--", "-v.npy", "extra"]

@@ -13,8 +13,8 @@ from typing import NamedTuple
 import numpy as np
 
 from .colormaps import check_colormap
-from .slice_options import AXES
 
+AXES = "xyz"  # array axes 0, 1, 2 as the flags and the panel name them
 WINDOW_PERCENTILES = (0.5, 99.5)   # the default window spans these percentiles of the values
 MAX_PERCENTILE_SAMPLES = 1 << 21
 

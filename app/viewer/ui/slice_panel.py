@@ -5,8 +5,7 @@ against the volume.
 from __future__ import annotations
 
 from ..model.colormaps import COLORMAPS
-from ..model.slice_options import AXES
-from ..model.slices import default_window
+from ..model.slices import AXES, default_window
 from ..model.state import ViewerState
 from .gui import act, imgui
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import argparse
 
-AXES = "xyz"
+from ..viewer.model.slices import AXES
 
 
 def _axis_and_value(text: str, flag: str, example: str) -> tuple[int, str]:
@@ -39,7 +39,7 @@ def clip_spec(text: str) -> tuple[int, float, bool]:
 
 
 def colormap_name(text: str) -> str:
-    from .colormaps import check_colormap
+    from ..viewer.model.colormaps import check_colormap
     try:
         check_colormap(text)
     except ValueError as exc:

@@ -1,0 +1,280 @@
+"""The command's parsers: its flags, their types and the one-line refusal of a bad one (exit 2)."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..volumes import DEFAULT_VOLUME
+from .common import EXIT_BAD_INPUT
+from .slice_options import add_slice_arguments
+from .volume_options import add_volume_arguments
+
+COMMANDS = ("render", "export", "volumes")
+
+
+KEYS_HELP = """\
+keys in the window:
+  =  -      iso value up / down by 1% of the volume's range
+  +  _      up / down by 10%
+  space     animate the iso value through the range (again to stop)
+  w         wireframe overlay          l   lighting on/off
+  r         reset the view and panel   s   screenshot to a PNG (path printed and shown)
+  Esc       quit
+mouse: left drag orbits, right/middle (or shift+left) drag pans, wheel zooms;
+  drag the panel by its title bar or an empty spot (it stays in reach; r puts it back).
+Drop a volume file on the window to open it.
+
+other commands (each has --help):
+  isoscope render VOLUME --out shot.png [--iso V] [--size WxH] [--azimuth A] [--elevation E] [--panel]
+                [--transparent] [--iso V2 ...] [--opacity A,B] [--color-by value|gradient|FILE] [--color-by-map NAME]
+                [--slice AXIS=INDEX ...] [--clip AXIS=POS[:+|-]] [--window W] [--level L] [--colormap NAME]
+                [--tetrahedra] [--smooth N] [--sharp DEG]
+  isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V [--iso V2 ...]] [--tetrahedra] [--smooth N]
+                [--sharp DEG]
+  isoscope export SEGMENTATION --labels --out seg.stl      one mesh per label: seg_label<N>.stl
+                [--chunk N] [--workers N] [--scheduler ADDRESS]   big volumes, a chunk at a time
+  isoscope volumes          list the built-in volumes
+"""
+
+
+VOLUME_HELP = ("a built-in name (isoscope volumes), a file (.npy .npz .nrrd .nii .nii.gz .tif .raw), a DICOM folder, "
+               "a Zarr or OME-Zarr folder, "
+               "or expr:FORMULA, e.g. 'expr:x^2+y^2+z^2-0.5'")
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line that points at --help.
+
+    A VOLUME path that starts with '-' goes after '--' (`isoscope export --out m.stl -- -scan.npy`);
+    options may follow it too (`isoscope export -- -scan.npy --out m.stl`): VOLUME is the one positional,
+    so the word right after '--' is it."""
+
+    _given: list[str] = []
+
+    def parse_args(self, args=None, namespace=None):
+        self._given = list(sys.argv[1:] if args is None else args)
+        return super().parse_args(volume_after_dashes(self._given), namespace)
+
+    def error(self, message: str):
+        stray = self._stray_option() if "VOLUME" in message else None
+        if stray is not None:
+            message += (f"; {stray!r} is not an option: a path that starts with '-' goes after '--', e.g. "
+                        f"{self.prog} ... -- {stray}")
+        # "isoscope: error:" as every other refusal, whichever subcommand: scripts look for one prefix.
+        self.exit(EXIT_BAD_INPUT, f"isoscope: error: {message} (see {self.prog} --help)\n")
+
+    def _stray_option(self) -> str | None:
+        """The first argument that looks like an option but is none of this parser's (nor a prefix of one)."""
+        for arg in self._given:
+            if arg == "--":
+                return None
+            name = arg.split("=", 1)[0]
+            if len(arg) > 1 and arg.startswith("-") and not _is_number(arg) and not any(
+                    option.startswith(name) for option in self._option_string_actions):
+                return arg
+        return None
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def volume_after_dashes(args: list[str]) -> list[str]:
+    """`A -- VOLUME B` as `A B -- VOLUME`: argparse takes every word after '--' as a positional, and VOLUME is
+    the only one, so options given after it would be refused as extra arguments."""
+    if "--" not in args:
+        return args
+    at = args.index("--")
+    after = args[at + 1:]
+    return args[:at] + after[1:] + ["--", after[0]] if len(after) >= 2 and after[1].startswith("-") else args
+
+
+def window_size(text: str) -> tuple[int, int]:
+    try:
+        width, height = (int(part) for part in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"size {text!r} is not WIDTHxHEIGHT, e.g. 800x600") from None
+    if not (16 <= width <= 16384 and 16 <= height <= 16384):
+        raise argparse.ArgumentTypeError(f"size {text!r} must be between 16x16 and 16384x16384 pixels")
+    return width, height
+
+
+def _add_iso(parser: argparse.ArgumentParser, several: str = "") -> None:
+    """--iso V; with `several` (what several levels give) it may be repeated, up to MAX_LEVELS times."""
+    parser.add_argument("--iso", type=float, metavar="V", action="append" if several else "store",
+                        help="iso value (default: the volume's suggested level, else mid-range)" + several)
+
+
+def opacities(text: str) -> list[float]:
+    """--opacity A[,B,...]: one opacity 0..1 per level, in --iso order."""
+    try:
+        values = [float(part) for part in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"opacity {text!r} is not numbers, e.g. 0.3 or 0.3,1") from None
+    if not all(0.0 <= value <= 1.0 for value in values):
+        raise argparse.ArgumentTypeError(f"opacity {text!r} must lie in 0..1 (1 opaque, 0 invisible)")
+    return values
+
+
+def _add_levels_look(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--opacity", type=opacities, action="append", metavar="A[,B..]",
+                        help="opacity of each level in --iso order, repeatable or comma-separated, e.g. "
+                             "--opacity 0.3,1 (default 1: opaque); translucent shells are drawn "
+                             "order-independently (weighted blended OIT)")
+    parser.add_argument("--color-by", metavar="value|gradient|FILE",
+                        help="colour the surfaces by a colour map of: the level's value, the volume's "
+                             "|gradient|, or a second volume FILE of the same shape (e.g. PET or dose); "
+                             "a colour bar is drawn at the right")
+    parser.add_argument("--color-by-map", metavar="NAME",
+                        help="colour map of the cmap library for --color-by (default viridis; e.g. magma, "
+                             "turbo, gray)")
+
+
+def _add_tetrahedra(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--tetrahedra", action="store_true",
+                        help="march tetrahedra (6 per cell) instead of cubes: no ambiguous cells, "
+                             "about three times the triangles")
+
+
+def _add_smooth(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--smooth", type=smooth_iterations, default=0, metavar="N",
+                        help="N iterations of smoothing, each projected back onto the level set: evens out "
+                             "sliver triangles without moving the surface (default 0: none)")
+
+
+def smooth_iterations(text: str) -> int:
+    from ..cpu.smooth import check_iterations  # the API's rule, in the flag's words
+    try:
+        return check_iterations(int(text))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--smooth {text!r} must be a whole number of iterations, 0 or more") \
+            from None
+
+
+def feature_angle(text: str) -> float:
+    from ..cpu.sharp.features import check_feature_angle
+    try:
+        return check_feature_angle(float(text))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--sharp {text} must be a feature angle in degrees between 0 and 180 "
+                                         "(exclusive), e.g. 30") from None
+
+
+def max_labels(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"--max-labels {text!r} must be a whole number of labels, 1 or more")
+    return value
+
+
+def _add_sharp(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--sharp", type=feature_angle, metavar="DEG",
+                        help="sharp edges and corners (Extended Marching Cubes) where normals open wider than DEG "
+                             "degrees, e.g. 30")
+
+
+def _add_mesh_modes(parser: argparse.ArgumentParser, labels: str) -> None:
+    """The flags that choose what surface is made: cells, smoothing, sharp features, a label map."""
+    _add_tetrahedra(parser)
+    _add_smooth(parser)
+    _add_sharp(parser)
+    parser.add_argument("--labels", action="store_true",
+                        help=f"VOLUME is a label map (a segmentation): {labels}")
+
+
+def viewer_parser() -> argparse.ArgumentParser:
+    parser = OneLineParser(
+        prog="isoscope",
+        description="Live GPU isosurfaces of 3-D scalar fields. With no VOLUME, opens the viewer on "
+                    f"the built-in '{DEFAULT_VOLUME}' volume.",
+        epilog=KEYS_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("volume", nargs="?", default=DEFAULT_VOLUME, metavar="VOLUME", help=VOLUME_HELP)
+    _add_iso(parser)
+    parser.add_argument("--size", type=window_size, default=(1280, 800), metavar="WxH",
+                        help="window size in screen units (default 1280x800)")
+    _add_mesh_modes(parser, labels="each non-zero label's surface in its own colour, listed in the panel")
+    parser.add_argument("--screenshot-dir", default=".", metavar="DIR",
+                        help="where key s saves PNGs (default: the current directory)")
+    parser.add_argument("--screenshot-scale", type=int, default=1, choices=range(1, 9), metavar="N",
+                        help="key s saves the scene at N times the window's pixels, 1-8 (default 1: the "
+                             "window as shown, panel included; above 1 the scene alone, for print)")
+    parser.add_argument("--frames", type=int, metavar="N",
+                        help="quit after drawing N frames (scripts, benchmarks, smoke tests)")
+    parser.add_argument("--msaa", type=int, choices=(0, 2, 4, 8), metavar="N",
+                        help="multisampling, samples per pixel: 0, 2, 4 or 8 (default 4 on a GPU, "
+                             "0 on software OpenGL such as llvmpipe, where it costs 3x the frame time)")
+    add_slice_arguments(parser)
+    add_volume_arguments(parser)
+    return parser
+
+
+def command_parser(command: str) -> argparse.ArgumentParser:
+    if command == "volumes":
+        return OneLineParser(prog="isoscope volumes", description="List the built-in volumes.")
+    if command == "render":
+        parser = OneLineParser(
+            prog="isoscope render",
+            description="Render the viewer's scene to a PNG with no window or display (EGL).")
+        parser.add_argument("volume", metavar="VOLUME", help=VOLUME_HELP)
+        _add_iso(parser, "; repeat for several surfaces (up to 4)")
+        _add_levels_look(parser)
+        parser.add_argument("--out", required=True, metavar="PNG", help="the PNG file to write")
+        parser.add_argument("--size", type=window_size, default=(800, 600), metavar="WxH",
+                            help="image size in pixels (default 800x600)")
+        parser.add_argument("--azimuth", type=float, metavar="DEG",
+                            help="camera angle around the vertical (z) axis, degrees (default -60)")
+        parser.add_argument("--elevation", type=float, metavar="DEG",
+                            help="camera angle above the x-y plane, degrees, -89..89 (default 25)")
+        parser.add_argument("--panel", action="store_true", help="draw the imgui panel over the scene")
+        parser.add_argument("--transparent", action="store_true",
+                            help="a transparent background: an RGBA PNG, for slides and figures")
+        parser.add_argument("--wireframe", action="store_true", help="draw the triangles' edges over the surface")
+        add_slice_arguments(parser)
+        _add_mesh_modes(parser, labels="draw each non-zero label's surface in its own colour")
+    else:
+        parser = OneLineParser(prog="isoscope export",
+                               description="Extract the isosurface and write it as a mesh file: binary PLY, OBJ, "
+                                           "binary STL, GLB (glTF) or OFF, by the extension of --out.")
+        parser.add_argument("volume", metavar="VOLUME", help=VOLUME_HELP)
+        _add_iso(parser, "; repeat for several levels (up to 4): one file per level, named "
+                         "STEM_iso<V>.EXT after --out (e.g. head_iso0.5.ply)")
+        parser.add_argument("--out", required=True, metavar="MESH",
+                            help="the file to write: .ply, .obj, .stl, .glb or .off (replaced only once complete)")
+        parser.add_argument("--space", choices=("world", "voxel"), default="world",
+                            help="world (default): the file's own world coordinates where it defines them "
+                                 "(NIfTI: RAS; NRRD and DICOM: LPS, as 3D Slicer saves models), so the mesh "
+                                 "overlays the scan; voxel: array index x spacing")
+        parser.add_argument("--decimate", type=float, metavar="FRACTION",
+                            help="keep about this fraction of the triangles (quadric decimation, 0 < F <= 1); "
+                                 "prints how far the result strays from the level set")
+        _add_mesh_modes(parser, labels="one closed surface per non-zero label, neighbours sharing their "
+                                       "boundary vertices, written to STEM_label<N>.EXT beside --out "
+                                       "(e.g. seg.stl -> seg_label1.stl, seg_label2.stl)")
+        parser.add_argument("--one-file", action="store_true",
+                            help="with --labels: all labels in the one --out file (.ply or .glb), each vertex "
+                                 "in its label's colour")
+        parser.add_argument("--max-labels", type=max_labels, metavar="N",
+                            help="with --labels: refuse a volume of more than N labels (default 255), before "
+                                 "writing anything: a scan given --labels by mistake has one per grey value")
+        add_big_volume_arguments(parser)
+    add_volume_arguments(parser)
+    return parser
+
+
+def add_big_volume_arguments(parser) -> None:
+    parser.add_argument("--chunk", type=int, metavar="N",
+                        help="extract N^3-cell chunks one at a time and stitch them (the same mesh, in memory "
+                             "bounded by the chunk); the default for Zarr volumes (128)")
+    parser.add_argument("--workers", type=int, metavar="N",
+                        help="run the chunks on a local dask cluster of N worker processes (pip install "
+                             "'isoscope[big]')")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="run the chunks on the dask cluster whose scheduler is at ADDRESS "
+                             "(e.g. tcp://10.0.0.5:8786); its workers must reach the volume's path")

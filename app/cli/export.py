@@ -1,0 +1,136 @@
+"""`isoscope export`: mesh files of one or several levels, of label maps, chunked or on dask workers."""
+from __future__ import annotations
+
+import os
+import sys
+
+from ..validation import as_gradient_direction
+from .common import check_label_options, checked_levels, level_path, progress, wrote
+from .volume_options import open_volume_from_args
+
+
+def max_workers() -> int:
+    """--workers at most: each worker is a process with its own OpenGL context and chunk buffers."""
+    return max(4, 4 * (os.cpu_count() or 1))
+
+
+def _check_workers(args) -> None:
+    """--workers within 1..max_workers(), refused before the volume is read."""
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers {args.workers}: give 1 or more worker processes")
+    if args.workers is not None and args.workers > max_workers():
+        raise ValueError(f"--workers {args.workers} is more worker processes than this machine runs "
+                         f"({os.cpu_count()} cores: at most {max_workers()}); give fewer, or --scheduler for a "
+                         "cluster of machines")
+    if args.workers is not None and args.scheduler is not None:
+        raise ValueError("--workers starts a local cluster, --scheduler uses another one; give one of them")
+
+
+def _extract_for_export(volume, iso, args):
+    """The export's mesh: whole, a chunk at a time here, or a chunk per task on a dask cluster."""
+    from ..core.lazy_arrays import is_lazy
+    from ..options import MeshOptions
+    distributed = args.scheduler is not None or args.workers is not None
+    chunked = args.chunk is not None or distributed or is_lazy(volume.data)
+    problem = MeshOptions(cells="tetrahedra" if args.tetrahedra else "cubes", smooth=args.smooth, sharp=args.sharp,
+                          chunked=chunked).problem()
+    if problem is not None:
+        why = "" if not chunked else ("this export is chunked (--chunk, --workers, --scheduler, or a Zarr or "
+                                      "memory-mapped volume): ")
+        raise ValueError(why + problem)
+    if not chunked:
+        from .. import marching_cubes, marching_tetrahedra
+        if args.tetrahedra:
+            return marching_tetrahedra(volume.checked, iso, spacing=volume.spacing,
+                                       gradient_direction=volume.gradient_direction, smooth=args.smooth)
+        return marching_cubes(volume.checked, iso, spacing=volume.spacing, gradient_direction=volume.gradient_direction,
+                              smooth=args.smooth, sharp_features=args.sharp)
+    from ..big.chunked import DEFAULT_CHUNK, as_chunks, marching_cubes_chunked
+    from ..validation import as_level
+    chunks = as_chunks(DEFAULT_CHUNK if args.chunk is None else args.chunk, volume.data.shape)
+    level = as_level(iso, volume.value_range)
+    descent = as_gradient_direction(volume.gradient_direction)
+    if distributed:
+        from ..big.cluster import marching_cubes_on_cluster
+        return marching_cubes_on_cluster(volume.data, level, volume.spacing, descent, chunks,
+                                         scheduler=args.scheduler, workers=args.workers, progress=progress,
+                                         path=volume.source)
+    return marching_cubes_chunked(volume.data, level, volume.spacing, descent, chunks, progress=progress)
+
+
+def _export_open_options(args) -> dict:
+    """An export that is not chunked hands an in-memory volume to one extractor: a file whose header
+    says it is bigger is refused from the header, before gigabytes are read for nothing. One on a dask
+    cluster maps a raw file whatever its size, so its workers read it by name."""
+    if args.workers is not None or args.scheduler is not None:
+        return {"map_files": True}
+    if args.chunk is not None:
+        return {}
+    from ..core.layout import MAX_WORDS, WORD_BITS, fits_one_extraction
+    return dict(fits=fits_one_extraction,
+                fits_refusal=f"more than one extraction takes ({MAX_WORDS * WORD_BITS:,}, in rows of whole "
+                             f"{WORD_BITS}-sample words): export it a chunk at a time (--chunk 128), or crop or "
+                             "downsample it")
+
+
+def run_export(args) -> int:
+    if args.labels:
+        return _export_labels(args)
+    check_label_options(args, "--one-file", "--max-labels")
+    _check_workers(args)
+    from ..io.export import in_volume_space, mesh_format, write_mesh
+    mesh_format(args.out)  # an unknown extension or fraction is refused before any work
+    if args.decimate is not None:
+        from ..cpu.decimate import check_fraction
+        check_fraction(args.decimate)
+    volume = open_volume_from_args(args.volume, args, progress, **_export_open_options(args))
+    isos = checked_levels(volume, args.iso)
+    for iso in isos:
+        verts, faces, normals, _ = _extract_for_export(volume, iso, args)
+        if args.decimate is not None:
+            verts, faces, normals = _decimated(volume, iso, verts, faces, args.decimate)
+        verts, faces, normals, space = in_volume_space(volume, verts, faces, normals, world=args.space == "world")
+        out = args.out if len(isos) == 1 else level_path(args.out, iso)
+        path = write_mesh(out, verts, faces, normals, space=space)
+        wrote(path, f": {len(verts):,} vertices, {len(faces):,} triangles, in {space} coordinates")
+    return 0
+
+
+def _export_labels(args) -> int:
+    from ..labels import DEFAULT_MAX_LABELS, TooManyLabels, check_label_output, label_file, write_label_meshes
+    check_label_options(args, "--iso", "--decimate")
+    for option in ("--chunk", "--workers", "--scheduler"):
+        if getattr(args, option.strip("-")) is not None:
+            raise ValueError(f"export --labels makes every label's surface here, from the whole volume; "
+                             f"leave out {option}")
+    check_label_output(args.out, args.one_file)
+    volume = open_volume_from_args(args.volume, args, progress)
+    limit = DEFAULT_MAX_LABELS if args.max_labels is None else args.max_labels
+    try:
+        written = write_label_meshes(volume, args.out, one_file=args.one_file, world=args.space == "world",
+                                     max_labels=limit)
+    except TooManyLabels as exc:
+        would = (f"one file holding {exc.count} meshes" if args.one_file else
+                 f"{exc.count} files ({label_file(args.out, 'N').name})")
+        raise ValueError(f"{volume.name} has {exc.count} distinct non-zero values, more than --max-labels {limit}: "
+                         f"--labels would write {would}; if it is a scan, not a segmentation, leave out --labels; "
+                         f"if it is a label map, raise the limit with --max-labels {exc.count}") from None
+    space = volume.world[1] if args.space == "world" and volume.world is not None else "index x spacing"
+    for path, n_vertices, n_triangles in written:
+        wrote(path, f": {n_vertices:,} vertices, {n_triangles:,} triangles, in {space} coordinates")
+    return 0
+
+
+def _decimated(volume, iso, verts, faces, fraction):
+    from ..cpu.decimate import decimate, distance_off_level_set, open_edges
+    level = volume.value_range[0] + (volume.value_range[1] - volume.value_range[0]) / 2 if iso is None else iso
+    full_triangles, full_open = len(faces), open_edges(faces)
+    verts, faces, normals = decimate(verts, faces, fraction)
+    off = distance_off_level_set(volume.checked.data, volume.spacing, level, verts)  # a lazy volume read whole
+    print(f"decimated {full_triangles:,} -> {len(faces):,} triangles; distance off the level set: "
+          f"max {off.max():.3g}, mean {off.mean():.3g} (world units; voxel {min(volume.spacing):.3g})")
+    now_open = open_edges(faces)
+    if now_open > full_open:
+        print(f"note: the decimated mesh has {now_open} open edges where the full mesh had {full_open}",
+              file=sys.stderr)
+    return verts, faces, normals
