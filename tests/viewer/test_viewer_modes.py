@@ -312,7 +312,7 @@ def test_the_pointer_can_rest_on_every_part_of_the_panel(gl_ctx, two_labels):
 
         def sweep():
             x0, y0, width, height = viewer._panel.box
-            for y in np.arange(y0 + 4, y0 + height, 11.0):
+            for y in np.arange(y0 + 4, y0 + height, 17.0):  # under a widget row (~23 px): each row is hit
                 for x in (x0 + 18, x0 + 42, x0 + 120):
                     io.add_mouse_pos_event(float(x), float(y))
                     viewer.render(panel=True)
