@@ -193,11 +193,6 @@ class SurfaceExtractor:
     def vertex_buffer(self) -> moderngl.Buffer | None:
         return self._outputs["vertices"].buffer if self._outputs else None
 
-    @vertex_buffer.setter
-    def vertex_buffer(self, buffer: moderngl.Buffer) -> None:
-        """Hand the extractor a vertex buffer in place of its own (released already): it owns it now."""
-        self._outputs["vertices"].buffer = buffer
-
     @property
     def index_buffer(self) -> moderngl.Buffer | None:
         return self._outputs["indices"].buffer if self._outputs else None

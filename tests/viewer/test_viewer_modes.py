@@ -144,9 +144,9 @@ def test_a_failed_extraction_or_feature_step_leaves_a_drawable_plain_mesh(viewer
     # late features do not come back.  A feature step that fails: one message, the plain mesh stays.
     import time
 
+    import moderngl
+
     import isoscope.gpu.sharp_features as sharp_features
-    from isoscope.core.layout import VERTEX_BYTES
-    from isoscope.gpu.cubes import GPULimitError
     viewer.show(open_volume("box", resolution=24))
     state, scene = viewer.state, viewer.scene
     assert state.set_sharp(30)
@@ -159,12 +159,15 @@ def test_a_failed_extraction_or_feature_step_leaves_a_drawable_plain_mesh(viewer
     assert scene.surface.sharp_pending
     extractor = scene.surface.extractor
 
-    def cannot_allocate(n_vertices, n_triangles):  # as _ensure_output fails: a buffer already replaced
-        extractor.vertex_buffer.release()
-        extractor.vertex_buffer = extractor.ctx.buffer(reserve=VERTEX_BYTES)
-        extractor.n_vertices = extractor.n_triangles = 0
-        raise GPULimitError("the mesh at this level needs a buffer that this GPU could not allocate")
-    monkeypatch.setattr(extractor, "_ensure_output", cannot_allocate)
+    vertices = extractor._outputs["vertices"]   # its GrowableBuffer: the next growth finds no memory
+
+    class NoMemory:
+        def buffer(self, reserve):
+            if reserve > vertices.minimum:
+                raise moderngl.Error("out of memory")
+            return extractor.ctx.buffer(reserve=reserve)
+    vertices.release()   # as a failed growth leaves it: the old buffer already gone
+    monkeypatch.setattr(vertices, "ctx", NoMemory())
     state.iso -= 0.01 * (hi - lo)
     scene.update(0.0)
     assert "could not allocate" in state.error and not scene.surface.sharp_pending

@@ -25,6 +25,7 @@ from pathlib import Path
 import moderngl
 
 from ...core.layout import INDEX_BYTES, VERTEX_BYTES
+from ...gpu.buffers import GrowableBuffer
 from ...gpu.mesh import GpuMesh
 from ...labels import check_label_output, label_surfaces, labels_of, write_labelled
 from ...volumes import Volume
@@ -46,33 +47,31 @@ MIN_PREVIEW_SHARE = 8        # the moving level's preview keeps at least 1/8 of 
 
 
 class MeshCopy:
-    """A mesh copied on the GPU into buffers of its own (grown by half again as needed)."""
+    """A mesh copied on the GPU into buffers of its own (growable: a level dragged back and forth rarely
+    reallocates)."""
 
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
-        self.vertex_buffer = ctx.buffer(reserve=VERTEX_BYTES)
-        self.index_buffer = ctx.buffer(reserve=INDEX_BYTES)
+        self._vertices = GrowableBuffer(ctx, VERTEX_BYTES)
+        self._indices = GrowableBuffer(ctx, INDEX_BYTES)
         self.n_vertices = self.n_triangles = 0
         self.extract_ms = 0.0       # of the extraction it was copied from
 
     def take(self, mesh: GpuMesh, extract_ms: float) -> None:
-        for attr, size in (("vertex_buffer", mesh.n_vertices * VERTEX_BYTES),
-                           ("index_buffer", mesh.n_triangles * INDEX_BYTES)):
-            if getattr(self, attr).size < size:
-                getattr(self, attr).release()
-                setattr(self, attr, self.ctx.buffer(reserve=int(size * 1.5)))
+        vertex_bytes, index_bytes = mesh.n_vertices * VERTEX_BYTES, mesh.n_triangles * INDEX_BYTES
+        vertices, indices = self._vertices.ensure(vertex_bytes), self._indices.ensure(index_bytes)
         if mesh.n_triangles:
-            self.ctx.copy_buffer(self.vertex_buffer, mesh.vertex_buffer, mesh.n_vertices * VERTEX_BYTES)
-            self.ctx.copy_buffer(self.index_buffer, mesh.index_buffer, mesh.n_triangles * INDEX_BYTES)
+            self.ctx.copy_buffer(vertices, mesh.vertex_buffer, vertex_bytes)
+            self.ctx.copy_buffer(indices, mesh.index_buffer, index_bytes)
         self.n_vertices, self.n_triangles, self.extract_ms = mesh.n_vertices, mesh.n_triangles, extract_ms
 
     @property
     def mesh(self) -> GpuMesh:
-        return GpuMesh(self.vertex_buffer, self.index_buffer, self.n_vertices, self.n_triangles)
+        return GpuMesh(self._vertices.buffer, self._indices.buffer, self.n_vertices, self.n_triangles)
 
     def release(self) -> None:
-        self.vertex_buffer.release()
-        self.index_buffer.release()
+        self._vertices.release()
+        self._indices.release()
 
 
 class GpuScene:
