@@ -29,3 +29,19 @@ def test_public_functions_have_numpydoc_sections(name):
     doc = getattr(isoscope, name).__doc__
     for section in ("Parameters", "Returns", "Notes", "References", "Examples"):
         assert f"\n    {section}\n    {'-' * len(section)}\n" in doc, f"{name} has no {section} section"
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("name", ["isoscope.gpu.cubes", "isoscope.gpu.pool"])
+def test_gpu_examples_run(name, gl_ctx):
+    """The Extractor's and release_gpu_memory's examples, on the session's GL context."""
+    module = importlib.import_module(name)
+    result = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE, report=False)
+    assert result.attempted > 0 and result.failed == 0, f"{result.failed} of {result.attempted} failed (run -s)"
+
+
+def test_the_extractor_class_has_numpydoc_sections():
+    import isoscope
+    doc = isoscope.Extractor.__doc__
+    for section in ("Parameters", "Attributes", "Raises", "Notes", "Examples"):
+        assert f"\n    {section}\n    {'-' * len(section)}\n" in doc, f"Extractor has no {section} section"

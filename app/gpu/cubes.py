@@ -35,16 +35,63 @@ a word's counts one uint (mc_common.glsl)."""
 class Extractor(SurfaceExtractor):
     """Keeps one volume on the GPU and extracts its marching-cubes isosurface at any level.
 
-    >>> ex = Extractor(volume, spacing=(1, 1, 1), gradient_direction="descent")
-    >>> n_vertices, n_triangles = ex.extract(0.5)   # mesh stays in ex.vertex_buffer / ex.index_buffer
-    >>> verts, faces, normals, values = ex.read_mesh()
+    Parameters
+    ----------
+    volume : (X, Y, Z) array_like or validation.CheckedVolume
+        The samples; a CheckedVolume is taken without scanning it again.  8- and 16-bit integers stay
+        integers on the GPU; anything else becomes float32.
+    spacing : three floats, default (1, 1, 1)
+        The distance between samples along each axis; vertices are in these units.
+    gradient_direction : {"descent", "ascent"}, default "descent"
+        "descent" when the object is where values are above the level (a density, a CT), "ascent"
+        where they are below (a signed distance field): normals point out of the object.
+    ctx : moderngl.Context, optional
+        The GL context (default: the current one, else a standalone EGL context).
+    table : CaseTable, optional
+        The case table (default: the generated Montani table isoscope.marching_cubes uses).
+    limits : GpuLimits, optional
+        Overrides the GL implementation's limits (tests lower them to reach the refusals).
 
-    `volume` is an array, or a `validation.CheckedVolume`, which is taken without scanning it
-    again.  Construction is all or nothing: every size limit is checked before anything is
-    allocated, and whatever was allocated is released if a later step fails.  `limits`
-    overrides the GL implementation's limits (tests lower them to reach the refusals).
-    Its `resident` volume is its own: `release` frees it too; a `TetraExtractor` or `Smoother` on it
-    is released first.
+    Attributes
+    ----------
+    resident : ResidentVolume
+        The volume on the GPU, its bricks' value ranges and grid uniforms; this extractor's own.
+    value_range : (float, float)
+        The volume's smallest and largest finite values.
+    mesh : GpuMesh
+        A view of the last extraction's vertex and index buffers, for drawing without a copy.
+
+    Raises
+    ------
+    GPULimitError
+        When the volume or a mesh does not fit this GPU's limits (checked before allocating).
+
+    Notes
+    -----
+    `extract(level)` runs the passes and returns the counts (the mesh stays on the GPU);
+    `read_mesh()` reads it back as isoscope.marching_cubes returns it; `reload(volume)` replaces
+    the volume in place where it `fits`.  Construction is all or nothing: every size limit is
+    checked before anything is allocated, and whatever was allocated is released if a later step
+    fails.  `release()` (or leaving a ``with`` block) frees every GL object it made, its resident
+    volume too; a `TetraExtractor` or `Smoother` made on it is released first.  The mesh equals
+    ``isoscope.marching_cubes(volume, level, backend="cpu")`` bit for bit in faces.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isoscope import Extractor, marching_cubes
+    >>> x, y, z = np.mgrid[-1:1:24j, -1:1:24j, -1:1:24j]
+    >>> ball = (1 - np.sqrt(x * x + y * y + z * z)).astype(np.float32)
+    >>> with Extractor(ball) as extractor:
+    ...     counts = extractor.extract(0.5)
+    ...     verts, faces, normals, values = extractor.read_mesh()
+    ...     second = extractor.extract(0.25)           # a new level: the volume stays on the GPU
+    >>> counts == (len(verts), len(faces))
+    True
+    >>> second[1] > counts[1]                           # the larger sphere has more triangles
+    True
+    >>> bool(np.array_equal(faces, marching_cubes(ball, 0.5, backend="cpu")[1]))
+    True
     """
 
     def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",

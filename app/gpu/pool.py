@@ -64,7 +64,28 @@ def pooled_extractor(checked, spacing, gradient_direction):
 
 
 def release_gpu_memory() -> int:
-    """Release the extractor kept since the last one-shot call; returns the bytes it held (0 if none)."""
+    """Release the extractor that one-shot calls keep on the GPU for the next call.
+
+    isoscope.marching_cubes (and marching_tetrahedra, label_surfaces) on the GPU keep their last
+    extractor, so a second call on a volume of the same shape reuses its buffers instead of
+    allocating them again.  Call this to give that memory back.
+
+    Returns
+    -------
+    int
+        The bytes of GPU memory it held (0 when none was kept).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import isoscope
+    >>> ball = np.fromfunction(lambda i, j, k: (i - 8.0) ** 2 + (j - 8.0) ** 2 + (k - 8.0) ** 2, (17, 17, 17))
+    >>> _ = isoscope.marching_cubes(ball, 25.0, backend="gpu")
+    >>> isoscope.release_gpu_memory() > 0
+    True
+    >>> isoscope.release_gpu_memory()
+    0
+    """
     global _kept
     with _lock:
         extractor, _kept = _kept, None
