@@ -1,0 +1,94 @@
+"""The CPU extractor: a volume kept in memory and re-extracted at any level, with the GPU Extractor's methods.
+
+`CpuExtractor` is what the viewer and the API use where there is no OpenGL 4.3 context (macOS's 4.1,
+no GL at all).  It answers like `isoscope.gpu.cubes.Extractor`: ``extract(level)`` returns the counts,
+``read_mesh()`` the arrays as `isoscope.marching_cubes` returns them, ``value_range``, ``shape``,
+``spacing``, ``level``, ``release()`` and the context manager.  The mesh is the GPU's, vertex for
+vertex and triangle for triangle (the order of `isoscope.cpu.cubes`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import validation
+from .cubes import marching_cubes_reference
+
+__all__ = ["CpuExtractor"]
+
+
+class CpuExtractor:
+    """Keeps one volume in memory (as float32) and extracts its marching-cubes isosurface at any level.
+
+    Parameters
+    ----------
+    volume : (X, Y, Z) array_like or validation.CheckedVolume
+        The samples; checked once (a CheckedVolume with its range is not scanned again).
+    spacing : three floats, default (1, 1, 1)
+        The distance between samples along each axis; vertices are in these units.
+    gradient_direction : {"descent", "ascent"}, default "descent"
+        As for `isoscope.marching_cubes`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> x, y, z = np.mgrid[-1:1:24j, -1:1:24j, -1:1:24j]
+    >>> ball = (1 - np.sqrt(x * x + y * y + z * z)).astype(np.float32)
+    >>> with CpuExtractor(ball) as extractor:
+    ...     counts = extractor.extract(0.5)
+    ...     verts, faces, normals, values = extractor.read_mesh()
+    >>> counts == (len(verts), len(faces))
+    True
+    """
+
+    def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent"):
+        checked = validation.check_volume(volume)
+        self.spacing = validation.as_spacing(spacing, checked.data.shape)
+        self.descent = validation.as_gradient_direction(gradient_direction)
+        self.gradient_direction = gradient_direction
+        self.value_range = checked.value_range
+        self.shape = tuple(int(n) for n in checked.data.shape)
+        self._field = np.ascontiguousarray(checked.data, dtype=np.float32)
+        self._mesh = None
+        self.level: float | None = None
+        self.n_vertices = self.n_triangles = 0
+
+    @property
+    def field(self) -> np.ndarray:
+        """The resident samples (float32, C order); None after release."""
+        return self._field
+
+    def extract(self, level: float) -> tuple[int, int]:
+        """Extract the surface at `level` (within value_range); returns (vertices, triangles)."""
+        if self._field is None:
+            raise ValueError("this CpuExtractor was released; make a new one")
+        level = validation.as_level(level, self.value_range)
+        self._mesh = self._extract(level)
+        self.level = level
+        self.n_vertices, self.n_triangles = len(self._mesh[0]), len(self._mesh[1])
+        return self.n_vertices, self.n_triangles
+
+    def _extract(self, level: float):
+        return marching_cubes_reference(self._field, level, self.spacing, self.descent)
+
+    @property
+    def mesh(self):
+        """The last extraction's (verts, faces, normals, values), not copied; None before the first."""
+        return self._mesh
+
+    def read_mesh(self):
+        """verts (N, 3) float32, faces (M, 3) int32, normals (N, 3) float32, values (N,) float32 of the
+        last extraction, as `isoscope.marching_cubes` returns them (copies: the caller may keep them)."""
+        if self._mesh is None:
+            raise ValueError("nothing extracted yet: call extract(level) first")
+        return tuple(part.copy() for part in self._mesh)
+
+    def release(self) -> None:
+        """Drop the volume and the mesh; safe to call twice."""
+        self._field = None
+        self._mesh = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.release()

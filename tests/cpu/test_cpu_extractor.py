@@ -1,0 +1,59 @@
+"""The resident CPU extractor: the GPU Extractor's methods, the numpy reference's mesh."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import isoscope
+from isoscope.cpu.extractor import CpuExtractor
+from isoscope.validation import check_volume
+
+
+def _ball(n=24):
+    x, y, z = np.mgrid[-1:1:n * 1j, -1:1:n * 1j, -1:1:n * 1j]
+    return (1 - np.sqrt(x * x + y * y + z * z)).astype(np.float32)
+
+
+@pytest.mark.parametrize("direction", ["descent", "ascent"])
+def test_extract_then_read_gives_marching_cubes_mesh(direction):
+    ball = _ball()
+    spacing = (0.5, 1.0, 2.0)
+    with CpuExtractor(ball, spacing=spacing, gradient_direction=direction) as ex:
+        assert ex.shape == ball.shape and ex.spacing == spacing and ex.level is None
+        assert ex.value_range == (float(ball.min()), float(ball.max()))
+        for level in (0.5, 0.25):
+            counts = ex.extract(level)
+            mesh = ex.read_mesh()
+            assert ex.level == level and counts == (len(mesh[0]), len(mesh[1]))
+            expected = isoscope.marching_cubes(ball, level, spacing=spacing, gradient_direction=direction,
+                                               backend="cpu")
+            for got, want in zip(mesh, expected):
+                assert got.dtype == want.dtype
+                np.testing.assert_array_equal(got, want)
+
+
+def test_takes_a_checked_volume_and_integers():
+    volume = (np.arange(5 * 6 * 7).reshape(5, 6, 7) % 11).astype(np.uint8)
+    with CpuExtractor(check_volume(volume)) as ex:
+        assert ex.value_range == (0.0, 10.0)
+        assert ex.extract(4.5)[1] > 0
+
+
+def test_bad_level_and_use_after_release():
+    ex = CpuExtractor(_ball())
+    with pytest.raises(ValueError, match="outside the data range"):
+        ex.extract(5.0)
+    with pytest.raises(ValueError, match="extract"):
+        ex.read_mesh()
+    ex.release()
+    ex.release()
+    with pytest.raises(ValueError, match="released"):
+        ex.extract(0.5)
+
+
+def test_examples_run():
+    import doctest
+
+    import isoscope.cpu.extractor as module
+    result = doctest.testmod(module, report=False)
+    assert result.attempted > 0 and result.failed == 0
