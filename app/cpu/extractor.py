@@ -27,6 +27,9 @@ class CpuExtractor:
         The distance between samples along each axis; vertices are in these units.
     gradient_direction : {"descent", "ascent"}, default "descent"
         As for `isoscope.marching_cubes`.
+    backend : {"cpu", "numpy"}, default "cpu"
+        "cpu": the compiled kernels (`isoscope.cpu.compiled`: a new level reads only the words of 32
+        samples it cuts); "numpy": the reference extractor (`isoscope.cpu.cubes`).  The same mesh.
 
     Examples
     --------
@@ -40,7 +43,9 @@ class CpuExtractor:
     True
     """
 
-    def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent"):
+    def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent", backend: str = "cpu"):
+        if backend not in ("cpu", "numpy"):
+            raise ValueError(f"backend {backend!r} is not one of ('cpu', 'numpy')")
         checked = validation.check_volume(volume)
         self.spacing = validation.as_spacing(spacing, checked.data.shape)
         self.descent = validation.as_gradient_direction(gradient_direction)
@@ -48,6 +53,11 @@ class CpuExtractor:
         self.value_range = checked.value_range
         self.shape = tuple(int(n) for n in checked.data.shape)
         self._field = np.ascontiguousarray(checked.data, dtype=np.float32)
+        self.backend = backend
+        self._compiled = None
+        if backend == "cpu":
+            from .compiled import CompiledCubes  # numba loads on first use: `import isoscope` stays light
+            self._compiled = CompiledCubes(self._field, self.spacing, self.descent)
         self._mesh = None
         self.level: float | None = None
         self.n_vertices = self.n_triangles = 0
@@ -68,6 +78,8 @@ class CpuExtractor:
         return self.n_vertices, self.n_triangles
 
     def _extract(self, level: float):
+        if self._compiled is not None:
+            return self._compiled.extract(level)
         return marching_cubes_reference(self._field, level, self.spacing, self.descent)
 
     @property
@@ -85,6 +97,7 @@ class CpuExtractor:
     def release(self) -> None:
         """Drop the volume and the mesh; safe to call twice."""
         self._field = None
+        self._compiled = None
         self._mesh = None
 
     def __enter__(self):

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import isoscope
+from isoscope.cpu.cubes import marching_cubes_reference
 from isoscope.cpu.extractor import CpuExtractor
 from isoscope.validation import check_volume
 
@@ -14,19 +14,19 @@ def _ball(n=24):
     return (1 - np.sqrt(x * x + y * y + z * z)).astype(np.float32)
 
 
+@pytest.mark.parametrize("backend", ["cpu", "numpy"])
 @pytest.mark.parametrize("direction", ["descent", "ascent"])
-def test_extract_then_read_gives_marching_cubes_mesh(direction):
+def test_extract_then_read_gives_marching_cubes_mesh(direction, backend):
     ball = _ball()
     spacing = (0.5, 1.0, 2.0)
-    with CpuExtractor(ball, spacing=spacing, gradient_direction=direction) as ex:
+    with CpuExtractor(ball, spacing=spacing, gradient_direction=direction, backend=backend) as ex:
         assert ex.shape == ball.shape and ex.spacing == spacing and ex.level is None
         assert ex.value_range == (float(ball.min()), float(ball.max()))
         for level in (0.5, 0.25):
             counts = ex.extract(level)
             mesh = ex.read_mesh()
             assert ex.level == level and counts == (len(mesh[0]), len(mesh[1]))
-            expected = isoscope.marching_cubes(ball, level, spacing=spacing, gradient_direction=direction,
-                                               backend="cpu")
+            expected = marching_cubes_reference(ball, level, spacing, direction == "descent")
             for got, want in zip(mesh, expected):
                 assert got.dtype == want.dtype
                 np.testing.assert_array_equal(got, want)
@@ -39,7 +39,9 @@ def test_takes_a_checked_volume_and_integers():
         assert ex.extract(4.5)[1] > 0
 
 
-def test_bad_level_and_use_after_release():
+def test_bad_arguments_and_use_after_release():
+    with pytest.raises(ValueError, match="backend"):
+        CpuExtractor(_ball(), backend="gpu")
     ex = CpuExtractor(_ball())
     with pytest.raises(ValueError, match="outside the data range"):
         ex.extract(5.0)

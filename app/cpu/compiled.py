@@ -1,0 +1,345 @@
+"""Marching cubes compiled for the CPU (numba): the numpy reference's mesh (`isoscope.cpu.cubes`), fast.
+
+The design is the GPU's (shaders/mc_*.comp) and Flying Edges' (Schroeder, Maynard, Geveci 2015): the
+samples are read once, to pack their inside bits 32 to a word along axis 2; everything after works on
+those words with bit operations, and only the cells the surface cuts do per-cell work.
+
+1. `_pack_signs`   per word (a row of 32 samples along axis 2): its inside bits.  A word whose sample
+                   range (measured once per volume, `_word_ranges`) lies wholly on one side of the
+                   level is filled without reading a sample: an iso change touches only the words the
+                   level cuts.
+2. `_count`        per word: the crossing edges it owns, one bit mask per axis (the XOR of a word and
+                   its neighbour along the axis), and the triangles of its cut cells (the case table's
+                   counts).
+3. `_scan`         the exclusive prefix sums of the counts in the GPU's order of the words (brick,
+                   then word in brick: cubes.py's docstring), so each word's vertices and triangles
+                   start where the GPU puts them.
+4. `_write`        per word: its vertices (axis 0, 1, 2, each by k) and its triangles (by k, then the
+                   table's order) at its offsets; a triangle finds the vertex of an edge from the owning
+                   word's offset and a population count of the edge mask below the edge's bit.
+
+Passes 1, 2 and 4 run in parallel over planes of axis 0 (`prange`); 3 is a serial loop over words.
+The arithmetic of a vertex is the reference's, in float32 and in the same order, so positions, normals
+and values are the reference's bit for bit.  The kernels take float32 volumes only (one compiled
+signature a kernel; the JIT's output is cached on disk, numba's cache=True).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..core.case_table import EDGE_AXIS, EDGE_ORIGIN, CaseTable, montani_table
+from ..core.layout import BRICK_I, BRICK_J, EDGE_MARGIN, WORD_BITS
+
+__all__ = ["marching_cubes_compiled", "CompiledCubes"]
+
+_FULL = np.int64(0xFFFFFFFF)
+
+
+@njit(cache=True, inline="always")
+def _popcount(x):
+    x = x - ((x >> 1) & 0x55555555)
+    x = (x & 0x33333333) + ((x >> 2) & 0x33333333)
+    x = (x + (x >> 4)) & 0x0F0F0F0F
+    return ((x * 0x01010101) & 0xFFFFFFFF) >> 24
+
+
+@njit(cache=True, inline="always")
+def _low_bits(count):
+    """A mask of the lowest `count` bits (0 <= count <= 32)."""
+    return (np.int64(1) << count) - 1
+
+
+@njit(cache=True, parallel=True)
+def _word_ranges(field, lows, highs):
+    """The smallest and largest sample of each word (its 32 samples along axis 2 and the next one, the
+    far end of its last edge)."""
+    n0, n1, n2 = field.shape
+    nw = lows.shape[2]
+    for i in prange(n0):
+        for j in range(n1):
+            for w in range(nw):
+                k0 = w * WORD_BITS
+                k1 = min(k0 + WORD_BITS + 1, n2)
+                lo = field[i, j, k0]
+                hi = lo
+                for k in range(k0 + 1, k1):
+                    v = field[i, j, k]
+                    lo = min(lo, v)
+                    hi = max(hi, v)
+                lows[i, j, w] = lo
+                highs[i, j, w] = hi
+
+
+@njit(cache=True, parallel=True)
+def _pack_signs(field, sign, level, lows, highs, ranged, signs):
+    """Pass 1: bit k of signs[i, j, w] is set where sample (i, j, 32 w + k) of the signed field
+    (sign * field) is at or above `level`.  With `ranged`, lows/highs (the words' ranges of `field`)
+    let a word the level does not cut be filled without reading its samples."""
+    n0, n1, n2 = field.shape
+    nw = signs.shape[2]
+    for i in prange(n0):
+        for j in range(n1):
+            for w in range(nw):
+                k0 = w * WORD_BITS
+                count = min(WORD_BITS, n2 - k0)
+                if ranged:
+                    lo = sign * lows[i, j, w]
+                    hi = sign * highs[i, j, w]
+                    if hi < lo:
+                        lo, hi = hi, lo
+                    if lo >= level:
+                        signs[i, j, w] = _low_bits(count)
+                        continue
+                    if hi < level:
+                        signs[i, j, w] = 0
+                        continue
+                word = np.int64(0)
+                for b in range(count):
+                    if sign * field[i, j, k0 + b] >= level:
+                        word |= np.int64(1) << b
+                signs[i, j, w] = word
+
+
+@njit(cache=True, inline="always")
+def _shifted(signs, i, j, w, nw):
+    """The word's bits moved down by one, the next word's first bit on top: bit k is sample k + 1."""
+    s = signs[i, j, w]
+    nxt = (signs[i, j, w + 1] & 1) << (WORD_BITS - 1) if w + 1 < nw else 0
+    return (s >> 1) | nxt
+
+
+@njit(cache=True, inline="always")
+def _cut_cells(signs, i, j, w, nw, cell_mask):
+    """The word's cells with corners on both sides of the level (bit k: cell (i, j, 32 w + k)) and its
+    four rows' words, plain and shifted by one sample."""
+    a = signs[i, j, w]
+    b = signs[i + 1, j, w]
+    c = signs[i, j + 1, w]
+    d = signs[i + 1, j + 1, w]
+    a1 = _shifted(signs, i, j, w, nw)
+    b1 = _shifted(signs, i + 1, j, w, nw)
+    c1 = _shifted(signs, i, j + 1, w, nw)
+    d1 = _shifted(signs, i + 1, j + 1, w, nw)
+    every = a & b & c & d & a1 & b1 & c1 & d1
+    some = a | b | c | d | a1 | b1 | c1 | d1
+    return (some & ~every) & cell_mask, a, b, c, d, a1, b1, c1, d1
+
+
+@njit(cache=True, inline="always")
+def _case(k, a, b, c, d, a1, b1, c1, d1):
+    return (((a >> k) & 1) | ((b >> k) & 1) << 1 | ((c >> k) & 1) << 2 | ((d >> k) & 1) << 3
+            | ((a1 >> k) & 1) << 4 | ((b1 >> k) & 1) << 5 | ((c1 >> k) & 1) << 6 | ((d1 >> k) & 1) << 7)
+
+
+@njit(cache=True, parallel=True)
+def _count(signs, n2, table_counts, edges, vertex_counts, triangle_counts):
+    """Pass 2: per word, the crossing-edge masks (edges[i, j, w, axis]), its vertex count and triangle
+    count."""
+    n0, n1, nw = signs.shape
+    for i in prange(n0):
+        for j in range(n1):
+            for w in range(nw):
+                k0 = w * WORD_BITS
+                s = signs[i, j, w]
+                # Edges along axis 2 end in the row: the last sample owns none.
+                along2 = _low_bits(min(WORD_BITS, n2 - 1 - k0))
+                e2 = (s ^ _shifted(signs, i, j, w, nw)) & along2
+                e0 = s ^ signs[i + 1, j, w] if i + 1 < n0 else 0
+                e1 = s ^ signs[i, j + 1, w] if j + 1 < n1 else 0
+                edges[i, j, w, 0] = e0
+                edges[i, j, w, 1] = e1
+                edges[i, j, w, 2] = e2
+                vertex_counts[i, j, w] = _popcount(e0) + _popcount(e1) + _popcount(e2)
+                triangles = 0
+                if i + 1 < n0 and j + 1 < n1:
+                    cut, a, b, c, d, a1, b1, c1, d1 = _cut_cells(signs, i, j, w, nw, along2)
+                    while cut:
+                        low = cut & -cut
+                        k = _popcount(low - 1)
+                        cut ^= low
+                        triangles += table_counts[_case(k, a, b, c, d, a1, b1, c1, d1)]
+                triangle_counts[i, j, w] = triangles
+
+
+@njit(cache=True)
+def _scan(vertex_counts, triangle_counts):
+    """Pass 3: the counts become exclusive prefix sums in the GPU's word order (brick (i // BRICK_I,
+    j // BRICK_J, w) in C order, then (i % BRICK_I, j % BRICK_J)); returns the totals."""
+    n0, n1, nw = vertex_counts.shape
+    vertices = 0
+    triangles = 0
+    for bi in range(0, n0, BRICK_I):
+        for bj in range(0, n1, BRICK_J):
+            for w in range(nw):
+                for i in range(bi, min(bi + BRICK_I, n0)):
+                    for j in range(bj, min(bj + BRICK_J, n1)):
+                        v = vertex_counts[i, j, w]
+                        t = triangle_counts[i, j, w]
+                        vertex_counts[i, j, w] = vertices
+                        triangle_counts[i, j, w] = triangles
+                        vertices += v
+                        triangles += t
+    return vertices, triangles
+
+
+@njit(cache=True, inline="always")
+def _gradient(field, sign, i, j, k, spacing):
+    """cubes.gradient_at of the signed field at one grid point: central differences, one-sided at the
+    border, in physical units (float32 throughout)."""
+    n0, n1, n2 = field.shape
+    lo = max(i - 1, 0)
+    hi = min(i + 1, n0 - 1)
+    g0 = (sign * field[hi, j, k] - sign * field[lo, j, k]) / (np.float32(hi - lo) * spacing[0])
+    lo = max(j - 1, 0)
+    hi = min(j + 1, n1 - 1)
+    g1 = (sign * field[i, hi, k] - sign * field[i, lo, k]) / (np.float32(hi - lo) * spacing[1])
+    lo = max(k - 1, 0)
+    hi = min(k + 1, n2 - 1)
+    g2 = (sign * field[i, j, hi] - sign * field[i, j, lo]) / (np.float32(hi - lo) * spacing[2])
+    return g0, g1, g2
+
+
+@njit(cache=True, inline="always")
+def _vertex(field, sign, level, spacing, i, j, k, axis, verts, normals, values, n):
+    """cubes.place_vertices for the edge from (i, j, k) along `axis`, written at row n."""
+    di = np.int64(axis == 0)
+    dj = np.int64(axis == 1)
+    dk = np.int64(axis == 2)
+    v0 = sign * field[i, j, k]
+    v1 = sign * field[i + di, j + dj, k + dk]
+    t = (level - v0) / (v1 - v0)
+    t = min(max(t, EDGE_MARGIN), np.float32(1) - EDGE_MARGIN)
+    zero = np.float32(0)
+    verts[n, 0] = (np.float32(i) + (t if axis == 0 else zero)) * spacing[0]
+    verts[n, 1] = (np.float32(j) + (t if axis == 1 else zero)) * spacing[1]
+    verts[n, 2] = (np.float32(k) + (t if axis == 2 else zero)) * spacing[2]
+    values[n] = (v0 + t * (v1 - v0)) * sign
+    a0, a1, a2 = _gradient(field, sign, i, j, k, spacing)
+    b0, b1, b2 = _gradient(field, sign, i + di, j + dj, k + dk, spacing)
+    g0 = a0 + t * (b0 - a0)
+    g1 = a1 + t * (b1 - a1)
+    g2 = a2 + t * (b2 - a2)
+    length = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
+    if length > 0:
+        normals[n, 0] = -g0 / length
+        normals[n, 1] = -g1 / length
+        normals[n, 2] = -g2 / length
+    else:  # a flat field: along the edge, from its inside end to its outside end
+        out = np.float32(1) if v0 >= level else np.float32(-1)
+        normals[n, 0] = out if axis == 0 else zero
+        normals[n, 1] = out if axis == 1 else zero
+        normals[n, 2] = out if axis == 2 else zero
+
+
+@njit(cache=True, inline="always")
+def _vertex_index(edges, vertex_offsets, i, j, k, axis):
+    """The vertex of the edge from (i, j, k) along `axis`: its word's first vertex, the word's edges
+    along lower axes, then the word's edges along `axis` below bit k."""
+    w = k >> 5
+    bit = k & 31
+    index = vertex_offsets[i, j, w]
+    for a in range(axis):
+        index += _popcount(edges[i, j, w, a])
+    return index + _popcount(edges[i, j, w, axis] & _low_bits(bit))
+
+
+@njit(cache=True, parallel=True)
+def _write(field, sign, level, spacing, signs, edges, vertex_offsets, triangle_offsets, table_counts,
+           table_triangles, edge_axis, edge_origin, verts, faces, normals, values):
+    """Pass 4: each word's vertices and triangles at its offsets."""
+    n0, n1, nw = signs.shape
+    n2 = field.shape[2]
+    for i in prange(n0):
+        for j in range(n1):
+            for w in range(nw):
+                k0 = w * WORD_BITS
+                n = vertex_offsets[i, j, w]
+                for axis in range(3):
+                    bits = edges[i, j, w, axis]
+                    while bits:
+                        low = bits & -bits
+                        bits ^= low
+                        _vertex(field, sign, level, spacing, i, j, k0 + _popcount(low - 1), axis,
+                                verts, normals, values, n)
+                        n += 1
+                if i + 1 >= n0 or j + 1 >= n1:
+                    continue
+                along2 = _low_bits(min(WORD_BITS, n2 - 1 - k0))
+                cut, a, b, c, d, a1, b1, c1, d1 = _cut_cells(signs, i, j, w, nw, along2)
+                m = triangle_offsets[i, j, w]
+                while cut:
+                    low = cut & -cut
+                    bit = _popcount(low - 1)
+                    cut ^= low
+                    case = _case(bit, a, b, c, d, a1, b1, c1, d1)
+                    k = k0 + bit
+                    for slot in range(table_counts[case]):
+                        for corner in range(3):
+                            e = table_triangles[case, slot, corner]
+                            faces[m, corner] = _vertex_index(edges, vertex_offsets, i + edge_origin[e, 0],
+                                                             j + edge_origin[e, 1], k + edge_origin[e, 2],
+                                                             edge_axis[e])
+                        m += 1
+
+
+class CompiledCubes:
+    """The compiled extractor's state for one float32 volume: its sign words, edge masks and offsets
+    (about 4.5 bytes per 32 samples... per word: 4 sign, 12 edge, 16 offset bytes) and, made on the
+    first iso change, each word's value range (8 bytes a word) so a new level packs only the words it
+    cuts.  `extract(level)` returns (verts, faces, normals, values)."""
+
+    def __init__(self, field: np.ndarray, spacing, descent: bool, table: CaseTable | None = None):
+        if field.dtype != np.float32 or field.ndim != 3 or not field.flags.c_contiguous:
+            raise ValueError("CompiledCubes takes a C-contiguous 3-D float32 volume")
+        table = table or montani_table()
+        self.field = field
+        self.sign = np.float32(1.0 if descent else -1.0)
+        self.spacing = np.asarray(spacing, dtype=np.float64).astype(np.float32)
+        n0, n1, n2 = field.shape
+        nw = -(-n2 // WORD_BITS)
+        self._counts = table.counts.astype(np.int64)
+        self._triangles = table.triangles.astype(np.int64)
+        self._signs = np.empty((n0, n1, nw), np.int64)
+        self._edges = np.empty((n0, n1, nw, 3), np.int64)
+        self._vertex_offsets = np.empty((n0, n1, nw), np.int64)
+        self._triangle_offsets = np.empty((n0, n1, nw), np.int64)
+        self._lows = self._highs = None
+        self.extractions = 0
+
+    def measure_ranges(self) -> None:
+        """Measure each word's value range, so that later levels skip the words they do not cut."""
+        if self._lows is None:
+            lows = np.empty(self._signs.shape, np.float32)
+            highs = np.empty(self._signs.shape, np.float32)
+            _word_ranges(self.field, lows, highs)
+            self._lows, self._highs = lows, highs
+
+    def extract(self, level: float):
+        if self.extractions >= 1:
+            self.measure_ranges()  # an iso change: worth a pass over the samples for the words' ranges
+        self.extractions += 1
+        level = np.float32(self.sign * np.float32(level))
+        ranged = self._lows is not None
+        lows = self._lows if ranged else np.empty((1, 1, 1), np.float32)
+        highs = self._highs if ranged else lows
+        _pack_signs(self.field, self.sign, level, lows, highs, ranged, self._signs)
+        _count(self._signs, self.field.shape[2], self._counts, self._edges, self._vertex_offsets,
+               self._triangle_offsets)
+        n_vertices, n_triangles = _scan(self._vertex_offsets, self._triangle_offsets)
+        verts = np.empty((n_vertices, 3), np.float32)
+        normals = np.empty((n_vertices, 3), np.float32)
+        values = np.empty(n_vertices, np.float32)
+        faces = np.empty((n_triangles, 3), np.int32)
+        _write(self.field, self.sign, level, self.spacing, self._signs, self._edges, self._vertex_offsets,
+               self._triangle_offsets, self._counts, self._triangles, EDGE_AXIS.astype(np.int64),
+               EDGE_ORIGIN.astype(np.int64), verts, faces, normals, values)
+        return verts, faces, normals, values
+
+
+def marching_cubes_compiled(volume: np.ndarray, level: float, spacing=(1.0, 1.0, 1.0), descent: bool = True,
+                            table: CaseTable | None = None):
+    """`cubes.marching_cubes_reference`'s mesh from the compiled kernels: verts (N, 3) float32, faces (M, 3)
+    int32, normals (N, 3) float32, values (N,) float32.  `volume` must already be validated."""
+    field = np.ascontiguousarray(volume, dtype=np.float32)
+    return CompiledCubes(field, spacing, descent, table).extract(level)

@@ -1,0 +1,98 @@
+"""The compiled (numba) marching cubes against the numpy reference: the same mesh, bit for bit.
+
+The GPU equals the reference in tests/gpu, so these make the three backends one mesh.  Every
+volume here goes through the one float32 kernel signature (integers are converted first), so the
+JIT compiles each kernel once (and its cache on disk makes later runs start at once)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from isoscope.cpu.compiled import CompiledCubes, marching_cubes_compiled
+from isoscope.cpu.cubes import marching_cubes_reference
+from isoscope.cpu.extractor import CpuExtractor
+from isoscope.volumes.builtins import open_builtin
+
+RNG = np.random.default_rng(20261202)
+
+
+def assert_identical(got, want):
+    """Faces equal, vertices in the same order; positions, normals and values to the bit."""
+    for name, a, b in zip(("verts", "faces", "normals", "values"), got, want):
+        assert a.dtype == b.dtype and a.shape == b.shape, name
+        np.testing.assert_array_equal(a, b, err_msg=name)
+
+
+def _grid(shape, lo=-1.0, hi=1.0):
+    axes = [np.linspace(lo, hi, n) for n in shape]
+    return np.meshgrid(*axes, indexing="ij")
+
+
+def _sphere(shape=(48, 40, 56)):
+    x, y, z = _grid(shape)
+    return (np.sqrt(x * x + y * y + z * z) - 0.6).astype(np.float32)
+
+
+def _gyroid(shape=(50, 50, 50)):
+    x, y, z = _grid(shape, 0, 4 * np.pi)
+    return (np.sin(x) * np.cos(y) + np.sin(y) * np.cos(z) + np.sin(z) * np.cos(x)).astype(np.float32)
+
+
+FIELDS = {
+    "sphere": lambda: (_sphere(), 0.0),
+    "gyroid": lambda: (_gyroid(), 0.3),
+    "noise": lambda: (RNG.normal(size=(40, 33, 70)).astype(np.float32), 0.05),
+    "ties": lambda: (RNG.integers(-2, 3, size=(19, 23, 40)).astype(np.float32), 0.0),
+    "ambiguous": lambda: (open_builtin("ambiguous").data.astype(np.float32), 0.0),
+    "odd": lambda: (RNG.normal(size=(17, 63, 5)).astype(np.float32), 0.1),
+}
+
+
+@pytest.mark.parametrize("direction", ["descent", "ascent"])
+@pytest.mark.parametrize("name", sorted(FIELDS))
+def test_every_field_gives_the_reference_mesh(name, direction):
+    volume, level = FIELDS[name]()
+    spacing = (0.5, 2.0, 1.25)
+    descent = direction == "descent"
+    want = marching_cubes_reference(volume, level, spacing, descent)
+    assert len(want[1]) > 0
+    assert_identical(marching_cubes_compiled(volume, level, spacing, descent), want)
+
+
+@pytest.mark.parametrize("shape", [(2, 2, 2), (2, 31, 32), (3, 2, 65), (6, 4, 97), (17, 5, 33), (9, 17, 64),
+                                   (120, 120, 2)])
+def test_any_grid_size(shape):
+    volume = RNG.normal(size=shape).astype(np.float32)
+    assert_identical(marching_cubes_compiled(volume, 0.05), marching_cubes_reference(volume, 0.05))
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16, np.float64])
+def test_integer_and_wide_inputs(dtype):
+    """Integers (scans) at levels that tie with samples and between them; float64 rounds to float32 first."""
+    volume = RNG.integers(0, 200, size=(30, 21, 45)).astype(dtype)
+    for level in (100, 100.5):
+        with CpuExtractor(volume) as ex:
+            ex.extract(level)
+            assert_identical(ex.read_mesh(), marching_cubes_reference(volume.astype(np.float32), level))
+
+
+@pytest.mark.parametrize("direction", ["descent", "ascent"])
+def test_iso_changes_skip_words_yet_keep_the_mesh(direction):
+    """After the first level the words' ranges are measured and words the level misses are not read:
+    every later level (a sample value itself among them) still gives the reference mesh."""
+    volume = _gyroid((40, 70, 90))
+    volume[5:9, 3:40, 10:80] = 0.25  # a plateau: whole words equal to a level
+    descent = direction == "descent"
+    cubes = CompiledCubes(volume, (1.0, 1.0, 1.0), descent)
+    for level in (0.0, 0.25, -0.7, 0.25, 1.2, 0.0):
+        assert_identical(cubes.extract(level), marching_cubes_reference(volume, level, (1, 1, 1), descent))
+    assert cubes._lows is not None
+
+
+def test_a_level_that_cuts_nothing():
+    volume = _sphere((20, 20, 20))
+    mesh = marching_cubes_compiled(volume, float(volume.max()) + 1.0)
+    assert_identical(mesh, marching_cubes_reference(volume, float(volume.max()) + 1.0))
+    verts, faces, normals, values = mesh
+    assert verts.shape == (0, 3) and faces.shape == (0, 3) and normals.shape == (0, 3) and values.shape == (0,)
+    assert faces.dtype == np.int32
