@@ -1,12 +1,14 @@
 """`isoscope export`: mesh files of one or several levels, of label maps, chunked or on dask workers."""
 from __future__ import annotations
 
+import argparse
 import os
 import sys
+from pathlib import Path
 
 from ..validation import as_gradient_direction
 from .common import check_label_options, checked_levels, level_path, progress, wrote
-from .volume_options import open_volume_from_args
+from .volume_options import TimeRange, open_volume_from_args
 
 
 def max_workers() -> int:
@@ -78,22 +80,41 @@ def run_export(args) -> int:
         return _export_labels(args)
     check_label_options(args, "--one-file", "--max-labels")
     _check_workers(args)
-    from ..io.export import in_volume_space, mesh_format, write_mesh
+    from ..io.export import mesh_format
     mesh_format(args.out)  # an unknown extension or fraction is refused before any work
     if args.decimate is not None:
         from ..cpu.decimate import check_fraction
         check_fraction(args.decimate)
-    volume = open_volume_from_args(args.volume, args, progress, **_export_open_options(args))
+    volume = open_volume_from_args(args.volume, args, progress, several_times=True, **_export_open_options(args))
+    if not isinstance(args.time, TimeRange):
+        _export_levels(volume, args, args.out)
+        return 0
+    points = args.time.points(volume.time_points)   # --time all or A:B: one mesh (per level) per time point
+    for time in points:
+        if time != points[0]:
+            volume = open_volume_from_args(args.volume, argparse.Namespace(**{**vars(args), "time": time}),
+                                           progress, **_export_open_options(args))
+        _export_levels(volume, args, time_path(args.out, time))
+    return 0
+
+
+def time_path(out, time: int) -> str:
+    """Where export writes time point `time` of a series: STEM_t000.EXT beside `out`."""
+    out = Path(out)
+    return str(out.with_name(f"{out.stem}_t{time:03d}{out.suffix}"))
+
+
+def _export_levels(volume, args, out) -> None:
+    """The mesh of each --iso level of `volume` to `out` (STEM_iso<V>.EXT for several)."""
+    from ..io.export import in_volume_space, write_mesh
     isos = checked_levels(volume, args.iso)
     for iso in isos:
         verts, faces, normals, _ = _extract_for_export(volume, iso, args)
         if args.decimate is not None:
             verts, faces, normals = _decimated(volume, iso, verts, faces, args.decimate)
         verts, faces, normals, space = in_volume_space(volume, verts, faces, normals, world=args.space == "world")
-        out = args.out if len(isos) == 1 else level_path(args.out, iso)
-        path = write_mesh(out, verts, faces, normals, space=space)
+        path = write_mesh(out if len(isos) == 1 else level_path(out, iso), verts, faces, normals, space=space)
         wrote(path, f": {len(verts):,} vertices, {len(faces):,} triangles, in {space} coordinates")
-    return 0
 
 
 def _export_labels(args) -> int:

@@ -2,10 +2,43 @@
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 
 from ..volumes.errors import VolumeError
 from ..volumes.raw_format import RAW_DTYPES
 from ..volumes.volume import Progress, Volume
+
+
+@dataclass(frozen=True)
+class TimeRange:
+    """--time all or A:B: the time points start .. stop - 1 (stop None: to the end)."""
+    start: int
+    stop: int | None
+    text: str
+
+    def points(self, count: int) -> range:
+        """The time points of a series of `count`, refused in one line where the range leaves it."""
+        stop = count if self.stop is None else self.stop
+        if self.start >= count or stop > count:
+            raise VolumeError(f"--time {self.text} is past the end: the series has {count} time points "
+                              f"(0..{count - 1})")
+        return range(self.start, stop)
+
+
+def time_spec(text: str) -> int | TimeRange:
+    """'3' -> 3; 'all' -> every time point; '2:5' -> 2, 3, 4 (either end may be left out)."""
+    text = text.strip()
+    if text.lower() == "all":
+        return TimeRange(0, None, "all")
+    start, colon, stop = text.partition(":")
+    try:
+        first = int(start) if start.strip() else 0
+        last = int(stop) if stop.strip() else None
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--time {text!r} is not a time point N, 'all' or a range A:B") from None
+    if first < 0 or (last is not None and last <= first):
+        raise argparse.ArgumentTypeError(f"--time {text!r}: time points count from 0, and a range A:B needs A < B")
+    return TimeRange(first, last, text) if colon else first
 
 
 def add_volume_arguments(parser: argparse.ArgumentParser) -> None:
@@ -16,7 +49,9 @@ def add_volume_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--endian", choices=("little", "big"), help="raw files: byte order (default little)")
     group.add_argument("--spacing", nargs=3, type=float, metavar=("X", "Y", "Z"),
                        help="voxel size along x, y, z (overrides the header)")
-    group.add_argument("--frame", type=int, metavar="N", help="4-D files: which volume to show (default 0)")
+    group.add_argument("--time", "--frame", dest="time", type=time_spec, metavar="N|all|A:B",
+                       help="4-D files (series): the time point to show (default 0); export also takes 'all' "
+                            "or A:B (points A to B-1) and writes one mesh per point, NAME_t000.EXT, ...")
     group.add_argument("--series", metavar="N|UID",
                        help="DICOM folders holding several series: which one (its number in the listing, or its UID)")
     group.add_argument("--resolution", type=int, metavar="N",
@@ -28,12 +63,18 @@ def add_volume_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def open_volume_from_args(spec: str, args: argparse.Namespace, progress: Progress | None = None,
-                          backend: str = "auto", **more) -> Volume:
-    """The volume the flags describe; `backend` samples expr: volumes ("auto", "gpu" or "cpu");
-    `more` (fits, fits_refusal, map_files) goes to open_volume."""
+                          backend: str = "auto", several_times: bool = False, **more) -> Volume:
+    """The volume the flags describe (with --time all or A:B, where `several_times` allows it, its first
+    time point); `backend` samples expr: volumes ("auto", "gpu" or "cpu"); `more` (fits, fits_refusal,
+    map_files) goes to open_volume."""
     from ..volumes import open_volume
-    names = ("dims", "dtype", "endian", "spacing", "frame", "series", "resolution", "inside")
+    names = ("dims", "dtype", "endian", "spacing", "time", "series", "resolution", "inside")
     options = {name: getattr(args, name) for name in names}
+    if isinstance(options["time"], TimeRange):
+        if not several_times:
+            raise VolumeError(f"--time {options['time'].text} picks several time points, and only export writes "
+                              "them (one mesh each); give one, --time N")
+        options["time"] = options["time"].start
     if options["spacing"] is not None:
         _checked_spacing(options["spacing"], None, "--spacing")  # before a big file is read
     # finish_volume holds the spacing (the header's, or --spacing) to the same rule against the shape.

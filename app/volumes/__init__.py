@@ -16,7 +16,7 @@ Spec syntax (the VOLUME argument, the panel's picker and text box):
         below the level (default 0), as for F(x,y,z) < 0 inside.
 
 Files:
-    .npy / .npz    never unpickled; 4-D arrays are frames along axis 0 (--frame N).
+    .npy / .npz    never unpickled; 4-D arrays are time points along axis 0 (--time N).
     .nrrd / .nhdr  pynrrd; spacing from "spacings" or "space directions";
                    4-D: the non-spatial axis (by "kinds"), else the last one.
     .nii / .nii.gz nibabel; spacing from the header's zooms; 4-D: axis 3 is time.
@@ -25,7 +25,7 @@ Files:
                    or a JSON sidecar (file.json or file.raw.json) with keys
                    dims, dtype, endian, spacing; flags win over the sidecar.
     .tif / .tiff   a stack (tifffile), z y x; spacing from ImageJ or OME metadata;
-                   a time axis is the frames (--frame N).
+                   a time axis gives the time points (--time N).
     a folder       a DICOM series (pydicom): slices sorted along their normal,
                    rescaled (CT in HU), spacing from the slice positions and
                    PixelSpacing; axes (slice, row, column); --series N|UID picks
@@ -76,15 +76,16 @@ def sample_names() -> list[str]:
 INSIDE_SIDES = {"above": "descent", "below": "ascent"}  # --inside -> Volume.gradient_direction
 
 
-def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, frame=None,
+def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, time=None,
                 series=None, resolution=None, progress: Progress | None = None, backend: str = "auto",
                 ctx=None, inside: str | None = None, fits=None,
                 fits_refusal: str = "more than one extraction takes; crop or downsample it",
                 map_files: bool = False) -> Volume:
     """Open a volume from a spec (see the module docstring); raise VolumeError on bad input.
 
-    dims/dtype/endian: raw files only; spacing overrides a header; frame picks
-    a volume of a 4-D file; series picks a DICOM folder's series; resolution: built-ins and expr: only. progress, if
+    dims/dtype/endian: raw files only; spacing overrides a header; time picks a time point of a
+    4-D file (Volume.time_points says how many); series picks a DICOM folder's series; resolution:
+    built-ins and expr: only. progress, if
     given, is called as progress(fraction 0..1, message) while a big volume
     loads, is generated or is checked. backend ("auto", "gpu", "cpu") and ctx (a
     moderngl context) only matter for expr: specs; "auto" samples on the GPU
@@ -98,22 +99,22 @@ def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, 
     if inside is not None and inside not in INSIDE_SIDES:
         raise VolumeError(f"inside must be 'above' or 'below' the level, not {inside!r}")
     with extraction_limit(fits, fits_refusal):
-        volume = _open(spec, dims=dims, dtype=dtype, endian=endian, spacing=spacing, frame=frame, series=series,
+        volume = _open(spec, dims=dims, dtype=dtype, endian=endian, spacing=spacing, time=time, series=series,
                        resolution=resolution, progress=progress, backend=backend, ctx=ctx, map_files=map_files)
     if inside is not None:
         volume.gradient_direction = INSIDE_SIDES[inside]  # in place: keeps the checked value range
-    given = dict(dims=dims, dtype=dtype, endian=endian, spacing=spacing, frame=frame, series=series,
+    given = dict(dims=dims, dtype=dtype, endian=endian, spacing=spacing, time=time, series=series,
                  resolution=resolution)
     volume.open_options = {name: value for name, value in given.items() if value is not None}
     return volume
 
 
-def _open(spec: str, *, dims, dtype, endian, spacing, frame, series, resolution, progress, backend,
+def _open(spec: str, *, dims, dtype, endian, spacing, time, series, resolution, progress, backend,
           ctx, map_files) -> Volume:
     if not isinstance(spec, str) or not spec.strip():
         raise VolumeError("no volume given; name a file, a built-in (isoscope volumes) or expr:FORMULA")
     spec = spec.strip()
-    file_only = dict(dims=dims, dtype=dtype, endian=endian, frame=frame, series=series)
+    file_only = dict(dims=dims, dtype=dtype, endian=endian, time=time, series=series)
     if spec.lower().startswith("expr:"):
         _refuse_options(spec, "an expression", **file_only, spacing=spacing)
         from .expression_volume import open_expression

@@ -2,7 +2,7 @@
 
 The format modules (npy_format, nrrd_format, nifti_format, raw_format) each
 read one format and return (array, header spacing, notes); this module owns
-what is common: paths and `sample:` names, --frame for numpy stacks, --dims
+what is common: paths and `sample:` names, --time for numpy stacks, --dims
 and --spacing against the header, and the final checks in finish_volume.
 """
 from __future__ import annotations
@@ -11,13 +11,13 @@ from pathlib import Path
 
 from .dicom_format import load_dicom_folder
 from .errors import VolumeError
-from .frames import select_frame
 from .nifti_format import load_nifti, nifti_world
 from .npy_format import load_npy, load_npz
 from .nrrd_format import load_nrrd, nrrd_world
 from .raw_format import load_raw, sidecar_path, three_positive
 from .reading import refuse_unless_regular
 from .tiff_format import TIFF_SUFFIXES, load_tiff
+from .time_points import select_time, time_points_of
 from .volume import Progress, Volume, finish_volume, shape_text
 from .zarr_format import is_zarr, load_zarr
 
@@ -74,7 +74,7 @@ def _format_of(path: Path, has_raw_flags: bool) -> str:
                       f"(for headerless data pass --dims X Y Z --dtype T)")
 
 
-def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, frame=None,
+def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, time=None,
               series=None, progress: Progress | None = None, map_files: bool = False) -> Volume:
     path, array_name = resolve_path(spec)
     if not path.is_dir():
@@ -96,26 +96,26 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, fr
         elif kind == "raw":
             data, header_spacing, notes = load_raw(path, dims, dtype, endian, spacing, progress, map_file=map_files)
         elif kind == "zarr":
-            data, header_spacing, notes = load_zarr(path, frame, progress)
+            data, header_spacing, notes = load_zarr(path, time, progress)
         elif kind == "npy":
             data, header_spacing, notes = load_npy(path, progress)
         elif kind == "tiff":
-            data, header_spacing, notes = load_tiff(path, frame, progress)
+            data, header_spacing, notes = load_tiff(path, time, progress)
         elif kind == "npz":
             data, header_spacing, notes = load_npz(path, array_name, progress)
         elif kind == "nrrd":
-            data, header_spacing, notes = load_nrrd(path, frame, progress)
+            data, header_spacing, notes = load_nrrd(path, time, progress)
             world = nrrd_world(path)
         else:
-            data, header_spacing, notes = load_nifti(path, frame, progress)
+            data, header_spacing, notes = load_nifti(path, time, progress)
             world = nifti_world(path)
     except MemoryError:
         raise VolumeError(f"{path.name} does not fit in memory; crop or downsample it first") from None
     except PermissionError:
         raise VolumeError(f"{path.name} cannot be read (permission denied); check its permissions") from None
     if kind in ("npy", "npz"):
-        data, frame_notes = select_frame(data, 0, frame, path.name)  # stacks of volumes: frames first
-        notes += frame_notes
+        data, time_notes = select_time(data, 0, time, path.name)  # stacks of volumes: frames first
+        notes += time_notes
     if kind != "raw" and dims is not None and tuple(int(d) for d in dims) != tuple(data.shape):
         raise VolumeError(f"--dims {' '.join(map(str, dims))} does not match {path.name}, whose header "
                           f"says {shape_text(data.shape)}; drop --dims (it is only for raw files)")
@@ -125,6 +125,8 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, fr
         notes.append("--spacing given: the file's world coordinates are dropped (index x spacing)")
         world = None
     chosen = spacing or header_spacing or (1.0, 1.0, 1.0)
-    return finish_volume(data, spacing=chosen, name=path.name if array_name is None else f"{path.name}:{array_name}",
+    volume = finish_volume(data, spacing=chosen, name=path.name if array_name is None else f"{path.name}:{array_name}",
                          source=spec, gradient_direction="descent", default_level=None,
                          notes=notes, what=path.name, progress=progress, world=world)
+    volume.time_points = time_points_of(notes)
+    return volume

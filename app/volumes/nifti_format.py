@@ -1,6 +1,6 @@
 """NIfTI (.nii, .nii.gz) through nibabel: header zooms for spacing, axis 3 for time.
 
-Only the chosen frame is read, in z slabs through nibabel's array proxy, which
+Only the chosen time point is read, in z slabs through nibabel's array proxy, which
 also applies the header's scaling (scaled integers come back as floats).
 """
 from __future__ import annotations
@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 
 from .errors import VolumeError
-from .frames import frame_index, frame_note, refuse_frame
 from .reading import (
     GZIP_CHUNK,
     Loaded,
@@ -23,6 +22,7 @@ from .reading import (
     read_or_explain,
     reason,
 )
+from .time_points import refuse_time, time_index, time_note
 from .volume import Progress, refuse_if_too_big, report, world_problem
 
 HEADER_SLACK = 1 << 20  # bytes a .nii.gz may hold past its data (extensions sit before vox_offset)
@@ -35,22 +35,22 @@ def _nibabel_errors() -> tuple[type[Exception], ...]:
     return ImageFileError, HeaderDataError, HeaderTypeError, ImageDataError
 
 
-def load_nifti(path: Path, frame: int | None, progress: Progress | None = None) -> Loaded:
+def load_nifti(path: Path, time: int | None, progress: Progress | None = None) -> Loaded:
     import nibabel  # noqa: F401  (first: its loggers must exist for library_messages to take them)
     notes: list[str] = []
     with library_messages(notes, "nibabel"):
-        data, spacing = _load(path, frame, notes, progress)
+        data, spacing = _load(path, time, notes, progress)
     return data, spacing, notes
 
 
-def _load(path: Path, frame: int | None, notes: list[str], progress: Progress | None):
+def _load(path: Path, time: int | None, notes: list[str], progress: Progress | None):
     if not path.name.lower().endswith(".gz"):
-        return _read(path, frame, notes, progress, None)[0]
+        return _read(path, time, notes, progress, None)[0]
     # One pass through the gzip stream, nibabel reading from it and then the rest read to its end:
     # nibabel alone stops once it has its samples, so a corrupt tail (a failed CRC) would go unseen;
     # and the stream may not inflate past what the header implies (a decompression bomb).
     with open(path, "rb") as compressed, gzip.GzipFile(fileobj=compressed) as stream:
-        result, limit = _read(path, frame, notes, progress, stream)
+        result, limit = _read(path, time, notes, progress, stream)
         read_or_explain(path, lambda: _read_to_end(stream, limit, path.name))
     return result
 
@@ -62,7 +62,7 @@ def _read_to_end(stream, limit: int, what: str) -> None:
             raise inflated_past(what, limit)
 
 
-def _read(path: Path, frame: int | None, notes: list[str], progress: Progress | None, stream):
+def _read(path: Path, time: int | None, notes: list[str], progress: Progress | None, stream):
     """((data, spacing), the most bytes the file's stream may hold) of the file, or of `stream` (its
     uncompressed contents) where given."""
     import nibabel
@@ -99,16 +99,16 @@ def _read(path: Path, frame: int | None, notes: list[str], progress: Progress | 
     if len(shape) < 3 or any(n != 1 for n in shape[4:]):
         # Not a volume or a series of them: read it so the common checks can say what it is.
         refuse_if_too_big(shape, itemsize, path.name)
-        refuse_frame(frame, path.name, len(shape))
+        refuse_time(time, path.name, len(shape))
         return (read_or_explain(path, lambda: np.asarray(image.dataobj)), None), limit
     refuse_if_too_big(shape[:3], itemsize, path.name)
     which = ()
     if len(shape) >= 4:
-        index = frame_index(frame, shape[3], path.name)
-        notes.append(frame_note(index, shape[3]))
+        index = time_index(time, shape[3], path.name)
+        notes.append(time_note(index, shape[3]))
         which = (index,) + (0,) * (len(shape) - 4)
     else:
-        refuse_frame(frame, path.name, len(shape))
+        refuse_time(time, path.name, len(shape))
     report(progress, 0.0, f"reading {path.name}")
     # z is slowest in the file: z slabs keep the reads sequential, even through gzip.
     data = read_or_explain(path, lambda: read_in_slabs(

@@ -2,7 +2,7 @@
 
 pynrrd's default Fortran index order gives data[x, y, z], so axis 0 is x as
 isoscope wants. Spacing comes from "spacings" or the lengths of the "space
-directions"; a 4-D file's frame axis is the one whose kind is not spatial.
+directions"; a 4-D file's time axis is the one whose kind is not spatial.
 """
 from __future__ import annotations
 
@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import VolumeError
-from .frames import select_frame
 from .reading import Loaded, inflate_bounded, read_or_explain, reason, refuse_unless_regular
+from .time_points import select_time
 from .volume import Progress, refuse_if_too_big, report
 
 _SPATIAL_KINDS = {"domain", "space"}
@@ -47,7 +47,7 @@ def nrrd_world(path: Path):
     if flip is None or directions is None or origin is None:
         return None
     rows = [np.asarray(d, np.float64) for d in directions]
-    spatial = [d for d in rows if np.all(np.isfinite(d))]  # a frame axis has "none"
+    spatial = [d for d in rows if np.all(np.isfinite(d))]  # a time axis has "none"
     if len(spatial) != 3:
         return None
     world = np.eye(4)
@@ -136,7 +136,7 @@ def _read_data(path: Path, header: dict) -> np.ndarray:
     return nrrd.read_data(raw, io.BytesIO(body))
 
 
-def load_nrrd(path: Path, frame: int | None, progress: Progress | None = None) -> Loaded:
+def load_nrrd(path: Path, time: int | None, progress: Progress | None = None) -> Loaded:
     import nrrd
     try:
         header = nrrd.read_header(str(path))
@@ -161,9 +161,9 @@ def load_nrrd(path: Path, frame: int | None, progress: Progress | None = None) -
     spatial_axes = list(range(data.ndim))
     if data.ndim == 4:
         kinds = [str(k).lower() for k in header.get("kinds", [])]
-        frame_axis = next((a for a, k in enumerate(kinds) if k not in _SPATIAL_KINDS), 3)
-        data, notes = select_frame(data, frame_axis, frame, path.name)
-        spatial_axes.remove(frame_axis)
+        time_axis = next((a for a, k in enumerate(kinds) if k not in _SPATIAL_KINDS), 3)
+        data, notes = select_time(data, time_axis, time, path.name)
+        spatial_axes.remove(time_axis)
     else:
-        data, notes = select_frame(data, 0, frame, path.name)  # refuses --frame on 3-D data
+        data, notes = select_time(data, 0, time, path.name)  # refuses --time on 3-D data
     return data, _spacing(header, spatial_axes) if len(spatial_axes) == 3 else None, notes

@@ -2,7 +2,7 @@
 
 ImageJ hyperstacks give the z step as "spacing" and x/y by the XResolution/YResolution
 tags (pixels per unit); OME-TIFF gives PhysicalSizeX/Y/Z.  A time axis is the frames
-(--frame N); colour channels are refused with the fix.
+(--time N); colour channels are refused with the fix.
 """
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import VolumeError
-from .frames import select_frame
 from .reading import library_messages, read_or_explain
+from .time_points import select_time
 from .volume import Progress, refuse_if_too_big, report
 
 TIFF_SUFFIXES = (".tif", ".tiff")
@@ -45,7 +45,7 @@ def _spacing(tif, axes: str):
     return None
 
 
-def load_tiff(path: Path, frame: int | None, progress: Progress | None = None):
+def load_tiff(path: Path, time: int | None, progress: Progress | None = None):
     """(array (z, y, x), spacing or None, notes)."""
     import tifffile
     report(progress, 0.0, f"reading {path.name}")
@@ -56,7 +56,7 @@ def load_tiff(path: Path, frame: int | None, progress: Progress | None = None):
                 raise ValueError("no image in it")
             series = tif.series[0]
             # The size the tags claim, refused before tifffile allocates it (8 pages of 46000^2 reached
-            # the allocator); one frame of a time series is what is kept, but the series is read whole.
+            # the allocator); one time point of a series is what is kept, but the series is read whole.
             refuse_if_too_big(series.shape, series.dtype.itemsize, path.name)
             return series.asarray(), series.axes.upper(), _spacing(tif, series.axes.upper())
     notes: list[str] = []
@@ -71,11 +71,11 @@ def load_tiff(path: Path, frame: int | None, progress: Progress | None = None):
         raise VolumeError(f"{path.name} holds colour channels (axes {axes}); save one channel as a grey "
                           "stack (ImageJ: Image > Color > Split Channels)")
     if "T" in axes:
-        data, frame_notes = select_frame(data, axes.index("T"), frame, path.name)
+        data, time_notes = select_time(data, axes.index("T"), time, path.name)
         axes = axes.replace("T", "")
     else:
-        data, frame_notes = select_frame(data, 0, frame, path.name)  # refuses --frame on a 3-D stack
-    notes += frame_notes
+        data, time_notes = select_time(data, 0, time, path.name)  # refuses --time on a 3-D stack
+    notes += time_notes
     if axes != "ZYX" and data.ndim == 3:
         notes.append(f"{path.name}: axes {axes} read as z, y, x")
     return np.ascontiguousarray(data), spacing, notes

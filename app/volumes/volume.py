@@ -33,9 +33,12 @@ class Volume:
     # it (NIfTI, NRRD, DICOM); None: world units are index x spacing.
     world: tuple[np.ndarray, str] | None = None
     _in_memory: np.ndarray | None = field(default=None, repr=False, compare=False)  # a lazy volume, once read
-    # The options it was opened with (dims, dtype, endian, spacing, frame, series, resolution; those
+    # The options it was opened with (dims, dtype, endian, spacing, time, series, resolution; those
     # given), so another process can open the same volume (the viewer's full-resolution export).
     open_options: dict = field(default_factory=dict, compare=False)
+    # How many 3-D volumes its source holds (a 4-D file's time points; 1 for the rest); open_options'
+    # `time` says which one this is.
+    time_points: int = 1
 
     @property
     def checked(self) -> CheckedVolume:
@@ -159,7 +162,7 @@ def finish_volume(data: np.ndarray, *, spacing, name: str, source: str, gradient
     if lo == hi:
         raise VolumeError(
             f"{what} is constant (every sample is {lo:g}), so no level has a surface; "
-            f"check the file, frame or formula"
+            f"check the file, time point or formula"
         )
     try:
         spacing = as_spacing(spacing, checked.data.shape)  # the one rule, as for the Python API's arrays

@@ -7,7 +7,7 @@ larger than memory.  Axes stay as stored (OME-Zarr: z, y, x), as for TIFF stacks
 A path is a Zarr array, or a group: an OME-Zarr image (its "multiscales" metadata, under
 attrs["ome"] from OME-Zarr 0.5) opens its full-resolution level with the spacing of its
 "scale" coordinate transformations (the dataset's times the image's); any other group opens
-its first array.  Leading non-spatial axes (time, channel): --frame N picks along the first one longer than 1.
+its first array.  Leading non-spatial axes (time, channel): --time N picks along the first one longer than 1.
 """
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ from pathlib import Path
 from ..core.lazy_arrays import Block3D
 from .errors import VolumeError
 from .reading import damaged, reason
+from .time_points import time_index, time_note
 from .volume import Progress, refuse_if_too_big, report, shape_text
 
 MARKERS = (".zarray", ".zgroup", "zarr.json")
@@ -50,7 +51,7 @@ def is_zarr(path: Path) -> bool:
     return path.is_dir() and (path.name.lower().endswith(".zarr") or any((path / m).is_file() for m in MARKERS))
 
 
-def load_zarr(path: Path, frame: int | None, progress: Progress | None = None):
+def load_zarr(path: Path, time: int | None, progress: Progress | None = None):
     """(lazy 3-D array, spacing or None, notes)."""
     import zarr
     report(progress, 0.0, f"opening {path.name}")
@@ -75,15 +76,11 @@ def load_zarr(path: Path, frame: int | None, progress: Progress | None = None):
         raise VolumeError(f"{path.name} holds a {len(shape)}-D array ({shape_text(shape)}) with "
                           f"{min(spatial, len(shape))} spatial axes; isoscope needs 3 spatial axes")
     lead = [0] * (len(shape) - 3)
-    if lead:  # --frame indexes the first leading axis longer than 1 (OME-Zarr's t, else c); the others take 0
+    if lead:  # --time indexes the first leading axis longer than 1 (OME-Zarr's t, else c); the others take 0
         axis = next((a for a, n in enumerate(shape[:len(lead)]) if n > 1), 0)
-        index = 0 if frame is None else int(frame)
-        if not 0 <= index < shape[axis]:
-            raise VolumeError(f"--frame {index} is outside {path.name}'s {shape[axis]} frames; "
-                              f"pick 0 .. {shape[axis] - 1}")
-        lead[axis] = index
+        index = lead[axis] = time_index(time, shape[axis], path.name)
         if shape[axis] > 1:
-            notes.append(f"{path.name} is {shape_text(shape)}: showing frame {index} of {shape[axis]} (--frame N)")
+            notes.append(time_note(index, shape[axis]))
     _refuse_unreadable_size(path, shape[-3:], tuple(node.chunks[-3:]), node.dtype)
     notes.append(f"Zarr {shape_text(shape[-3:])} {node.dtype} in {shape_text(node.chunks[-3:])} chunks, "
                  "read on demand")

@@ -68,10 +68,10 @@ def test_ome_zarr_time_and_channel_axes_pick_a_frame(tmp_path, field):
         [{"name": n, "type": "space"} for n in "zyx"]
     group.attrs["multiscales"] = [{"version": "0.4", "axes": axes, "datasets": [
         {"path": "0", "coordinateTransformations": [{"type": "scale", "scale": [1, 1, 3, 2, 1]}]}]}]
-    assert np.asarray(open_volume(str(path), frame=1).data).min() == field.min() + 1.0
+    assert np.asarray(open_volume(str(path), time=1).data).min() == field.min() + 1.0
     assert open_volume(str(path)).spacing == (3.0, 2.0, 1.0)
-    with pytest.raises(VolumeError, match="--frame 2 is outside tc.ome.zarr.s 2 frames"):
-        open_volume(str(path), frame=2)
+    with pytest.raises(VolumeError, match="--time 2 is past the end: tc.ome.zarr has 2 time points"):
+        open_volume(str(path), time=2)
 
 
 def test_chunked_mesh_of_a_zarr_volume_equals_the_in_memory_mesh(tmp_path, field, gl_ctx):

@@ -235,9 +235,9 @@ def test_expression_with_nan_names_the_point():
 
 def test_frame_out_of_range_and_frame_on_3d(tmp_path, cube):
     np.save(tmp_path / "t.npy", np.stack([cube, -cube]))
-    refused(tmp_path / "t.npy", "--frame 2 is out of range", "0..1", frame=2)
+    refused(tmp_path / "t.npy", "--time 2 is past the end", "0..1", time=2)
     np.save(tmp_path / "c.npy", cube)
-    refused(tmp_path / "c.npy", "3-d", "drop --frame", frame=0)
+    refused(tmp_path / "c.npy", "3-d", "drop --time", time=0)
 
 
 def test_file_flags_on_a_builtin():

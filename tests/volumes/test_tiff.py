@@ -36,7 +36,7 @@ def test_a_plain_stack_without_metadata_has_unit_spacing(tmp_path):
 def test_a_time_series_is_frames_and_colour_is_refused(tmp_path):
     movie = np.stack([STACK, STACK + 1000])
     tifffile.imwrite(tmp_path / "movie.tif", movie, imagej=True, metadata={"axes": "TZYX"})
-    np.testing.assert_array_equal(open_volume(str(tmp_path / "movie.tif"), frame=1).data, STACK + 1000)
+    np.testing.assert_array_equal(open_volume(str(tmp_path / "movie.tif"), time=1).data, STACK + 1000)
     colour = np.stack([STACK, STACK], axis=1)                     # Z C Y X
     tifffile.imwrite(tmp_path / "colour.tif", colour, imagej=True, metadata={"axes": "ZCYX"})
     with pytest.raises(VolumeError, match="colour channels"):

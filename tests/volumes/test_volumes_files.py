@@ -49,9 +49,9 @@ def test_npz_first_array_by_default_and_a_named_one(tmp_path, ramp):
 
 def test_4d_npy_frames_are_along_axis_0(tmp_path, ramp):
     np.save(tmp_path / "t.npy", np.stack([ramp, ramp * 2]))
-    volume = open_volume(str(tmp_path / "t.npy"), frame=1)
+    volume = open_volume(str(tmp_path / "t.npy"), time=1)
     np.testing.assert_array_equal(volume.data, ramp * 2)
-    assert "frame 1 of 2" in " ".join(volume.notes)
+    assert "time point 1 of 2" in " ".join(volume.notes) and volume.time_points == 2
 
 
 def test_nrrd_spacings_and_gzip(tmp_path, ramp):
@@ -79,7 +79,7 @@ def test_nhdr_with_a_detached_data_file(tmp_path, ramp):
 def test_nrrd_4d_picks_the_non_spatial_axis(tmp_path, ramp):
     nrrd.write(str(tmp_path / "t.nrrd"), np.stack([ramp, -ramp], axis=-1),
                {"kinds": ["domain", "domain", "domain", "list"]})
-    np.testing.assert_array_equal(open_volume(str(tmp_path / "t.nrrd"), frame=1).data, -ramp)
+    np.testing.assert_array_equal(open_volume(str(tmp_path / "t.nrrd"), time=1).data, -ramp)
 
 
 def test_nifti_scan_shipped_with_nibabel():
@@ -96,9 +96,9 @@ def test_nifti_4d_frame_selection_on_the_shipped_example():
     path = NIBABEL_DATA / "example4d.nii.gz"
     reference = np.asarray(nibabel.load(str(path)).dataobj)
     default = open_volume(str(path))
-    assert "showing frame 0 of 2 (use --frame N)" in default.notes[0]
+    assert "showing time point 0 of 2 (use --time N)" in default.notes[0]
     np.testing.assert_array_equal(default.data, reference[..., 0])
-    np.testing.assert_array_equal(open_volume(str(path), frame=1).data, reference[..., 1])
+    np.testing.assert_array_equal(open_volume(str(path), time=1).data, reference[..., 1])
     assert default.spacing == pytest.approx((2.0, 2.0, 2.2), rel=1e-5)
 
 
@@ -198,7 +198,7 @@ def test_big_npy_is_read_in_slabs_with_progress(tmp_path, small_slabs, order):
 def test_nifti_is_read_in_z_slabs_with_progress(small_slabs):
     path = NIBABEL_DATA / "example4d.nii.gz"
     calls = []
-    volume = open_volume(str(path), frame=1, progress=lambda f, m: calls.append(f))
+    volume = open_volume(str(path), time=1, progress=lambda f, m: calls.append(f))
     np.testing.assert_array_equal(volume.data, np.asarray(nibabel.load(str(path)).dataobj)[..., 1])
     assert len(calls) > 3 and calls == sorted(calls) and calls[-1] == 1.0
 
