@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from ..validation import as_gradient_direction
+from ..volumes.time_points import same_shape
 from .common import check_label_options, checked_levels, level_path, progress, wrote
 from .volume_options import TimeRange, open_volume_from_args
 
@@ -90,10 +91,12 @@ def run_export(args) -> int:
         _export_levels(volume, args, args.out)
         return 0
     points = args.time.points(volume.time_points)   # --time all or A:B: one mesh (per level) per time point
+    first_shape = volume.data.shape
     for time in points:
         if time != points[0]:
             volume = open_volume_from_args(args.volume, argparse.Namespace(**{**vars(args), "time": time}),
                                            progress, **_export_open_options(args))
+            same_shape(volume, first_shape, time)
         _export_levels(volume, args, time_path(args.out, time))
     return 0
 

@@ -45,3 +45,42 @@ def select_time(data: np.ndarray, time_axis: int, time: int | None, what: str):
         return data, []
     index = time_index(time, data.shape[time_axis], what)
     return np.take(data, index, axis=time_axis), [time_note(index, data.shape[time_axis])]
+
+
+# --- a series of 3-D files named by a pattern: 'run/field_*.npy' ------------------------------------
+PATTERN_CHARACTERS = "*?["
+MAX_SERIES_FILES = 100_000
+
+
+def is_pattern(spec: str) -> bool:
+    """A spec naming several files by a glob pattern (and not itself an existing path)."""
+    from pathlib import Path
+    return any(c in spec for c in PATTERN_CHARACTERS) and not Path(spec).expanduser().exists()
+
+
+def natural_key(name: str):
+    """'f_10' after 'f_9': digit runs compare as numbers."""
+    import re
+    return [(0, int(part), "") if part.isdigit() else (1, 0, part) for part in re.split(r"(\d+)", name)]
+
+
+def series_files(pattern: str) -> list:
+    """The files a glob pattern names, in natural order of their paths; one line where there are none."""
+    import glob
+    from pathlib import Path
+    matches = sorted((Path(p) for p in glob.iglob(str(Path(pattern).expanduser())) if Path(p).is_file()),
+                     key=lambda p: natural_key(str(p)))
+    if not matches:
+        raise VolumeError(f"no file matches {pattern}; check the pattern (quote it so the shell does not expand it)")
+    if len(matches) > MAX_SERIES_FILES:
+        raise VolumeError(f"{pattern} matches {len(matches):,} files, more than {MAX_SERIES_FILES:,} time points; "
+                          "narrow the pattern")
+    return matches
+
+
+def same_shape(volume, first_shape, time: int) -> None:
+    """A series' time points must all have the first one's shape (export --time all checks each)."""
+    from .volume import shape_text
+    if tuple(volume.data.shape) != tuple(first_shape):
+        raise VolumeError(f"time point {time} ({volume.name}) is {shape_text(volume.data.shape)} where the "
+                          f"series' first is {shape_text(first_shape)}; a series' time points must have one shape")

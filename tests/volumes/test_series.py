@@ -117,3 +117,30 @@ def test_a_time_past_the_end_or_a_range_where_one_point_is_shown_is_one_line(tmp
 def test_a_3d_file_given_a_time_is_refused(tmp_path):
     path = write_npy(tmp_path, balls(), balls()[0])[1]
     assert_one_line_error(run("export", path, "--time", "1", "--out", tmp_path / "o.stl"), "3-D", "drop --time")
+
+
+def test_a_pattern_of_3d_files_is_a_series_in_natural_order(tmp_path):
+    series = balls()
+    for time, name in enumerate(("f_2.npy", "f_10.npy", "f_33.npy")):  # natural order: 2, 10, 33
+        np.save(tmp_path / name, series[time])
+    pattern = str(tmp_path / "f_*.npy")
+    for time in range(TIMES):
+        volume = open_volume(pattern, time=time)
+        assert volume.time_points == TIMES and np.array_equal(volume.data, series[time])
+    assert "series of 3 files: showing time point 1, f_10.npy" in " ".join(open_volume(pattern, time=1).notes)
+    result = run("export", pattern, "--iso", "0", "--time", "all", "--out", tmp_path / "g.ply")
+    assert result.returncode == 0, result.stderr
+    for time in range(TIMES):
+        single = run("export", tmp_path / ("f_2.npy", "f_10.npy", "f_33.npy")[time], "--iso", "0",
+                     "--out", tmp_path / f"one{time}.ply")
+        assert single.returncode == 0
+        assert (tmp_path / f"g_t{time:03d}.ply").read_bytes() == (tmp_path / f"one{time}.ply").read_bytes()
+
+
+def test_a_series_of_mixed_shapes_or_no_files_is_one_line(tmp_path):
+    np.save(tmp_path / "m_0.npy", balls()[0])
+    np.save(tmp_path / "m_1.npy", balls()[1][:, :, :-2])
+    result = run("export", tmp_path / "m_*.npy", "--iso", "0", "--time", "all", "--out", tmp_path / "m.stl")
+    assert_one_line_error(result, "time point 1 (m_1.npy)", "one shape")
+    assert not (tmp_path / "m_t001.stl").exists()
+    assert_one_line_error(run("export", tmp_path / "nothing_*.npy", "--out", tmp_path / "n.stl"), "no file matches")
