@@ -1,4 +1,4 @@
-"""`marching_cubes` (scikit-image's call) and `marching_tetrahedra`, on the GPU or in numpy."""
+"""`marching_cubes` (scikit-image's call) and `marching_tetrahedra`, on the GPU, compiled on the CPU or in numpy."""
 from __future__ import annotations
 
 import numpy as np
@@ -11,7 +11,7 @@ from .cpu.smooth import check_iterations, smooth_projected
 from .cpu.tetra import marching_tetrahedra_reference
 from .options import MeshOptions
 
-BACKENDS = ("auto", "gpu", "cpu")
+BACKENDS = ("auto", "gpu", "cpu", "numpy")
 METHODS = ("lewiner", "lorensen")
 
 
@@ -45,10 +45,11 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         Accepted for scikit-image's sake; both give this extractor's mesh, whose
         case table resolves ambiguous faces from their four corners [2]_, so it is
         watertight as "lewiner" [4]_ is, and unlike "lorensen" [1]_ never has holes.
-    backend : {"auto", "gpu", "cpu"}, default "auto"
+    backend : {"auto", "gpu", "cpu", "numpy"}, default "auto"
         "gpu" (OpenGL 4.3 compute shaders; a standalone EGL context when none is
-        current), "cpu" (the numpy extractor), or "auto" (GPU when an OpenGL 4.3
-        context can be had).
+        current), "cpu" (compiled CPU kernels, `isoscope.cpu.compiled`), "numpy"
+        (the numpy reference extractor, `isoscope.cpu.cubes`), or "auto" (GPU when
+        an OpenGL 4.3 context can be had, else "cpu").  All give the same mesh.
     smooth : int, default 0
         Iterations of smoothing, each projected back onto the level set
         (`smooth_mesh`); 0 is the plain marching-cubes mesh.  A few iterations
@@ -68,7 +69,7 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         edges.  The extra vertices come after the plain ones; the mesh stays
         watertight.  The plain mesh is made on the chosen backend; on "gpu" the
         feature step's per-patch solve runs there too (shaders/emc_solve.comp:
-        the numpy mesh), the rest of it in numpy; on "cpu" all of it in numpy.
+        the numpy mesh), the rest of it in numpy; on "cpu" and "numpy" all of the feature step in numpy.
     mask : (I, J, K) bool array, optional
         As in scikit-image, only the cells whose far corner (i + 1, j + 1, k + 1)
         the mask holds true get triangles, so the surface is open where it leaves
@@ -170,7 +171,8 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks)
     # The plain GPU mesh of every sample leaves the value scan to the upload (check_volume's scan_values).
     every_sample = isinstance(step_size, (int, np.integer)) and step_size == 1
-    checked = validation.check_volume(volume, scan_values=backend == "cpu" or angle is not None or not every_sample)
+    on_cpu = backend in ("cpu", "numpy")
+    checked = validation.check_volume(volume, scan_values=on_cpu or angle is not None or not every_sample)
     step = validation.as_step_size(step_size)
     spacing = validation.as_spacing(spacing)
     descent = validation.as_gradient_direction(gradient_direction)
@@ -182,6 +184,9 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         spacing = tuple(s * step for s in spacing)
 
     if backend == "cpu":
+        from .cpu.compiled import marching_cubes_compiled  # numba loads on first use
+        mesh = _on_cpu(marching_cubes_compiled, checked, level, spacing, descent, iterations)
+    elif backend == "numpy":
         mesh = _on_cpu(marching_cubes_reference, checked, level, spacing, descent, iterations)
     elif angle is not None:
         from .gpu.sharp_features import marching_cubes_sharp_gpu
@@ -214,7 +219,7 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     volume, level, spacing, gradient_direction
         As for `marching_cubes`.
     backend : {"auto", "gpu", "cpu", "numpy"}, default "auto"
-        "gpu", "cpu" (or its other name "numpy": the numpy extractor), or "auto".
+        "gpu", "cpu" or "numpy" (both the numpy extractor, for now), or "auto".
     smooth : int, default 0
         Iterations of smoothing projected back onto the level set, as in
         `marching_cubes`.
@@ -267,14 +272,15 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     """
     iterations = check_iterations(smooth)
     backend = _backend(backend, TETRA_BACKENDS)
-    checked = validation.check_volume(volume, scan_values=backend == "cpu")  # else scanned on upload
+    on_cpu = backend in ("cpu", "numpy")
+    checked = validation.check_volume(volume, scan_values=on_cpu)  # else scanned on upload
     mask = check_mask(mask, checked.data.shape)
     MeshOptions(cells="tetrahedra", smooth=iterations, masked=mask is not None).check()
     spacing = validation.as_spacing(spacing)
     descent = validation.as_gradient_direction(gradient_direction)
     if checked.value_range is not None:
         level = validation.as_level(level, checked.value_range)
-    if backend == "cpu":
+    if on_cpu:
         mesh = _on_cpu(marching_tetrahedra_reference, checked, level, spacing, descent, iterations)
     else:
         mesh = _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra=True)
@@ -282,7 +288,7 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
 
 
 def _on_cpu(extract, checked, level, spacing, descent, iterations):
-    """The numpy extractor's mesh (`extract`: cubes' or tetrahedra's), smoothed `iterations` times."""
+    """A CPU extractor's mesh (`extract`: compiled or numpy cubes, or tetrahedra), smoothed `iterations` times."""
     field = checked.data.astype(np.float32, copy=False)
     verts, faces, normals, values = extract(field, level, spacing, descent)
     if iterations:
@@ -331,7 +337,7 @@ def _backend(backend: str, allowed=BACKENDS) -> str:
     if backend == "auto":
         from .gpu.context import gl_available
         return "gpu" if gl_available() else "cpu"
-    return "cpu" if backend == "numpy" else backend
+    return backend
 
 
 def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0, 1.0),
@@ -363,8 +369,8 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
         Which side of the level is the object, as for `marching_cubes`.
     normals : (N, 3) array_like, optional
         Kept where the field is flat (its gradient vanishes); zeros if not given.
-    backend : {"auto", "gpu", "cpu"}, default "auto"
-        As for `marching_cubes`; both give the same mesh.
+    backend : {"auto", "gpu", "cpu", "numpy"}, default "auto"
+        As for `marching_cubes` ("cpu" and "numpy" both smooth in numpy); all give the same mesh.
 
     Returns
     -------
@@ -426,7 +432,7 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
         raise ValueError(f"faces index vertices 0 .. {faces.max()}, but there are {len(verts)} vertices; "
                          "pass the faces of this mesh")
     normals = np.zeros_like(verts) if normals is None else np.ascontiguousarray(normals, np.float32).reshape(-1, 3)
-    if backend == "cpu" or not len(faces):
+    if backend in ("cpu", "numpy") or not len(faces):
         return smooth_projected(verts, faces, checked.data.astype(np.float32, copy=False), level, iterations,
                                 spacing, descent=descent, normals=normals, value_range=checked.value_range)
 
@@ -449,7 +455,7 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
 def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks):
     from .big.chunked import as_chunks, marching_cubes_chunked, value_range
     from .core.lazy_arrays import is_lazy
-    if backend == "cpu" or step_size != 1:
+    if backend in ("cpu", "numpy") or step_size != 1:
         raise ValueError("chunks= runs on the GPU at step_size 1; drop chunks, or use backend='gpu' and step_size=1")
     source = volume.data if isinstance(volume, validation.CheckedVolume) else volume
     if not is_lazy(source):

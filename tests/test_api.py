@@ -101,6 +101,37 @@ def test_bad_input_raises_one_line_value_error(volume, level, kwargs, words):
     assert words in message and "\n" not in message
 
 
+@pytest.mark.parametrize("volume, level, kwargs, words", [bad for bad in BAD if "backend" not in bad[2]])
+def test_bad_input_gets_the_same_error_on_the_cpu_backends(volume, level, kwargs, words):
+    messages = []
+    for backend in ("cpu", "numpy"):
+        with pytest.raises(ValueError) as err:
+            isoscope.marching_cubes(volume, level, backend=backend, **kwargs)
+        messages.append(str(err.value))
+    assert messages[0] == messages[1] and words in messages[0]
+
+
+@pytest.mark.parametrize("options", [{}, {"gradient_direction": "ascent", "spacing": (0.5, 1.0, 2.0)},
+                                     {"smooth": 2}, {"sharp_features": 30}, {"step_size": 2},
+                                     {"mask": np.indices((32, 32, 32)).sum(axis=0) < 40}])
+def test_cpu_backend_gives_the_numpy_backend_s_mesh(options):
+    """backend="cpu" (compiled kernels) and "numpy" (the reference) make one mesh, whatever the options."""
+    volume = sphere(32)
+    compiled = isoscope.marching_cubes(volume, 0.0, backend="cpu", **options)
+    reference = isoscope.marching_cubes(volume, 0.0, backend="numpy", **options)
+    assert len(compiled[1]) > 0
+    for a, b in zip(compiled, reference):
+        assert a.dtype == b.dtype
+        np.testing.assert_array_equal(a, b)
+
+
+def test_cpu_backend_takes_integer_volumes():
+    volume = (sphere(16) < 0).astype(np.uint8) * 200
+    verts, faces, _, _ = isoscope.marching_cubes(volume, 100, backend="cpu")
+    assert len(verts) == sign_changing_edges(volume.astype(np.float32), 100.0)
+    np.testing.assert_array_equal(faces, isoscope.marching_cubes(volume, 100, backend="numpy")[1])
+
+
 @pytest.mark.parametrize("step", [2, 3])
 @pytest.mark.gl
 def test_step_size_gives_scikit_image_s_coarse_mesh(step):
