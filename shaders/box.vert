@@ -1,4 +1,4 @@
-#version 430
+#version 410
 // The volume's bounding box: 12 edges drawn as GL_LINES, corners in world units.
 in vec3 in_position;
 

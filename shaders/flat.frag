@@ -1,4 +1,4 @@
-#version 430
+#version 410
 // One flat colour: the wireframe overlay (translucent, blended) and the bounding box.
 uniform vec3 u_color;
 uniform float u_opacity;

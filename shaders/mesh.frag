@@ -1,4 +1,4 @@
-#version 430
+#version 410
 // Two-sided Blinn-Phong: a headlight plus a fill light from the upper left.
 // Back faces get their own colour, so holes and inside-out surfaces show.
 // With OIT defined, a translucent surface's fragment goes to the weighted blended

@@ -1,4 +1,4 @@
-#version 430
+#version 410
 // The extractor's vertex records: vec4(position.xyz, value), vec4(normal.xyz, 0),
 // positions in world units (array index times spacing; axis 0 is world x).
 // Lighting is done in view space, where the headlight is simply the eye.

@@ -1,4 +1,4 @@
-#version 430
+#version 410
 // Weighted blended OIT's resolve (oit.py): the translucent layers' weighted mean colour over
 // the opaque scene, by the revealage (the product of (1 - a) of the layers at the pixel).
 // Premultiplied alpha, so a transparent background stays transparent where nothing is.

@@ -1,4 +1,4 @@
-#version 430
+#version 410
 // One triangle that covers the viewport (no vertex buffer: made from gl_VertexID).
 void main() {
     vec2 corner = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));

@@ -1,4 +1,4 @@
-#version 430
+#version 410
 // A slice through the volume: its values (bilinear between samples) through a colour map with a
 // window/level, and the isocurve at u_iso on top.  The curve is marching squares on this pixel's
 // grid square, as the 3-D extractor cuts a cell face: vertices linear along the sign-changing

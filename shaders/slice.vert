@@ -1,4 +1,4 @@
-#version 430
+#version 410
 // A slice plane: world position, and where on the slice image it is, in samples (row, column).
 in vec3 in_position;
 in vec2 in_voxel;

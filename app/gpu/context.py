@@ -4,6 +4,13 @@ The viewer makes a window whose context is current; everything else (tests,
 `isoscope render`, `isoscope.marching_cubes(backend="gpu")` from a script) gets a
 standalone EGL context, which needs no display (Mesa llvmpipe, or the NVIDIA
 driver on a GPU machine).
+
+4.3 is asked for first (compute shaders and storage buffers: the GPU extractor).  Where the driver
+gives less, a 4.1 core context is taken (what macOS gives, what Mesa's
+MESA_GL_VERSION_OVERRIDE=4.1 imitates): it draws (the viewer, `isoscope render`) while meshes are
+extracted on the CPU.  Whether compute is there is decided by the context's version, not by an
+extension string, so the override imitates a Mac faithfully.  Callers that run compute shaders ask
+with the default `require=REQUIRED_GL` and get GLUnavailable on a 4.1 context.
 """
 from __future__ import annotations
 
@@ -14,12 +21,30 @@ import moderngl
 from ..errors import IsoscopeError
 
 REQUIRED_GL = 430  # compute shaders and SSBOs
+DRAWING_GL = 410   # the least the viewer and `isoscope render` draw with (4.1 core: macOS)
 
 _standalone: moderngl.Context | None = None
 
 
 class GLUnavailable(IsoscopeError, RuntimeError):
-    """No OpenGL 4.3 context could be made here."""
+    """No OpenGL context of the version asked for could be made here."""
+
+
+def version_text(code: int) -> str:
+    """430 -> "4.3"."""
+    return f"{code // 100}.{code % 100 // 10}"
+
+
+def has_compute(ctx: moderngl.Context) -> bool:
+    """Compute shaders and storage buffers (the GPU extractor): by the context's version, >= 4.3."""
+    return ctx.version_code >= REQUIRED_GL
+
+
+def _check_version(ctx: moderngl.Context, require: int) -> moderngl.Context:
+    if ctx.version_code < require:
+        raise GLUnavailable(f"the OpenGL context here is {version_text(ctx.version_code)}, and this needs "
+                            f"{version_text(require)}" + (" (compute shaders)" if require >= REQUIRED_GL else ""))
+    return ctx
 
 
 _glx_current = None  # libGL's glXGetCurrentContext, loaded once; False where it cannot be had
@@ -39,8 +64,9 @@ def _window_context_current() -> bool | None:
     return None if _glx_current is False else bool(_glx_current())
 
 
-def current_or_standalone() -> moderngl.Context:
-    """The context current on this thread (a viewer window's), else a cached standalone EGL one.
+def current_or_standalone(require: int = REQUIRED_GL) -> moderngl.Context:
+    """The context current on this thread (a viewer window's), else a cached standalone EGL one (4.3 where
+    the driver has it, else 4.1); GLUnavailable where it is older than `require` (default: compute).
 
     Whether one is current is asked of libGL directly: moderngl's own detection looks for libGL
     with ctypes.util.find_library, which runs `ldconfig -p` in a subprocess, ~2.3 ms a call, and
@@ -48,32 +74,56 @@ def current_or_standalone() -> moderngl.Context:
     global _standalone
     if _window_context_current() is not False:
         try:
-            ctx = moderngl.create_context(require=REQUIRED_GL)
-            return ctx
+            ctx = moderngl.create_context(require=DRAWING_GL)
         except Exception:
-            pass
+            ctx = None
+        if ctx is not None:
+            return _check_version(ctx, require)
     if _standalone is None:
-        _standalone = standalone()
-    return _standalone
+        _standalone = standalone(DRAWING_GL)
+    return _check_version(_standalone, require)
 
 
-def standalone() -> moderngl.Context:
-    """A new headless context (EGL first, then the platform default)."""
+def standalone(require: int = REQUIRED_GL) -> moderngl.Context:
+    """A new headless context (EGL first, then the platform default): 4.3, else (with `require` 410) 4.1 core."""
     errors = []
-    for kwargs in ({"backend": "egl"}, {}):
-        try:
-            return moderngl.create_context(standalone=True, require=REQUIRED_GL, **kwargs)
-        except Exception as exc:  # each backend fails in its own way; report them all
-            errors.append(f"{kwargs.get('backend', 'default')}: {exc}".strip())
+    for version in (REQUIRED_GL, DRAWING_GL):
+        if version < require:
+            break
+        for kwargs in ({"backend": "egl"}, {}):
+            try:
+                return moderngl.create_context(standalone=True, require=version, **kwargs)
+            except Exception as exc:  # each backend fails in its own way; report them all
+                errors.append(f"{version_text(version)} {kwargs.get('backend', 'default')}: {exc}".strip())
     raise GLUnavailable(
-        "no OpenGL 4.3 context: " + "; ".join(errors)
+        f"no OpenGL {version_text(require)} context: " + "; ".join(errors)
         + " (install Mesa's EGL drivers, e.g. apt-get install libegl1 libgl1-mesa-dri)"
     )
 
 
 def gl_available() -> bool:
+    """A context with compute shaders (4.3) can be had here: what backend="auto" asks."""
     try:
         current_or_standalone()
         return True
     except GLUnavailable:
         return False
+
+
+def gl_summary(ctx: moderngl.Context) -> str:
+    """"OpenGL 4.1, CPU extractor" or "OpenGL 4.3, GPU extractor": what the panel's Stats and --version say."""
+    return f"OpenGL {version_text(ctx.version_code)}, {'GPU' if has_compute(ctx) else 'CPU'} extractor"
+
+
+def describe() -> str:
+    """What `isoscope --version` says of GL here: the context to be had, and which extractor makes meshes."""
+    try:
+        ctx = current_or_standalone(DRAWING_GL)
+    except GLUnavailable as exc:
+        return (f"no OpenGL here ({str(exc).split(': ', 1)[-1][:120]}): CPU extractor; `isoscope export` and the "
+                "API work, the viewer and `isoscope render` need OpenGL 4.1")
+    renderer = ctx.info.get("GL_RENDERER", "unknown renderer")
+    if has_compute(ctx):
+        return f"OpenGL {version_text(ctx.version_code)} ({renderer}): GPU extractor (compute shaders)"
+    return (f"OpenGL {version_text(ctx.version_code)} ({renderer}): CPU extractor (no compute shaders below "
+            f"{version_text(REQUIRED_GL)}); the viewer and `isoscope render` draw its meshes")

@@ -46,7 +46,7 @@ class ImguiLayer:
         if self._has_window:
             # install_callbacks=True chains to callbacks set on the window before this call.
             imgui.backends.glfw_init_for_opengl(glfw_window_address, True)
-        imgui.backends.opengl3_init("#version 430")
+        imgui.backends.opengl3_init("#version 410")  # 4.1 core (macOS) and newer
 
     def new_frame(self, display_size: tuple[int, int] | None = None, dt_seconds: float = 1 / 60) -> None:
         imgui.set_current_context(self.context)
