@@ -30,7 +30,10 @@ RUNNERS = {"render": run_render, "export": run_export, "volumes": run_volumes}
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv and argv[0] in COMMANDS:
+    if argv and argv[0] == "measure":
+        from .measure import measure_parser, run_measure
+        args, runner = measure_parser().parse_args(argv[1:]), run_measure
+    elif argv and argv[0] in COMMANDS:
         command, rest = argv[0], argv[1:]
         args, runner = command_parser(command).parse_args(rest), RUNNERS[command]
     else:

@@ -1,0 +1,96 @@
+"""`isoscope measure` (issue 26): area, enclosed volume, pieces and box per surface, against the analytic
+sphere, against trimesh on the exported file, and its refusals in one line."""
+from __future__ import annotations
+
+import json
+import math
+
+import nibabel
+import numpy as np
+import pytest
+import trimesh
+from support.command import assert_one_line_error, isoscope
+
+from isoscope.cpu.measure import components, measure_surface
+
+R = 0.6
+
+
+def ball_field(n=81, centres=((0.0, 0.0, 0.0),), radius=R):
+    axis = np.linspace(-1, 1, n, dtype=np.float64)
+    x, y, z = np.meshgrid(axis, axis, axis, indexing="ij")
+    distance = np.min([np.sqrt((x - a) ** 2 + (y - b) ** 2 + (z - c) ** 2) for a, b, c in centres], axis=0)
+    return (radius - distance).astype(np.float32)
+
+
+def measured(*args):
+    result = isoscope("measure", *args, "--json")
+    assert result.returncode == 0, result.stderr
+    return json.loads(result.stdout)   # stdout holds the JSON and nothing else
+
+
+def test_a_sphere_measures_as_the_analytic_one(tmp_path):
+    np.save(tmp_path / "ball.npy", ball_field())
+    spacing = 2.0 / 80   # the grid spans -1..1 in 80 cells: world units are the field's
+    (record,) = measured(tmp_path / "ball.npy", "--iso", "0", "--spacing", *[str(spacing)] * 3)
+    assert record["level"] == 0.0 and record["components"] == 1 and record["open_edges"] == 0
+    assert record["area_mm2"] == pytest.approx(4 * math.pi * R * R, rel=0.01)
+    assert record["volume_ml"] * 1000 == pytest.approx(4 / 3 * math.pi * R ** 3, rel=0.01)
+    assert record["largest_component_ml"] == record["volume_ml"]
+    lo, hi = np.array(record["bbox_min"]), np.array(record["bbox_max"])
+    assert np.allclose(hi - lo, 2 * R, atol=spacing) and np.allclose((hi + lo) / 2, 1.0, atol=spacing)
+
+
+def test_measures_agree_with_trimesh_on_the_exported_file_in_world_millimetres(tmp_path):
+    affine = np.diag([2.0, -1.5, 1.0, 1.0])   # 2 x 1.5 x 1 mm voxels, y mirrored: RAS world coordinates
+    affine[:3, 3] = (10, 20, -5)
+    nibabel.save(nibabel.Nifti1Image(ball_field(61, ((0.3, 0, 0), (-0.5, 0.1, 0)), 0.3), affine), tmp_path / "b.nii")
+    records = measured(tmp_path / "b.nii", "--iso", "0")
+    assert isoscope("export", tmp_path / "b.nii", "--iso", "0", "--out", tmp_path / "b.stl").returncode == 0
+    mesh = trimesh.load(tmp_path / "b.stl", force="mesh")
+    (record,) = records
+    assert record["components"] == 2 == len(mesh.split(only_watertight=False))
+    assert record["area_mm2"] == pytest.approx(mesh.area, rel=0.005)
+    assert record["volume_ml"] * 1000 == pytest.approx(mesh.volume, rel=0.005)
+    assert np.allclose(record["bbox_min"], mesh.bounds[0], atol=1e-3)
+    assert np.allclose(record["bbox_max"], mesh.bounds[1], atol=1e-3)
+    assert record["largest_component_ml"] < record["volume_ml"]
+
+
+def test_labels_are_measured_one_by_one(tmp_path):
+    labels = np.zeros((20, 20, 20), np.uint8)
+    labels[2:8, 2:8, 2:8] = 1        # a 6^3 cube of voxels
+    labels[10:18, 3:7, 3:7] = 3
+    np.save(tmp_path / "seg.npy", labels)
+    records = measured(tmp_path / "seg.npy", "--labels")
+    assert [r["label"] for r in records] == [1, 3]
+    assert all(r["components"] == 1 and r["open_edges"] == 0 for r in records)
+    # the label surface runs through the voxels' boundary midpoints: volume near the voxel count
+    assert records[0]["volume_ml"] * 1000 == pytest.approx(6 ** 3, rel=0.15)
+    assert records[1]["volume_ml"] > records[0]["volume_ml"] * 0.5
+
+
+def test_text_output_names_an_open_surface(tmp_path):
+    np.save(tmp_path / "cut.npy", ball_field()[:, :, :40])   # the ball cut in half by the volume's edge
+    result = isoscope("measure", tmp_path / "cut.npy", "--iso", "0")
+    assert result.returncode == 0 and "open at" in result.stdout and "mm^2" in result.stdout
+
+
+@pytest.mark.parametrize("args, words", [
+    (("--iso", "5"), ("--iso 5 is outside",)),
+    (("--labels", "--iso", "0"), ("--iso", "--labels")),
+    (("--max-labels", "3"), ("--max-labels needs --labels",)),
+])
+def test_bad_measures_are_one_line(tmp_path, args, words):
+    np.save(tmp_path / "ball.npy", ball_field(21))
+    assert_one_line_error(isoscope("measure", tmp_path / "ball.npy", *args), *words)
+
+
+def test_pieces_by_shared_vertices():
+    faces = np.array([[0, 1, 2], [2, 3, 0], [4, 5, 6], [7, 8, 9], [9, 10, 7]])
+    labels = components(12, faces)
+    assert len(np.unique(labels[:11])) == 3 and labels[11] == 11   # vertex 11 is in no triangle
+    long_strip = np.array([[i, i + 1, i + 2] for i in range(2000)])   # one piece across 2002 vertices
+    assert len(np.unique(components(2002, long_strip))) == 1
+    empty = measure_surface(np.zeros((0, 3)), np.zeros((0, 3), np.int32))
+    assert empty.components == 0 and empty.area == 0.0
