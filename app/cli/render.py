@@ -45,10 +45,14 @@ def _apply_mesh_arguments(state, args) -> None:
 
 
 def run_render(args) -> int:
-    from ..gpu.context import current_or_standalone
+    from ..gpu.context import DRAWING_GL, GLUnavailable, current_or_standalone
     from ..viewer.ui.headless import check_render_size
     check_render_size(args.size)  # pixels: before a GL context is made
-    check_render_size(args.size, current_or_standalone())  # the driver's limits, before the volume is read
+    try:
+        ctx = current_or_standalone(DRAWING_GL)   # 4.3, else 4.1 core (meshes made on the CPU)
+    except GLUnavailable as exc:
+        raise GLUnavailable(f"render needs OpenGL 4.1 or newer (`isoscope export` does not): {exc}") from None
+    check_render_size(args.size, ctx)  # the driver's limits, before the volume is read
     if args.labels:
         check_label_options(args, "--iso", "--panel")
         from ..viewer.ui.headless import render_labels_png

@@ -120,15 +120,19 @@ def _sample(tree, box: Box, shape, backend: str, ctx, progress):
     if backend not in ("auto", "gpu", "cpu"):
         raise ValueError(f"backend must be 'auto', 'gpu' or 'cpu', not {backend!r}")
     if backend != "cpu":
-        from isoscope.gpu.context import GLUnavailable
+        from isoscope.gpu.context import REQUIRED_GL, GLUnavailable, current_or_standalone, version_text
 
         from .gpu_sampler import TooCostlyForGPU, sample_on_gpu
         try:
+            if ctx is not None and ctx.version_code < REQUIRED_GL:   # a 4.1 window's (macOS): no compute
+                raise GLUnavailable(f"the OpenGL context here is {version_text(ctx.version_code)}, with no "
+                                    "compute shaders")
             return sample_on_gpu(tree, box, shape, ctx=ctx, progress=progress), []
         except GLUnavailable as exc:
             if backend == "gpu":
                 raise VolumeError(f"cannot sample on the GPU: {exc}; use the cpu backend") from None
-            note = "no GPU context; the expression was sampled with numpy"
+            note = ("no GPU context; the expression was sampled with numpy" if not _has_gl(current_or_standalone)
+                    else "no OpenGL 4.3 compute shaders here; the expression was sampled with numpy")
         except TooCostlyForGPU:
             if backend == "gpu":
                 raise
@@ -144,6 +148,16 @@ def _sample(tree, box: Box, shape, backend: str, ctx, progress):
         note = None
     data = sample_function(_evaluator(tree, shape), box, shape, what="the expression", progress=progress)
     return data, [note] if note else []
+
+
+def _has_gl(current_or_standalone) -> bool:
+    """Whether any context (4.1 for drawing at least) can be had: which note an expression sampled in numpy gets."""
+    from isoscope.gpu.context import DRAWING_GL, GLUnavailable
+    try:
+        current_or_standalone(DRAWING_GL)
+        return True
+    except GLUnavailable:
+        return False
 
 
 def _evaluator(tree, shape):

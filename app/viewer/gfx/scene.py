@@ -26,6 +26,7 @@ import moderngl
 
 from ...core.layout import INDEX_BYTES, VERTEX_BYTES
 from ...gpu.buffers import GrowableBuffer
+from ...gpu.context import gl_summary, has_compute
 from ...gpu.mesh import GpuMesh
 from ...labels import check_label_output, label_surfaces, labels_of, write_labelled
 from ...volumes import Volume
@@ -36,6 +37,7 @@ from ..model.levels import Level
 from ..model.state import Opened, ViewerState
 from . import surface as surface_module
 from .colorby import GpuColorBy
+from .cpu_surface import CpuSurface
 from .label_scene import label_scene, release_scene
 from .renderer import SurfaceLook
 from .surface import GpuSurface
@@ -78,8 +80,11 @@ class GpuScene:
     def __init__(self, ctx: moderngl.Context, state: ViewerState, previews: bool = False):
         self.ctx, self.state = ctx, state
         self.previews = previews   # coarse meshes while the value moves (the window)
-        state.gl_renderer = ctx.info.get("GL_RENDERER", "unknown")
-        self.surface: GpuSurface | None = None   # the GL side of state.volume
+        # The panel's Stats: the driver, its OpenGL version and which extractor makes the meshes.
+        state.gl_renderer = f"{ctx.info.get('GL_RENDERER', 'unknown')} ({gl_summary(ctx)})"
+        # Below OpenGL 4.3 (no compute shaders: macOS's 4.1) the meshes are made on the CPU (cpu_surface.py).
+        self._surface_class = GpuSurface if has_compute(ctx) else CpuSurface
+        self.surface: GpuSurface | CpuSurface | None = None   # the GL side of state.volume
         self.color_by: GpuColorBy | None = None  # the textures of state.color_by
         self._options = state.mesh_options        # what the meshes on the GPU were made with
         self._on_extractor: Level | None = None   # the level whose mesh the extractor holds
@@ -101,7 +106,7 @@ class GpuScene:
 
     def show_opened(self, opened: Opened, level: float | None = None) -> None:
         """`show` of a volume read (and downsampled) by an "open" job."""
-        surface = GpuSurface(self.ctx, opened.shown, opened.shown.gradient_direction)
+        surface = self._surface_class(self.ctx, opened.shown, opened.shown.gradient_direction)
         self._release_meshes()
         if self.surface is not None:
             self.surface.release()
@@ -158,7 +163,7 @@ class GpuScene:
         failed upload puts the old side back); camera and levels stay."""
         volume = self.state.volume
         try:
-            surface = GpuSurface(self.ctx, volume, volume.gradient_direction)
+            surface = self._surface_class(self.ctx, volume, volume.gradient_direction)
         except BaseException:
             volume.gradient_direction = self.surface.gradient_direction
             raise

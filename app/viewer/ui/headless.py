@@ -11,8 +11,9 @@ from functools import partial
 
 import numpy as np
 
+from ...cpu.sharp.features import sharpen_extracted
 from ...cpu.sharp.normals import crisp_normals
-from ...gpu.context import current_or_standalone
+from ...gpu.context import DRAWING_GL, current_or_standalone, has_compute
 from ...gpu.mesh import GpuMesh
 from ...gpu.sharp_features import sharp_mesh_of
 from ...labels import label_surfaces, labels_of
@@ -86,7 +87,8 @@ class HeadlessViewer:
         self.size = (int(size[0]), int(size[1]))
         # The process's one headless context (the API's too): a second standalone context would
         # become current and leave the first one's compiled programs running in the wrong context.
-        self.ctx = ctx if ctx is not None else current_or_standalone()
+        # 4.3 where the driver has it, else 4.1 core: meshes then come from the CPU (gfx/cpu_surface.py).
+        self.ctx = ctx if ctx is not None else current_or_standalone(DRAWING_GL)
         check_render_size(self.size, self.ctx)  # "the framebuffer is not complete" is no message
         self.state = ViewerState(opener=partial(open_volume, ctx=self.ctx))
         self.scene = GpuScene(self.ctx, self.state)
@@ -238,7 +240,12 @@ def render_sharp_png(volume, out, iso, angle, size=(800, 600), azimuth=None, ele
         viewer.state.style.transparent_background = transparent
         viewer.show(volume, iso, azimuth, elevation)
         extractor = viewer.scene.extractor
-        mesh = GpuMesh.upload(viewer.ctx, *crisp_normals(*sharp_mesh_of(extractor, volume.data, angle)))
+        if has_compute(viewer.ctx):
+            sharpened = sharp_mesh_of(extractor, volume.data, angle)
+        else:   # OpenGL 4.1: the CPU mesh, sharpened by the same numpy steps
+            sharpened = sharpen_extracted(extractor.read_mesh(), volume.checked.data, volume.spacing,
+                                          extractor.descent, angle)
+        mesh = GpuMesh.upload(viewer.ctx, *crisp_normals(*sharpened))
         viewer.target.use()
         viewer.renderer.draw([mesh], viewer.camera, viewer.target.viewport, viewer.state.style)
         target = viewer.target

@@ -1,0 +1,195 @@
+"""The viewer's surface of one volume where the context has no compute shaders (OpenGL 4.1, macOS).
+
+`CpuSurface` is `GpuSurface`'s twin (surface.py: the same `extract`, `shown`, `mesh`, `poll`, `settle`,
+`release`), for a context below 4.3: meshes are extracted on the CPU (`isoscope.cpu.extractor.CpuExtractor`,
+the volume kept resident, one per sample step as the GPU keeps its previews) and each new mesh is uploaded
+into a vertex and an index buffer of the same record layout the GPU extractor writes, so the renderer,
+the level copies and the labels draw it unchanged.  Tetrahedra, smoothing and sharp features run their
+CPU steps on the extracted mesh; sharp features are made at once (no worker thread here).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ...core.layout import INDEX_BYTES, VERTEX_BYTES, VERTEX_FIELDS, VERTEX_FLOATS
+from ...cpu.sharp.features import sharpen_extracted
+from ...cpu.smooth import smooth_projected
+from ...cpu.tetra import marching_tetrahedra_reference
+from ...gpu.buffers import GrowableBuffer
+from ...gpu.mesh import GpuMesh, empty_mesh
+from ...options import MeshOptions
+from ...validation import as_gradient_direction, as_level, subsampled
+from ...volumes import Volume
+from .surface import preview_step
+
+
+def cpu_extractor_class():
+    """The compiled CPU extractor where it is installed, else the numpy one with the same methods."""
+    try:
+        from ...cpu.extractor import CpuExtractor
+        return CpuExtractor
+    except ImportError:
+        return NumpyExtractor
+
+
+class NumpyExtractor:
+    """`CpuExtractor`'s methods over the numpy reference (cpu/cubes.py): the volume kept, each level extracted."""
+
+    def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent"):
+        from ...validation import check_volume
+        checked = check_volume(volume)
+        self.spacing = tuple(float(s) for s in spacing)
+        self.descent = as_gradient_direction(gradient_direction)
+        self.value_range = checked.value_range
+        self._field = np.ascontiguousarray(checked.data, dtype=np.float32)
+        self._mesh = None
+        self.level: float | None = None
+
+    @property
+    def field(self) -> np.ndarray:
+        return self._field
+
+    def extract(self, level: float) -> tuple[int, int]:
+        from ...cpu.cubes import marching_cubes_reference
+        level = as_level(level, self.value_range)
+        self._mesh = marching_cubes_reference(self._field, level, self.spacing, self.descent)
+        self.level = level
+        return len(self._mesh[0]), len(self._mesh[1])
+
+    def read_mesh(self):
+        return tuple(part.copy() for part in self._mesh)
+
+    def release(self) -> None:
+        self._field = self._mesh = None
+
+
+def vertex_records(verts, normals, values) -> bytes:
+    """The GPU extractor's vertex records (core/layout.VERTEX_FIELDS) of numpy arrays."""
+    records = np.zeros((len(verts), VERTEX_FLOATS), np.float32)
+    start = 0
+    for name, width in VERTEX_FIELDS:
+        column = {"position": verts, "value": values, "normal": normals}.get(name)
+        if column is not None:
+            records[:, start:start + width] = np.reshape(column, (-1, width))
+        start += width
+    return records.tobytes()
+
+
+class CpuMesh:
+    """One CPU extraction's mesh, its arrays kept and uploaded: what `GpuSurface.shown` gives the scene
+    (`mesh`, `n_vertices`, `n_triangles`, `last_extract_ms`, `level`, `read_mesh`)."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self._vertices = GrowableBuffer(ctx, VERTEX_BYTES)
+        self._indices = GrowableBuffer(ctx, INDEX_BYTES)
+        self._arrays = empty_mesh()
+        self.n_vertices = self.n_triangles = 0
+        self.level: float | None = None
+        self.last_extract_ms = 0.0
+
+    def take(self, arrays, level: float, extract_ms: float) -> None:
+        verts, faces, normals, values = arrays
+        self._vertices.write(vertex_records(verts, normals, values))
+        self._indices.write(np.ascontiguousarray(faces, np.uint32).tobytes())
+        self._arrays = arrays
+        self.n_vertices, self.n_triangles = len(verts), len(faces)
+        self.level, self.last_extract_ms = level, extract_ms
+
+    @property
+    def mesh(self) -> GpuMesh:
+        return GpuMesh(self._vertices.buffer, self._indices.buffer, self.n_vertices, self.n_triangles)
+
+    def read_mesh(self):
+        """verts, faces, normals, values of the mesh on show (copies)."""
+        return tuple(np.array(part, copy=True) for part in self._arrays)
+
+    def release(self) -> None:
+        self._vertices.release()
+        self._indices.release()
+
+
+class CpuSurface:
+    """`GpuSurface` for a context with no compute shaders: meshes made on the CPU, drawn from a VBO."""
+
+    def __init__(self, ctx, volume: Volume, gradient_direction: str):
+        self.ctx = ctx
+        self.volume = volume
+        self.gradient_direction = gradient_direction
+        self._descent = as_gradient_direction(gradient_direction)
+        make = cpu_extractor_class()
+        self._make = make
+        self.extractor = make(volume.checked, spacing=volume.spacing, gradient_direction=gradient_direction)
+        self._previews: dict[int, object] = {}   # sample step -> extractor of the subsampled volume
+        self._shown = CpuMesh(ctx)
+        self.shown_step = 1
+        self.shown_cells = "cubes"
+        self.shown_sharp = False
+        self.full_triangles = 0
+
+    @property
+    def value_range(self) -> tuple[float, float]:
+        return self.extractor.value_range
+
+    @property
+    def shown(self) -> CpuMesh:
+        return self._shown
+
+    @property
+    def mesh(self) -> GpuMesh:
+        return self._shown.mesh
+
+    def extract(self, iso: float, options: MeshOptions, preview: bool = False, budget: int | None = None,
+                wait: bool = True) -> None:
+        """As GpuSurface.extract: the full mesh, or with `preview` a coarser one where the full one is big."""
+        start = time.perf_counter()
+        step = preview_step(self.full_triangles, self.volume.data.shape, budget) if preview else 1
+        if step > 1 and step not in self._previews:
+            self._previews[step] = self._make(subsampled(self.volume.checked, step),
+                                              spacing=tuple(s * step for s in self.volume.spacing),
+                                              gradient_direction=self.gradient_direction)
+        extractor = self.extractor if step == 1 else self._previews[step]
+        spacing = tuple(s * step for s in self.volume.spacing)
+        field = self.extractor_field(extractor, step)
+        level = as_level(iso, self.value_range)
+        if options.cells == "tetrahedra":
+            arrays = marching_tetrahedra_reference(field, level, spacing, self._descent)
+        else:
+            extractor.extract(level)
+            arrays = extractor.read_mesh()
+        if options.smooth:
+            verts, faces, normals, values = arrays
+            arrays = smooth_projected(verts, faces, field, level, options.smooth, spacing, descent=self._descent,
+                                      normals=normals, value_range=self.value_range)
+        sharp = options.sharp is not None and step == 1 and options.cells == "cubes"
+        if sharp:
+            arrays = sharpen_extracted(arrays, self.volume.checked.data, spacing, self._descent, options.sharp)[:4]
+        self._shown.take(arrays, level, (time.perf_counter() - start) * 1000.0)
+        self.shown_step, self.shown_cells, self.shown_sharp = step, options.cells, sharp
+        self.full_triangles = self._shown.n_triangles * step * step
+
+    def extractor_field(self, extractor, step: int) -> np.ndarray:
+        """The float32 samples `extractor` holds (its `field` where it has one)."""
+        field = getattr(extractor, "field", None)
+        if field is None:
+            data = self.volume.checked.data[::step, ::step, ::step]
+            field = np.ascontiguousarray(data, dtype=np.float32)
+        return field
+
+    @property
+    def sharp_pending(self) -> bool:
+        return False
+
+    def poll(self) -> bool:
+        return False
+
+    def settle(self) -> None:
+        pass
+
+    def release(self) -> None:
+        for extractor in (self.extractor, *self._previews.values()):
+            extractor.release()
+        self._previews.clear()
+        self._shown.release()
