@@ -1,4 +1,5 @@
-"""The desktop window: GLFW + an OpenGL 4.3 core context, the frame loop, mouse and keys.
+"""The desktop window: GLFW + an OpenGL 4.3 core context (else 4.1, as on macOS), the frame loop, mouse
+and keys.
 
 Each frame: poll input -> lay out the panel (which changes the state, `ViewerState`,
 and extracts nothing) -> `scene.update()` brings the GPU in line with the state and
@@ -18,6 +19,7 @@ import moderngl
 import numpy as np
 
 from ...errors import IsoscopeError
+from ...gpu.context import DRAWING_GL
 from ...volumes import Volume, open_volume
 from ..gfx.renderer import OffscreenTarget, SceneRenderer, read_rgb
 from ..gfx.scene import USER_ERRORS, GpuScene
@@ -49,7 +51,7 @@ class MouseEvent:
 
 
 class WindowUnavailable(IsoscopeError, RuntimeError):
-    """No window could be opened (no display, no OpenGL 4.3)."""
+    """No window could be opened (no display, no OpenGL 4.1)."""
 
 
 def _glfw_error_text() -> str:
@@ -57,22 +59,31 @@ def _glfw_error_text() -> str:
     return description.decode() if isinstance(description, bytes) else str(description or "")
 
 
+GL_VERSIONS = ((4, 3), (4, 1))
+"""Asked for in turn: 4.3 (the GPU extractor's compute shaders), else 4.1 core forward-compatible (macOS;
+meshes then come from the CPU, gfx/cpu_surface.py)."""
+
+
 def _open_gl_window(size, title: str, samples: int):
-    glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 4)
-    glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
     glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
     glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
     glfw.window_hint(glfw.SAMPLES, samples)       # GLFW falls back to no MSAA where there is none
     glfw.window_hint(glfw.SCALE_TO_MONITOR, True)  # HiDPI: a window the same physical size
-    window = glfw.create_window(size[0], size[1], title, None, None)
+    window, messages = None, []
+    for major, minor in GL_VERSIONS:
+        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, major)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, minor)
+        window = glfw.create_window(size[0], size[1], title, None, None)
+        if window:
+            break
+        messages.append(f"{major}.{minor}: {_glfw_error_text()}")
     if not window:
-        message = _glfw_error_text()
         glfw.terminate()
-        raise WindowUnavailable(f"cannot create an OpenGL 4.3 core window ({message}); "
+        raise WindowUnavailable(f"cannot create an OpenGL 4.1 (or 4.3) core window ({'; '.join(messages)}); "
                                 "update the graphics driver, or use `isoscope render` for a PNG")
     glfw.make_context_current(window)
     glfw.swap_interval(1)
-    return window, moderngl.create_context(require=430)
+    return window, moderngl.create_context(require=DRAWING_GL)
 
 
 def _is_software_renderer(ctx: moderngl.Context) -> bool:
