@@ -189,6 +189,20 @@ def _add_mesh_modes(parser: argparse.ArgumentParser, labels: str) -> None:
                         help=f"VOLUME is a label map (a segmentation): {labels}")
 
 
+class VersionAction(argparse.Action):
+    """--version: the package's version, the OpenGL context to be had here and which extractor makes meshes
+    (GL is asked only when the flag is given: `isoscope --help` loads none)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from .. import __version__
+        from ..gpu.context import describe
+        print(f"isoscope {__version__}\n{describe()}")
+        parser.exit(0)
+
+
 def viewer_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(
         prog="isoscope",
@@ -196,6 +210,8 @@ def viewer_parser() -> argparse.ArgumentParser:
                     f"the built-in '{DEFAULT_VOLUME}' volume.",
         epilog=KEYS_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("volume", nargs="?", default=DEFAULT_VOLUME, metavar="VOLUME", help=VOLUME_HELP)
+    parser.add_argument("--version", action=VersionAction,
+                        help="print the version, the OpenGL version here and which extractor (GPU or CPU) is used")
     _add_iso(parser)
     parser.add_argument("--size", type=window_size, default=(1280, 800), metavar="WxH",
                         help="window size in screen units (default 1280x800)")
