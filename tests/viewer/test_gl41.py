@@ -1,0 +1,211 @@
+"""The viewer, `isoscope render` and the API on an OpenGL 4.1 core context (macOS's; no compute shaders), and
+with no GL at all.
+
+Mesa's MESA_GL_VERSION_OVERRIDE=4.1 imitates a Mac: the driver offers a 4.1 core context and no more, so
+the meshes come from the CPU extractor and are drawn from a VBO (viewer/gfx/cpu_surface.py).  Each run is a
+subprocess with the override in its environment (Mesa reads it when the process makes its first context;
+the tests' own context is 4.3).  "No GL" is an EGL vendor list that names nothing and no DISPLAY.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+REPO = Path(__file__).resolve().parents[2]
+GL41 = {"MESA_GL_VERSION_OVERRIDE": "4.1", "MESA_GLSL_VERSION_OVERRIDE": "410"}
+SIZE = "320x240"
+CLOSE = 8              # a channel this near counts as the same pixel
+SAME_SHARE = 0.99      # of the pixels, at least, the same on 4.1 as on 4.3
+
+
+def environment(gl41: bool = False, no_gl: bool = False) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("MESA_GL")}
+    if gl41:
+        env.update(GL41)
+    if no_gl:
+        env["__EGL_VENDOR_LIBRARY_FILENAMES"] = "/nonexistent.json"
+        env.pop("DISPLAY", None)
+    return env
+
+
+def isoscope(*args, **env_options) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "isoscope", *map(str, args)], capture_output=True, text=True,
+                          env=environment(**env_options), cwd=REPO, timeout=300)
+
+
+def pixels(path) -> np.ndarray:
+    return np.asarray(Image.open(path).convert("RGB")).astype(int)
+
+
+def render_both(tmp_path, name, *args):
+    """The same `isoscope render` on 4.1 and on 4.3: both images."""
+    images = []
+    for gl41 in (True, False):
+        out = tmp_path / f"{name}-{41 if gl41 else 43}.png"
+        result = isoscope("render", *args, "--size", SIZE, "--out", out, gl41=gl41)
+        assert result.returncode == 0, result.stderr
+        images.append(pixels(out))
+    return images
+
+
+def same_share(a, b) -> float:
+    return float((np.abs(a - b).max(axis=2) <= CLOSE).mean())
+
+
+@pytest.mark.gl
+def test_render_on_41_draws_the_surface_as_on_43(tmp_path):
+    on41, on43 = render_both(tmp_path, "torus", "torus")
+    background = on41[2, 2]
+    surface = np.abs(on41 - background).max(axis=2) > 30
+    assert 0.05 < surface.mean() < 0.6                     # the surface covers part of the image...
+    assert surface[100:140, 100:220].mean() > 0.3          # ...in its middle, where the torus is
+    assert same_share(on41, on43) >= SAME_SHARE
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("name, args", [
+    ("levels", ["metaballs", "--iso", "0.3", "--iso", "0.6", "--opacity", "0.35,1"]),   # translucency (OIT)
+    ("slices", ["bucky", "--slice", "z=32", "--slice", "x=20", "--clip", "y=30"]),       # isocurves, clip cap, inset
+    ("colour", ["gyroid", "--color-by", "gradient", "--wireframe"]),
+    ("panel", ["sphere", "--panel", "--tetrahedra", "--smooth", "2"]),
+    ("sharp", ["box", "--sharp", "30"]),
+])
+def test_render_modes_on_41_match_43(tmp_path, name, args):
+    on41, on43 = render_both(tmp_path, name, *args)
+    assert same_share(on41, on43) >= SAME_SHARE, name
+
+
+@pytest.mark.gl
+def test_render_labels_on_41(tmp_path):
+    labels = np.zeros((24, 24, 24), np.uint8)
+    labels[4:12, 4:20, 4:20], labels[14:20, 6:18, 8:16] = 1, 2
+    np.save(tmp_path / "labels.npy", labels)
+    on41, on43 = render_both(tmp_path, "labels", tmp_path / "labels.npy", "--labels")
+    assert same_share(on41, on43) >= SAME_SHARE
+
+
+SCRIPT = textwrap.dedent("""
+    import numpy as np
+    import isoscope
+    from isoscope.gpu.context import current_or_standalone, DRAWING_GL, gl_available
+    from isoscope.viewer.gfx.cpu_surface import CpuSurface
+    from isoscope.viewer.ui.headless import HeadlessViewer
+    from isoscope.volumes import open_volume
+
+    ctx = current_or_standalone(DRAWING_GL)
+    assert ctx.version_code == 410, ctx.version_code
+    assert not gl_available()          # backend="auto" picks the CPU
+    volume = open_volume("sphere", resolution=32)
+    verts, faces, _, _ = isoscope.marching_cubes(volume.data, 0.0, spacing=volume.spacing, gradient_direction="ascent")
+    assert len(faces) > 0
+
+    viewer = HeadlessViewer((160, 120))
+    viewer.show(volume, 0.0)
+    state, scene = viewer.state, viewer.scene
+    assert isinstance(scene.surface, CpuSurface)
+    assert "OpenGL 4.1, CPU extractor" in state.gl_renderer, state.gl_renderer
+    assert scene.n_triangles == len(faces)
+    read = scene.surface.shown.read_mesh()
+    assert np.array_equal(read[1], faces) and np.allclose(read[0], verts, atol=1e-5)
+    before = scene.n_triangles
+    state.levels.set_value(0.3)        # the slider: re-extracted on the CPU in the next frame
+    viewer.render(panel=True)
+    assert scene.n_triangles != before and scene.surface.shown.level == 0.3
+    state.levels.add(-0.2)             # a second level: the first keeps its copy
+    viewer.update()
+    assert scene.level_stats(0)[0] > 0 and scene.level_stats(1)[0] > 0
+    viewer.release()
+    print("ok")
+""")
+
+
+@pytest.mark.gl
+def test_viewer_on_41_extracts_on_the_cpu_and_follows_the_slider():
+    result = subprocess.run([sys.executable, "-c", SCRIPT], capture_output=True, text=True,
+                            env=environment(gl41=True), cwd=REPO, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "ok"
+
+
+@pytest.mark.gl
+def test_version_says_the_gl_version_and_the_extractor():
+    on41 = isoscope("--version", gl41=True)
+    assert on41.returncode == 0 and "OpenGL 4.1" in on41.stdout and "CPU extractor" in on41.stdout, on41.stdout
+    on43 = isoscope("--version")
+    assert on43.returncode == 0 and "GPU extractor" in on43.stdout, on43.stdout
+
+
+def test_with_no_gl_export_works_and_render_says_it_needs_opengl(tmp_path):
+    out = tmp_path / "torus.ply"
+    exported = isoscope("export", "torus", "--out", out, no_gl=True)
+    assert exported.returncode == 0, exported.stderr
+    assert out.stat().st_size > 0
+    rendered = isoscope("render", "torus", "--out", tmp_path / "t.png", no_gl=True)
+    assert rendered.returncode == 1
+    lines = rendered.stderr.strip().splitlines()
+    assert len(lines) == 1 and "needs OpenGL 4.1" in lines[0], rendered.stderr
+    assert not (tmp_path / "t.png").exists()
+    version = isoscope("--version", no_gl=True)
+    assert version.returncode == 0 and "no OpenGL" in version.stdout and "CPU extractor" in version.stdout
+
+
+@pytest.mark.skipif(shutil.which("Xvfb") is None, reason="Xvfb is not installed (CI installs it)")
+def test_window_on_41_opens_re_extracts_and_drags(x_display, tmp_path):
+    from support.x_window import run_spawned
+    run_spawned(drive_window_on_41, x_display, tmp_path)
+
+
+def drive_window_on_41(x_display, tmp_path):
+    """In the spawned process: the override set before its first context, a real window under Xvfb."""
+    os.environ.update(GL41, DISPLAY=x_display)
+    from support.x_window import frames_until, press_key
+    from test_window_input import Pointer, camera_pose
+
+    from isoscope.viewer.gfx.cpu_surface import CpuSurface
+    from isoscope.viewer.model.recent import RecentFiles
+    from isoscope.viewer.ui.window import ViewerWindow
+    from isoscope.volumes import open_volume
+
+    window = ViewerWindow(open_volume("sphere", resolution=32), size=(640, 400), screenshot_dir=tmp_path,
+                          recent=RecentFiles(None))
+    try:
+        state, scene = window.state, window.scene
+        for _ in range(3):
+            assert window.draw_frame()
+        assert window.ctx.version_code == 410 and isinstance(scene.surface, CpuSurface)
+        assert state.error is None, state.error
+        assert "OpenGL 4.1, CPU extractor" in state.gl_renderer
+        assert scene.n_triangles > 0
+
+        low, high = state.value_range
+        iso, triangles = state.iso, scene.n_triangles
+        press_key(window, "equal", shift=True)   # '+': up 10% of the range, re-extracted on the CPU
+        assert frames_until(window, lambda: state.iso == pytest.approx(iso + 0.1 * (high - low)))
+        assert scene.surface.shown.level == pytest.approx(state.iso) and scene.n_triangles != triangles
+
+        pointer = Pointer(window)
+        (left, top), (right, bottom) = window.panel.iso_slider_box
+        iso = state.iso
+        pointer.drag(window, (left + 0.25 * (right - left), (top + bottom) / 2),
+                     (left + 0.75 * (right - left), (top + bottom) / 2))
+        assert frames_until(window, lambda: scene.surface.shown.level == pytest.approx(state.iso))
+        assert state.iso != pytest.approx(iso), "the slider did not move"
+        pose = camera_pose(window.camera)
+        pointer.drag(window, (480, 200), (540, 220))   # in the 3-D view: the camera orbits
+        assert camera_pose(window.camera) != pytest.approx(pose)
+
+        press_key(window, "s")
+        assert frames_until(window, lambda: window.last_screenshot is not None)
+        shot = np.asarray(Image.open(window.last_screenshot).convert("RGB")).astype(int)
+        background = np.round(np.array(state.style.background) * 255)
+        assert (np.abs(shot[100:300, 380:600] - background).max(axis=2) > 30).mean() > 0.05   # the surface
+    finally:
+        window.close()
