@@ -222,7 +222,9 @@ class GpuScene:
             return
         volume = self.state.volume
         try:
-            scene = label_scene(self.ctx, label_surfaces(labels_of(volume), spacing=volume.spacing))
+            surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing,
+                                      backend="gpu" if has_compute(self.ctx) else "cpu")
+            scene = label_scene(self.ctx, surfaces)
         except BaseException:
             labels.hide()
             raise

@@ -209,7 +209,9 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
 
 def render_labels_png(volume, out, size=(800, 600), azimuth=None, elevation=None, transparent: bool = False):
     """Render every non-zero label of `volume` as its own coloured surface to the PNG `out`."""
-    surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing)
+    ctx = current_or_standalone(DRAWING_GL)   # 4.1 (no compute): the labels' surfaces come from the CPU
+    surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing,
+                              backend="gpu" if has_compute(ctx) else "cpu")
     if not surfaces:
         raise ValueError(f"{volume.name} has no non-zero labels, so no surface to draw; leave out --labels "
                          "to draw an isosurface")
