@@ -267,6 +267,9 @@ def command_parser(command: str) -> argparse.ArgumentParser:
                             help="world (default): the file's own world coordinates where it defines them "
                                  "(NIfTI: RAS; NRRD and DICOM: LPS, as 3D Slicer saves models), so the mesh "
                                  "overlays the scan; voxel: array index x spacing")
+        parser.add_argument("--closed", action="store_true",
+                            help="cap the surface where it leaves the volume, so the mesh is watertight (for "
+                                 "3-D printing and volumes)")
         parser.add_argument("--decimate", type=float, metavar="FRACTION",
                             help="keep about this fraction of the triangles (quadric decimation, 0 < F <= 1); "
                                  "prints how far the result strays from the level set")

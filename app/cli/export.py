@@ -41,6 +41,11 @@ def _extract_for_export(volume, iso, args):
         why = "" if not chunked else ("this export is chunked (--chunk, --workers, --scheduler, or a Zarr or "
                                       "memory-mapped volume): ")
         raise ValueError(why + problem)
+    if getattr(args, "closed", False):
+        if chunked:
+            raise ValueError("--closed pads the whole volume, and this export is chunked (--chunk, --workers, "
+                             "--scheduler, or a Zarr or memory-mapped volume); leave out --closed, or the chunking")
+        return _closed(volume, iso, args)
     if not chunked:
         from .. import marching_cubes, marching_tetrahedra
         if args.tetrahedra:
@@ -59,6 +64,22 @@ def _extract_for_export(volume, iso, args):
                                          scheduler=args.scheduler, workers=args.workers, progress=progress,
                                          path=volume.source)
     return marching_cubes_chunked(volume.data, level, volume.spacing, descent, chunks, progress=progress)
+
+
+def _closed(volume, iso, args):
+    """The mesh of the volume padded on the outside of the level: capped where it leaves the volume."""
+    from .. import marching_cubes, marching_tetrahedra
+    from ..core.closing import padded_for_closing, unpad
+    from ..validation import as_level
+    level = as_level(iso, volume.value_range)   # the padding moves the range: fix the level first
+    padded = padded_for_closing(volume.checked.data, volume.value_range,
+                                as_gradient_direction(volume.gradient_direction))
+    extract = marching_tetrahedra if args.tetrahedra else marching_cubes
+    options = dict(spacing=volume.spacing, gradient_direction=volume.gradient_direction, smooth=args.smooth)
+    if not args.tetrahedra:
+        options["sharp_features"] = args.sharp
+    verts, faces, normals, values = extract(padded, level, **options)
+    return unpad(verts, volume.spacing), faces, normals, values
 
 
 def _export_open_options(args) -> dict:

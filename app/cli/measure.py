@@ -29,6 +29,8 @@ def measure_parser() -> argparse.ArgumentParser:
     parser.add_argument("--space", choices=("world", "voxel"), default="world",
                         help="world (default): the file's world coordinates where it has them; voxel: index x "
                              "spacing")
+    parser.add_argument("--closed", action="store_true",
+                        help="cap each surface where it leaves the volume (as export --closed), so its volume counts")
     parser.add_argument("--json", action="store_true",
                         help="print only JSON on stdout: a list with one object per surface")
     add_volume_arguments(parser)
@@ -39,7 +41,7 @@ def run_measure(args) -> int:
     from ..cpu.measure import measure_surface
     from ..io.export import in_volume_space
     if args.labels:
-        check_label_options(args, "--iso")
+        check_label_options(args, "--iso", "--closed")   # a label's surface is closed already
     else:
         check_label_options(args, "--max-labels")
     volume = open_volume_from_args(args.volume, args, progress)
@@ -57,7 +59,7 @@ def run_measure(args) -> int:
         from .export import _extract_for_export
         for iso in checked_levels(volume, args.iso):
             args_for_export = argparse.Namespace(chunk=None, workers=None, scheduler=None, tetrahedra=False,
-                                                 smooth=0, sharp=None)
+                                                 smooth=0, sharp=None, closed=args.closed)
             verts, faces, normals, _ = _extract_for_export(volume, iso, args_for_export)
             verts, faces, _, _ = in_volume_space(volume, verts, faces, normals, world=world)
             rows.append(({"level": as_level(iso, volume.value_range)}, measure_surface(verts, faces)))

@@ -94,3 +94,22 @@ def test_pieces_by_shared_vertices():
     assert len(np.unique(components(2002, long_strip))) == 1
     empty = measure_surface(np.zeros((0, 3)), np.zeros((0, 3), np.int32))
     assert empty.components == 0 and empty.area == 0.0
+
+
+def test_closed_caps_a_surface_that_leaves_the_volume(tmp_path):
+    """export/measure --closed: the half ball cut by the volume's edge gets a cap there: 0 open edges,
+    watertight in trimesh, its volume counted; the open export is left open."""
+    from support.mesh_checks import edge_use_counts
+    np.save(tmp_path / "cut.npy", ball_field()[:, :, :40])
+    for closed in ((), ("--closed",)):
+        out = tmp_path / f"cut{len(closed)}.ply"
+        assert isoscope("export", tmp_path / "cut.npy", "--iso", "0", *closed, "--out", out).returncode == 0
+        mesh = trimesh.load(out, force="mesh", process=False)
+        _, counts = edge_use_counts(np.asarray(mesh.faces))
+        assert (set(counts.tolist()) == {2}) == bool(closed) and mesh.is_watertight == bool(closed)
+    (record,) = measured(tmp_path / "cut.npy", "--iso", "0", "--closed", "--spacing", *["0.025"] * 3)
+    assert record["open_edges"] == 0
+    half = 4 / 3 * math.pi * R ** 3 / 2   # the last sample kept is at z = -0.025: a slab that thick less
+    assert record["volume_ml"] * 1000 == pytest.approx(half - math.pi * R * R * 0.025, rel=0.01)
+    assert_one_line_error(isoscope("export", tmp_path / "cut.npy", "--closed", "--chunk", "16", "--out",
+                                   tmp_path / "c.stl"), "--closed", "chunked")
