@@ -30,15 +30,16 @@ other commands (each has --help):
                 [--slice AXIS=INDEX ...] [--clip AXIS=POS[:+|-]] [--window W] [--level L] [--colormap NAME]
                 [--tetrahedra] [--smooth N] [--sharp DEG]
   isoscope export VOLUME --out mesh.ply|.obj|.stl|.glb|.off [--iso V [--iso V2 ...]] [--tetrahedra] [--smooth N]
-                [--sharp DEG]
+                [--sharp DEG] [--closed] [--time N|all|A:B]
   isoscope export SEGMENTATION --labels --out seg.stl      one mesh per label: seg_label<N>.stl
                 [--chunk N] [--workers N] [--scheduler ADDRESS]   big volumes, a chunk at a time
+  isoscope measure VOLUME [--iso V ...] [--labels] [--closed] [--json]   area, volume, pieces, box
   isoscope volumes          list the built-in volumes
 """
 
 
 VOLUME_HELP = ("a built-in name (isoscope volumes), a file (.npy .npz .nrrd .nii .nii.gz .tif .raw), a DICOM folder, "
-               "a Zarr or OME-Zarr folder, "
+               "a Zarr or OME-Zarr folder, a quoted pattern of 3-D files as a series ('run/field_*.npy'), "
                "or expr:FORMULA, e.g. 'expr:x^2+y^2+z^2-0.5'")
 
 
