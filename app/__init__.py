@@ -3,7 +3,8 @@
     verts, faces, normals, values = isoscope.marching_cubes(volume, level)
 
 follows scikit-image's `measure.marching_cubes` conventions; `isoscope.Extractor`
-keeps a volume resident on the GPU for repeated extraction at new levels.
+keeps a volume resident on the GPU (or, without OpenGL 4.3, in memory for the
+compiled CPU kernels) for repeated extraction at new levels.
 """
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ __all__ = ["marching_cubes", "marching_tetrahedra", "smooth_mesh", "find_contour
 # GL driver or load every module.
 _HOMES = {"marching_cubes": "api", "marching_tetrahedra": "api", "smooth_mesh": "api",
           "find_contours": "core.contours", "label_surfaces": "labels", "release_gpu_memory": "gpu.pool",
-          "IsoscopeError": "errors", "Extractor": "gpu.cubes"}
+          "IsoscopeError": "errors", "Extractor": "api"}
 
 
 def __getattr__(name):

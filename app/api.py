@@ -468,3 +468,92 @@ def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chu
         known = (-np.inf, np.inf)  # not scanned for a range: boxes the level misses give no surface
     level = validation.as_level(level, known or value_range(source, chunks))
     return marching_cubes_chunked(source, level, spacing, descent, chunks)
+
+
+class _ExtractorKind(type):
+    """`isinstance(x, isoscope.Extractor)` holds for the extractor of either backend it makes."""
+
+    def __instancecheck__(cls, obj) -> bool:
+        from .cpu.extractor import CpuExtractor
+        from .gpu.cubes import Extractor as GpuExtractor
+        return isinstance(obj, (CpuExtractor, GpuExtractor))
+
+
+class Extractor(metaclass=_ExtractorKind):
+    """Keeps one volume resident and extracts its marching-cubes isosurface at any level.
+
+    ``isoscope.Extractor(volume, ...)`` makes the extractor of the backend asked for: the GPU's
+    (`isoscope.gpu.cubes.Extractor`: the volume in a 3-D texture, the mesh in GL buffers) or the CPU's
+    (`isoscope.cpu.extractor.CpuExtractor`: compiled kernels on the volume in memory).  Both answer the
+    same calls and give the same mesh.
+
+    Parameters
+    ----------
+    volume : (X, Y, Z) array_like or validation.CheckedVolume
+        The samples; a CheckedVolume is taken without scanning it again.
+    spacing : three floats, default (1, 1, 1)
+        The distance between samples along each axis; vertices are in these units.
+    gradient_direction : {"descent", "ascent"}, default "descent"
+        As for `marching_cubes`: normals point out of the object.
+    ctx : moderngl.Context, optional
+        The GL context of the GPU extractor (default: the current one, else a standalone EGL context).
+    table : CaseTable, optional
+        The case table (default: the generated Montani table `marching_cubes` uses).
+    limits : GpuLimits, optional
+        The GPU extractor's limits, as `isoscope.gpu.cubes.Extractor` takes them.
+    backend : {"auto", "gpu", "cpu", "numpy"}, default "auto"
+        "gpu", "cpu" (compiled kernels), "numpy" (the numpy reference, for checking), or "auto": the
+        GPU where an OpenGL 4.3 context can be had (or `ctx` is given), else the CPU.
+
+    Attributes
+    ----------
+    value_range : (float, float)
+        The volume's smallest and largest values.
+    shape, spacing, level
+        The volume's shape, its spacing, and the level of the last extraction (None before one).
+    mesh
+        The last extraction: GL buffers (`GpuMesh`) on the GPU, the arrays on the CPU.
+
+    Raises
+    ------
+    ValueError
+        A volume, spacing, direction or backend the extractor cannot take (the same one-line
+        messages on every backend), or `ctx` / `limits` with a CPU backend.
+    GPULimitError
+        On the GPU, a volume or mesh beyond the GL implementation's limits.
+
+    Notes
+    -----
+    `extract(level)` returns (vertices, triangles); `read_mesh()` returns (verts, faces, normals,
+    values) as `marching_cubes` does; `release()` or leaving a ``with`` block frees the volume and
+    the mesh.  The CPU extractor measures each 32-sample row's value range on the first change of
+    level, so that later levels read only the rows they cut (the GPU skips bricks the same way).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import isoscope
+    >>> x, y, z = np.mgrid[-1:1:24j, -1:1:24j, -1:1:24j]
+    >>> ball = (1 - np.sqrt(x * x + y * y + z * z)).astype(np.float32)
+    >>> with isoscope.Extractor(ball, backend="cpu") as extractor:
+    ...     counts = extractor.extract(0.5)
+    ...     verts, faces, normals, values = extractor.read_mesh()
+    ...     second = extractor.extract(0.25)           # a new level: the volume stays resident
+    >>> counts == (len(verts), len(faces)), second[1] > counts[1]
+    (True, True)
+    >>> bool(np.array_equal(faces, isoscope.marching_cubes(ball, 0.5, backend="numpy")[1]))
+    True
+    """
+
+    def __new__(cls, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent", ctx=None, table=None,
+                limits=None, *, backend="auto"):
+        if backend == "auto" and ctx is not None:
+            backend = "gpu"
+        backend = _backend(backend)
+        if backend == "gpu":
+            from .gpu.cubes import Extractor as GpuExtractor
+            return GpuExtractor(volume, spacing, gradient_direction, ctx=ctx, table=table, limits=limits)
+        if ctx is not None or limits is not None:
+            raise ValueError(f"ctx and limits are the GPU extractor's; backend {backend!r} takes neither")
+        from .cpu.extractor import CpuExtractor
+        return CpuExtractor(volume, spacing, gradient_direction, backend=backend, table=table)

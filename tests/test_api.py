@@ -163,3 +163,35 @@ def test_allow_degenerate_and_method_are_accepted_and_change_nothing():
         other = isoscope.marching_cubes(volume, 0.0, backend="cpu", **kwargs)
         for a, b in zip(base, other):
             np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("backend", ["cpu", "numpy", "gpu"])
+def test_extractor_of_every_backend_gives_one_mesh(backend):
+    from isoscope.cpu.cubes import marching_cubes_reference
+    volume = sphere(24)
+    with isoscope.Extractor(volume, (0.5, 1.0, 2.0), "ascent", backend=backend) as ex:
+        assert isinstance(ex, isoscope.Extractor)
+        assert ex.value_range == (float(volume.min()), float(volume.max()))
+        for level in (0.0, 0.2):
+            counts = ex.extract(level)
+            mesh = ex.read_mesh()
+            assert counts == (len(mesh[0]), len(mesh[1]))
+            want = marching_cubes_reference(volume, level, (0.5, 1.0, 2.0), descent=False)
+            np.testing.assert_array_equal(mesh[1], want[1])
+            np.testing.assert_allclose(mesh[0], want[0], atol=1e-5)
+
+
+def test_extractor_backend_choice_and_errors(monkeypatch):
+    from isoscope.cpu.extractor import CpuExtractor
+    from isoscope.gpu import context
+    monkeypatch.setattr(context, "gl_available", lambda: False)  # what a machine with no GL answers
+    with isoscope.Extractor(sphere(12)) as ex:
+        assert type(ex) is CpuExtractor and ex.backend == "cpu"
+    assert not isinstance(np.zeros(3), isoscope.Extractor)
+    with pytest.raises(ValueError, match="backend"):
+        isoscope.Extractor(sphere(12), backend="cuda")
+    with pytest.raises(ValueError, match="GPU extractor"):
+        isoscope.Extractor(sphere(12), backend="cpu", limits=object())
+    for backend in ("cpu", "numpy"):
+        with pytest.raises(ValueError, match="outside the data range"):
+            isoscope.Extractor(sphere(12), backend=backend).extract(9.0)

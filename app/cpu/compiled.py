@@ -330,7 +330,8 @@ class CompiledCubes:
     range (8 bytes a word), so a new level packs only the words it cuts.  `extract(level)` returns
     (verts, faces, normals, values)."""
 
-    def __init__(self, field: np.ndarray, spacing, descent: bool, table: CaseTable | None = None):
+    def __init__(self, field: np.ndarray, spacing, descent: bool, table: CaseTable | None = None,
+                 reuse_outputs: bool = False):
         if field.dtype != np.float32 or field.ndim != 3 or not field.flags.c_contiguous:
             raise ValueError("CompiledCubes takes a C-contiguous 3-D float32 volume")
         table = table or montani_table()
@@ -347,6 +348,24 @@ class CompiledCubes:
         self._triangle_offsets = np.empty((n0, n1, nw), np.int64)
         self._lows = self._highs = None
         self.extractions = 0
+        # With reuse_outputs, the mesh arrays are kept and grown by half when too small, and extract returns
+        # views of them: a new level then writes into memory already mapped (no page faults).
+        self._outputs = (np.empty((0, 3), np.float32), np.empty((0, 3), np.int32), np.empty((0, 3), np.float32),
+                         np.empty(0, np.float32)) if reuse_outputs else None
+
+    def _output_arrays(self, n_vertices: int, n_triangles: int):
+        if self._outputs is None:
+            return (np.empty((n_vertices, 3), np.float32), np.empty((n_triangles, 3), np.int32),
+                    np.empty((n_vertices, 3), np.float32), np.empty(n_vertices, np.float32))
+        verts, faces, normals, values = self._outputs
+        if len(verts) < n_vertices:
+            size = max(n_vertices, len(verts) * 3 // 2)
+            verts, normals, values = (np.empty((size, 3), np.float32), np.empty((size, 3), np.float32),
+                                      np.empty(size, np.float32))
+        if len(faces) < n_triangles:
+            faces = np.empty((max(n_triangles, len(faces) * 3 // 2), 3), np.int32)
+        self._outputs = verts, faces, normals, values
+        return verts[:n_vertices], faces[:n_triangles], normals[:n_vertices], values[:n_vertices]
 
     def measure_ranges(self) -> None:
         """Measure each word's value range, so that later levels skip the words they do not cut."""
@@ -368,10 +387,7 @@ class CompiledCubes:
         _count(self._signs, self.field.shape[2], self._counts, self._edges, self._vertex_offsets,
                self._triangle_offsets)
         n_vertices, n_triangles = _scan(self._vertex_offsets, self._triangle_offsets)
-        verts = np.empty((n_vertices, 3), np.float32)
-        normals = np.empty((n_vertices, 3), np.float32)
-        values = np.empty(n_vertices, np.float32)
-        faces = np.empty((n_triangles, 3), np.int32)
+        verts, faces, normals, values = self._output_arrays(n_vertices, n_triangles)
         _write(self.field, self.sign, level, self.spacing, self._signs, self._edges, self._vertex_offsets,
                self._triangle_offsets, self._counts, self._triangles, ROW_OWNER, EDGE_ROW,
                verts, faces, normals, values)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import validation
+from ..core.case_table import CaseTable, montani_table
 from .cubes import marching_cubes_reference
 
 __all__ = ["CpuExtractor"]
@@ -30,6 +31,8 @@ class CpuExtractor:
     backend : {"cpu", "numpy"}, default "cpu"
         "cpu": the compiled kernels (`isoscope.cpu.compiled`: a new level reads only the words of 32
         samples it cuts); "numpy": the reference extractor (`isoscope.cpu.cubes`).  The same mesh.
+    table : CaseTable, optional
+        The case table (default: the generated Montani table isoscope.marching_cubes uses).
 
     Examples
     --------
@@ -43,7 +46,8 @@ class CpuExtractor:
     True
     """
 
-    def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent", backend: str = "cpu"):
+    def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent", backend: str = "cpu",
+                 table: CaseTable | None = None):
         if backend not in ("cpu", "numpy"):
             raise ValueError(f"backend {backend!r} is not one of ('cpu', 'numpy')")
         checked = validation.check_volume(volume)
@@ -54,10 +58,11 @@ class CpuExtractor:
         self.shape = tuple(int(n) for n in checked.data.shape)
         self._field = np.ascontiguousarray(checked.data, dtype=np.float32)
         self.backend = backend
+        self.table = table or montani_table()
         self._compiled = None
         if backend == "cpu":
             from .compiled import CompiledCubes  # numba loads on first use: `import isoscope` stays light
-            self._compiled = CompiledCubes(self._field, self.spacing, self.descent)
+            self._compiled = CompiledCubes(self._field, self.spacing, self.descent, self.table, reuse_outputs=True)
         self._mesh = None
         self.level: float | None = None
         self.n_vertices = self.n_triangles = 0
@@ -80,11 +85,12 @@ class CpuExtractor:
     def _extract(self, level: float):
         if self._compiled is not None:
             return self._compiled.extract(level)
-        return marching_cubes_reference(self._field, level, self.spacing, self.descent)
+        return marching_cubes_reference(self._field, level, self.spacing, self.descent, self.table)
 
     @property
     def mesh(self):
-        """The last extraction's (verts, faces, normals, values), not copied; None before the first."""
+        """The last extraction's (verts, faces, normals, values), not copied (the next extract may write
+        over them: upload or copy them first); None before the first."""
         return self._mesh
 
     def read_mesh(self):

@@ -59,3 +59,16 @@ def test_examples_run():
     import isoscope.cpu.extractor as module
     result = doctest.testmod(module, report=False)
     assert result.attempted > 0 and result.failed == 0
+
+
+def test_levels_up_and_down_reuse_the_outputs_and_keep_the_mesh():
+    """The compiled extractor writes each level into the arrays of the last (grown when too small)."""
+    rng = np.random.default_rng(7)
+    volume = rng.normal(size=(30, 40, 50)).astype(np.float32)
+    with CpuExtractor(volume) as ex:
+        for level in (2.0, 0.0, 2.5, 0.3, 0.0):
+            ex.extract(level)
+            kept = ex.mesh
+            for got, want in zip(ex.read_mesh(), marching_cubes_reference(volume, level)):
+                np.testing.assert_array_equal(got, want)
+            assert len(kept[0]) == ex.n_vertices and len(kept[1]) == ex.n_triangles
