@@ -239,22 +239,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser = OneLineParser(
             prog="isoscope render",
             description="Render the viewer's scene to a PNG with no window or display (EGL).")
-        parser.add_argument("volume", metavar="VOLUME", help=VOLUME_HELP)
-        _add_iso(parser, "; repeat for several surfaces (up to 4)")
-        _add_levels_look(parser)
-        parser.add_argument("--out", required=True, metavar="PNG", help="the PNG file to write")
-        parser.add_argument("--size", type=window_size, default=(800, 600), metavar="WxH",
-                            help="image size in pixels (default 800x600)")
-        parser.add_argument("--azimuth", type=float, metavar="DEG",
-                            help="camera angle around the vertical (z) axis, degrees (default -60)")
-        parser.add_argument("--elevation", type=float, metavar="DEG",
-                            help="camera angle above the x-y plane, degrees, -89..89 (default 25)")
-        parser.add_argument("--panel", action="store_true", help="draw the imgui panel over the scene")
-        parser.add_argument("--transparent", action="store_true",
-                            help="a transparent background: an RGBA PNG, for slides and figures")
-        parser.add_argument("--wireframe", action="store_true", help="draw the triangles' edges over the surface")
-        add_slice_arguments(parser)
-        _add_mesh_modes(parser, labels="draw each non-zero label's surface in its own colour")
+        add_render_options(parser, out_help="the PNG file to write")
     else:
         parser = OneLineParser(prog="isoscope export",
                                description="Extract the isosurface and write it as a mesh file: binary PLY, OBJ, "
@@ -286,6 +271,27 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         add_big_volume_arguments(parser)
     add_volume_arguments(parser)
     return parser
+
+
+def add_render_options(parser: argparse.ArgumentParser, out_help: str, out_metavar: str = "PNG") -> None:
+    """What `render` draws and how: the volume, levels and their look, --out, size, camera, slices, mesh
+    modes (`movie` takes the same)."""
+    parser.add_argument("volume", metavar="VOLUME", help=VOLUME_HELP)
+    _add_iso(parser, "; repeat for several surfaces (up to 4)")
+    _add_levels_look(parser)
+    parser.add_argument("--out", required=True, metavar=out_metavar, help=out_help)
+    parser.add_argument("--size", type=window_size, default=(800, 600), metavar="WxH",
+                        help="image size in pixels (default 800x600)")
+    parser.add_argument("--azimuth", type=float, metavar="DEG",
+                        help="camera angle around the vertical (z) axis, degrees (default -60)")
+    parser.add_argument("--elevation", type=float, metavar="DEG",
+                        help="camera angle above the x-y plane, degrees, -89..89 (default 25)")
+    parser.add_argument("--panel", action="store_true", help="draw the imgui panel over the scene")
+    parser.add_argument("--transparent", action="store_true",
+                        help="a transparent background: an RGBA PNG, for slides and figures")
+    parser.add_argument("--wireframe", action="store_true", help="draw the triangles' edges over the surface")
+    add_slice_arguments(parser)
+    _add_mesh_modes(parser, labels="draw each non-zero label's surface in its own colour")
 
 
 def add_big_volume_arguments(parser) -> None:

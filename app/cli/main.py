@@ -33,6 +33,9 @@ def main(argv: list[str] | None = None) -> int:
     if argv and argv[0] == "measure":
         from .measure import measure_parser, run_measure
         args, runner = measure_parser().parse_args(argv[1:]), run_measure
+    elif argv and argv[0] == "movie":
+        from .movie import movie_parser, run_movie
+        args, runner = movie_parser().parse_args(argv[1:]), run_movie
     elif argv and argv[0] in COMMANDS:
         command, rest = argv[0], argv[1:]
         args, runner = command_parser(command).parse_args(rest), RUNNERS[command]

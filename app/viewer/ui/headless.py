@@ -177,17 +177,11 @@ class HeadlessViewer:
         self.target.release()
 
 
-def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, elevation=None,
-               panel: bool = False, transparent: bool = False, opacities=(), color_by=None, colormap=None,
-               prepare=None, tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False):
-    """Render one view of `volume` to the PNG file `out` (RGBA with `transparent`); returns its path.
-
-    `iso`: a level, or a list of up to 4 (several surfaces, `opacities` in the same order);
-    `color_by`: "value", "gradient" or a volume spec of the same shape, through `colormap`, with a
-    colour bar at the right (in the panel with `panel`); `prepare(state)`, if given, sets up the
-    ViewerState once the volume is shown (slices, clip); `tetrahedra`: marching tetrahedra's
-    surfaces instead of marching cubes'; `smooth`: iterations of smoothing projected onto the level
-    set; `wireframe`: the triangles' edges drawn over."""
+def prepared_viewer(volume: Volume, iso=None, size=(800, 600), azimuth=None, elevation=None,
+                    transparent: bool = False, opacities=(), color_by=None, colormap=None, prepare=None,
+                    tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False) -> HeadlessViewer:
+    """A HeadlessViewer showing `volume` as render_png draws it (its arguments), ready to render (again,
+    after moving its camera or level: `isoscope movie`); its caller releases it.  What fails is raised."""
     viewer = HeadlessViewer(size)
     try:
         viewer.state.style.transparent_background = transparent
@@ -199,6 +193,26 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
         viewer.show_levels(volume, isos, opacities, color_by, colormap, azimuth, elevation)
         if prepare is not None:
             prepare(viewer.state)
+    except BaseException:
+        viewer.release()
+        raise
+    return viewer
+
+
+def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, elevation=None,
+               panel: bool = False, transparent: bool = False, opacities=(), color_by=None, colormap=None,
+               prepare=None, tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False):
+    """Render one view of `volume` to the PNG file `out` (RGBA with `transparent`); returns its path.
+
+    `iso`: a level, or a list of up to 4 (several surfaces, `opacities` in the same order);
+    `color_by`: "value", "gradient" or a volume spec of the same shape, through `colormap`, with a
+    colour bar at the right (in the panel with `panel`); `prepare(state)`, if given, sets up the
+    ViewerState once the volume is shown (slices, clip); `tetrahedra`: marching tetrahedra's
+    surfaces instead of marching cubes'; `smooth`: iterations of smoothing projected onto the level
+    set; `wireframe`: the triangles' edges drawn over."""
+    viewer = prepared_viewer(volume, iso, size, azimuth, elevation, transparent, opacities, color_by, colormap,
+                             prepare, tetrahedra, smooth, wireframe)
+    try:
         pixels = viewer.render(panel=panel)
         if viewer.state.color_by is not None and not panel:
             pixels = draw_colorbar(pixels, viewer.state.color_by)

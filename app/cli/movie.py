@@ -1,0 +1,194 @@
+"""`isoscope movie`: a turntable, an iso sweep or a series' time points, rendered offscreen as `render`
+draws them, written as an H.264 MP4 (imageio through imageio-ffmpeg's ffmpeg), a GIF (Pillow) or a
+folder of numbered PNGs.  The file appears whole or not at all (written beside, then renamed)."""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .arguments import OneLineParser, add_render_options
+from .common import checked_levels, progress, wrote
+from .slice_options import apply_slice_arguments
+from .volume_options import TimeRange, add_volume_arguments, open_volume_from_args
+
+MOVIE_SUFFIXES = (".mp4", ".gif")
+MAX_FRAMES = 10_000
+
+
+def movie_parser() -> argparse.ArgumentParser:
+    parser = OneLineParser(prog="isoscope movie",
+                          description="Render a movie offscreen: a turntable around the vertical axis, an iso sweep "
+                                      "or a series' time points, to .mp4 (H.264), .gif or a folder of PNGs.")
+    add_render_options(parser, out_help="the movie: NAME.mp4, NAME.gif, or a folder (ending in /) for "
+                                        "frame_0000.png, ...", out_metavar="MOVIE")
+    motion = parser.add_mutually_exclusive_group()
+    motion.add_argument("--turntable", type=_positive, metavar="N",
+                        help="N frames once around the vertical axis, from --azimuth (the default motion: 72)")
+    motion.add_argument("--sweep", type=_sweep, metavar="A:B",
+                        help="the iso value from A to B over --frames frames (a negative A: --sweep=-0.5:0.5)")
+    parser.add_argument("--frames", type=_positive, metavar="N", help="frames of a sweep (default 60)")
+    parser.add_argument("--fps", type=float, default=24.0, metavar="F", help="frames per second (default 24)")
+    add_volume_arguments(parser)
+    return parser
+
+
+def _positive(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if not 1 <= value <= MAX_FRAMES:
+        raise argparse.ArgumentTypeError(f"{value} frames: give 1 to {MAX_FRAMES:,}")
+    return value
+
+
+def _sweep(text: str) -> tuple[float, float]:
+    start, colon, stop = text.partition(":")
+    try:
+        a, b = float(start), float(stop)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--sweep {text!r} is not A:B, two iso values") from None
+    if not colon or not (math.isfinite(a) and math.isfinite(b)) or a == b:
+        raise argparse.ArgumentTypeError(f"--sweep {text!r}: give two different finite iso values, A:B")
+    return a, b
+
+
+def movie_kind(out: str) -> str:
+    """"mp4", "gif" or "folder" by the name of --out; one line for anything else."""
+    if out.endswith(("/", os.sep)) or Path(out).is_dir():
+        return "folder"
+    suffix = Path(out).suffix.lower()
+    if suffix not in MOVIE_SUFFIXES:
+        raise ValueError(f"--out {out}: a movie is .mp4, .gif or a folder (end the name with /); "
+                         f"not {suffix or 'a name without an extension'}")
+    return suffix[1:]
+
+
+def run_movie(args) -> int:
+    kind = movie_kind(str(args.out))
+    if not math.isfinite(args.fps) or not 0 < args.fps <= 240:
+        raise ValueError(f"--fps {args.fps:g}: give 0 < F <= 240")
+    several_times = isinstance(args.time, TimeRange)
+    if several_times and (args.turntable or args.sweep):
+        raise ValueError("--time all (or A:B) is the movie's motion; leave out --turntable and --sweep")
+    if args.frames is not None and not args.sweep:
+        raise ValueError("--frames sets a sweep's length; a turntable's is --turntable N, a series' its time points")
+    volume = open_volume_from_args(args.volume, args, progress, several_times=True)
+    times = args.time.points(volume.time_points) if several_times else None
+    from ..viewer.ui.headless import check_render_size, prepared_viewer
+    check_render_size(args.size)
+    isos = checked_levels(volume, args.iso, args.opacity)
+    viewer = prepared_viewer(volume, isos, size=args.size, azimuth=args.azimuth, elevation=args.elevation,
+                             transparent=False, opacities=[a for values in args.opacity or [] for a in values],
+                             color_by=args.color_by, colormap=args.color_by_map, tetrahedra=args.tetrahedra,
+                             smooth=args.smooth, wireframe=args.wireframe,
+                             prepare=lambda state: apply_slice_arguments(state, args))
+    try:
+        frames = _frames(viewer, volume, args, times)
+        path = _write(frames, args.out, kind, args.fps, _count(args, times))
+    finally:
+        viewer.release()
+    wrote(path, f"({_count(args, times)} frames, {args.size[0]}x{args.size[1]}, {args.fps:g} fps)")
+    return 0
+
+
+def _count(args, times) -> int:
+    if times is not None:
+        return len(times)
+    if args.sweep:
+        return args.frames or 60
+    return args.turntable or 72
+
+
+def _frames(viewer, volume, args, times):
+    """The movie's frames, one (H, W, 3) uint8 array at a time, each as `render` draws it."""
+    from ..viewer.gfx.colorbar import draw_colorbar
+
+    def shot():
+        pixels = viewer.render(panel=args.panel)
+        if viewer.state.color_by is not None and not args.panel:
+            pixels = draw_colorbar(pixels, viewer.state.color_by)
+        return pixels
+    if times is not None:
+        for i, time in enumerate(times):
+            if i:
+                following = argparse.Namespace(**{**vars(args), "time": time})
+                viewer.scene.show(open_volume_from_args(args.volume, following, progress), viewer.state.iso)
+            yield shot()
+        return
+    if args.sweep:
+        start, stop = args.sweep
+        low, high = volume.value_range
+        for value in (start, stop):
+            if not low <= value <= high:
+                raise ValueError(f"--sweep {start:g}:{stop:g} leaves {volume.name}'s value range {low:g} .. "
+                                 f"{high:g}; sweep inside it")
+        n = _count(args, times)
+        for i in range(n):
+            viewer.state.iso = start + (stop - start) * (i / (n - 1) if n > 1 else 0.0)
+            yield shot()
+        return
+    azimuth = viewer.camera.azimuth
+    n = _count(args, times)
+    for i in range(n):
+        viewer.camera.azimuth = azimuth + 360.0 * i / n
+        yield shot()
+
+
+def _write(frames, out, kind: str, fps: float, count: int) -> Path:
+    """Write the frames beside `out`, then put the whole movie in its place."""
+    out = Path(out)
+    if kind == "folder":
+        return _write_folder(frames, out, count)
+    folder = out.parent if str(out.parent) else Path(".")
+    handle, temporary = tempfile.mkstemp(prefix=f".{out.name}.", suffix=f".partial.{kind}", dir=folder)
+    os.close(handle)
+    try:
+        if kind == "mp4":
+            import imageio.v2 as imageio
+            with imageio.get_writer(temporary, format="FFMPEG", mode="I", fps=fps, codec="libx264",
+                                    quality=8, macro_block_size=2, ffmpeg_log_level="error") as writer:
+                for i, frame in enumerate(frames):
+                    writer.append_data(_even(frame))
+                    _say(i, count)
+        else:
+            from PIL import Image
+            images = []
+            for i, frame in enumerate(frames):
+                images.append(Image.fromarray(frame))
+                _say(i, count)
+            images[0].save(temporary, format="GIF", save_all=True, append_images=images[1:],
+                           duration=round(1000 / fps), loop=0)
+        from ..io.atomic import write_atomically
+        data = Path(temporary).read_bytes()
+        return write_atomically(out, lambda target: target.write(data))
+    finally:
+        Path(temporary).unlink(missing_ok=True)
+
+
+def _write_folder(frames, folder: Path, count: int) -> Path:
+    from ..viewer.gfx.screenshot import save_png
+    folder.mkdir(parents=True, exist_ok=True)
+    for i, frame in enumerate(frames):
+        save_png(frame, folder / f"frame_{i:04d}.png")
+        _say(i, count)
+    return folder
+
+
+def _even(frame: np.ndarray) -> np.ndarray:
+    """H.264 in yuv420p needs even sizes: an odd row or column is repeated."""
+    h, w = frame.shape[:2]
+    return np.pad(frame, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge") if (h | w) & 1 else frame
+
+
+def _say(i: int, count: int) -> None:
+    """One progress line, rewritten, on a terminal only (captured output keeps its one-line errors)."""
+    if sys.stderr.isatty():
+        end = "\n" if i + 1 == count else ""
+        print(f"\rframe {i + 1}/{count}\033[K", end=end, file=sys.stderr, flush=True)
