@@ -56,7 +56,7 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         remove the sliver triangles; the faces stay the same.
     chunks : None, int or tuple of 3 ints, optional
         None (the whole volume at once), or N or (a, b, c): extract boxes of at
-        most that many cells per axis on the GPU, one at a time, and stitch them
+        most that many cells per axis (on the chosen backend), one at a time, and stitch them
         by global edge id into the same mesh (see `isoscope.big.chunked`).  Memory
         then grows with the box, not the volume: use it for volumes larger than
         the GPU or RAM (a memory-mapped array, ``np.load(path, mmap_mode="r")``,
@@ -455,8 +455,8 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
 def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks):
     from .big.chunked import as_chunks, marching_cubes_chunked, value_range
     from .core.lazy_arrays import is_lazy
-    if backend in ("cpu", "numpy") or step_size != 1:
-        raise ValueError("chunks= runs on the GPU at step_size 1; drop chunks, or use backend='gpu' and step_size=1")
+    if step_size != 1:
+        raise ValueError("chunks= runs at step_size 1; drop chunks, or use step_size=1")
     source = volume.data if isinstance(volume, validation.CheckedVolume) else volume
     if not is_lazy(source):
         source = validation._numeric_3d(source, "volume")[0]  # shape and dtype only: no scan of the values
@@ -467,7 +467,7 @@ def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chu
     if known is None and level is not None:
         known = (-np.inf, np.inf)  # not scanned for a range: boxes the level misses give no surface
     level = validation.as_level(level, known or value_range(source, chunks))
-    return marching_cubes_chunked(source, level, spacing, descent, chunks)
+    return marching_cubes_chunked(source, level, spacing, descent, chunks, backend=backend)
 
 
 class _ExtractorKind(type):

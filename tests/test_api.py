@@ -195,3 +195,32 @@ def test_extractor_backend_choice_and_errors(monkeypatch):
     for backend in ("cpu", "numpy"):
         with pytest.raises(ValueError, match="outside the data range"):
             isoscope.Extractor(sphere(12), backend=backend).extract(9.0)
+
+
+@pytest.mark.parametrize("direction", ["descent", "ascent"])
+@pytest.mark.parametrize("backend", ["cpu", "numpy"])
+def test_chunked_extraction_on_the_cpu_equals_the_whole_volume_mesh(backend, direction):
+    rng = np.random.default_rng(5)
+    volume = rng.integers(-2, 3, size=(21, 18, 40)).astype(np.float32)  # ties on the seams too
+    whole = isoscope.marching_cubes(volume, 0.0, gradient_direction=direction, backend="numpy")
+    chunked = isoscope.marching_cubes(volume, 0.0, gradient_direction=direction, backend=backend, chunks=(8, 7, 16))
+    for a, b in zip(chunked, whole):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_a_cluster_worker_with_no_gl_extracts_on_the_cpu(monkeypatch):
+    """`--workers N` where no OpenGL 4.3 context can be had: each worker's boxes go to the CPU extractor."""
+    from isoscope.big import cluster
+    from isoscope.big.chunked import chunk_boxes, merge
+    from isoscope.gpu import context
+
+    def no_gl(*args, **kwargs):
+        raise context.GLUnavailable("no OpenGL 4.3 context: none here")
+    monkeypatch.setattr(context, "standalone", no_gl)
+    monkeypatch.setattr(cluster, "_local", type(cluster._local)())
+    volume = sphere(30)
+    parts = [cluster._extract_task(volume, box, 0.0, (1.0, 1.0, 1.0), False) for box in chunk_boxes(volume.shape, 12)]
+    assert cluster._local.backend == "cpu"
+    want = isoscope.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="numpy")
+    for a, b in zip(merge(parts, volume.shape), want):
+        np.testing.assert_array_equal(a, b)

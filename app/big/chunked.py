@@ -99,10 +99,11 @@ def edges_of(verts: np.ndarray, spacing) -> tuple[np.ndarray, np.ndarray]:
     return nearest.astype(np.int64), axes.astype(np.int64)
 
 
-def extract_box(source, box, level: float, spacing, descent: bool, ctx=None, shape=None) -> ChunkMesh | None:
+def extract_box(source, box, level: float, spacing, descent: bool, ctx=None, shape=None,
+                backend: str = "gpu") -> ChunkMesh | None:
     """The mesh of one box's cells (None when the level does not cross it), with a fresh Extractor
-    in `ctx` (its compiled programs are cached per context, so boxes after the first compile nothing)."""
-    from ..gpu.cubes import Extractor
+    in `ctx` (its compiled programs are cached per context, so boxes after the first compile nothing),
+    or with backend "cpu" / "numpy" a CpuExtractor (the same mesh; no GL)."""
     shape = shape or source.shape
     start, stop = box
     origin = np.array([max(a - 1, 0) for a in start], np.int64)
@@ -111,7 +112,13 @@ def extract_box(source, box, level: float, spacing, descent: bool, ctx=None, sha
     lo, hi = checked.value_range
     if not lo <= level <= hi:
         return None  # every sample on one side: no edge of this box crosses the level
-    extractor = Extractor(checked, spacing=spacing, gradient_direction="descent" if descent else "ascent", ctx=ctx)
+    direction = "descent" if descent else "ascent"
+    if backend in ("cpu", "numpy"):
+        from ..cpu.extractor import CpuExtractor
+        extractor = CpuExtractor(checked, spacing=spacing, gradient_direction=direction, backend=backend)
+    else:
+        from ..gpu.cubes import Extractor
+        extractor = Extractor(checked, spacing=spacing, gradient_direction=direction, ctx=ctx)
     try:
         extractor.extract(level)
         verts, faces, gpu_normals, gpu_values = extractor.read_mesh()
@@ -164,15 +171,18 @@ def merge(parts: list[ChunkMesh | None], shape):
 
 
 def marching_cubes_chunked(source, level: float, spacing=(1.0, 1.0, 1.0), descent: bool = True,
-                           chunks=DEFAULT_CHUNK, ctx=None, progress: Callable[[float, str], None] | None = None):
+                           chunks=DEFAULT_CHUNK, ctx=None, progress: Callable[[float, str], None] | None = None,
+                           backend: str = "gpu"):
     """The whole-volume mesh of `source` (an array, memory map or Zarr array), a box at a time in one
-    GL context.  `level` must already be checked against the volume's range."""
-    from ..gpu.context import current_or_standalone
-    ctx = ctx or current_or_standalone()
+    GL context (or with backend "cpu" / "numpy", on the CPU).  `level` must already be checked against
+    the volume's range."""
+    if backend == "gpu":
+        from ..gpu.context import current_or_standalone
+        ctx = ctx or current_or_standalone()
     boxes = chunk_boxes(source.shape, chunks)
     parts = []
     for done, box in enumerate(boxes, 1):
-        parts.append(extract_box(source, box, level, spacing, descent, ctx))
+        parts.append(extract_box(source, box, level, spacing, descent, ctx, backend=backend))
         if progress is not None:
             progress(done / len(boxes), f"extracting chunk {done}/{len(boxes)}")
     return merge(parts, source.shape)

@@ -2,7 +2,8 @@
 
 One task per box (chunked.chunk_boxes).  Each worker process opens its own headless GL
 context (EGL: the GPU if it has one, llvmpipe otherwise), one per worker thread, and
-extracts its boxes with the GPU Extractor; the client gathers the boxes' meshes as they
+extracts its boxes with the GPU Extractor (a worker with no OpenGL 4.3 uses the compiled
+CPU extractor: the same mesh); the client gathers the boxes' meshes as they
 finish (a progress callback per box) and merges them by global edge id (chunked.merge),
 so the mesh is the one a single process makes.  Workers read the volume themselves: the
 task carries a lazy view (a Zarr array, or a memory-mapped file named by path), never
@@ -45,8 +46,26 @@ def _worker_context():
     return _local.ctx
 
 
-def _extract_task(source, box, level, spacing, descent):
+def _worker_backend(backend: str) -> str:
+    """The backend this worker extracts with: "auto" is the GPU where the worker can open an OpenGL 4.3
+    context, else the compiled CPU extractor (the same mesh), decided once per worker thread."""
+    if backend != "auto":
+        return backend
+    if getattr(_local, "backend", None) is None:
+        from ..gpu.context import GLUnavailable
+        try:
+            _worker_context()
+            _local.backend = "gpu"
+        except GLUnavailable:
+            _local.backend = "cpu"
+    return _local.backend
+
+
+def _extract_task(source, box, level, spacing, descent, backend="auto"):
     from .chunked import extract_box
+    backend = _worker_backend(backend)
+    if backend != "gpu":
+        return extract_box(source, box, level, spacing, descent, backend=backend)
     ctx = _worker_context()
     with ctx:
         return extract_box(source, box, level, spacing, descent, ctx)
@@ -243,9 +262,11 @@ def _receive(sock, count: int, deadline: float) -> bytes:
 
 
 def marching_cubes_on_cluster(source, level: float, spacing, descent: bool, chunks, *, scheduler=None,
-                              workers=None, progress=None, path=None):
+                              workers=None, progress=None, path=None, backend="auto"):
     """verts, faces, normals, values of `source` (lazy or memory-mapped), extracted a box per task;
-    `path`, the .npy file `source` was read from, lets workers read it themselves whatever its size."""
+    `path`, the .npy file `source` was read from, lets workers read it themselves whatever its size.
+    `backend`: "gpu", "cpu", "numpy", or "auto" (each worker the GPU where it can open a GL context,
+    else the CPU: the same mesh either way)."""
     from dask.distributed import as_completed
 
     from .chunked import chunk_boxes, merge
@@ -253,7 +274,7 @@ def marching_cubes_on_cluster(source, level: float, spacing, descent: bool, chun
     client = connect(scheduler, workers)
     try:
         remote = client.scatter(shippable(source, path), broadcast=True)
-        futures = [client.submit(_extract_task, remote, box, level, spacing, descent, pure=False)
+        futures = [client.submit(_extract_task, remote, box, level, spacing, descent, backend, pure=False)
                    for box in boxes]
         parts, pending = [], as_completed(futures)
         del futures  # each result is held by the cluster only until this client has it
