@@ -97,8 +97,8 @@ def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), backend="auto", max_label
         counts as labels 0 and 1.
     spacing : tuple of 3 floats, default (1.0, 1.0, 1.0)
         Voxel size along axes 0, 1, 2; vertices are scaled by it.
-    backend : {"auto", "gpu", "cpu"}, default "auto"
-        As for `marching_cubes`; both give the same meshes.
+    backend : {"auto", "gpu", "cpu", "numpy"}, default "auto"
+        As for `marching_cubes`; all give the same meshes.
     max_labels : int, optional
         With it, more labels than that raise `TooManyLabels` before any is
         extracted.
@@ -240,15 +240,19 @@ def label_count_hint(data) -> int:
 
 def _extractor(backend: str):
     """indicator -> (verts, faces, normals) at level 0.5: one GL context found once for all labels
-    (asking for the current context costs a few ms each time), else the numpy extractor."""
+    (asking for the current context costs a few ms each time), else the compiled CPU extractor ("cpu",
+    or "auto" with no GL) or the numpy one ("numpy")."""
     from .api import BACKENDS
     from .gpu.context import current_or_standalone, gl_available
     if backend not in BACKENDS:
         raise ValueError(f"backend {backend!r} is not one of {BACKENDS}")
     table = label_table()
-    if backend == "cpu" or (backend == "auto" and not gl_available()):
+    if backend == "numpy":
         from .cpu.cubes import marching_cubes_reference
         return lambda indicator: marching_cubes_reference(indicator.astype(np.float32), 0.5, table=table)[:3]
+    if backend == "cpu" or (backend == "auto" and not gl_available()):
+        from .cpu.compiled import marching_cubes_compiled
+        return lambda indicator: marching_cubes_compiled(indicator.astype(np.float32), 0.5, table=table)[:3]
     from .gpu.cubes import Extractor
     ctx = current_or_standalone()
 

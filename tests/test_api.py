@@ -224,3 +224,14 @@ def test_a_cluster_worker_with_no_gl_extracts_on_the_cpu(monkeypatch):
     want = isoscope.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="numpy")
     for a, b in zip(merge(parts, volume.shape), want):
         np.testing.assert_array_equal(a, b)
+
+
+def test_label_surfaces_on_the_cpu_backends_agree():
+    rng = np.random.default_rng(11)
+    labels = rng.integers(0, 4, size=(16, 20, 24)).astype(np.uint8)
+    compiled = isoscope.label_surfaces(labels, spacing=(0.5, 1.0, 2.0), backend="cpu")
+    reference = isoscope.label_surfaces(labels, spacing=(0.5, 1.0, 2.0), backend="numpy")
+    assert sorted(compiled) == sorted(reference) == [1, 2, 3]
+    for label in compiled:
+        for a, b in zip(compiled[label], reference[label]):
+            np.testing.assert_array_equal(a, b)

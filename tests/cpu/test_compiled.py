@@ -96,3 +96,12 @@ def test_a_level_that_cuts_nothing():
     verts, faces, normals, values = mesh
     assert verts.shape == (0, 3) and faces.shape == (0, 3) and normals.shape == (0, 3) and values.shape == (0,)
     assert faces.dtype == np.int32
+
+
+def test_another_case_table():
+    """The labels' table (loops folded for volume) through the same kernels."""
+    from isoscope.core.case_table import label_table
+    indicator = (RNG.integers(0, 4, size=(20, 30, 40)) == 1).astype(np.float32)
+    table = label_table()
+    assert_identical(marching_cubes_compiled(indicator, 0.5, table=table),
+                     marching_cubes_reference(indicator, 0.5, table=table))
