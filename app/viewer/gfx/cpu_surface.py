@@ -5,17 +5,22 @@
 the volume kept resident, one per sample step as the GPU keeps its previews) and each new mesh is uploaded
 into a vertex and an index buffer of the same record layout the GPU extractor writes, so the renderer,
 the level copies and the labels draw it unchanged.  Tetrahedra, smoothing and sharp features run their
-CPU steps on the extracted mesh; sharp features are made at once (no worker thread here).
+CPU steps on the extracted mesh.  Sharp features, as on the GPU (gpu/sharp_features.py), are drawn with
+crisp normals and, without `wait` (the window's slider coming to rest), made on a worker thread while the
+plain mesh shows; `poll` brings them in, a newer extraction drops a step still running.
 """
 from __future__ import annotations
 
+import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 
 import numpy as np
 
 from ...core.layout import INDEX_BYTES, VERTEX_BYTES, VERTEX_FIELDS, VERTEX_FLOATS
-from ...cpu.sharp.features import sharpen_extracted
+from ...cpu.sharp.features import Stopped, sharpen, signed_field
+from ...cpu.sharp.normals import crisp_normals
 from ...cpu.smooth import smooth_projected
 from ...cpu.tetra import marching_tetrahedra_reference
 from ...gpu.buffers import GrowableBuffer
@@ -113,8 +118,10 @@ class CpuMesh:
         self.level: float | None = None
         self.last_extract_ms = 0.0
 
-    def take(self, arrays, level: float, extract_ms: float) -> None:
-        verts, faces, normals, values = arrays
+    def take(self, arrays, level: float, extract_ms: float, drawn=None) -> None:
+        """Show `arrays` (verts, faces, normals, values), drawing `drawn` instead where given (a sharp
+        mesh's crisp-normal copy); `read_mesh` gives `arrays`."""
+        verts, faces, normals, values = arrays if drawn is None else drawn
         self._vertices.write(vertex_records(verts, normals, values))
         self._indices.write(np.ascontiguousarray(faces, np.uint32).tobytes())
         self._arrays = arrays
@@ -151,6 +158,9 @@ class CpuSurface:
         self.shown_cells = "cubes"
         self.shown_sharp = False
         self.full_triangles = 0
+        self._field, self._field_key = None, None   # the signed field sharp features need, once per volume
+        self._worker: ThreadPoolExecutor | None = None
+        self._pending = None    # (future, stop event, level, the plain mesh's ms, when it started) on the worker
 
     @property
     def value_range(self) -> tuple[float, float]:
@@ -168,6 +178,7 @@ class CpuSurface:
                 wait: bool = True) -> None:
         """As GpuSurface.extract: the full mesh, or with `preview` a coarser one where the full one is big."""
         start = time.perf_counter()
+        self.drop_pending()
         step = preview_step(self.full_triangles, self.volume.data.shape, budget) if preview else 1
         if step > 1 and step not in self._previews:
             self._previews[step] = self._make(subsampled(self.volume.checked, step),
@@ -188,11 +199,35 @@ class CpuSurface:
             arrays = smooth_projected(verts, faces, field, level, options.smooth, spacing, descent=self._descent,
                                       normals=normals, value_range=self.value_range)
         sharp = options.sharp is not None and step == 1 and options.cells == "cubes"
-        if sharp:
-            arrays = sharpen_extracted(arrays, self.volume.checked.data, spacing, self._descent, options.sharp)[:4]
-        self._shown.take(arrays, level, (time.perf_counter() - start) * 1000.0)
         self.shown_step, self.shown_cells, self.shown_sharp = step, options.cells, sharp
+        if sharp and wait:
+            sharpened = sharpen(arrays, self._signed_field(), spacing, options.sharp)
+            self._shown.take(sharpened[:4], level, _ms_since(start), crisp_normals(*sharpened))
+        else:
+            self._shown.take(arrays, level, _ms_since(start))
+            if sharp:   # the plain mesh shows until the worker's step is in (poll)
+                self._start_sharp(arrays, spacing, options.sharp, level, start)
         self.full_triangles = self._shown.n_triangles * step * step
+
+    def _signed_field(self) -> np.ndarray:
+        key = (id(self.volume.checked.data), self._descent)
+        if self._field_key != key:
+            self._field, self._field_key = signed_field(self.volume.checked.data, self._descent), key
+        return self._field
+
+    def _start_sharp(self, plain, spacing, angle: float, level: float, start: float) -> None:
+        if self._worker is None:
+            self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isoscope sharp features")
+        stop = threading.Event()
+        future = self._worker.submit(_sharpen_step, plain, self._signed_field(), spacing, angle, stop)
+        self._pending = (future, stop, level, start)
+
+    def drop_pending(self) -> None:
+        """Forget a step on the worker: it never starts, or stops at its next check, unseen."""
+        if self._pending is not None:
+            self._pending[0].cancel()
+            self._pending[1].set()
+            self._pending = None
 
     def extractor_field(self, extractor, step: int) -> np.ndarray:
         """The float32 samples `extractor` holds (its `field` where it has one)."""
@@ -204,16 +239,51 @@ class CpuSurface:
 
     @property
     def sharp_pending(self) -> bool:
-        return False
+        """Sharp features are being made on the worker; the plain mesh is on show meanwhile."""
+        return self._pending is not None
 
     def poll(self) -> bool:
-        return False
+        """Bring in sharp features made on the worker; True when the mesh on show changed.  ValueError: the
+        step failed (the plain mesh stays on show)."""
+        if self._pending is None or not self._pending[0].done():
+            return False
+        future, _, level, start = self._pending
+        self._pending = None
+        try:
+            sharpened = future.result()
+        except Exception as exc:  # a bug or memory on the worker: said once, the plain mesh stays
+            raise ValueError(f"sharp features failed ({type(exc).__name__}: {exc}); the plain mesh is shown") \
+                from None
+        if sharpened is None:
+            return False
+        self._shown.take(sharpened[:4], level, _ms_since(start), crisp_normals(*sharpened))
+        return True
 
     def settle(self) -> None:
-        pass
+        """Wait for sharp features being made on the worker, and show them."""
+        if self._pending is not None:
+            self._pending[0].result()
+            self.poll()
 
     def release(self) -> None:
+        self.drop_pending()
+        if self._worker is not None:
+            self._worker.shutdown(wait=False, cancel_futures=True)
+            self._worker = None
+        self._field = None
         for extractor in (self.extractor, *self._previews.values()):
             extractor.release()
         self._previews.clear()
         self._shown.release()
+
+
+def _ms_since(start: float) -> float:
+    return (time.perf_counter() - start) * 1000.0
+
+
+def _sharpen_step(plain, field, spacing, angle, stop):
+    """The worker's feature step: sharpen's result, or None once stopped."""
+    try:
+        return sharpen(plain, field, spacing, angle, stop=stop)
+    except Stopped:
+        return None
