@@ -11,7 +11,7 @@ import pytest
 
 # The modules whose docstrings carry the public functions' examples: marching_cubes, marching_tetrahedra and
 # smooth_mesh (api), find_contours (core.contours), label_surfaces (labels).
-MODULES = ["isoscope.api", "isoscope.core.contours", "isoscope.labels"]
+MODULES = ["isoscope.api", "isoscope.core.contours", "isoscope.labels", "isoscope.surface"]
 
 
 @pytest.mark.parametrize("name", MODULES)
@@ -23,7 +23,7 @@ def test_examples_run(name):
 
 
 @pytest.mark.parametrize("name", ["marching_cubes", "marching_tetrahedra", "smooth_mesh", "find_contours",
-                                  "label_surfaces"])
+                                  "label_surfaces", "isosurface"])
 def test_public_functions_have_numpydoc_sections(name):
     import isoscope
     doc = getattr(isoscope, name).__doc__
@@ -32,7 +32,7 @@ def test_public_functions_have_numpydoc_sections(name):
 
 
 @pytest.mark.gl
-@pytest.mark.parametrize("name", ["isoscope.gpu.cubes", "isoscope.gpu.pool"])
+@pytest.mark.parametrize("name", ["isoscope.gpu.cubes", "isoscope.gpu.pool", "isoscope.viewer.scripting"])
 def test_gpu_examples_run(name, gl_ctx):
     """The Extractor's and release_gpu_memory's examples, on the session's GL context."""
     module = importlib.import_module(name)

@@ -125,6 +125,7 @@ BELOW = {
     "volumes": {"core", "gpu", "errors", "resources", "validation"},
     "api": {"core", "cpu", "gpu", "big", "options", "errors", "validation"},
     "labels": {"core", "cpu", "gpu", "io", "api", "options", "errors", "validation"},
+    "surface": {"core", "cpu", "gpu", "io", "volumes", "api", "labels", "errors", "validation"},
 }
 TOP = {"viewer": {"cli", "launch", "__main__"}, "cli": {"launch", "__main__"}, "launch": {"__main__"},
        "__main__": set(), "isoscope": set()}  # a front end's forbidden layers

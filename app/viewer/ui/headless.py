@@ -223,6 +223,12 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
 
 def render_labels_png(volume, out, size=(800, 600), azimuth=None, elevation=None, transparent: bool = False):
     """Render every non-zero label of `volume` as its own coloured surface to the PNG `out`."""
+    return save_png(labels_pixels(volume, size, azimuth, elevation, transparent), out)
+
+
+def labels_pixels(volume, size=(800, 600), azimuth=None, elevation=None, transparent: bool = False) -> np.ndarray:
+    """Every non-zero label of `volume` drawn as its own coloured surface: (height, width, 3) uint8 pixels
+    (4, straight alpha, with `transparent`)."""
     ctx = current_or_standalone(DRAWING_GL)   # 4.1 (no compute): the labels' surfaces come from the CPU
     surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing,
                               backend="gpu" if has_compute(ctx) else "cpu")
@@ -241,7 +247,7 @@ def render_labels_png(volume, out, size=(800, 600), azimuth=None, elevation=None
         viewer.target.use()
         viewer.renderer.draw([mesh for _, mesh, _ in scene], viewer.camera, viewer.target.viewport, style,
                              looks=[SurfaceLook(tuple(color), 1.0) for _, _, color in scene])
-        return save_png(viewer.target.read_rgba() if transparent else viewer.target.read_rgb(), out)
+        return viewer.target.read_rgba() if transparent else viewer.target.read_rgb()
     finally:
         release_scene(scene)
         viewer.release()
