@@ -11,14 +11,15 @@ from __future__ import annotations
 __version__ = "0.1.0"
 
 __all__ = ["marching_cubes", "marching_tetrahedra", "smooth_mesh", "find_contours", "label_surfaces", "Extractor",
-           "isosurface", "render", "release_gpu_memory", "IsoscopeError", "__version__"]
+           "isosurface", "render", "view", "release_gpu_memory", "IsoscopeError", "__version__"]
 
 
 # Each public name and the module that defines it, imported on first use: `import isoscope` must not need a
 # GL driver or load every module.
 _HOMES = {"marching_cubes": "api", "marching_tetrahedra": "api", "smooth_mesh": "api",
           "find_contours": "core.contours", "label_surfaces": "labels", "release_gpu_memory": "gpu.pool",
-          "IsoscopeError": "errors", "Extractor": "api", "isosurface": "surface", "render": "viewer.scripting"}
+          "IsoscopeError": "errors", "Extractor": "api", "isosurface": "surface", "render": "viewer.scripting",
+          "view": "viewer.scripting"}
 
 
 def __getattr__(name):

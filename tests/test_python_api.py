@@ -109,3 +109,26 @@ def test_render_returns_the_commands_picture(field, tmp_path):
     seg = (field > 0).astype(np.uint8)
     labels = isoscope.render(seg, labels=True, size=(200, 150))
     assert labels.shape == (150, 200, 4) and len(np.unique(labels[..., :3].reshape(-1, 3), axis=0)) > 20
+
+
+VIEW_SCRIPT = """
+import numpy as np, isoscope
+x, y, z = np.mgrid[-1:1:24j, -1:1:24j, -1:1:24j]
+viewed = isoscope.view(0.6 - np.sqrt(x * x + y * y + z * z), 0.1, size=(640, 400), max_frames=5)
+print(repr(viewed))
+"""
+
+
+@pytest.mark.gl
+def test_view_opens_the_window_on_an_array_and_says_what_it_showed(x_display):
+    import os
+    import subprocess
+    import sys
+    run_view = subprocess.run([sys.executable, "-c", VIEW_SCRIPT], capture_output=True, text=True, timeout=120,
+                              env=dict(os.environ, DISPLAY=x_display))
+    assert run_view.returncode == 0, run_view.stderr
+    assert "Viewed(level=0.1" in run_view.stdout and "levels=(0.1" in run_view.stdout
+    assert "slices=(None, None, None)" in run_view.stdout
+    no_display = subprocess.run([sys.executable, "-c", VIEW_SCRIPT], capture_output=True, text=True, timeout=120,
+                                env={k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")})
+    assert no_display.returncode == 1 and "WindowUnavailable: cannot open a window" in no_display.stderr

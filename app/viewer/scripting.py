@@ -1,7 +1,73 @@
-"""The viewer from Python: `isoscope.render` draws a volume offscreen and hands back its pixels."""
+"""The viewer from Python: `isoscope.view` opens the window on a volume and says what the user ended with;
+`isoscope.render` draws a volume offscreen and hands back its pixels."""
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+
+
+@dataclass(frozen=True)
+class Viewed:
+    """What the window showed when it was closed: pick a threshold by eye, then go on in the script."""
+    level: float                           # the selected level
+    levels: tuple[float, ...]              # every level, in the panel's order
+    azimuth: float                         # the camera, degrees
+    elevation: float
+    slices: tuple[int | None, int | None, int | None]   # each axis' slice index where one is shown
+    volume: str                            # the name of the volume on show (the user may open another)
+
+
+def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="descent", labels=False,
+         size=(1280, 800), max_frames: int | None = None) -> Viewed:
+    """Open the desktop window on `volume` and block until it is closed, as ``plt.show()`` does.
+
+    Parameters
+    ----------
+    volume : array_like, path, nibabel image, xarray.DataArray, or (array, affine)
+        What `isoscope.isosurface` takes.
+    level : float, optional
+        The first iso value (default: the volume's own).
+    spacing, affine, gradient_direction
+        As for `isoscope.isosurface`.
+    labels : bool
+        Show a label map's labels, each its own surface.
+    size : (width, height)
+        The window's size in screen pixels.
+    max_frames : int, optional
+        Close after this many frames (scripts and tests); None: when the user closes it.
+
+    Returns
+    -------
+    Viewed
+        The selected level and all levels, the camera's angles and the slices on show when the window
+        closed: ``level = isoscope.view(ct).level``.
+
+    Raises
+    ------
+    isoscope.IsoscopeError
+        No display or no OpenGL to open a window with (one line saying so), or a bad volume.
+
+    Examples
+    --------
+    >>> level = isoscope.view(ct).level        # doctest: +SKIP  (needs a display and a person)
+    """
+    from ..volumes.inputs import as_volume
+    from .ui.window import ViewerWindow
+    shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
+    window = ViewerWindow(shown, level, size=size)
+    state, camera = window.state, window.camera
+    try:
+        if labels:
+            state.show_labels()
+    except BaseException:
+        window.close()
+        raise
+    window.run(max_frames=max_frames)
+    slices = tuple(index if on else None for on, index in zip(state.slices.shown, state.slices.index))
+    return Viewed(level=float(state.iso), levels=tuple(float(item.value) for item in state.levels.items),
+                  azimuth=float(camera.azimuth), elevation=float(camera.elevation), slices=slices,
+                  volume=state.volume.name if state.volume is not None else shown.name)
 
 
 def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None, spacing=None, affine=None,
