@@ -11,7 +11,7 @@ from __future__ import annotations
 __version__ = "0.1.0"
 
 __all__ = ["marching_cubes", "marching_tetrahedra", "smooth_mesh", "find_contours", "label_surfaces", "Extractor",
-           "isosurface", "render", "view", "release_gpu_memory", "IsoscopeError", "__version__"]
+           "isosurface", "render", "view", "widget", "release_gpu_memory", "IsoscopeError", "__version__"]
 
 
 # Each public name and the module that defines it, imported on first use: `import isoscope` must not need a
@@ -19,7 +19,7 @@ __all__ = ["marching_cubes", "marching_tetrahedra", "smooth_mesh", "find_contour
 _HOMES = {"marching_cubes": "api", "marching_tetrahedra": "api", "smooth_mesh": "api",
           "find_contours": "core.contours", "label_surfaces": "labels", "release_gpu_memory": "gpu.pool",
           "IsoscopeError": "errors", "Extractor": "api", "isosurface": "surface", "render": "viewer.scripting",
-          "view": "viewer.scripting"}
+          "view": "viewer.scripting", "widget": "viewer.notebook"}
 
 
 def __getattr__(name):

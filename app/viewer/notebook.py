@@ -1,0 +1,68 @@
+"""`isoscope.widget`: the viewer in a Jupyter notebook, a jupyter_rfb canvas drawn offscreen by the same
+renderer as `isoscope render`, a level slider, and the window's mouse (left drag orbits, right drag pans,
+the wheel zooms).  `pip install "isoscope[notebook]"` brings ipywidgets and jupyter-rfb."""
+from __future__ import annotations
+
+import numpy as np
+
+
+def widget(volume, level=None, *, size=(640, 480), spacing=None, affine=None, gradient_direction="descent",
+           **options):
+    """An ipywidgets box showing `volume`'s surface: ``.canvas`` (a jupyter_rfb RemoteFrameBuffer whose
+    ``get_frame()`` is the current picture), ``.slider`` (the iso value) and ``.viewer`` (the headless
+    viewer drawing it).  `options` are `isoscope.render`'s mesh and look options (opacities, color_by,
+    colormap, tetrahedra, smooth, wireframe).  Call ``.close_viewer()`` to free its GL resources."""
+    try:
+        import ipywidgets
+        from jupyter_rfb import RemoteFrameBuffer
+    except ImportError:
+        raise ImportError("isoscope.widget needs ipywidgets and jupyter-rfb: "
+                          'pip install "isoscope[notebook]"') from None
+    from ..volumes.inputs import as_volume
+    from .ui.headless import prepared_viewer
+
+    shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
+    viewer = prepared_viewer(shown, level, (int(size[0]), int(size[1])), **options)
+
+    class Canvas(RemoteFrameBuffer):
+        """The scene, drawn on request; pointer events move the camera as in the window."""
+
+        def __init__(self):
+            super().__init__(css_width=f"{size[0]}px", css_height=f"{size[1]}px", resizable=False)
+            self._last: tuple[float, float] | None = None
+            self._button = 0
+
+        def get_frame(self) -> np.ndarray:
+            return np.ascontiguousarray(viewer.render()[..., :3])
+
+        def handle_event(self, event: dict) -> None:
+            kind = event.get("type") or event.get("event_type")
+            if kind == "pointer_down":
+                self._last, self._button = (event["x"], event["y"]), int(event.get("button", 1))
+            elif kind == "pointer_up":
+                self._last = None
+            elif kind == "pointer_move" and self._last is not None:
+                dx, dy = event["x"] - self._last[0], event["y"] - self._last[1]
+                self._last = (event["x"], event["y"])
+                if self._button == 1 and not event.get("modifiers"):
+                    viewer.camera.orbit(dx, dy)
+                else:
+                    viewer.camera.pan(dx, dy, viewer.size[1])
+                self.request_draw()
+            elif kind == "wheel":
+                viewer.camera.zoom(-float(event.get("dy", 0.0)) / 100.0)
+                self.request_draw()
+
+    canvas = Canvas()
+    low, high = shown.value_range
+    slider = ipywidgets.FloatSlider(value=float(viewer.state.iso), min=low, max=high, step=(high - low) / 1000,
+                                    description="level", continuous_update=True, readout_format=".4g")
+
+    def on_level(change) -> None:
+        viewer.state.iso = change["new"]
+        canvas.request_draw()
+    slider.observe(on_level, names="value")
+    box = ipywidgets.VBox([canvas, slider])
+    box.canvas, box.slider, box.viewer = canvas, slider, viewer
+    box.close_viewer = viewer.release
+    return box
