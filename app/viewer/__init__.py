@@ -5,8 +5,10 @@ model/  what is shown and how it may change, without GL (no moderngl import): Vi
         in and a response out), the camera, style, histogram, recent files, big volumes' step and
         export.  Refusals are exceptions; the panel shows their one line.
 gfx/    GL: GpuScene, which brings the GPU in line with a ViewerState once a frame (uploads, extracts,
-        keeps each level's mesh), the GPU surface of a volume, the renderer, slices, translucency,
-        colour by's textures, screenshots
+        keeps each level's mesh), the GPU surface of a volume (or its CPU twin on OpenGL 4.1, whose
+        meshes are uploaded as vertex buffers), the renderer, slices, translucency, colour by's textures,
+        screenshots.  Drawing needs OpenGL 4.1 core (the shaders are #version 410); extracting on the
+        GPU needs 4.3
 ui/     the glfw window and its frame loop, the imgui panel and its sections, and the headless viewer
         (`isoscope render`, tests), which lays out the same panel and so sits beside the window
 

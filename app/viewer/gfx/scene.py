@@ -11,7 +11,9 @@ volume when the full mesh is big, and the full mesh comes back once the value ha
 (surface.py).
 
 All levels come from the one `GpuSurface` (one upload, one set of brick ranges, one extractor and its
-previews).  The selected level is drawn straight from the extractor's buffers; every other level keeps
+previews), or, on a context below OpenGL 4.3 (macOS's 4.1: no compute shaders), from its CPU twin
+`CpuSurface` (cpu_surface.py), whose meshes are uploaded into vertex buffers of the same layout.
+The selected level is drawn straight from the extractor's buffers; every other level keeps
 its last full-resolution mesh in buffers of its own (`MeshCopy`, a GPU-to-GPU copy made when it stops
 being the selected one), so a drag re-extracts one level per frame, not all.
 
