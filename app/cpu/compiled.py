@@ -35,7 +35,16 @@ from ..core.layout import BRICK_I, BRICK_J, EDGE_MARGIN, WORD_BITS
 
 __all__ = ["marching_cubes_compiled", "CompiledCubes"]
 
-_FULL = np.int64(0xFFFFFFFF)
+
+def _cached_njit(**options):
+    """numba's njit with its output cached on disk (cache=True: __pycache__ beside this file, else the
+    user's cache directory), or compiled afresh in each process where no cache directory can be written."""
+    def wrap(function):
+        try:
+            return njit(cache=True, **options)(function)
+        except RuntimeError:  # "cannot cache function ...: no locator available"
+            return njit(**options)(function)
+    return wrap
 
 
 @intrinsic
@@ -54,13 +63,13 @@ def _lowest_bit(typingctx, x):
     return types.int64(types.int64), codegen
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@_cached_njit(inline="always", error_model="numpy")
 def _low_bits(count):
     """A mask of the lowest `count` bits (0 <= count <= 32)."""
     return (np.int64(1) << count) - 1
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@_cached_njit(parallel=True, error_model="numpy")
 def _word_ranges(field, lows, highs):
     """The smallest and largest sample of each word (its 32 samples along axis 2 and the next one, the
     far end of its last edge)."""
@@ -81,7 +90,7 @@ def _word_ranges(field, lows, highs):
                 highs[i, j, w] = hi
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@_cached_njit(parallel=True, error_model="numpy")
 def _pack_signs(field, sign, level, lows, highs, ranged, signs):
     """Pass 1: bit k of signs[i, j, w] is set where sample (i, j, 32 w + k) of the signed field
     (sign * field) is at or above `level`.  With `ranged`, lows/highs (the words' ranges of `field`)
@@ -111,7 +120,7 @@ def _pack_signs(field, sign, level, lows, highs, ranged, signs):
                 signs[i, j, w] = word
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@_cached_njit(inline="always", error_model="numpy")
 def _shifted(signs, i, j, w, nw):
     """The word's bits moved down by one, the next word's first bit on top: bit k is sample k + 1."""
     s = signs[i, j, w]
@@ -119,7 +128,7 @@ def _shifted(signs, i, j, w, nw):
     return (s >> 1) | nxt
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@_cached_njit(inline="always", error_model="numpy")
 def _cut_cells(signs, i, j, w, nw, cell_mask):
     """The word's cells with corners on both sides of the level (bit k: cell (i, j, 32 w + k)) and its
     four rows' words, plain and shifted by one sample."""
@@ -136,13 +145,13 @@ def _cut_cells(signs, i, j, w, nw, cell_mask):
     return (some & ~every) & cell_mask, a, b, c, d, a1, b1, c1, d1
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@_cached_njit(inline="always", error_model="numpy")
 def _case(k, a, b, c, d, a1, b1, c1, d1):
     return (((a >> k) & 1) | ((b >> k) & 1) << 1 | ((c >> k) & 1) << 2 | ((d >> k) & 1) << 3
             | ((a1 >> k) & 1) << 4 | ((b1 >> k) & 1) << 5 | ((c1 >> k) & 1) << 6 | ((d1 >> k) & 1) << 7)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@_cached_njit(parallel=True, error_model="numpy")
 def _count(signs, n2, table_counts, edges, vertex_counts, triangle_counts):
     """Pass 2: per word, the crossing-edge masks (edges[i, j, w, axis]), its vertex count and triangle
     count."""
@@ -171,7 +180,7 @@ def _count(signs, n2, table_counts, edges, vertex_counts, triangle_counts):
                 triangle_counts[i, j, w] = triangles
 
 
-@njit(cache=True, error_model="numpy")
+@_cached_njit(error_model="numpy")
 def _scan(vertex_counts, triangle_counts):
     """Pass 3: the counts become exclusive prefix sums in the GPU's word order (brick (i // BRICK_I,
     j // BRICK_J, w) in C order, then (i % BRICK_I, j % BRICK_J)); returns the totals."""
@@ -192,7 +201,7 @@ def _scan(vertex_counts, triangle_counts):
     return vertices, triangles
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@_cached_njit(inline="always", error_model="numpy")
 def _gradient(field, sign, i, j, k, spacing):
     """cubes.gradient_at of the signed field at one grid point: central differences, one-sided at the
     border, in physical units (float32 throughout)."""
@@ -209,7 +218,7 @@ def _gradient(field, sign, i, j, k, spacing):
     return g0, g1, g2
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@_cached_njit(inline="always", error_model="numpy")
 def _vertex(field, sign, level, spacing, i, j, k, axis, verts, normals, values, n):
     """cubes.place_vertices for the edge from (i, j, k) along `axis`, written at row n."""
     di = np.int64(axis == 0)
@@ -241,7 +250,7 @@ def _vertex(field, sign, level, spacing, i, j, k, axis, verts, normals, values, 
         normals[n, 2] = out if axis == 2 else zero
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@_cached_njit(inline="always", error_model="numpy")
 def _vertex_index(edges, vertex_offsets, i, j, k, axis):
     """The vertex of the edge from (i, j, k) along `axis`: its word's first vertex, the word's edges
     along lower axes, then the word's edges along `axis` below bit k."""
@@ -253,7 +262,7 @@ def _vertex_index(edges, vertex_offsets, i, j, k, axis):
     return index + _popcount(edges[i, j, w, axis] & _low_bits(bit))
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@_cached_njit(parallel=True, error_model="numpy")
 def _write(field, sign, level, spacing, signs, edges, vertex_offsets, triangle_offsets, table_counts,
            table_triangles, row_owner, edge_row, verts, faces, normals, values):
     """Pass 4: each word's vertices and triangles at its offsets."""
