@@ -50,7 +50,9 @@ def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="d
 
     Examples
     --------
-    >>> level = isoscope.view(ct).level        # doctest: +SKIP  (needs a display and a person)
+    Needs a display and a person, so not run as a doctest:
+
+    >>> level = isoscope.view(ct).level   # doctest: +SKIP
     """
     from ..volumes.inputs import as_volume
     from .ui.window import ViewerWindow
