@@ -54,28 +54,35 @@ def main(argv=None) -> int:
     parser.add_argument("--surfaces", type=int, default=1, help="levels on show, 1..4 (the first is dragged)")
     parser.add_argument("--opacity", type=float, default=1.0,
                         help="opacity of the levels not dragged (below 1: drawn by weighted blended OIT)")
+    parser.add_argument("--gl41", action="store_true",
+                        help="imitate macOS on Mesa (MESA_GL_VERSION_OVERRIDE=4.1): an OpenGL 4.1 window, meshes made "
+                             "by the CPU extractor")
     args = parser.parse_args(argv)
-    from isoscope.viewer.slice_options import slice_spec
+    if args.gl41:   # before the first GL context: Mesa reads them once
+        os.environ.update(MESA_GL_VERSION_OVERRIDE="4.1", MESA_GLSL_VERSION_OVERRIDE="410")
+    from isoscope.cli.slice_options import slice_spec
     slices = [slice_spec(text) for text in args.slice]
     width, height = (int(v) for v in args.size.lower().split("x"))
 
     with display():
-        from isoscope.viewer.recent import RecentFiles
-        from isoscope.viewer.window import ViewerWindow
+        from isoscope.viewer.model.recent import RecentFiles
+        from isoscope.viewer.ui.window import ViewerWindow
         from isoscope.volumes import DEFAULT_VOLUME, open_volume
 
         volume = open_volume(args.volume or DEFAULT_VOLUME)
         window = ViewerWindow(volume, size=(width, height), recent=RecentFiles(None))
         try:
-            state = window.state
+            state, scene = window.state, window.scene
             for axis, index in slices:
-                if not state.show_slice(axis, True, index):
-                    sys.exit(f"bench_viewer: {state.error}")
+                try:
+                    state.slices.show(axis, True, index)
+                except ValueError as exc:
+                    sys.exit(f"bench_viewer: {exc}")
             low, high = state.value_range
             for k in range(1, args.surfaces):   # outer shells (on a density) around the dragged level
-                state.add_level(low + (high - low) * (0.25 - 0.05 * k))
-                state.set_level_opacity(k, args.opacity)
-            state.select_level(0)
+                state.levels.add(low + (high - low) * (0.25 - 0.05 * k))
+                state.levels.set_opacity(k, args.opacity)
+            state.levels.select(0)
             for _ in range(5):  # JIT of every shader and first buffer allocations
                 window.draw_frame()
             low, high = state.value_range
@@ -83,16 +90,16 @@ def main(argv=None) -> int:
             for frame in range(args.frames):
                 # A drag across the middle of the range and back, one step per frame.
                 phase = frame / max(args.frames - 1, 1)
-                state.set_iso(low + (high - low) * (0.3 + 0.4 * (1 - abs(2 * phase - 1))))
+                state.iso = low + (high - low) * (0.3 + 0.4 * (1 - abs(2 * phase - 1)))
                 start = time.perf_counter()
                 window.draw_frame()
                 frame_ms.append((time.perf_counter() - start) * 1000)
-                extract_ms.append(state.extract_ms)
-                triangles.append(sum(mesh.n_triangles for mesh in state.meshes))
-                steps.append(state.preview_step)
+                extract_ms.append(scene.extract_ms)
+                triangles.append(sum(mesh.n_triangles for mesh in scene.meshes))
+                steps.append(scene.preview_step)
             # The value rests: frames go on until the full-resolution mesh is back on show.
             released = time.perf_counter()
-            while state.preview_step > 1 and time.perf_counter() - released < 5.0:
+            while scene.preview_step > 1 and time.perf_counter() - released < 5.0:
                 window.draw_frame()
             full_after_ms = (time.perf_counter() - released) * 1000
             shape = "x".join(map(str, volume.data.shape))
