@@ -93,3 +93,15 @@ def test_load_cost_benchmark_measures_every_kind_of_load():
                      "imageLoad uimage2D r32ui", "texelFetch sampler3D rgba32f", "imageLoad image3D rgba32f"]
     for cells in rows[1:]:
         assert all(float(cell) > 0 for cell in cells[1:])
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("flags", [(), ("--gl41",)], ids=["gpu", "gl41"])
+def test_viewer_benchmark_drags_and_prints_its_lines(flags):
+    """bench_viewer opens the real window (a private Xvfb) and times a drag; it broke once unnoticed."""
+    env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
+    done = subprocess.run([sys.executable, str(SCRIPT.parent / "bench_viewer.py"), "--frames", "3", "--volume",
+                           "bucky", "--size", "320x240", *flags], capture_output=True, text=True, timeout=300, env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "frame       median" in done.stdout
+    assert ("CPU extractor" if flags else "GPU extractor") in done.stdout
