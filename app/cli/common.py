@@ -9,6 +9,7 @@ from ..volumes import VolumeError
 EXIT_BAD_INPUT = 2
 EXIT_NO_GL = 1
 EXIT_CLUSTER_FAILED = 1  # the machine, not the input: a cluster failed, the disk is full
+EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE: the reader of stdout went away (`| head`)
 
 
 

@@ -6,11 +6,12 @@ exit status 2; no traceback reaches the user.
 from __future__ import annotations
 
 import errno
+import os
 import sys
 
 from ..volumes import DEFAULT_VOLUME, VolumeError
 from .arguments import COMMANDS, command_parser, viewer_parser
-from .common import EXIT_BAD_INPUT, EXIT_CLUSTER_FAILED, EXIT_NO_GL
+from .common import EXIT_BAD_INPUT, EXIT_BROKEN_PIPE, EXIT_CLUSTER_FAILED, EXIT_NO_GL
 from .export import run_export
 from .render import run_render, run_viewer
 
@@ -52,6 +53,11 @@ def main(argv: list[str] | None = None) -> int:
         # VolumeError and the extractor's ValueErrors carry one-line, user-facing messages.
         print(f"isoscope: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except BrokenPipeError:
+        # `isoscope measure --json | head`: the reader left; stop quietly, as Unix tools do on SIGPIPE
+        # (stdout pointed at /dev/null so that Python's exit flush does not complain again).
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
     except OSError as exc:
         if exc.errno in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT):  # the disk (or a size limit) is full
             print(f"isoscope: error: {exc.strerror}: the output did not fit, and no partial file was left; "

@@ -113,3 +113,12 @@ def test_closed_caps_a_surface_that_leaves_the_volume(tmp_path):
     assert record["volume_ml"] * 1000 == pytest.approx(half - math.pi * R * R * 0.025, rel=0.01)
     assert_one_line_error(isoscope("export", tmp_path / "cut.npy", "--closed", "--chunk", "16", "--out",
                                    tmp_path / "c.stl"), "--closed", "chunked")
+
+
+def test_a_reader_that_leaves_early_ends_it_quietly():
+    """`isoscope measure --json | head -c 5`: no 'Broken pipe' error, the status SIGPIPE's (141)."""
+    import subprocess
+    import sys
+    done = subprocess.run(["bash", "-c", f'"{sys.executable}" -m isoscope measure torus --json | head -c 5; '
+                                         'echo " ${PIPESTATUS[0]}"'], capture_output=True, text=True, timeout=120)
+    assert done.stderr == "" and done.stdout.split()[-1] == "141", (done.stdout, done.stderr)
