@@ -219,7 +219,8 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     volume, level, spacing, gradient_direction
         As for `marching_cubes`.
     backend : {"auto", "gpu", "cpu", "numpy"}, default "auto"
-        "gpu", "cpu" or "numpy" (both the numpy extractor, for now), or "auto".
+        "gpu", "cpu" (compiled CPU kernels), "numpy" (the numpy reference), or "auto",
+        as for `marching_cubes`.
     smooth : int, default 0
         Iterations of smoothing projected back onto the level set, as in
         `marching_cubes`.
@@ -280,7 +281,10 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     descent = validation.as_gradient_direction(gradient_direction)
     if checked.value_range is not None:
         level = validation.as_level(level, checked.value_range)
-    if on_cpu:
+    if backend == "cpu":
+        from .cpu.compiled import marching_tetrahedra_compiled  # numba loads on first use
+        mesh = _on_cpu(marching_tetrahedra_compiled, checked, level, spacing, descent, iterations)
+    elif backend == "numpy":
         mesh = _on_cpu(marching_tetrahedra_reference, checked, level, spacing, descent, iterations)
     else:
         mesh = _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra=True)

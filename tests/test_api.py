@@ -235,3 +235,14 @@ def test_label_surfaces_on_the_cpu_backends_agree():
     for label in compiled:
         for a, b in zip(compiled[label], reference[label]):
             np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("options", [{}, {"gradient_direction": "ascent", "spacing": (0.5, 1.0, 2.0)}, {"smooth": 2},
+                                     {"mask": np.indices((24, 24, 24)).sum(axis=0) < 30}])
+def test_tetrahedra_cpu_backend_gives_the_numpy_backend_s_mesh(options):
+    volume = sphere(24)
+    compiled = isoscope.marching_tetrahedra(volume, 0.0, backend="cpu", **options)
+    reference = isoscope.marching_tetrahedra(volume, 0.0, backend="numpy", **options)
+    assert len(compiled[1]) > 0
+    for a, b in zip(compiled, reference):
+        np.testing.assert_array_equal(a, b)

@@ -33,7 +33,7 @@ from numba.extending import intrinsic
 from ..core.case_table import EDGE_AXIS, EDGE_ORIGIN, CaseTable, montani_table
 from ..core.layout import BRICK_I, BRICK_J, EDGE_MARGIN, WORD_BITS
 
-__all__ = ["marching_cubes_compiled", "CompiledCubes"]
+__all__ = ["marching_cubes_compiled", "marching_tetrahedra_compiled", "CompiledCubes"]
 
 
 def _cached_njit(**options):
@@ -152,24 +152,30 @@ def _case(k, a, b, c, d, a1, b1, c1, d1):
 
 
 @_cached_njit(parallel=True, error_model="numpy")
-def _count(signs, n2, table_counts, edges, vertex_counts, triangle_counts):
-    """Pass 2: per word, the crossing-edge masks (edges[i, j, w, axis]), its vertex count and triangle
-    count."""
+def _count(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts):
+    """Pass 2: per word, the crossing-edge masks (edges[i, j, w, kind]: the edges from its samples to the
+    samples steps[kind] away), its vertex count and triangle count."""
     n0, n1, nw = signs.shape
     for i in prange(n0):
         for j in range(n1):
             for w in range(nw):
                 k0 = w * WORD_BITS
                 s = signs[i, j, w]
-                # Edges along axis 2 end in the row: the last sample owns none.
+                # Edges with a step along axis 2 end in the row: the last sample owns none.
                 along2 = _low_bits(min(WORD_BITS, n2 - 1 - k0))
-                e2 = (s ^ _shifted(signs, i, j, w, nw)) & along2
-                e0 = s ^ signs[i + 1, j, w] if i + 1 < n0 else 0
-                e1 = s ^ signs[i, j + 1, w] if j + 1 < n1 else 0
-                edges[i, j, w, 0] = e0
-                edges[i, j, w, 1] = e1
-                edges[i, j, w, 2] = e2
-                vertex_counts[i, j, w] = _popcount(e0) + _popcount(e1) + _popcount(e2)
+                vertices = 0
+                for kind in range(steps.shape[0]):
+                    oi = i + steps[kind, 0]
+                    oj = j + steps[kind, 1]
+                    e = 0
+                    if oi < n0 and oj < n1:
+                        if steps[kind, 2]:
+                            e = (s ^ _shifted(signs, oi, oj, w, nw)) & along2
+                        else:
+                            e = s ^ signs[oi, oj, w]
+                    edges[i, j, w, kind] = e
+                    vertices += _popcount(e)
+                vertex_counts[i, j, w] = vertices
                 triangles = 0
                 if i + 1 < n0 and j + 1 < n1:
                     cut, a, b, c, d, a1, b1, c1, d1 = _cut_cells(signs, i, j, w, nw, along2)
@@ -219,22 +225,19 @@ def _gradient(field, sign, i, j, k, spacing):
 
 
 @_cached_njit(inline="always", error_model="numpy")
-def _vertex(field, sign, level, spacing, i, j, k, axis, verts, normals, values, n):
-    """cubes.place_vertices for the edge from (i, j, k) along `axis`, written at row n."""
-    di = np.int64(axis == 0)
-    dj = np.int64(axis == 1)
-    dk = np.int64(axis == 2)
+def _vertex(field, sign, level, spacing, i, j, k, d0, d1, d2, verts, normals, values, n):
+    """cubes.place_vertices for the edge from (i, j, k) to (i + d0, j + d1, k + d2), written at row n."""
     v0 = sign * field[i, j, k]
-    v1 = sign * field[i + di, j + dj, k + dk]
+    v1 = sign * field[i + d0, j + d1, k + d2]
     t = (level - v0) / (v1 - v0)
     t = min(max(t, EDGE_MARGIN), np.float32(1) - EDGE_MARGIN)
     zero = np.float32(0)
-    verts[n, 0] = (np.float32(i) + (t if axis == 0 else zero)) * spacing[0]
-    verts[n, 1] = (np.float32(j) + (t if axis == 1 else zero)) * spacing[1]
-    verts[n, 2] = (np.float32(k) + (t if axis == 2 else zero)) * spacing[2]
+    verts[n, 0] = (np.float32(i) + (t if d0 else zero)) * spacing[0]
+    verts[n, 1] = (np.float32(j) + (t if d1 else zero)) * spacing[1]
+    verts[n, 2] = (np.float32(k) + (t if d2 else zero)) * spacing[2]
     values[n] = (v0 + t * (v1 - v0)) * sign
     a0, a1, a2 = _gradient(field, sign, i, j, k, spacing)
-    b0, b1, b2 = _gradient(field, sign, i + di, j + dj, k + dk, spacing)
+    b0, b1, b2 = _gradient(field, sign, i + d0, j + d1, k + d2, spacing)
     g0 = a0 + t * (b0 - a0)
     g1 = a1 + t * (b1 - a1)
     g2 = a2 + t * (b2 - a2)
@@ -243,43 +246,48 @@ def _vertex(field, sign, level, spacing, i, j, k, axis, verts, normals, values, 
         normals[n, 0] = -g0 / length
         normals[n, 1] = -g1 / length
         normals[n, 2] = -g2 / length
-    else:  # a flat field: along the edge, from its inside end to its outside end
-        out = np.float32(1) if v0 >= level else np.float32(-1)
-        normals[n, 0] = out if axis == 0 else zero
-        normals[n, 1] = out if axis == 1 else zero
-        normals[n, 2] = out if axis == 2 else zero
+    else:  # a flat field: along the edge, from its inside end to its outside end (in float64, as numpy)
+        out = 1.0 if v0 >= level else -1.0
+        s0 = np.float64(d0) * np.float64(spacing[0])
+        s1 = np.float64(d1) * np.float64(spacing[1])
+        s2 = np.float64(d2) * np.float64(spacing[2])
+        norm = np.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+        normals[n, 0] = np.float32(out * (s0 / norm))
+        normals[n, 1] = np.float32(out * (s1 / norm))
+        normals[n, 2] = np.float32(out * (s2 / norm))
 
 
 @_cached_njit(inline="always", error_model="numpy")
-def _vertex_index(edges, vertex_offsets, i, j, k, axis):
-    """The vertex of the edge from (i, j, k) along `axis`: its word's first vertex, the word's edges
-    along lower axes, then the word's edges along `axis` below bit k."""
+def _vertex_index(edges, vertex_offsets, i, j, k, kind):
+    """The vertex of the edge of `kind` from (i, j, k): its word's first vertex, the word's edges of lower
+    kinds, then the word's edges of `kind` below bit k."""
     w = k >> 5
     bit = k & 31
     index = vertex_offsets[i, j, w]
-    for a in range(axis):
-        index += _popcount(edges[i, j, w, a])
-    return index + _popcount(edges[i, j, w, axis] & _low_bits(bit))
+    for lower in range(kind):
+        index += _popcount(edges[i, j, w, lower])
+    return index + _popcount(edges[i, j, w, kind] & _low_bits(bit))
 
 
 @_cached_njit(parallel=True, error_model="numpy")
-def _write(field, sign, level, spacing, signs, edges, vertex_offsets, triangle_offsets, table_counts,
+def _write(field, sign, level, spacing, steps, signs, edges, vertex_offsets, triangle_offsets, table_counts,
            table_triangles, row_owner, edge_row, verts, faces, normals, values):
     """Pass 4: each word's vertices and triangles at its offsets."""
     n0, n1, nw = signs.shape
     n2 = field.shape[2]
+    rows = row_owner.shape[0]
     for i in prange(n0):
-        masks = np.empty(8, np.int64)
-        firsts = np.empty(8, np.int64)
+        masks = np.empty(rows, np.int64)
+        firsts = np.empty(rows, np.int64)
         for j in range(n1):
             for w in range(nw):
                 k0 = w * WORD_BITS
                 n = vertex_offsets[i, j, w]
-                for axis in range(3):
-                    bits = edges[i, j, w, axis]
+                for kind in range(steps.shape[0]):
+                    bits = edges[i, j, w, kind]
                     while bits:
-                        _vertex(field, sign, level, spacing, i, j, k0 + _lowest_bit(bits), axis,
-                                verts, normals, values, n)
+                        _vertex(field, sign, level, spacing, i, j, k0 + _lowest_bit(bits), steps[kind, 0],
+                                steps[kind, 1], steps[kind, 2], verts, normals, values, n)
                         bits &= bits - 1
                         n += 1
                 if i + 1 >= n0 or j + 1 >= n1:
@@ -288,14 +296,14 @@ def _write(field, sign, level, spacing, signs, edges, vertex_offsets, triangle_o
                 cut, a, b, c, d, a1, b1, c1, d1 = _cut_cells(signs, i, j, w, nw, along2)
                 if cut == 0:
                     continue
-                # The eight rows of edges the word's cells use: their masks and first vertices.
-                for r in range(8):
+                # The rows of edges the word's cells use: their masks and first vertices.
+                for r in range(rows):
                     oi = i + row_owner[r, 0]
                     oj = j + row_owner[r, 1]
-                    axis = row_owner[r, 2]
-                    masks[r] = edges[oi, oj, w, axis]
+                    kind = row_owner[r, 2]
+                    masks[r] = edges[oi, oj, w, kind]
                     first = vertex_offsets[oi, oj, w]
-                    for lower in range(axis):
+                    for lower in range(kind):
                         first += _popcount(edges[oi, oj, w, lower])
                     firsts[r] = first
                 m = triangle_offsets[i, j, w]
@@ -317,33 +325,50 @@ def _write(field, sign, level, spacing, signs, edges, vertex_offsets, triangle_o
                         m += 1
 
 
-def _edge_rows():
-    """The rows of edges a cell's twelve edges lie on, relative to the cell's row (i, j): ROW_OWNER[r] is
-    (di, dj, axis) of row r (axis 0 at dj 0, 1; axis 1 at di 0, 1; axis 2 at the four (di, dj)), and
-    EDGE_ROW[e] the row of cell edge e and its step along axis 2 (0 or 1: the edge at k or k + 1)."""
-    owners = [(0, 0, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (0, 0, 2), (1, 0, 2), (0, 1, 2), (1, 1, 2)]
-    rows = []
-    for axis, (o0, o1, o2) in zip(EDGE_AXIS, EDGE_ORIGIN):
-        rows.append((owners.index((int(o0), int(o1), int(axis))), int(o2) if axis < 2 else 0))
-        assert axis == 2 or o2 in (0, 1)
-        assert axis < 2 or o2 == 0
-    return np.array(owners, np.int64), np.array(rows, np.int64)
+def code_rows(codes):
+    """The rows of edges a cell's table codes lie on, relative to the cell's row (i, j).  `codes[c]` is
+    (di, dj, dk, kind) of code c: its edge of `kind` from cell corner (di, dj, dk).  Returns row_owner
+    (R, 3): (di, dj, kind) of each row, and edge_row (C, 2): the row of code c and its step along axis 2
+    (0 or 1: the edge at k or k + 1)."""
+    owners = sorted({(di, dj, kind) for di, dj, dk, kind in codes})
+    edge_row = [(owners.index((di, dj, kind)), dk) for di, dj, dk, kind in codes]
+    return np.array(owners, np.int64), np.array(edge_row, np.int64)
 
 
-ROW_OWNER, EDGE_ROW = _edge_rows()
+CUBE_STEPS = np.eye(3, dtype=np.int64)
+"""Marching cubes' edge kinds: the three axes (cubes.py)."""
+ROW_OWNER, EDGE_ROW = code_rows([(int(o[0]), int(o[1]), int(o[2]), int(a)) for a, o in zip(EDGE_AXIS, EDGE_ORIGIN)])
+"""The rows of a cube cell's twelve edges (axis 0 at dj 0, 1; axis 1 at di 0, 1; axis 2 at the four (di, dj))."""
+
+
+def tetra_rows(kinds: np.ndarray):
+    """row_owner and edge_row of the tetrahedra's codes (corner | kind << 3, tetra.edge_code)."""
+    codes = []
+    for code in range(8 * 8):
+        corner, kind = code & 7, min(code >> 3, len(kinds) - 1)  # kind 7 is no code: any row will do
+        codes.append((corner & 1, corner >> 1 & 1, corner >> 2, kind))
+    return code_rows(codes)
 
 
 class CompiledCubes:
     """The compiled extractor's state for one float32 volume: per word of 32 samples its sign bits, edge
-    masks and offsets (48 bytes a word, 1.5 bytes a sample) and, made on the first iso change, its value
-    range (8 bytes a word), so a new level packs only the words it cuts.  `extract(level)` returns
-    (verts, faces, normals, values)."""
+    masks and offsets (48 bytes a word for cubes' three kinds of edge, 80 for tetrahedra's seven) and,
+    made on the first iso change, its value range (8 bytes a word), so a new level packs only the words it
+    cuts.  `extract(level)` returns (verts, faces, normals, values).  With `tetrahedra`, the cells are
+    marched as six tetrahedra each (`isoscope.cpu.tetra`'s table, edges and order)."""
 
     def __init__(self, field: np.ndarray, spacing, descent: bool, table: CaseTable | None = None,
-                 reuse_outputs: bool = False):
+                 reuse_outputs: bool = False, tetrahedra: bool = False):
         if field.dtype != np.float32 or field.ndim != 3 or not field.flags.c_contiguous:
             raise ValueError("CompiledCubes takes a C-contiguous 3-D float32 volume")
-        table = table or montani_table()
+        if tetrahedra:
+            from .tetra import KINDS, tetra_table
+            table = table or tetra_table()
+            self._steps = KINDS.astype(np.int64)
+            self._row_owner, self._edge_row = tetra_rows(KINDS)
+        else:
+            table = table or montani_table()
+            self._steps, self._row_owner, self._edge_row = CUBE_STEPS, ROW_OWNER, EDGE_ROW
         self.field = field
         self.sign = np.float32(1.0 if descent else -1.0)
         self.spacing = np.asarray(spacing, dtype=np.float64).astype(np.float32)
@@ -352,7 +377,7 @@ class CompiledCubes:
         self._counts = table.counts.astype(np.int64)
         self._triangles = table.triangles.astype(np.int64)
         self._signs = np.empty((n0, n1, nw), np.int64)
-        self._edges = np.empty((n0, n1, nw, 3), np.int64)
+        self._edges = np.empty((n0, n1, nw, len(self._steps)), np.int64)
         self._vertex_offsets = np.empty((n0, n1, nw), np.int64)
         self._triangle_offsets = np.empty((n0, n1, nw), np.int64)
         self._lows = self._highs = None
@@ -393,13 +418,13 @@ class CompiledCubes:
         lows = self._lows if ranged else np.empty((1, 1, 1), np.float32)
         highs = self._highs if ranged else lows
         _pack_signs(self.field, self.sign, level, lows, highs, ranged, self._signs)
-        _count(self._signs, self.field.shape[2], self._counts, self._edges, self._vertex_offsets,
+        _count(self._signs, self.field.shape[2], self._steps, self._counts, self._edges, self._vertex_offsets,
                self._triangle_offsets)
         n_vertices, n_triangles = _scan(self._vertex_offsets, self._triangle_offsets)
         verts, faces, normals, values = self._output_arrays(n_vertices, n_triangles)
-        _write(self.field, self.sign, level, self.spacing, self._signs, self._edges, self._vertex_offsets,
-               self._triangle_offsets, self._counts, self._triangles, ROW_OWNER, EDGE_ROW,
-               verts, faces, normals, values)
+        _write(self.field, self.sign, level, self.spacing, self._steps, self._signs, self._edges,
+               self._vertex_offsets, self._triangle_offsets, self._counts, self._triangles, self._row_owner,
+               self._edge_row, verts, faces, normals, values)
         return verts, faces, normals, values
 
 
@@ -409,3 +434,9 @@ def marching_cubes_compiled(volume: np.ndarray, level: float, spacing=(1.0, 1.0,
     int32, normals (N, 3) float32, values (N,) float32.  `volume` must already be validated."""
     field = np.ascontiguousarray(volume, dtype=np.float32)
     return CompiledCubes(field, spacing, descent, table).extract(level)
+
+
+def marching_tetrahedra_compiled(volume: np.ndarray, level: float, spacing=(1.0, 1.0, 1.0), descent: bool = True):
+    """`tetra.marching_tetrahedra_reference`'s mesh from the compiled kernels (the same arrays)."""
+    field = np.ascontiguousarray(volume, dtype=np.float32)
+    return CompiledCubes(field, spacing, descent, tetrahedra=True).extract(level)

@@ -105,3 +105,29 @@ def test_another_case_table():
     table = label_table()
     assert_identical(marching_cubes_compiled(indicator, 0.5, table=table),
                      marching_cubes_reference(indicator, 0.5, table=table))
+
+
+@pytest.mark.parametrize("direction", ["descent", "ascent"])
+@pytest.mark.parametrize("name", ["sphere", "noise", "ties", "ambiguous", "odd"])
+def test_tetrahedra_give_the_reference_mesh(name, direction):
+    from isoscope.cpu.compiled import marching_tetrahedra_compiled
+    from isoscope.cpu.tetra import marching_tetrahedra_reference
+    volume, level = FIELDS[name]()
+    spacing = (0.5, 2.0, 1.25)
+    descent = direction == "descent"
+    want = marching_tetrahedra_reference(volume, level, spacing, descent)
+    assert len(want[1]) > 0
+    assert_identical(marching_tetrahedra_compiled(volume, level, spacing, descent), want)
+
+
+def test_flat_fields_give_the_reference_normals_on_every_kind_of_edge():
+    """A checkerboard has no central-difference gradient inside: normals point along the edges, the
+    tetrahedra's diagonals included (a float64 unit vector in numpy, rounded to float32)."""
+    from isoscope.cpu.compiled import marching_tetrahedra_compiled
+    from isoscope.cpu.tetra import marching_tetrahedra_reference
+    volume = (np.indices((6, 7, 8)).sum(axis=0) % 2).astype(np.float32)
+    for spacing in ((0.5, 2.0, 1.25), (0.3, 0.7, 1.9)):
+        want = marching_tetrahedra_reference(volume, 0.5, spacing, False)
+        assert (np.abs(want[2]).sum(axis=1) > 1.01).any()  # some normals along a diagonal
+        assert_identical(marching_tetrahedra_compiled(volume, 0.5, spacing, False), want)
+        assert_identical(marching_cubes_compiled(volume, 0.5, spacing), marching_cubes_reference(volume, 0.5, spacing))
