@@ -154,8 +154,10 @@ def _case(k, a, b, c, d, a1, b1, c1, d1):
 @_cached_njit(parallel=True, error_model="numpy")
 def _count(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts):
     """Pass 2: per word, the crossing-edge masks (edges[i, j, w, kind]: the edges from its samples to the
-    samples steps[kind] away), its vertex count and triangle count."""
+    samples steps[kind] away), its vertex count and triangle count.  Three steps must be the axes in order
+    (CUBE_STEPS)."""
     n0, n1, nw = signs.shape
+    axes_only = steps.shape[0] == 3
     for i in prange(n0):
         for j in range(n1):
             for w in range(nw):
@@ -163,18 +165,27 @@ def _count(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts
                 s = signs[i, j, w]
                 # Edges with a step along axis 2 end in the row: the last sample owns none.
                 along2 = _low_bits(min(WORD_BITS, n2 - 1 - k0))
-                vertices = 0
-                for kind in range(steps.shape[0]):
-                    oi = i + steps[kind, 0]
-                    oj = j + steps[kind, 1]
-                    e = 0
-                    if oi < n0 and oj < n1:
-                        if steps[kind, 2]:
-                            e = (s ^ _shifted(signs, oi, oj, w, nw)) & along2
-                        else:
-                            e = s ^ signs[oi, oj, w]
-                    edges[i, j, w, kind] = e
-                    vertices += _popcount(e)
+                if axes_only:  # cubes (steps the three axes, in order): unrolled, 40% of this pass's time
+                    e0 = s ^ signs[i + 1, j, w] if i + 1 < n0 else 0
+                    e1 = s ^ signs[i, j + 1, w] if j + 1 < n1 else 0
+                    e2 = (s ^ _shifted(signs, i, j, w, nw)) & along2
+                    edges[i, j, w, 0] = e0
+                    edges[i, j, w, 1] = e1
+                    edges[i, j, w, 2] = e2
+                    vertices = _popcount(e0) + _popcount(e1) + _popcount(e2)
+                else:
+                    vertices = 0
+                    for kind in range(steps.shape[0]):
+                        oi = i + steps[kind, 0]
+                        oj = j + steps[kind, 1]
+                        e = 0
+                        if oi < n0 and oj < n1:
+                            if steps[kind, 2]:
+                                e = (s ^ _shifted(signs, oi, oj, w, nw)) & along2
+                            else:
+                                e = s ^ signs[oi, oj, w]
+                        edges[i, j, w, kind] = e
+                        vertices += _popcount(e)
                 vertex_counts[i, j, w] = vertices
                 triangles = 0
                 if i + 1 < n0 and j + 1 < n1:
