@@ -1,4 +1,5 @@
-"""Marching cubes compiled for the CPU (numba): the numpy reference's mesh (`isoscope.cpu.cubes`), fast.
+"""Marching cubes and tetrahedra compiled for the CPU (numba): the numpy references' meshes
+(`isoscope.cpu.cubes`, `isoscope.cpu.tetra`), bit for bit, fast.
 
 The design is the GPU's (shaders/mc_*.comp) and Flying Edges' (Schroeder, Maynard, Geveci 2015): the
 samples are read once, to pack their inside bits 32 to a word along axis 2; everything after works on
@@ -19,6 +20,8 @@ those words with bit operations, and only the cells the surface cuts do per-cell
                    word's offset and a population count of the edge mask below the edge's bit.
 
 Passes 1, 2 and 4 run in parallel over planes of axis 0 (`prange`); 3 is a serial loop over words.
+Tetrahedra run the same passes with seven kinds of edge (tetra.KINDS: the axes, the face and body
+diagonals) instead of three, and their table's codes.
 The arithmetic of a vertex is the reference's, in float32 and in the same order, so positions, normals
 and values are the reference's bit for bit.  The kernels take float32 volumes only (one compiled
 signature a kernel; the JIT's output is cached on disk, numba's cache=True).
