@@ -28,6 +28,10 @@ signature a kernel; the JIT's output is cached on disk, numba's cache=True).
 """
 from __future__ import annotations
 
+import contextlib
+import threading
+
+import numba
 import numpy as np
 from llvmlite import ir
 from numba import njit, prange, types
@@ -37,6 +41,20 @@ from ..core.case_table import EDGE_AXIS, EDGE_ORIGIN, CaseTable, montani_table
 from ..core.layout import BRICK_I, BRICK_J, EDGE_MARGIN, WORD_BITS
 
 __all__ = ["marching_cubes_compiled", "marching_tetrahedra_compiled", "CompiledCubes"]
+
+_SERIAL = threading.Lock()
+
+
+def _launch_guard():
+    """What a thread holds while it runs the parallel kernels: numba's "workqueue" threading layer (the one
+    a plain pip install gets on macOS and Windows) aborts the process when two threads launch parallel
+    kernels at once (a viewer's preview and its full-resolution worker), so there they take turns;
+    the "omp" and "tbb" layers are thread-safe and need no lock."""
+    try:
+        layer = numba.threading_layer()
+    except ValueError:  # no parallel kernel has run yet, so the layer is not chosen: take turns
+        return _SERIAL
+    return _SERIAL if layer == "workqueue" else contextlib.nullcontext()
 
 
 def _cached_njit(**options):
@@ -424,6 +442,10 @@ class CompiledCubes:
             self._lows, self._highs = lows, highs
 
     def extract(self, level: float):
+        with _launch_guard():
+            return self._extract(level)
+
+    def _extract(self, level: float):
         if self.extractions >= 1:
             self.measure_ranges()  # an iso change: worth a pass over the samples for the words' ranges
         self.extractions += 1

@@ -131,3 +131,29 @@ def test_flat_fields_give_the_reference_normals_on_every_kind_of_edge():
         assert (np.abs(want[2]).sum(axis=1) > 1.01).any()  # some normals along a diagonal
         assert_identical(marching_tetrahedra_compiled(volume, 0.5, spacing, False), want)
         assert_identical(marching_cubes_compiled(volume, 0.5, spacing), marching_cubes_reference(volume, 0.5, spacing))
+
+
+def test_threads_extracting_at_once_get_their_meshes(tmp_path):
+    """Two threads extract at once (the viewer's preview and its worker), also under numba's workqueue
+    threading layer, which aborts the process on concurrent parallel launches unless they take turns."""
+    import os
+    import subprocess
+    import sys
+    script = tmp_path / "threads.py"
+    script.write_text(
+        "import threading, numpy as np\n"
+        "from isoscope.cpu.compiled import marching_cubes_compiled\n"
+        "from isoscope.cpu.cubes import marching_cubes_reference\n"
+        "v = np.random.default_rng(1).normal(size=(40, 50, 60)).astype(np.float32)\n"
+        "want = {lvl: marching_cubes_reference(v, lvl)[1] for lvl in (0.0, 0.5)}\n"
+        "bad = []\n"
+        "def run(lvl):\n"
+        "    for _ in range(15):\n"
+        "        bad.append(not np.array_equal(marching_cubes_compiled(v, lvl)[1], want[lvl]))\n"
+        "threads = [threading.Thread(target=run, args=(lvl,)) for lvl in (0.0, 0.5)]\n"
+        "[t.start() for t in threads]; [t.join() for t in threads]\n"
+        "import numba; print(numba.threading_layer(), len(bad), any(bad))\n")
+    env = dict(os.environ, NUMBA_THREADING_LAYER="workqueue", NUMBA_NUM_THREADS="2")
+    out = subprocess.run([sys.executable, str(script)], env=env, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split() == ["workqueue", "30", "False"]
