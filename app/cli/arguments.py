@@ -38,7 +38,8 @@ other commands (each has --help):
 """
 
 
-VOLUME_HELP = ("a built-in name (isoscope volumes), a file (.npy .npz .nrrd .nii .nii.gz .tif .raw), a DICOM folder, "
+VOLUME_HELP = ("a built-in name (isoscope volumes), a saved scene (.json), "
+               "a file (.npy .npz .nrrd .nii .nii.gz .tif .raw), a DICOM folder, "
                "a Zarr or OME-Zarr folder, a quoted pattern of 3-D files as a series ('run/field_*.npy'), "
                "or expr:FORMULA, e.g. 'expr:x^2+y^2+z^2-0.5'")
 
@@ -280,8 +281,8 @@ def add_render_options(parser: argparse.ArgumentParser, out_help: str, out_metav
     _add_iso(parser, "; repeat for several surfaces (up to 4)")
     _add_levels_look(parser)
     parser.add_argument("--out", required=True, metavar=out_metavar, help=out_help)
-    parser.add_argument("--size", type=window_size, default=(800, 600), metavar="WxH",
-                        help="image size in pixels (default 800x600)")
+    parser.add_argument("--size", type=window_size, metavar="WxH",
+                        help="image size in pixels (default 800x600, or a scene's own)")
     parser.add_argument("--azimuth", type=float, metavar="DEG",
                         help="camera angle around the vertical (z) axis, degrees (default -60)")
     parser.add_argument("--elevation", type=float, metavar="DEG",
@@ -292,6 +293,9 @@ def add_render_options(parser: argparse.ArgumentParser, out_help: str, out_metav
     parser.add_argument("--wireframe", action="store_true", help="draw the triangles' edges over the surface")
     add_slice_arguments(parser)
     _add_mesh_modes(parser, labels="draw each non-zero label's surface in its own colour")
+    parser.add_argument("--save-scene", metavar="JSON",
+                        help="also write the scene drawn (volume, levels, colours, camera, slices, modes) as JSON: "
+                             "`isoscope render JSON --out PNG` redraws it, `isoscope JSON` opens it")
 
 
 def add_big_volume_arguments(parser) -> None:

@@ -72,6 +72,7 @@ def movie_kind(out: str) -> str:
 
 def run_movie(args) -> int:
     kind = movie_kind(str(args.out))
+    args.size = args.size or (800, 600)
     if not math.isfinite(args.fps) or not 0 < args.fps <= 240:
         raise ValueError(f"--fps {args.fps:g}: give 0 < F <= 240")
     several_times = isinstance(args.time, TimeRange)
@@ -79,6 +80,8 @@ def run_movie(args) -> int:
         raise ValueError("--time all (or A:B) is the movie's motion; leave out --turntable and --sweep")
     if args.frames is not None and not args.sweep:
         raise ValueError("--frames sets a sweep's length; a turntable's is --turntable N, a series' its time points")
+    if args.save_scene:
+        raise ValueError("movie saves no scene; leave out --save-scene (render --save-scene does)")
     volume = open_volume_from_args(args.volume, args, progress, several_times=True)
     times = args.time.points(volume.time_points) if several_times else None
     from ..viewer.ui.headless import check_render_size, prepared_viewer

@@ -7,13 +7,22 @@ from .common import EXIT_NO_GL, check_label_options, checked_iso, checked_levels
 from .slice_options import apply_slice_arguments
 from .volume_options import open_volume_from_args
 
+DEFAULT_RENDER_SIZE = (800, 600)
+
 
 def run_viewer(args) -> int:
     # Sample expr: volumes with numpy here: a GPU sampler would make an EGL context current,
     # and GLX then refuses the window's context in this process (X_GLXMakeCurrent BadAccess).
     # Inside the window the panel samples on the GPU, in the window's own context.
-    volume = open_volume_from_args(args.volume, args, progress, backend="cpu")
-    iso = checked_iso(volume, args.iso)
+    from ..viewer.model.scene_file import apply_scene, is_scene_file, read_scene, volume_spec
+    scene = read_scene(args.volume) if is_scene_file(args.volume) else None   # `isoscope scene.json`
+    if scene is not None:
+        from ..volumes import open_volume
+        spec, options = volume_spec(scene)
+        volume, iso = open_volume(spec, progress=progress, backend="cpu", **options), None
+    else:
+        volume = open_volume_from_args(args.volume, args, progress, backend="cpu")
+        iso = checked_iso(volume, args.iso)
     from ..viewer.ui.window import ViewerWindow, WindowUnavailable
     try:
         window = ViewerWindow(volume, iso, size=args.size, screenshot_dir=args.screenshot_dir, msaa=args.msaa,
@@ -22,6 +31,8 @@ def run_viewer(args) -> int:
         print(f"isoscope: {exc}", file=sys.stderr)
         return EXIT_NO_GL
     try:
+        if scene is not None:
+            apply_scene(scene, window.state, window.camera)
         apply_slice_arguments(window.state, args)
         _apply_mesh_arguments(window.state, args)
     except ValueError:
@@ -46,13 +57,19 @@ def _apply_mesh_arguments(state, args) -> None:
 
 def run_render(args) -> int:
     from ..gpu.context import DRAWING_GL, GLUnavailable, current_or_standalone
+    from ..viewer.model.scene_file import is_scene_file, read_scene, scene_size
     from ..viewer.ui.headless import check_render_size
+    scene = read_scene(args.volume) if is_scene_file(args.volume) else None   # render scene.json
+    if args.size is None:
+        args.size = scene_size(scene) if scene is not None else DEFAULT_RENDER_SIZE
     check_render_size(args.size)  # pixels: before a GL context is made
     try:
         ctx = current_or_standalone(DRAWING_GL)   # 4.3, else 4.1 core (meshes made on the CPU)
     except GLUnavailable as exc:
         raise GLUnavailable(f"render needs OpenGL 4.1 or newer (`isoscope export` does not): {exc}") from None
     check_render_size(args.size, ctx)  # the driver's limits, before the volume is read
+    if scene is not None:
+        return _render_scene(scene, args)
     if args.labels:
         check_label_options(args, "--iso", "--panel")
         from ..viewer.ui.headless import render_labels_png
@@ -83,6 +100,32 @@ def run_render(args) -> int:
                       opacities=[a for values in args.opacity or [] for a in values],
                       color_by=args.color_by, colormap=args.color_by_map,
                       tetrahedra=args.tetrahedra, smooth=args.smooth, wireframe=args.wireframe,
-                      prepare=lambda state: apply_slice_arguments(state, args))
+                      prepare=lambda state: apply_slice_arguments(state, args), then=_scene_saver(args))
+    wrote(path, f"({args.size[0]}x{args.size[1]})")
+    return 0
+
+
+def _scene_saver(args):
+    """render --save-scene PATH: the scene of the picture just written, as `isoscope render PATH` redraws it."""
+    if not args.save_scene:
+        return None
+
+    def save(viewer) -> None:
+        from ..viewer.model.scene_file import scene_of, write_scene
+        wrote(write_scene(args.save_scene, scene_of(viewer.state, viewer.camera, args.size)), "(scene)")
+    return save
+
+
+def _render_scene(scene, args) -> int:
+    """render SCENE.json: the saved scene's picture (at its size, or --size); the command's other view
+    options are the scene's, so giving them is refused."""
+    for option in ("iso", "opacity", "color_by", "slice", "clip", "window", "level", "colormap", "azimuth",
+                   "elevation", "tetrahedra", "smooth", "sharp", "labels", "save_scene"):
+        if getattr(args, option, None) not in (None, False, 0, []):
+            raise ValueError(f"a scene holds the view; --{option.replace('_', '-')} does not go with {args.volume} "
+                             "(open it in the window to change it, then save it again)")
+    from ..viewer.gfx.screenshot import save_png
+    from ..viewer.ui.headless import scene_pixels
+    path = save_png(scene_pixels(scene, args.size, panel=args.panel), args.out)
     wrote(path, f"({args.size[0]}x{args.size[1]})")
     return 0

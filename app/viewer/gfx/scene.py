@@ -157,6 +157,15 @@ class GpuScene:
             self._copies.pop(level).release()
         if state.levels.current is not self._on_extractor:
             self._move_extractor()
+        for level in list(state.levels.items):   # levels added between two frames (a scene, a script)
+            if level is not self._on_extractor and level not in self._copies:
+                self._extracted = None   # the extractor leaves the selected level for it
+                try:
+                    self._keep(level)
+                except USER_ERRORS:   # as _move_extractor: a level that cannot have a mesh goes
+                    state.levels.restore([item for item in state.levels.items if item is not level],
+                                         state.levels.current)
+                    raise
         self._follow_labels()
         self._follow_color_by()
 

@@ -201,8 +201,9 @@ def prepared_viewer(volume: Volume, iso=None, size=(800, 600), azimuth=None, ele
 
 def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, elevation=None,
                panel: bool = False, transparent: bool = False, opacities=(), color_by=None, colormap=None,
-               prepare=None, tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False):
+               prepare=None, tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False, then=None):
     """Render one view of `volume` to the PNG file `out` (RGBA with `transparent`); returns its path.
+    `then(viewer)`, if given, is called once the picture is written (render --save-scene).
 
     `iso`: a level, or a list of up to 4 (several surfaces, `opacities` in the same order);
     `color_by`: "value", "gradient" or a volume spec of the same shape, through `colormap`, with a
@@ -216,7 +217,26 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
         pixels = viewer.render(panel=panel)
         if viewer.state.color_by is not None and not panel:
             pixels = draw_colorbar(pixels, viewer.state.color_by)
-        return save_png(pixels, out)
+        path = save_png(pixels, out)
+        if then is not None:
+            then(viewer)
+        return path
+    finally:
+        viewer.release()
+
+
+def scene_pixels(scene: dict, size=None, panel: bool = False) -> np.ndarray:
+    """The picture of a saved scene (model/scene_file.py) at its own size, or `size`."""
+    from ..model.scene_file import apply_scene, scene_size, volume_spec
+    spec, options = volume_spec(scene)
+    viewer = HeadlessViewer(size or scene_size(scene))
+    try:
+        viewer.show(open_volume(spec, ctx=viewer.ctx, **options))
+        apply_scene(scene, viewer.state, viewer.camera)
+        pixels = viewer.render(panel=panel)
+        if viewer.state.color_by is not None and not panel:
+            pixels = draw_colorbar(pixels, viewer.state.color_by)
+        return pixels
     finally:
         viewer.release()
 
