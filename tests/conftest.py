@@ -56,18 +56,29 @@ def gpu_mesh(gl_ctx):
     return extract
 
 
+FIRST_TEST_DISPLAY = 90
+"""Test X servers take displays from :90 up: never :0, which a desktop (or a program with no DISPLAY, as
+Xlib's default) would reach; a no-GL test must not find another worker's Xvfb there."""
+
+
 @pytest.fixture(scope="module")
 def x_display():
-    """A private Xvfb server; -displayfd makes it pick a free display number and say when it is ready."""
-    read_end, write_end = os.pipe()
-    server = subprocess.Popen(["Xvfb", "-displayfd", str(write_end), "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
-                              pass_fds=(write_end,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    os.close(write_end)
-    with os.fdopen(read_end) as ready:
-        number = ready.readline().strip()
-    if not number:
-        server.kill()
-        pytest.fail("Xvfb did not start")
-    yield f":{number}"
+    """A private Xvfb server on the first free display from :90 (it says on -displayfd when it is ready)."""
+    import random
+    start = FIRST_TEST_DISPLAY + random.randrange(200)   # workers starting together try different numbers
+    for number in range(start, start + 400):
+        read_end, write_end = os.pipe()
+        server = subprocess.Popen(["Xvfb", f":{number}", "-displayfd", str(write_end), "-screen", "0", "1024x768x24",
+                                   "-nolisten", "tcp"], pass_fds=(write_end,), stdout=subprocess.DEVNULL,
+                                  stderr=subprocess.DEVNULL)
+        os.close(write_end)
+        with os.fdopen(read_end) as ready:
+            said = ready.readline().strip()
+        if said:
+            break
+        server.wait(timeout=30)   # that display is taken: the next one
+    else:
+        pytest.fail("Xvfb did not start on any display from :90")
+    yield f":{said}"
     server.terminate()
     server.wait(timeout=30)
