@@ -57,6 +57,15 @@ def marching_cubes_sharp_gpu(checked, level, spacing, gradient_direction, angle)
         return sharp_mesh_of(extractor, checked.data, angle)[:4]
 
 
+def step_result(future):
+    """A finished feature step's result; a failure on the worker (a bug, memory) as one ValueError line, the
+    plain mesh staying on show (the GPU surface's and the CPU surface's polls)."""
+    try:
+        return future.result()
+    except Exception as exc:
+        raise ValueError(f"sharp features failed ({type(exc).__name__}: {exc}); the plain mesh is shown") from None
+
+
 class SharpenedMesh:
     """An extractor's last mesh with sharp features, uploaded for drawing with crisp normals (the
     viewer's GpuSurface shows it in place of the extractor's).  Offers what the viewer reads of an
@@ -122,11 +131,7 @@ class SharpenedMesh:
             return False
         future, _, extractor, start = self._pending
         self._pending = None
-        try:
-            generation, sharpened = future.result()
-        except Exception as exc:  # a bug or memory on the worker: said once, the plain mesh stays
-            raise ValueError(f"sharp features failed ({type(exc).__name__}: {exc}); the plain mesh is shown") \
-                from None
+        generation, sharpened = step_result(future)
         if generation != self._generation or sharpened is _STOPPED:
             return False
         self._show(extractor, sharpened, start)

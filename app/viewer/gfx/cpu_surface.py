@@ -25,6 +25,7 @@ from ...cpu.smooth import smooth_projected
 from ...cpu.tetra import marching_tetrahedra_reference
 from ...gpu.buffers import GrowableBuffer
 from ...gpu.mesh import GpuMesh, empty_mesh
+from ...gpu.sharp_features import step_result
 from ...options import MeshOptions
 from ...validation import as_gradient_direction, as_level, subsampled
 from ...volumes import Volume
@@ -249,11 +250,7 @@ class CpuSurface:
             return False
         future, _, level, start = self._pending
         self._pending = None
-        try:
-            sharpened = future.result()
-        except Exception as exc:  # a bug or memory on the worker: said once, the plain mesh stays
-            raise ValueError(f"sharp features failed ({type(exc).__name__}: {exc}); the plain mesh is shown") \
-                from None
+        sharpened = step_result(future)
         if sharpened is None:
             return False
         self._shown.take(sharpened[:4], level, _ms_since(start), crisp_normals(*sharpened))
