@@ -69,3 +69,11 @@ def wrote(path, what: str) -> None:
     except (OSError, ValueError):
         into_stdout = False
     print(f"wrote {path}{'' if what.startswith(':') else ' '}{what}", file=sys.stderr if into_stdout else sys.stdout)
+
+
+def count_line(done: int, count: int, what: str) -> None:
+    """`what done/count`, one line rewritten on a terminal only (captured output keeps its one-line errors):
+    the progress of a movie's frames or an export's time points."""
+    if sys.stderr.isatty():
+        end = "\n" if done == count else ""
+        print(f"\r{what} {done}/{count}\033[K", end=end, file=sys.stderr, flush=True)

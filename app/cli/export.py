@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..validation import as_gradient_direction
 from ..volumes.time_points import same_shape
-from .common import check_label_options, checked_levels, level_path, progress, wrote
+from .common import check_label_options, checked_levels, count_line, level_path, progress, wrote
 from .volume_options import TimeRange, open_volume_from_args
 
 
@@ -119,6 +119,7 @@ def run_export(args) -> int:
                                            progress, **_export_open_options(args))
             same_shape(volume, first_shape, time)
         _export_levels(volume, args, time_path(args.out, time))
+        count_line(time - points[0] + 1, len(points), "time point")
     return 0
 
 

@@ -6,14 +6,13 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from .arguments import OneLineParser, add_render_options
-from .common import checked_levels, progress, wrote
+from .common import checked_levels, count_line, progress, wrote
 from .slice_options import apply_slice_arguments
 from .volume_options import TimeRange, add_volume_arguments, open_volume_from_args
 
@@ -191,7 +190,4 @@ def _even(frame: np.ndarray) -> np.ndarray:
 
 
 def _say(i: int, count: int) -> None:
-    """One progress line, rewritten, on a terminal only (captured output keeps its one-line errors)."""
-    if sys.stderr.isatty():
-        end = "\n" if i + 1 == count else ""
-        print(f"\rframe {i + 1}/{count}\033[K", end=end, file=sys.stderr, flush=True)
+    count_line(i + 1, count, "frame")
