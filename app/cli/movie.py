@@ -110,13 +110,9 @@ def _count(args, times) -> int:
 
 def _frames(viewer, volume, args, times):
     """The movie's frames, one (H, W, 3) uint8 array at a time, each as `render` draws it."""
-    from ..viewer.gfx.colorbar import draw_colorbar
 
     def shot():
-        pixels = viewer.render(panel=args.panel)
-        if viewer.state.color_by is not None and not args.panel:
-            pixels = draw_colorbar(pixels, viewer.state.color_by)
-        return pixels
+        return viewer.picture(panel=args.panel)
     if times is not None:
         for i, time in enumerate(times):
             if i:

@@ -116,7 +116,6 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     ((120, 160, 4), dtype('uint8'))
     """
     from ..volumes.inputs import as_volume
-    from .gfx.colorbar import draw_colorbar
     from .ui.headless import labels_pixels, prepared_viewer
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
     size = (int(size[0]), int(size[1]))
@@ -127,9 +126,7 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
                                  elevation, transparent, opacities, color_by, colormap, None, tetrahedra, smooth,
                                  wireframe)
         try:
-            pixels = viewer.render(panel=panel)
-            if viewer.state.color_by is not None and not panel:
-                pixels = draw_colorbar(pixels, viewer.state.color_by)
+            pixels = viewer.picture(panel=panel)
         finally:
             viewer.release()
     if pixels.shape[2] == 3:

@@ -158,6 +158,14 @@ class HeadlessViewer:
             self._imgui.render()
         return self.target.read_rgba() if self.state.style.transparent_background else self.target.read_rgb()
 
+    def picture(self, panel: bool = False) -> np.ndarray:
+        """`render` as `isoscope render` shows it: with colour by and no panel, its colour bar at the right
+        (the panel shows its own)."""
+        pixels = self.render(panel=panel)
+        if self.state.color_by is not None and not panel:
+            pixels = draw_colorbar(pixels, self.state.color_by)
+        return pixels
+
     def _layout_panel(self) -> None:
         if self._imgui is None:
             self._imgui = ImguiLayer()
@@ -214,10 +222,7 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
     viewer = prepared_viewer(volume, iso, size, azimuth, elevation, transparent, opacities, color_by, colormap,
                              prepare, tetrahedra, smooth, wireframe)
     try:
-        pixels = viewer.render(panel=panel)
-        if viewer.state.color_by is not None and not panel:
-            pixels = draw_colorbar(pixels, viewer.state.color_by)
-        path = save_png(pixels, out)
+        path = save_png(viewer.picture(panel=panel), out)
         if then is not None:
             then(viewer)
         return path
@@ -233,10 +238,7 @@ def scene_pixels(scene: dict, size=None, panel: bool = False) -> np.ndarray:
     try:
         viewer.show(open_volume(spec, ctx=viewer.ctx, **options))
         apply_scene(scene, viewer.state, viewer.camera)
-        pixels = viewer.render(panel=panel)
-        if viewer.state.color_by is not None and not panel:
-            pixels = draw_colorbar(pixels, viewer.state.color_by)
-        return pixels
+        return viewer.picture(panel=panel)
     finally:
         viewer.release()
 
