@@ -57,9 +57,10 @@ def run_measure(args) -> int:
     else:
         from ..validation import as_level
         from .export import _extract_for_export
+        # the plain, whole-volume extraction of export (--closed as given)
+        args_for_export = argparse.Namespace(chunk=None, workers=None, scheduler=None, tetrahedra=False, smooth=0,
+                                             sharp=None, closed=args.closed)
         for iso in checked_levels(volume, args.iso):
-            args_for_export = argparse.Namespace(chunk=None, workers=None, scheduler=None, tetrahedra=False,
-                                                 smooth=0, sharp=None, closed=args.closed)
             verts, faces, normals, _ = _extract_for_export(volume, iso, args_for_export)
             verts, faces, _, _ = in_volume_space(volume, verts, faces, normals, world=world)
             rows.append(({"level": as_level(iso, volume.value_range)}, measure_surface(verts, faces)))

@@ -58,13 +58,14 @@ class GrowableBuffer:
 
 
 class GrowableBuffers:
-    """Named growable buffers of one owner, released together (a pass's scratch)."""
+    """Growable buffers of one owner by name (or any key: the scan's level), released together (a pass's
+    scratch)."""
 
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
-        self._buffers: dict[str, GrowableBuffer] = {}
+        self._buffers: dict[object, GrowableBuffer] = {}
 
-    def __getitem__(self, name: str) -> GrowableBuffer:
+    def __getitem__(self, name) -> GrowableBuffer:
         if name not in self._buffers:
             self._buffers[name] = GrowableBuffer(self.ctx)
         return self._buffers[name]

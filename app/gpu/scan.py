@@ -4,7 +4,7 @@ from __future__ import annotations
 import moderngl
 
 from ..core.layout import SCAN_BLOCK, StorageBlock
-from .buffers import GrowableBuffer
+from .buffers import GrowableBuffers
 from .programs import compute_program, dispatch_groups, set_uniforms
 
 
@@ -15,11 +15,9 @@ class ExclusiveScan:
         self.ctx = ctx
         self._reduce = compute_program(ctx, "scan_reduce.comp")
         self._apply = compute_program(ctx, "scan_apply.comp")
-        self._scratch: dict[int, GrowableBuffer] = {}  # level -> block sums
+        self._scratch = GrowableBuffers(ctx)  # level -> block sums
 
     def _sums_buffer(self, level: int, blocks: int) -> moderngl.Buffer:
-        if level not in self._scratch:
-            self._scratch[level] = GrowableBuffer(self.ctx)
         return self._scratch[level].ensure(blocks * 4)
 
     def __call__(self, data: moderngl.Buffer, count: int, level: int = 0) -> None:
@@ -47,9 +45,7 @@ class ExclusiveScan:
         self.ctx.memory_barrier()
 
     def scratch_bytes(self) -> int:
-        return sum(buf.size for buf in self._scratch.values())
+        return self._scratch.nbytes()
 
     def release(self) -> None:
-        for buf in self._scratch.values():
-            buf.release()
-        self._scratch.clear()
+        self._scratch.release()
