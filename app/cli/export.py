@@ -41,18 +41,12 @@ def _extract_for_export(volume, iso, args):
         why = "" if not chunked else ("this export is chunked (--chunk, --workers, --scheduler, or a Zarr or "
                                       "memory-mapped volume): ")
         raise ValueError(why + problem)
-    if getattr(args, "closed", False):
-        if chunked:
-            raise ValueError("--closed pads the whole volume, and this export is chunked (--chunk, --workers, "
-                             "--scheduler, or a Zarr or memory-mapped volume); leave out --closed, or the chunking")
-        return _closed(volume, iso, args)
+    closed = getattr(args, "closed", False)
+    if closed and chunked:
+        raise ValueError("--closed pads the whole volume, and this export is chunked (--chunk, --workers, "
+                         "--scheduler, or a Zarr or memory-mapped volume); leave out --closed, or the chunking")
     if not chunked:
-        from .. import marching_cubes, marching_tetrahedra
-        if args.tetrahedra:
-            return marching_tetrahedra(volume.checked, iso, spacing=volume.spacing,
-                                       gradient_direction=volume.gradient_direction, smooth=args.smooth)
-        return marching_cubes(volume.checked, iso, spacing=volume.spacing, gradient_direction=volume.gradient_direction,
-                              smooth=args.smooth, sharp_features=args.sharp)
+        return _whole(volume, iso, args, closed)
     from ..big.chunked import DEFAULT_CHUNK, as_chunks, marching_cubes_chunked
     from ..validation import as_level
     chunks = as_chunks(DEFAULT_CHUNK if args.chunk is None else args.chunk, volume.data.shape)
@@ -66,20 +60,26 @@ def _extract_for_export(volume, iso, args):
     return marching_cubes_chunked(volume.data, level, volume.spacing, descent, chunks, progress=progress)
 
 
-def _closed(volume, iso, args):
-    """The mesh of the volume padded on the outside of the level: capped where it leaves the volume."""
+def _whole(volume, iso, args, closed: bool):
+    """The whole volume's mesh in one extraction; `closed`: of the volume padded on the outside of the level,
+    so capped where it leaves the volume."""
     from .. import marching_cubes, marching_tetrahedra
-    from ..core.closing import padded_for_closing, unpad
-    from ..validation import as_level
-    level = as_level(iso, volume.value_range)   # the padding moves the range: fix the level first
-    padded = padded_for_closing(volume.checked.data, volume.value_range,
-                                as_gradient_direction(volume.gradient_direction))
-    extract = marching_tetrahedra if args.tetrahedra else marching_cubes
+    data, level = volume.checked, iso
+    if closed:
+        from ..core.closing import padded_for_closing
+        from ..validation import as_level
+        level = as_level(iso, volume.value_range)   # the padding moves the range: fix the level first
+        data = padded_for_closing(volume.checked.data, volume.value_range,
+                                  as_gradient_direction(volume.gradient_direction))
     options = dict(spacing=volume.spacing, gradient_direction=volume.gradient_direction, smooth=args.smooth)
-    if not args.tetrahedra:
-        options["sharp_features"] = args.sharp
-    verts, faces, normals, values = extract(padded, level, **options)
-    return unpad(verts, volume.spacing), faces, normals, values
+    if args.tetrahedra:
+        verts, faces, normals, values = marching_tetrahedra(data, level, **options)
+    else:
+        verts, faces, normals, values = marching_cubes(data, level, sharp_features=args.sharp, **options)
+    if closed:
+        from ..core.closing import unpad
+        verts = unpad(verts, volume.spacing)
+    return verts, faces, normals, values
 
 
 def _export_open_options(args) -> dict:
