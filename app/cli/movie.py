@@ -84,7 +84,9 @@ def run_movie(args) -> int:
     volume = open_volume_from_args(args.volume, args, progress, several_times=True)
     times = args.time.points(volume.time_points) if several_times else None
     from ..viewer.ui.headless import check_render_size, prepared_viewer
+    from .render import drawing_context
     check_render_size(args.size)
+    check_render_size(args.size, drawing_context("movie"))
     isos = checked_levels(volume, args.iso, args.opacity)
     viewer = prepared_viewer(volume, isos, size=args.size, azimuth=args.azimuth, elevation=args.elevation,
                              transparent=False, opacities=[a for values in args.opacity or [] for a in values],

@@ -56,17 +56,13 @@ def _apply_mesh_arguments(state, args) -> None:
 
 
 def run_render(args) -> int:
-    from ..gpu.context import DRAWING_GL, GLUnavailable, current_or_standalone
     from ..viewer.model.scene_file import is_scene_file, read_scene, scene_size
     from ..viewer.ui.headless import check_render_size
     scene = read_scene(args.volume) if is_scene_file(args.volume) else None   # render scene.json
     if args.size is None:
         args.size = scene_size(scene) if scene is not None else DEFAULT_RENDER_SIZE
     check_render_size(args.size)  # pixels: before a GL context is made
-    try:
-        ctx = current_or_standalone(DRAWING_GL)   # 4.3, else 4.1 core (meshes made on the CPU)
-    except GLUnavailable as exc:
-        raise GLUnavailable(f"render needs OpenGL 4.1 or newer (`isoscope export` does not): {exc}") from None
+    ctx = drawing_context("render")
     check_render_size(args.size, ctx)  # the driver's limits, before the volume is read
     if scene is not None:
         return _render_scene(scene, args)
@@ -103,6 +99,16 @@ def run_render(args) -> int:
                       prepare=lambda state: apply_slice_arguments(state, args), then=_scene_saver(args))
     wrote(path, f"({args.size[0]}x{args.size[1]})")
     return 0
+
+
+def drawing_context(command: str):
+    """The GL context `command` draws with: 4.3, else 4.1 core (meshes then made on the CPU); where there is
+    none, GLUnavailable's one line says that export does not need one."""
+    from ..gpu.context import DRAWING_GL, GLUnavailable, current_or_standalone
+    try:
+        return current_or_standalone(DRAWING_GL)
+    except GLUnavailable as exc:
+        raise GLUnavailable(f"{command} needs OpenGL 4.1 or newer (`isoscope export` does not): {exc}") from None
 
 
 def _scene_saver(args):

@@ -71,3 +71,16 @@ def test_a_series_gif_has_a_frame_per_time_point(tmp_path):
 def test_bad_movies_are_one_line_and_leave_no_file(tmp_path, args, words):
     assert_one_line_error(isoscope("movie", "torus", *SIZE, *args, cwd=tmp_path), *words)
     assert not list(tmp_path.iterdir())
+
+
+def test_with_no_gl_a_movie_says_it_needs_opengl_in_one_line(tmp_path):
+    import os
+    import subprocess
+    import sys
+    env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
+    env["__EGL_VENDOR_LIBRARY_FILENAMES"] = "/nonexistent.json"
+    done = subprocess.run([sys.executable, "-m", "isoscope", "movie", "torus", "--out", tmp_path / "m.mp4"],
+                          capture_output=True, text=True, timeout=120, env=env)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 1 and len(lines) == 1 and "movie needs OpenGL 4.1" in lines[0], done.stderr
+    assert not list(tmp_path.iterdir())
