@@ -171,10 +171,10 @@ class HeadlessViewer:
             self._imgui = ImguiLayer()
             # imgui hides a new auto-sized window for its first frame while it measures it.
             self._imgui.new_frame(self.size)
-            self._panel.draw(self.state, self.scene)
+            self._panel.draw(self.state, self.scene, self.camera)
             self._imgui.render()
         self._imgui.new_frame(self.size)
-        self._panel.draw(self.state, self.scene)
+        self._panel.draw(self.state, self.scene, self.camera)
 
     def release(self) -> None:
         if self._imgui is not None:

@@ -1,5 +1,5 @@
-"""The panel's Mesh section (cells, smoothing, sharp features: the state's one `MeshOptions`) and its
-Labels section (a label map's surfaces, each shown or hidden).  Every change goes through `ViewerState`."""
+"""The panel's Mesh section (cells, smoothing, sharp features: the state's one `MeshOptions`).
+Every change goes through `ViewerState`."""
 from __future__ import annotations
 
 from ...options import CELLS
@@ -42,31 +42,3 @@ class MeshSection:
             _, self.sharp_angle = imgui.slider_float("##angle", self.sharp_angle, *SHARP_ANGLES, "%.0f deg")
             if imgui.is_item_deactivated_after_edit():   # the feature step is numpy: once, on release
                 act(state, state.set_sharp, self.sharp_angle)
-
-
-class LabelsSection:
-    def draw(self, state: ViewerState, scene) -> None:
-        """The label map's layers (their triangles from `scene`, gfx/scene.py)."""
-        if not state.labels:
-            return
-        imgui.separator_text("Labels")
-        for layer in state.labels.layers:
-            imgui.push_id(layer.label)
-            toggled, visible = imgui.checkbox("##visible", layer.visible)
-            if toggled:
-                act(state, state.labels.set_visible, layer.label, visible)
-            imgui.same_line()
-            imgui.color_button("##color", imgui.ImVec4(*layer.color, 1.0), imgui.ColorEditFlags_.no_tooltip)
-            imgui.same_line()
-            imgui.text(f"label {layer.label}  {scene.label_triangles(layer.label):,} triangles")
-            imgui.pop_id()
-        if imgui.button("Isosurface instead"):
-            state.labels.hide()
-
-    @staticmethod
-    def offer(state: ViewerState) -> None:
-        """In the Volume section: a volume that looks like a label map can be shown as one."""
-        if state.label_hint and not state.labels and state.volume is not None:
-            if imgui.button(f"Show as a label map ({state.label_hint} labels)"):
-                act(state, state.show_labels)
-            tooltip("one closed surface per label, in its own colour (as --labels)")

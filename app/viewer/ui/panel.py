@@ -17,10 +17,14 @@ from ...volumes import builtin_names
 from ..model.histogram import fraction_of, level_at
 from ..model.state import ViewerState
 from .gui import act, imgui
+from .labels_panel import LabelsSection
 from .levels_panel import LevelsSection
-from .mesh_panel import LabelsSection, MeshSection
+from .measure_panel import MeasureSection
+from .mesh_panel import MeshSection
 from .orientation import draw_orientation
 from .slice_panel import SlicePanel
+from .time_panel import TimeSection
+from .view_panel import ViewSection
 
 PANEL_TITLE = "isoscope"
 PANEL_WIDTH = 330
@@ -87,9 +91,20 @@ class Panel:
         self.levels_section = LevelsSection()
         self.mesh_section = MeshSection()
         self.labels_section = LabelsSection()
+        self.time_section = TimeSection()
+        self.view_section = ViewSection()
+        self.measure_section = MeasureSection()
 
-    def draw(self, state: ViewerState, scene) -> None:
-        """Lay the panel out for `state`; `scene` (gfx/scene.py) for its stats."""
+    def keys(self, camera) -> dict:
+        """The sections' keys, for the window's character table."""
+        keys = {}
+        for section in (self.time_section, self.view_section, self.measure_section):
+            keys.update(section.keys(camera))
+        return keys
+
+    def draw(self, state: ViewerState, scene, camera=None) -> None:
+        """Lay the panel out for `state`; `scene` (gfx/scene.py) for its stats; `camera` (model/camera.py)
+        for the sections that move it or pick through it."""
         self._collect_file_dialog(state)
         self._place()
         imgui.set_next_window_size(imgui.ImVec2(PANEL_WIDTH, 0), imgui.Cond_.first_use_ever)
@@ -99,6 +114,7 @@ class Panel:
         if expanded:
             self._messages(state)   # first: an error must be seen, even in a short window
             self._volume_section(state)
+            self.time_section.draw(state, camera)
             if state.labels:   # a label map on show: its labels stand in for the iso value and the levels
                 self.iso_slider_box = self.histogram_box = None
                 self.labels_section.draw(state, scene)
@@ -107,8 +123,10 @@ class Panel:
                 self.levels_section.draw(state)
                 self.mesh_section.draw(state)
             self._display_section(state)
+            self.view_section.draw(state, camera)
             self.slices.draw(state)
             self._stats_section(state, scene)
+            self.measure_section.draw(state, camera)
         imgui.end()
 
     def draw_view_labels(self, state: ViewerState, camera) -> None:

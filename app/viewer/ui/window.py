@@ -160,7 +160,7 @@ class ViewerWindow:
 
         self.imgui.new_frame()
         self._route_mouse_events()
-        self.panel.draw(self.state, self.scene)
+        self.panel.draw(self.state, self.scene, self.camera)
         self.scene.update(dt)
         if self.state.volume_serial != self._framed_serial:
             self._frame_volume()
@@ -261,6 +261,7 @@ class ViewerWindow:
             "r": self._reset_view,
             "s": self.request_screenshot,
         }
+        actions.update(self.panel.keys(self.camera))
         action = actions.get(character.lower() if character.isalpha() else character)
         if action is not None:
             action()

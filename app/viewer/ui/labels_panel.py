@@ -1,0 +1,34 @@
+"""The panel's Labels section: a label map's surfaces, each shown or hidden.  Every change goes
+through `ViewerState`."""
+from __future__ import annotations
+
+from ..model.state import ViewerState
+from .gui import act, imgui, tooltip
+
+
+class LabelsSection:
+    def draw(self, state: ViewerState, scene) -> None:
+        """The label map's layers (their triangles from `scene`, gfx/scene.py)."""
+        if not state.labels:
+            return
+        imgui.separator_text("Labels")
+        for layer in state.labels.layers:
+            imgui.push_id(layer.label)
+            toggled, visible = imgui.checkbox("##visible", layer.visible)
+            if toggled:
+                act(state, state.labels.set_visible, layer.label, visible)
+            imgui.same_line()
+            imgui.color_button("##color", imgui.ImVec4(*layer.color, 1.0), imgui.ColorEditFlags_.no_tooltip)
+            imgui.same_line()
+            imgui.text(f"label {layer.label}  {scene.label_triangles(layer.label):,} triangles")
+            imgui.pop_id()
+        if imgui.button("Isosurface instead"):
+            state.labels.hide()
+
+    @staticmethod
+    def offer(state: ViewerState) -> None:
+        """In the Volume section: a volume that looks like a label map can be shown as one."""
+        if state.label_hint and not state.labels and state.volume is not None:
+            if imgui.button(f"Show as a label map ({state.label_hint} labels)"):
+                act(state, state.show_labels)
+            tooltip("one closed surface per label, in its own colour (as --labels)")
