@@ -5,8 +5,9 @@ import os
 
 import numpy as np
 import pytest
+import trimesh
 import zarr
-from support.command import isoscope
+from support.command import NO_GL, isoscope
 
 from isoscope.big import cluster
 from isoscope.big.cluster import ClusterError, marching_cubes_on_cluster
@@ -35,6 +36,24 @@ def test_two_worker_local_cluster_writes_the_single_process_file(noise_zarr):
     assert single.returncode == 0 and spread.returncode == 0 and chunked.returncode == 0, spread.stderr
     assert (folder / "spread.ply").read_bytes() == (folder / "single.ply").read_bytes()
     assert (folder / "chunked.ply").read_bytes() == (folder / "single.ply").read_bytes()
+
+
+@pytest.mark.gl
+def test_two_workers_on_a_machine_with_no_gl_export_the_gpu_mesh(noise_zarr):
+    """Workers without GL extract with the compiled CPU extractor: the same faces as the GPU's single-process
+    file, positions and normals within float32 rounding (the two backends round the normal's last bit apart)."""
+    folder, _ = noise_zarr
+    gpu = isoscope("export", folder / "v.npy", "--iso", "0", "--out", folder / "gpu.ply")
+    no_gl = isoscope("export", folder / "v.zarr", "--iso", "0", "--out", folder / "no-gl.ply", "--workers", "2",
+                     "--chunk", "12", env_add=NO_GL, env_drop=("DISPLAY",))
+    assert gpu.returncode == 0 and no_gl.returncode == 0, no_gl.stderr
+    probe = isoscope("--version", env_add=NO_GL, env_drop=("DISPLAY",))
+    assert "no OpenGL here" in probe.stdout and "CPU extractor" in probe.stdout, probe.stdout   # really no GL
+    a, b = (trimesh.load(folder / name, process=False) for name in ("gpu.ply", "no-gl.ply"))
+    assert len(a.faces) > 1000
+    assert np.array_equal(a.faces, b.faces)
+    assert np.allclose(a.vertices, b.vertices, rtol=0, atol=1e-5)
+    assert np.allclose(a.vertex_normals, b.vertex_normals, rtol=0, atol=1e-5)
 
 
 class DiesOnRead:
