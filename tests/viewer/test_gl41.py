@@ -242,3 +242,25 @@ def drive_window_on_41(x_display, tmp_path):
         assert scene.n_triangles > 0
     finally:
         window.close()
+
+
+@pytest.mark.gl
+def test_cpu_surface_tetrahedra_are_the_numpy_tetrahedra(gl_ctx):
+    """The 4.1 viewer's tetrahedra (the compiled kernels where numba is installed) are the numpy spec's mesh."""
+    from isoscope.cpu.tetra import marching_tetrahedra_reference
+    from isoscope.options import MeshOptions
+    from isoscope.viewer.gfx.cpu_surface import CpuSurface
+    from isoscope.volumes.inputs import as_volume
+    x, y, z = np.mgrid[-1:1:21j, -1:1:17j, -1:1:13j]
+    field = (0.8 - np.sqrt(x * x + 1.3 * y * y + z * z)).astype(np.float32)
+    surface = CpuSurface(gl_ctx, as_volume(field, spacing=(1.0, 2.0, 0.5)), "descent")
+    try:
+        surface.extract(0.2, MeshOptions(cells="tetrahedra"), wait=True)
+        verts, faces, normals, _ = surface.shown.read_mesh()
+    finally:
+        surface.release()
+    ref_verts, ref_faces, ref_normals, _ = marching_tetrahedra_reference(field, 0.2, (1.0, 2.0, 0.5))
+    assert len(faces) > 500
+    assert np.array_equal(faces, ref_faces)
+    assert np.allclose(verts, ref_verts, atol=1e-5)
+    assert np.allclose(normals, ref_normals, atol=1e-5)

@@ -4,10 +4,11 @@
 `release`), for a context below 4.3: meshes are extracted on the CPU (`isoscope.cpu.extractor.CpuExtractor`,
 the volume kept resident, one per sample step as the GPU keeps its previews) and each new mesh is uploaded
 into a vertex and an index buffer of the same record layout the GPU extractor writes, so the renderer,
-the level copies and the labels draw it unchanged.  Tetrahedra, smoothing and sharp features run their
-CPU steps on the extracted mesh.  Sharp features, as on the GPU (gpu/sharp_features.py), are drawn with
-crisp normals and, without `wait` (the window's slider coming to rest), made on a worker thread while the
-plain mesh shows; `poll` brings them in, a newer extraction drops a step still running.
+the level copies and the labels draw it unchanged.  Tetrahedra are compiled too (the same kernels, six
+tetrahedra per cell); smoothing and sharp features run their numpy steps on the extracted mesh.  Sharp
+features, as on the GPU (gpu/sharp_features.py), are drawn with crisp normals and, without `wait` (the
+window's slider coming to rest), made on a worker thread while the plain mesh shows; `poll` brings them
+in, a newer extraction drops a step still running.
 """
 from __future__ import annotations
 
@@ -52,6 +53,15 @@ def threads_for(n_samples: int):
         yield
     finally:
         numba.set_num_threads(before)
+
+
+def tetrahedra_function():
+    """The compiled marching tetrahedra where numba is installed, else the numpy one: the same mesh."""
+    try:
+        from ...cpu.compiled import marching_tetrahedra_compiled
+        return marching_tetrahedra_compiled
+    except ImportError:
+        return marching_tetrahedra_reference
 
 
 def cpu_extractor_class():
@@ -190,7 +200,8 @@ class CpuSurface:
         field = self.extractor_field(extractor, step)
         level = as_level(iso, self.value_range)
         if options.cells == "tetrahedra":
-            arrays = marching_tetrahedra_reference(field, level, spacing, self._descent)
+            with threads_for(field.size):
+                arrays = tetrahedra_function()(field, level, spacing, self._descent)
         else:
             with threads_for(field.size):
                 extractor.extract(level)
