@@ -126,3 +126,4 @@ class SliceScene(NamedTuple):
     iso: float                 # the isocurve's level
     gradient_direction: str    # which side of it is inside ("descent": above)
     curve_color: tuple[float, float, float]
+    label_caps: tuple | None = None   # a label map's (labels, RGBA): the clip's cut in their colours
