@@ -183,16 +183,17 @@ class ViewerState:
         return changed
 
     # --- label map, colour by ---------------------------------------------------
-    def show_labels(self, volume: Volume | None = None) -> bool:
+    def show_labels(self, volume: Volume | None = None, names=None) -> bool:
         """Show the volume on show (`volume`, if given, must be it) as a label map: every non-zero
-        label's surface in its own colour.  A volume that is no label map raises; the view stays."""
+        label's surface in its own colour, named and coloured by the label names file `names` (default:
+        the one beside the volume's file, model/labels.py).  No label map raises; the view stays."""
         volume = self.volume if volume is None else volume
         if volume is None:
             raise ViewerError("open a volume before showing it as a label map")
         if volume is not self.volume:
             labels_of(volume)   # no label map: say that first
             raise ViewerError(f"{volume.name} is not the volume on show; show it before showing its labels")
-        self.labels.show(volume)
+        self.labels.show(volume, names)
         return True
 
     def set_color_by(self, source: str | None, colormap: str | None = None) -> None:
@@ -256,7 +257,8 @@ class ViewerState:
         if self.volume is None:
             return None
         return SliceScene(self.volume.data, self.volume.spacing, self.slices, self.iso,
-                          self.gradient_direction, self.style.front_color)
+                          self.gradient_direction, self.style.front_color,
+                          self.labels.cap_table() if self.labels else None)
 
     def release(self) -> None:
         if self._export is not None:   # the window closes: stop the child (its file is written whole or not at all)
