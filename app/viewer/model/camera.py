@@ -1,6 +1,18 @@
 """An orbit camera around the volume: azimuth/elevation/distance about a target point.
 
-World space is the extractor's: array axis 0 is x, axis 2 is z, and z is up.
+The scene is the extractor's: array index x spacing, array axis 0 is x, axis 2 is z.  The camera
+orbits in a *display frame*: the scene itself (z up) for a volume without a patient frame, and the
+patient's LPS frame (x left, y posterior, z superior) for a scan whose file says how its array lies
+in the patient (NIfTI, NRRD, DICOM: `Volume.world`).  `fit(frame=...)` takes that scene -> display
+rotation (`anatomical_frame`), so a head opens superior up however its slices were stored; where the
+storage order is a mirror image of the patient (every DICOM series: slice, row, column is
+left-handed in LPS), the frame is a reflection, the view matrix mirrors the scene back, and
+`mirrored` tells the renderer to swap its front faces.
+
+Azimuth and elevation are the eye's direction in the display frame: azimuth about its z axis from
++x, elevation above its x-y plane.  A scan opens from anterior (azimuth -90, elevation 0), superior
+up, as 3D Slicer's 3-D view does; other volumes keep the oblique (-60, 25).  `VIEWS` are the six
+standard directions, the same angles in both frames (key 1 looks from anterior, or from -y).
 Matrices come from pyrr, whose row-vector layout is what a GLSL mat4 uniform
 expects when written with `.astype("f4").tobytes()`.
 """
@@ -14,6 +26,40 @@ from pyrr import matrix44
 WORLD_UP = np.array([0.0, 0.0, 1.0])
 HOME_AZIMUTH = -60.0     # degrees; an oblique view shows all three axes
 HOME_ELEVATION = 25.0
+ANATOMICAL_HOME = (-90.0, 0.0)   # from anterior, superior up: 3D Slicer's default 3-D view
+ORBIT_LIMIT = 89.0       # a drag stops short of the poles; a view from above or below sits on them
+RAS_TO_LPS = np.diag([-1.0, -1.0, 1.0])
+
+# The six standard views: (azimuth, elevation) in the display frame, and the eye's side in its words.
+# Superior and inferior put anterior at the top of the screen, as Slicer's and radiology's axial views.
+VIEWS = (
+    ("anterior", "-y", (-90.0, 0.0)),
+    ("posterior", "+y", (90.0, 0.0)),
+    ("left", "+x", (0.0, 0.0)),
+    ("right", "-x", (180.0, 0.0)),
+    ("superior", "+z", (90.0, 90.0)),
+    ("inferior", "-z", (-90.0, -90.0)),
+)
+
+
+def anatomical_frame(world) -> np.ndarray | None:
+    """The rotation (or, for a left-handed storage order, rotation and mirror) taking a scene direction
+    to the patient's LPS frame, for `world` = (4x4 array index -> world, "RAS" or "LPS") as `Volume.world`
+    holds it; None without one.  The nearest orthogonal matrix to the transform's unit axes (its polar
+    factor), so the voxel sizes and a slight shear drop out."""
+    if world is None:
+        return None
+    matrix, space = world
+    axes = np.asarray(matrix, float)[:3, :3]
+    axes = axes / np.linalg.norm(axes, axis=0)
+    u, _, vt = np.linalg.svd(axes)
+    frame = u @ vt
+    return RAS_TO_LPS @ frame if space == "RAS" else frame
+
+
+def volume_frame(volume) -> np.ndarray | None:
+    """`anatomical_frame` of a Volume (None for none, or one without a patient frame)."""
+    return None if volume is None else anatomical_frame(getattr(volume, "world", None))
 ORBIT_DEGREES_PER_PIXEL = 0.4
 ZOOM_PER_STEP = 0.9      # distance factor per scroll notch
 
@@ -21,18 +67,35 @@ ZOOM_PER_STEP = 0.9      # distance factor per scroll notch
 class OrbitCamera:
     def __init__(self, fov_degrees: float = 35.0):
         self.fov_degrees = fov_degrees
+        self.frame: np.ndarray | None = None   # scene -> display frame (3x3 orthogonal); None: the scene's own
         self.fit((-1.0, -1.0, -1.0), (1.0, 1.0, 1.0))
 
     # --- framing -----------------------------------------------------------
-    def fit(self, lower, upper, azimuth: float | None = None, elevation: float | None = None) -> None:
-        """Frame the box [lower, upper] (world units): centre it and back off until its bounding sphere fits."""
+    def fit(self, lower, upper, azimuth: float | None = None, elevation: float | None = None,
+            frame: np.ndarray | None = None) -> None:
+        """Frame the box [lower, upper] (scene units): centre it and back off until its bounding sphere fits.
+        `frame`: the scene -> patient (LPS) rotation of a scan (`anatomical_frame`), which the camera then
+        orbits in, superior up, from anterior unless `azimuth` / `elevation` say otherwise."""
         lower, upper = np.asarray(lower, float), np.asarray(upper, float)
+        self.frame = None if frame is None else np.asarray(frame, float).reshape(3, 3)
+        home_azimuth, home_elevation = (HOME_AZIMUTH, HOME_ELEVATION) if frame is None else ANATOMICAL_HOME
         self.target = (lower + upper) / 2
         self.scene_radius = max(float(np.linalg.norm(upper - lower)) / 2, 1e-6)
-        self.azimuth = HOME_AZIMUTH if azimuth is None else float(azimuth)
-        self.elevation = HOME_ELEVATION if elevation is None else float(np.clip(elevation, -89.0, 89.0))
+        self.azimuth = home_azimuth if azimuth is None else float(azimuth)
+        self.elevation = home_elevation if elevation is None else float(np.clip(elevation, -90.0, 90.0))
         self.distance = self._fit_distance()
         self._home = (self.target.copy(), self.azimuth, self.elevation, self.distance)
+
+    def look_from(self, azimuth: float, elevation: float) -> None:
+        """Turn to look from (azimuth, elevation) of the display frame (`VIEWS`), keeping target and zoom."""
+        self.azimuth = float(azimuth) % 360.0
+        self.elevation = float(np.clip(elevation, -90.0, 90.0))
+
+    @property
+    def mirrored(self) -> bool:
+        """Whether the view mirrors the scene (a left-handed storage order shown the patient's way round):
+        the renderer then takes clockwise triangles as front faces."""
+        return self.frame is not None and float(np.linalg.det(self.frame)) < 0
 
     def reset(self) -> None:
         """Back to the view `fit` chose (key `r`)."""
@@ -46,8 +109,10 @@ class OrbitCamera:
     # --- mouse -------------------------------------------------------------
     def orbit(self, dx_pixels: float, dy_pixels: float) -> None:
         self.azimuth = (self.azimuth - dx_pixels * ORBIT_DEGREES_PER_PIXEL) % 360.0
-        # Stop short of the poles, where look-at with a fixed up vector flips.
-        self.elevation = float(np.clip(self.elevation + dy_pixels * ORBIT_DEGREES_PER_PIXEL, -89.0, 89.0))
+        # Stop short of the poles, where look-at with a fixed up vector flips (a view from above or
+        # below, on a pole, stays there rather than jumping a degree).
+        limit = max(ORBIT_LIMIT, abs(self.elevation))
+        self.elevation = float(np.clip(self.elevation + dy_pixels * ORBIT_DEGREES_PER_PIXEL, -limit, limit))
 
     def zoom(self, steps: float) -> None:
         """Positive steps move closer (scroll up)."""
@@ -62,22 +127,55 @@ class OrbitCamera:
 
     def screen_axes(self) -> tuple[np.ndarray, np.ndarray]:
         """Unit vectors (scene space) pointing to the screen's right and up."""
-        forward = self.target - self.eye()
-        forward /= np.linalg.norm(forward)
-        right = np.cross(forward, WORLD_UP)
-        right /= np.linalg.norm(right)
-        return right, np.cross(right, forward)
+        if self._plain():
+            forward = self.target - self.eye()
+            forward /= np.linalg.norm(forward)
+            right = np.cross(forward, WORLD_UP)
+            right /= np.linalg.norm(right)
+            return right, np.cross(right, forward)
+        right, up = self._display_axes()
+        frame = self._frame()
+        return frame.T @ right, frame.T @ up   # display -> scene: the frame is orthogonal
 
     # --- matrices ----------------------------------------------------------
-    def eye(self) -> np.ndarray:
+    def _plain(self) -> bool:
+        """No display frame and off the poles: today's look-at about the scene's z, bit for bit."""
+        return self.frame is None and abs(self.elevation) <= ORBIT_LIMIT
+
+    def _frame(self) -> np.ndarray:
+        return np.eye(3) if self.frame is None else self.frame
+
+    def _direction(self) -> np.ndarray:
+        """The eye's direction from the target, in the display frame."""
         azimuth, elevation = math.radians(self.azimuth), math.radians(self.elevation)
-        direction = np.array([math.cos(elevation) * math.cos(azimuth),
-                              math.cos(elevation) * math.sin(azimuth),
-                              math.sin(elevation)])
-        return self.target + self.distance * direction
+        return np.array([math.cos(elevation) * math.cos(azimuth),
+                         math.cos(elevation) * math.sin(azimuth),
+                         math.sin(elevation)])
+
+    def _display_axes(self) -> tuple[np.ndarray, np.ndarray]:
+        """The screen's right and up in the display frame, from the angles alone: defined on the poles
+        too, where the right is where azimuth puts it and the up follows (a view from above with
+        azimuth 90 has -y, anterior, at the top)."""
+        azimuth = math.radians(self.azimuth)
+        right = np.array([-math.sin(azimuth), math.cos(azimuth), 0.0])
+        return right, np.cross(self._direction(), right)
+
+    def eye(self) -> np.ndarray:
+        direction = self._direction()
+        return self.target + self.distance * (direction if self.frame is None else self.frame.T @ direction)
 
     def view_matrix(self) -> np.ndarray:
-        return matrix44.create_look_at(self.eye(), self.target, WORLD_UP, dtype="f4")
+        if self._plain():
+            return matrix44.create_look_at(self.eye(), self.target, WORLD_UP, dtype="f4")
+        # Look at the target in the display frame, after taking the scene there: p -> frame @ p, which
+        # pyrr's row vectors write p @ frame.T.  A mirror frame makes the whole view a mirror.
+        frame = self._frame()
+        target = frame @ self.target
+        look = matrix44.create_look_at(target + self.distance * self._direction(), target,
+                                       self._display_axes()[1])
+        to_display = np.eye(4)
+        to_display[:3, :3] = frame.T
+        return (to_display @ look).astype("f4")
 
     def projection_matrix(self, aspect: float, shift_x: float = 0.0) -> np.ndarray:
         """Perspective for a viewport of `aspect` (width/height); `shift_x` moves the image
