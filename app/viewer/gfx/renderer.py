@@ -111,6 +111,9 @@ class SceneRenderer:
         ctx.depth_func = "<="
         ctx.wireframe = False
         ctx.polygon_offset = (0.0, 0.0)
+        # A mirrored view (a scan stored left-handed, shown the patient's way round) reverses the
+        # triangles' winding on screen: the outside must stay the front (mesh.frag's gl_FrontFacing).
+        ctx.front_face = "cw" if camera.mirrored else "ccw"
         if style.transparent_background:  # premultiplied: read_rgba() turns it into straight alpha
             ctx.clear(0.0, 0.0, 0.0, 0.0, depth=1.0, viewport=viewport)
         else:
