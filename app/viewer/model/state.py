@@ -7,6 +7,7 @@ ValueError), leaving everything as it was; the panel shows the exception's one l
 - `slices`: slice planes, the window over the values, colour map, clip plane (model/slices.py);
 - `labels`: a label map's layers (model/labels.py);
 - `color_by`: a scalar through a colour map (model/colorby.py);
+- `series`: a series' time axis: the time point, playback, its reads on a worker (model/series.py);
 - `jobs`: volumes read and full-resolution exports in the background, a request id in and a response
   out (model/jobs.py);
 - `style`, `recent`, and the panel's messages (`error`, `message`).
@@ -34,6 +35,7 @@ from .jobs import Jobs, Response
 from .labels import LabelMap
 from .levels import Levels
 from .recent import RecentFiles
+from .series import TimeAxis
 from .slices import SliceScene, SliceSettings
 from .style import SurfaceStyle
 
@@ -67,6 +69,7 @@ class ViewerState:
         self.label_hint = 0                   # labels in the volume if it looks like a label map, else 0
         self.volume_serial = 0                # bumps on every new volume: the window refits its camera
         self.levels = Levels()
+        self.series = TimeAxis()               # a series' time axis (series.py)
         self.mesh_options = MeshOptions()
         self.slices = SliceSettings()
         self.labels = LabelMap()
@@ -118,6 +121,7 @@ class ViewerState:
         self.levels.reset(volume.value_range, level if level is not None else volume.default_level)
         self.labels.hide()
         self.color_by = None
+        self.series.attach(full_volume if full_volume is not None else volume)
         self.volume_serial += 1
         self.error = None
 
