@@ -36,6 +36,7 @@ from ..model.big_volume import downsampled
 from ..model.errors import USER_ERRORS as STATE_ERRORS
 from ..model.errors import ViewerError, one_line
 from ..model.levels import Level
+from ..model.series import take_time_point, time_step
 from ..model.state import Opened, ViewerState
 from . import surface as surface_module
 from .colorby import GpuColorBy
@@ -125,6 +126,7 @@ class GpuScene:
         state = self.state
         for response in state.jobs.poll():
             self._attempt(self._answer_open if response.kind == "open" else state.exported, response)
+        self._attempt(self._follow_time, dt_seconds, wait)
         self._attempt(self._follow)
         if state.save_request is not None:
             path, state.save_request = state.save_request, None
@@ -144,6 +146,19 @@ class GpuScene:
             step(*args)
         except USER_ERRORS as exc:
             self.state.error = one_line(exc)
+
+    def _follow_time(self, dt_seconds: float, wait: bool) -> None:
+        """A series' time point, read on a worker (model/series.py), uploaded in place of the one on show:
+        levels, slices, clip, camera and mesh options stay; each level's mesh is made again (previews
+        while playing, as while a value is dragged)."""
+        point = time_step(self.state, dt_seconds, wait)
+        if point is not None:
+            surface = self._surface_class(self.ctx, point.shown, self.state.gradient_direction)
+            self.surface.release()
+            self.surface = surface
+            take_time_point(self.state, point)
+            self._moved_last_frame = self.state.series.playing
+            self._refresh_copies()
 
     def _follow(self) -> None:
         state = self.state
