@@ -1,0 +1,189 @@
+"""The panel's Measure section (issue 26): per-surface measures in the background equal to `isoscope measure`'s,
+the cursor probe on a rendered sphere and on a slice, the two-click distance, and Save scene.
+
+The measures are checked against the command run as a user runs it (its --json); the probe against the
+sphere's analytic radius and the volume's own sample; the scene against a render of the saved file by the
+command, pixel for pixel with the headless viewer's picture of the same state.
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from support.command import isoscope
+
+from isoscope.viewer.model.errors import ViewerError
+from isoscope.viewer.model.measure import Measurements
+from isoscope.viewer.model.state import ViewerState
+from isoscope.volumes import open_volume
+from isoscope.volumes.volume import finish_volume
+
+TORUS = "volumes/torus.nrrd"
+N, RADIUS = 48, 15.0
+SIZE = (320, 240)
+
+
+def sphere_volume(spacing=(1.0, 1.0, 1.0)):
+    """A signed distance to a sphere of RADIUS (world units) at the grid's centre, negative inside."""
+    centre = (N - 1) / 2
+    points = (np.indices((N, N, N)).astype(np.float32) - centre) * np.asarray(spacing, np.float32)[:, None, None, None]
+    data = (np.sqrt((points ** 2).sum(axis=0)) - RADIUS).astype(np.float32)
+    return finish_volume(data, spacing=spacing, name="sphere", source="sphere", gradient_direction="ascent",
+                         default_level=None)
+
+
+def command_records(*args):
+    result = isoscope("measure", *args, "--json")
+    assert result.returncode == 0, result.stderr
+    return json.loads(result.stdout)
+
+
+def assert_same_as_command(record, expected):
+    assert record.area_mm2 == pytest.approx(expected["area_mm2"], rel=1e-9)
+    assert record.volume_ml == pytest.approx(expected["volume_ml"], rel=1e-9)
+    assert record.components == expected["components"]
+    assert record.largest_component_ml == pytest.approx(expected["largest_component_ml"], rel=1e-9)
+    assert record.bbox_min == pytest.approx(tuple(expected["bbox_min"]))
+    assert record.bbox_max == pytest.approx(tuple(expected["bbox_max"]))
+    assert record.open_edges == expected["open_edges"]
+
+
+@pytest.mark.parametrize("closed", [False, True])
+def test_measures_equal_the_command_s_on_the_same_volume_and_levels(closed):
+    state = ViewerState()
+    state.show(open_volume(TORUS), 0.5)
+    state.levels.add(0.2)
+    measurements = Measurements()
+    measurements.closed = closed
+    request = measurements.request(state)   # on a worker thread, as the panel asks
+    while not measurements.poll(wait_s=30.0):
+        pass
+    assert measurements.answered_id == request and measurements.error is None
+    expected = command_records(TORUS, "--iso", "0.5", "--iso", "0.2", *(["--closed"] if closed else []))
+    assert [r.name for r in measurements.records] == ["level 0.5", "level 0.2"]
+    for record, row in zip(measurements.records, expected):
+        assert_same_as_command(record, row)
+    if closed:
+        assert all(r.open_edges == 0 for r in measurements.records)
+
+
+def test_a_newer_request_makes_the_older_answer_stale():
+    state = ViewerState()
+    state.show(open_volume(TORUS), 0.5)
+    measurements = Measurements()
+    first = measurements.request(state)
+    state.levels.set_value(0.3)
+    second = measurements.request(state)
+    while measurements.running is not None:
+        measurements.poll(wait_s=30.0)
+    assert first != second and measurements.answered_id == second
+    assert [r.name for r in measurements.records] == ["level 0.3"]
+
+
+def test_labels_measure_as_the_command_s_labels(tmp_path):
+    labels = np.zeros((20, 18, 16), np.uint8)
+    labels[3:9, 4:12, 2:10] = 1
+    labels[10:17, 5:15, 6:14] = 2
+    path = tmp_path / "seg.npy"
+    np.save(path, labels)
+    state = ViewerState()
+    state.show(open_volume(str(path)))
+    state.show_labels()
+    measurements = Measurements()
+    measurements.request(state, inline=True)
+    measurements.poll()
+    expected = command_records(path, "--labels")
+    assert [r.name for r in measurements.records] == [f"label {row['label']}" for row in expected]
+    for record, row in zip(measurements.records, expected):
+        assert_same_as_command(record, row)
+        assert record.open_edges == 0   # a label's surface is closed at the border already
+
+
+def test_nothing_to_measure_is_one_line():
+    measurements = Measurements()
+    with pytest.raises(ViewerError, match="open a volume"):
+        measurements.request(ViewerState())
+    state = ViewerState()
+    state.show(sphere_volume(), 0.0)
+    state.levels.set_visible(0, False)
+    with pytest.raises(ViewerError, match="no surface is visible"):
+        measurements.request(state)
+
+
+def test_two_picks_give_their_distance_and_a_third_starts_again():
+    measurements = Measurements()
+    measurements.pick((0.0, 0.0, 0.0))
+    assert measurements.distance is None
+    measurements.pick((3.0, 4.0, 12.0))
+    assert measurements.distance == pytest.approx(13.0)
+    measurements.pick((1.0, 1.0, 1.0))
+    assert len(measurements.picks) == 1 and measurements.distance is None
+
+
+# --- the probe, on a real context -------------------------------------------------------------------------
+@pytest.fixture
+def sphere_viewer(gl_ctx):
+    from isoscope.viewer.ui.headless import HeadlessViewer
+    viewer = HeadlessViewer(SIZE, ctx=gl_ctx)
+    viewer.show(sphere_volume(spacing=(1.0, 1.0, 1.5)), 0.0)
+    yield viewer
+    viewer.release()
+
+
+@pytest.fixture
+def picker(gl_ctx):
+    from isoscope.viewer.gfx.picking import Picker
+    picker = Picker(gl_ctx)
+    yield picker
+    picker.release()
+
+
+def test_the_probe_at_a_sphere_s_centre_is_on_the_sphere(sphere_viewer, picker):
+    sphere_viewer.render()
+    viewport = (0, 0, *SIZE, 0)
+    probe = picker.probe(sphere_viewer.scene, sphere_viewer.camera, viewport, (SIZE[0] // 2, SIZE[1] // 2))
+    volume = sphere_viewer.state.volume
+    centre = (np.asarray(volume.data.shape) - 1) / 2 * np.asarray(volume.spacing)
+    point = np.asarray(probe.point)
+    assert probe.on == "surface"
+    assert abs(np.linalg.norm(point - centre) - RADIUS) < 1.0   # within a voxel of the sphere
+    # on the side facing the camera
+    assert np.dot(point - centre, sphere_viewer.camera.eye() - centre) > 0
+    assert probe.voxel == tuple(int(v) for v in np.rint(point / np.asarray(volume.spacing)))
+    assert probe.value == volume.data[probe.voxel]
+    assert abs(probe.value) < 1.5   # a sample next to the level 0
+    # the corner of the picture shows the background: nothing there
+    assert picker.probe(sphere_viewer.scene, sphere_viewer.camera, viewport, (1, 1)) is None
+
+
+def test_the_probe_follows_the_panel_s_lens_shift(sphere_viewer, picker):
+    """With the panel covering the left, the scene centres in the rest: the pixel at that centre hits the
+    sphere's front as the middle pixel did without it."""
+    covered = 100
+    viewport = (0, 0, *SIZE, covered)
+    middle = (covered // 2 + SIZE[0] // 2, SIZE[1] // 2)
+    probe = picker.probe(sphere_viewer.scene, sphere_viewer.camera, viewport, middle)
+    plain = picker.probe(sphere_viewer.scene, sphere_viewer.camera, (0, 0, *SIZE, 0), (SIZE[0] // 2, SIZE[1] // 2))
+    assert np.linalg.norm(np.asarray(probe.point) - np.asarray(plain.point)) < 1.0
+
+
+def test_two_probes_give_the_distance_between_the_points(sphere_viewer, picker):
+    viewport = (0, 0, *SIZE, 0)
+    measurements = Measurements()
+    for pixel in ((SIZE[0] // 2 - 15, SIZE[1] // 2), (SIZE[0] // 2 + 15, SIZE[1] // 2 + 10)):
+        measurements.pick(picker.probe(sphere_viewer.scene, sphere_viewer.camera, viewport, pixel).world)
+    a, b = measurements.picks
+    assert measurements.distance == pytest.approx(float(np.linalg.norm(a - b)))
+    assert 3.0 < measurements.distance < 2 * RADIUS
+
+
+def test_the_probe_reads_a_slice_in_front_of_the_surface(sphere_viewer, picker):
+    state = sphere_viewer.state
+    state.levels.set_visible(0, False)   # the slice alone
+    state.slices.show(0, True, N // 2)
+    viewport = (0, 0, *SIZE, 0)
+    probe = picker.probe(sphere_viewer.scene, sphere_viewer.camera, viewport, (SIZE[0] // 2, SIZE[1] // 2))
+    assert probe.on == "slice x"
+    assert probe.voxel[0] == N // 2
+    assert probe.value == sphere_viewer.state.volume.data[probe.voxel]
