@@ -5,18 +5,14 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
-import tempfile
 from pathlib import Path
 
-import numpy as np
-
+from ..io.movie import movie_kind
 from .arguments import OneLineParser, add_render_options
 from .common import checked_levels, count_line, progress, wrote
 from .slice_options import apply_slice_arguments
 from .volume_options import TimeRange, add_volume_arguments, open_volume_from_args
 
-MOVIE_SUFFIXES = (".mp4", ".gif")
 MAX_FRAMES = 10_000
 
 
@@ -56,17 +52,6 @@ def _sweep(text: str) -> tuple[float, float]:
     if not colon or not (math.isfinite(a) and math.isfinite(b)) or a == b:
         raise argparse.ArgumentTypeError(f"--sweep {text!r}: give two different finite iso values, A:B")
     return a, b
-
-
-def movie_kind(out: str) -> str:
-    """"mp4", "gif" or "folder" by the name of --out; one line for anything else."""
-    if out.endswith(("/", os.sep)) or Path(out).is_dir():
-        return "folder"
-    suffix = Path(out).suffix.lower()
-    if suffix not in MOVIE_SUFFIXES:
-        raise ValueError(f"--out {out}: a movie is .mp4, .gif or a folder (end the name with /); "
-                         f"not {suffix or 'a name without an extension'}")
-    return suffix[1:]
 
 
 def run_movie(args) -> int:
@@ -115,11 +100,10 @@ def _frames(viewer, volume, args, times):
 
     def shot():
         return viewer.picture(panel=args.panel)
-    if times is not None:
-        for i, time in enumerate(times):
-            if i:
-                following = argparse.Namespace(**{**vars(args), "time": time})
-                viewer.scene.show(open_volume_from_args(args.volume, following, progress), viewer.state.iso)
+    if times is not None:   # the viewer's time axis: levels, slices and clip stay as time moves
+        for time in times:
+            if time != viewer.state.series.shown:
+                viewer.state.series.go_to(time)
             yield shot()
         return
     if args.sweep:
@@ -142,50 +126,6 @@ def _frames(viewer, volume, args, times):
 
 
 def _write(frames, out, kind: str, fps: float, count: int) -> Path:
-    """Write the frames beside `out`, then put the whole movie in its place."""
-    out = Path(out)
-    if kind == "folder":
-        return _write_folder(frames, out, count)
-    folder = out.parent if str(out.parent) else Path(".")
-    handle, temporary = tempfile.mkstemp(prefix=f".{out.name}.", suffix=f".partial.{kind}", dir=folder)
-    os.close(handle)
-    try:
-        if kind == "mp4":
-            import imageio.v2 as imageio
-            with imageio.get_writer(temporary, format="FFMPEG", mode="I", fps=fps, codec="libx264",
-                                    quality=8, macro_block_size=2, ffmpeg_log_level="error") as writer:
-                for i, frame in enumerate(frames):
-                    writer.append_data(_even(frame))
-                    _say(i, count)
-        else:
-            from PIL import Image
-            images = []
-            for i, frame in enumerate(frames):
-                images.append(Image.fromarray(frame))
-                _say(i, count)
-            images[0].save(temporary, format="GIF", save_all=True, append_images=images[1:],
-                           duration=round(1000 / fps), loop=0)
-        from ..io.atomic import write_atomically
-        data = Path(temporary).read_bytes()
-        return write_atomically(out, lambda target: target.write(data))
-    finally:
-        Path(temporary).unlink(missing_ok=True)
-
-
-def _write_folder(frames, folder: Path, count: int) -> Path:
-    from ..viewer.gfx.screenshot import save_png
-    folder.mkdir(parents=True, exist_ok=True)
-    for i, frame in enumerate(frames):
-        save_png(frame, folder / f"frame_{i:04d}.png")
-        _say(i, count)
-    return folder
-
-
-def _even(frame: np.ndarray) -> np.ndarray:
-    """H.264 in yuv420p needs even sizes: an odd row or column is repeated."""
-    h, w = frame.shape[:2]
-    return np.pad(frame, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge") if (h | w) & 1 else frame
-
-
-def _say(i: int, count: int) -> None:
-    count_line(i + 1, count, "frame")
+    """Write the frames beside `out` (io/movie.py), then put the whole movie in its place."""
+    from ..io.movie import write_movie
+    return write_movie(frames, out, fps, kind, on_frame=lambda i: count_line(i + 1, count, "frame"))
