@@ -1,12 +1,27 @@
-"""Label maps on screen: each label's surface uploaded as a `GpuMesh` with its own colour.
+"""Label maps on screen: each label's surface uploaded as a `GpuMesh`, kept while its label map is on show,
+and the clip's cut drawn in the labels' colours.
 
-`label_scene` is what a view of a label map needs (the headless render uses it; the viewer's
-panel can too); `headless.render_labels_png` draws one to a PNG, as `isoscope render --labels` does.
+`LabelMeshes` is the GPU side of a `LabelMap` (model/labels.py): it extracts every label's surface once
+per label map (`extractions` counts it) and keeps them all, so a label shown, hidden or faded changes
+only the draw list (`drawn`), never a mesh.  `LabelCaps` draws the clip's cut (label_cap.frag): the
+labels' index on the grid plane nearest the clip, looked up in a table of their colours, each label's
+part in its colour as its surface is cut.  `label_scene` is the one-shot upload of `label_surfaces`'
+result for a caller that owns its buffers.
 """
 from __future__ import annotations
 
+import moderngl
+import numpy as np
+
+from ...gpu.context import has_compute
 from ...gpu.mesh import GpuMesh
-from ...labels import label_colors
+from ...labels import label_colors, label_surfaces, labels_of
+from ...resources import shader_source
+from ..model.labels import LabelLayer, LabelMap
+from ..model.slices import SliceScene
+
+TABLE_WIDTH = 1024   # the colour table's texture is this wide, as many rows as the labels need
+PLANE_UNIT, TABLE_UNIT = 5, 6   # texture units (the slices use 0 and 1, the surfaces' looks 3 and 4)
 
 
 def label_scene(ctx, surfaces: dict) -> list[tuple[int, GpuMesh, tuple[float, float, float]]]:
@@ -25,3 +40,137 @@ def label_scene(ctx, surfaces: dict) -> list[tuple[int, GpuMesh, tuple[float, fl
 def release_scene(scene) -> None:
     for _, mesh, _ in scene:
         mesh.release()
+
+
+class LabelMeshes:
+    """Every label's surface of the label map on show, on the GPU, by label."""
+
+    def __init__(self, ctx: moderngl.Context):
+        self.ctx = ctx
+        self.meshes: dict[int, GpuMesh] = {}
+        self.serial: int | None = None   # the label map (LabelMap.serial) they are of
+        self.extractions = 0             # label maps extracted so far: a toggle makes none
+
+    def follow(self, labels: LabelMap, volume) -> None:
+        """Extract `volume`'s labels when another label map is put on show; release them when none is.
+        A failed extraction hides the label map (the levels come back) and raises."""
+        if labels.serial == self.serial and labels:
+            return
+        self.release()
+        if not labels:
+            return
+        try:
+            surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing,
+                                      backend="gpu" if has_compute(self.ctx) else "cpu")
+            scene = label_scene(self.ctx, surfaces)
+        except BaseException:
+            labels.hide()
+            raise
+        self.extractions += 1
+        self.meshes = {label: mesh for label, mesh, _ in scene}
+        self.serial = labels.serial
+
+    def drawn(self, labels: LabelMap) -> list[tuple[GpuMesh, LabelLayer]]:
+        """The visible labels' meshes and layers (their colours and opacities: the renderer's looks)."""
+        return [(self.meshes[layer.label], layer) for layer in labels.visible() if layer.label in self.meshes]
+
+    def triangles(self, label: int) -> int:
+        mesh = self.meshes.get(label)
+        return mesh.n_triangles if mesh is not None else 0
+
+    def counts(self, labels: LabelMap) -> tuple[int, int, int]:
+        """(labels shown, vertices, triangles) of the visible labels' surfaces: the stats of what is drawn."""
+        shown = [self.meshes[layer.label] for layer in labels.visible() if layer.label in self.meshes]
+        return len(shown), sum(m.n_vertices for m in shown), sum(m.n_triangles for m in shown)
+
+    def release(self) -> None:
+        for mesh in self.meshes.values():
+            mesh.release()
+        self.meshes, self.serial = {}, None
+
+
+def plane_indices(data: np.ndarray, labels: np.ndarray, axis: int, position: float) -> tuple[int, np.ndarray]:
+    """(the grid index nearest `position` along `axis`, that plane of `data` as float32 indices into
+    `labels` (sorted) plus one: 0 where a sample's label is not among them, the background)."""
+    index = int(np.clip(np.floor(position + 0.5), 0, data.shape[axis] - 1))
+    plane = np.take(data, index, axis=axis)
+    found = np.clip(np.searchsorted(labels, plane), 0, max(len(labels) - 1, 0))
+    hit = labels[found] == plane if len(labels) else np.zeros(plane.shape, bool)
+    return index, np.ascontiguousarray(np.where(hit, found + 1, 0).astype(np.float32))
+
+
+def cap_corners(shape, spacing, axis: int, position: float) -> np.ndarray:
+    """4 vertices (x, y, z, row, column) of the clip's plane, half a sample beyond the volume on every
+    side (where the labels' surfaces close), as a triangle strip."""
+    rows_axis, columns_axis = (a for a in range(3) if a != axis)
+    vertices = []
+    for row in (-0.5, shape[rows_axis] - 0.5):
+        for column in (-0.5, shape[columns_axis] - 0.5):
+            point = [0.0, 0.0, 0.0]
+            point[axis] = position * spacing[axis]
+            point[rows_axis], point[columns_axis] = row * spacing[rows_axis], column * spacing[columns_axis]
+            vertices.append([*point, row, column])
+    return np.array(vertices, "f4")[[0, 2, 1, 3]]
+
+
+class LabelCaps:
+    """Draws the clip's cut of a label map (SliceScene.label_caps) in the labels' colours."""
+
+    def __init__(self, ctx: moderngl.Context):
+        self.ctx = ctx
+        self.program = ctx.program(vertex_shader=shader_source("slice.vert"),
+                                   fragment_shader=shader_source("label_cap.frag", {"TABLE_WIDTH": TABLE_WIDTH}))
+        self.quad = ctx.buffer(reserve=4 * 5 * 4)
+        self.vao = ctx.vertex_array(self.program, [(self.quad, "3f 2f", "in_position", "in_voxel")])
+        # (the data, which plane and labels, its texture): the data is kept so its id stays its own
+        self._plane: tuple[np.ndarray, tuple, moderngl.Texture] | None = None
+        self._table: tuple[bytes, moderngl.Texture] | None = None
+
+    def draw(self, scene: SliceScene, axis: int, position: float, view: bytes, projection: bytes) -> None:
+        labels, rgba = scene.label_caps
+        self._plane_texture(scene.data, labels, axis, position).use(PLANE_UNIT)
+        self._table_texture(rgba).use(TABLE_UNIT)
+        program = self.program
+        program["u_view"].write(view)
+        program["u_projection"].write(projection)
+        program["u_plane"].value = PLANE_UNIT
+        program["u_table"].value = TABLE_UNIT
+        self.quad.write(cap_corners(scene.data.shape, scene.spacing, axis, position).tobytes())
+        self.vao.render(moderngl.TRIANGLE_STRIP)
+
+    def _plane_texture(self, data, labels, axis, position) -> moderngl.Texture:
+        index = int(np.clip(np.floor(position + 0.5), 0, data.shape[axis] - 1))
+        key = (axis, index, labels.tobytes())
+        if self._plane is None or self._plane[0] is not data or self._plane[1] != key:
+            _, image = plane_indices(data, labels, axis, position)
+            texture = self.ctx.texture(image.shape[::-1], 1, image, dtype="f4")
+            texture.filter = moderngl.NEAREST, moderngl.NEAREST
+            self._release_plane()
+            self._plane = (data, key, texture)
+        return self._plane[2]
+
+    def _table_texture(self, rgba: np.ndarray) -> moderngl.Texture:
+        key = rgba.tobytes()
+        if self._table is None or self._table[0] != key:
+            rows = -(-(len(rgba) + 1) // TABLE_WIDTH)
+            table = np.zeros((rows * TABLE_WIDTH, 4), np.float32)   # index 0: the background, no cut
+            table[1:len(rgba) + 1] = rgba
+            texture = self.ctx.texture((TABLE_WIDTH, rows), 4, table.tobytes(), dtype="f4")
+            texture.filter = moderngl.NEAREST, moderngl.NEAREST
+            if self._table is not None:
+                self._table[1].release()
+            self._table = (key, texture)
+        return self._table[1]
+
+    def _release_plane(self) -> None:
+        if self._plane is not None:
+            self._plane[2].release()
+            self._plane = None
+
+    def release(self) -> None:
+        self._release_plane()
+        if self._table is not None:
+            self._table[1].release()
+            self._table = None
+        for obj in (self.vao, self.quad, self.program):
+            obj.release()
