@@ -27,6 +27,7 @@ from ...core.layout import EDGE_MARGIN
 from ...resources import shader_source
 from ..model.colormaps import LUT_SIZE, colormap_rgba
 from ..model.slices import SliceScene
+from .label_scene import LabelCaps
 
 INSET_FRACTION = 0.34     # the 2-D view's longer side, as a fraction of the scene's shorter side
 INSET_MARGIN = 10         # pixels from the scene's bottom-right corner
@@ -82,6 +83,7 @@ class SliceRenderer:
         self.lut.repeat_x = self.lut.repeat_y = False
         # (id of the data, axis, position) -> (the data, its texture): the planes drawn last frame.
         self._planes: dict[tuple[int, int, float], tuple[np.ndarray, moderngl.Texture]] = {}
+        self.label_caps: LabelCaps | None = None   # a label map's cut, in its labels' colours (label_scene.py)
 
     def _texture(self, data: np.ndarray, axis: int, position: float) -> moderngl.Texture:
         key = (id(data), axis, position)
@@ -131,7 +133,11 @@ class SliceRenderer:
             return
         self._set_uniforms(scene, view, projection)
         for axis, position, cap in planes:
-            self._draw_plane(scene, axis, position, flat=False, cap=cap)
+            if cap and scene.label_caps is not None:
+                self.label_caps = self.label_caps or LabelCaps(self.ctx)
+                self.label_caps.draw(scene, axis, position, view, projection)
+            else:
+                self._draw_plane(scene, axis, position, flat=False, cap=cap)
 
     def draw_inset(self, scene: SliceScene | None, viewport: tuple[int, int, int, int]) -> None:
         """The active slice facing the viewer, in a framed box at the bottom right of `viewport`."""
@@ -157,6 +163,8 @@ class SliceRenderer:
 
     def release(self) -> None:
         self._release_planes()
+        if self.label_caps is not None:
+            self.label_caps.release()
         for obj in (self.vao, self.quad, self.lut, self.program):
             obj.release()
 
