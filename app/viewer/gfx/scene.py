@@ -30,7 +30,7 @@ from ...core.layout import INDEX_BYTES, VERTEX_BYTES
 from ...gpu.buffers import GrowableBuffer
 from ...gpu.context import gl_summary, has_compute
 from ...gpu.mesh import GpuMesh
-from ...labels import check_label_output, label_surfaces, labels_of, write_labelled
+from ...labels import check_label_output, write_labelled
 from ...volumes import Volume
 from ..model.big_volume import downsampled
 from ..model.errors import USER_ERRORS as STATE_ERRORS
@@ -41,7 +41,7 @@ from ..model.state import Opened, ViewerState
 from . import surface as surface_module
 from .colorby import GpuColorBy
 from .cpu_surface import CpuSurface
-from .label_scene import label_scene, release_scene
+from .label_scene import LabelMeshes
 from .renderer import SurfaceLook
 from .surface import GpuSurface
 
@@ -93,8 +93,7 @@ class GpuScene:
         self._on_extractor: Level | None = None   # the level whose mesh the extractor holds
         self._extracted: float | None = None      # the value it was extracted at (None: extract it again)
         self._copies: dict[Level, MeshCopy] = {}  # the other levels' meshes
-        self._labels: dict[int, GpuMesh] = {}     # a label map's surfaces, by label
-        self._labels_serial: int | None = None    # the label map they are of
+        self.labels = LabelMeshes(ctx)            # a label map's surfaces, kept while it is on show
         self._wait = False                        # the next extraction makes its sharp features at once
         self._moved_last_frame = False
         self._rest_s = 0.0                        # how long the value has not moved
@@ -181,7 +180,7 @@ class GpuScene:
                     state.levels.restore([item for item in state.levels.items if item is not level],
                                          state.levels.current)
                     raise
-        self._follow_labels()
+        self.labels.follow(state.labels, state.volume)
         self._follow_color_by()
 
     def _upload_again(self) -> None:
@@ -238,24 +237,6 @@ class GpuScene:
         if level not in self._copies:
             self._copies[level] = MeshCopy(self.ctx)
         self._copies[level].take(surface.mesh, surface.shown.last_extract_ms)
-
-    def _follow_labels(self) -> None:
-        labels = self.state.labels
-        if labels.serial == self._labels_serial and labels:
-            return
-        self._release_labels()
-        if not labels:
-            return
-        volume = self.state.volume
-        try:
-            surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing,
-                                      backend="gpu" if has_compute(self.ctx) else "cpu")
-            scene = label_scene(self.ctx, surfaces)
-        except BaseException:
-            labels.hide()
-            raise
-        self._labels = {label: mesh for label, mesh, _ in scene}
-        self._labels_serial = labels.serial
 
     def _follow_color_by(self) -> None:
         wanted = self.state.color_by
@@ -330,11 +311,11 @@ class GpuScene:
         `one_file` all in `path` (PLY, GLB) with per-vertex colours."""
         from ...io.export import in_volume_space
         state = self.state
-        layers = [layer for layer in state.labels.visible() if layer.label in self._labels]
+        layers = [layer for _, layer in self.labels.drawn(state.labels)]
         check_label_output(path, one_file)
         if not layers:
             raise ViewerError("no label is visible; tick the labels to save")
-        placed = [in_volume_space(state.volume, *self._labels[layer.label].read()[:3]) for layer in layers]
+        placed = [in_volume_space(state.volume, *self.labels.meshes[layer.label].read()[:3]) for layer in layers]
         meshes = {layer.label: mesh[:3] for layer, mesh in zip(layers, placed)}
         written = write_labelled(path, meshes, [layer.color for layer in layers], placed[0][3], one_file)
         state.error = None
@@ -345,8 +326,7 @@ class GpuScene:
         """A label map's visible labels while one is on show, else the visible levels."""
         state = self.state
         if state.labels:
-            return [(self._labels[layer.label], SurfaceLook(layer.color, 1.0))
-                    for layer in state.labels.visible() if layer.label in self._labels]
+            return [(mesh, SurfaceLook(layer.color, layer.opacity)) for mesh, layer in self.labels.drawn(state.labels)]
         shown = []
         for i, level in enumerate(state.levels):
             mesh = self._level_mesh(level) if level.visible else None
@@ -403,24 +383,18 @@ class GpuScene:
         return (copy.n_triangles, copy.extract_ms) if copy is not None else (0, 0.0)
 
     def label_triangles(self, label: int) -> int:
-        mesh = self._labels.get(label)
-        return mesh.n_triangles if mesh is not None else 0
+        return self.labels.triangles(label)
 
     def label_counts(self) -> tuple[int, int, int]:
         """(labels shown, vertices, triangles) of the visible labels' surfaces: the stats of what is drawn."""
-        shown = [self._labels[layer.label] for layer in self.state.labels.visible() if layer.label in self._labels]
-        return len(shown), sum(m.n_vertices for m in shown), sum(m.n_triangles for m in shown)
+        return self.labels.counts(self.state.labels)
 
     # --- releasing ---------------------------------------------------------
-    def _release_labels(self) -> None:
-        release_scene([(label, mesh, None) for label, mesh in self._labels.items()])
-        self._labels, self._labels_serial = {}, None
-
     def _release_meshes(self) -> None:
         for copy in self._copies.values():
             copy.release()
         self._copies.clear()
-        self._release_labels()
+        self.labels.release()
         if self.color_by is not None:
             self.color_by.release()
             self.color_by = None
