@@ -23,7 +23,7 @@ from ..gfx.label_scene import label_scene, release_scene
 from ..gfx.renderer import OffscreenTarget, SceneRenderer, SurfaceLook
 from ..gfx.scene import GpuScene
 from ..gfx.screenshot import save_png
-from ..model.camera import OrbitCamera
+from ..model.camera import OrbitCamera, volume_frame
 from ..model.errors import ViewerError
 from ..model.state import ViewerState
 from .panel import ImguiLayer, Panel
@@ -104,9 +104,9 @@ class HeadlessViewer:
         self.frame(azimuth, elevation)
 
     def frame(self, azimuth=None, elevation=None) -> None:
-        """The camera and box fitted to the volume on show."""
+        """The camera and box fitted to the volume on show (a scan's superior up, model/camera.py)."""
         lower, upper = self.state.bounds()
-        self.camera.fit(lower, upper, azimuth, elevation)
+        self.camera.fit(lower, upper, azimuth, elevation, volume_frame(self.state.volume))
         self.renderer.set_box(lower, upper)
 
     def open(self, spec: str, wait_s: float = 60.0, **open_options) -> None:
@@ -144,24 +144,29 @@ class HeadlessViewer:
         if self.state.error is not None:
             raise ViewerError(self.state.error)
 
-    def render(self, panel: bool = False) -> np.ndarray:
+    def render(self, panel: bool = False, letters: bool = False) -> np.ndarray:
         """Re-extract if the iso value changed, draw, and return (height, width, 3) uint8 pixels
-        (4, straight alpha, when the style's background is transparent)."""
+        (4, straight alpha, when the style's background is transparent).  `letters`: a scan's orientation
+        letters without the panel (the panel draws them anyway)."""
         if panel:
             self._layout_panel()   # the panel may change the state, as in the window
+        elif letters:
+            self._imgui = self._imgui or ImguiLayer()
+            self._imgui.new_frame(self.size)
+        if panel or letters:
             self._panel.draw_view_labels(self.state, self.camera)
         self.scene.update(0.0, wait=True)  # a render shows the finished scene
         self.target.use()
         self.renderer.draw_scene(self.scene, self.camera, self.target.viewport,
                                  covered_left=int(self._panel.covered_width) if panel else 0)
-        if panel:
+        if panel or letters:
             self._imgui.render()
         return self.target.read_rgba() if self.state.style.transparent_background else self.target.read_rgb()
 
-    def picture(self, panel: bool = False) -> np.ndarray:
+    def picture(self, panel: bool = False, letters: bool = False) -> np.ndarray:
         """`render` as `isoscope render` shows it: with colour by and no panel, its colour bar at the right
         (the panel shows its own)."""
-        pixels = self.render(panel=panel)
+        pixels = self.render(panel=panel, letters=letters)
         if self.state.color_by is not None and not panel:
             pixels = draw_colorbar(pixels, self.state.color_by)
         return pixels
@@ -209,7 +214,8 @@ def prepared_viewer(volume: Volume, iso=None, size=(800, 600), azimuth=None, ele
 
 def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, elevation=None,
                panel: bool = False, transparent: bool = False, opacities=(), color_by=None, colormap=None,
-               prepare=None, tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False, then=None):
+               prepare=None, tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False, then=None,
+               letters: bool = False):
     """Render one view of `volume` to the PNG file `out` (RGBA with `transparent`); returns its path.
     `then(viewer)`, if given, is called once the picture is written (render --save-scene).
 
@@ -218,11 +224,12 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
     colour bar at the right (in the panel with `panel`); `prepare(state)`, if given, sets up the
     ViewerState once the volume is shown (slices, clip); `tetrahedra`: marching tetrahedra's
     surfaces instead of marching cubes'; `smooth`: iterations of smoothing projected onto the level
-    set; `wireframe`: the triangles' edges drawn over."""
+    set; `wireframe`: the triangles' edges drawn over; `letters`: a scan's orientation letters (R/L, A/P,
+    S/I) at the picture's edges and its 2-D view's."""
     viewer = prepared_viewer(volume, iso, size, azimuth, elevation, transparent, opacities, color_by, colormap,
                              prepare, tetrahedra, smooth, wireframe)
     try:
-        path = save_png(viewer.picture(panel=panel), out)
+        path = save_png(viewer.picture(panel=panel, letters=letters), out)
         if then is not None:
             then(viewer)
         return path
@@ -263,7 +270,7 @@ def labels_pixels(volume, size=(800, 600), azimuth=None, elevation=None, transpa
         style = viewer.state.style
         style.transparent_background = transparent
         upper = tuple((n - 1) * s for n, s in zip(volume.data.shape, volume.spacing))
-        viewer.camera.fit((0.0, 0.0, 0.0), upper, azimuth, elevation)
+        viewer.camera.fit((0.0, 0.0, 0.0), upper, azimuth, elevation, volume_frame(volume))
         viewer.renderer.set_box((0.0, 0.0, 0.0), upper)
         scene = label_scene(viewer.ctx, surfaces)
         viewer.target.use()
