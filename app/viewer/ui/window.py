@@ -24,7 +24,7 @@ from ...volumes import Volume, open_volume
 from ..gfx.renderer import OffscreenTarget, SceneRenderer, read_rgb
 from ..gfx.scene import USER_ERRORS, GpuScene
 from ..gfx.screenshot import next_screenshot_path, save_png
-from ..model.camera import OrbitCamera
+from ..model.camera import OrbitCamera, volume_frame
 from ..model.errors import one_line
 from ..model.recent import RecentFiles
 from ..model.state import ViewerState
@@ -178,7 +178,7 @@ class ViewerWindow:
 
     def _frame_volume(self) -> None:
         lower, upper = self.state.bounds()
-        self.camera.fit(lower, upper)
+        self.camera.fit(lower, upper, frame=volume_frame(self.state.volume))   # a scan: superior up
         self.renderer.set_box(lower, upper)
         self._framed_serial = self.state.volume_serial
         if self.state.volume is not None:
