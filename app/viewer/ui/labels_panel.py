@@ -1,9 +1,12 @@
-"""The panel's Labels section: a label map's surfaces, each shown or hidden.  Every change goes
-through `ViewerState`."""
+"""The panel's Labels section: a label map's surfaces, each shown or hidden and at its opacity (below 1:
+see-through), with its name from the label names file.  Every change goes through `ViewerState`; the
+meshes are kept (gfx/label_scene.py), so a change shows in the next frame."""
 from __future__ import annotations
 
 from ..model.state import ViewerState
 from .gui import act, imgui, tooltip
+
+OPACITY_WIDTH = 120   # pixels: the grab at 1.00 leaves "opacity 1.00" readable
 
 
 class LabelsSection:
@@ -20,7 +23,13 @@ class LabelsSection:
             imgui.same_line()
             imgui.color_button("##color", imgui.ImVec4(*layer.color, 1.0), imgui.ColorEditFlags_.no_tooltip)
             imgui.same_line()
-            imgui.text(f"label {layer.label}  {scene.label_triangles(layer.label):,} triangles")
+            imgui.set_next_item_width(OPACITY_WIDTH)
+            changed, opacity = imgui.slider_float("##opacity", layer.opacity, 0.0, 1.0, "opacity %.2f")
+            if changed:
+                act(state, state.labels.set_opacity, layer.label, opacity)
+            imgui.same_line()
+            imgui.text(layer.title)
+            tooltip(f"label {layer.label}: {scene.label_triangles(layer.label):,} triangles")
             imgui.pop_id()
         if imgui.button("Isosurface instead"):
             state.labels.hide()
