@@ -120,6 +120,7 @@ class ViewerWindow:
         self.imgui = ImguiLayer(ctypes.cast(self.window, ctypes.c_void_p).value)
         self._scale_ui_to_monitor()
         self.panel = Panel(can_browse=True)
+        self.panel.time_section.record_dir = self.screenshot_dir   # Record's movies go beside screenshots
         self._drag_button: int | None = None
         self._mouse_events: list[MouseEvent] = []   # waiting for imgui to say whether they are its
         self._last_cursor = glfw.get_cursor_pos(self.window)
@@ -170,6 +171,7 @@ class ViewerWindow:
         pixels_per_unit = fb_width / max(glfw.get_window_size(self.window)[0], 1)  # framebuffer scale
         self.renderer.draw_scene(self.scene, self.camera, (0, 0, fb_width, fb_height),
                                  covered_left=int(self.panel.covered_width * pixels_per_unit))
+        self.panel.time_section.capture(self.ctx.screen, (fb_width, fb_height))   # Record: the scene, no panel
         self.imgui.render()
         if self._screenshot_requested:
             self._save_screenshot((fb_width, fb_height))
@@ -224,6 +226,7 @@ class ViewerWindow:
     def close(self) -> None:
         if self.window is None:
             return
+        self.panel.time_section.recorder.stop()   # a recording under way is written whole
         self.state.release()
         self.scene.release()
         self.renderer.release()
