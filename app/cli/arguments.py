@@ -182,6 +182,12 @@ def _add_sharp(parser: argparse.ArgumentParser) -> None:
                              "degrees, e.g. 30")
 
 
+def _add_label_names(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--label-names", metavar="FILE",
+                        help="with --labels: names and colours from an ITK-SNAP label description or a 3D Slicer "
+                             "colour table (default: SEGMENTATION's stem + .ctbl, .txt or _label_description.txt)")
+
+
 def _add_mesh_modes(parser: argparse.ArgumentParser, labels: str) -> None:
     """The flags that choose what surface is made: cells, smoothing, sharp features, a label map."""
     _add_tetrahedra(parser)
@@ -218,6 +224,7 @@ def viewer_parser() -> argparse.ArgumentParser:
     parser.add_argument("--size", type=window_size, default=(1280, 800), metavar="WxH",
                         help="window size in screen units (default 1280x800)")
     _add_mesh_modes(parser, labels="each non-zero label's surface in its own colour, listed in the panel")
+    _add_label_names(parser)
     parser.add_argument("--screenshot-dir", default=".", metavar="DIR",
                         help="where key s saves PNGs (default: the current directory)")
     parser.add_argument("--screenshot-scale", type=int, default=1, choices=range(1, 9), metavar="N",
@@ -293,6 +300,7 @@ def add_render_options(parser: argparse.ArgumentParser, out_help: str, out_metav
     parser.add_argument("--wireframe", action="store_true", help="draw the triangles' edges over the surface")
     add_slice_arguments(parser)
     _add_mesh_modes(parser, labels="draw each non-zero label's surface in its own colour")
+    _add_label_names(parser)
     parser.add_argument("--save-scene", metavar="JSON",
                         help="also write the scene drawn (volume, levels, colours, camera, slices, modes) as JSON: "
                              "`isoscope render JSON --out PNG` redraws it, `isoscope JSON` opens it")
