@@ -46,7 +46,9 @@ def _apply_mesh_arguments(state, args) -> None:
     """--labels, --tetrahedra, --smooth, --sharp on the viewer: through ViewerState, as the panel does;
     a refusal raises its one line (MeshOptionsError, a ValueError) and changes nothing."""
     if args.labels:
-        state.show_labels()
+        state.show_labels(names=args.label_names)
+    else:
+        check_label_options(args, "--label-names")
     if args.tetrahedra:
         state.set_cells("tetrahedra")
     if args.smooth:
@@ -68,12 +70,15 @@ def run_render(args) -> int:
         return _render_scene(scene, args)
     if args.labels:
         check_label_options(args, "--iso", "--panel")
-        from ..viewer.ui.headless import render_labels_png
+        from ..viewer.ui.headless import render_png
         volume = open_volume_from_args(args.volume, args, progress)
-        path = render_labels_png(volume, args.out, size=args.size, azimuth=args.azimuth, elevation=args.elevation,
-                                 transparent=args.transparent)
+        path = render_png(volume, args.out, size=args.size, azimuth=args.azimuth, elevation=args.elevation,
+                          transparent=args.transparent, wireframe=args.wireframe, then=_scene_saver(args),
+                          prepare=lambda state: (apply_slice_arguments(state, args),
+                                                 state.show_labels(names=args.label_names)))
         wrote(path, f"({args.size[0]}x{args.size[1]})")
         return 0
+    check_label_options(args, "--label-names")
     from ..viewer.model.colormaps import check_colormap
     if args.color_by_map:
         check_colormap(args.color_by_map)  # an unknown map is refused before any work
@@ -126,7 +131,7 @@ def _render_scene(scene, args) -> int:
     """render SCENE.json: the saved scene's picture (at its size, or --size); the command's other view
     options are the scene's, so giving them is refused."""
     for option in ("iso", "opacity", "color_by", "slice", "clip", "window", "level", "colormap", "azimuth",
-                   "elevation", "tetrahedra", "smooth", "sharp", "labels", "save_scene"):
+                   "elevation", "tetrahedra", "smooth", "sharp", "labels", "label_names", "save_scene"):
         if getattr(args, option, None) not in (None, False, 0, []):
             raise ValueError(f"a scene holds the view; --{option.replace('_', '-')} does not go with {args.volume} "
                              "(open it in the window to change it, then save it again)")
