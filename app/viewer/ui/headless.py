@@ -237,15 +237,16 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
         viewer.release()
 
 
-def scene_pixels(scene: dict, size=None, panel: bool = False) -> np.ndarray:
-    """The picture of a saved scene (model/scene_file.py) at its own size, or `size`."""
+def scene_pixels(scene: dict, size=None, panel: bool = False, letters: bool = False) -> np.ndarray:
+    """The picture of a saved scene (model/scene_file.py) at its own size, or `size`; `letters`: a scan's
+    orientation letters."""
     from ..model.scene_file import apply_scene, scene_size, volume_spec
     spec, options = volume_spec(scene)
     viewer = HeadlessViewer(size or scene_size(scene))
     try:
         viewer.show(open_volume(spec, ctx=viewer.ctx, **options))
         apply_scene(scene, viewer.state, viewer.camera)
-        return viewer.picture(panel=panel)
+        return viewer.picture(panel=panel, letters=letters)
     finally:
         viewer.release()
 
