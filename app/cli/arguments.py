@@ -248,6 +248,9 @@ def command_parser(command: str) -> argparse.ArgumentParser:
             prog="isoscope render",
             description="Render the viewer's scene to a PNG with no window or display (EGL).")
         add_render_options(parser, out_help="the PNG file to write")
+        parser.add_argument("--orientation-letters", action="store_true",
+                            help="a scan's anatomical letters (R/L, A/P, S/I) at the picture's edges (and its 2-D "
+                                 "slice view's); --panel draws them anyway")
     else:
         parser = OneLineParser(prog="isoscope export",
                                description="Extract the isosurface and write it as a mesh file: binary PLY, OBJ, "
@@ -291,9 +294,12 @@ def add_render_options(parser: argparse.ArgumentParser, out_help: str, out_metav
     parser.add_argument("--size", type=window_size, metavar="WxH",
                         help="image size in pixels (default 800x600, or a scene's own)")
     parser.add_argument("--azimuth", type=float, metavar="DEG",
-                        help="camera angle around the vertical (z) axis, degrees (default -60)")
+                        help="camera angle around the vertical (z) axis, degrees (default -60); for a scan with "
+                             "a patient frame (NIfTI, NRRD, DICOM) around its superior axis: -90, the default, "
+                             "looks from anterior, 0 from the left, 90 from posterior")
     parser.add_argument("--elevation", type=float, metavar="DEG",
-                        help="camera angle above the x-y plane, degrees, -89..89 (default 25)")
+                        help="camera angle above the x-y plane, degrees, -90..90 (default 25; 0 for a scan: "
+                             "above its axial plane, superior up)")
     parser.add_argument("--panel", action="store_true", help="draw the imgui panel over the scene")
     parser.add_argument("--transparent", action="store_true",
                         help="a transparent background: an RGBA PNG, for slides and figures")
