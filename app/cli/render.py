@@ -69,7 +69,7 @@ def run_render(args) -> int:
     if scene is not None:
         return _render_scene(scene, args)
     if args.labels:
-        check_label_options(args, "--iso", "--panel")
+        check_label_options(args, "--iso", "--panel", "--orientation-letters")
         from ..viewer.ui.headless import render_png
         volume = open_volume_from_args(args.volume, args, progress)
         path = render_png(volume, args.out, size=args.size, azimuth=args.azimuth, elevation=args.elevation,
@@ -85,7 +85,8 @@ def run_render(args) -> int:
     volume = open_volume_from_args(args.volume, args, progress)
     isos = checked_levels(volume, args.iso, args.opacity)
     if args.sharp is not None:
-        for option in ("--panel", "--tetrahedra", "--smooth", "--labels", "--slice", "--clip", "--color-by"):
+        for option in ("--panel", "--tetrahedra", "--smooth", "--labels", "--slice", "--clip", "--color-by",
+                       "--orientation-letters"):
             if getattr(args, option.strip("-").replace("-", "_"), None) not in (None, False, 0, []):
                 raise ValueError(f"render --sharp draws the one sharp-featured surface; leave out {option}")
         if len(isos) > 1:
@@ -101,7 +102,8 @@ def run_render(args) -> int:
                       opacities=[a for values in args.opacity or [] for a in values],
                       color_by=args.color_by, colormap=args.color_by_map,
                       tetrahedra=args.tetrahedra, smooth=args.smooth, wireframe=args.wireframe,
-                      prepare=lambda state: apply_slice_arguments(state, args), then=_scene_saver(args))
+                      prepare=lambda state: apply_slice_arguments(state, args), then=_scene_saver(args),
+                      letters=args.orientation_letters)
     wrote(path, f"({args.size[0]}x{args.size[1]})")
     return 0
 
@@ -137,6 +139,6 @@ def _render_scene(scene, args) -> int:
                              "(open it in the window to change it, then save it again)")
     from ..viewer.gfx.screenshot import save_png
     from ..viewer.ui.headless import scene_pixels
-    path = save_png(scene_pixels(scene, args.size, panel=args.panel), args.out)
+    path = save_png(scene_pixels(scene, args.size, panel=args.panel, letters=args.orientation_letters), args.out)
     wrote(path, f"({args.size[0]}x{args.size[1]})")
     return 0
