@@ -69,11 +69,12 @@ def run_render(args) -> int:
     if scene is not None:
         return _render_scene(scene, args)
     if args.labels:
-        check_label_options(args, "--iso", "--panel", "--orientation-letters")
+        check_label_options(args, "--iso", "--panel")
         from ..viewer.ui.headless import render_png
         volume = open_volume_from_args(args.volume, args, progress)
         path = render_png(volume, args.out, size=args.size, azimuth=args.azimuth, elevation=args.elevation,
                           transparent=args.transparent, wireframe=args.wireframe, then=_scene_saver(args),
+                          letters=args.orientation_letters,
                           prepare=lambda state: (apply_slice_arguments(state, args),
                                                  state.show_labels(names=args.label_names)))
         wrote(path, f"({args.size[0]}x{args.size[1]})")
