@@ -50,7 +50,7 @@ def scene_of(state, camera, size) -> dict:
         "selected": state.levels.selected,
         "mesh": {"cells": state.mesh_options.cells, "smooth": state.mesh_options.smooth,
                  "sharp": state.mesh_options.sharp},
-        "labels": bool(state.labels),
+        "labels": state.labels.saved() if state.labels else False,   # or true (older scenes): the defaults
         "color_by": None if state.color_by is None else {"source": state.color_by.spec,
                                                          "colormap": state.color_by.colormap},
         "camera": {"azimuth": camera.azimuth, "elevation": camera.elevation, "distance": camera.distance,
@@ -136,8 +136,10 @@ def apply_scene(scene: dict, state, camera) -> None:
         state.set_cells(mesh.get("cells", "cubes"))
         state.set_smooth(int(mesh.get("smooth", 0)))
         state.set_sharp(mesh.get("sharp"))
-        if scene.get("labels"):
-            state.show_labels()
+        labels = scene.get("labels")
+        if labels:
+            state.show_labels(names=labels.get("names") if isinstance(labels, dict) else None)
+            state.labels.restore(labels if isinstance(labels, dict) else {})
         color_by = scene.get("color_by")
         if color_by:
             state.set_color_by(color_by["source"], color_by.get("colormap"))
