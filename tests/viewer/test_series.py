@@ -1,0 +1,206 @@
+"""The viewer's time axis (issue 27): a series steps and plays in the headless viewer through its model
+(model/series.py), keeping levels, slices and clip; the fixed range keeps the slider's ends; a bad time
+point is one line and the last good one stays; in the real window `]` steps and Record writes a movie
+that an independent reader (imageio/ffmpeg) reads back."""
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+from support.x_window import press_key, run_spawned
+
+from isoscope.viewer.model.errors import ViewerError
+from isoscope.viewer.ui.headless import HeadlessViewer
+from isoscope.volumes import open_volume
+
+SIZE = (160, 120)
+N = 32
+TIMES = 4
+
+
+def ball(t: int, n: int = N) -> np.ndarray:
+    """Distance to a point that moves along x with t, scaled by t + 1 (each time point its own range)."""
+    axis = np.linspace(-1.0, 1.0, n)
+    x, y, z = axis[:, None, None], axis[None, :, None], axis[None, None, :]
+    return (np.sqrt((x + 0.3 - 0.2 * t) ** 2 + y * y + z * z) * (t + 1)).astype(np.float32)
+
+
+@pytest.fixture
+def series(tmp_path):
+    """A glob of TIMES .npy files, one per time point: its pattern."""
+    for t in range(TIMES):
+        np.save(tmp_path / f"ball_{t}.npy", ball(t))
+    return str(tmp_path / "ball_*.npy")
+
+
+@pytest.fixture
+def viewer(gl_ctx):
+    headless = HeadlessViewer(SIZE, ctx=gl_ctx)
+    yield headless
+    headless.release()
+
+
+def test_a_series_steps_with_the_model_and_its_picture_and_mesh_follow_while_the_view_stays(viewer, series):
+    viewer.open(series)
+    state = viewer.state
+    assert state.series.active and state.series.count == TIMES and state.series.shown == 0
+    state.levels.set_value(0.5)
+    state.levels.add(0.2)                    # a second surface
+    state.slices.show(2, index=10)           # a slice and a clip, set by hand
+    state.slices.set_clip(0, 12.0)
+    first = viewer.render()
+    camera = (viewer.camera.azimuth, viewer.camera.elevation, viewer.camera.distance)
+
+    state.series.step(+1)
+    second = viewer.render()                 # a render waits for the worker's read
+    assert state.series.shown == state.series.index == 1
+    assert np.abs(first.astype(int) - second).sum() > 0
+    assert state.levels.values() == [0.5, 0.2] and state.levels.selected == 1
+    assert state.slices.shown[2] and state.slices.index[2] == 10 and state.slices.clip.position == 12.0
+    assert (viewer.camera.azimuth, viewer.camera.elevation, viewer.camera.distance) == camera
+    assert np.array_equal(state.volume.data, ball(1))
+
+    # The mesh of time point 1 is that of the 3-D volume alone at the same level.
+    state.levels.select(0)
+    viewer.update()
+    verts, faces = viewer.scene.surface.shown.read_mesh()[:2]
+    alone = HeadlessViewer(SIZE, ctx=viewer.ctx)
+    try:
+        alone.show(open_volume(series.replace("*", "1")), 0.5)
+        alone_verts, alone_faces = alone.scene.surface.shown.read_mesh()[:2]
+    finally:
+        alone.release()
+    assert len(faces) > 0
+    assert np.array_equal(faces, alone_faces) and np.allclose(verts, alone_verts)
+
+    state.series.step(-2)                    # wraps round to the last
+    viewer.render()
+    assert state.series.shown == TIMES - 1
+
+
+def test_the_range_is_the_time_points_own_unless_fixed_to_the_whole_series(viewer, series):
+    viewer.open(series)
+    state = viewer.state
+    assert state.value_range == pytest.approx(open_volume(series, time=0).value_range)
+    state.series.step(+1)
+    viewer.render()
+    own = open_volume(series, time=1).value_range
+    assert state.value_range == pytest.approx(own)     # per time point: it moves
+
+    state.series.set_fixed_range(True)
+    viewer.render()                                     # waits for the whole series' range
+    ranges = [open_volume(series, time=t).value_range for t in range(TIMES)]
+    whole = (min(r[0] for r in ranges), max(r[1] for r in ranges))
+    assert state.value_range == pytest.approx(whole)
+    histogram = state.histogram.copy()
+    for _ in range(TIMES):
+        state.series.step(+1)
+        viewer.render()
+        assert state.value_range == pytest.approx(whole)   # the slider does not jump
+        assert np.array_equal(state.histogram, histogram)
+
+    state.series.set_fixed_range(False)
+    viewer.render()
+    assert state.value_range == pytest.approx(open_volume(series, time=state.series.shown).value_range)
+
+
+def test_playback_loops_and_bounces_at_its_frame_rate(viewer, series):
+    viewer.open(series)
+    state, scene = viewer.state, viewer.scene
+    state.series.set_fps(10)
+    state.series.toggle_play()
+    seen = []
+    for _ in range(6):
+        scene.update(0.1, wait=True)   # one period a frame: the next time point each frame (read on the worker)
+        seen.append(state.series.shown)
+    assert seen == [1, 2, 3, 0, 1, 2]
+    state.series.set_mode("bounce")
+    seen = []
+    for _ in range(6):
+        scene.update(0.1, wait=True)
+        seen.append(state.series.shown)
+    assert seen == [3, 2, 1, 0, 1, 2]
+    state.series.toggle_play()
+    scene.update(0.1, wait=True)
+    assert state.series.shown == 2 and not state.series.playing
+    with pytest.raises(ViewerError, match="frames a second"):
+        state.series.set_fps(0)
+
+
+def test_a_time_point_of_another_shape_is_one_line_and_the_last_good_one_stays(viewer, series, tmp_path):
+    np.save(tmp_path / "ball_2.npy", ball(2, N + 4))
+    viewer.open(series)
+    state = viewer.state
+    state.series.step(+1)
+    viewer.render()
+    before = state.volume
+    state.series.step(+1)
+    with pytest.raises(ViewerError) as error:
+        viewer.update()
+    message = str(error.value)
+    assert "time point 2" in message and "one shape" in message and "\n" not in message
+    assert state.volume is before and state.series.shown == state.series.index == 1
+    assert not state.series.playing
+
+
+def test_a_3d_volume_has_no_time_axis(viewer):
+    viewer.open("sphere")
+    assert not viewer.state.series.active
+    with pytest.raises(ViewerError, match="one time point"):
+        viewer.state.series.step(1)
+
+
+# --- the real window under Xvfb --------------------------------------------------------------------
+needs_xvfb = pytest.mark.skipif(shutil.which("Xvfb") is None, reason="Xvfb is not installed (CI installs it)")
+MAX_FRAMES = 400   # bounded, not timed: a read on the worker lands within a few frames
+
+
+def frames_until(window, condition) -> bool:
+    for _ in range(MAX_FRAMES):
+        if not window.draw_frame():
+            return condition()
+        if condition():
+            return True
+    return False
+
+
+@needs_xvfb
+def test_the_window_steps_with_the_bracket_keys_and_records_a_movie(x_display, series, tmp_path):
+    run_spawned(drive_window, x_display, series, tmp_path)
+    import imageio.v2 as imageio
+    reader = imageio.get_reader(tmp_path / "record.mp4", format="FFMPEG")   # ffmpeg reads it back
+    try:
+        count = reader.count_frames()
+        assert count >= 10
+        assert reader.get_data(count - 1).shape == (240, 320, 3)
+    finally:
+        reader.close()
+    assert not list(tmp_path.glob(".record.mp4.*"))   # no partial file left
+
+
+def drive_window(x_display, series, tmp_path):
+    import os
+    os.environ["DISPLAY"] = x_display
+    from isoscope.viewer.model.recent import RecentFiles
+    from isoscope.viewer.ui.window import ViewerWindow
+
+    window = ViewerWindow(open_volume(series), size=(320, 240), screenshot_dir=tmp_path, recent=RecentFiles(None))
+    try:
+        state = window.state
+        assert window.draw_frame()
+        assert state.series.count == TIMES and state.series.shown == 0
+        press_key(window, "bracketright")
+        assert frames_until(window, lambda: state.series.shown == 1), state.error
+        assert np.array_equal(state.volume.data, ball(1))
+        press_key(window, "bracketleft")
+        assert frames_until(window, lambda: state.series.shown == 0), state.error
+
+        recorder = window.panel.time_section.recorder
+        recorder.start(tmp_path / "record.mp4")
+        state.series.toggle_play()
+        assert frames_until(window, lambda: recorder.frames >= 10 and state.series.shown >= 2), state.error
+        path = recorder.stop()
+        assert path == tmp_path / "record.mp4", recorder.message
+    finally:
+        window.close()
