@@ -26,6 +26,9 @@ def measure_parser() -> argparse.ArgumentParser:
     parser.add_argument("--labels", action="store_true", help="measure each non-zero label's surface instead")
     parser.add_argument("--max-labels", type=max_labels, metavar="N",
                         help="with --labels: refuse a volume of more than N labels (default 255)")
+    parser.add_argument("--label-names", metavar="FILE",
+                        help="with --labels: each label's name (key `name`) from an ITK-SNAP label description or a "
+                             "3D Slicer colour table (default: VOLUME's stem + .ctbl, .txt or _label_description.txt)")
     parser.add_argument("--space", choices=("world", "voxel"), default="world",
                         help="world (default): the file's world coordinates where it has them; voxel: index x "
                              "spacing")
@@ -43,17 +46,20 @@ def run_measure(args) -> int:
     if args.labels:
         check_label_options(args, "--iso", "--closed")   # a label's surface is closed already
     else:
-        check_label_options(args, "--max-labels")
+        check_label_options(args, "--max-labels", "--label-names")
     volume = open_volume_from_args(args.volume, args, progress)
     world = args.space == "world"
     rows = []
     if args.labels:
         from ..labels import DEFAULT_MAX_LABELS, label_surfaces, labels_of
         limit = DEFAULT_MAX_LABELS if args.max_labels is None else args.max_labels
+        from ..volumes.label_names import label_names_for
+        names = label_names_for(volume.source, args.label_names)   # a bad file: its line, before any work
         surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing, max_labels=limit)
         for label, mesh in surfaces.items():
             verts, faces, _, _ = in_volume_space(volume, *mesh, world=world)
-            rows.append(({"label": int(label)}, measure_surface(verts, faces)))
+            name = names[label].name if label in names else None
+            rows.append(({"label": int(label), "name": name}, measure_surface(verts, faces)))
     else:
         from ..validation import as_level
         from .export import _extract_for_export
@@ -74,6 +80,7 @@ def run_measure(args) -> int:
         return 0
     for record in records:
         what = f"label {record['label']}" if "label" in record else f"level {record['level']:g}"
+        what += f" ({record['name']})" if record.get("name") else ""
         if not record["components"]:
             print(f"{what}: no surface (the level cuts nothing)")
             continue
