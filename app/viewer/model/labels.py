@@ -11,6 +11,7 @@ palette and are called "label N".
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -54,7 +55,7 @@ class LabelMap:
             raise ViewerError(f"{volume.name} has no non-zero labels; open it without --labels for an isosurface")
         names = label_names_for(volume.source, names_path)
         self.layers = layers(labels, names)
-        self.names_path = None if names_path is None else str(names_path)
+        self.names_path = None if names_path is None else str(Path(names_path).expanduser().resolve())
         self.serial += 1
 
     def hide(self) -> None:
