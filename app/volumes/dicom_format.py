@@ -7,6 +7,13 @@ ImageOrientationPatient directions), which is right for any orientation and eith
 slice direction; their positions give the slice spacing, and PixelSpacing the rest.
 RescaleSlope and RescaleIntercept are applied (CT comes out in Hounsfield units).
 The array's axes are (slice, row, column), as the slices are stored.
+
+A temporal series (cardiac cine, perfusion, fMRI: several acquisitions of the same slices in one
+series) is a series of time points: where slice positions repeat, the files are grouped by
+TemporalPositionIdentifier, else AcquisitionNumber, else TriggerTime (the first that gives every
+position once per group), in the order of that number; `time` picks one (default 0) and only its
+slices' pixels are read.  The folder's headers are kept (for the folder as it is) so that reading the
+next time point does not read them all again.
 """
 from __future__ import annotations
 
@@ -16,10 +23,13 @@ import numpy as np
 
 from .errors import VolumeError
 from .reading import library_messages
+from .time_points import refuse_time, time_index, time_note
 from .volume import Progress, refuse_if_too_big, report, shape_text
 
 MAX_FILES = 20_000
 GAP_TOLERANCE = 0.01  # of the slice spacing: how far apart positions may differ from even steps
+TIME_KEYWORDS = ("TemporalPositionIdentifier", "AcquisitionNumber", "TriggerTime")
+_headers_kept: dict = {}   # the last folder read: (folder, its state) -> its series' headers
 
 
 def _read_header(path: Path):
@@ -32,8 +42,19 @@ def _read_header(path: Path):
 
 
 def _series_files(folder: Path, progress: Progress | None):
-    """SeriesInstanceUID -> [(path, header)] of every image in the folder (and below)."""
+    """SeriesInstanceUID -> [(path, header)] of every image in the folder (and below); the last folder's
+    headers are kept while its files (names, sizes, times) stay as they were."""
     paths = sorted(p for p in folder.rglob("*") if p.is_file())
+    state = (str(folder.resolve()), tuple((str(p), p.stat().st_size, p.stat().st_mtime_ns) for p in paths))
+    if state in _headers_kept:
+        return _headers_kept[state]
+    series = _read_series_files(folder, paths, progress)
+    _headers_kept.clear()
+    _headers_kept[state] = series
+    return series
+
+
+def _read_series_files(folder: Path, paths: list, progress: Progress | None):
     if len(paths) > MAX_FILES:
         raise VolumeError(f"{folder.name} holds {len(paths)} files, more than {MAX_FILES}; "
                           "point isoscope at the series' own folder")
@@ -194,8 +215,55 @@ def _pixels(path: Path, shape: tuple[int, int]) -> np.ndarray:
     return scaled
 
 
-def load_dicom_folder(folder: Path, series: str | None = None, progress: Progress | None = None):
-    """(array (slices, rows, columns), spacing, notes, (index -> LPS matrix, "LPS")) of the DICOM series."""
+def _along_normal(files) -> np.ndarray | None:
+    """Each file's position along the slice normal (rounded to a micrometre), or None where the geometry
+    is missing (_geometry then says so)."""
+    try:
+        orientation = _numbers(files[0][1], "ImageOrientationPatient", 6)
+        positions = np.array([_numbers(h, "ImagePositionPatient", 3) for _, h in files])
+    except (VolumeError, AttributeError, ValueError, TypeError):
+        return None
+    return np.round(positions @ np.cross(orientation[:3], orientation[3:]), 3)
+
+
+def _time_number(header, keyword: str) -> float | None:
+    value = header.get(keyword)
+    try:
+        return None if value in (None, "") else float(value)
+    except (TypeError, ValueError):
+        return None
+
+
+def time_groups(folder: Path, files) -> tuple[str | None, list]:
+    """(the keyword that orders them, the files of each time point in time order); (None, [files]) for a
+    3-D series (no slice position repeats).  Time points with different slices are refused in one line."""
+    along = _along_normal(files)
+    if along is None or len(set(along.tolist())) == len(files):
+        return None, [files]
+    for keyword in TIME_KEYWORDS:
+        numbers = [_time_number(h, keyword) for _, h in files]
+        if None in numbers or len(set(numbers)) < 2:
+            continue
+        groups: dict[float, list] = {}
+        for entry, number, position in zip(files, numbers, along):
+            groups.setdefault(number, []).append((entry, position))
+        if any(len({position for _, position in group}) != len(group) for group in groups.values()):
+            continue   # a position twice within one time point: not this keyword's grouping
+        ordered = [groups[number] for number in sorted(groups)]
+        first = sorted(position for _, position in ordered[0])
+        for t, group in enumerate(ordered[1:], 1):
+            if sorted(position for _, position in group) != first:
+                raise VolumeError(f"{folder.name}: time point {t} ({keyword} {sorted(groups)[t]:g}) has "
+                                  f"{len(group)} slices at other positions than time point 0's {len(first)}; "
+                                  "export the complete temporal series")
+        return keyword, [[entry for entry, _ in group] for group in ordered]
+    return None, [files]   # _geometry names the shared position
+
+
+def load_dicom_folder(folder: Path, series: str | None = None, progress: Progress | None = None,
+                      time: int | None = None):
+    """(array (slices, rows, columns), spacing, notes, (index -> LPS matrix, "LPS")) of the DICOM series
+    (of its time point `time`, for a temporal series)."""
     try:
         import pydicom  # noqa: F401
     except ImportError:
@@ -203,13 +271,23 @@ def load_dicom_folder(folder: Path, series: str | None = None, progress: Progres
                           "pip install pydicom") from None
     notes: list[str] = []
     with library_messages(notes, "pydicom"):  # pydicom logs odd values as well as warning of them
-        data, spacing, more_notes, world = _load(folder, series, progress)
+        data, spacing, more_notes, world = _load(folder, series, progress, time)
     return data, spacing, more_notes + notes, world
 
 
-def _load(folder: Path, series: str | None, progress: Progress | None):
+def _load(folder: Path, series: str | None, progress: Progress | None, time: int | None):
     all_series = _series_files(folder, progress)
-    files, spacing, world = _geometry(folder, _pick_series(folder, all_series, series))
+    keyword, groups = time_groups(folder, _pick_series(folder, all_series, series))
+    time_notes = []
+    if keyword is None:
+        refuse_time(time, folder.name, 3)
+        picked = groups[0]
+    else:
+        index = time_index(time, len(groups), folder.name)
+        picked = groups[index]
+        time_notes = [time_note(index, len(groups)),
+                      f"DICOM temporal series: {len(groups)} time points by {keyword}"]
+    files, spacing, world = _geometry(folder, picked)
     header = files[0][1]
     # The size is refused from the headers before a pixel is read (4 bytes a sample where any slice
     # is rescaled); the volume is then allocated once, in the first slice's type (float32 where any is
@@ -234,4 +312,4 @@ def _load(folder: Path, series: str | None, progress: Progress | None):
              f"(slice, row, column), {spacing[0]:.4g} x {spacing[1]:.4g} x {spacing[2]:.4g} mm"]
     if len(all_series) > 1:
         notes.append(f"{folder.name} holds {len(all_series)} series; showing {header.get('SeriesInstanceUID', '')}")
-    return data, spacing, notes, (world, "LPS")
+    return data, spacing, notes + time_notes, (world, "LPS")
