@@ -92,7 +92,7 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, ti
         world = None  # (4x4 array index -> world mm, its space), for files that define one
         if kind == "dicom":
             data, header_spacing, notes, world = load_dicom_folder(path, None if series is None else str(series),
-                                                                   progress)
+                                                                   progress, time)
         elif kind == "raw":
             data, header_spacing, notes = load_raw(path, dims, dtype, endian, spacing, progress, map_file=map_files)
         elif kind == "zarr":
