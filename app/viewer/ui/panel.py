@@ -9,13 +9,12 @@ scene but changes nothing there, so laying it out extracts nothing.
 """
 from __future__ import annotations
 
-import shutil
-import sys
 from pathlib import Path
 
 from ...volumes import builtin_names
 from ..model.histogram import fraction_of, level_at
 from ..model.state import ViewerState
+from .file_browser import FileBrowser, default_recent_folders, has_dialog_tool, patterns_of
 from .gui import act, imgui
 from .labels_panel import LabelsSection
 from .levels_panel import LevelsSection
@@ -37,7 +36,6 @@ NOTE_COLOR = imgui.ImVec4(0.60, 0.85, 0.60, 1.0)
 VOLUME_FILE_FILTERS = ["Volumes", "*.npy *.npz *.nii *.nii.gz *.nrrd *.nhdr *.raw *.vol *.mhd *.tif *.tiff",
                        "All files", "*"]
 MESH_FILE_FILTERS = ["Meshes", "*.stl *.ply *.obj *.glb *.off", "All files", "*"]
-LINUX_DIALOG_TOOLS = ("zenity", "kdialog", "qarma", "matedialog")
 EXPR_HINT = "x^2 + y^2 + z^2 - 0.5"   # the volumes grammar; inside is where it is < 0
 
 
@@ -303,26 +301,36 @@ class Panel:
 
     @staticmethod
     def _dialogs(state: ViewerState, instead: str):
-        """portable_file_dialogs, or None (with the error set) where the desktop has no dialog tool."""
-        # On Linux portable_file_dialogs runs zenity or kdialog; without one it returns
-        # no file at once, which would look like a dead button.
-        if sys.platform.startswith("linux") and not any(shutil.which(tool) for tool in LINUX_DIALOG_TOOLS):
-            state.error = f"no file dialog on this desktop (install zenity or kdialog); {instead}"
+        """portable_file_dialogs where the desktop has a native dialog (zenity, kdialog on Linux), else None:
+        the browser inside the window (file_browser.py) stands in."""
+        if not has_dialog_tool():
             return None
         import imgui_bundle.portable_file_dialogs as pfd  # only on demand: it spawns a process
         return pfd
 
+    def _browser(self, state: ViewerState) -> FileBrowser:
+        if getattr(self, "browser", None) is None:
+            self.browser = FileBrowser(default_recent_folders() if self.can_browse else None)
+        return self.browser
+
     def _open_file_dialog(self, state: ViewerState) -> None:
         pfd = self._dialogs(state, "drop the file on the window or pass it on the command line")
-        if pfd is not None:
+        folders = [str(Path(path).parent) for path in state.recent.paths]
+        if pfd is None:
+            self._browser(state).open_file("Open volume", folders[0] if folders else Path.cwd(),
+                                           patterns_of(VOLUME_FILE_FILTERS), "open", folders)
+        else:
             self._file_dialog = pfd.open_file("Open volume", str(Path.cwd()), VOLUME_FILE_FILTERS)
 
     def _open_save_dialog(self, state: ViewerState, full_resolution: bool = False) -> None:
         pfd = self._dialogs(state, "use `isoscope export` on the command line")
-        if pfd is not None:
+        title = "Export full resolution" if full_resolution else "Save mesh"
+        if pfd is None:
+            self._browser(state).save_file(title, Path.cwd() / "isoscope-mesh.stl", patterns_of(MESH_FILE_FILTERS),
+                                           "full resolution" if full_resolution else "save mesh")
+        else:
             self._save_full_resolution = full_resolution
-            self._save_dialog = pfd.save_file("Export full resolution" if full_resolution else "Save mesh",
-                                              str(Path.cwd() / "isoscope-mesh.stl"), MESH_FILE_FILTERS)
+            self._save_dialog = pfd.save_file(title, str(Path.cwd() / "isoscope-mesh.stl"), MESH_FILE_FILTERS)
 
     def _collect_file_dialog(self, state: ViewerState) -> None:
         # The dialogs run in other processes; poll them so the UI keeps drawing meanwhile.
@@ -336,3 +344,10 @@ class Panel:
             self._save_dialog = None
             if path:
                 act(state, state.export_full_resolution if self._save_full_resolution else state.request_save, path)
+        browser = self._browser(state)
+        chosen = browser.draw()   # the browser inside the window, where there is no native dialog
+        if chosen and browser.purpose == "open":
+            act(state, state.open, chosen)
+        elif chosen:
+            act(state, state.export_full_resolution if browser.purpose == "full resolution" else state.request_save,
+                chosen)
