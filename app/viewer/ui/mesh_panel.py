@@ -4,11 +4,13 @@ from __future__ import annotations
 
 from ...options import CELLS
 from ..model.state import ViewerState
-from .gui import act, imgui, tooltip
+from .gui import act, imgui, px, section, tooltip
 
 MAX_SMOOTH_SLIDER = 10
 DEFAULT_SHARP_ANGLE = 30.0
 SHARP_ANGLES = (5.0, 90.0)   # the slider's span; the API takes any angle in (0, 180)
+COMBO_WIDTH = 150.0
+SLIDER_WIDTH = 110.0
 
 
 class MeshSection:
@@ -17,20 +19,23 @@ class MeshSection:
 
     def draw(self, state: ViewerState) -> None:
         # Folded until opened: the panel must stay short enough for the slices below it.
-        if not imgui.collapsing_header("Mesh: cells, smoothing, sharp features"):
+        if not section("Mesh: cells, smoothing, sharp features", default_open=False):
             return
-        imgui.set_next_item_width(150)
+        imgui.set_next_item_width(px(COMBO_WIDTH))
         if imgui.begin_combo("cells", state.cells):
             for cells in CELLS:
                 if imgui.selectable(cells, cells == state.cells)[0]:
                     act(state, state.set_cells, cells)
             imgui.end_combo()
         tooltip("tetrahedra: six per cube, no ambiguous cells, about 3x the triangles")
-        imgui.set_next_item_width(150)
-        changed, smooth = imgui.slider_int("smoothing", state.smooth, 0, MAX_SMOOTH_SLIDER)
+        # Sliders write their value beside them, never under their grab.
+        imgui.set_next_item_width(px(SLIDER_WIDTH))
+        changed, smooth = imgui.slider_int("##smoothing", state.smooth, 0, MAX_SMOOTH_SLIDER, "")
         if changed:
             act(state, state.set_smooth, smooth)
         tooltip("iterations, each projected back onto the level set: fewer sliver triangles, same surface")
+        imgui.same_line()
+        imgui.text(f"{state.smooth:2d} smoothing")
         toggled, sharp = imgui.checkbox("sharp features", state.sharp is not None)
         if toggled:
             act(state, state.set_sharp, self.sharp_angle if sharp else None)
@@ -38,7 +43,10 @@ class MeshSection:
                  "normals open wider than the angle are kept; full-resolution meshes only")
         if state.sharp is not None:
             imgui.same_line()
-            imgui.set_next_item_width(110)
-            _, self.sharp_angle = imgui.slider_float("##angle", self.sharp_angle, *SHARP_ANGLES, "%.0f deg")
+            imgui.set_next_item_width(px(SLIDER_WIDTH) - imgui.calc_text_size("90 deg").x)
+            _, angle = imgui.slider_float("##angle", self.sharp_angle, *SHARP_ANGLES, "")
+            self.sharp_angle = float(round(angle))
             if imgui.is_item_deactivated_after_edit():   # the feature step is numpy: once, on release
                 act(state, state.set_sharp, self.sharp_angle)
+            imgui.same_line()
+            imgui.text(f"{self.sharp_angle:.0f} deg")

@@ -7,9 +7,10 @@ from __future__ import annotations
 from ..model.colormaps import COLORMAPS
 from ..model.slices import AXES, default_window
 from ..model.state import ViewerState
-from .gui import act, imgui
+from .gui import act, imgui, px, section, tooltip
 
 CLIP_SIDES = ("hide above", "hide below")
+AXIS_WIDTH = 50.0
 
 
 class SlicePanel:
@@ -17,20 +18,27 @@ class SlicePanel:
         self.checkbox_boxes: dict[int, tuple[tuple[float, float], tuple[float, float]]] = {}  # axis -> rect
 
     def draw(self, state: ViewerState) -> None:
-        imgui.separator_text("Slices")
-        if state.volume is None:
+        self.checkbox_boxes = {}
+        if not section("Slices") or state.volume is None:
             return
         settings = state.slices
+        # The index beside each slider, in a column as wide as the largest: no grab covers it.
+        index_width = imgui.calc_text_size(str(max(settings.shape) - 1)).x
+        spacing = imgui.get_style().item_spacing.x
         for axis in range(3):
             toggled, shown = imgui.checkbox(f"{AXES[axis]}##slice", settings.shown[axis])
             self.checkbox_boxes[axis] = (tuple(imgui.get_item_rect_min()), tuple(imgui.get_item_rect_max()))
             if toggled:
                 act(state, settings.show, axis, shown)
             imgui.same_line()
-            imgui.set_next_item_width(-1)
-            moved, index = imgui.slider_int(f"##slice{axis}", settings.index[axis], 0, settings.shape[axis] - 1)
+            imgui.set_next_item_width(-index_width - spacing)
+            moved, index = imgui.slider_int(f"##slice{axis}", settings.index[axis], 0, settings.shape[axis] - 1, "")
             if moved:   # moving a slice shows it, in the 2-D view too
                 act(state, settings.show, axis, True, index)
+            imgui.same_line()
+            text = str(settings.index[axis])
+            imgui.set_cursor_pos_x(imgui.get_cursor_pos_x() + index_width - imgui.calc_text_size(text).x)
+            imgui.text(text)
         settings.inset = imgui.checkbox("2-D view of the last moved slice", settings.inset)[1]
 
         low, high = state.value_range
@@ -41,8 +49,7 @@ class SlicePanel:
         changed_c, centre = imgui.drag_float("level", settings.centre, span / 400, low - span, high + span, "%.4g")
         if changed_w or changed_c:
             act(state, settings.set_window, window, centre)
-        if imgui.is_item_hovered():
-            imgui.set_tooltip("values level -+ window/2 span the colour map (drag, or ctrl+click to type)")
+        tooltip("values level -+ window/2 span the colour map (drag, or ctrl+click to type)")
         if imgui.button("auto window"):
             act(state, settings.set_window, *default_window(state.volume.data, state.value_range))
         imgui.same_line()
@@ -63,7 +70,7 @@ class SlicePanel:
         if clip is None:
             return
         imgui.same_line()
-        imgui.set_next_item_width(50)
+        imgui.set_next_item_width(px(AXIS_WIDTH))
         if imgui.begin_combo("##clip_axis", AXES[clip.axis]):
             for axis in range(3):
                 if imgui.selectable(AXES[axis], axis == clip.axis)[0]:
@@ -77,8 +84,13 @@ class SlicePanel:
                 if imgui.selectable(name, name == side)[0]:
                     act(state, state.slices.set_clip, clip.axis, clip.position, name == CLIP_SIDES[0])
             imgui.end_combo()
-        imgui.set_next_item_width(-1)
+        text = f"{clip.position:.1f}"
+        width = imgui.calc_text_size(f"{state.slices.shape[clip.axis] - 1:.1f}").x
+        imgui.set_next_item_width(-width - imgui.get_style().item_spacing.x)
         moved, position = imgui.slider_float("##clip_position", clip.position, 0.0,
-                                             float(state.slices.shape[clip.axis] - 1), "%.1f")
+                                             float(state.slices.shape[clip.axis] - 1), "")
         if moved:
             act(state, state.slices.set_clip, clip.axis, position, clip.hide_above)
+        imgui.same_line()
+        imgui.set_cursor_pos_x(imgui.get_cursor_pos_x() + width - imgui.calc_text_size(text).x)
+        imgui.text(text)

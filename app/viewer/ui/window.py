@@ -27,6 +27,7 @@ from ..gfx.screenshot import next_screenshot_path, save_png
 from ..model.camera import OrbitCamera, volume_frame
 from ..model.errors import one_line
 from ..model.recent import RecentFiles
+from ..model.settings import PanelSettings
 from ..model.state import ViewerState
 from .panel import ImguiLayer, Panel
 
@@ -37,6 +38,9 @@ FRAME_MS_SMOOTHING = 0.1   # exponential moving average: a readable number, not 
 MINIMISED_WAIT_S = 0.1
 WHEEL = -1                 # MouseEvent.action of a wheel turn
 ROUTE_WAIT_FRAMES = 4      # imgui handles a mouse event within a frame or two of its arrival
+ORBIT_PIXELS_PER_SIDE = 450.0
+"""A drag across the window's shorter side orbits as far as this many pixels at the camera's rate (0.4
+degrees a pixel: 180 degrees), whatever the window's size: 100 px up an 800 px window turns 22.5 degrees."""
 
 
 @dataclass
@@ -112,6 +116,7 @@ class ViewerWindow:
         # expr: volumes typed in the panel are sampled on the GPU, in the window's context.
         self.state = ViewerState(recent if recent is not None else RecentFiles(RecentFiles.default_path()),
                                  opener=partial(open_volume, ctx=self.ctx))
+        self.settings = PanelSettings.beside(self.state.recent)   # folded sections, kept with the recent files
         self.scene = GpuScene(self.ctx, self.state, previews=True)
         self.renderer = SceneRenderer(self.ctx)
         self.camera = OrbitCamera()
@@ -119,7 +124,7 @@ class ViewerWindow:
         self._install_callbacks()   # before imgui's: its GLFW backend chains to these
         self.imgui = ImguiLayer(ctypes.cast(self.window, ctypes.c_void_p).value)
         self._scale_ui_to_monitor()
-        self.panel = Panel(can_browse=True)
+        self.panel = Panel(can_browse=True, settings=self.settings)
         self.panel.time_section.record_dir = self.screenshot_dir   # Record's movies go beside screenshots
         self._drag_button: int | None = None
         self._mouse_events: list[MouseEvent] = []   # waiting for imgui to say whether they are its
@@ -216,12 +221,8 @@ class ViewerWindow:
             self.ctx.screen.use()
 
     def _scale_ui_to_monitor(self) -> None:
-        scale = max(glfw.get_window_content_scale(self.window))
-        if scale > 1.0:
-            from .gui import imgui
-            style = imgui.get_style()
-            style.scale_all_sizes(scale)
-            style.font_scale_dpi = scale
+        """The panel's sizes and fonts at the monitor's content scale (2 on most 4K screens)."""
+        self.imgui.set_scale(max(1.0, *glfw.get_window_content_scale(self.window)))
 
     def close(self) -> None:
         if self.window is None:
@@ -326,7 +327,9 @@ class ViewerWindow:
         dx, dy = x - self._last_cursor[0], y - self._last_cursor[1]
         self._last_cursor = (x, y)
         if self._drag_button == glfw.MOUSE_BUTTON_LEFT:
-            self.camera.orbit(dx, dy)
+            # The same turn for a drag across the window, however big the window (ORBIT_PIXELS_PER_SIDE).
+            per_side = ORBIT_PIXELS_PER_SIDE / max(min(glfw.get_window_size(window)), 1)
+            self.camera.orbit(dx * per_side, dy * per_side)
         elif self._drag_button in (glfw.MOUSE_BUTTON_RIGHT, glfw.MOUSE_BUTTON_MIDDLE):
             self.camera.pan(dx, dy, glfw.get_window_size(window)[1])
 
