@@ -187,3 +187,42 @@ def test_the_probe_reads_a_slice_in_front_of_the_surface(sphere_viewer, picker):
     assert probe.on == "slice x"
     assert probe.voxel[0] == N // 2
     assert probe.value == sphere_viewer.state.volume.data[probe.voxel]
+
+
+# --- Save scene ----------------------------------------------------------------------------------------------
+def test_save_scene_writes_what_render_redraws_pixel_for_pixel(gl_ctx, tmp_path):
+    """The panel's Save scene, from a viewer's state and camera (two levels, one translucent, a slice, a
+    turned camera): `isoscope render scene.json` draws the viewer's own picture of that state."""
+    from PIL import Image
+
+    from isoscope.viewer.model.scene_file import read_scene
+    from isoscope.viewer.ui.headless import HeadlessViewer
+    from isoscope.viewer.ui.measure_panel import MeasureSection
+    viewer = HeadlessViewer(SIZE, ctx=gl_ctx)
+    try:
+        viewer.open(TORUS)
+        viewer.state.levels.set_value(0.5)
+        viewer.state.levels.add(0.2)
+        viewer.state.levels.set_opacity(1, 0.4)
+        viewer.update()
+        viewer.state.slices.show(2, True, 9)
+        viewer.camera.orbit(40, -25)
+        expected = viewer.picture()
+        section = MeasureSection()
+        path = section.save_scene(viewer.state, viewer.camera, tmp_path / "torus-scene.json", size=SIZE)
+        assert path is not None and viewer.state.message.startswith("scene saved")
+    finally:
+        viewer.release()
+    scene = read_scene(path)
+    assert [level["value"] for level in scene["levels"]] == [0.5, 0.2] and scene["size"] == list(SIZE)
+    result = isoscope("render", path, "--out", tmp_path / "again.png")
+    assert result.returncode == 0, result.stderr
+    assert np.array_equal(np.asarray(Image.open(tmp_path / "again.png").convert("RGB")), expected)
+
+
+def test_save_scene_without_a_volume_says_so(tmp_path):
+    from isoscope.viewer.model.camera import OrbitCamera
+    from isoscope.viewer.ui.measure_panel import MeasureSection
+    state = ViewerState()
+    assert MeasureSection().save_scene(state, OrbitCamera(), tmp_path / "s.json") is None
+    assert "no volume on show" in state.error and not (tmp_path / "s.json").exists()

@@ -1,15 +1,176 @@
-"""The panel's Measure section: area, volume, components per surface; probe and distance (issue 26).
+"""The panel's Measure section (issue 26): each surface's area, enclosed volume, pieces and bounding box,
+measured on request in the background (model/measure.py); the cursor probe (position, voxel and value
+under the cursor: ctrl+click, or live with "probe under the cursor") and the distance between the last
+two ctrl+clicks (gfx/picking.py); and Save scene, which writes what `render --save-scene` writes.
 
-Plugged into `Panel.draw` (panel.py); its keys reach the window through `keys()`."""
+Plugged into `Panel.draw` (panel.py); the window calls `pick` once a frame, after the panel's layout,
+with its scene (the probe reads the meshes' depth in the window's GL context).
+"""
 from __future__ import annotations
 
+from pathlib import Path
+
+from ..model.errors import USER_ERRORS, ViewerError, one_line
+from ..model.measure import Measurements
 from ..model.state import ViewerState
+from .file_browser import FileBrowser, default_recent_folders, has_dialog_tool
+from .gui import act, imgui, tooltip
+
+SCENE_FILTERS = ["Scenes", "*.json", "All files", "*"]
+NOTE_COLOR = imgui.ImVec4(0.60, 0.85, 0.60, 1.0)
+ERROR_COLOR = imgui.ImVec4(1.0, 0.45, 0.40, 1.0)
 
 
 class MeasureSection:
+    def __init__(self, can_browse: bool = True):
+        self.measurements = Measurements()
+        self.probing = False              # probe under the cursor as it moves (else on ctrl+click only)
+        self.picker = None                # gfx/picking.Picker, made on the first pick in the drawing context
+        self.scene_size = (800, 600)      # the window's framebuffer: the size a saved scene renders at
+        self.can_browse = can_browse
+        self.browser: FileBrowser | None = None   # Save scene's, where there is no native dialog
+        self._scene_dialog = None         # a pending portable_file_dialogs.save_file
+        self._camera = None
+        self._last_cursor = None
+
+    # --- layout -----------------------------------------------------------------
     def draw(self, state: ViewerState, camera) -> None:
-        """Lay the section out (nothing yet)."""
+        """Lay the section out; takes the measures' answer when it comes."""
+        measurements = self.measurements
+        measurements.poll()
+        self._camera = camera
+        self._collect_scene_dialog(state)
+        if not imgui.collapsing_header("Measure", flags=imgui.TreeNodeFlags_.default_open):
+            return
+        running = measurements.running
+        if running is not None:
+            imgui.progress_bar(running.fraction, imgui.ImVec2(-1, 0), running.message)
+        elif imgui.button("Measure surfaces"):
+            act(state, measurements.request, state)
+        tooltip("area, enclosed volume, pieces and box of each visible surface, as `isoscope measure` gives them")
+        imgui.same_line()
+        measurements.closed = imgui.checkbox("closed at the border", measurements.closed)[1]
+        tooltip("cap each level where it leaves the volume (as export --closed), so its volume counts")
+        if measurements.error:
+            imgui.text_colored(ERROR_COLOR, measurements.error)
+        for record in measurements.records:
+            self._record(record)
+        if measurements.note:
+            imgui.text_colored(NOTE_COLOR, measurements.note)
+        self._probe_lines()
+        if self.can_browse and state.volume is not None:
+            if imgui.button("Save scene...") and not self._saving_scene:
+                self._open_scene_dialog(state)
+            tooltip("the volume, levels, colours, camera, slices and clip as a JSON file: `isoscope FILE` opens "
+                    "it, `isoscope render FILE` draws it")
+
+    @staticmethod
+    def _record(record) -> None:
+        if not record.components:
+            imgui.text(f"{record.name}: no surface")
+            return
+        imgui.text(f"{record.name}")
+        imgui.text(f"  area {record.area_mm2:.6g} mm^2, volume {record.volume_ml:.5g} mL")
+        imgui.text(f"  {record.components:,} piece{'s' * (record.components != 1)}, largest "
+                   f"{record.largest_component_ml:.5g} mL")
+        imgui.text("  box " + " x ".join(f"{v:.4g}" for v in record.size) + " mm")
+        if record.open_edges:
+            imgui.text_colored(ERROR_COLOR, f"  open at {record.open_edges:,} edges: tick closed at the border")
+
+    def _probe_lines(self) -> None:
+        measurements = self.measurements
+        self.probing = imgui.checkbox("probe under the cursor", self.probing)[1]
+        tooltip("the position, voxel and value under the cursor; ctrl+click two points for their distance")
+        probe = measurements.probe
+        imgui.push_text_wrap_pos(0.0)
+        if probe is not None:
+            imgui.text(probe.line())
+        else:
+            imgui.text_disabled("ctrl+click the surface or a slice to probe it")
+        imgui.pop_text_wrap_pos()
+        if measurements.distance is not None:
+            imgui.text(f"distance {measurements.distance:.5g} mm")
+            imgui.same_line()
+            if imgui.small_button("clear"):
+                measurements.clear_picks()
+        elif measurements.picks:
+            imgui.text_disabled("ctrl+click a second point for the distance")
 
     def keys(self, camera) -> dict:
         """Characters this section answers in the window (as window.py's `_on_char` table)."""
         return {}
+
+    # --- the probe (the window, once a frame) --------------------------------------
+    def pick(self, scene, camera, covered_left: float) -> None:
+        """The probe under imgui's mouse: on ctrl+click (a point for the distance too), and as it moves with
+        "probe under the cursor"; not over the panel.  `covered_left`: the panel's width, imgui units."""
+        io = imgui.get_io()
+        self.scene_size = (int(io.display_size.x * io.display_framebuffer_scale.x),
+                           int(io.display_size.y * io.display_framebuffer_scale.y))
+        if io.want_capture_mouse or not imgui.is_mouse_pos_valid():
+            return
+        cursor = (io.mouse_pos.x, io.mouse_pos.y)
+        clicked = imgui.is_mouse_clicked(0) and io.key_ctrl
+        if not clicked and not (self.probing and cursor != self._last_cursor):
+            return
+        self._last_cursor = cursor
+        probe = self.probe_at(scene, camera, cursor, covered_left)
+        if clicked and probe is not None:
+            self.measurements.pick(probe.world)
+
+    def probe_at(self, scene, camera, cursor, covered_left: float = 0.0):
+        """The probe at `cursor` (imgui units, from the top left), kept for the panel; None off the scene."""
+        io = imgui.get_io()
+        scale_x, scale_y = io.display_framebuffer_scale.x, io.display_framebuffer_scale.y
+        width, height = int(io.display_size.x * scale_x), int(io.display_size.y * scale_y)
+        pixel = (int(cursor[0] * scale_x), height - 1 - int(cursor[1] * scale_y))
+        if self.picker is None:
+            from ..gfx.picking import Picker
+            self.picker = Picker(scene.ctx)
+        probe = self.picker.probe(scene, camera, (0, 0, width, height, int(covered_left * scale_x)), pixel)
+        self.measurements.probe = probe if probe is not None else self.measurements.probe
+        return probe
+
+    def release(self) -> None:
+        if self.picker is not None:
+            self.picker.release()
+            self.picker = None
+
+    # --- Save scene ---------------------------------------------------------------
+    @property
+    def _saving_scene(self) -> bool:
+        return self._scene_dialog is not None or (self.browser is not None and self.browser.is_open)
+
+    def _open_scene_dialog(self, state: ViewerState) -> None:
+        name = Path(state.volume.name).stem.split(".")[0] or "isoscope"
+        default = Path.cwd() / f"{name}-scene.json"
+        if has_dialog_tool():
+            import imgui_bundle.portable_file_dialogs as pfd
+            self._scene_dialog = pfd.save_file("Save scene", str(default), SCENE_FILTERS)
+            return
+        if self.browser is None:
+            self.browser = FileBrowser(default_recent_folders())
+        self.browser.save_file("Save scene", default, ["*.json"], purpose="scene")
+
+    def _collect_scene_dialog(self, state: ViewerState) -> None:
+        path = None
+        if self._scene_dialog is not None and self._scene_dialog.ready(0):
+            path, self._scene_dialog = self._scene_dialog.result(), None
+        elif self.browser is not None:
+            path = self.browser.draw()
+        if path:
+            self.save_scene(state, self._camera, path)
+
+    def save_scene(self, state: ViewerState, camera, path, size=None) -> Path | None:
+        """Write the scene on show to `path` (as `render --save-scene`), at `size` (default the window's);
+        its path, or None with the reason in the state's error."""
+        from ..model.scene_file import scene_of, write_scene
+        try:
+            if camera is None:
+                raise ViewerError("no view to save yet")
+            written = write_scene(path, scene_of(state, camera, size or self.scene_size))
+        except USER_ERRORS as exc:
+            state.error = f"cannot save the scene: {one_line(exc)}"
+            return None
+        state.error, state.message = None, f"scene saved: {written}"
+        return written
