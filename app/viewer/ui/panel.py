@@ -16,6 +16,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from ...volumes import builtin_names
+from ..model.formats import level_format, level_text
+from ..model.hints import empty_level_hint
 from ..model.histogram import fraction_of, level_at
 from ..model.settings import PanelSettings
 from ..model.state import ViewerState
@@ -52,6 +54,12 @@ VOLUME_FILE_FILTERS = ["Volumes", "*.npy *.npz *.nii *.nii.gz *.nrrd *.nhdr *.ra
                        "All files", "*"]
 MESH_FILE_FILTERS = ["Meshes", "*.stl *.ply *.obj *.glb *.off", "All files", "*"]
 EXPR_HINT = "x^2 + y^2 + z^2 - 0.5"   # the volumes grammar; inside is where it is < 0
+
+
+def render_scale(height: int) -> float:
+    """The panel's scale in a headless render `height` pixels tall: as a monitor of that height would set it
+    (1 up to 1080 rows, 2 at 2160: 4K), in quarter steps."""
+    return max(1.0, round(4 * height / 1080) / 4)
 
 
 class ImguiLayer:
