@@ -184,3 +184,84 @@ def test_each_view_key_shows_the_head_from_its_side(heads, gl_ctx, key):
     other = {"up": "down", "down": "up", "left": "right", "right": "left"}
     assert reach[vertical] > 1.15 * reach[other[vertical]], reach
     assert reach[horizontal] > 1.15 * reach[other[horizontal]], reach
+
+
+# --- the command line ----------------------------------------------------------------------------------------
+
+def _command_mask(path) -> np.ndarray:
+    from PIL import Image
+    pixels = np.asarray(Image.open(path).convert("RGB")).astype(float)
+    return np.abs(pixels - pixels[0, 0]).max(axis=-1) > 30   # the corner is background
+
+
+@pytest.mark.gl
+def test_render_draws_the_dicom_head_as_its_nifti_and_adds_letters_on_request(heads, tmp_path):
+    from support.command import isoscope
+    shots = {}
+    for name, extra in (("nifti", ()), ("dicom", ()), ("letters", ("--orientation-letters",))):
+        source = heads["nifti-RAS" if name == "nifti" else "dicom-sagittal"]
+        shots[name] = tmp_path / f"{name}.png"
+        result = isoscope("render", source, "--iso", LEVEL, "--size", "320x240", "--out", shots[name], *extra)
+        assert result.returncode == 0, result.stderr
+    nifti, dicom, letters = (_command_mask(shots[name]) for name in ("nifti", "dicom", "letters"))
+    assert iou(nifti, dicom) > 0.98
+    # The letters: S at the top's middle, I at the bottom's, R at the left's, L at the right's: light pixels
+    # where the picture without them has none.
+    added = letters & ~dicom
+    for rows, columns in (((0, 30), (140, 180)), ((210, 240), (140, 180)), ((100, 140), (0, 30)),
+                          ((100, 140), (290, 320))):
+        assert added[slice(*rows), slice(*columns)].sum() > 5, (rows, columns)
+    assert added.sum() < 400   # four letters, nothing else
+
+
+# --- the window -----------------------------------------------------------------------------------------------
+
+def test_the_window_opens_a_dicom_head_upright_and_turns_it_with_keys(heads, x_display):
+    from support.x_window import run_spawned
+    run_spawned(drive_window_views, x_display, str(heads["dicom-coronal"]))
+
+
+def drive_window_views(x_display, path):
+    import os
+    os.environ["DISPLAY"] = x_display
+    from support.x_window import frames_until, press_key
+
+    from isoscope.viewer.model.recent import RecentFiles
+    from isoscope.viewer.ui.window import ViewerWindow
+
+    volume = open_volume(path)
+    window = ViewerWindow(volume, LEVEL, size=(800, 600), recent=RecentFiles(None))
+    try:
+        for _ in range(3):
+            assert window.draw_frame()
+        camera = window.camera
+        assert view_letters(volume, camera) == ("A", "S", "L") and camera.mirrored
+        # Keys: each view in turn, then r back home.
+        for key, expected in EXPECTED_VIEWS.items():
+            press_key(window, key)
+            assert frames_until(window, lambda expected=expected: view_letters(volume, camera) == expected), key
+        press_key(window, "r")
+        assert frames_until(window, lambda: view_letters(volume, camera) == ("A", "S", "L"))
+    finally:
+        window.close()
+
+
+def test_the_view_buttons_turn_the_camera_when_clicked(heads, gl_ctx):
+    from imgui_bundle import imgui
+    volume = open_volume(str(heads["dicom-axial"]))
+    viewer = HeadlessViewer((700, 1400), ctx=gl_ctx)   # tall: the whole panel shows, the View section too
+    try:
+        viewer.show(volume, LEVEL)
+        viewer.render(panel=True)
+        for key in ("5", "3", "1"):
+            (left, top), (right, bottom) = viewer._panel.view_section.button_boxes[key]
+            assert bottom < 1400
+            io = imgui.get_io()
+            io.add_mouse_pos_event((left + right) / 2, (top + bottom) / 2)
+            viewer.render(panel=True)
+            for pressed in (True, False):
+                io.add_mouse_button_event(0, pressed)
+                viewer.render(panel=True)
+            assert view_letters(volume, viewer.camera) == EXPECTED_VIEWS[key], key
+    finally:
+        viewer.release()
