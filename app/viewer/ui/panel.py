@@ -182,7 +182,7 @@ class Panel:
         to the scene, for a volume whose file defines its orientation."""
         display = imgui.get_io().display_size
         left = self.covered_width
-        draw_orientation(state.volume, camera, (left, 0.0, display.x - left, display.y))
+        draw_orientation(state.volume, camera, (left, 0.0, display.x - left, display.y), state.slices)
 
     @property
     def covered_width(self) -> float:
