@@ -150,7 +150,7 @@ def apply_scene(scene: dict, state, camera) -> None:
             if name in known:
                 setattr(state.style, name, tuple(value) if isinstance(value, list) else value)
         cam = _field(scene, "camera", dict)
-        camera.azimuth, camera.elevation = float(cam["azimuth"]), float(np.clip(cam["elevation"], -89, 89))
+        camera.azimuth, camera.elevation = float(cam["azimuth"]), float(np.clip(cam["elevation"], -90, 90))
         camera.distance = float(cam["distance"])
         camera.target = np.asarray(cam["target"], float).reshape(3)
         if not (np.all(np.isfinite(camera.target)) and np.isfinite(camera.distance) and camera.distance > 0):
