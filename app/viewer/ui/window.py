@@ -167,6 +167,7 @@ class ViewerWindow:
         self.imgui.new_frame()
         self._route_mouse_events()
         self.panel.draw(self.state, self.scene, self.camera)
+        self.panel.measure_section.pick(self.scene, self.camera, self.panel.covered_width)   # ctrl+click: probe
         self.scene.update(dt)
         if self.state.volume_serial != self._framed_serial:
             self._frame_volume()
@@ -229,6 +230,7 @@ class ViewerWindow:
             return
         self.panel.time_section.recorder.stop()   # a recording under way is written whole
         self.state.release()
+        self.panel.measure_section.release()
         self.scene.release()
         self.renderer.release()
         self.imgui.shutdown()
@@ -316,6 +318,8 @@ class ViewerWindow:
                 continue
             elif event.button is None:
                 self.camera.zoom(event.wheel)
+            elif event.button == glfw.MOUSE_BUTTON_LEFT and event.mods & glfw.MOD_CONTROL:
+                continue   # the probe's click (measure_panel.py), not an orbit
             else:
                 # Shift+left pans too, for one-button touchpads.
                 self._drag_button = glfw.MOUSE_BUTTON_RIGHT if (
