@@ -226,3 +226,76 @@ def test_save_scene_without_a_volume_says_so(tmp_path):
     state = ViewerState()
     assert MeasureSection().save_scene(state, OrbitCamera(), tmp_path / "s.json") is None
     assert "no volume on show" in state.error and not (tmp_path / "s.json").exists()
+
+
+# --- in the window, under Xvfb ---------------------------------------------------------------------------------
+def test_ctrl_clicks_in_the_window_probe_the_sphere_and_measure_their_distance(x_display):
+    import ctypes.util
+    if ctypes.util.find_library("Xtst") is None:
+        pytest.skip("libXtst is not installed")
+    from support.x_window import run_spawned
+    run_spawned(_ctrl_clicks, x_display)
+
+
+def _ctrl_clicks(x_display):
+    """Ctrl held, two clicks right of the panel (XTest, through X -> GLFW -> imgui): two probes on the sphere,
+    their distance in the panel's model, and the camera has not orbited."""
+    import ctypes
+    import ctypes.util
+    import os
+    import time
+
+    os.environ["DISPLAY"] = x_display
+    import glfw
+
+    from isoscope.viewer.model.recent import RecentFiles
+    from isoscope.viewer.ui.window import ViewerWindow
+    window = ViewerWindow(sphere_volume(), 0.0, size=(640, 400), recent=RecentFiles(None))
+    try:
+        for _ in range(3):
+            window.draw_frame()
+        display = glfw.get_x11_display()
+        xtst = ctypes.CDLL(ctypes.util.find_library("Xtst"))
+        xlib = ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
+        xlib.XStringToKeysym.restype, xlib.XStringToKeysym.argtypes = ctypes.c_ulong, [ctypes.c_char_p]
+        xlib.XKeysymToKeycode.restype = ctypes.c_ubyte
+        xlib.XKeysymToKeycode.argtypes = [ctypes.c_void_p, ctypes.c_ulong]
+        xlib.XSync.argtypes = [ctypes.c_void_p, ctypes.c_int]
+        xtst.XTestFakeMotionEvent.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_ulong]
+        xtst.XTestFakeButtonEvent.argtypes = [ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_ulong]
+        xtst.XTestFakeKeyEvent.argtypes = [ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_ulong]
+        control = xlib.XKeysymToKeycode(display, xlib.XStringToKeysym(b"Control_L"))
+        left, top = glfw.get_window_pos(window.window)
+
+        def send(*events):
+            for kind, *args in events:
+                if kind == "move":
+                    xtst.XTestFakeMotionEvent(display, -1, round(left + args[0]), round(top + args[1]), 0)
+                elif kind == "key":
+                    xtst.XTestFakeKeyEvent(display, control, args[0], 0)
+                else:
+                    xtst.XTestFakeButtonEvent(display, 1, kind == "press", 0)
+            xlib.XSync(display, 0)
+            time.sleep(0.05)
+            xlib.XSync(display, 0)
+            for _ in range(3):
+                window.draw_frame()
+
+        covered = window.panel.covered_width
+        middle = ((640 + covered) / 2, 200)
+        pose = (window.camera.azimuth, window.camera.elevation)
+        measurements = window.panel.measure_section.measurements
+        send(("key", True))
+        for point in (middle, (middle[0] + 12, middle[1] - 8)):
+            send(("move", *point))
+            send(("press",), ("release",))
+        send(("key", False))
+        assert (window.camera.azimuth, window.camera.elevation) == pose, "a ctrl+click orbited"
+        assert len(measurements.picks) == 2, measurements.picks
+        centre = (N - 1) / 2
+        for picked in measurements.picks:
+            assert abs(np.linalg.norm(picked - centre) - RADIUS) < 1.0
+        assert 2.0 < measurements.distance < 2 * RADIUS
+        assert measurements.probe.on == "surface"
+    finally:
+        window.close()
