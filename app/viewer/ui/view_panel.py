@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from ..model.camera import VIEWS
 from ..model.state import ViewerState
-from .gui import imgui
+from .gui import imgui, section
 
 VIEW_KEYS = "123456"   # in VIEWS' order; free in the window's key table (window.py `_on_char`)
 ANATOMICAL_BUTTONS = ("A", "P", "L", "R", "S", "I")
@@ -29,9 +29,8 @@ class ViewSection:
 
     def draw(self, state: ViewerState, camera) -> None:
         """A row of six buttons that turn the camera to look from each standard direction."""
-        if camera is None or state.volume is None:
+        if not section("View") or camera is None or state.volume is None:
             return
-        imgui.separator_text("View")
         for i, ((label, what), key, (_, _, angles)) in enumerate(zip(view_names(state.volume), VIEW_KEYS, VIEWS)):
             if i:
                 imgui.same_line()
