@@ -153,6 +153,7 @@ class GpuScene:
         point = time_step(self.state, dt_seconds, wait)
         if point is not None:
             surface = self._surface_class(self.ctx, point.shown, self.state.gradient_direction)
+            surface.full_triangles = self.surface.full_triangles   # sizes the preview before its first mesh
             self.surface.release()
             self.surface = surface
             take_time_point(self.state, point)
