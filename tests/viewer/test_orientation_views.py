@@ -265,3 +265,27 @@ def test_the_view_buttons_turn_the_camera_when_clicked(heads, gl_ctx):
             assert view_letters(volume, viewer.camera) == EXPECTED_VIEWS[key], key
     finally:
         viewer.release()
+
+
+def test_the_2d_slice_view_carries_its_own_letters(heads, gl_ctx):
+    from isoscope.viewer.gfx.slices import inset_box
+    from isoscope.viewer.ui.orientation import inset_letters
+    volume = open_volume(str(heads["dicom-coronal"]))   # (slice: posterior, row: inferior, column: left)
+    # A slice across the columns is sagittal; its rows run posterior (right), its columns inferior (up).
+    assert inset_letters(volume.world, volume.spacing, 2) == {"right": "P", "left": "A", "top": "I", "bottom": "S"}
+    assert inset_letters(volume.world, volume.spacing, 0) == {"right": "I", "left": "S", "top": "L", "bottom": "R"}
+    viewer = HeadlessViewer((400, 300), ctx=gl_ctx)
+    try:
+        viewer.show(volume, LEVEL)
+        viewer.state.slices.show(2, True)
+        plain, lettered = viewer.render(), viewer.render(letters=True)
+    finally:
+        viewer.release()
+    x, y, width, height = inset_box(volume.data.shape, volume.spacing, 2, (0, 0, 400, 300))
+    top = 300 - y - height   # the box's top row in the picture (GL counts from the bottom)
+    changed = np.abs(plain.astype(int) - lettered.astype(int)).max(axis=-1) > 60
+    inside = changed[top:top + height, x:x + width]
+    across, along = (width // 2 - 10, width // 2 + 10), (height // 2 - 10, height // 2 + 10)
+    for rows, columns in (((0, 20), across), ((height - 20, height), across), (along, (0, 20)),
+                          (along, (width - 20, width))):   # top, bottom, left, right
+        assert inside[slice(*rows), slice(*columns)].sum() > 5, (rows, columns)
