@@ -139,7 +139,7 @@ class TimeSection:
     def _time_controls(self, state: ViewerState) -> None:
         series = state.series
         imgui.set_next_item_width(-1)
-        changed, index = imgui.slider_int("##time", series.index, 0, series.count - 1, f"t = %d of {series.count}")
+        changed, index = imgui.slider_int("##time", series.index, 0, series.count - 1, f"time point %d of 0..{series.count - 1}")
         if changed:
             act(state, series.go_to, index)
         tooltip("the series' time point ([ and ] step back and on)")
