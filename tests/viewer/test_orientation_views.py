@@ -289,3 +289,19 @@ def test_the_2d_slice_view_carries_its_own_letters(heads, gl_ctx):
     for rows, columns in (((0, 20), across), ((height - 20, height), across), (along, (0, 20)),
                           (along, (width - 20, width))):   # top, bottom, left, right
         assert inside[slice(*rows), slice(*columns)].sum() > 5, (rows, columns)
+
+
+def test_a_saved_scene_of_a_scan_seen_from_above_redraws_pixel_for_pixel(heads, gl_ctx):
+    from isoscope.viewer.model.scene_file import scene_of
+    from isoscope.viewer.ui.headless import scene_pixels
+    viewer = HeadlessViewer(SIZE, ctx=gl_ctx)
+    try:
+        viewer.show(open_volume(str(heads["dicom-sagittal"])), LEVEL)
+        ViewSection().keys(viewer.camera)["5"]()   # on the pole: elevation 90
+        viewer.camera.orbit(40, 0)                 # and turned about it
+        picture = viewer.picture()
+        scene = scene_of(viewer.state, viewer.camera, SIZE)
+    finally:
+        viewer.release()
+    assert scene["camera"]["elevation"] == 90
+    assert np.array_equal(scene_pixels(scene), picture)
