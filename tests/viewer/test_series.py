@@ -34,6 +34,22 @@ def series(tmp_path):
     return str(tmp_path / "ball_*.npy")
 
 
+@pytest.fixture(params=["glob", "npy", "nifti"])
+def any_series(request, tmp_path):
+    """The same series as a glob of .npy files, a 4-D .npy (time first) and a 4-D NIfTI (time last)."""
+    if request.param == "glob":
+        for t in range(TIMES):
+            np.save(tmp_path / f"ball_{t}.npy", ball(t))
+        return str(tmp_path / "ball_*.npy")
+    stack = np.stack([ball(t) for t in range(TIMES)])
+    if request.param == "npy":
+        np.save(tmp_path / "balls.npy", stack)
+        return str(tmp_path / "balls.npy")
+    import nibabel
+    nibabel.save(nibabel.Nifti1Image(np.moveaxis(stack, 0, -1), np.eye(4)), tmp_path / "balls.nii")
+    return str(tmp_path / "balls.nii")
+
+
 @pytest.fixture
 def viewer(gl_ctx):
     headless = HeadlessViewer(SIZE, ctx=gl_ctx)
@@ -41,8 +57,9 @@ def viewer(gl_ctx):
     headless.release()
 
 
-def test_a_series_steps_with_the_model_and_its_picture_and_mesh_follow_while_the_view_stays(viewer, series):
-    viewer.open(series)
+def test_a_series_steps_with_the_model_and_its_picture_and_mesh_follow_while_the_view_stays(viewer, any_series,
+                                                                                          tmp_path):
+    viewer.open(any_series)
     state = viewer.state
     assert state.series.active and state.series.count == TIMES and state.series.shown == 0
     state.levels.set_value(0.5)
@@ -65,9 +82,10 @@ def test_a_series_steps_with_the_model_and_its_picture_and_mesh_follow_while_the
     state.levels.select(0)
     viewer.update()
     verts, faces = viewer.scene.surface.shown.read_mesh()[:2]
+    np.save(tmp_path / "alone.npy", ball(1))
     alone = HeadlessViewer(SIZE, ctx=viewer.ctx)
     try:
-        alone.show(open_volume(series.replace("*", "1")), 0.5)
+        alone.show(open_volume(str(tmp_path / "alone.npy")), 0.5)
         alone_verts, alone_faces = alone.scene.surface.shown.read_mesh()[:2]
     finally:
         alone.release()
