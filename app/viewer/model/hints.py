@@ -41,10 +41,11 @@ def empty_level_hint(level: float, value_range: tuple[float, float], histogram) 
     return f"{text}, most between {level_text(first, value_range)} and {level_text(last, value_range)}"
 
 
-def enclosing_levels(levels, inside_is_above: bool, clipped: bool = False) -> dict[int, int]:
+def enclosing_levels(levels, inside_is_above: bool, clipped: bool = False, empty=()) -> dict[int, int]:
     """{i: j} for each visible level i that lies inside the visible, opaque level j (so nothing of it shows).
     Level sets of one field nest: with the object above the level (a density), a higher level lies inside
-    a lower one; below (a signed distance), a lower one inside a higher.  A clip plane opens them: none."""
+    a lower one; below (a signed distance), a lower one inside a higher.  A clip plane opens them: none;
+    the levels in `empty` (no surface) hide nothing."""
     if clipped:
         return {}
     hidden = {}
@@ -52,7 +53,7 @@ def enclosing_levels(levels, inside_is_above: bool, clipped: bool = False) -> di
         if not inner.visible or inner.opacity <= 0:
             continue
         for j, outer in enumerate(levels):
-            if j == i or not outer.visible or outer.opacity < OPAQUE:
+            if j == i or j in empty or not outer.visible or outer.opacity < OPAQUE:
                 continue
             if (inner.value > outer.value) if inside_is_above else (inner.value < outer.value):
                 hidden[i] = j

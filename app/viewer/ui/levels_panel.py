@@ -35,8 +35,8 @@ class LevelsSection:
             return
         levels = state.levels
         value_range = state.value_range
-        hidden_in = _enclosing(state)
         self.flags = self.flagged(state, scene)
+        hidden_in = _enclosing(state, [i for i, flag in self.flags.items() if flag == "empty"])
         # Fixed columns: the value and its flag never push the remove button about.
         value_width = max(imgui.calc_text_size(level_text(v, value_range)).x for v in value_range)
         flag_width = max(imgui.calc_text_size(word).x for word in ("empty", "hidden"))
@@ -89,12 +89,12 @@ class LevelsSection:
     def flagged(state: ViewerState, scene) -> dict[int, str]:
         """Levels that show nothing: {index: "empty"} where the mesh has no triangle (as `scene` last made
         it, at full resolution), {index: "hidden"} where it lies inside a visible opaque level."""
-        flags = {i: "hidden" for i in _enclosing(state)}
+        empty = []
         if scene is not None and scene.surface is not None:
-            for i in range(len(state.levels)):
-                full = i != state.levels.selected or scene.preview_step == 1
-                if full and scene.level_stats(i)[0] == 0:
-                    flags[i] = "empty"
+            empty = [i for i in range(len(state.levels)) if (i != state.levels.selected or scene.preview_step == 1)
+                     and scene.level_stats(i)[0] == 0]
+        flags = {i: "hidden" for i in _enclosing(state, empty)}
+        flags.update({i: "empty" for i in empty})
         return flags
 
     def _color_by(self, state: ViewerState) -> None:
@@ -123,9 +123,10 @@ class LevelsSection:
         _colorbar(state.color_by)
 
 
-def _enclosing(state: ViewerState) -> dict[int, int]:
-    """{i: j}: level i lies inside the opaque level j (model/hints.py)."""
-    return enclosing_levels(list(state.levels), state.gradient_direction == "descent", state.slices.clip is not None)
+def _enclosing(state: ViewerState, empty) -> dict[int, int]:
+    """{i: j}: level i lies inside the opaque level j, not one of the `empty` (model/hints.py)."""
+    return enclosing_levels(list(state.levels), state.gradient_direction == "descent",
+                            state.slices.clip is not None, empty)
 
 
 def _colorbar(color_by) -> None:

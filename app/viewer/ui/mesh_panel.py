@@ -10,16 +10,19 @@ MAX_SMOOTH_SLIDER = 10
 DEFAULT_SHARP_ANGLE = 30.0
 SHARP_ANGLES = (5.0, 90.0)   # the slider's span; the API takes any angle in (0, 180)
 COMBO_WIDTH = 150.0
+MESH_TITLE = "Mesh: cells, smoothing, sharp features"
 SLIDER_WIDTH = 110.0
 
 
 class MeshSection:
     def __init__(self):
         self.sharp_angle = DEFAULT_SHARP_ANGLE   # kept while sharp features are off
+        self.sharp_box = None   # the sharp features checkbox's ((left, top), (right, bottom)) while it shows
 
     def draw(self, state: ViewerState) -> None:
         # Folded until opened: the panel must stay short enough for the slices below it.
-        if not section("Mesh: cells, smoothing, sharp features", default_open=False):
+        self.sharp_box = None
+        if not section(MESH_TITLE, default_open=False):
             return
         imgui.set_next_item_width(px(COMBO_WIDTH))
         if imgui.begin_combo("cells", state.cells):
@@ -37,6 +40,7 @@ class MeshSection:
         imgui.same_line()
         imgui.text(f"{state.smooth:2d} smoothing")
         toggled, sharp = imgui.checkbox("sharp features", state.sharp is not None)
+        self.sharp_box = (tuple(imgui.get_item_rect_min()), tuple(imgui.get_item_rect_max()))
         if toggled:
             act(state, state.set_sharp, self.sharp_angle if sharp else None)
         tooltip("Extended Marching Cubes (Kobbelt et al. 2001): edges and corners of cells whose\n"
