@@ -13,6 +13,13 @@ label by label; the table says whether they do.  Timed, as medians of --repeats:
 
 Last column: the largest |enclosed volume / (voxel count x voxel volume) - 1| over the labels.
 
+With --toggle, a second table: the viewer's side (HeadlessViewer at --frame-size, a label map shown as
+`isoscope VOLUME --labels` shows it), as medians of --repeats: `show` (extract every label, upload, first
+frame: also what a toggle cost if it made the meshes again), `frame` (nothing changed), `toggle` (one
+label hidden or shown again: the meshes are kept, only the draw list changes; its own work, then with
+the frame that shows it: on a software rasteriser such as llvmpipe the frame is nearly all), `fade`
+(a label's opacity to 0.5 and back: the OIT pass), and how many extractions the toggles made (0: none).
+
 Volumes: `blobs` (16 ellipsoids of 8-30 voxels radius in 256^3 uint32, seeded, later
 ones overwriting earlier ones where they overlap, so many pairs share a boundary)
 and `mni-tissue` (grey and white matter of the MNI ICBM152 2009a template, labels 1
@@ -96,12 +103,73 @@ def median_ms(run, labels, repeats):
     return statistics.median(samples), result
 
 
+def toggle_row(name: str, labels: np.ndarray, size: tuple[int, int], repeats: int) -> str:
+    """One row of the --toggle table (see the module docstring)."""
+    from isoscope.viewer.ui.headless import HeadlessViewer
+    from isoscope.volumes.volume import finish_volume
+    volume = finish_volume(labels, spacing=(1.0, 1.0, 1.0), name=name, source=name, gradient_direction="descent",
+                           default_level=None)
+    viewer = HeadlessViewer(size)
+    try:
+        viewer.show(volume)
+        state = viewer.state
+
+        def show():
+            state.show_labels()
+            viewer.render()
+        show_ms = median_ms(lambda _: show(), None, repeats)[0]
+        extractions = viewer.scene.labels.extractions
+        frame_ms = median_ms(lambda _: viewer.render(), None, repeats)[0]
+        first = state.labels.layers[0].label
+        flips = iter(range(10 ** 6))
+
+        def toggle():
+            state.labels.set_visible(first, next(flips) % 2 == 1)
+            viewer.render()
+
+        def fade():
+            state.labels.set_opacity(first, 0.5 if next(flips) % 2 else 1.0)
+            viewer.render()
+        def toggle_work():   # the toggle's own work: the state, the GPU side's step and the draw list
+            state.labels.set_visible(first, next(flips) % 2 == 1)
+            viewer.scene.update(0.0, wait=True)
+            viewer.scene.drawn()
+        work_ms = median_ms(lambda _: toggle_work(), None, 2 * repeats + 1)[0]
+        toggle_ms = median_ms(lambda _: toggle(), None, 2 * repeats + 1)[0]
+        fade_ms = median_ms(lambda _: fade(), None, 2 * repeats + 1)[0]
+        made = viewer.scene.labels.extractions - extractions
+        _, vertices, triangles = viewer.scene.label_counts()
+        return (f"| {name} {'x'.join(map(str, labels.shape))} | {len(state.labels.layers)} | {triangles:,} | "
+                f"{show_ms:.0f} | {frame_ms:.0f} | {work_ms:.2f} | {toggle_ms:.0f} | {fade_ms:.0f} | {made} |")
+    finally:
+        viewer.release()
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--volumes", default="blobs,mni-tissue", help="comma-separated: blobs, mni-tissue")
     parser.add_argument("--size", type=int, default=256, help="edge of the blobs volume (default 256)")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--toggle", action="store_true",
+                        help="also time showing, hiding and fading a label in the viewer (HeadlessViewer)")
+    parser.add_argument("--only-toggle", action="store_true", help="the --toggle table alone")
+    parser.add_argument("--frame-size", default="800x600", help="the viewer's picture, WxH (default 800x600)")
     args = parser.parse_args()
+    if args.only_toggle or args.toggle:
+        size = tuple(int(v) for v in args.frame_size.split("x"))
+        print(f"### A label map in the viewer, {size[0]}x{size[1]} (median ms of {args.repeats})\n")
+        print("| volume | labels | triangles | show (= re-extract) | frame | toggle, no frame | toggle + frame | "
+              "fade + frame | extractions by toggles |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+        for name in args.volumes.split(","):
+            try:
+                labels = blobs(args.size) if name == "blobs" else mni_tissue()
+            except MissingVolume as exc:
+                print(f"skipped {name}: {exc}", file=sys.stderr)
+                continue
+            print(toggle_row(name, labels, size, args.repeats), flush=True)
+        print()
+        if args.only_toggle:
+            return 0
     runners = {"ours gpu": lambda labels: ours(labels, "gpu"), "ours numpy": lambda labels: ours(labels, "cpu")}
     try:
         zmesh_version = importlib.metadata.version("zmesh")
