@@ -250,3 +250,23 @@ def test_folded_sections_are_remembered_in_a_settings_file(gl_ctx, tmp_path):
         assert again._panel.iso_slider_box is not None   # the others as they were
     finally:
         again.release()
+
+
+def test_a_refusal_from_a_combo_shows_beside_the_combo(viewer):
+    from imgui_bundle import imgui
+    state = viewer.state
+    viewer._panel.settings.set_open(MESH_TITLE, True)
+    state.set_sharp(30.0)
+    settled(viewer)
+    (left, _), (_, header_bottom) = viewer._panel.section_boxes[MESH_TITLE]
+    row = header_bottom + imgui.get_style().item_spacing.y + imgui.get_frame_height() / 2   # "cells"
+    click(viewer, (left + 60, row))
+    frame(viewer)
+    popup = imgui.internal.find_window_by_name("##Combo_00")
+    assert popup is not None and popup.active, "the cells combo did not open"
+    click(viewer, (popup.pos.x + 30, popup.pos.y + popup.size.y * 0.75))   # its second choice: tetrahedra
+    move_pointer(*OUTSIDE)
+    frame(viewer)
+    assert state.cells == "cubes" and "tetrahedra" in state.error
+    x, y, width, height = viewer._panel.refusal_box
+    assert x >= sum(viewer._panel.box[0::2]) and abs(y - (row - imgui.get_frame_height() / 2)) <= 4
