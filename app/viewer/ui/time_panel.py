@@ -131,7 +131,8 @@ class TimeSection:
         self._state = state   # the keys' (the window's state)
         if state.volume is None:
             return
-        imgui.separator_text("Time")
+        if not imgui.collapsing_header("Time", imgui.TreeNodeFlags_.default_open):
+            return
         if state.series.active:
             self._time_controls(state)
         self._record_controls(state)
@@ -139,7 +140,8 @@ class TimeSection:
     def _time_controls(self, state: ViewerState) -> None:
         series = state.series
         imgui.set_next_item_width(-1)
-        changed, index = imgui.slider_int("##time", series.index, 0, series.count - 1, f"time point %d of 0..{series.count - 1}")
+        last = series.count - 1
+        changed, index = imgui.slider_int("##time", series.index, 0, last, f"time point %d of 0..{last}")
         if changed:
             act(state, series.go_to, index)
         tooltip("the series' time point ([ and ] step back and on)")
@@ -178,8 +180,7 @@ class TimeSection:
         if recorder.recording:
             if imgui.button("Stop recording"):
                 self._stop(state)
-            imgui.same_line()
-            imgui.text(recorder.progress_line)
+            imgui.text_wrapped(recorder.progress_line)
             return
         if imgui.button("Record"):
             path = self.record_name.strip() or next_movie_path(self.record_dir)
