@@ -41,6 +41,7 @@ class LabelMap:
         self.layers: list[LabelLayer] = []
         self.serial = 0     # bumps on every label map put on show: the GPU side extracts it again
         self.names_path: str | None = None   # the label names file given (None: the one beside it, if any)
+        self._volume = None                  # the volume whose labels these are
 
     def __bool__(self) -> bool:
         return bool(self.layers)
@@ -54,9 +55,11 @@ class LabelMap:
         if not labels:
             raise ViewerError(f"{volume.name} has no non-zero labels; open it without --labels for an isosurface")
         names = label_names_for(volume.source, names_path)
+        if volume is not self._volume or labels != [layer.label for layer in self.layers]:
+            self.serial += 1   # new surfaces; the same labels named again keep theirs
         self.layers = layers(labels, names)
         self.names_path = None if names_path is None else str(Path(names_path).expanduser().resolve())
-        self.serial += 1
+        self._volume = volume
 
     def hide(self) -> None:
         """Back to the iso levels of the same volume."""
