@@ -28,10 +28,10 @@ from bench_viewer import display  # noqa: E402
 from volumes import VOLUMES, load_real  # noqa: E402
 
 
-def write_series(folder: Path, name: str, times: int, kind: str) -> str:
+def write_series(folder: Path, name: str, times: int, kind: str, resolution: int = 160) -> str:
     """The series' spec: a glob of .npy files or one 4-D .nii."""
     if name in VOLUMES:
-        data, spacing = VOLUMES[name][0](160), (1.0, 1.0, 1.0)
+        data, spacing = VOLUMES[name][0](resolution), (1.0, 1.0, 1.0)
     else:
         data, spacing = load_real(name)
     frames = [np.roll(data, 3 * t, axis=0) for t in range(times)]
@@ -48,7 +48,8 @@ def write_series(folder: Path, name: str, times: int, kind: str) -> str:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--volume", default="mni-t1", help="mni-t1, mni-gm, or a synthetic one at 160^3 (sphere, ...)")
+    parser.add_argument("--volume", default="mni-t1", help="mni-t1, mni-gm, or a synthetic one (sphere, gyroid, noise)")
+    parser.add_argument("--resolution", type=int, default=160, help="a synthetic volume's samples per axis")
     parser.add_argument("--times", type=int, default=10, help="time points in the series")
     parser.add_argument("--points", type=int, default=40, help="time points to time (playback loops round)")
     parser.add_argument("--size", default="1280x800", help="window size WxH")
@@ -59,7 +60,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     width, height = (int(v) for v in args.size.lower().split("x"))
     with tempfile.TemporaryDirectory(prefix="bench_series_") as folder, display():
-        spec = write_series(Path(folder), args.volume, args.times, args.format)
+        spec = write_series(Path(folder), args.volume, args.times, args.format, args.resolution)
         from isoscope.viewer.model.recent import RecentFiles
         from isoscope.viewer.ui.window import ViewerWindow
         from isoscope.volumes import open_volume
