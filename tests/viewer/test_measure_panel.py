@@ -54,8 +54,8 @@ def test_measures_equal_the_command_s_on_the_same_volume_and_levels(closed):
     state = ViewerState()
     state.show(open_volume(TORUS), 0.5)
     state.levels.add(0.2)
+    state.closed = closed   # the panel's 'closed at the border'
     measurements = Measurements()
-    measurements.closed = closed
     request = measurements.request(state)   # on a worker thread, as the panel asks
     while not measurements.poll(wait_s=30.0):
         pass

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .caps import closed_mesh, extractor
 from .errors import ViewerError, one_line
 from .jobs import Jobs
 
@@ -64,20 +65,15 @@ def record_of(name: str, verts, faces) -> SurfaceRecord:
 
 def level_mesh(volume, level: float, cells: str = "cubes", smooth: int = 0, closed: bool = False):
     """(verts, faces) of `volume` at `level` in world space, extracted on the CPU as `isoscope measure`
-    and `export` do (`closed`: capped where the surface leaves the volume, core/closing.py)."""
-    from ... import marching_cubes, marching_tetrahedra
+    and `export` do (`closed`: capped where the surface leaves the volume, as export --closed)."""
     from ...io.export import in_volume_space
     from ...validation import as_level
-    data, level = volume.checked, as_level(level, volume.value_range)
     if closed:
-        from ...core.closing import padded_for_closing
-        data = padded_for_closing(volume.checked.data, volume.value_range, volume.gradient_direction == "descent")
-    extract = marching_tetrahedra if cells == "tetrahedra" else marching_cubes
-    verts, faces, normals, _ = extract(data, level, spacing=volume.spacing, backend="cpu",
-                                       gradient_direction=volume.gradient_direction, smooth=smooth)
-    if closed:
-        from ...core.closing import unpad
-        verts = unpad(verts, volume.spacing)
+        verts, faces, normals, _ = closed_mesh(volume, level, cells, smooth)
+    else:
+        verts, faces, normals, _ = extractor(cells)(volume.checked, as_level(level, volume.value_range),
+                                                    spacing=volume.spacing, backend="cpu",
+                                                    gradient_direction=volume.gradient_direction, smooth=smooth)
     verts, faces, _, _ = in_volume_space(volume, verts, faces, normals)
     return verts, faces
 
@@ -112,7 +108,6 @@ class Measurements:
         self.records: list[SurfaceRecord] = []
         self.note: str | None = None        # e.g. "measured at 1/2 resolution"
         self.error: str | None = None
-        self.closed = False                 # measure each level capped at the volume's border
         self.request_id: int | None = None  # the newest request
         self.answered_id: int | None = None  # the request `records` answer
         self.picks: list[np.ndarray] = []
@@ -128,7 +123,7 @@ class Measurements:
         if not labels and not levels:
             raise ViewerError("no surface is visible; show a level to measure it")
         options = state.mesh_options
-        return MeasureRequest(state.volume, levels, labels, options.cells, options.smooth, self.closed, state.step)
+        return MeasureRequest(state.volume, levels, labels, options.cells, options.smooth, state.closed, state.step)
 
     def request(self, state, inline: bool = False) -> int:
         """Measure what `state` shows, in the background (`inline`: here, for tests and scripts); the

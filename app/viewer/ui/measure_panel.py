@@ -49,8 +49,9 @@ class MeasureSection:
             act(state, measurements.request, state)
         tooltip("area, enclosed volume, pieces and box of each visible surface, as `isoscope measure` gives them")
         imgui.same_line()
-        measurements.closed = imgui.checkbox("closed at the border", measurements.closed)[1]
-        tooltip("cap each level where it leaves the volume (as export --closed), so its volume counts")
+        if not state.labels:   # a label's surface is closed at the border already (labels.py)
+            state.closed = imgui.checkbox("closed at the border", state.closed)[1]
+            tooltip("cap each level where it leaves the volume, drawn, saved and measured (as export --closed)")
         if measurements.error:
             imgui.text_colored(ERROR_COLOR, measurements.error)
         for record in measurements.records:
