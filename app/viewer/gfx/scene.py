@@ -33,12 +33,14 @@ from ...gpu.mesh import GpuMesh
 from ...labels import check_label_output, write_labelled
 from ...volumes import Volume
 from ..model.big_volume import downsampled
+from ..model.caps import closed_mesh
 from ..model.errors import USER_ERRORS as STATE_ERRORS
 from ..model.errors import ViewerError, one_line
 from ..model.levels import Level
 from ..model.series import take_time_point, time_step
 from ..model.state import Opened, ViewerState
 from . import surface as surface_module
+from .caps import CapMeshes
 from .colorby import GpuColorBy
 from .cpu_surface import CpuSurface
 from .label_scene import LabelMeshes
@@ -89,6 +91,7 @@ class GpuScene:
         self._surface_class = GpuSurface if has_compute(ctx) else CpuSurface
         self.surface: GpuSurface | CpuSurface | None = None   # the GL side of state.volume
         self.color_by: GpuColorBy | None = None  # the textures of state.color_by
+        self.caps = CapMeshes(ctx)                # the levels' caps while state.closed (caps.py)
         self._options = state.mesh_options        # what the meshes on the GPU were made with
         self._on_extractor: Level | None = None   # the level whose mesh the extractor holds
         self._extracted: float | None = None      # the value it was extracted at (None: extract it again)
@@ -299,9 +302,12 @@ class GpuScene:
             return
         if self.surface is None:
             raise ViewerError("no surface to save yet; open a volume first")
-        if self.surface.shown_step != 1:  # a preview is on show: save the full mesh at its level
-            self.surface.extract(state.iso, self._options)
-        verts, faces, normals, _ = self.surface.shown.read_mesh()   # cubes' or tetrahedra's
+        if state.closed:   # capped at the border, watertight: the padded volume's mesh, as export --closed
+            verts, faces, normals, _ = closed_mesh(state.volume, state.iso, self._options.cells, self._options.smooth)
+        else:
+            if self.surface.shown_step != 1:  # a preview is on show: save the full mesh at its level
+                self.surface.extract(state.iso, self._options)
+            verts, faces, normals, _ = self.surface.shown.read_mesh()   # cubes' or tetrahedra's
         verts, faces, normals, space = in_volume_space(state.volume, verts, faces, normals)
         write_mesh(path, verts, faces, normals, space=space)
         state.error = None
@@ -334,7 +340,7 @@ class GpuScene:
             if mesh is not None:
                 shown.append((mesh, SurfaceLook(state.levels.color(i, state.style.front_color), level.opacity,
                                                 self.color_by)))
-        return shown
+        return shown + self.caps.drawn(state, self.color_by)
 
     def _level_mesh(self, level: Level) -> GpuMesh | None:
         if self.surface is None:
@@ -402,6 +408,7 @@ class GpuScene:
 
     def release(self) -> None:
         self._release_meshes()
+        self.caps.release()
         if self.surface is not None:
             self.surface.release()
             self.surface = None
