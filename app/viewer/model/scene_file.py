@@ -49,7 +49,7 @@ def scene_of(state, camera, size) -> dict:
                     "opacity": level.opacity, "visible": level.visible} for level in state.levels.items],
         "selected": state.levels.selected,
         "mesh": {"cells": state.mesh_options.cells, "smooth": state.mesh_options.smooth,
-                 "sharp": state.mesh_options.sharp},
+                 "sharp": state.mesh_options.sharp, "closed": state.closed},
         "labels": state.labels.saved() if state.labels else False,   # or true (older scenes): the defaults
         "color_by": None if state.color_by is None else {"source": state.color_by.spec,
                                                          "colormap": state.color_by.colormap},
@@ -136,6 +136,7 @@ def apply_scene(scene: dict, state, camera) -> None:
         state.set_cells(mesh.get("cells", "cubes"))
         state.set_smooth(int(mesh.get("smooth", 0)))
         state.set_sharp(mesh.get("sharp"))
+        state.closed = bool(mesh.get("closed", False))
         labels = scene.get("labels")
         if labels:
             state.show_labels(names=labels.get("names") if isinstance(labels, dict) else None)
