@@ -182,6 +182,12 @@ def _add_sharp(parser: argparse.ArgumentParser) -> None:
                              "degrees, e.g. 30")
 
 
+def _add_closed(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--closed", action="store_true",
+                        help="cap each surface where it leaves the volume, watertight there (as export --closed; a "
+                             "label's surface is closed already); the panel's 'closed at the border'")
+
+
 def _add_label_names(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--label-names", metavar="FILE",
                         help="with --labels: names and colours from an ITK-SNAP label description or a 3D Slicer "
@@ -224,6 +230,7 @@ def viewer_parser() -> argparse.ArgumentParser:
     parser.add_argument("--size", type=window_size, default=(1280, 800), metavar="WxH",
                         help="window size in screen units (default 1280x800)")
     _add_mesh_modes(parser, labels="each non-zero label's surface in its own colour, listed in the panel")
+    _add_closed(parser)
     _add_label_names(parser)
     parser.add_argument("--screenshot-dir", default=".", metavar="DIR",
                         help="where key s saves PNGs (default: the current directory)")
@@ -248,6 +255,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
             prog="isoscope render",
             description="Render the viewer's scene to a PNG with no window or display (EGL).")
         add_render_options(parser, out_help="the PNG file to write")
+        _add_closed(parser)
         parser.add_argument("--orientation-letters", action="store_true",
                             help="a scan's anatomical letters (R/L, A/P, S/I) at the picture's edges (and its 2-D "
                                  "slice view's); --panel draws them anyway")
