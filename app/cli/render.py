@@ -55,6 +55,7 @@ def _apply_mesh_arguments(state, args) -> None:
         state.set_smooth(args.smooth)
     if args.sharp is not None:
         state.set_sharp(args.sharp)
+    state.closed = args.closed   # a label's surface is closed at the border already
 
 
 def run_render(args) -> int:
@@ -87,7 +88,7 @@ def run_render(args) -> int:
     isos = checked_levels(volume, args.iso, args.opacity)
     if args.sharp is not None:
         for option in ("--panel", "--tetrahedra", "--smooth", "--labels", "--slice", "--clip", "--color-by",
-                       "--orientation-letters"):
+                       "--orientation-letters", "--closed"):
             if getattr(args, option.strip("-").replace("-", "_"), None) not in (None, False, 0, []):
                 raise ValueError(f"render --sharp draws the one sharp-featured surface; leave out {option}")
         if len(isos) > 1:
@@ -103,7 +104,8 @@ def run_render(args) -> int:
                       opacities=[a for values in args.opacity or [] for a in values],
                       color_by=args.color_by, colormap=args.color_by_map,
                       tetrahedra=args.tetrahedra, smooth=args.smooth, wireframe=args.wireframe,
-                      prepare=lambda state: apply_slice_arguments(state, args), then=_scene_saver(args),
+                      prepare=lambda state: (apply_slice_arguments(state, args), setattr(state, "closed", args.closed)),
+                      then=_scene_saver(args),
                       letters=args.orientation_letters)
     wrote(path, f"({args.size[0]}x{args.size[1]})")
     return 0
@@ -134,7 +136,7 @@ def _render_scene(scene, args) -> int:
     """render SCENE.json: the saved scene's picture (at its size, or --size); the command's other view
     options are the scene's, so giving them is refused."""
     for option in ("iso", "opacity", "color_by", "slice", "clip", "window", "level", "colormap", "azimuth",
-                   "elevation", "tetrahedra", "smooth", "sharp", "labels", "label_names", "save_scene"):
+                   "elevation", "tetrahedra", "smooth", "sharp", "labels", "label_names", "save_scene", "closed"):
         if getattr(args, option, None) not in (None, False, 0, []):
             raise ValueError(f"a scene holds the view; --{option.replace('_', '-')} does not go with {args.volume} "
                              "(open it in the window to change it, then save it again)")
