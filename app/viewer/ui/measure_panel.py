@@ -14,7 +14,7 @@ from ..model.errors import USER_ERRORS, ViewerError, one_line
 from ..model.measure import Measurements
 from ..model.state import ViewerState
 from .file_browser import FileBrowser, default_recent_folders, has_dialog_tool
-from .gui import act, imgui, tooltip
+from .gui import act, imgui, section, tooltip
 
 SCENE_FILTERS = ["Scenes", "*.json", "All files", "*"]
 NOTE_COLOR = imgui.ImVec4(0.60, 0.85, 0.60, 1.0)
@@ -40,7 +40,7 @@ class MeasureSection:
         measurements.poll()
         self._camera = camera
         self._collect_scene_dialog(state)
-        if not imgui.collapsing_header("Measure", flags=imgui.TreeNodeFlags_.default_open):
+        if not section("Measure"):
             return
         running = measurements.running
         if running is not None:
