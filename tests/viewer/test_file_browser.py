@@ -132,3 +132,23 @@ def test_a_dicom_folder_opens_from_the_browser(viewer, folder, monkeypatch):
     panel.browser.choose_folder()                         # the "Open this folder" button's act
     assert opened_name(viewer) != "sphere"
     assert sorted(viewer.state.volume.data.shape) == [4, 5, 6]   # the series: 4 slices of 6 x 5
+
+
+def test_save_scene_goes_through_the_browser_and_writes_the_scene(viewer, folder, monkeypatch):
+    import isoscope.viewer.ui.measure_panel as measure_panel
+    from isoscope.viewer.model.scene_file import read_scene
+    monkeypatch.setattr(measure_panel, "has_dialog_tool", lambda: False)
+    monkeypatch.chdir(folder)
+    section = viewer._panel.measure_section
+    viewer.render(panel=True)
+    section._open_scene_dialog(viewer.state)   # the "Save scene..." button's act
+    viewer.render(panel=True)
+    browser = section.browser
+    assert browser.is_open and browser.saving and browser.file_name == "sphere-scene.json"
+    click(viewer, browser.entry_boxes["series"])   # into a folder, then Save
+    browser.confirm()
+    viewer.render(panel=True)
+    written = folder / "series" / "sphere-scene.json"
+    scene = read_scene(written)
+    assert scene["volume"]["source"] == "sphere" and scene["size"] == list(SIZE)
+    assert viewer.state.message == f"scene saved: {written.resolve()}"

@@ -38,6 +38,9 @@ class MeasureSection:
         """Lay the section out; takes the measures' answer when it comes."""
         measurements = self.measurements
         measurements.poll()
+        io = imgui.get_io()   # a saved scene renders at the window's pixels
+        self.scene_size = (int(io.display_size.x * io.display_framebuffer_scale.x),
+                           int(io.display_size.y * io.display_framebuffer_scale.y))
         self._camera = camera
         self._collect_scene_dialog(state)
         if not section("Measure"):
@@ -106,8 +109,6 @@ class MeasureSection:
         """The probe under imgui's mouse: on ctrl+click (a point for the distance too), and as it moves with
         "probe under the cursor"; not over the panel.  `covered_left`: the panel's width, imgui units."""
         io = imgui.get_io()
-        self.scene_size = (int(io.display_size.x * io.display_framebuffer_scale.x),
-                           int(io.display_size.y * io.display_framebuffer_scale.y))
         if io.want_capture_mouse or not imgui.is_mouse_pos_valid():
             return
         cursor = (io.mouse_pos.x, io.mouse_pos.y)
