@@ -10,8 +10,14 @@ OPACITY_WIDTH = 120   # pixels: the grab at 1.00 leaves "opacity 1.00" readable
 
 
 class LabelsSection:
+    def __init__(self):
+        # label -> {"visible": box, "opacity": box} as last drawn, each ((left, top), (right, bottom)) in
+        # imgui units: where a pointer finds a row's controls (tests drive them through X)
+        self.boxes: dict[int, dict[str, tuple]] = {}
+
     def draw(self, state: ViewerState, scene) -> None:
         """The label map's layers (their triangles from `scene`, gfx/scene.py)."""
+        self.boxes = {}
         if not state.labels:
             return
         imgui.separator_text("Labels")
@@ -20,6 +26,7 @@ class LabelsSection:
             toggled, visible = imgui.checkbox("##visible", layer.visible)
             if toggled:
                 act(state, state.labels.set_visible, layer.label, visible)
+            boxes = self.boxes[layer.label] = {"visible": _item_box()}
             imgui.same_line()
             imgui.color_button("##color", imgui.ImVec4(*layer.color, 1.0), imgui.ColorEditFlags_.no_tooltip)
             imgui.same_line()
@@ -27,6 +34,7 @@ class LabelsSection:
             changed, opacity = imgui.slider_float("##opacity", layer.opacity, 0.0, 1.0, "opacity %.2f")
             if changed:
                 act(state, state.labels.set_opacity, layer.label, opacity)
+            boxes["opacity"] = _item_box()
             imgui.same_line()
             imgui.text(layer.title)
             tooltip(f"label {layer.label}: {scene.label_triangles(layer.label):,} triangles")
@@ -41,3 +49,7 @@ class LabelsSection:
             if imgui.button(f"Show as a label map ({state.label_hint} labels)"):
                 act(state, state.show_labels)
             tooltip("one closed surface per label, in its own colour (as --labels)")
+
+
+def _item_box() -> tuple:
+    return tuple(imgui.get_item_rect_min()), tuple(imgui.get_item_rect_max())
