@@ -3,13 +3,17 @@
 through it, names and colours from the file beside the segmentation, and a saved scene keeping the looks."""
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import json
 import os
+import time
 
 import numpy as np
 import pytest
 from PIL import Image
 from support.command import isoscope
+from support.x_window import run_spawned
 
 from isoscope.viewer.model.scene_file import apply_scene, scene_of
 from isoscope.viewer.ui.headless import HeadlessViewer
@@ -132,3 +136,55 @@ def test_render_caps_the_labels_in_their_colours(viewer, segmentation, tmp_path,
     pixels = np.asarray(Image.open(out).convert("RGB"))
     for point, color in ((LABEL_1_CUT, RED), (LABEL_7_CUT, GREEN)):
         assert np.abs(patch(pixels, viewer.camera, point) - color).max() <= 2, point
+
+
+@pytest.mark.skipif(ctypes.util.find_library("Xtst") is None, reason="libXtst is not installed")
+def test_the_panel_fades_and_hides_a_label_without_extracting(x_display, segmentation):
+    """The Labels rows driven by the pointer through X (XTest) in the real window."""
+    run_spawned(panel_rows, x_display, str(segmentation))
+
+
+def panel_rows(x_display, segmentation):
+    os.environ["DISPLAY"] = x_display
+    import glfw
+
+    from isoscope.viewer.model.recent import RecentFiles
+    from isoscope.viewer.ui.window import ViewerWindow
+    xtst, xlib = (ctypes.CDLL(ctypes.util.find_library(name)) for name in ("Xtst", "X11"))
+    xtst.XTestFakeMotionEvent.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_ulong]
+    xtst.XTestFakeButtonEvent.argtypes = [ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_ulong]
+    xlib.XSync.argtypes = [ctypes.c_void_p, ctypes.c_int]
+
+    window = ViewerWindow(open_volume(segmentation), size=(800, 600), recent=RecentFiles(None))
+
+    def click(box, fraction=0.5):
+        """A left click `fraction` of the way across `box` (window units), as a hand: arrive, press, release."""
+        (left, top), (right, bottom) = box
+        x0, y0 = glfw.get_window_pos(window.window)
+        display = glfw.get_x11_display()
+        for press in (None, True, False):
+            if press is None:
+                xtst.XTestFakeMotionEvent(display, -1, round(x0 + left + fraction * (right - left)),
+                                          round(y0 + (top + bottom) / 2), 0)
+            else:
+                xtst.XTestFakeButtonEvent(display, 1, press, 0)
+            xlib.XSync(display, 0)
+            time.sleep(0.05)
+            for _ in range(2):
+                window.draw_frame()
+
+    try:
+        window.state.show_labels()
+        for _ in range(3):
+            assert window.draw_frame()
+        labels, boxes = window.state.labels, window.panel.labels_section.boxes
+        assert sorted(boxes) == [1, 7] and window.scene.labels.extractions == 1
+        click(boxes[7]["opacity"], 0.3)
+        assert 0.1 < labels.layer(7).opacity < 0.5, labels.layer(7).opacity
+        assert [look.opacity for look in window.scene.looks] == [1.0, labels.layer(7).opacity]
+        click(boxes[1]["visible"])
+        assert not labels.layer(1).visible and labels.layer(7).visible
+        assert [look.color for look in window.scene.looks] == [labels.layer(7).color]
+        assert window.scene.labels.extractions == 1
+    finally:
+        window.close()
