@@ -31,6 +31,8 @@ PLAY_MODES = ("loop", "bounce")
 DEFAULT_FPS = 10.0
 MAX_FPS = 60.0
 READ_WAIT_S = 120.0          # a render (wait) waits this long for a time point's read
+READ_AHEAD = 3              # time points read ahead while playing: a read slower than a frame now and then
+                             # (a loaded machine: 65-115 ms median, 500 ms at worst for the MNI T1) is caught up
 RANGE_SAMPLES = 1 << 26      # the fixed range's histogram samples at most this many values of the series
 HISTOGRAM_SAMPLES = 1 << 21  # a time point's histogram samples at most about this many (a regular sub-grid):
                              # the whole MNI T1 took 75-90 ms of the worker's ~90 per time point, its 1.1 M of
@@ -180,10 +182,23 @@ class TimeAxis:
 
     def following(self) -> int:
         """The time point playback shows after the one wanted now."""
+        return self._after(self.index, self.direction)[0]
+
+    def _after(self, index: int, direction: int) -> tuple[int, int]:
+        """(the time point playback shows after `index`, going `direction`; the direction then)."""
         if self.mode == "loop":
-            return (self.index + 1) % self.count
-        direction = self.direction if 0 <= self.index + self.direction < self.count else -self.direction
-        return self.index + direction
+            return (index + 1) % self.count, direction
+        if not 0 <= index + direction < self.count:
+            direction = -direction
+        return index + direction, direction
+
+    def upcoming(self) -> list[int]:
+        """The time points playback shows next, in order: READ_AHEAD of them (while paused, the next)."""
+        index, direction, points = self.index, self.direction, []
+        for _ in range(min(READ_AHEAD if self.playing else 1, self.count - 1)):
+            index, direction = self._after(index, direction)
+            points.append(index)
+        return points
 
     # --- once a frame ---------------------------------------------------------
     def advance(self, dt_seconds: float, wait: bool = False) -> TimePoint | None:
@@ -196,9 +211,7 @@ class TimeAxis:
             period = 1.0 / self.fps
             if self._clock >= period:
                 self._clock = min(self._clock - period, period)   # no burst of frames after a slow read
-                following = self.following()
-                if self.mode == "bounce" and following - self.index != self.direction:
-                    self.direction = -self.direction
+                following, self.direction = self._after(self.index, self.direction)
                 self.go_to(following)
         for response in self.jobs.poll(READ_WAIT_S if wait else 0.0):
             if response.kind == "range":
@@ -210,6 +223,7 @@ class TimeAxis:
             elif index == self.index:
                 self.playing, self.index = False, self.shown
                 raise response.error
+        self._prefetch()   # the reads ahead follow each other on the worker, not one a frame
         if self.index != self.shown and self.index in self._ready:
             return self._ready.pop(self.index)
         return None
@@ -221,15 +235,20 @@ class TimeAxis:
         self.series_range, self.range_changed = response.value, True
 
     def took(self, point: TimePoint) -> None:
-        """The GPU side has put `point` on show: the one after it is read ahead."""
+        """The GPU side has put `point` on show: the ones after it are read ahead."""
         self.shown = point.index
-        self._ready = {index: ready for index, ready in self._ready.items() if index == self.following()}
+        upcoming = self.upcoming()
+        self._ready = {index: ready for index, ready in self._ready.items() if index in upcoming}
         self._prefetch()
 
     def _prefetch(self) -> None:
-        following = self.following()
-        if following != self.shown and following not in self._ready and not self._is_reading(following):
-            self._read(following, "prefetch")
+        """Read the first of the upcoming time points not read yet, one read ahead at a time."""
+        if "prefetch" in self._reading or not self.active:
+            return
+        for index in self.upcoming():
+            if index != self.shown and index not in self._ready and not self._is_reading(index):
+                self._read(index, "prefetch")
+                return
 
     def _is_reading(self, index: int) -> bool:
         return any(reading == index for _, reading in self._reading.values())
