@@ -20,7 +20,8 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
                    chunks=None, sharp_features=None, mask=None):
     """Extract the isosurface ``volume == level`` as an indexed, watertight triangle mesh.
 
-    The call and its conventions follow ``skimage.measure.marching_cubes``.
+    A drop-in for ``skimage.measure.marching_cubes``: the same call, and a mesh wound and valued as its
+    (isoscope's own outward mesh, as drawn and exported, is `outward_marching_cubes`).
 
     Parameters
     ----------
@@ -33,8 +34,9 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         Voxel size along axes 0, 1, 2; vertices are scaled by it.
     gradient_direction : {"descent", "ascent"}, default "descent"
         "descent" when the object is where values are above the level
-        (densities, CT), "ascent" when below (signed distances).  Normals point
-        out of the object and triangles wind counter-clockwise seen from outside.
+        (densities, CT), "ascent" when below (signed distances).  As in
+        scikit-image, triangles wind clockwise seen from outside the object, and
+        normals point down the gradient: out of it for "descent", into it for "ascent".
     step_size : int, default 1
         Sample every step_size-th grid point along each axis (a coarser, faster
         mesh in the same units); 1 is every sample.
@@ -80,13 +82,14 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     verts : (N, 3) float32
         Vertex positions in array-index order times `spacing`.
     faces : (M, 3) int32
-        Triangles as indices into `verts`.
+        Triangles as indices into `verts`, wound as scikit-image's.
     normals : (N, 3) float32
-        Unit normals, pointing out of the object.
+        Unit normals, pointing toward lower values (scikit-image's).
     values : (N,) float32
-        The volume at each vertex, interpolated along its grid edge (the level,
-        up to rounding and the tie rule below); sharp-feature vertices take the
-        mean of the plain ones.
+        As scikit-image computes them ("the maximum value of the data in the
+        local region"): the largest spread, max - min, of the eight samples of
+        the cells next to the vertex's grid edge (`isoscope.cpu.skimage_values`),
+        taken before smoothing; a sharp-feature vertex takes the cells it lies in.
 
     Raises
     ------
@@ -141,12 +144,13 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     >>> len(verts) - len(edges) + len(faces)
     2
 
-    scikit-image's mesh of the same ball has the same vertices:
+    scikit-image's mesh of the same ball has the same vertices, and the same values:
 
     >>> from skimage import measure
-    >>> theirs = measure.marching_cubes(distance, 0.7, gradient_direction="ascent")[0]
-    >>> bool(np.allclose(verts[np.lexsort(verts.T)], theirs[np.lexsort(theirs.T)], atol=1e-5))
-    True
+    >>> theirs = measure.marching_cubes(distance, 0.7, gradient_direction="ascent")
+    >>> mine, its = np.lexsort(verts.T), np.lexsort(theirs[0].T)
+    >>> bool(np.allclose(verts[mine], theirs[0][its], atol=1e-5)), bool(np.array_equal(values[mine], theirs[3][its]))
+    (True, True)
 
     A box keeps its corners with sharp features: the plain mesh cuts each one off
     half a cell from it; Extended Marching Cubes puts a vertex on it.
@@ -161,6 +165,24 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     >>> bool(np.array_equal(sharp[:len(plain)], plain))  # the plain vertices come first
     True
     """
+    descent = validation.as_gradient_direction(gradient_direction)
+    verts, faces, normals, values = _cubes(
+        volume, level, spacing=spacing, gradient_direction=gradient_direction, step_size=step_size, method=method,
+        backend=backend, smooth=smooth, chunks=chunks, sharp_features=sharp_features, mask=mask, skimage=True)
+    return verts, np.ascontiguousarray(faces[:, ::-1]), normals if descent else -normals, values
+
+
+def outward_marching_cubes(volume, level=None, **options):
+    """`marching_cubes`'s mesh (the same options) as isoscope draws, exports and measures it: the same vertices,
+    triangles counter-clockwise seen from outside the object and normals out of it for either
+    `gradient_direction`, `values` the volume at each vertex (the level, up to rounding and ties)."""
+    options.pop("allow_degenerate", None)
+    return _cubes(volume, level, **options)
+
+
+def _cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent", step_size=1,
+           method="lewiner", backend="auto", smooth=0, chunks=None, sharp_features=None, mask=None, skimage=False):
+    """The outward mesh; `skimage`: with scikit-image's values (`isoscope.cpu.skimage_values`)."""
     iterations = check_iterations(smooth)
     backend = _backend(backend)
     if method not in METHODS:
@@ -168,7 +190,7 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     angle = check_feature_angle(sharp_features)
     MeshOptions(smooth=iterations, sharp=angle, masked=mask is not None, chunked=chunks is not None).check()
     if chunks is not None:
-        return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks)
+        return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks, skimage)
     # The plain GPU mesh of every sample leaves the value scan to the upload (check_volume's scan_values).
     every_sample = isinstance(step_size, (int, np.integer)) and step_size == 1
     on_cpu = backend in ("cpu", "numpy")
@@ -182,25 +204,27 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     if step > 1:
         checked = validation.subsampled(checked, step)
         spacing = tuple(s * step for s in spacing)
+    def values_of(verts, level):  # scikit-image's, of the plain vertices (before smoothing moves them)
+        from .cpu.skimage_values import skimage_values  # numba loads on first use
+        return skimage_values(checked.data, verts, level, spacing, mask, step)
 
-    if backend == "cpu":
+    plain_values = values_of if skimage and angle is None else None
+    if on_cpu:
         from .cpu.compiled import marching_cubes_compiled  # numba loads on first use
-        mesh = _on_cpu(marching_cubes_compiled, checked, level, spacing, descent, iterations)
-    elif backend == "numpy":
-        mesh = _on_cpu(marching_cubes_reference, checked, level, spacing, descent, iterations)
+        extract = marching_cubes_compiled if backend == "cpu" else marching_cubes_reference
+        mesh = _on_cpu(extract, checked, level, spacing, descent, iterations, plain_values)
     elif angle is not None:
         from .gpu.sharp_features import marching_cubes_sharp_gpu
-        return marching_cubes_sharp_gpu(checked, level, spacing, gradient_direction, angle)
+        mesh = marching_cubes_sharp_gpu(checked, level, spacing, gradient_direction, angle)
     else:
-        mesh = _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra=False)
+        mesh = _on_gpu(checked, level, spacing, gradient_direction, iterations, False, plain_values)
     if mask is not None:
         return keep_masked_cells(mesh, mask, spacing, step)
     if angle is None:
         return mesh
-    return sharpen_extracted(mesh, checked.data, spacing, descent, angle)[:4]
-
-
-TETRA_BACKENDS = ("auto", "gpu", "cpu", "numpy")
+    if on_cpu:
+        mesh = sharpen_extracted(mesh, checked.data, spacing, descent, angle)[:4]
+    return (*mesh[:3], values_of(mesh[0], level)) if skimage else mesh
 
 
 def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
@@ -230,7 +254,7 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     Returns
     -------
     verts, faces, normals, values
-        As from `marching_cubes`.
+        As from `outward_marching_cubes` (isoscope's outward winding; values the level).
 
     Raises
     ------
@@ -239,7 +263,7 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
 
     Notes
     -----
-    The conventions are `marching_cubes`'s: ties count as inside, normals point
+    The conventions are `outward_marching_cubes`'s: ties count as inside, normals point
     out of the object, triangles wind counter-clockwise seen from outside.  Every
     edge of the tetrahedral grid (the three axes, the three face diagonals and the
     body diagonal of each cell) whose ends lie on different sides of the level has
@@ -272,7 +296,7 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     2
     """
     iterations = check_iterations(smooth)
-    backend = _backend(backend, TETRA_BACKENDS)
+    backend = _backend(backend)
     on_cpu = backend in ("cpu", "numpy")
     checked = validation.check_volume(volume, scan_values=on_cpu)  # else scanned on upload
     mask = check_mask(mask, checked.data.shape)
@@ -291,17 +315,21 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     return mesh if mask is None else keep_masked_cells(mesh, mask, spacing)
 
 
-def _on_cpu(extract, checked, level, spacing, descent, iterations):
-    """A CPU extractor's mesh (`extract`: compiled or numpy cubes, or tetrahedra), smoothed `iterations` times."""
+def _on_cpu(extract, checked, level, spacing, descent, iterations, values_of=None):
+    """A CPU extractor's mesh (`extract`: compiled or numpy cubes, or tetrahedra), smoothed `iterations` times;
+    `values_of(verts, level)`: its values from the plain vertices, in place of the extractor's."""
     field = checked.data.astype(np.float32, copy=False)
     verts, faces, normals, values = extract(field, level, spacing, descent)
+    if values_of is not None:
+        values = values_of(verts, level)
     if iterations:
-        return smooth_projected(verts, faces, field, level, iterations, spacing, descent=descent,
-                                normals=normals, value_range=checked.value_range)
+        smoothed = smooth_projected(verts, faces, field, level, iterations, spacing, descent=descent,
+                                    normals=normals, value_range=checked.value_range)
+        return smoothed if values_of is None else (*smoothed[:3], values)
     return verts, faces, normals, values
 
 
-def _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra):
+def _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra, values_of=None):
     """Upload, extract (cubes, or tetrahedra from the same resident volume), smooth, read back."""
     from .gpu.pool import pooled_extractor
     bad_level = None
@@ -312,22 +340,27 @@ def _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra)
             except ValueError as exc:
                 bad_level = exc  # raised once the extractor is back in the pool, intact
         if bad_level is None:
-            return _extract_and_read(cubes, level, iterations, tetrahedra)
+            return _extract_and_read(cubes, level, iterations, tetrahedra, values_of)
     raise bad_level
 
 
-def _extract_and_read(cubes, level, iterations, tetrahedra):
-    """Extract at `level` from the resident volume of `cubes` (or from a TetraExtractor on it), smooth, read back."""
+def _extract_and_read(cubes, level, iterations, tetrahedra, values_of=None):
+    """Extract at `level` from the resident volume of `cubes` (or from a TetraExtractor on it), smooth, read back;
+    `values_of` as for `_on_cpu`."""
     from .gpu.smooth import Smoother
     from .gpu.tetra import TetraExtractor
     extractor = TetraExtractor(cubes) if tetrahedra else cubes
     smoother = None
     try:
         extractor.extract(level)
+        values = None
+        if values_of is not None:  # read before smoothing moves the vertices off their grid edges
+            values = values_of(extractor.read_mesh()[0], level)
         if iterations:
             smoother = Smoother(extractor)
             smoother.smooth(extractor.mesh, iterations)
-        return extractor.read_mesh()
+        mesh = extractor.read_mesh()
+        return mesh if values is None else (*mesh[:3], values)
     finally:
         if smoother is not None:
             smoother.release()
@@ -456,7 +489,7 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
             mesh.release()
 
 
-def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks):
+def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks, skimage=False):
     from .big.chunked import as_chunks, marching_cubes_chunked, value_range
     from .core.lazy_arrays import is_lazy
     if step_size != 1:
@@ -471,7 +504,11 @@ def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chu
     if known is None and level is not None:
         known = (-np.inf, np.inf)  # not scanned for a range: boxes the level misses give no surface
     level = validation.as_level(level, known or value_range(source, chunks))
-    return marching_cubes_chunked(source, level, spacing, descent, chunks, backend=backend)
+    mesh = marching_cubes_chunked(source, level, spacing, descent, chunks, backend=backend)
+    if not skimage:
+        return mesh
+    from .cpu.skimage_values import skimage_values
+    return (*mesh[:3], skimage_values(source, mesh[0], level, spacing))
 
 
 class _ExtractorKind(type):
@@ -529,7 +566,7 @@ class Extractor(metaclass=_ExtractorKind):
     Notes
     -----
     `extract(level)` returns (vertices, triangles); `read_mesh()` returns (verts, faces, normals,
-    values) as `marching_cubes` does; `release()` or leaving a ``with`` block frees the volume and
+    values) as `outward_marching_cubes` does; `release()` or leaving a ``with`` block frees the volume and
     the mesh.  The CPU extractor measures each 32-sample row's value range on the first change of
     level, so that later levels read only the rows they cut (the GPU skips bricks the same way).
 
@@ -545,7 +582,7 @@ class Extractor(metaclass=_ExtractorKind):
     ...     second = extractor.extract(0.25)           # a new level: the volume stays resident
     >>> counts == (len(verts), len(faces)), second[1] > counts[1]
     (True, True)
-    >>> bool(np.array_equal(faces, isoscope.marching_cubes(ball, 0.5, backend="numpy")[1]))
+    >>> bool(np.array_equal(faces, isoscope.api.outward_marching_cubes(ball, 0.5, backend="numpy")[1]))
     True
     """
 

@@ -40,9 +40,10 @@ def isosurface(volume, level=None, *, spacing=None, affine=None, gradient_direct
 
     Notes
     -----
-    The vertices and faces are those `isoscope.marching_cubes` returns (moved into world coordinates, the
-    winding reversed where the affine mirrors, so triangles stay outward); trimesh does not merge or
-    process them (``process=False``), so vertex *i* is marching_cubes' vertex *i*.
+    The vertices and faces are those `isoscope.api.outward_marching_cubes` returns (marching_cubes' vertices,
+    wound outward; moved into world coordinates, the winding reversed where the affine mirrors, so triangles
+    stay outward); trimesh does not merge or process them (``process=False``), so vertex *i* is
+    marching_cubes' vertex *i*.
 
     References
     ----------
@@ -80,8 +81,8 @@ def isosurface(volume, level=None, *, spacing=None, affine=None, gradient_direct
         verts, faces, normals = (np.concatenate(p) for p in zip(*parts))
         return trimesh.Trimesh(verts, faces, vertex_normals=normals, vertex_colors=np.concatenate(colors),
                                process=False)
-    from .api import marching_cubes, marching_tetrahedra
-    extract = marching_tetrahedra if tetrahedra else marching_cubes
+    from .api import marching_tetrahedra, outward_marching_cubes
+    extract = marching_tetrahedra if tetrahedra else outward_marching_cubes
     verts, faces, normals, _ = extract(shown.checked, level if level is not None else shown.default_level,
                                        spacing=shown.spacing, gradient_direction=shown.gradient_direction,
                                        **options)

@@ -5,13 +5,14 @@ from skimage.draw import ellipsoid, ellipsoid_stats
 from support.mesh_checks import assert_closed_manifold, euler_characteristic, signed_volume, triangle_areas
 
 import isoscope
+from isoscope.api import outward_marching_cubes
 
 
 @pytest.mark.parametrize("backend", ["cpu", "gpu"])
 def test_sphere_area_volume_and_outward_normals(sphere_sdf, backend):
     volume, radius, voxel = sphere_sdf
-    verts, faces, normals, _ = isoscope.marching_cubes(volume, 0.0, spacing=(voxel,) * 3,
-                                                   gradient_direction="ascent", backend=backend)
+    verts, faces, normals, _ = outward_marching_cubes(volume, 0.0, spacing=(voxel,) * 3,
+                                                      gradient_direction="ascent", backend=backend)
     assert_closed_manifold(faces)
     assert euler_characteristic(verts, faces) == 2
     area = triangle_areas(verts, faces).sum()

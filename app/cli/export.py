@@ -63,7 +63,7 @@ def _extract_for_export(volume, iso, args):
 def _whole(volume, iso, args, closed: bool):
     """The whole volume's mesh in one extraction; `closed`: of the volume padded on the outside of the level,
     so capped where it leaves the volume."""
-    from .. import marching_cubes, marching_tetrahedra
+    from ..api import marching_tetrahedra, outward_marching_cubes
     data, level = volume.checked, iso
     if closed:
         from ..core.closing import padded_for_closing
@@ -75,7 +75,7 @@ def _whole(volume, iso, args, closed: bool):
     if args.tetrahedra:
         verts, faces, normals, values = marching_tetrahedra(data, level, **options)
     else:
-        verts, faces, normals, values = marching_cubes(data, level, sharp_features=args.sharp, **options)
+        verts, faces, normals, values = outward_marching_cubes(data, level, sharp_features=args.sharp, **options)
     if closed:
         from ..core.closing import unpad
         verts = unpad(verts, volume.spacing)

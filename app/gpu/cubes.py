@@ -69,17 +69,18 @@ class Extractor(SurfaceExtractor):
     Notes
     -----
     `extract(level)` runs the passes and returns the counts (the mesh stays on the GPU);
-    `read_mesh()` reads it back as isoscope.marching_cubes returns it; `reload(volume)` replaces
+    `read_mesh()` reads it back as isoscope.api.outward_marching_cubes returns it; `reload(volume)` replaces
     the volume in place where it `fits`.  Construction is all or nothing: every size limit is
     checked before anything is allocated, and whatever was allocated is released if a later step
     fails.  `release()` (or leaving a ``with`` block) frees every GL object it made, its resident
     volume too; a `TetraExtractor` or `Smoother` made on it is released first.  The mesh equals
-    ``isoscope.marching_cubes(volume, level, backend="cpu")`` bit for bit in faces.
+    ``outward_marching_cubes(volume, level, backend="cpu")`` bit for bit in faces.
 
     Examples
     --------
     >>> import numpy as np
-    >>> from isoscope import Extractor, marching_cubes
+    >>> from isoscope import Extractor
+    >>> from isoscope.api import outward_marching_cubes
     >>> x, y, z = np.mgrid[-1:1:24j, -1:1:24j, -1:1:24j]
     >>> ball = (1 - np.sqrt(x * x + y * y + z * z)).astype(np.float32)
     >>> with Extractor(ball) as extractor:
@@ -90,7 +91,7 @@ class Extractor(SurfaceExtractor):
     True
     >>> second[1] > counts[1]                           # the larger sphere has more triangles
     True
-    >>> bool(np.array_equal(faces, marching_cubes(ball, 0.5, backend="cpu")[1]))
+    >>> bool(np.array_equal(faces, outward_marching_cubes(ball, 0.5, backend="cpu")[1]))
     True
     """
 

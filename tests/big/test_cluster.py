@@ -74,13 +74,13 @@ def scheduler():
 
 
 def test_scheduler_address_progress_and_a_dying_worker(noise_zarr, scheduler, gl_ctx):
-    import isoscope as api
+    from isoscope.api import outward_marching_cubes
     _, field = noise_zarr
     source = zarr.open(str(noise_zarr[0] / "v.zarr"), mode="r")
     seen = []
     mesh = marching_cubes_on_cluster(source, 0.0, (1.0, 1.0, 1.0), True, (15, 15, 15), scheduler=scheduler,
                                      progress=lambda fraction, message: seen.append(fraction))
-    for got, expected in zip(mesh, api.marching_cubes(field, 0.0, backend="gpu")):
+    for got, expected in zip(mesh, outward_marching_cubes(field, 0.0, backend="gpu")):
         np.testing.assert_array_equal(got, expected)
     assert seen == sorted(seen) and seen[-1] == 1.0 and len(seen) == 3 * 3 * 4
     with pytest.raises(ClusterError, match="a dask worker failed on a chunk.*KilledWorker"):

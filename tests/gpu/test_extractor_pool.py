@@ -8,6 +8,7 @@ from conftest import grid
 from support.mesh_checks import assert_same_mesh
 
 import isoscope
+from isoscope.api import outward_marching_cubes
 from isoscope.gpu import pool as extractor_pool
 from isoscope.gpu.cubes import Extractor
 from isoscope.validation import check_volume
@@ -97,7 +98,7 @@ def test_a_call_while_the_kept_one_is_in_use_gets_its_own(gl_ctx):
     with extractor_pool.pooled_extractor(checked, (1, 1, 1), "descent") as outer:
         outer.extract(0.0)
         inner = isoscope.marching_cubes(ball(24, 0.7), 0.0, backend="gpu")  # the outer one is busy
-        assert_same_mesh(outer.read_mesh(), isoscope.marching_cubes(ball(24, 0.5), 0.0, backend="cpu"))
+        assert_same_mesh(outer.read_mesh(), outward_marching_cubes(ball(24, 0.5), 0.0, backend="cpu"))
     assert_same_mesh(inner, isoscope.marching_cubes(ball(24, 0.7), 0.0, backend="cpu"))
 
 
@@ -109,14 +110,14 @@ def test_reload_refuses_a_volume_that_does_not_fit_and_keeps_the_old_one(gl_ctx)
         with pytest.raises(ValueError, match="does not fit"):
             extractor.reload(ball(21, 0.3))
         extractor.extract(0.0)
-        assert_same_mesh(extractor.read_mesh(), isoscope.marching_cubes(volume, 0.0, backend="cpu"))
+        assert_same_mesh(extractor.read_mesh(), outward_marching_cubes(volume, 0.0, backend="cpu"))
         # float64 samples go up as float32, as the first volume did: they fit
         wider = ball(20, 0.62, dtype=np.float64)
         extractor.reload(wider, spacing=(2.0, 1.0, 1.0))
         assert extractor.level is None and extractor.value_range == (float(wider.min()), float(wider.max()))
         extractor.extract(0.0)
         assert_same_mesh(extractor.read_mesh(),
-                         isoscope.marching_cubes(wider.astype(np.float32), 0.0, spacing=(2, 1, 1), backend="cpu"))
+                         outward_marching_cubes(wider.astype(np.float32), 0.0, spacing=(2, 1, 1), backend="cpu"))
 
 
 # -- values scanned on upload (check_volume(scan_values=False), ResidentVolume._value_range) ----------------

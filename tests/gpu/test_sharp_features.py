@@ -8,7 +8,7 @@ from support.command import assert_one_line_error, isoscope
 from support.mesh_checks import assert_closed_manifold, edge_use_counts, signed_volume, triangle_areas
 from support.sdf_boxes import Box, distance_to_mesh, grid_points, rotation
 
-import isoscope as iso
+from isoscope.api import outward_marching_cubes
 from isoscope.cpu.sharp.eno import edge_of_vertex
 from isoscope.cpu.sharp.features import check_feature_angle, sharpen_extracted
 from isoscope.cpu.sharp.normals import crisp_normals
@@ -35,8 +35,8 @@ def on_surface(boxes, points):
 def scene(request):
     boxes = SCENES[request.param]
     volume = union_sdf(boxes, grid_points(N)).astype(np.float32)
-    plain = iso.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu")
-    sharp = iso.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu", sharp_features=30)
+    plain = outward_marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu")
+    sharp = outward_marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu", sharp_features=30)
     edges = on_surface(boxes, np.concatenate([b.edge_points() for b in boxes]))
     corners = on_surface(boxes, np.concatenate([b.corners() for b in boxes]))
     return dict(boxes=boxes, volume=volume, plain=plain, sharp=sharp, edges=edges, corners=corners,
@@ -103,7 +103,8 @@ def test_edges_run_straight_out_of_a_corner_that_neighbouring_cells_share(name):
     # edge kinked through it: 0.323 cells off the rotated box's edge next to a corner, 0.095 the box's.
     boxes = SCENES[name]
     volume = union_sdf(boxes, grid_points(N)).astype(np.float32)
-    verts, faces = iso.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu", sharp_features=30)[:2]
+    verts, faces = outward_marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu",
+                                          sharp_features=30)[:2]
     corners = on_surface(boxes, np.concatenate([b.corners() for b in boxes]))
     edges = on_surface(boxes, np.concatenate([b.edge_points() for b in boxes]))
     near = edges[np.linalg.norm(edges[:, None] - corners[None], axis=-1).min(axis=1) < 1.0]
@@ -120,8 +121,9 @@ def test_a_union_whose_sample_planes_include_opposite_faces_is_sharpened():
              Box([10.5648, 10.163, 15.7317], [2.1064, 3.749, 3.9398]),
              Box([12.1445, 15.1251, 12.0133], [5.1384, 3.2624, 4.8213], rotation(3.0646, 3.0551, 2.4056))]
     volume = union_sdf(boxes, grid_points(27)).astype(np.float32)
-    plain = iso.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu")
-    verts, faces = iso.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu", sharp_features=30)[:2]
+    plain = outward_marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu")
+    verts, faces = outward_marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu",
+                                          sharp_features=30)[:2]
     assert len(verts) > len(plain[0])
     assert_closed_manifold(faces)
     assert np.array_equal(np.unique(faces), np.arange(len(verts)))
@@ -154,8 +156,8 @@ def test_random_boxes_give_a_closed_mesh_without_flat_or_unused_pieces(seed):
     # as folds: the next candidate point is taken) and where corners' cells surround a grid edge (its
     # vertex, inside the joined patch, had no face: now it splits a fan triangle).
     volume, spacing = random_boxes(seed)
-    plain = iso.marching_cubes(volume, 0.0, spacing=spacing, gradient_direction="ascent", backend="cpu")
-    verts, faces = iso.marching_cubes(volume, 0.0, spacing=spacing, gradient_direction="ascent", backend="cpu",
+    plain = outward_marching_cubes(volume, 0.0, spacing=spacing, gradient_direction="ascent", backend="cpu")
+    verts, faces = outward_marching_cubes(volume, 0.0, spacing=spacing, gradient_direction="ascent", backend="cpu",
                                       sharp_features=30)[:2]
     assert len(verts) > len(plain[0])
     assert_closed_manifold(faces)
@@ -170,7 +172,7 @@ def test_no_feature_vertex_spikes_out_of_the_rotated_box():
     # point on the cell's own edge line, and a solver point far from the sample planes' exact one is none.
     boxes = SCENES["rotated box"]
     volume = union_sdf(boxes, grid_points(N)).astype(np.float32)
-    verts = iso.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu", sharp_features=30)[0]
+    verts = outward_marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu", sharp_features=30)[0]
     assert np.abs(union_sdf(boxes, verts.astype(np.float64))).max() <= 0.3  # plain MC's vertices: up to 0.19
 
 
@@ -237,8 +239,8 @@ def test_vertices_next_to_a_kink_move_onto_the_true_surface(scene, request):
 def test_a_sphere_gives_exactly_the_plain_mesh():
     points = grid_points(32)
     volume = (np.linalg.norm(points - 15.7, axis=-1) - 10.5).astype(np.float32)
-    plain = iso.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu")
-    sharp = iso.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu", sharp_features=30)
+    plain = outward_marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu")
+    sharp = outward_marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu", sharp_features=30)
     for a, b in zip(plain, sharp):
         np.testing.assert_array_equal(a, b)
 
@@ -247,9 +249,9 @@ def test_gpu_mesh_matches_the_numpy_reference(gl_ctx):
     boxes = SCENES["rotated box"]
     volume = (-union_sdf(boxes, grid_points(N))).astype(np.float32)  # density-like: inside above the level
     spacing = (1.0, 0.8, 1.3)
-    cpu = iso.marching_cubes(volume, 0.0, spacing=spacing, backend="cpu", sharp_features=40)
-    gpu = iso.marching_cubes(volume, 0.0, spacing=spacing, backend="gpu", sharp_features=40)
-    assert len(cpu[0]) > len(iso.marching_cubes(volume, 0.0, spacing=spacing, backend="cpu")[0])
+    cpu = outward_marching_cubes(volume, 0.0, spacing=spacing, backend="cpu", sharp_features=40)
+    gpu = outward_marching_cubes(volume, 0.0, spacing=spacing, backend="gpu", sharp_features=40)
+    assert len(cpu[0]) > len(outward_marching_cubes(volume, 0.0, spacing=spacing, backend="cpu")[0])
     np.testing.assert_array_equal(gpu[1], cpu[1])
     for a, b in zip(gpu[::2], cpu[::2]):
         np.testing.assert_allclose(a, b, atol=1e-5)
@@ -277,7 +279,7 @@ def test_a_mesh_too_large_for_one_storage_block_leaves_the_feature_passes_to_num
         assert ex.n_vertices * 32 > 2 * (16 << 10)  # several blocks' worth
         verts, faces, normals, values, n_plain = sharp_mesh_of(ex, volume, 30.0)
     assert bound and max(bound) <= 16 << 10, f"a {max(bound)}-byte storage block was bound"
-    expected = sharpen_extracted(iso.marching_cubes(volume, 0.0, backend="cpu"), volume, (1.0, 1.0, 1.0), True, 30)
+    expected = sharpen_extracted(outward_marching_cubes(volume, 0.0, backend="cpu"), volume, (1.0, 1.0, 1.0), True, 30)
     assert len(verts) > n_plain  # features were found
     np.testing.assert_array_equal(faces, expected[1])
     np.testing.assert_allclose(verts, expected[0], atol=1e-5)
@@ -286,7 +288,7 @@ def test_a_mesh_too_large_for_one_storage_block_leaves_the_feature_passes_to_num
 @pytest.mark.parametrize("angle", [0, 180, -10, 200, float("nan"), "wide"])
 def test_feature_angle_outside_the_open_range_is_refused_in_one_line(angle):
     with pytest.raises(ValueError) as info:
-        iso.marching_cubes(np.zeros((3, 3, 3), np.float32) + np.arange(3), 1.0, sharp_features=angle)
+        outward_marching_cubes(np.zeros((3, 3, 3), np.float32) + np.arange(3), 1.0, sharp_features=angle)
     assert "\n" not in str(info.value) and "between 0 and 180" in str(info.value)
     assert check_feature_angle(None) is None and check_feature_angle(30) == 30.0
 
@@ -388,7 +390,7 @@ def test_viewer_mesh_without_features_is_the_extractors_own(gl_ctx):
                     ex.extract(level)
                     shown.take(ex, volume, 30)
                     assert (shown.mesh.vertex_buffer is ex.vertex_buffer) == (name == "sphere")
-                    cpu = iso.marching_cubes(volume, level, sharp_features=30, backend="cpu")
+                    cpu = outward_marching_cubes(volume, level, sharp_features=30, backend="cpu")
                     np.testing.assert_array_equal(shown.read_mesh()[1], cpu[1])
                     assert shown.n_vertices == len(cpu[0])
             finally:
@@ -507,8 +509,8 @@ def test_a_quantised_scan_never_turns_a_plain_vertex_normal_inside_out(size, sig
     # point into the object, and the faces around it were then shaded from behind (5-12 vertices here,
     # 5,400 on the MNI T1).  No side of a feature turns more than 90 degrees from the blend of both.
     scan, level = _quantised_scan(size, sigma)
-    plain = iso.marching_cubes(scan, level, backend="cpu")
-    sharp = iso.marching_cubes(scan, level, backend="cpu", sharp_features=30)
+    plain = outward_marching_cubes(scan, level, backend="cpu")
+    sharp = outward_marching_cubes(scan, level, backend="cpu", sharp_features=30)
     n_plain = len(plain[0])
     assert len(sharp[0]) - n_plain > 1000
     turned = np.einsum("ij,ij->i", sharp[2][:n_plain].astype(np.float64), plain[2].astype(np.float64))
@@ -521,7 +523,7 @@ def test_the_drawn_sharp_mesh_shades_no_triangle_from_behind(size, sigma):
     # crisp_normals (what the viewer and `render --sharp` draw): every corner of every triangle has a
     # normal within 90 degrees of the triangle's own, else the triangle renders dark from the front.
     scan, level = _quantised_scan(size, sigma)
-    verts, faces, normals, values, n_plain = sharpen_extracted(iso.marching_cubes(scan, level, backend="cpu"),
+    verts, faces, normals, values, n_plain = sharpen_extracted(outward_marching_cubes(scan, level, backend="cpu"),
                                                                 scan, (1.0, 1.0, 1.0), True, 30)
     drawn_verts, drawn_faces, drawn_normals, _ = crisp_normals(verts, faces, normals, values, n_plain)
     assert (faces >= n_plain).any(axis=1).sum() > 1000
@@ -539,8 +541,8 @@ def test_a_quantised_scan_keeps_its_fans_from_turning_over(size, sigma):
     # fan to a point beyond its patch's loop turns triangles over (drawn as dark blotches): the point
     # must retreat, or the patch stay plain.  Once ~430-530 such faces here, against 3-12 in plain MC.
     scan, level = _quantised_scan(size, sigma)
-    plain = iso.marching_cubes(scan, level, backend="cpu")
-    sharp = iso.marching_cubes(scan, level, backend="cpu", sharp_features=30)
+    plain = outward_marching_cubes(scan, level, backend="cpu")
+    sharp = outward_marching_cubes(scan, level, backend="cpu", sharp_features=30)
     n_feature = len(sharp[0]) - len(plain[0])
     assert n_feature > 1000  # the test means something: many feature vertices
     assert _turned_over(*sharp[:3]) <= _turned_over(*plain[:3]) + 0.005 * n_feature

@@ -139,7 +139,7 @@ def test_plane_vertices_lie_on_the_plane():
 def test_tetrahedra_have_no_ambiguity_so_cubes_and_tetrahedra_differ_only_in_resolution():
     """On a smooth sphere the two meshes enclose the same volume to well within a voxel's worth."""
     volume = sphere(48)
-    cubes = isoscope.marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu")
+    cubes = isoscope.api.outward_marching_cubes(volume, 0.0, gradient_direction="ascent", backend="cpu")
     tetra = isoscope.marching_tetrahedra(volume, 0.0, gradient_direction="ascent", backend="numpy")
     assert len(tetra[1]) > 1.5 * len(cubes[1])
     assert signed_volume(tetra[0], tetra[1]) == pytest.approx(signed_volume(cubes[0], cubes[1]), rel=0.01)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from support.mesh_checks import assert_closed_manifold, read_ply, signed_volume
 
-from isoscope import marching_cubes
+from isoscope.api import outward_marching_cubes
 from isoscope.io.export import FORMATS, write_mesh
 
 
@@ -21,8 +21,8 @@ def sphere_mesh():
     axis = np.linspace(-1, 1, n)
     x, y, z = np.meshgrid(axis, axis, axis, indexing="ij")
     field = (np.sqrt(x * x + y * y + z * z) - 0.7).astype(np.float32)
-    verts, faces, normals, _ = marching_cubes(field, 0.0, spacing=(0.5, 1, 2), gradient_direction="ascent",
-                                              backend="cpu")
+    verts, faces, normals, _ = outward_marching_cubes(field, 0.0, spacing=(0.5, 1, 2), gradient_direction="ascent",
+                                                      backend="cpu")
     return verts, faces, normals
 
 

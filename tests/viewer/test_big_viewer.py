@@ -72,7 +72,7 @@ def test_the_full_resolution_export_runs_in_the_background_and_matches_the_api(v
     assert state.exporting is None and state.error is None and "wrote" in state.message
     assert frames > 1
     mesh = trimesh.load(out, process=False)
-    expected = isoscope.marching_cubes(np.load(big_npy), 0.3, gradient_direction=direction)
+    expected = isoscope.api.outward_marching_cubes(np.load(big_npy), 0.3, gradient_direction=direction)
     assert len(mesh.faces) == len(expected[1]) and len(mesh.vertices) == len(expected[0])
     np.testing.assert_array_equal(mesh.faces, expected[1])   # the same winding: the same side out
 

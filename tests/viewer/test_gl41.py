@@ -95,6 +95,7 @@ def test_render_labels_on_41(tmp_path):
 SCRIPT = textwrap.dedent("""
     import numpy as np
     import isoscope
+    from isoscope.api import outward_marching_cubes
     from isoscope.gpu.context import current_or_standalone, DRAWING_GL, gl_available
     from isoscope.viewer.gfx.cpu_surface import CpuSurface
     from isoscope.viewer.ui.headless import HeadlessViewer
@@ -104,7 +105,7 @@ SCRIPT = textwrap.dedent("""
     assert ctx.version_code == 410, ctx.version_code
     assert not gl_available()          # backend="auto" picks the CPU
     volume = open_volume("sphere", resolution=32)
-    verts, faces, _, _ = isoscope.marching_cubes(volume.data, 0.0, spacing=volume.spacing, gradient_direction="ascent")
+    verts, faces, _, _ = outward_marching_cubes(volume.data, 0.0, spacing=volume.spacing, gradient_direction="ascent")
     assert len(faces) > 0
 
     viewer = HeadlessViewer((160, 120))
@@ -131,8 +132,8 @@ SCRIPT = textwrap.dedent("""
     viewer.show(box)
     viewer.update()                        # the frame that follows the mesh options
     scene = viewer.scene
-    expected = isoscope.marching_cubes(box.data, box.default_level, spacing=box.spacing,
-                                       gradient_direction=box.gradient_direction, sharp_features=30, backend="cpu")
+    expected = outward_marching_cubes(box.data, box.default_level, spacing=box.spacing,
+                                      gradient_direction=box.gradient_direction, sharp_features=30, backend="cpu")
     got = scene.surface.shown.read_mesh()
     assert np.array_equal(got[1], expected[1]) and np.allclose(got[0], expected[0], atol=1e-5)
     from PIL import Image

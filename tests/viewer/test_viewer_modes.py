@@ -11,6 +11,7 @@ from scipy.ndimage import map_coordinates
 from support.command import assert_one_line_error, isoscope
 
 import isoscope as api
+from isoscope.api import outward_marching_cubes
 from isoscope.options import MeshOptionsError
 from isoscope.viewer.model.errors import ViewerError
 from isoscope.viewer.ui.headless import HeadlessViewer
@@ -197,7 +198,7 @@ def test_a_feature_step_stops_when_asked(gl_ctx):
 
     from isoscope.cpu.sharp.features import Stopped, sharpen, signed_field
     volume = open_volume("box", resolution=24)
-    mesh = api.marching_cubes(volume.checked, volume.default_level, gradient_direction=volume.gradient_direction)
+    mesh = outward_marching_cubes(volume.checked, volume.default_level, gradient_direction=volume.gradient_direction)
     field = signed_field(volume.data, volume.gradient_direction == "descent")
     stop = threading.Event()
     assert len(sharpen(mesh, field, (1, 1, 1), 30, stop=stop)[0]) > len(mesh[0])  # not set: it runs

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from support.mesh_checks import read_ply
 
-from isoscope.api import marching_cubes
+from isoscope.api import outward_marching_cubes
 from isoscope.volumes import VolumeError, open_volume
 
 
@@ -21,8 +21,8 @@ def sdf_file(tmp_path):
 
 
 def outward_fraction(volume):
-    verts, _, normals, _ = marching_cubes(volume.data, 0.0, gradient_direction=volume.gradient_direction,
-                                          backend="cpu")
+    verts, _, normals, _ = outward_marching_cubes(volume.data, 0.0, gradient_direction=volume.gradient_direction,
+                                                  backend="cpu")
     radial = verts - verts.mean(axis=0)
     return float((np.einsum("ij,ij->i", normals, radial) > 0).mean())
 
