@@ -153,6 +153,9 @@ def test_the_probe_at_a_sphere_s_centre_is_on_the_sphere(sphere_viewer, picker):
     assert probe.voxel == tuple(int(v) for v in np.rint(point / np.asarray(volume.spacing)))
     assert probe.value == volume.data[probe.voxel]
     assert abs(probe.value) < 1.5   # a sample next to the level 0
+    # the mark drawn for a picked point lands back on the pixel it was picked at
+    from isoscope.viewer.gfx.picking import project
+    assert project(sphere_viewer.camera, viewport, probe.point) == pytest.approx((SIZE[0] // 2, SIZE[1] // 2), abs=0.01)
     # the corner of the picture shows the background: nothing there
     assert picker.probe(sphere_viewer.scene, sphere_viewer.camera, viewport, (1, 1)) is None
 
@@ -297,5 +300,6 @@ def _ctrl_clicks(x_display):
             assert abs(np.linalg.norm(picked - centre) - RADIUS) < 1.0
         assert 2.0 < measurements.distance < 2 * RADIUS
         assert measurements.probe.on == "surface"
+        assert len(measurements.points) == 2 and measurements.points[1] is not None
     finally:
         window.close()

@@ -57,6 +57,16 @@ def unproject(camera, viewport, pixel, depth: float) -> np.ndarray:
     return point[:3] / point[3]
 
 
+def project(camera, viewport, point) -> tuple[float, float] | None:
+    """The framebuffer pixel (x right, y up) where scene `point` is drawn, or None behind the camera."""
+    view, projection = matrices(camera, viewport)
+    clip = np.append(np.asarray(point, np.float64), 1.0) @ (view.astype(np.float64) @ projection.astype(np.float64))
+    if clip[3] <= 0:
+        return None
+    ndc = clip[:2] / clip[3]
+    return (ndc[0] + 1.0) / 2.0 * viewport[2] - 0.5, (ndc[1] + 1.0) / 2.0 * viewport[3] - 0.5
+
+
 def ray(camera, viewport, pixel) -> tuple[np.ndarray, np.ndarray]:
     """(origin, unit direction) of the ray through `pixel`, in scene coordinates."""
     near, far = unproject(camera, viewport, pixel, 0.0), unproject(camera, viewport, pixel, 1.0)

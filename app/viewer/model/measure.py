@@ -110,7 +110,8 @@ class Measurements:
         self.error: str | None = None
         self.request_id: int | None = None  # the newest request
         self.answered_id: int | None = None  # the request `records` answer
-        self.picks: list[np.ndarray] = []
+        self.picks: list[np.ndarray] = []   # in the file's frame (mm): distances are taken here
+        self.points: list[np.ndarray | None] = []   # the same points in scene coordinates, to mark them
         self.probe = None                   # the last probe (picking.Probe), for the panel
 
     def request_of(self, state) -> MeasureRequest:
@@ -152,14 +153,16 @@ class Measurements:
         return came
 
     # --- the cursor probe's two-point distance ---------------------------------
-    def pick(self, point) -> None:
-        """Add a world point; a third starts a new pair."""
+    def pick(self, world, point=None) -> None:
+        """Add a point (`world`: the file's frame; `point`: scene coordinates, to mark it); a third starts a
+        new pair."""
         if len(self.picks) >= MAX_PICKS:
-            self.picks = []
-        self.picks.append(np.asarray(point, np.float64).reshape(3))
+            self.clear_picks()
+        self.picks.append(np.asarray(world, np.float64).reshape(3))
+        self.points.append(None if point is None else np.asarray(point, np.float64).reshape(3))
 
     def clear_picks(self) -> None:
-        self.picks = []
+        self.picks, self.points = [], []
 
     @property
     def distance(self) -> float | None:

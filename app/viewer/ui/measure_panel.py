@@ -19,6 +19,8 @@ from .gui import act, imgui, section, tooltip
 SCENE_FILTERS = ["Scenes", "*.json", "All files", "*"]
 NOTE_COLOR = imgui.ImVec4(0.60, 0.85, 0.60, 1.0)
 ERROR_COLOR = imgui.ImVec4(1.0, 0.45, 0.40, 1.0)
+MARK_COLOR = imgui.ImVec4(1.0, 0.85, 0.20, 1.0)   # the picked points and their line, over the scene
+MARK_RADIUS = 5.0
 
 
 class MeasureSection:
@@ -108,6 +110,7 @@ class MeasureSection:
     def pick(self, scene, camera, covered_left: float) -> None:
         """The probe under imgui's mouse: on ctrl+click (a point for the distance too), and as it moves with
         "probe under the cursor"; not over the panel.  `covered_left`: the panel's width, imgui units."""
+        self.draw_marks(camera, covered_left)
         io = imgui.get_io()
         if io.want_capture_mouse or not imgui.is_mouse_pos_valid():
             return
@@ -118,7 +121,30 @@ class MeasureSection:
         self._last_cursor = cursor
         probe = self.probe_at(scene, camera, cursor, covered_left)
         if clicked and probe is not None:
-            self.measurements.pick(probe.world)
+            self.measurements.pick(probe.world, probe.point)
+
+    def draw_marks(self, camera, covered_left: float = 0.0) -> None:
+        """The picked points over the scene (under the panel's windows), joined by a line with their distance."""
+        from ..gfx.picking import project
+        io = imgui.get_io()
+        scale_x, scale_y = io.display_framebuffer_scale.x, io.display_framebuffer_scale.y
+        width, height = int(io.display_size.x * scale_x), int(io.display_size.y * scale_y)
+        viewport = (0, 0, width, height, int(covered_left * scale_x))
+        marks = []
+        for point in self.measurements.points:
+            pixel = project(camera, viewport, point) if point is not None else None
+            if pixel is not None:
+                marks.append(imgui.ImVec2(pixel[0] / scale_x, (height - 1 - pixel[1]) / scale_y))
+        draw_list = imgui.get_background_draw_list()
+        colour = imgui.get_color_u32(MARK_COLOR)
+        radius = MARK_RADIUS * imgui.get_style().font_scale_dpi
+        for mark in marks:
+            draw_list.add_circle(mark, radius, colour, 0, 2.0)
+        distance = self.measurements.distance
+        if len(marks) == 2 and distance is not None:
+            draw_list.add_line(marks[0], marks[1], colour, 2.0)
+            middle = imgui.ImVec2((marks[0].x + marks[1].x) / 2 + radius, (marks[0].y + marks[1].y) / 2 + radius)
+            draw_list.add_text(middle, colour, f"{distance:.4g} mm")
 
     def probe_at(self, scene, camera, cursor, covered_left: float = 0.0):
         """The probe at `cursor` (imgui units, from the top left), kept for the panel; None off the scene."""
