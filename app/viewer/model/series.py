@@ -95,6 +95,17 @@ def read_series_range(spec: str, options: dict, count: int, progress=None) -> Se
     return SeriesRange((float(low), float(high)), np.log1p(counts).astype(np.float32))
 
 
+def read_ahead(volume) -> int:
+    """How many time points playback reads ahead: READ_AHEAD, fewer where they would take more than an
+    eighth of the memory available (each is held whole as the viewer shows it)."""
+    if volume is None:
+        return 1
+    from ...volumes.volume import available_memory_bytes
+    from .big_volume import VIEWER_MAX_VOXELS
+    shown_bytes = min(math.prod(volume.data.shape), VIEWER_MAX_VOXELS) * volume.data.dtype.itemsize
+    return int(max(1, min(READ_AHEAD, available_memory_bytes() // 8 // max(shown_bytes, 1))))
+
+
 class TimeAxis:
     """The series on show and where it is in time; empty (`count` 1) for a 3-D volume."""
 
@@ -112,6 +123,7 @@ class TimeAxis:
         self.index = self.shown = int(options.pop("time", None) or 0)   # wanted, and on show
         self.options = options
         self.shape = tuple(volume.data.shape) if volume is not None else None
+        self._ahead = read_ahead(volume)
         self.playing, self.direction, self._clock = False, 1, 0.0
         self.series_range: SeriesRange | None = None
         self.range_changed = False                # the slider's range is to be set again (take_range)
@@ -195,7 +207,7 @@ class TimeAxis:
     def upcoming(self) -> list[int]:
         """The time points playback shows next, in order: READ_AHEAD of them (while paused, the next)."""
         index, direction, points = self.index, self.direction, []
-        for _ in range(min(READ_AHEAD if self.playing else 1, self.count - 1)):
+        for _ in range(min(self._ahead if self.playing else 1, self.count - 1)):
             index, direction = self._after(index, direction)
             points.append(index)
         return points

@@ -20,6 +20,7 @@ from .gui import act, imgui, tooltip
 
 RECORD_FPS = 30.0          # a recording's frame rate: each drawn frame is written as often as wall time asks
 RECORD_QUEUE = 8           # frames waiting for the encoder at most (the frame loop waits beyond)
+MAX_REPEAT = 30            # a frame written at most this often: a window left minimised is a second's gap
 
 
 def next_movie_path(directory, stem: str = "isoscope") -> Path:
@@ -76,6 +77,9 @@ class Recorder:
         due = int((time.perf_counter() - self._started) * RECORD_FPS) + 1 - self.frames
         if due <= 0:
             return
+        if due > MAX_REPEAT:
+            self._started += (due - MAX_REPEAT) / RECORD_FPS
+            due = MAX_REPEAT
         self._size = tuple(size)
         self._queue.put((read_rgb(framebuffer, size), due))
         self.frames += due
