@@ -186,9 +186,14 @@ def test_the_window_steps_with_the_bracket_keys_and_records_a_movie(x_display, s
     try:
         count = reader.count_frames()
         assert count >= 10
-        assert reader.get_data(count - 1).shape == (240, 320, 3)
+        last = reader.get_data(count - 1).astype(int)
     finally:
         reader.close()
+    assert last.shape == (240, 320, 3)
+    # The panel (its title bar at the top left, from (8, 8)) is left out: the scene's background is there.
+    from isoscope.viewer.model.style import SurfaceStyle
+    background = 255 * np.array(SurfaceStyle().background)
+    assert np.abs(last[10:20, 10:60] - background).max() <= 12   # within H.264's error
     assert not list(tmp_path.glob(".record.mp4.*"))   # no partial file left
 
 
