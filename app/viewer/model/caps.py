@@ -58,12 +58,10 @@ def slab_samples(data, ranges, far: np.float32) -> np.ndarray:
 
 
 def extractor(cells: str):
-    """The CPU extraction isoscope draws, exports and measures: outward-wound (`api.outward_marching_cubes`
-    where the public `marching_cubes` is scikit-image's drop-in), or marching tetrahedra."""
-    from ... import api
-    if cells == "tetrahedra":
-        return api.marching_tetrahedra
-    return getattr(api, "outward_marching_cubes", api.marching_cubes)
+    """The extraction isoscope draws, exports and measures: outward-wound cubes (the public `marching_cubes`
+    is scikit-image's drop-in, wound the other way), or marching tetrahedra."""
+    from ...api import marching_tetrahedra, outward_marching_cubes
+    return marching_tetrahedra if cells == "tetrahedra" else outward_marching_cubes
 
 
 def caps(data, level: float, spacing=(1.0, 1.0, 1.0), gradient_direction: str = "descent", value_range=None,
