@@ -83,7 +83,7 @@ def test_a_newer_request_makes_the_older_answer_stale():
 
 def test_labels_measure_as_the_command_s_labels(tmp_path):
     labels = np.zeros((20, 18, 16), np.uint8)
-    labels[3:9, 4:12, 2:10] = 1
+    labels[0:9, 4:12, 2:10] = 1      # touches the volume's x = 0 face
     labels[10:17, 5:15, 6:14] = 2
     path = tmp_path / "seg.npy"
     np.save(path, labels)
