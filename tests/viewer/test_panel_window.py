@@ -10,7 +10,7 @@ import os
 import shutil
 
 import pytest
-from support.x_window import frames_until, run_spawned
+from support.x_window import frames_until, press_key, run_spawned
 
 pytestmark = pytest.mark.skipif(shutil.which("Xvfb") is None or ctypes.util.find_library("Xtst") is None,
                                 reason="Xvfb and libXtst are needed for the window test")
@@ -49,7 +49,13 @@ def follow_and_remember(x_display, tmp_path):
         glfw.set_window_size(window.window, 960, 760)
         assert frames_until(window, lambda: window.panel.box[3] > short + 250), "the panel did not grow"
         assert bottom(window) <= 760 - status
-        iso_top = window.panel.iso_slider_box[0][1]
+        # A screenshot's message (key s) goes to the status line: the slider stays where it was.
+        slider = window.panel.iso_slider_box
+        press_key(window, "s")
+        assert frames_until(window, lambda: window.last_screenshot is not None and window.panel.status_box)
+        assert window.panel.iso_slider_box == slider, "the message moved the iso slider"
+        assert window.panel.status_box[1] >= bottom(window)
+        iso_top = slider[0][1]
         # Fold the Volume section: its header's click.
         (left, top), (right, low) = window.panel.section_boxes["Volume"]
         pointer = Pointer(window)

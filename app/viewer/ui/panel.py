@@ -377,7 +377,7 @@ class Panel:
         self.status_box = None
         if shown is None:
             return
-        text, colour = shown
+        text, colour = " ".join(shown[0].split()), shown[1]   # one line, whatever it was given
         display = imgui.get_io().display_size
         height = self.status_height()
         padding = imgui.get_style().window_padding.x
