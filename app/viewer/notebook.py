@@ -19,10 +19,11 @@ def widget(volume, level=None, *, size=(640, 480), spacing=None, affine=None, gr
         raise ImportError("isoscope.widget needs ipywidgets and jupyter-rfb: "
                           'pip install "isoscope[notebook]"') from None
     from ..volumes.inputs import as_volume
+    from .scripting import checked_levels
     from .ui.headless import prepared_viewer
 
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
-    viewer = prepared_viewer(shown, level, (int(size[0]), int(size[1])), **options)
+    viewer = prepared_viewer(shown, checked_levels(shown, level), (int(size[0]), int(size[1])), **options)
 
     class Canvas(RemoteFrameBuffer):
         """The scene, drawn on request; pointer events move the camera as in the window."""

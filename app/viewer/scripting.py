@@ -18,6 +18,29 @@ class Viewed:
     volume: str                            # the name of the volume on show (the user may open another)
 
 
+def checked_levels(shown, level):
+    """`level` (None: the volume's own, a number, or a sequence of up to MAX_LEVELS of them) if each lies in
+    the volume's value range; else the command line's one line (`isoscope render --iso`), as a ValueError."""
+    from ..volumes import VolumeError
+    from .model.levels import MAX_LEVELS
+    several = isinstance(level, (list, tuple, np.ndarray))
+    levels = list(np.ravel(level)) if several else [level]
+    if len(levels) > MAX_LEVELS:
+        raise VolumeError(f"{len(levels)} levels given; at most {MAX_LEVELS} surfaces at once")
+    low, high = shown.value_range
+    for value in levels:
+        if value is None:
+            continue
+        try:
+            value = float(value)
+        except (TypeError, ValueError):
+            raise VolumeError(f"level {value!r} is not a number; give the iso value as a float") from None
+        if not low <= value <= high:
+            raise VolumeError(f"level {value:g} is outside {shown.name}'s value range {low:g} .. {high:g}; "
+                              "pick a value inside it")
+    return [None if value is None else float(value) for value in levels] if several else level
+
+
 def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="descent", labels=False,
          size=(1280, 800), max_frames: int | None = None) -> Viewed:
     """Open the desktop window on `volume` and block until it is closed, as ``plt.show()`` does.
@@ -57,7 +80,7 @@ def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="d
     from ..volumes.inputs import as_volume
     from .ui.window import ViewerWindow
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
-    window = ViewerWindow(shown, level, size=size)
+    window = ViewerWindow(shown, checked_levels(shown, level), size=size)
     state, camera = window.state, window.camera
     try:
         if labels:
@@ -119,12 +142,12 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     from .ui.headless import labels_pixels, prepared_viewer
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
     size = (int(size[0]), int(size[1]))
+    level = None if labels else checked_levels(shown, level)
     if labels:
         pixels = labels_pixels(shown, size, azimuth, elevation, transparent)
     else:
-        viewer = prepared_viewer(shown, list(level) if isinstance(level, (list, tuple)) else level, size, azimuth,
-                                 elevation, transparent, opacities, color_by, colormap, None, tetrahedra, smooth,
-                                 wireframe)
+        viewer = prepared_viewer(shown, level, size, azimuth, elevation, transparent, opacities, color_by, colormap,
+                                 None, tetrahedra, smooth, wireframe)
         try:
             pixels = viewer.picture(panel=panel)
         finally:
