@@ -270,3 +270,17 @@ def test_a_refusal_from_a_combo_shows_beside_the_combo(viewer):
     assert state.cells == "cubes" and "tetrahedra" in state.error
     x, y, width, height = viewer._panel.refusal_box
     assert x >= sum(viewer._panel.box[0::2]) and abs(y - (row - imgui.get_frame_height() / 2)) <= 4
+
+
+def test_a_refusal_goes_to_the_status_line_while_the_panel_is_folded(viewer):
+    from imgui_bundle import imgui
+    viewer._panel.settings.set_open(MESH_TITLE, True)
+    viewer.state.set_cells("tetrahedra")
+    settled(viewer)
+    click(viewer, centre(viewer._panel.mesh_section.sharp_box))
+    frame(viewer)
+    assert viewer._panel.refusal_box is not None
+    imgui.set_window_collapsed(PANEL_TITLE, True)   # the title bar's arrow
+    frame(viewer)
+    assert viewer._panel.box is None and viewer._panel.refusal_box is None
+    assert "tetrahedra" in viewer._panel.status(viewer.state, viewer.scene)[0]

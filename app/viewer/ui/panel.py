@@ -360,9 +360,10 @@ class Panel:
         return imgui.get_frame_height() + 2 * imgui.get_style().window_padding.y
 
     def status(self, state: ViewerState, scene) -> tuple[str, imgui.ImVec4] | None:
-        """The status line's text and colour: an error (not a refusal, shown at its control), else the
-        selected level's empty-surface hint, else the last message; None for none."""
-        if state.error and refusal(state, PANEL_TITLE) is None:
+        """The status line's text and colour: an error (not a refusal, shown at its control, unless the
+        panel is folded away), else the selected level's empty-surface hint, else the last message; None
+        for none."""
+        if state.error and (refusal(state, PANEL_TITLE) is None or self.box is None):
             return state.error, ERROR_COLOR
         if state.volume is not None and not state.labels and scene is not None and scene.surface is not None \
                 and scene.preview_step == 1 and scene.n_triangles == 0:
