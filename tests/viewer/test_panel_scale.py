@@ -32,3 +32,20 @@ def test_a_4k_render_draws_the_panel_twice_the_1080p_size(tmp_path):
     assert 300 <= width <= 360 and 14 <= height <= 24   # 1x, as before
     assert width_4k == pytest.approx(2 * width, rel=0.05)
     assert height_4k == pytest.approx(2 * height, rel=0.1)
+
+
+def test_the_panel_scales_again_on_another_monitor(gl_ctx):
+    """A window moved to a monitor of another content scale: the panel's sizes follow, and come back."""
+    from imgui_bundle import imgui
+
+    from isoscope.viewer.ui.panel import ImguiLayer
+    layer = ImguiLayer()
+    try:
+        padding = tuple(imgui.get_style().frame_padding)
+        layer.set_scale(2.0)
+        assert tuple(imgui.get_style().frame_padding) == (2 * padding[0], 2 * padding[1])
+        assert imgui.get_style().font_scale_dpi == 2.0
+        layer.set_scale(1.0)
+        assert tuple(imgui.get_style().frame_padding) == padding and imgui.get_style().font_scale_dpi == 1.0
+    finally:
+        layer.shutdown()

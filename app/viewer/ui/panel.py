@@ -89,13 +89,14 @@ class ImguiLayer:
         imgui.new_frame()
 
     def set_scale(self, scale: float) -> None:
-        """Sizes and fonts `scale` times imgui's (a monitor's content scale); once, before the first frame."""
+        """Sizes and fonts `scale` times imgui's (a monitor's content scale), between frames: again when
+        the window moves to a monitor of another scale."""
         imgui.set_current_context(self.context)
-        self.scale = float(scale)
-        if self.scale != 1.0:
-            style = imgui.get_style()
-            style.scale_all_sizes(self.scale)
-            style.font_scale_dpi = self.scale
+        style = imgui.get_style()
+        factor = float(scale) / (self.scale or 1.0)
+        if factor != 1.0:
+            style.scale_all_sizes(factor)
+        style.font_scale_dpi = self.scale = float(scale)
 
     def render(self) -> None:
         """Draw this frame's widgets into the framebuffer that is bound now."""

@@ -246,6 +246,7 @@ class ViewerWindow:
         glfw.set_cursor_pos_callback(self.window, self._on_cursor)
         glfw.set_scroll_callback(self.window, self._on_scroll)
         glfw.set_drop_callback(self.window, self._on_drop)
+        glfw.set_window_content_scale_callback(self.window, lambda window, x, y: self._scale_ui_to_monitor())
 
     def _typing_in_panel(self) -> bool:
         from .gui import imgui
