@@ -216,6 +216,12 @@ def test_a_surface_inside_an_opaque_one_is_flagged(viewer):
     state.levels.add(-0.2)
     frame(viewer)
     assert viewer._panel.levels_section.flags == {1: "hidden"}
+    text, _ = viewer._panel.status(state, viewer.scene)   # the selected level: said in the status line too
+    assert text.startswith("surface 2 (-0.200) lies inside surface 1, which is opaque")
+    viewer._panel.settings.set_open("Surfaces", False)    # and while its row is folded away
+    frame(viewer)
+    assert viewer._panel.status(state, viewer.scene)[0] == text
+    viewer._panel.settings.set_open("Surfaces", True)
     state.levels.set_opacity(0, 0.5)
     frame(viewer)
     assert viewer._panel.levels_section.flags == {}

@@ -19,7 +19,6 @@ COLORBAR_HEIGHT = 14.0
 COLORBAR_SEGMENTS = 64
 OPACITY_WIDTH = 44.0
 COMBO_WIDTH = 150.0
-MUTED = imgui.ImVec4(0.65, 0.65, 0.65, 1.0)
 FLAG_COLOR = imgui.ImVec4(0.95, 0.75, 0.35, 1.0)
 
 
@@ -27,16 +26,18 @@ class LevelsSection:
     def __init__(self):
         self.volume_text = ""   # the second volume to colour by
         self.flags: dict[int, str] = {}   # the rows flagged last frame: level index -> "empty" or "hidden"
+        self.hidden_in: dict[int, int] = {}   # a hidden level's index -> the opaque level's it lies in
 
     def draw(self, state: ViewerState, scene=None) -> None:
         """The rows; `scene` (gfx/scene.py), if given, says which levels' meshes are empty."""
-        self.flags = {}
+        self.flags, self.hidden_in = {}, {}
+        if state.volume is not None:   # also while folded: the status line tells of the selected level
+            self.flags = self.flagged(state, scene)
+            self.hidden_in = _enclosing(state, [i for i, flag in self.flags.items() if flag == "empty"])
         if not section("Surfaces") or state.volume is None:
             return
         levels = state.levels
         value_range = state.value_range
-        self.flags = self.flagged(state, scene)
-        hidden_in = _enclosing(state, [i for i, flag in self.flags.items() if flag == "empty"])
         # Fixed columns: the value and its flag never push the remove button about.
         value_width = max(imgui.calc_text_size(level_text(v, value_range)).x for v in value_range)
         flag_width = max(imgui.calc_text_size(word).x for word in ("empty", "hidden"))
@@ -69,11 +70,9 @@ class LevelsSection:
             imgui.same_line(start + value_width + imgui.get_style().item_spacing.x)
             start = imgui.get_cursor_pos_x()
             flag = self.flags.get(i)
-            imgui.text_colored(FLAG_COLOR if flag == "empty" else MUTED, flag or "")
-            if flag == "empty":
-                tooltip(empty_level_hint(level.value, value_range, state.histogram))
-            elif flag == "hidden":
-                tooltip(f"inside surface {hidden_in[i] + 1}, which is opaque: lower its opacity to see this one")
+            imgui.text_colored(FLAG_COLOR, flag or "")
+            if flag:
+                tooltip(self.flag_text(state, i))
             if len(levels) > 1:
                 imgui.same_line(start + flag_width + imgui.get_style().item_spacing.x)
                 if imgui.small_button("x"):
@@ -84,6 +83,17 @@ class LevelsSection:
             low, high = value_range
             act(state, levels.add, min(state.iso + NEW_LEVEL_STEP * (high - low), high))
         self._color_by(state)
+
+    def flag_text(self, state: ViewerState, index: int) -> str | None:
+        """What the flag of level `index` means, in a line (its tooltip, and the status line's for the
+        selected level); None where it has none."""
+        level = state.levels[index]
+        if self.flags.get(index) == "empty":
+            return empty_level_hint(level.value, state.value_range, state.histogram)
+        if self.flags.get(index) == "hidden":
+            return (f"surface {index + 1} ({level_text(level.value, state.value_range)}) lies inside surface "
+                    f"{self.hidden_in[index] + 1}, which is opaque: lower its opacity to see it")
+        return None
 
     @staticmethod
     def flagged(state: ViewerState, scene) -> dict[int, str]:

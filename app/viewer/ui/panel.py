@@ -362,13 +362,16 @@ class Panel:
 
     def status(self, state: ViewerState, scene) -> tuple[str, imgui.ImVec4] | None:
         """The status line's text and colour: an error (not a refusal, shown at its control, unless the
-        panel is folded away), else the selected level's empty-surface hint, else the last message; None
-        for none."""
+        panel is folded away), else the selected level's empty-surface hint or its hidden-surface one,
+        else the last message; None for none."""
         if state.error and (refusal(state, PANEL_TITLE) is None or self.box is None):
             return state.error, ERROR_COLOR
         if state.volume is not None and not state.labels and scene is not None and scene.surface is not None \
                 and scene.preview_step == 1 and scene.n_triangles == 0:
             return empty_level_hint(state.iso, state.value_range, state.histogram), HINT_COLOR
+        hidden = self.levels_section.hidden_in if not state.labels else {}
+        if state.levels.selected in hidden:
+            return self.levels_section.flag_text(state, state.levels.selected), HINT_COLOR
         if state.message:
             return state.message, NOTE_COLOR
         return None
