@@ -126,9 +126,10 @@ class TimeAxis:
         self._ahead = read_ahead(volume)
         self.playing, self.direction, self._clock = False, 1, 0.0
         self.series_range: SeriesRange | None = None
-        self.range_changed = False                # the slider's range is to be set again (take_range)
+        self.range_changed = False                # the slider's range is to be set again (time_step)
         self._ready: dict[int, TimePoint] = {}    # read ahead, not yet on show
         self._reading: dict[str, tuple[int, int]] = {}   # "time"/"prefetch" -> (request id, time point)
+        self._failed: set[int] = set()            # read ahead and refused: read again only when asked for
         self.jobs = Jobs()                        # a new series: the old one's reads are not wanted
         if self.active and self.fixed_range:
             self._read_range()
@@ -157,7 +158,13 @@ class TimeAxis:
         if not (float(index).is_integer() and 0 <= index < self.count):
             raise ViewerError(f"time point {index} is outside the series; it has {self.count} (0..{self.count - 1})")
         self.index = int(index)
-        if self.index != self.shown and self.index not in self._ready and not self._is_reading(self.index):
+        self._ask()
+
+    def _ask(self) -> None:
+        """Read the time point wanted unless it is read or being read; one such read at a time (a slider
+        dragged across a hundred time points reads the one it rests on, not every one it passed)."""
+        if (self.index != self.shown and self.index not in self._ready and not self._is_reading(self.index)
+                and "time" not in self._reading):
             self._read(self.index, "time")
 
     def step(self, delta: int) -> None:
@@ -225,6 +232,16 @@ class TimeAxis:
                 self._clock = min(self._clock - period, period)   # no burst of frames after a slow read
                 following, self.direction = self._after(self.index, self.direction)
                 self.go_to(following)
+        while True:
+            self._take_responses(wait)
+            self._ask()
+            self._prefetch()   # the reads ahead follow each other on the worker, not one a frame
+            if self.index != self.shown and self.index in self._ready:
+                return self._ready.pop(self.index)
+            if not (wait and self.index != self.shown and self._is_reading(self.index)):
+                return None
+
+    def _take_responses(self, wait: bool) -> None:
         for response in self.jobs.poll(READ_WAIT_S if wait else 0.0):
             if response.kind == "range":
                 self._took_range(response)
@@ -232,13 +249,12 @@ class TimeAxis:
             _, index = self._reading.pop(response.kind, (None, None))
             if response.error is None:
                 self._ready[index] = response.value
-            elif index == self.index:
-                self.playing, self.index = False, self.shown
-                raise response.error
-        self._prefetch()   # the reads ahead follow each other on the worker, not one a frame
-        if self.index != self.shown and self.index in self._ready:
-            return self._ready.pop(self.index)
-        return None
+                self._failed.discard(index)
+            else:
+                self._failed.add(index)
+                if index == self.index:
+                    self.playing, self.index = False, self.shown
+                    raise response.error
 
     def _took_range(self, response) -> None:
         if response.error is not None:
@@ -258,6 +274,8 @@ class TimeAxis:
         if "prefetch" in self._reading or not self.active:
             return
         for index in self.upcoming():
+            if index in self._failed:
+                return
             if index != self.shown and index not in self._ready and not self._is_reading(index):
                 self._read(index, "prefetch")
                 return
