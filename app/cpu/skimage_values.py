@@ -46,13 +46,13 @@ def _cell_span(c, n_cells):
 
 
 @_cached_njit(parallel=True, error_model="numpy")
-def _spreads(field, row0, n_cells, coords, level, mask, use_mask, step, out):
+def _spreads(field, row0, n_cells, verts, spacing, level, mask, use_mask, step, out):
     """out[n]: the largest spread over the cells vertex n touches (those the mask keeps); `field` holds
-    the grid's samples from row `row0` of axis 0 on, `coords` the vertices' positions in cells."""
-    for n in prange(coords.shape[0]):
-        lo0, hi0 = _cell_span(coords[n, 0], n_cells[0])
-        lo1, hi1 = _cell_span(coords[n, 1], n_cells[1])
-        lo2, hi2 = _cell_span(coords[n, 2], n_cells[2])
+    the grid's samples from row `row0` of axis 0 on, `verts / spacing` are the vertices' positions in cells."""
+    for n in prange(verts.shape[0]):
+        lo0, hi0 = _cell_span(np.float64(verts[n, 0]) / spacing[0], n_cells[0])
+        lo1, hi1 = _cell_span(np.float64(verts[n, 1]) / spacing[1], n_cells[1])
+        lo2, hi2 = _cell_span(np.float64(verts[n, 2]) / spacing[2], n_cells[2])
         best = 0.0
         for i in range(lo0, hi0 + 1):
             for j in range(lo1, hi1 + 1):
@@ -77,22 +77,22 @@ def skimage_values(field, verts, level, spacing, mask=None, step=1) -> np.ndarra
     memory map, or a zarr/dask array, read SLAB_CELLS planes at a time); `spacing`: that grid's
     (the volume's times `step`); `mask`: the volume's boolean mask (cell (i, j, k) of the grid is kept
     where it holds its far corner, ((i, j, k) + 1) * step).  Returns (N,) float32."""
-    verts = np.asarray(verts)
+    verts = np.ascontiguousarray(verts, np.float32)
     out = np.zeros(len(verts), np.float32)
     if not len(verts):
         return out
-    coords = np.ascontiguousarray(verts / np.asarray(spacing, np.float64), np.float64)
+    spacing = np.asarray(spacing, np.float64)
     n_cells = np.asarray(field.shape, np.int64) - 1
     use_mask = mask is not None
     mask = np.ones((1, 1, 1), np.bool_) if mask is None else np.ascontiguousarray(mask, np.bool_)
     level = float(level)
     if isinstance(field, np.ndarray):
         with _launch_guard():
-            _spreads(np.asarray(field), 0, n_cells, coords, level, mask, use_mask, int(step), out)
+            _spreads(np.asarray(field), 0, n_cells, verts, spacing, level, mask, use_mask, int(step), out)
         return out
     # Slabs of SLAB_CELLS cells along axis 0: a vertex belongs to the slab of the cell its coordinate
     # rounds into, and touches at most the cell before it, so each slab reads one plane more each side.
-    home = np.clip(np.floor(coords[:, 0]).astype(np.int64), 0, n_cells[0] - 1) // SLAB_CELLS
+    home = np.clip(np.floor(verts[:, 0] / spacing[0]).astype(np.int64), 0, n_cells[0] - 1) // SLAB_CELLS
     order = np.argsort(home, kind="stable")
     bounds = np.searchsorted(home[order], np.arange(home[order[-1]] + 2))
     for slab in np.flatnonzero(np.diff(bounds)):
@@ -101,7 +101,6 @@ def skimage_values(field, verts, level, spacing, mask=None, step=1) -> np.ndarra
         block = np.asarray(field[row0:min((slab + 1) * SLAB_CELLS + 2, field.shape[0])])
         part = np.zeros(len(which), np.float32)
         with _launch_guard():
-            _spreads(block, row0, n_cells, np.ascontiguousarray(coords[which]), level, mask, use_mask,
-                     int(step), part)
+            _spreads(block, row0, n_cells, verts[which], spacing, level, mask, use_mask, int(step), part)
         out[which] = part
     return out
