@@ -19,7 +19,7 @@ from fnmatch import fnmatch
 from pathlib import Path
 
 from ..model.recent import RecentFiles
-from .gui import imgui
+from .gui import imgui, tooltip
 
 LINUX_DIALOG_TOOLS = ("zenity", "kdialog", "qarma", "matedialog")
 BROWSER_TITLE = "Choose a file##isoscope browser"
@@ -279,8 +279,7 @@ class FileBrowser:
             imgui.same_line()
             if imgui.button("Open this folder"):
                 self.choose_folder()
-            if imgui.is_item_hovered():
-                imgui.set_tooltip("a DICOM series: the folder of its slices")
+            tooltip("a DICOM series: the folder of its slices")
         imgui.same_line()
         if imgui.button("Cancel"):
             self.cancel()

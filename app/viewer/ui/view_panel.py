@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from ..model.camera import VIEWS
 from ..model.state import ViewerState
-from .gui import imgui, section
+from .gui import imgui, section, tooltip
 
 VIEW_KEYS = "123456"   # in VIEWS' order; free in the window's key table (window.py `_on_char`)
 ANATOMICAL_BUTTONS = ("A", "P", "L", "R", "S", "I")
@@ -37,8 +37,7 @@ class ViewSection:
             if imgui.button(f"{label}##view{key}", imgui.ImVec2(36, 0)):
                 camera.look_from(*angles)
             self.button_boxes[key] = (tuple(imgui.get_item_rect_min()), tuple(imgui.get_item_rect_max()))
-            if imgui.is_item_hovered():
-                imgui.set_tooltip(f"view {what} (key {key})")
+            tooltip(f"view {what} (key {key})")
 
     def keys(self, camera) -> dict:
         """Characters this section answers in the window (as window.py's `_on_char` table): 1-6, the views."""
