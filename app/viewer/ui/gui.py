@@ -54,7 +54,9 @@ def act(state, change, *args) -> bool:
 
 def _where(text: str) -> Refusal | None:
     """The control last drawn, as a Refusal of `text`: a combo's choice is placed at its combo box (its
-    popup opens just under it)."""
+    popup opens just under it).  None outside a layout (no imgui context: a script acting on the state)."""
+    if imgui.get_current_context() is None:
+        return None
     window = imgui.internal.get_current_window_read()
     if window is None:
         return None
