@@ -145,11 +145,13 @@ def test_every_backend_gives_the_same_drop_in_mesh(backend):
         assert all(np.array_equal(mine, theirs) for mine, theirs in zip(got, expected))
 
 
-def test_smoothing_keeps_each_vertex_its_values():
-    """Smoothing moves the vertices but not the faces: vertex i keeps the value of its grid edge."""
+@pytest.mark.parametrize("backend", ["cpu", "gpu"])
+def test_smoothing_keeps_each_vertex_its_values(backend):
+    """Smoothing moves the vertices but not the faces: vertex i keeps the value of its grid edge (the GPU
+    smooths in place, so its plain vertices are read before)."""
     volume, level = noise()
-    plain = isoscope.marching_cubes(volume, level, backend="cpu")
-    smoothed = isoscope.marching_cubes(volume, level, backend="cpu", smooth=3)
+    plain = isoscope.marching_cubes(volume, level, backend=backend)
+    smoothed = isoscope.marching_cubes(volume, level, backend=backend, smooth=3)
     assert not np.array_equal(plain[0], smoothed[0])
     assert np.array_equal(plain[3], smoothed[3])
 
@@ -169,12 +171,13 @@ def test_a_lazy_volume_in_chunks_gives_the_whole_volumes_values():
     assert fraction == 1.0 and np.array_equal(stitched[3][mine], theirs[3][its])
 
 
-def test_a_sharp_feature_vertex_takes_its_cells_spread():
+@pytest.mark.parametrize("backend", ["cpu", "gpu"])
+def test_a_sharp_feature_vertex_takes_its_cells_spread(backend):
     """Feature vertices (Extended Marching Cubes) are no grid-edge vertices: each takes the spread of the
     cells it touches, as a plain vertex does of the cells next to its edge."""
     box = (np.abs(np.mgrid[-1:1:21j, -1:1:21j, -1:1:21j]).max(axis=0) - 0.45).astype(np.float32)
-    plain = isoscope.marching_cubes(box, 0.0, gradient_direction="ascent", backend="cpu")
-    sharp = isoscope.marching_cubes(box, 0.0, gradient_direction="ascent", backend="cpu", sharp_features=30)
+    plain = isoscope.marching_cubes(box, 0.0, gradient_direction="ascent", backend=backend)
+    sharp = isoscope.marching_cubes(box, 0.0, gradient_direction="ascent", backend=backend, sharp_features=30)
     n_plain = len(plain[0])
     assert np.array_equal(sharp[3][:n_plain], plain[3])
     for vertex, value in zip(sharp[0][n_plain:], sharp[3][n_plain:]):
