@@ -7,9 +7,11 @@ A series is what `open_volume` says holds several 3-D volumes (`Volume.time_poin
 NIfTI/NRRD/TIFF/Zarr/npy, a glob of 3-D files, a DICOM folder of several acquisitions.  Each time point
 is opened again from the series' spec with `time=N` (and the options it was opened with), checked to
 have the first one's shape, downsampled as the first was, and its histogram made, all on the worker.
-While one time point shows, the next one the playback will want is read ahead (`prefetch`): playback
-never waits for a read it could have started earlier, and never runs ahead of the reads (a time
-point is only left once the next is on show).
+While one time point shows, the next ones playback will want (READ_AHEAD of them, one read after
+another; paused, the next one) are read ahead: playback does not wait for a read it could have started
+earlier, and never runs ahead of the reads (a time point is only left once the next is on show).  One
+read of the wanted time point runs at a time, so a slider dragged across a hundred reads the one it
+rests on.
 
 The value range and histogram are the time point's own, or with `fixed_range` the whole series' (read
 once on a worker), so the iso slider and the histogram stay put while time moves.  Levels, slices,
@@ -31,7 +33,7 @@ PLAY_MODES = ("loop", "bounce")
 DEFAULT_FPS = 10.0
 MAX_FPS = 60.0
 READ_WAIT_S = 120.0          # a render (wait) waits this long for a time point's read
-READ_AHEAD = 3              # time points read ahead while playing: a read slower than a frame now and then
+READ_AHEAD = 3               # time points read ahead while playing: a read slower than a frame now and then
                              # (a loaded machine: 65-115 ms median, 500 ms at worst for the MNI T1) is caught up
 RANGE_SAMPLES = 1 << 26      # the fixed range's histogram samples at most this many values of the series
 HISTOGRAM_SAMPLES = 1 << 21  # a time point's histogram samples at most about this many (a regular sub-grid):
