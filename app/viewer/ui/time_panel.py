@@ -143,12 +143,18 @@ class TimeSection:
 
     def _time_controls(self, state: ViewerState) -> None:
         series = state.series
-        imgui.set_next_item_width(-1)
         last = series.count - 1
-        changed, index = imgui.slider_int("##time", series.index, 0, last, f"time point %d of 0..{last}")
+        width = imgui.calc_text_size(f"{last} of 0..{last}").x   # the value beside the slider, not under its grab
+        spacing = imgui.get_style().item_spacing.x
+        imgui.set_next_item_width(-width - spacing)
+        changed, index = imgui.slider_int("##time", series.index, 0, last, "")
         if changed:
             act(state, series.go_to, index)
         tooltip("the series' time point ([ and ] step back and on)")
+        imgui.same_line()
+        text = f"{series.index} of 0..{last}"
+        imgui.set_cursor_pos_x(imgui.get_cursor_pos_x() + width - imgui.calc_text_size(text).x)
+        imgui.text(text)
         if imgui.button("<"):
             act(state, series.step, -1)
         imgui.same_line()
@@ -159,7 +165,7 @@ class TimeSection:
             act(state, series.step, +1)
         imgui.same_line()
         imgui.set_next_item_width(70)
-        changed, fps = imgui.slider_float("fps", series.fps, 1.0, MAX_FPS, "%.0f")
+        changed, fps = imgui.drag_float("fps", series.fps, 0.2, 1.0, MAX_FPS, "%.0f")   # a field: its number shows
         if changed:
             act(state, series.set_fps, fps)
         imgui.same_line()
