@@ -97,7 +97,8 @@ def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="d
 
 def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None, spacing=None, affine=None,
            gradient_direction="descent", opacities=(), color_by=None, colormap=None, labels=False,
-           tetrahedra=False, smooth=0, wireframe=False, panel=False, transparent=False) -> np.ndarray:
+           label_names=None, slices=(), clip=None, tetrahedra=False, smooth=0, wireframe=False, panel=False,
+           transparent=False, letters=False) -> np.ndarray:
     """Render `volume`'s surface(s) offscreen, as ``isoscope render`` does, and return the pixels.
 
     Parameters
@@ -109,7 +110,9 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     size : (width, height), default (800, 600)
         The image size in pixels, as the command's ``--size WxH``.
     azimuth, elevation : float, optional
-        The camera's angles in degrees (default -60 and 25).
+        The camera's angles in degrees.  Default: for a scan with a patient frame (an affine, a nibabel
+        image, a NIfTI/NRRD/DICOM file) the anatomical view from anterior (azimuth -90, elevation 0: superior
+        up, the patient's right on the picture's left); for a plain array -60 and 25.
     spacing, affine, gradient_direction
         As for `isoscope.isosurface`.
     opacities : sequence of float
@@ -117,12 +120,23 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     color_by : {"value", "gradient"} or a volume of the same shape, optional
         Colour the surfaces by a scalar through `colormap` (a cmap name); a colour bar is drawn at the right.
     labels : bool
-        Draw each non-zero label of a label map as its own coloured surface.
+        Draw each non-zero label of a label map as its own coloured surface, as ``isoscope render --labels``
+        does (the same picture): named and coloured by `label_names`.
+    label_names : path, optional
+        A label names file (ITK-SNAP, 3D Slicer colour table, FreeSurfer LUT, or JSON) giving each label's
+        name and colour; default: the one beside the volume's file, if any.
+    slices : sequence of (axis, index)
+        Slices to show, as ``--slice``: axis 0, 1, 2 or "x", "y", "z"; the last one is also drawn in 2-D.
+    clip : (axis, position) or (axis, position, hide_above), optional
+        Hide the surface where the axis index is above `position` (below it with ``hide_above=False``),
+        as ``--clip AXIS=POS[:+|-]``; the cut is capped.
     tetrahedra, smooth, wireframe : mesh modes, as the command's flags.
     panel : bool
         Draw the viewer's panel over the scene.
     transparent : bool
         A transparent background (the alpha channel 0 where nothing is drawn).
+    letters : bool
+        A scan's orientation letters (R/L, A/P, S/I) at the picture's edges, as ``--orientation-letters``.
 
     Returns
     -------
@@ -139,19 +153,39 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     ((120, 160, 4), dtype('uint8'))
     """
     from ..volumes.inputs import as_volume
-    from .ui.headless import labels_pixels, prepared_viewer
+    from .ui.headless import prepared_viewer
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
     size = (int(size[0]), int(size[1]))
+    if labels and level is not None:
+        raise ValueError("labels=True draws every label's surface; leave out the level")
+    if not labels and label_names is not None:
+        raise ValueError("label_names goes with labels=True")
     level = None if labels else checked_levels(shown, level)
-    if labels:
-        pixels = labels_pixels(shown, size, azimuth, elevation, transparent)
-    else:
-        viewer = prepared_viewer(shown, level, size, azimuth, elevation, transparent, opacities, color_by, colormap,
-                                 None, tetrahedra, smooth, wireframe)
-        try:
-            pixels = viewer.picture(panel=panel)
-        finally:
-            viewer.release()
+
+    def prepare(state) -> None:   # as the command's apply_slice_arguments and --labels
+        for axis, index in slices:
+            state.slices.show(_axis(axis), True, index)
+        if clip is not None:
+            state.slices.set_clip(_axis(clip[0]), *clip[1:])
+        if labels:
+            state.show_labels(names=label_names)
+
+    viewer = prepared_viewer(shown, level, size, azimuth, elevation, transparent, opacities, color_by, colormap,
+                             prepare, tetrahedra, smooth, wireframe)
+    try:
+        pixels = viewer.picture(panel=panel, letters=letters)
+    finally:
+        viewer.release()
     if pixels.shape[2] == 3:
         pixels = np.concatenate([pixels, np.full(pixels.shape[:2] + (1,), 255, np.uint8)], axis=2)
     return pixels
+
+
+def _axis(axis) -> int:
+    """0, 1, 2 or "x", "y", "z" -> 0, 1, 2."""
+    from .model.slices import AXES
+    if isinstance(axis, str) and axis.strip().lower() in AXES:
+        return AXES.index(axis.strip().lower())
+    if axis in (0, 1, 2):
+        return int(axis)
+    raise ValueError(f"axis {axis!r} is not 0, 1, 2 or x, y, z")
