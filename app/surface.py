@@ -82,6 +82,13 @@ def isosurface(volume, level=None, *, spacing=None, affine=None, gradient_direct
         return trimesh.Trimesh(verts, faces, vertex_normals=normals, vertex_colors=np.concatenate(colors),
                                process=False)
     from .api import marching_tetrahedra, outward_marching_cubes
+    from .validation import named_level
+    from .volumes import VolumeError
+    if level is not None:
+        try:   # the command line's words, as view and render say it
+            level = named_level(level, shown.value_range, shown.name)
+        except ValueError as exc:
+            raise VolumeError(str(exc)) from None
     extract = marching_tetrahedra if tetrahedra else outward_marching_cubes
     verts, faces, normals, _ = extract(shown.checked, level if level is not None else shown.default_level,
                                        spacing=shown.spacing, gradient_direction=shown.gradient_direction,

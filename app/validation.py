@@ -203,6 +203,21 @@ def as_gradient_direction(direction: str) -> bool:
     return direction == "descent"
 
 
+def named_level(level, value_range: tuple[float, float], name: str) -> float:
+    """`level` as a float inside `value_range` of the volume called `name`, else a ValueError in the command
+    line's words (`--iso`): "level 5 is outside NAME's value range lo .. hi; pick a value inside it".  The
+    doors that take a volume (view, render, widget, isosurface) say it so; marching_cubes keeps as_level's."""
+    try:
+        value = float(level)
+    except (TypeError, ValueError):
+        raise ValueError(f"level {level!r} is not a number; give the iso value as a float") from None
+    low, high = value_range
+    if not low <= value <= high:   # NaN too
+        raise ValueError(f"level {value:g} is outside {name}'s value range {low:g} .. {high:g}; "
+                         "pick a value inside it")
+    return value
+
+
 def as_level(level, value_range: tuple[float, float]) -> float:
     """`None` -> the middle of the data range; a level outside the range is an error (as in scikit-image)."""
     lo, hi = value_range

@@ -27,18 +27,12 @@ def checked_levels(shown, level):
     levels = list(np.ravel(level)) if several else [level]
     if len(levels) > MAX_LEVELS:
         raise VolumeError(f"{len(levels)} levels given; at most {MAX_LEVELS} surfaces at once")
-    low, high = shown.value_range
-    for value in levels:
-        if value is None:
-            continue
-        try:
-            value = float(value)
-        except (TypeError, ValueError):
-            raise VolumeError(f"level {value!r} is not a number; give the iso value as a float") from None
-        if not low <= value <= high:
-            raise VolumeError(f"level {value:g} is outside {shown.name}'s value range {low:g} .. {high:g}; "
-                              "pick a value inside it")
-    return [None if value is None else float(value) for value in levels] if several else level
+    from ..validation import named_level
+    try:
+        checked = [None if value is None else named_level(value, shown.value_range, shown.name) for value in levels]
+    except ValueError as exc:
+        raise VolumeError(str(exc)) from None
+    return checked if several else level
 
 
 def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="descent", labels=False,
