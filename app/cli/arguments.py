@@ -284,6 +284,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser.add_argument("--one-file", action="store_true",
                             help="with --labels: all labels in the one --out file (.ply or .glb), each vertex "
                                  "in its label's colour")
+        _add_label_names(parser)   # --one-file's vertex colours
         parser.add_argument("--max-labels", type=max_labels, metavar="N",
                             help="with --labels: refuse a volume of more than N labels (default 255), before "
                                  "writing anything: a scan given --labels by mistake has one per grey value")
