@@ -100,7 +100,7 @@ def _export_open_options(args) -> dict:
 def run_export(args) -> int:
     if args.labels:
         return _export_labels(args)
-    check_label_options(args, "--one-file", "--max-labels")
+    check_label_options(args, "--one-file", "--max-labels", "--label-names")
     _check_workers(args)
     from ..io.export import mesh_format
     mesh_format(args.out)  # an unknown extension or fraction is refused before any work
@@ -149,12 +149,19 @@ def _export_labels(args) -> int:
         if getattr(args, option.strip("-")) is not None:
             raise ValueError(f"export --labels makes every label's surface here, from the whole volume; "
                              f"leave out {option}")
+    if args.label_names is not None and not args.one_file:
+        raise ValueError("--label-names gives the colours of --one-file's vertices (a file per label holds no "
+                         "colour); add --one-file")
     check_label_output(args.out, args.one_file)
     volume = open_volume_from_args(args.volume, args, progress)
     limit = DEFAULT_MAX_LABELS if args.max_labels is None else args.max_labels
     try:
-        written = write_label_meshes(volume, args.out, one_file=args.one_file, world=args.space == "world",
-                                     max_labels=limit)
+        names = _label_names(volume, args) if args.one_file else {}
+        if names:
+            written = _write_named_labels(volume, args.out, names, args.space == "world", limit)
+        else:
+            written = write_label_meshes(volume, args.out, one_file=args.one_file, world=args.space == "world",
+                                         max_labels=limit)
     except TooManyLabels as exc:
         would = (f"one file holding {exc.count} meshes" if args.one_file else
                  f"{exc.count} files ({label_file(args.out, 'N').name})")
@@ -165,6 +172,28 @@ def _export_labels(args) -> int:
     for path, n_vertices, n_triangles in written:
         wrote(path, f": {n_vertices:,} vertices, {n_triangles:,} triangles, in {space} coordinates")
     return 0
+
+
+def _label_names(volume, args) -> dict:
+    """The label names file's entries (--label-names, else the one beside the segmentation; {} if none)."""
+    from ..volumes.label_names import label_names_for
+    return label_names_for(volume.source, args.label_names)
+
+
+def _write_named_labels(volume, out, names: dict, world: bool, limit):
+    """One PLY/GLB of every label's surface, each vertex in its label's colour as the viewer draws it (the
+    names file's where it lists the label, else the default palette over the labels in order)."""
+    from ..io.export import in_volume_space
+    from ..labels import label_surfaces, labels_of, write_labelled
+    from ..viewer.model.labels import layers
+    surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing, max_labels=limit)
+    if not surfaces:
+        raise ValueError(f"{volume.name} has no non-zero labels, so no surface to write; leave out --labels "
+                         "to export an isosurface")
+    placed = {label: in_volume_space(volume, *mesh, world=world) for label, mesh in surfaces.items()}
+    colors = [layer.color for layer in layers(list(placed), names)]
+    space = next(iter(placed.values()))[3]
+    return write_labelled(out, {label: mesh[:3] for label, mesh in placed.items()}, colors, space, True)
 
 
 def _decimated(volume, iso, verts, faces, fraction):

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..io.movie import movie_kind
 from .arguments import OneLineParser, add_render_options
-from .common import checked_levels, count_line, progress, wrote
+from .common import check_label_options, checked_levels, count_line, progress, wrote
 from .slice_options import apply_slice_arguments
 from .volume_options import TimeRange, add_volume_arguments, open_volume_from_args
 
@@ -66,18 +66,26 @@ def run_movie(args) -> int:
         raise ValueError("--frames sets a sweep's length; a turntable's is --turntable N, a series' its time points")
     if args.save_scene:
         raise ValueError("movie saves no scene; leave out --save-scene (render --save-scene does)")
+    if args.labels:   # each label's surface, as render --labels draws it
+        check_label_options(args, "--iso", "--panel", "--sweep")
+    else:
+        check_label_options(args, "--label-names")
     volume = open_volume_from_args(args.volume, args, progress, several_times=True)
     times = args.time.points(volume.time_points) if several_times else None
     from ..viewer.ui.headless import check_render_size, prepared_viewer
     from .render import drawing_context
     check_render_size(args.size)
     check_render_size(args.size, drawing_context("movie"))
-    isos = checked_levels(volume, args.iso, args.opacity)
+    isos = None if args.labels else checked_levels(volume, args.iso, args.opacity)
+
+    def prepare(state) -> None:
+        apply_slice_arguments(state, args)
+        if args.labels:
+            state.show_labels(names=args.label_names)
     viewer = prepared_viewer(volume, isos, size=args.size, azimuth=args.azimuth, elevation=args.elevation,
                              transparent=False, opacities=[a for values in args.opacity or [] for a in values],
                              color_by=args.color_by, colormap=args.color_by_map, tetrahedra=args.tetrahedra,
-                             smooth=args.smooth, wireframe=args.wireframe,
-                             prepare=lambda state: apply_slice_arguments(state, args))
+                             smooth=args.smooth, wireframe=args.wireframe, prepare=prepare)
     try:
         frames = _frames(viewer, volume, args, times)
         path = _write(frames, args.out, kind, args.fps, _count(args, times))
