@@ -2,11 +2,19 @@
 
 Only the chosen time point is read, in z slabs through nibabel's array proxy, which
 also applies the header's scaling (scaled integers come back as floats).
+
+A compressed series (a 4-D .nii.gz) cannot be read a time point at a time without inflating the
+stream up to it, and checking it means inflating it all: so the first read inflates the whole file
+once and keeps its bytes (`held`: the last such file, while its size and modification time stay, if
+it inflates to at most a quarter of the memory available), and the next time points (the viewer's
+playback, `--time all`) are read from them with no gzip pass.
 """
 from __future__ import annotations
 
 import gzip
+import io
 import math
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +23,7 @@ from .errors import VolumeError
 from .reading import (
     GZIP_CHUNK,
     Loaded,
+    inflate_bounded,
     inflated_past,
     library_messages,
     raise_if_corrupt_compression,
@@ -23,7 +32,7 @@ from .reading import (
     reason,
 )
 from .time_points import refuse_time, time_index, time_note
-from .volume import Progress, refuse_if_too_big, report, world_problem
+from .volume import Progress, available_memory_bytes, refuse_if_too_big, report, world_problem
 
 HEADER_SLACK = 1 << 20  # bytes a .nii.gz may hold past its data (extensions sit before vox_offset)
 
@@ -46,6 +55,9 @@ def load_nifti(path: Path, time: int | None, progress: Progress | None = None) -
 def _load(path: Path, time: int | None, notes: list[str], progress: Progress | None):
     if not path.name.lower().endswith(".gz"):
         return _read(path, time, notes, progress, None)[0]
+    inflated = held.bytes_of(path) or _inflated_series(path, progress)
+    if inflated is not None:   # a series, inflated whole once: its time points read with no gzip pass
+        return _read(path, time, notes, progress, io.BytesIO(inflated))[0]
     # One pass through the gzip stream, nibabel reading from it and then the rest read to its end:
     # nibabel alone stops once it has its samples, so a corrupt tail (a failed CRC) would go unseen;
     # and the stream may not inflate past what the header implies (a decompression bomb).
@@ -53,6 +65,72 @@ def _load(path: Path, time: int | None, notes: list[str], progress: Progress | N
         result, limit = _read(path, time, notes, progress, stream)
         read_or_explain(path, lambda: _read_to_end(stream, limit, path.name))
     return result
+
+
+class HeldSeries:
+    """The inflated bytes of the last compressed series read, with the (size, mtime) they were read at."""
+
+    def __init__(self):
+        self._lock = threading.Lock()   # the viewer reads time points on a worker thread
+        self._key = None
+        self._bytes: bytes | None = None
+        self.inflations = 0   # whole-file gzip passes made to fill it (a count to read, for tests and benchmarks)
+
+    @staticmethod
+    def key(path: Path):
+        stat = path.stat()
+        return str(path.resolve()), stat.st_size, stat.st_mtime_ns
+
+    def bytes_of(self, path: Path) -> bytes | None:
+        """The file's inflated bytes if held and the file has not changed since."""
+        try:
+            key = self.key(path)
+        except OSError:
+            return None
+        with self._lock:
+            return self._bytes if key == self._key else None
+
+    def hold(self, path: Path, key, inflated: bytes) -> None:
+        with self._lock:
+            self._key, self._bytes = key, inflated
+            self.inflations += 1
+
+    def release(self) -> None:
+        with self._lock:
+            self._key = self._bytes = None
+
+
+held = HeldSeries()
+HELD_SHARE = 4   # a series is held if it inflates to at most 1/HELD_SHARE of the memory available
+
+
+def _inflated_series(path: Path, progress: Progress | None) -> bytes | None:
+    """A compressed 4-D file's whole inflated stream (kept in `held`), one pass; None for anything else
+    (a 3-D file, one time point, too big to hold, a header that does not parse: the plain read says why)."""
+    import nibabel
+    try:
+        key = held.key(path)
+        with gzip.open(path, "rb") as stream:
+            head = stream.read(544)
+        nifti2 = head[:4] in (b"\x1c\x02\x00\x00", b"\x00\x00\x02\x1c")
+        header = (nibabel.Nifti2Header if nifti2 else nibabel.Nifti1Header).from_fileobj(io.BytesIO(head))
+        shape = tuple(int(n) for n in header.get_data_shape())
+        offset = int(header.get("vox_offset", 352))
+        size = math.prod(shape) * header.get_data_dtype().itemsize
+    except Exception:   # noqa: BLE001 - the plain read says what is wrong with it
+        return None
+    if len(shape) < 4 or shape[3] < 2 or min(shape) < 1:
+        return None
+    limit = offset + size + HEADER_SLACK
+    if limit > available_memory_bytes() // HELD_SHARE:
+        return None   # read a time point at a time, as before
+    report(progress, 0.0, f"inflating {path.name}")
+    with open(path, "rb") as compressed:
+        inflated = read_or_explain(path, lambda: inflate_bounded(compressed, limit, path.name))
+    if len(inflated) < offset + size:
+        return None   # short (or several gzip members): the plain read through GzipFile says which
+    held.hold(path, key, inflated)
+    return inflated
 
 
 def _read_to_end(stream, limit: int, what: str) -> None:
