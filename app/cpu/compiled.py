@@ -259,6 +259,16 @@ def _gradient(field, sign, i, j, k, spacing):
 @_cached_njit(inline="always", error_model="numpy")
 def _vertex(field, sign, level, spacing, i, j, k, d0, d1, d2, verts, normals, values, n):
     """cubes.place_vertices for the edge from (i, j, k) to (i + d0, j + d1, k + d2), written at row n."""
+    a0, a1, a2 = _gradient(field, sign, i, j, k, spacing)
+    b0, b1, b2 = _gradient(field, sign, i + d0, j + d1, k + d2, spacing)
+    _vertex_between(field, sign, level, spacing, i, j, k, d0, d1, d2, a0, a1, a2, b0, b1, b2, verts, normals,
+                    values, n)
+
+
+@_cached_njit(inline="always", error_model="numpy")
+def _vertex_between(field, sign, level, spacing, i, j, k, d0, d1, d2, a0, a1, a2, b0, b1, b2, verts, normals,
+                    values, n):
+    """_vertex with the gradients at the edge's ends given (a at its start, b at its end)."""
     v0 = sign * field[i, j, k]
     v1 = sign * field[i + d0, j + d1, k + d2]
     t = (level - v0) / (v1 - v0)
@@ -268,8 +278,6 @@ def _vertex(field, sign, level, spacing, i, j, k, d0, d1, d2, verts, normals, va
     verts[n, 1] = (np.float32(j) + (t if d1 else zero)) * spacing[1]
     verts[n, 2] = (np.float32(k) + (t if d2 else zero)) * spacing[2]
     values[n] = (v0 + t * (v1 - v0)) * sign
-    a0, a1, a2 = _gradient(field, sign, i, j, k, spacing)
-    b0, b1, b2 = _gradient(field, sign, i + d0, j + d1, k + d2, spacing)
     g0 = a0 + t * (b0 - a0)
     g1 = a1 + t * (b1 - a1)
     g2 = a2 + t * (b2 - a2)
@@ -301,10 +309,50 @@ def _vertex_index(edges, vertex_offsets, i, j, k, kind):
     return index + _popcount(edges[i, j, w, kind] & _low_bits(bit))
 
 
+@_cached_njit(inline="always", error_model="numpy")
+def _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, table_triangles, row_owner,
+                    edge_row, i, j, w, n2, masks, firsts, faces):
+    """The triangles of the cut cells of word (i, j, w) at its triangle offset."""
+    n0, n1, nw = signs.shape
+    if i + 1 >= n0 or j + 1 >= n1:
+        return
+    k0 = w * WORD_BITS
+    along2 = _low_bits(min(WORD_BITS, n2 - 1 - k0))
+    cut, a, b, c, d, a1, b1, c1, d1 = _cut_cells(signs, i, j, w, nw, along2)
+    if cut == 0:
+        return
+    # The rows of edges the word's cells use: their masks and first vertices.
+    for r in range(row_owner.shape[0]):
+        oi = i + row_owner[r, 0]
+        oj = j + row_owner[r, 1]
+        kind = row_owner[r, 2]
+        masks[r] = edges[oi, oj, w, kind]
+        first = vertex_offsets[oi, oj, w]
+        for lower in range(kind):
+            first += _popcount(edges[oi, oj, w, lower])
+        firsts[r] = first
+    m = triangle_offsets[i, j, w]
+    while cut:
+        bit = _lowest_bit(cut)
+        cut &= cut - 1
+        case = _case(bit, a, b, c, d, a1, b1, c1, d1)
+        for slot in range(table_counts[case]):
+            for corner in range(3):
+                e = table_triangles[case, slot, corner]
+                r = edge_row[e, 0]
+                at = bit + edge_row[e, 1]
+                if at < WORD_BITS:
+                    faces[m, corner] = firsts[r] + _popcount(masks[r] & _low_bits(at))
+                else:  # the edge at the next word's bit 0
+                    faces[m, corner] = _vertex_index(edges, vertex_offsets, i + row_owner[r, 0],
+                                                     j + row_owner[r, 1], k0 + WORD_BITS, row_owner[r, 2])
+            m += 1
+
+
 @_cached_njit(parallel=True, error_model="numpy")
 def _write(field, sign, level, spacing, steps, signs, edges, vertex_offsets, triangle_offsets, table_counts,
            table_triangles, row_owner, edge_row, verts, faces, normals, values):
-    """Pass 4: each word's vertices and triangles at its offsets."""
+    """Pass 4 (any kinds of edge: tetrahedra's): each word's vertices and triangles at its offsets."""
     n0, n1, nw = signs.shape
     n2 = field.shape[2]
     rows = row_owner.shape[0]
@@ -322,39 +370,85 @@ def _write(field, sign, level, spacing, steps, signs, edges, vertex_offsets, tri
                                 steps[kind, 1], steps[kind, 2], verts, normals, values, n)
                         bits &= bits - 1
                         n += 1
-                if i + 1 >= n0 or j + 1 >= n1:
-                    continue
-                along2 = _low_bits(min(WORD_BITS, n2 - 1 - k0))
-                cut, a, b, c, d, a1, b1, c1, d1 = _cut_cells(signs, i, j, w, nw, along2)
-                if cut == 0:
-                    continue
-                # The rows of edges the word's cells use: their masks and first vertices.
-                for r in range(rows):
-                    oi = i + row_owner[r, 0]
-                    oj = j + row_owner[r, 1]
-                    kind = row_owner[r, 2]
-                    masks[r] = edges[oi, oj, w, kind]
-                    first = vertex_offsets[oi, oj, w]
-                    for lower in range(kind):
-                        first += _popcount(edges[oi, oj, w, lower])
-                    firsts[r] = first
-                m = triangle_offsets[i, j, w]
-                while cut:
-                    bit = _lowest_bit(cut)
-                    cut &= cut - 1
-                    case = _case(bit, a, b, c, d, a1, b1, c1, d1)
-                    for slot in range(table_counts[case]):
-                        for corner in range(3):
-                            e = table_triangles[case, slot, corner]
-                            r = edge_row[e, 0]
-                            at = bit + edge_row[e, 1]
-                            if at < WORD_BITS:
-                                faces[m, corner] = firsts[r] + _popcount(masks[r] & _low_bits(at))
-                            else:  # the edge at the next word's bit 0
-                                faces[m, corner] = _vertex_index(edges, vertex_offsets, i + row_owner[r, 0],
-                                                                 j + row_owner[r, 1], k0 + WORD_BITS,
-                                                                 row_owner[r, 2])
-                        m += 1
+                _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, table_triangles,
+                                row_owner, edge_row, i, j, w, n2, masks, firsts, faces)
+
+
+@_cached_njit(inline="always", error_model="numpy")
+def _plane_gradients(field, sign, spacing, edges, i, grads):
+    """grads[j, k] = the gradient (_gradient) at each sample (i, j, k) a crossing edge ends at: the plane's
+    own edges (both ends) and the axis-0 edges of plane i - 1.  Cubes' edges only."""
+    n1, nw = edges.shape[1], edges.shape[2]
+    for j in range(n1):
+        carry = np.int64(0)  # the end of the last word's edge at bit 31 along axis 2
+        for w in range(nw):
+            e2 = edges[i, j, w, 2]
+            need = edges[i, j, w, 0] | edges[i, j, w, 1] | e2 | ((e2 << 1) & 0xFFFFFFFF) | carry
+            carry = (e2 >> (WORD_BITS - 1)) & 1
+            if i > 0:
+                need |= edges[i - 1, j, w, 0]
+            if j > 0:
+                need |= edges[i, j - 1, w, 1]
+            k0 = w * WORD_BITS
+            while need:
+                k = k0 + _lowest_bit(need)
+                need &= need - 1
+                g0, g1, g2 = _gradient(field, sign, i, j, k, spacing)
+                grads[j, k, 0] = g0
+                grads[j, k, 1] = g1
+                grads[j, k, 2] = g2
+
+
+@_cached_njit(parallel=True, error_model="numpy")
+def _write_cubes(field, sign, level, spacing, signs, edges, vertex_offsets, triangle_offsets, table_counts,
+                 table_triangles, row_owner, edge_row, starts, verts, faces, normals, values):
+    """Pass 4 for cubes: _write's mesh, each sample's gradient computed once (not once per edge that ends
+    there) into a plane of gradients, two planes held at a time; the planes go in runs (starts) to the
+    threads."""
+    n0, n1, nw = signs.shape
+    n2 = field.shape[2]
+    rows = row_owner.shape[0]
+    for run in prange(starts.shape[0] - 1):
+        masks = np.empty(rows, np.int64)
+        firsts = np.empty(rows, np.int64)
+        here = np.empty((n1, n2, 3), np.float32)  # the gradients of plane i
+        after = np.empty((n1, n2, 3), np.float32)  # and of plane i + 1
+        if starts[run] < starts[run + 1]:
+            _plane_gradients(field, sign, spacing, edges, starts[run], here)
+        for i in range(starts[run], starts[run + 1]):
+            if i + 1 < n0:
+                _plane_gradients(field, sign, spacing, edges, i + 1, after)
+            for j in range(n1):
+                for w in range(nw):
+                    k0 = w * WORD_BITS
+                    n = vertex_offsets[i, j, w]
+                    bits = edges[i, j, w, 0]
+                    while bits:
+                        k = k0 + _lowest_bit(bits)
+                        _vertex_between(field, sign, level, spacing, i, j, k, 1, 0, 0, here[j, k, 0], here[j, k, 1],
+                                        here[j, k, 2], after[j, k, 0], after[j, k, 1], after[j, k, 2], verts,
+                                        normals, values, n)
+                        bits &= bits - 1
+                        n += 1
+                    bits = edges[i, j, w, 1]
+                    while bits:
+                        k = k0 + _lowest_bit(bits)
+                        _vertex_between(field, sign, level, spacing, i, j, k, 0, 1, 0, here[j, k, 0], here[j, k, 1],
+                                        here[j, k, 2], here[j + 1, k, 0], here[j + 1, k, 1], here[j + 1, k, 2],
+                                        verts, normals, values, n)
+                        bits &= bits - 1
+                        n += 1
+                    bits = edges[i, j, w, 2]
+                    while bits:
+                        k = k0 + _lowest_bit(bits)
+                        _vertex_between(field, sign, level, spacing, i, j, k, 0, 0, 1, here[j, k, 0], here[j, k, 1],
+                                        here[j, k, 2], here[j, k + 1, 0], here[j, k + 1, 1], here[j, k + 1, 2],
+                                        verts, normals, values, n)
+                        bits &= bits - 1
+                        n += 1
+                    _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, table_triangles,
+                                    row_owner, edge_row, i, j, w, n2, masks, firsts, faces)
+            here, after = after, here
 
 
 def code_rows(codes):
@@ -458,9 +552,16 @@ class CompiledCubes:
                self._triangle_offsets)
         n_vertices, n_triangles = _scan(self._vertex_offsets, self._triangle_offsets)
         verts, faces, normals, values = self._output_arrays(n_vertices, n_triangles)
-        _write(self.field, self.sign, level, self.spacing, self._steps, self._signs, self._edges,
-               self._vertex_offsets, self._triangle_offsets, self._counts, self._triangles, self._row_owner,
-               self._edge_row, verts, faces, normals, values)
+        if self._steps is CUBE_STEPS:
+            runs = numba.get_num_threads()
+            starts = np.linspace(0, self.field.shape[0], runs + 1).astype(np.int64)
+            _write_cubes(self.field, self.sign, level, self.spacing, self._signs, self._edges, self._vertex_offsets,
+                         self._triangle_offsets, self._counts, self._triangles, self._row_owner, self._edge_row,
+                         starts, verts, faces, normals, values)
+        else:
+            _write(self.field, self.sign, level, self.spacing, self._steps, self._signs, self._edges,
+                   self._vertex_offsets, self._triangle_offsets, self._counts, self._triangles, self._row_owner,
+                   self._edge_row, verts, faces, normals, values)
         return verts, faces, normals, values
 
 
