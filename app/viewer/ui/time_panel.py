@@ -18,7 +18,8 @@ from ..model.series import MAX_FPS, PLAY_MODES
 from ..model.state import ViewerState
 from .gui import act, imgui, tooltip
 
-RECORD_FPS = 30.0          # a recording's frame rate: each drawn frame is written as often as wall time asks
+RECORD_FPS = 30.0          # a recording's default frame rate: each drawn frame is written as often as wall time asks
+MAX_RECORD_FPS = 240.0     # as `isoscope movie --fps`
 RECORD_QUEUE = 8           # frames waiting for the encoder at most (the frame loop waits beyond)
 MAX_REPEAT = 30            # a frame written at most this often: a window left minimised is a second's gap
 
@@ -34,10 +35,12 @@ def next_movie_path(directory, stem: str = "isoscope") -> Path:
 
 
 class Recorder:
-    """Frames as the window draws them, written to a movie on a worker thread at RECORD_FPS in wall time (a
-    frame drawn slower than that is written again; frames in between are skipped), until `stop`."""
+    """Frames as the window draws them, written to a movie on a worker thread at `fps` (the movie's frame rate,
+    the panel's field beside Record) in wall time (a frame drawn slower than that is written again; frames in
+    between are skipped), until `stop`."""
 
     def __init__(self):
+        self.fps = RECORD_FPS        # the next recording's frame rate
         self.path: Path | None = None
         self.frames = 0              # frames handed to the encoder
         self.message: str | None = None   # the last recording's outcome ("wrote ...", or why not)
@@ -45,6 +48,7 @@ class Recorder:
         self._queue: queue.Queue | None = None
         self._thread: threading.Thread | None = None
         self._started = 0.0
+        self._rate = RECORD_FPS      # the recording under way's frame rate
         self._size = None
         self._error: BaseException | None = None
 
@@ -52,13 +56,21 @@ class Recorder:
     def recording(self) -> bool:
         return self._writer is not None
 
+    def set_fps(self, fps: float) -> None:
+        """The frame rate of the recordings started from now (one under way keeps its own)."""
+        fps = float(fps)
+        if not 1.0 <= fps <= MAX_RECORD_FPS:   # NaN too
+            raise ValueError(f"record at {fps:g} fps: give 1 to {MAX_RECORD_FPS:g} frames per second")
+        self.fps = fps
+
     def start(self, path) -> None:
-        """Record into `path` (.mp4, .gif or a folder/); a bad name raises its one line."""
+        """Record into `path` (.mp4, .gif or a folder/) at `fps`; a bad name raises its one line."""
         path = Path(path)
         kind = movie_kind(path, "record to")
         if kind != "folder" and not path.parent.is_dir():
             raise ValueError(f"record to {path}: the folder {path.parent} does not exist; pick another")
-        self._writer = MovieWriter(path, RECORD_FPS, kind)
+        self._rate = self.fps
+        self._writer = MovieWriter(path, self._rate, kind)
         self.path, self.frames, self._size, self._error, self.message = path, 0, None, None, None
         self._queue = queue.Queue(RECORD_QUEUE)
         self._thread = threading.Thread(target=self._encode, daemon=True, name="isoscope record")
@@ -66,19 +78,19 @@ class Recorder:
         self._started = time.perf_counter()
 
     def capture(self, framebuffer, size) -> None:
-        """The frame just drawn in `framebuffer` (its `size`), written as often as RECORD_FPS asks since the
-        last; nothing while not recording."""
+        """The frame just drawn in `framebuffer` (its `size`), written as often as the frame rate asks since
+        the last; nothing while not recording."""
         if not self.recording:
             return
         if self._error is not None or (self._size is not None and tuple(size) != self._size):
             why = self._error or "the window was resized"
             self.stop(f"recording stopped ({why})")
             return
-        due = int((time.perf_counter() - self._started) * RECORD_FPS) + 1 - self.frames
+        due = int((time.perf_counter() - self._started) * self._rate) + 1 - self.frames
         if due <= 0:
             return
         if due > MAX_REPEAT:
-            self._started += (due - MAX_REPEAT) / RECORD_FPS
+            self._started += (due - MAX_REPEAT) / self._rate
             due = MAX_REPEAT
         self._size = tuple(size)
         self._queue.put((read_rgb(framebuffer, size), due))
@@ -113,13 +125,14 @@ class Recorder:
             writer.abort()
             self.message = f"recording not written: {exc}"
             return None
-        seconds = writer.frames / RECORD_FPS
-        self.message = f"{why + ': ' if why else ''}wrote {path} ({writer.frames} frames, {seconds:.1f} s)"
+        seconds = writer.frames / self._rate
+        self.message = (f"{why + ': ' if why else ''}wrote {path} ({writer.frames} frames, {seconds:.1f} s at "
+                        f"{self._rate:g} fps)")
         return path
 
     @property
     def progress_line(self) -> str:
-        seconds = self.frames / RECORD_FPS
+        seconds = self.frames / self._rate
         return f"recording {seconds:.1f} s, {self.frames} frames -> {self.path.name}"
 
 
@@ -196,6 +209,12 @@ class TimeSection:
             path = self.record_name.strip() or next_movie_path(self.record_dir)
             act(state, recorder.start, path)
         tooltip("write the frames as they are drawn (without the panel) until Stop recording")
+        imgui.same_line()
+        imgui.set_next_item_width(imgui.calc_text_size("240 fps").x + 2 * imgui.get_style().frame_padding.x)
+        changed, fps = imgui.drag_float("##record fps", recorder.fps, 0.2, 1.0, MAX_RECORD_FPS, "%.0f fps")
+        if changed:
+            act(state, recorder.set_fps, round(fps))
+        tooltip("the movie's frame rate: frames written per second of the recording (drag, or ctrl+click to type)")
         imgui.same_line()
         imgui.set_next_item_width(-1)
         _, self.record_name = imgui.input_text_with_hint("##record", "new .mp4 in the screenshot folder",
