@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 
 from .arguments import VOLUME_HELP, OneLineParser, _add_iso, max_labels
 from .common import check_label_options, checked_levels, progress
@@ -70,6 +71,7 @@ def run_measure(args) -> int:
             verts, faces, normals, _ = _extract_for_export(volume, iso, args_for_export)
             verts, faces, _, _ = in_volume_space(volume, verts, faces, normals, world=world)
             rows.append(({"level": as_level(iso, volume.value_range)}, measure_surface(verts, faces)))
+    rows = [_object_side(key, m, volume, args.labels) for key, m in rows]
     records = [dict(key, area_mm2=m.area, volume_ml=m.volume * ML_PER_MM3, components=m.components,
                     largest_component_ml=m.largest_component_volume * ML_PER_MM3,
                     bbox_min=_finite_or_none(m.bbox_min), bbox_max=_finite_or_none(m.bbox_max),
@@ -91,6 +93,22 @@ def run_measure(args) -> int:
               f"{record['components']:,} piece{'s' * (record['components'] != 1)} (largest "
               f"{record['largest_component_ml']:.6g} mL), box {size} mm{note}")
     return 0
+
+
+def _object_side(key: dict, m, volume, labels: bool):
+    """(key with `inside`: the side of the level the object is on, the measures of that object).  A closed
+    surface enclosing less than nothing faces into what it encloses: the object is on the other side of the
+    level from the volume's (a file is taken as a density, object above; a signed distance's is below), so
+    its volume is given positive, with a note line saying which side it is on and the flag that says so."""
+    side = "below" if volume.gradient_direction == "ascent" else "above"
+    if labels:
+        return key, m   # a label's surface encloses the label
+    if m.turned:
+        side = "above" if side == "below" else "below"
+        print(f"note: level {key['level']:g}: the object is {side} the level, not "
+              f"{'above' if side == 'below' else 'below'} as {volume.name} was taken (its surface encloses the "
+              f"values {side} it): its volume is given; --inside {side} says so", file=sys.stderr)
+    return dict(key, inside=side), m
 
 
 def _finite_or_none(point) -> list[float] | None:

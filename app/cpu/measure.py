@@ -9,7 +9,7 @@ jumping, until nothing changes (a few rounds: the rounds grow with the log of a 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -23,6 +23,20 @@ class SurfaceMeasure:
     bbox_min: tuple[float, float, float]
     bbox_max: tuple[float, float, float]
     open_edges: int                  # edges used by one triangle: where the surface is not closed
+    smallest_component_volume: float = 0.0   # of the piece enclosing the least (a cavity: below 0)
+    turned: bool = False             # measured with its triangles facing the other way (`inside_out`)
+
+    @property
+    def inside_out(self) -> bool:
+        """Closed, and enclosing less than nothing: its triangles face into what they enclose, so the object
+        is the other side of the level (the volume's side, `Volume.gradient_direction`, is the wrong one:
+        a signed distance taken as a density): a bounded object's cavities never outweigh it."""
+        return self.open_edges == 0 and self.volume < 0
+
+    def turn(self) -> SurfaceMeasure:
+        """The measures with the triangles facing the other way: the object on the other side of the level."""
+        return replace(self, volume=-self.volume, largest_component_volume=-self.smallest_component_volume,
+                       smallest_component_volume=-self.largest_component_volume, turned=not self.turned)
 
 
 def components(n_vertices: int, faces: np.ndarray) -> np.ndarray:
@@ -53,7 +67,14 @@ def open_edge_count(faces: np.ndarray) -> int:
 
 
 def measure_surface(verts: np.ndarray, faces: np.ndarray) -> SurfaceMeasure:
-    """The measures of one surface; `verts` (N, 3) in world units, `faces` (M, 3) outward-wound."""
+    """The measures of one surface; `verts` (N, 3) in world units, `faces` (M, 3) outward-wound.  A closed
+    surface whose triangles face into what they enclose (`inside_out`) is measured turned (`turned` says
+    so): the object's volume is positive whichever side of the level it is on."""
+    measured = _measured(verts, faces)
+    return measured.turn() if measured.inside_out else measured
+
+
+def _measured(verts: np.ndarray, faces: np.ndarray) -> SurfaceMeasure:
     verts = np.asarray(verts, np.float64)
     faces = np.asarray(faces, np.int64).reshape(-1, 3)
     if not len(faces):
@@ -68,6 +89,7 @@ def measure_surface(verts: np.ndarray, faces: np.ndarray) -> SurfaceMeasure:
     used = np.unique(faces)
     return SurfaceMeasure(area=float(area.sum()), volume=float(volumes.sum()), components=len(volumes),
                           largest_component_volume=float(volumes.max()),
+                          smallest_component_volume=float(volumes.min()),
                           bbox_min=tuple(float(v) for v in verts[used].min(axis=0)),
                           bbox_max=tuple(float(v) for v in verts[used].max(axis=0)),
                           open_edges=open_edge_count(faces))
