@@ -16,11 +16,9 @@ from ...cpu.sharp.normals import crisp_normals
 from ...gpu.context import DRAWING_GL, current_or_standalone, has_compute
 from ...gpu.mesh import GpuMesh
 from ...gpu.sharp_features import sharp_mesh_of
-from ...labels import label_surfaces, labels_of
 from ...volumes import Volume, open_volume
 from ..gfx.colorbar import draw_colorbar
-from ..gfx.label_scene import label_scene, release_scene
-from ..gfx.renderer import OffscreenTarget, SceneRenderer, SurfaceLook
+from ..gfx.renderer import OffscreenTarget, SceneRenderer
 from ..gfx.scene import GpuScene
 from ..gfx.screenshot import save_png
 from ..model.camera import OrbitCamera, volume_frame
@@ -248,38 +246,6 @@ def scene_pixels(scene: dict, size=None, panel: bool = False, letters: bool = Fa
         apply_scene(scene, viewer.state, viewer.camera)
         return viewer.picture(panel=panel, letters=letters)
     finally:
-        viewer.release()
-
-
-def render_labels_png(volume, out, size=(800, 600), azimuth=None, elevation=None, transparent: bool = False):
-    """Render every non-zero label of `volume` as its own coloured surface to the PNG `out`."""
-    return save_png(labels_pixels(volume, size, azimuth, elevation, transparent), out)
-
-
-def labels_pixels(volume, size=(800, 600), azimuth=None, elevation=None, transparent: bool = False) -> np.ndarray:
-    """Every non-zero label of `volume` drawn as its own coloured surface: (height, width, 3) uint8 pixels
-    (4, straight alpha, with `transparent`)."""
-    ctx = current_or_standalone(DRAWING_GL)   # 4.1 (no compute): the labels' surfaces come from the CPU
-    surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing,
-                              backend="gpu" if has_compute(ctx) else "cpu")
-    if not surfaces:
-        raise ValueError(f"{volume.name} has no non-zero labels, so no surface to draw; leave out --labels "
-                         "to draw an isosurface")
-    viewer = HeadlessViewer(size)
-    scene = []
-    try:
-        style = viewer.state.style
-        style.transparent_background = transparent
-        upper = tuple((n - 1) * s for n, s in zip(volume.data.shape, volume.spacing))
-        viewer.camera.fit((0.0, 0.0, 0.0), upper, azimuth, elevation, volume_frame(volume))
-        viewer.renderer.set_box((0.0, 0.0, 0.0), upper)
-        scene = label_scene(viewer.ctx, surfaces)
-        viewer.target.use()
-        viewer.renderer.draw([mesh for _, mesh, _ in scene], viewer.camera, viewer.target.viewport, style,
-                             looks=[SurfaceLook(tuple(color), 1.0) for _, _, color in scene])
-        return viewer.target.read_rgba() if transparent else viewer.target.read_rgb()
-    finally:
-        release_scene(scene)
         viewer.release()
 
 
