@@ -87,8 +87,8 @@ def run_measure(args) -> int:
             print(f"{what}: no surface (the level cuts nothing)")
             continue
         size = " x ".join(f"{hi - lo:.4g}" for lo, hi in zip(record["bbox_min"], record["bbox_max"]))
-        note = (f"; open at {record['open_edges']:,} edges (it leaves the volume: the volume counts its closed "
-                "pieces only)" if record["open_edges"] else "")
+        note = (f"; open at {record['open_edges']:,} edges (it leaves the volume, so its volume is not the "
+                "object's: --closed caps it)" if record["open_edges"] else "")
         print(f"{what}: area {record['area_mm2']:.6g} mm^2, volume {record['volume_ml']:.6g} mL, "
               f"{record['components']:,} piece{'s' * (record['components'] != 1)} (largest "
               f"{record['largest_component_ml']:.6g} mL), box {size} mm{note}")

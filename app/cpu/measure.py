@@ -3,7 +3,8 @@
 The mesh is in world units (millimetres for a scan with a world frame; index x spacing otherwise).
 Enclosed volume is the divergence theorem over the triangles (a sum of signed tetrahedra from the
 origin), exact for a closed, outward-wound surface; a surface that leaves the volume is open there
-and its volume is only that of its closed pieces (`export --closed` caps it).  Pieces are found by
+(`open_edges`), and what its triangles enclose is then not the object's volume (`export --closed`
+caps it).  Pieces are found by
 shared vertices: hooking each vertex to the smallest label among its neighbours, then pointer
 jumping, until nothing changes (a few rounds: the rounds grow with the log of a piece's size).
 """
@@ -17,7 +18,7 @@ import numpy as np
 @dataclass(frozen=True)
 class SurfaceMeasure:
     area: float                      # world units^2 (mm^2)
-    volume: float                    # world units^3 (mm^3) enclosed, over the closed pieces
+    volume: float                    # world units^3 (mm^3) enclosed by the triangles (the object's, if closed)
     components: int                  # connected pieces
     largest_component_volume: float  # world units^3 of the piece enclosing the most
     bbox_min: tuple[float, float, float]
