@@ -28,66 +28,21 @@ signature a kernel; the JIT's output is cached on disk, numba's cache=True).
 """
 from __future__ import annotations
 
-import contextlib
-import threading
-
 import numba
 import numpy as np
-from llvmlite import ir
-from numba import njit, prange, types
-from numba.extending import intrinsic
+from numba import prange
 
 from ..core.case_table import EDGE_AXIS, EDGE_ORIGIN, CaseTable, montani_table
 from ..core.layout import BRICK_I, BRICK_J, EDGE_MARGIN, WORD_BITS
+from .jit import _cached_njit, _launch_guard, _low_bits, _lowest_bit, _popcount, _take
 
 __all__ = ["marching_cubes_compiled", "marching_tetrahedra_compiled", "CompiledCubes"]
 
-_SERIAL = threading.Lock()
-
-
-def _launch_guard():
-    """What a thread holds while it runs the parallel kernels: numba's "workqueue" threading layer (the one
-    a plain pip install gets on macOS and Windows) aborts the process when two threads launch parallel
-    kernels at once (a viewer's preview and its full-resolution worker), so there they take turns;
-    the "omp" and "tbb" layers are thread-safe and need no lock."""
-    try:
-        layer = numba.threading_layer()
-    except ValueError:  # no parallel kernel has run yet, so the layer is not chosen: take turns
-        return _SERIAL
-    return _SERIAL if layer == "workqueue" else contextlib.nullcontext()
-
-
-def _cached_njit(**options):
-    """numba's njit with its output cached on disk (cache=True: __pycache__ beside this file, else the
-    user's cache directory), or compiled afresh in each process where no cache directory can be written."""
-    def wrap(function):
-        try:
-            return njit(cache=True, **options)(function)
-        except RuntimeError:  # "cannot cache function ...: no locator available"
-            return njit(**options)(function)
-    return wrap
-
-
-@intrinsic
-def _popcount(typingctx, x):
-    """The set bits of an int64: LLVM's ctpop (one instruction where the CPU has one)."""
-    def codegen(context, builder, signature, args):
-        return builder.ctpop(args[0])
-    return types.int64(types.int64), codegen
-
-
-@intrinsic
-def _lowest_bit(typingctx, x):
-    """The index of the lowest set bit of a non-zero int64: LLVM's cttz."""
-    def codegen(context, builder, signature, args):
-        return builder.cttz(args[0], ir.Constant(ir.IntType(1), 1))
-    return types.int64(types.int64), codegen
-
-
-@_cached_njit(inline="always", error_model="numpy")
-def _low_bits(count):
-    """A mask of the lowest `count` bits (0 <= count <= 32)."""
-    return (np.int64(1) << count) - 1
+# Pass 4's time per word, vertex and triangle, roughly (in 2 ns on one core here): how planes are split in runs.
+WORK_WORD, WORK_VERTEX, WORK_TRIANGLE = 1, 16, 4
+# Pass 4's runs of planes per thread: a run costs a plane of gradients more; more runs let a thread that runs
+# on take up the work of one the machine holds back.
+RUNS_PER_THREAD = 4
 
 
 @_cached_njit(parallel=True, error_model="numpy")
@@ -173,13 +128,14 @@ def _case(k, a, b, c, d, a1, b1, c1, d1):
 
 
 @_cached_njit(parallel=True, error_model="numpy")
-def _count(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts):
+def _count(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts, plane_work):
     """Pass 2: per word, the crossing-edge masks (edges[i, j, w, kind]: the edges from its samples to the
-    samples steps[kind] away), its vertex count and triangle count.  Three steps must be the axes in order
-    (CUBE_STEPS)."""
+    samples steps[kind] away), its vertex count and triangle count; per plane, an estimate of pass 4's time
+    (WORK_* units).  Three steps must be the axes in order (CUBE_STEPS)."""
     n0, n1, nw = signs.shape
     axes_only = steps.shape[0] == 3
     for i in prange(n0):
+        work = n1 * nw * WORK_WORD
         for j in range(n1):
             for w in range(nw):
                 k0 = w * WORD_BITS
@@ -216,6 +172,8 @@ def _count(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts
                         cut &= cut - 1
                         triangles += table_counts[_case(k, a, b, c, d, a1, b1, c1, d1)]
                 triangle_counts[i, j, w] = triangles
+                work += vertices * WORK_VERTEX + triangles * WORK_TRIANGLE
+        plane_work[i] = work
 
 
 @_cached_njit(error_model="numpy")
@@ -399,56 +357,60 @@ def _plane_gradients(field, sign, spacing, edges, i, grads):
                 grads[j, k, 2] = g2
 
 
+@_cached_njit(inline="always", error_model="numpy")
+def _axis_vertices(field, sign, level, spacing, edges, i, j, w, n, axis, starts, ends, end_row, verts, normals,
+                   values):
+    """The vertices of word (i, j, w)'s edges along `axis` from row n on, their gradients from the planes
+    of gradients (starts[j, k] at an edge's start, ends[end_row, k or k + 1] at its end); returns the next
+    row."""
+    bits = edges[i, j, w, axis]
+    d2 = 1 if axis == 2 else 0
+    while bits:
+        k = w * WORD_BITS + _lowest_bit(bits)
+        _vertex_between(field, sign, level, spacing, i, j, k, 1 if axis == 0 else 0, 1 if axis == 1 else 0, d2,
+                        starts[j, k, 0], starts[j, k, 1], starts[j, k, 2], ends[end_row, k + d2, 0],
+                        ends[end_row, k + d2, 1], ends[end_row, k + d2, 2], verts, normals, values, n)
+        bits &= bits - 1
+        n += 1
+    return n
+
+
 @_cached_njit(parallel=True, error_model="numpy")
 def _write_cubes(field, sign, level, spacing, signs, edges, vertex_offsets, triangle_offsets, table_counts,
-                 table_triangles, row_owner, edge_row, starts, verts, faces, normals, values):
+                 table_triangles, row_owner, edge_row, workers, starts, taken, verts, faces, normals, values):
     """Pass 4 for cubes: _write's mesh, each sample's gradient computed once (not once per edge that ends
-    there) into a plane of gradients, two planes held at a time; the planes go in runs (starts) to the
-    threads."""
+    there) into a plane of gradients, two planes held at a time.  The planes go in runs (starts[r] to
+    starts[r + 1]) to `workers` threads, each taking the next run not yet taken (taken[0], reset to 0 by the
+    caller) when it is done with one: a thread the machine holds back leaves its runs to the other."""
     n0, n1, nw = signs.shape
     n2 = field.shape[2]
     rows = row_owner.shape[0]
-    for run in prange(starts.shape[0] - 1):
+    for _worker in prange(workers):
         masks = np.empty(rows, np.int64)
         firsts = np.empty(rows, np.int64)
         here = np.empty((n1, n2, 3), np.float32)  # the gradients of plane i
         after = np.empty((n1, n2, 3), np.float32)  # and of plane i + 1
-        if starts[run] < starts[run + 1]:
-            _plane_gradients(field, sign, spacing, edges, starts[run], here)
-        for i in range(starts[run], starts[run + 1]):
-            if i + 1 < n0:
-                _plane_gradients(field, sign, spacing, edges, i + 1, after)
-            for j in range(n1):
-                for w in range(nw):
-                    k0 = w * WORD_BITS
-                    n = vertex_offsets[i, j, w]
-                    bits = edges[i, j, w, 0]
-                    while bits:
-                        k = k0 + _lowest_bit(bits)
-                        _vertex_between(field, sign, level, spacing, i, j, k, 1, 0, 0, here[j, k, 0], here[j, k, 1],
-                                        here[j, k, 2], after[j, k, 0], after[j, k, 1], after[j, k, 2], verts,
-                                        normals, values, n)
-                        bits &= bits - 1
-                        n += 1
-                    bits = edges[i, j, w, 1]
-                    while bits:
-                        k = k0 + _lowest_bit(bits)
-                        _vertex_between(field, sign, level, spacing, i, j, k, 0, 1, 0, here[j, k, 0], here[j, k, 1],
-                                        here[j, k, 2], here[j + 1, k, 0], here[j + 1, k, 1], here[j + 1, k, 2],
-                                        verts, normals, values, n)
-                        bits &= bits - 1
-                        n += 1
-                    bits = edges[i, j, w, 2]
-                    while bits:
-                        k = k0 + _lowest_bit(bits)
-                        _vertex_between(field, sign, level, spacing, i, j, k, 0, 0, 1, here[j, k, 0], here[j, k, 1],
-                                        here[j, k, 2], here[j, k + 1, 0], here[j, k + 1, 1], here[j, k + 1, 2],
-                                        verts, normals, values, n)
-                        bits &= bits - 1
-                        n += 1
-                    _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, table_triangles,
-                                    row_owner, edge_row, i, j, w, n2, masks, firsts, faces)
-            here, after = after, here
+        while True:
+            run = _take(taken)
+            if run >= starts.shape[0] - 1:
+                break
+            if starts[run] < starts[run + 1]:
+                _plane_gradients(field, sign, spacing, edges, starts[run], here)
+            for i in range(starts[run], starts[run + 1]):
+                if i + 1 < n0:
+                    _plane_gradients(field, sign, spacing, edges, i + 1, after)
+                for j in range(n1):
+                    for w in range(nw):
+                        n = vertex_offsets[i, j, w]
+                        n = _axis_vertices(field, sign, level, spacing, edges, i, j, w, n, 0, here, after, j,
+                                           verts, normals, values)
+                        n = _axis_vertices(field, sign, level, spacing, edges, i, j, w, n, 1, here, here, j + 1,
+                                           verts, normals, values)
+                        n = _axis_vertices(field, sign, level, spacing, edges, i, j, w, n, 2, here, here, j,
+                                           verts, normals, values)
+                        _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, table_triangles,
+                                        row_owner, edge_row, i, j, w, n2, masks, firsts, faces)
+                here, after = after, here
 
 
 def code_rows(codes):
@@ -506,6 +468,9 @@ class CompiledCubes:
         self._edges = np.empty((n0, n1, nw, len(self._steps)), np.int64)
         self._vertex_offsets = np.empty((n0, n1, nw), np.int64)
         self._triangle_offsets = np.empty((n0, n1, nw), np.int64)
+        self._plane_work = np.empty(n0, np.int64)
+        self.runs = None  # the runs of planes pass 4 hands to the threads; None: RUNS_PER_THREAD a thread
+        self._taken = np.zeros(1, np.int64)
         self._lows = self._highs = None
         self.extractions = 0
         # With reuse_outputs, the mesh arrays are kept and grown by half when too small, and extract returns
@@ -535,6 +500,14 @@ class CompiledCubes:
             _word_ranges(self.field, lows, highs)
             self._lows, self._highs = lows, highs
 
+    def _runs(self, workers: int) -> np.ndarray:
+        """The first plane of each run (and the end): runs of planes with equal shares of the work."""
+        runs = min(self.runs or RUNS_PER_THREAD * workers, len(self._plane_work))
+        done = np.cumsum(self._plane_work)
+        shares = done[-1] * np.arange(1, runs) / runs
+        inner = np.searchsorted(done, shares, side="right")
+        return np.concatenate(([0], inner, [len(done)])).astype(np.int64)
+
     def extract(self, level: float):
         with _launch_guard():
             return self._extract(level)
@@ -549,15 +522,15 @@ class CompiledCubes:
         highs = self._highs if ranged else lows
         _pack_signs(self.field, self.sign, level, lows, highs, ranged, self._signs)
         _count(self._signs, self.field.shape[2], self._steps, self._counts, self._edges, self._vertex_offsets,
-               self._triangle_offsets)
+               self._triangle_offsets, self._plane_work)
         n_vertices, n_triangles = _scan(self._vertex_offsets, self._triangle_offsets)
         verts, faces, normals, values = self._output_arrays(n_vertices, n_triangles)
         if self._steps is CUBE_STEPS:
-            runs = numba.get_num_threads()
-            starts = np.linspace(0, self.field.shape[0], runs + 1).astype(np.int64)
+            workers = numba.get_num_threads()
+            self._taken[0] = 0
             _write_cubes(self.field, self.sign, level, self.spacing, self._signs, self._edges, self._vertex_offsets,
                          self._triangle_offsets, self._counts, self._triangles, self._row_owner, self._edge_row,
-                         starts, verts, faces, normals, values)
+                         workers, self._runs(workers), self._taken, verts, faces, normals, values)
         else:
             _write(self.field, self.sign, level, self.spacing, self._steps, self._signs, self._edges,
                    self._vertex_offsets, self._triangle_offsets, self._counts, self._triangles, self._row_owner,

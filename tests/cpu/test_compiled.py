@@ -89,6 +89,18 @@ def test_iso_changes_skip_words_yet_keep_the_mesh(direction):
     assert cubes._lows is not None
 
 
+@pytest.mark.parametrize("runs", [1, 2, 3, 7, 200])
+def test_any_split_of_the_planes_between_threads(runs):
+    """Pass 4 hands runs of planes to the threads, each run starting with a plane of gradients of its own:
+    one run, several, one a plane and more runs than planes give the same mesh, an empty run included."""
+    volume = _gyroid((23, 40, 70))
+    volume[14:] = RNG.normal(size=(9, 40, 70)).astype(np.float32)  # uneven work from plane to plane
+    cubes = CompiledCubes(volume, (0.5, 2.0, 1.25), True)
+    cubes.runs = runs
+    for level in (0.3, -0.2):
+        assert_identical(cubes.extract(level), marching_cubes_reference(volume, level, (0.5, 2.0, 1.25), True))
+
+
 def test_a_level_that_cuts_nothing():
     volume = _sphere((20, 20, 20))
     mesh = marching_cubes_compiled(volume, float(volume.max()) + 1.0)
