@@ -2,9 +2,10 @@
 
 `CpuExtractor` is what the viewer and the API use where there is no OpenGL 4.3 context (macOS's 4.1,
 no GL at all).  It answers like `isoscope.gpu.cubes.Extractor`: ``extract(level)`` returns the counts,
-``read_mesh()`` the arrays as `isoscope.marching_cubes` returns them, ``value_range``, ``shape``,
-``spacing``, ``level``, ``release()`` and the context manager.  The mesh is the GPU's, vertex for
-vertex and triangle for triangle (the order of `isoscope.cpu.cubes`).
+``read_mesh()`` the arrays as `isoscope.api.outward_marching_cubes` returns them (isoscope's own mesh,
+values the level; `isoscope.marching_cubes` follows scikit-image's winding and values instead),
+``value_range``, ``shape``, ``spacing``, ``level``, ``release()`` and the context manager.  The mesh is
+the GPU's, vertex for vertex and triangle for triangle (the order of `isoscope.cpu.cubes`).
 """
 from __future__ import annotations
 
@@ -95,7 +96,8 @@ class CpuExtractor:
 
     def read_mesh(self):
         """verts (N, 3) float32, faces (M, 3) int32, normals (N, 3) float32, values (N,) float32 of the
-        last extraction, as `isoscope.marching_cubes` returns them (copies: the caller may keep them)."""
+        last extraction, as `isoscope.api.outward_marching_cubes` returns them (copies: the caller may keep
+        them)."""
         if self._mesh is None:
             raise ValueError("nothing extracted yet: call extract(level) first")
         return tuple(part.copy() for part in self._mesh)
