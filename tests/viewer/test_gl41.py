@@ -2,12 +2,15 @@
 with no GL at all.
 
 Mesa's MESA_GL_VERSION_OVERRIDE=4.1 imitates a Mac: the driver offers a 4.1 core context and no more, so
-the meshes come from the CPU extractor and are drawn from a VBO (viewer/gfx/cpu_surface.py).  Each run is a
-subprocess with the override in its environment (Mesa reads it when the process makes its first context;
-the tests' own context is 4.3).  "No GL" is an EGL vendor list that names nothing and no DISPLAY.
+the meshes come from the CPU extractor and are drawn from a VBO (viewer/gfx/cpu_surface.py).  A 4.1 run is a
+subprocess with the override in its environment (Mesa reads it when the process makes its first context);
+the 4.3 picture it is held to is drawn by the same command in this process (the tests' own context is 4.3).
+The render modes are drawn on 4.1 by one process, one command after another; the torus by a command of its
+own.  "No GL" is an EGL vendor list that names nothing and no DISPLAY.
 """
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -18,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
+from support.command import isoscope_here
 
 REPO = Path(__file__).resolve().parents[2]
 GL41 = {"MESA_GL_VERSION_OVERRIDE": "4.1", "MESA_GLSL_VERSION_OVERRIDE": "410"}
@@ -45,15 +49,53 @@ def pixels(path) -> np.ndarray:
     return np.asarray(Image.open(path).convert("RGB")).astype(int)
 
 
+def render_43(tmp_path, name, *args) -> np.ndarray:
+    """`isoscope render ARGS` on 4.3 (in this process, on its context): the image."""
+    out = tmp_path / f"{name}-43.png"
+    result = isoscope_here("render", *args, "--size", SIZE, "--out", out)
+    assert result.returncode == 0, result.stderr
+    return pixels(out)
+
+
 def render_both(tmp_path, name, *args):
-    """The same `isoscope render` on 4.1 and on 4.3: both images."""
-    images = []
-    for gl41 in (True, False):
-        out = tmp_path / f"{name}-{41 if gl41 else 43}.png"
-        result = isoscope("render", *args, "--size", SIZE, "--out", out, gl41=gl41)
-        assert result.returncode == 0, result.stderr
-        images.append(pixels(out))
-    return images
+    """The same `isoscope render` on 4.1 (a process of its own) and on 4.3: both images."""
+    out = tmp_path / f"{name}-41.png"
+    result = isoscope("render", *args, "--size", SIZE, "--out", out, gl41=True)
+    assert result.returncode == 0, result.stderr
+    return pixels(out), render_43(tmp_path, name, *args)
+
+
+MODES = {   # name: `isoscope render` arguments that take a path of their own on 4.1
+    "levels": ["metaballs", "--iso", "0.3", "--iso", "0.6", "--opacity", "0.35,1"],   # translucency (OIT)
+    "slices": ["bucky", "--slice", "z=32", "--slice", "x=20", "--clip", "y=30"],       # isocurves, clip cap, inset
+    "colour": ["gyroid", "--color-by", "gradient", "--wireframe"],
+    "panel": ["sphere", "--panel", "--tetrahedra", "--smooth", "2"],
+    "sharp": ["box", "--sharp", "30"],
+    "labels": ["{folder}/labels.npy", "--labels"],
+}
+
+RENDER_ALL = textwrap.dedent("""
+    import json, sys
+    from isoscope.cli.main import main
+    for name, args in json.loads(sys.argv[1]).items():
+        print(json.dumps([name, main(args)]), flush=True)
+""")
+
+
+@pytest.fixture(scope="module")
+def on41(tmp_path_factory):
+    """Every scene of MODES drawn on 4.1 by one process (the command's `main`, scene after scene): the
+    folder of the images (NAME-41.png) and each scene's exit status."""
+    folder = tmp_path_factory.mktemp("on41")
+    labels = np.zeros((24, 24, 24), np.uint8)
+    labels[4:12, 4:20, 4:20], labels[14:20, 6:18, 8:16] = 1, 2
+    np.save(folder / "labels.npy", labels)
+    jobs = {name: ["render", *(arg.format(folder=folder) for arg in args), "--size", SIZE,
+                   "--out", str(folder / f"{name}-41.png")] for name, args in MODES.items()}
+    result = subprocess.run([sys.executable, "-c", RENDER_ALL, json.dumps(jobs)], capture_output=True, text=True,
+                            env=environment(gl41=True), cwd=REPO, timeout=300)
+    statuses = dict(json.loads(line) for line in result.stdout.splitlines() if line.startswith("["))
+    return folder, statuses, result.stderr
 
 
 def same_share(a, b) -> float:
@@ -71,25 +113,12 @@ def test_render_on_41_draws_the_surface_as_on_43(tmp_path):
 
 
 @pytest.mark.gl
-@pytest.mark.parametrize("name, args", [
-    ("levels", ["metaballs", "--iso", "0.3", "--iso", "0.6", "--opacity", "0.35,1"]),   # translucency (OIT)
-    ("slices", ["bucky", "--slice", "z=32", "--slice", "x=20", "--clip", "y=30"]),       # isocurves, clip cap, inset
-    ("colour", ["gyroid", "--color-by", "gradient", "--wireframe"]),
-    ("panel", ["sphere", "--panel", "--tetrahedra", "--smooth", "2"]),
-    ("sharp", ["box", "--sharp", "30"]),
-])
-def test_render_modes_on_41_match_43(tmp_path, name, args):
-    on41, on43 = render_both(tmp_path, name, *args)
-    assert same_share(on41, on43) >= SAME_SHARE, name
-
-
-@pytest.mark.gl
-def test_render_labels_on_41(tmp_path):
-    labels = np.zeros((24, 24, 24), np.uint8)
-    labels[4:12, 4:20, 4:20], labels[14:20, 6:18, 8:16] = 1, 2
-    np.save(tmp_path / "labels.npy", labels)
-    on41, on43 = render_both(tmp_path, "labels", tmp_path / "labels.npy", "--labels")
-    assert same_share(on41, on43) >= SAME_SHARE
+@pytest.mark.parametrize("name", MODES)   # labels: a label map's surfaces in their colours
+def test_render_modes_on_41_match_43(on41, tmp_path, name):
+    folder, statuses, stderr = on41
+    assert statuses.get(name) == 0, stderr
+    on43 = render_43(tmp_path, name, *(arg.format(folder=folder) for arg in MODES[name]))
+    assert same_share(pixels(folder / f"{name}-41.png"), on43) >= SAME_SHARE, name
 
 
 SCRIPT = textwrap.dedent("""
@@ -157,16 +186,14 @@ def test_viewer_on_41_extracts_on_the_cpu_and_follows_the_slider(tmp_path):
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == "ok"
     # The scene's sharp mesh on 4.1 (crisp normals) looks as `render --sharp` draws it on 4.3.
-    reference = tmp_path / "sharp-43.png"
-    assert isoscope("render", "box", "--sharp", "30", "--size", "320x240", "--out", reference).returncode == 0
-    assert same_share(pixels(out), pixels(reference)) >= SAME_SHARE
+    assert same_share(pixels(out), render_43(tmp_path, "sharp", "box", "--sharp", "30")) >= SAME_SHARE
 
 
 @pytest.mark.gl
 def test_version_says_the_gl_version_and_the_extractor():
     on41 = isoscope("--version", gl41=True)
     assert on41.returncode == 0 and "OpenGL 4.1" in on41.stdout and "CPU extractor" in on41.stdout, on41.stdout
-    on43 = isoscope("--version")
+    on43 = isoscope_here("--version")
     assert on43.returncode == 0 and "GPU extractor" in on43.stdout, on43.stdout
 
 
