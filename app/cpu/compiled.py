@@ -268,9 +268,36 @@ def _vertex_index(edges, vertex_offsets, i, j, k, kind):
 
 
 @_cached_njit(inline="always", error_model="numpy")
-def _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, table_triangles, row_owner,
-                    edge_row, i, j, w, n2, masks, firsts, faces):
-    """The triangles of the cut cells of word (i, j, w) at its triangle offset."""
+def _cube_rows(edges, vertex_offsets, i, j, w, masks, firsts):
+    """masks and firsts of ROW_OWNER's rows: (0, 0, axis 0, 1, 2), (0, 1, axis 0, 2), (1, 0, axis 1, 2),
+    (1, 1, axis 2)."""
+    first = vertex_offsets[i, j, w]
+    masks[0] = edges[i, j, w, 0]
+    firsts[0] = first
+    first += _popcount(masks[0])
+    masks[1] = edges[i, j, w, 1]
+    firsts[1] = first
+    masks[2] = edges[i, j, w, 2]
+    firsts[2] = first + _popcount(masks[1])
+    masks[3] = edges[i, j + 1, w, 0]
+    firsts[3] = vertex_offsets[i, j + 1, w]
+    masks[4] = edges[i, j + 1, w, 2]
+    firsts[4] = firsts[3] + _popcount(masks[3]) + _popcount(edges[i, j + 1, w, 1])
+    first = vertex_offsets[i + 1, j, w] + _popcount(edges[i + 1, j, w, 0])
+    masks[5] = edges[i + 1, j, w, 1]
+    firsts[5] = first
+    masks[6] = edges[i + 1, j, w, 2]
+    firsts[6] = first + _popcount(masks[5])
+    masks[7] = edges[i + 1, j + 1, w, 2]
+    firsts[7] = vertex_offsets[i + 1, j + 1, w] + _popcount(edges[i + 1, j + 1, w, 0]) + _popcount(
+        edges[i + 1, j + 1, w, 1])
+
+
+@_cached_njit(inline="always", error_model="numpy")
+def _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, corners, row_owner, i, j, w,
+                    n2, masks, firsts, faces, cubes):
+    """The triangles of the cut cells of word (i, j, w) at its triangle offset.  `cubes` (a constant): the
+    rows are ROW_OWNER's, read unrolled."""
     n0, n1, nw = signs.shape
     if i + 1 >= n0 or j + 1 >= n1:
         return
@@ -280,7 +307,9 @@ def _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts
     if cut == 0:
         return
     # The rows of edges the word's cells use: their masks and first vertices.
-    for r in range(row_owner.shape[0]):
+    if cubes:  # ROW_OWNER's eight rows from the four words (i, j), (i, j + 1), (i + 1, j), (i + 1, j + 1)
+        _cube_rows(edges, vertex_offsets, i, j, w, masks, firsts)
+    for r in range(0 if cubes else row_owner.shape[0]):
         oi = i + row_owner[r, 0]
         oj = j + row_owner[r, 1]
         kind = row_owner[r, 2]
@@ -296,9 +325,9 @@ def _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts
         case = _case(bit, a, b, c, d, a1, b1, c1, d1)
         for slot in range(table_counts[case]):
             for corner in range(3):
-                e = table_triangles[case, slot, corner]
-                r = edge_row[e, 0]
-                at = bit + edge_row[e, 1]
+                code = corners[case, slot, corner]  # the edge's row << 1 | its step along axis 2
+                r = code >> 1
+                at = bit + (code & 1)
                 if at < WORD_BITS:
                     faces[m, corner] = firsts[r] + _popcount(masks[r] & _low_bits(at))
                 else:  # the edge at the next word's bit 0
@@ -309,7 +338,7 @@ def _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts
 
 @_cached_njit(parallel=True, error_model="numpy")
 def _write(field, sign, level, spacing, steps, signs, edges, vertex_offsets, triangle_offsets, table_counts,
-           table_triangles, row_owner, edge_row, verts, faces, normals, values):
+           corners, row_owner, verts, faces, normals, values):
     """Pass 4 (any kinds of edge: tetrahedra's): each word's vertices and triangles at its offsets."""
     n0, n1, nw = signs.shape
     n2 = field.shape[2]
@@ -328,8 +357,8 @@ def _write(field, sign, level, spacing, steps, signs, edges, vertex_offsets, tri
                                 steps[kind, 1], steps[kind, 2], verts, normals, values, n)
                         bits &= bits - 1
                         n += 1
-                _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, table_triangles,
-                                row_owner, edge_row, i, j, w, n2, masks, firsts, faces)
+                _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, corners, row_owner,
+                                i, j, w, n2, masks, firsts, faces, False)
 
 
 @_cached_njit(inline="always", error_model="numpy")
@@ -377,7 +406,7 @@ def _axis_vertices(field, sign, level, spacing, edges, i, j, w, n, axis, starts,
 
 @_cached_njit(parallel=True, error_model="numpy")
 def _write_cubes(field, sign, level, spacing, signs, edges, vertex_offsets, triangle_offsets, table_counts,
-                 table_triangles, row_owner, edge_row, workers, starts, taken, verts, faces, normals, values):
+                 corners, row_owner, workers, starts, taken, verts, faces, normals, values):
     """Pass 4 for cubes: _write's mesh, each sample's gradient computed once (not once per edge that ends
     there) into a plane of gradients, two planes held at a time.  The planes go in runs (starts[r] to
     starts[r + 1]) to `workers` threads, each taking the next run not yet taken (taken[0], reset to 0 by the
@@ -408,8 +437,8 @@ def _write_cubes(field, sign, level, spacing, signs, edges, vertex_offsets, tria
                                            verts, normals, values)
                         n = _axis_vertices(field, sign, level, spacing, edges, i, j, w, n, 2, here, here, j,
                                            verts, normals, values)
-                        _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, table_triangles,
-                                        row_owner, edge_row, i, j, w, n2, masks, firsts, faces)
+                        _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, corners,
+                                        row_owner, i, j, w, n2, masks, firsts, faces, True)
                 here, after = after, here
 
 
@@ -463,7 +492,10 @@ class CompiledCubes:
         n0, n1, n2 = field.shape
         nw = -(-n2 // WORD_BITS)
         self._counts = table.counts.astype(np.int64)
-        self._triangles = table.triangles.astype(np.int64)
+        # Each triangle corner's edge as its row << 1 | its step along axis 2 (the table's -1 padding: 0).
+        triangles = table.triangles.astype(np.int64)
+        self._corners = np.where(triangles >= 0, self._edge_row[triangles, 0] * 2 + self._edge_row[triangles, 1],
+                                 0).astype(np.int32)
         self._signs = np.empty((n0, n1, nw), np.int64)
         self._edges = np.empty((n0, n1, nw, len(self._steps)), np.int64)
         self._vertex_offsets = np.empty((n0, n1, nw), np.int64)
@@ -529,12 +561,12 @@ class CompiledCubes:
             workers = numba.get_num_threads()
             self._taken[0] = 0
             _write_cubes(self.field, self.sign, level, self.spacing, self._signs, self._edges, self._vertex_offsets,
-                         self._triangle_offsets, self._counts, self._triangles, self._row_owner, self._edge_row,
+                         self._triangle_offsets, self._counts, self._corners, self._row_owner,
                          workers, self._runs(workers), self._taken, verts, faces, normals, values)
         else:
             _write(self.field, self.sign, level, self.spacing, self._steps, self._signs, self._edges,
-                   self._vertex_offsets, self._triangle_offsets, self._counts, self._triangles, self._row_owner,
-                   self._edge_row, verts, faces, normals, values)
+                   self._vertex_offsets, self._triangle_offsets, self._counts, self._corners, self._row_owner,
+                   verts, faces, normals, values)
         return verts, faces, normals, values
 
 
