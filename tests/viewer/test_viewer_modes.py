@@ -306,26 +306,39 @@ def test_a_volume_that_looks_like_a_label_map_is_offered_as_one(viewer, two_labe
 
 def test_the_pointer_can_rest_on_every_part_of_the_panel(gl_ctx, two_labels):
     """Hovering shows tooltips: sweep the pointer down the panel's widget columns, with two iso levels
-    and with a label map on show (a tooltip's call must not fail)."""
+    and with a label map on show (a tooltip's call must not fail), resting at each place for the frame
+    in which its tooltip shows."""
     from imgui_bundle import imgui
     viewer = HeadlessViewer((480, 1200), ctx=gl_ctx)
     try:
         viewer.show_levels(open_volume("torus", resolution=20), [0.0, 0.1])
         viewer.render(panel=True)
-        io = imgui.get_io()
+        io, style = imgui.get_io(), imgui.get_style()
+        # A tooltip shows once the pointer has rested (imgui's delays, 0.15 s at 60 frames a second): with no
+        # delay, in the second frame at a place.
+        style.hover_delay_short = style.hover_stationary_delay = 0.0
 
-        def sweep():
+        def sweep() -> int:
+            """Places in which a tooltip showed. Each frame lays the panel out as the window's frames do;
+            its pixels are drawn once, after the sweep."""
+            shown = 0
             x0, y0, width, height = viewer._panel.box
             for y in np.arange(y0 + 4, y0 + height, 17.0):  # under a widget row (~23 px): each row is hit
                 for x in (x0 + 18, x0 + 42, x0 + 120):
                     io.add_mouse_pos_event(float(x), float(y))
-                    viewer.render(panel=True)
+                    for _ in range(2):
+                        viewer._layout_panel()
+                        imgui.end_frame()
+                    tip = imgui.internal.find_window_by_name("##Tooltip_00")
+                    shown += tip is not None and tip.active
+            viewer.render(panel=True)
+            return shown
 
         io.add_mouse_pos_event(160.0, 8.0)
-        sweep()
+        assert sweep() >= 20
         viewer.show(open_volume(str(two_labels)))
         viewer.state.show_labels()
-        sweep()
+        assert sweep() >= 10
     finally:
         viewer.release()
 
