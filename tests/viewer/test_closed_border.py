@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from PIL import Image
-from support.command import assert_one_line_error, isoscope
+from support.command import assert_one_line_error, isoscope_here
 
 from isoscope.cpu.measure import measure_surface, open_edge_count
 from isoscope.viewer.model.caps import caps, closed_mesh, extractor
@@ -81,7 +81,7 @@ def test_render_closed_draws_the_cap_in_the_front_colour(ball_file, tmp_path):
     pictures = {}
     for closed in (False, True):
         out = tmp_path / f"ball{'-closed' * closed}.png"
-        result = isoscope("render", ball_file, *VIEW, *(["--closed"] if closed else []), "--out", out)
+        result = isoscope_here("render", ball_file, *VIEW, *(["--closed"] if closed else []), "--out", out)
         assert result.returncode == 0, result.stderr
         pictures[closed] = np.asarray(Image.open(out).convert("RGB")).astype(int)
     inside = pictures[False][..., 0] > pictures[False][..., 2] + 40     # orange: red over blue
@@ -91,7 +91,7 @@ def test_render_closed_draws_the_cap_in_the_front_colour(ball_file, tmp_path):
 
 
 def test_render_closed_with_sharp_is_one_line(ball_file, tmp_path):
-    result = isoscope("render", ball_file, "--iso", "0", "--sharp", "30", "--closed", "--out", tmp_path / "x.png")
+    result = isoscope_here("render", ball_file, "--iso", "0", "--sharp", "30", "--closed", "--out", tmp_path / "x.png")
     assert_one_line_error(result, "--closed")
 
 
@@ -124,13 +124,13 @@ def test_save_mesh_closed_at_the_border_is_watertight(gl_ctx, ball_file, tmp_pat
 
 def test_a_saved_scene_keeps_closed_and_render_redraws_it(ball_file, tmp_path):
     scene_path, picture = tmp_path / "ball.json", tmp_path / "ball.png"
-    result = isoscope("render", ball_file, *VIEW, "--closed", "--out", picture, "--save-scene", scene_path)
+    result = isoscope_here("render", ball_file, *VIEW, "--closed", "--out", picture, "--save-scene", scene_path)
     assert result.returncode == 0, result.stderr
     import json
     assert json.loads(scene_path.read_text())["mesh"]["closed"] is True
     again = tmp_path / "again.png"
-    result = isoscope("render", scene_path, "--out", again)
+    result = isoscope_here("render", scene_path, "--out", again)
     assert result.returncode == 0, result.stderr
     assert np.array_equal(np.asarray(Image.open(again)), np.asarray(Image.open(picture)))
-    result = isoscope("render", scene_path, "--closed", "--out", again)
+    result = isoscope_here("render", scene_path, "--closed", "--out", again)
     assert_one_line_error(result, "--closed")
