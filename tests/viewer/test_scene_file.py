@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 from PIL import Image
-from support.command import assert_one_line_error, isoscope
+from support.command import assert_one_line_error, isoscope, isoscope_here
 
 from isoscope.viewer.model.camera import OrbitCamera
 from isoscope.viewer.model.scene_file import SceneError, apply_scene, read_scene, scene_of
@@ -25,25 +25,25 @@ def pixels(path):
 @pytest.mark.gl
 def test_a_saved_scene_redraws_the_same_picture(tmp_path):
     for name, extra in (("plain", ()), ("coloured", ("--color-by", "gradient", "--color-by-map", "magma"))):
-        first = isoscope("render", "bucky", *VIEW, *extra, "--out", tmp_path / f"{name}.png", "--save-scene",
-                         tmp_path / f"{name}.json")
+        first = isoscope_here("render", "bucky", *VIEW, *extra, "--out", tmp_path / f"{name}.png",
+                              "--save-scene", tmp_path / f"{name}.json")
         assert first.returncode == 0, first.stderr
-        again = isoscope("render", tmp_path / f"{name}.json", "--out", tmp_path / f"{name}2.png")
+        again = isoscope_here("render", tmp_path / f"{name}.json", "--out", tmp_path / f"{name}2.png")
         assert again.returncode == 0, again.stderr
         assert np.array_equal(pixels(tmp_path / f"{name}.png"), pixels(tmp_path / f"{name}2.png")), name
     scene = json.loads((tmp_path / "plain.json").read_text())
     assert scene["format"] == "isoscope-scene" and scene["version"] == 1 and scene["size"] == [320, 240]
     assert [level["value"] for level in scene["levels"]] == [100.0, 170.0]
     assert scene["slices"]["clip"] == {"axis": 0, "position": 30.0, "hide_above": True}
-    bigger = isoscope("render", tmp_path / "plain.json", "--size", "640x480", "--out", tmp_path / "big.png")
+    bigger = isoscope_here("render", tmp_path / "plain.json", "--size", "640x480", "--out", tmp_path / "big.png")
     assert bigger.returncode == 0 and pixels(tmp_path / "big.png").shape == (480, 640, 3)
 
 
 @pytest.mark.gl
 def test_the_window_opens_a_scene(tmp_path, x_display, monkeypatch):
     monkeypatch.setenv("DISPLAY", x_display)
-    assert isoscope("render", "torus", "--iso", "0.1", "--out", tmp_path / "t.png", "--save-scene",
-                    tmp_path / "t.json").returncode == 0
+    assert isoscope_here("render", "torus", "--iso", "0.1", "--out", tmp_path / "t.png", "--save-scene",
+                         tmp_path / "t.json").returncode == 0
     result = isoscope(tmp_path / "t.json", "--frames", "2")
     assert result.returncode == 0, result.stderr
 
@@ -86,10 +86,12 @@ def test_bad_scenes_are_one_line(tmp_path):
         (tmp_path / name).write_text(json.dumps(content))
         with pytest.raises(SceneError):
             read_scene(tmp_path / name)
-        assert_one_line_error(isoscope("render", tmp_path / name, "--out", tmp_path / "x.png"), *words)
+        assert_one_line_error(isoscope_here("render", tmp_path / name, "--out", tmp_path / "x.png"), *words)
     (tmp_path / "broken.json").write_text("{not json")
-    assert_one_line_error(isoscope("render", tmp_path / "broken.json", "--out", tmp_path / "x.png"), "not JSON")
-    assert isoscope("render", "torus", "--out", tmp_path / "t.png", "--save-scene", tmp_path / "t.json").returncode == 0
-    assert_one_line_error(isoscope("render", tmp_path / "t.json", "--iso", "0", "--out", tmp_path / "x.png"),
+    assert_one_line_error(isoscope_here("render", tmp_path / "broken.json", "--out", tmp_path / "x.png"),
+                          "not JSON")
+    saved = isoscope_here("render", "torus", "--out", tmp_path / "t.png", "--save-scene", tmp_path / "t.json")
+    assert saved.returncode == 0, saved.stderr
+    assert_one_line_error(isoscope_here("render", tmp_path / "t.json", "--iso", "0", "--out", tmp_path / "x.png"),
                           "a scene holds the view", "--iso")
     assert not (tmp_path / "x.png").exists()
