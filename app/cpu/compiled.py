@@ -5,21 +5,24 @@ The design is the GPU's (shaders/mc_*.comp) and Flying Edges' (Schroeder, Maynar
 samples are read once, to pack their inside bits 32 to a word along axis 2; everything after works on
 those words with bit operations, and only the cells the surface cuts do per-cell work.
 
-1. `_pack_signs`   per word (a row of 32 samples along axis 2): its inside bits.  A word whose sample
+1. `_pack_plane`   per word (a row of 32 samples along axis 2): its inside bits.  A word whose sample
                    range (measured once per volume, `_word_ranges`) lies wholly on one side of the
                    level is filled without reading a sample: an iso change touches only the words the
                    level cuts.
-2. `_count`        per word: the crossing edges it owns, one bit mask per axis (the XOR of a word and
+2. `_count_plane`  per word: the crossing edges it owns, one bit mask per axis (the XOR of a word and
                    its neighbour along the axis), and the triangles of its cut cells (the case table's
                    counts).
 3. `_scan`         the exclusive prefix sums of the counts in the GPU's order of the words (brick,
                    then word in brick: cubes.py's docstring), so each word's vertices and triangles
                    start where the GPU puts them.
-4. `_write`        per word: its vertices (axis 0, 1, 2, each by k) and its triangles (by k, then the
-                   table's order) at its offsets; a triangle finds the vertex of an edge from the owning
-                   word's offset and a population count of the edge mask below the edge's bit.
+4. `_write_cubes`  per word: its vertices (axis 0, 1, 2, each by k) and its triangles (by k, then the
+   (`_write` for   table's order) at its offsets; a triangle finds the vertex of an edge from the owning
+   tetrahedra)     word's offset and a population count of the edge mask below the edge's bit.  Cubes
+                   take each sample's gradient once, from planes of gradients.
 
-Passes 1, 2 and 4 run in parallel over planes of axis 0 (`prange`); 3 is a serial loop over words.
+Passes 1 and 2 run in one parallel launch (`_pack_and_count`), 4 in another, each over runs of planes of
+axis 0 that the threads take in turn (so a thread the machine holds back leaves its runs to the others);
+3 is a serial loop over words.
 Tetrahedra run the same passes with seven kinds of edge (tetra.KINDS: the axes, the face and body
 diagonals) instead of three, and their table's codes.
 The arithmetic of a vertex is the reference's, in float32 and in the same order, so positions, normals
@@ -34,7 +37,7 @@ from numba import prange
 
 from ..core.case_table import EDGE_AXIS, EDGE_ORIGIN, CaseTable, montani_table
 from ..core.layout import BRICK_I, BRICK_J, EDGE_MARGIN, WORD_BITS
-from .jit import _cached_njit, _launch_guard, _low_bits, _lowest_bit, _popcount, _take
+from .jit import _cached_njit, _case, _cut_cells, _launch_guard, _low_bits, _lowest_bit, _popcount, _shifted, _take
 
 __all__ = ["marching_cubes_compiled", "marching_tetrahedra_compiled", "CompiledCubes"]
 
@@ -66,114 +69,101 @@ def _word_ranges(field, lows, highs):
                 highs[i, j, w] = hi
 
 
-@_cached_njit(parallel=True, error_model="numpy")
-def _pack_signs(field, sign, level, lows, highs, ranged, signs):
-    """Pass 1: bit k of signs[i, j, w] is set where sample (i, j, 32 w + k) of the signed field
+@_cached_njit(error_model="numpy")
+def _pack_plane(field, sign, level, lows, highs, ranged, signs, i):
+    """Pass 1 on plane i: bit k of signs[i, j, w] is set where sample (i, j, 32 w + k) of the signed field
     (sign * field) is at or above `level`.  With `ranged`, lows/highs (the words' ranges of `field`)
     let a word the level does not cut be filled without reading its samples."""
     n0, n1, n2 = field.shape
     nw = signs.shape[2]
-    for i in prange(n0):
-        for j in range(n1):
-            for w in range(nw):
-                k0 = w * WORD_BITS
-                count = min(WORD_BITS, n2 - k0)
-                if ranged:
-                    lo = sign * lows[i, j, w]
-                    hi = sign * highs[i, j, w]
-                    if hi < lo:
-                        lo, hi = hi, lo
-                    if lo >= level:
-                        signs[i, j, w] = _low_bits(count)
-                        continue
-                    if hi < level:
-                        signs[i, j, w] = 0
-                        continue
-                word = np.int64(0)
-                for b in range(count):
-                    if sign * field[i, j, k0 + b] >= level:
-                        word |= np.int64(1) << b
-                signs[i, j, w] = word
+    for j in range(n1):
+        for w in range(nw):
+            k0 = w * WORD_BITS
+            count = min(WORD_BITS, n2 - k0)
+            if ranged:
+                lo = sign * lows[i, j, w]
+                hi = sign * highs[i, j, w]
+                if hi < lo:
+                    lo, hi = hi, lo
+                if lo >= level:
+                    signs[i, j, w] = _low_bits(count)
+                    continue
+                if hi < level:
+                    signs[i, j, w] = 0
+                    continue
+            word = np.int64(0)
+            for b in range(count):
+                if sign * field[i, j, k0 + b] >= level:
+                    word |= np.int64(1) << b
+            signs[i, j, w] = word
 
 
-@_cached_njit(inline="always", error_model="numpy")
-def _shifted(signs, i, j, w, nw):
-    """The word's bits moved down by one, the next word's first bit on top: bit k is sample k + 1."""
-    s = signs[i, j, w]
-    nxt = (signs[i, j, w + 1] & 1) << (WORD_BITS - 1) if w + 1 < nw else 0
-    return (s >> 1) | nxt
-
-
-@_cached_njit(inline="always", error_model="numpy")
-def _cut_cells(signs, i, j, w, nw, cell_mask):
-    """The word's cells with corners on both sides of the level (bit k: cell (i, j, 32 w + k)) and its
-    four rows' words, plain and shifted by one sample."""
-    a = signs[i, j, w]
-    b = signs[i + 1, j, w]
-    c = signs[i, j + 1, w]
-    d = signs[i + 1, j + 1, w]
-    a1 = _shifted(signs, i, j, w, nw)
-    b1 = _shifted(signs, i + 1, j, w, nw)
-    c1 = _shifted(signs, i, j + 1, w, nw)
-    d1 = _shifted(signs, i + 1, j + 1, w, nw)
-    every = a & b & c & d & a1 & b1 & c1 & d1
-    some = a | b | c | d | a1 | b1 | c1 | d1
-    return (some & ~every) & cell_mask, a, b, c, d, a1, b1, c1, d1
-
-
-@_cached_njit(inline="always", error_model="numpy")
-def _case(k, a, b, c, d, a1, b1, c1, d1):
-    return (((a >> k) & 1) | ((b >> k) & 1) << 1 | ((c >> k) & 1) << 2 | ((d >> k) & 1) << 3
-            | ((a1 >> k) & 1) << 4 | ((b1 >> k) & 1) << 5 | ((c1 >> k) & 1) << 6 | ((d1 >> k) & 1) << 7)
+@_cached_njit(error_model="numpy")
+def _count_plane(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts, plane_work, i):
+    """Pass 2 on plane i: per word, the crossing-edge masks (edges[i, j, w, kind]: the edges from its samples
+    to the samples steps[kind] away), its vertex count and triangle count; an estimate of pass 4's time
+    on the plane (WORK_* units).  Three steps must be the axes in order (CUBE_STEPS)."""
+    n0, n1, nw = signs.shape
+    axes_only = steps.shape[0] == 3
+    work = n1 * nw * WORK_WORD
+    for j in range(n1):
+        for w in range(nw):
+            k0 = w * WORD_BITS
+            s = signs[i, j, w]
+            # Edges with a step along axis 2 end in the row: the last sample owns none.
+            along2 = _low_bits(min(WORD_BITS, n2 - 1 - k0))
+            if axes_only:  # cubes (steps the three axes, in order): unrolled, 40% of this pass's time
+                e0 = s ^ signs[i + 1, j, w] if i + 1 < n0 else 0
+                e1 = s ^ signs[i, j + 1, w] if j + 1 < n1 else 0
+                e2 = (s ^ _shifted(signs, i, j, w, nw)) & along2
+                edges[i, j, w, 0] = e0
+                edges[i, j, w, 1] = e1
+                edges[i, j, w, 2] = e2
+                vertices = _popcount(e0) + _popcount(e1) + _popcount(e2)
+            else:
+                vertices = 0
+                for kind in range(steps.shape[0]):
+                    oi = i + steps[kind, 0]
+                    oj = j + steps[kind, 1]
+                    e = 0
+                    if oi < n0 and oj < n1:
+                        if steps[kind, 2]:
+                            e = (s ^ _shifted(signs, oi, oj, w, nw)) & along2
+                        else:
+                            e = s ^ signs[oi, oj, w]
+                    edges[i, j, w, kind] = e
+                    vertices += _popcount(e)
+            vertex_counts[i, j, w] = vertices
+            triangles = 0
+            if i + 1 < n0 and j + 1 < n1:
+                cut, a, b, c, d, a1, b1, c1, d1 = _cut_cells(signs, i, j, w, nw, along2)
+                while cut:
+                    k = _lowest_bit(cut)
+                    cut &= cut - 1
+                    triangles += table_counts[_case(k, a, b, c, d, a1, b1, c1, d1)]
+            triangle_counts[i, j, w] = triangles
+            work += vertices * WORK_VERTEX + triangles * WORK_TRIANGLE
+    plane_work[i] = work
 
 
 @_cached_njit(parallel=True, error_model="numpy")
-def _count(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts, plane_work):
-    """Pass 2: per word, the crossing-edge masks (edges[i, j, w, kind]: the edges from its samples to the
-    samples steps[kind] away), its vertex count and triangle count; per plane, an estimate of pass 4's time
-    (WORK_* units).  Three steps must be the axes in order (CUBE_STEPS)."""
-    n0, n1, nw = signs.shape
-    axes_only = steps.shape[0] == 3
-    for i in prange(n0):
-        work = n1 * nw * WORK_WORD
-        for j in range(n1):
-            for w in range(nw):
-                k0 = w * WORD_BITS
-                s = signs[i, j, w]
-                # Edges with a step along axis 2 end in the row: the last sample owns none.
-                along2 = _low_bits(min(WORD_BITS, n2 - 1 - k0))
-                if axes_only:  # cubes (steps the three axes, in order): unrolled, 40% of this pass's time
-                    e0 = s ^ signs[i + 1, j, w] if i + 1 < n0 else 0
-                    e1 = s ^ signs[i, j + 1, w] if j + 1 < n1 else 0
-                    e2 = (s ^ _shifted(signs, i, j, w, nw)) & along2
-                    edges[i, j, w, 0] = e0
-                    edges[i, j, w, 1] = e1
-                    edges[i, j, w, 2] = e2
-                    vertices = _popcount(e0) + _popcount(e1) + _popcount(e2)
-                else:
-                    vertices = 0
-                    for kind in range(steps.shape[0]):
-                        oi = i + steps[kind, 0]
-                        oj = j + steps[kind, 1]
-                        e = 0
-                        if oi < n0 and oj < n1:
-                            if steps[kind, 2]:
-                                e = (s ^ _shifted(signs, oi, oj, w, nw)) & along2
-                            else:
-                                e = s ^ signs[oi, oj, w]
-                        edges[i, j, w, kind] = e
-                        vertices += _popcount(e)
-                vertex_counts[i, j, w] = vertices
-                triangles = 0
-                if i + 1 < n0 and j + 1 < n1:
-                    cut, a, b, c, d, a1, b1, c1, d1 = _cut_cells(signs, i, j, w, nw, along2)
-                    while cut:
-                        k = _lowest_bit(cut)
-                        cut &= cut - 1
-                        triangles += table_counts[_case(k, a, b, c, d, a1, b1, c1, d1)]
-                triangle_counts[i, j, w] = triangles
-                work += vertices * WORK_VERTEX + triangles * WORK_TRIANGLE
-        plane_work[i] = work
+def _pack_and_count(field, sign, level, lows, highs, ranged, signs, steps, table_counts, edges, vertex_counts,
+                    triangle_counts, plane_work, workers, starts, taken):
+    """Passes 1 and 2 in one launch (one wait for the threads, not two), over runs of planes (starts[r] to
+    starts[r + 1]) taken in turn by `workers` threads (taken[0], reset to 0 by the caller): a run packs its
+    planes and the plane after it, then counts its planes.  That next plane's words are packed twice, by
+    this run and the next, to the same values."""
+    n0 = field.shape[0]
+    for _worker in prange(workers):
+        while True:
+            run = _take(taken)
+            if run >= starts.shape[0] - 1:
+                break
+            for i in range(starts[run], min(starts[run + 1] + 1, n0)):
+                _pack_plane(field, sign, level, lows, highs, ranged, signs, i)
+            for i in range(starts[run], starts[run + 1]):
+                _count_plane(signs, field.shape[2], steps, table_counts, edges, vertex_counts, triangle_counts,
+                             plane_work, i)
 
 
 @_cached_njit(error_model="numpy")
@@ -502,7 +492,7 @@ class CompiledCubes:
         self._triangle_offsets = np.empty((n0, n1, nw), np.int64)
         self._plane_work = np.empty(n0, np.int64)
         self.runs = None  # the runs of planes pass 4 hands to the threads; None: RUNS_PER_THREAD a thread
-        self._taken = np.zeros(1, np.int64)
+        self._taken = np.zeros(2, np.int64)  # the runs taken: in pass 4, in passes 1 and 2
         self._lows = self._highs = None
         self.extractions = 0
         # With reuse_outputs, the mesh arrays are kept and grown by half when too small, and extract returns
@@ -532,6 +522,11 @@ class CompiledCubes:
             _word_ranges(self.field, lows, highs)
             self._lows, self._highs = lows, highs
 
+    def _plane_runs(self, workers: int) -> np.ndarray:
+        """Runs of planes of equal size for passes 1 and 2."""
+        runs = min(self.runs or RUNS_PER_THREAD * workers, self.field.shape[0])
+        return np.linspace(0, self.field.shape[0], runs + 1).astype(np.int64)
+
     def _runs(self, workers: int) -> np.ndarray:
         """The first plane of each run (and the end): runs of planes with equal shares of the work."""
         runs = min(self.runs or RUNS_PER_THREAD * workers, len(self._plane_work))
@@ -552,14 +547,14 @@ class CompiledCubes:
         ranged = self._lows is not None
         lows = self._lows if ranged else np.empty((1, 1, 1), np.float32)
         highs = self._highs if ranged else lows
-        _pack_signs(self.field, self.sign, level, lows, highs, ranged, self._signs)
-        _count(self._signs, self.field.shape[2], self._steps, self._counts, self._edges, self._vertex_offsets,
-               self._triangle_offsets, self._plane_work)
+        workers = numba.get_num_threads()
+        self._taken[:] = 0
+        _pack_and_count(self.field, self.sign, level, lows, highs, ranged, self._signs, self._steps, self._counts,
+                        self._edges, self._vertex_offsets, self._triangle_offsets, self._plane_work, workers,
+                        self._plane_runs(workers), self._taken[1:])
         n_vertices, n_triangles = _scan(self._vertex_offsets, self._triangle_offsets)
         verts, faces, normals, values = self._output_arrays(n_vertices, n_triangles)
         if self._steps is CUBE_STEPS:
-            workers = numba.get_num_threads()
-            self._taken[0] = 0
             _write_cubes(self.field, self.sign, level, self.spacing, self._signs, self._edges, self._vertex_offsets,
                          self._triangle_offsets, self._counts, self._corners, self._row_owner,
                          workers, self._runs(workers), self._taken, verts, faces, normals, values)

@@ -1,6 +1,6 @@
 """What the compiled kernels (compiled.py, skimage_values.py) share: numba's njit with its disk cache, the
-lock threads take around parallel launches where the threading layer needs one, and bit operations as
-LLVM intrinsics."""
+lock threads take around parallel launches where the threading layer needs one, bit operations as LLVM
+intrinsics, and the cells of a word of sign bits (compiled.py's words: 32 samples along axis 2)."""
 from __future__ import annotations
 
 import contextlib
@@ -11,6 +11,8 @@ import numpy as np
 from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
+
+from ..core.layout import WORD_BITS
 
 _SERIAL = threading.Lock()
 
@@ -68,3 +70,34 @@ def _take(typingctx, counter):
 def _low_bits(count):
     """A mask of the lowest `count` bits (0 <= count <= 32)."""
     return (np.int64(1) << count) - 1
+
+
+@_cached_njit(inline="always", error_model="numpy")
+def _shifted(signs, i, j, w, nw):
+    """The word's bits moved down by one, the next word's first bit on top: bit k is sample k + 1."""
+    s = signs[i, j, w]
+    nxt = (signs[i, j, w + 1] & 1) << (WORD_BITS - 1) if w + 1 < nw else 0
+    return (s >> 1) | nxt
+
+
+@_cached_njit(inline="always", error_model="numpy")
+def _cut_cells(signs, i, j, w, nw, cell_mask):
+    """The word's cells with corners on both sides of the level (bit k: cell (i, j, 32 w + k)) and its
+    four rows' words, plain and shifted by one sample."""
+    a = signs[i, j, w]
+    b = signs[i + 1, j, w]
+    c = signs[i, j + 1, w]
+    d = signs[i + 1, j + 1, w]
+    a1 = _shifted(signs, i, j, w, nw)
+    b1 = _shifted(signs, i + 1, j, w, nw)
+    c1 = _shifted(signs, i, j + 1, w, nw)
+    d1 = _shifted(signs, i + 1, j + 1, w, nw)
+    every = a & b & c & d & a1 & b1 & c1 & d1
+    some = a | b | c | d | a1 | b1 | c1 | d1
+    return (some & ~every) & cell_mask, a, b, c, d, a1, b1, c1, d1
+
+
+@_cached_njit(inline="always", error_model="numpy")
+def _case(k, a, b, c, d, a1, b1, c1, d1):
+    return (((a >> k) & 1) | ((b >> k) & 1) << 1 | ((c >> k) & 1) << 2 | ((d >> k) & 1) << 3
+            | ((a1 >> k) & 1) << 4 | ((b1 >> k) & 1) << 5 | ((c1 >> k) & 1) << 6 | ((d1 >> k) & 1) << 7)
