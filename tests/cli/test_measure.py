@@ -9,7 +9,7 @@ import nibabel
 import numpy as np
 import pytest
 import trimesh
-from support.command import assert_one_line_error, isoscope
+from support.command import assert_one_line_error, isoscope_here
 
 from isoscope.cpu.measure import components, measure_surface
 
@@ -24,7 +24,7 @@ def ball_field(n=81, centres=((0.0, 0.0, 0.0),), radius=R):
 
 
 def measured(*args):
-    result = isoscope("measure", *args, "--json")
+    result = isoscope_here("measure", *args, "--json")
     assert result.returncode == 0, result.stderr
     return json.loads(result.stdout)   # stdout holds the JSON and nothing else
 
@@ -46,7 +46,7 @@ def test_measures_agree_with_trimesh_on_the_exported_file_in_world_millimetres(t
     affine[:3, 3] = (10, 20, -5)
     nibabel.save(nibabel.Nifti1Image(ball_field(61, ((0.3, 0, 0), (-0.5, 0.1, 0)), 0.3), affine), tmp_path / "b.nii")
     records = measured(tmp_path / "b.nii", "--iso", "0")
-    assert isoscope("export", tmp_path / "b.nii", "--iso", "0", "--out", tmp_path / "b.stl").returncode == 0
+    assert isoscope_here("export", tmp_path / "b.nii", "--iso", "0", "--out", tmp_path / "b.stl").returncode == 0
     mesh = trimesh.load(tmp_path / "b.stl", force="mesh")
     (record,) = records
     assert record["components"] == 2 == len(mesh.split(only_watertight=False))
@@ -72,7 +72,7 @@ def test_labels_are_measured_one_by_one(tmp_path):
 
 def test_text_output_names_an_open_surface(tmp_path):
     np.save(tmp_path / "cut.npy", ball_field()[:, :, :40])   # the ball cut in half by the volume's edge
-    result = isoscope("measure", tmp_path / "cut.npy", "--iso", "0")
+    result = isoscope_here("measure", tmp_path / "cut.npy", "--iso", "0")
     assert result.returncode == 0 and "open at" in result.stdout and "mm^2" in result.stdout
 
 
@@ -83,7 +83,7 @@ def test_text_output_names_an_open_surface(tmp_path):
 ])
 def test_bad_measures_are_one_line(tmp_path, args, words):
     np.save(tmp_path / "ball.npy", ball_field(21))
-    assert_one_line_error(isoscope("measure", tmp_path / "ball.npy", *args), *words)
+    assert_one_line_error(isoscope_here("measure", tmp_path / "ball.npy", *args), *words)
 
 
 def test_pieces_by_shared_vertices():
@@ -103,7 +103,7 @@ def test_closed_caps_a_surface_that_leaves_the_volume(tmp_path):
     np.save(tmp_path / "cut.npy", ball_field()[:, :, :40])
     for closed in ((), ("--closed",)):
         out = tmp_path / f"cut{len(closed)}.ply"
-        assert isoscope("export", tmp_path / "cut.npy", "--iso", "0", *closed, "--out", out).returncode == 0
+        assert isoscope_here("export", tmp_path / "cut.npy", "--iso", "0", *closed, "--out", out).returncode == 0
         mesh = trimesh.load(out, force="mesh", process=False)
         _, counts = edge_use_counts(np.asarray(mesh.faces))
         assert (set(counts.tolist()) == {2}) == bool(closed) and mesh.is_watertight == bool(closed)
@@ -111,8 +111,8 @@ def test_closed_caps_a_surface_that_leaves_the_volume(tmp_path):
     assert record["open_edges"] == 0
     half = 4 / 3 * math.pi * R ** 3 / 2   # the last sample kept is at z = -0.025: a slab that thick less
     assert record["volume_ml"] * 1000 == pytest.approx(half - math.pi * R * R * 0.025, rel=0.01)
-    assert_one_line_error(isoscope("export", tmp_path / "cut.npy", "--closed", "--chunk", "16", "--out",
-                                   tmp_path / "c.stl"), "--closed", "chunked")
+    assert_one_line_error(isoscope_here("export", tmp_path / "cut.npy", "--closed", "--chunk", "16", "--out",
+                                        tmp_path / "c.stl"), "--closed", "chunked")
 
 
 def test_a_reader_that_leaves_early_ends_it_quietly():

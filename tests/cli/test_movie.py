@@ -6,14 +6,14 @@ import imageio.v2 as imageio
 import numpy as np
 import pytest
 from PIL import Image
-from support.command import assert_one_line_error, isoscope
+from support.command import assert_one_line_error, isoscope_here
 
 pytestmark = pytest.mark.gl
 SIZE = ("--size", "160x120")
 
 
 def made(*args):
-    result = isoscope("movie", *args)
+    result = isoscope_here("movie", *args)
     assert result.returncode == 0, result.stderr
     return result
 
@@ -28,8 +28,8 @@ def test_a_turntable_mp4_has_its_frames_size_and_rate_and_starts_as_render_draws
     assert all(np.abs(a.astype(int) - b).mean() > 0.5 for a, b in zip(frames, frames[1:]))   # it turns
     stills = {}
     for azimuth in (30, 75):   # frame 0, and frame 1 an eighth of a turn on (a quarter would look the same)
-        assert isoscope("render", "torus", *SIZE, "--azimuth", str(azimuth), "--out",
-                        tmp_path / f"r{azimuth}.png").returncode == 0
+        assert isoscope_here("render", "torus", *SIZE, "--azimuth", str(azimuth), "--out",
+                             tmp_path / f"r{azimuth}.png").returncode == 0
         stills[azimuth] = np.asarray(Image.open(tmp_path / f"r{azimuth}.png").convert("RGB")).astype(int)
 
     def off(frame, azimuth):
@@ -44,7 +44,7 @@ def test_a_sweep_to_a_folder_is_render_at_each_level(tmp_path):
     assert names == ["frame_0000.png", "frame_0001.png", "frame_0002.png"]
     for name, level in zip(names, ("-0.5", "0", "0.5")):
         out = tmp_path / f"r{level}.png"
-        assert isoscope("render", "gyroid", *SIZE, "--iso", level, "--out", out).returncode == 0
+        assert isoscope_here("render", "gyroid", *SIZE, "--iso", level, "--out", out).returncode == 0
         assert np.array_equal(np.asarray(Image.open(tmp_path / "sweep" / name)), np.asarray(Image.open(out)))
 
 
@@ -69,7 +69,7 @@ def test_a_series_gif_has_a_frame_per_time_point(tmp_path):
     (("--fps", "0", "--out", "m.mp4"), ("--fps",)),
 ])
 def test_bad_movies_are_one_line_and_leave_no_file(tmp_path, args, words):
-    assert_one_line_error(isoscope("movie", "torus", *SIZE, *args, cwd=tmp_path), *words)
+    assert_one_line_error(isoscope_here("movie", "torus", *SIZE, *args, cwd=tmp_path), *words)
     assert not list(tmp_path.iterdir())
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from PIL import Image
-from support.command import isoscope
+from support.command import isoscope_here
 
 pytestmark = pytest.mark.gl
 SIZE = ("--size", "160x120")
@@ -21,14 +21,14 @@ def test_every_time_point_of_a_movie_is_render_at_that_time_with_every_level_and
     view = (*SIZE, "--iso", "0.2", "--iso", "0", "--opacity", "1,0.4",
             "--slice", "z=12", "--window", "1", "--level", "0")
     series = str(tmp_path / "f_*.npy")
-    done = isoscope("movie", series, *view, "--time", "all", "--out", f"{tmp_path / 'frames'}/")
+    done = isoscope_here("movie", series, *view, "--time", "all", "--out", f"{tmp_path / 'frames'}/")
     assert done.returncode == 0, done.stderr
     frames = sorted((tmp_path / "frames").iterdir())
     assert [p.name for p in frames] == [f"frame_{t:04d}.png" for t in range(3)]
     pictures = []
     for t, frame in enumerate(frames):
         out = tmp_path / f"r{t}.png"
-        done = isoscope("render", series, *view, "--time", str(t), "--out", out)
+        done = isoscope_here("render", series, *view, "--time", str(t), "--out", out)
         assert done.returncode == 0, done.stderr
         pictures.append(np.asarray(Image.open(frame)))
         assert np.array_equal(pictures[-1], np.asarray(Image.open(out)))

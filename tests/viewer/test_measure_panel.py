@@ -11,7 +11,7 @@ import json
 
 import numpy as np
 import pytest
-from support.command import isoscope
+from support.command import isoscope_here
 
 from isoscope.viewer.model.errors import ViewerError
 from isoscope.viewer.model.measure import Measurements
@@ -34,7 +34,7 @@ def sphere_volume(spacing=(1.0, 1.0, 1.0)):
 
 
 def command_records(*args):
-    result = isoscope("measure", *args, "--json")
+    result = isoscope_here("measure", *args, "--json")
     assert result.returncode == 0, result.stderr
     return json.loads(result.stdout)
 
@@ -218,7 +218,7 @@ def test_save_scene_writes_what_render_redraws_pixel_for_pixel(gl_ctx, tmp_path)
         viewer.release()
     scene = read_scene(path)
     assert [level["value"] for level in scene["levels"]] == [0.5, 0.2] and scene["size"] == list(SIZE)
-    result = isoscope("render", path, "--out", tmp_path / "again.png")
+    result = isoscope_here("render", path, "--out", tmp_path / "again.png")
     assert result.returncode == 0, result.stderr
     assert np.array_equal(np.asarray(Image.open(tmp_path / "again.png").convert("RGB")), expected)
 

@@ -196,12 +196,12 @@ def _command_mask(path) -> np.ndarray:
 
 @pytest.mark.gl
 def test_render_draws_the_dicom_head_as_its_nifti_and_adds_letters_on_request(heads, tmp_path):
-    from support.command import isoscope
+    from support.command import isoscope_here
     shots = {}
     for name, extra in (("nifti", ()), ("dicom", ()), ("letters", ("--orientation-letters",))):
         source = heads["nifti-RAS" if name == "nifti" else "dicom-sagittal"]
         shots[name] = tmp_path / f"{name}.png"
-        result = isoscope("render", source, "--iso", LEVEL, "--size", "320x240", "--out", shots[name], *extra)
+        result = isoscope_here("render", source, "--iso", LEVEL, "--size", "320x240", "--out", shots[name], *extra)
         assert result.returncode == 0, result.stderr
     nifti, dicom, letters = (_command_mask(shots[name]) for name in ("nifti", "dicom", "letters"))
     assert iou(nifti, dicom) > 0.98

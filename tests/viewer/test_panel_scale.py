@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from PIL import Image
-from support.command import isoscope
+from support.command import isoscope_here
 
 pytestmark = pytest.mark.gl
 TITLE_RGB = (41, 74, 122)   # imgui's dark style's active title bar (0.16, 0.29, 0.48)
@@ -25,7 +25,7 @@ def test_a_4k_render_draws_the_panel_twice_the_1080p_size(tmp_path):
     sizes = {}
     for size in ("1920x1080", "3840x2160"):
         out = tmp_path / f"{size}.png"
-        result = isoscope("render", "bucky", "--panel", "--size", size, "--out", out)
+        result = isoscope_here("render", "bucky", "--panel", "--size", size, "--out", out)
         assert result.returncode == 0, result.stderr
         sizes[size] = title_bar(out)
     (width, height), (width_4k, height_4k) = sizes["1920x1080"], sizes["3840x2160"]

@@ -9,14 +9,12 @@ from __future__ import annotations
 import ctypes.util
 import os
 import shutil
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from cmap import Colormap
 from PIL import Image
+from support.command import isoscope_here
 
 from isoscope import marching_cubes
 from isoscope.viewer.gfx.slices import inset_box
@@ -25,7 +23,6 @@ from isoscope.volumes.volume import finish_volume
 
 SIZE = (320, 240)
 RED = (1.0, 0.0, 0.0)
-REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture
@@ -190,16 +187,11 @@ def test_bad_values_are_refused_and_the_state_keeps_what_it_showed(viewer):
         assert state.slices.clip is None
 
 
-def isoscope(*args):
-    return subprocess.run([sys.executable, "-m", "isoscope", *map(str, args)], capture_output=True, text=True,
-                          cwd=REPO, timeout=120)
-
-
 @pytest.mark.gl
 def test_render_command_draws_slices_and_refuses_bad_values_in_one_line(tmp_path):
     out = tmp_path / "slice.png"
-    result = isoscope("render", "torus", "--slice", "z=32", "--clip", "x=40:-", "--colormap", "viridis",
-                      "--window", "1", "--level", "0.3", "--size", "320x240", "--out", out)
+    result = isoscope_here("render", "torus", "--slice", "z=32", "--clip", "x=40:-", "--colormap", "viridis",
+                           "--window", "1", "--level", "0.3", "--size", "320x240", "--out", out)
     assert result.returncode == 0, result.stderr
     image = np.asarray(Image.open(out).convert("RGB")).astype(int)
     x, y, width, height = inset_box((64, 64, 64), (1, 1, 1), 2, (0, 0, 320, 240))
@@ -208,7 +200,7 @@ def test_render_command_draws_slices_and_refuses_bad_values_in_one_line(tmp_path
     for args, words in ((("--slice", "z=64"), ["z=64", "0 to 63"]), (("--slice", "w=3"), ["--slice", "x, y or z"]),
                         (("--colormap", "nope"), ["nope"]), (("--clip", "z=10:up"), ["--clip"]),
                         (("--window", "0"), ["window"])):
-        result = isoscope("render", "torus", *args, "--out", tmp_path / "bad.png")
+        result = isoscope_here("render", "torus", *args, "--out", tmp_path / "bad.png")
         assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr
         assert len(result.stderr.strip().splitlines()) == 1 and all(w in result.stderr for w in words), result.stderr
     assert not (tmp_path / "bad.png").exists()

@@ -7,7 +7,7 @@ import shutil
 import numpy as np
 import pytest
 from PIL import Image
-from support.command import assert_one_line_error, isoscope
+from support.command import assert_one_line_error, isoscope_here
 from support.x_window import frames_until, run_spawned
 
 from isoscope.viewer.ui.headless import HeadlessViewer
@@ -145,8 +145,9 @@ def test_colour_by_a_second_volume_follows_it_across_the_surface(viewer, tmp_pat
 def test_render_draws_a_colour_bar_and_export_writes_one_file_per_level(tmp_path):
     import trimesh
     out = tmp_path / "shells.png"
-    result = isoscope("render", "sphere", "--resolution", "32", "--iso", "0", "--iso", "-0.3", "--opacity", "0.3,1",
-                      "--color-by", "gradient", "--color-by-map", "viridis", "--size", "320x240", "--out", out)
+    result = isoscope_here("render", "sphere", "--resolution", "32", "--iso", "0", "--iso", "-0.3", "--opacity",
+                           "0.3,1", "--color-by", "gradient", "--color-by-map", "viridis", "--size", "320x240",
+                           "--out", out)
     assert result.returncode == 0, result.stderr
     image = np.asarray(Image.open(out).convert("RGB")).astype(int)
     from isoscope.viewer.model.colorby import colormap_rgb
@@ -159,7 +160,7 @@ def test_render_draws_a_colour_bar_and_export_writes_one_file_per_level(tmp_path
     assert np.abs(bar[(top + bottom) // 2] - lut[len(lut) // 2]).max() <= 8
 
     mesh_out = tmp_path / "head.ply"
-    result = isoscope("export", "sphere", "--resolution", "32", "--iso", "0", "--iso", "-0.3", "--out", mesh_out)
+    result = isoscope_here("export", "sphere", "--resolution", "32", "--iso", "0", "--iso", "-0.3", "--out", mesh_out)
     assert result.returncode == 0, result.stderr
     written = sorted(p.name for p in tmp_path.glob("head*.ply"))
     assert written == ["head_iso-0.3.ply", "head_iso0.ply"]
@@ -176,7 +177,7 @@ def test_render_draws_a_colour_bar_and_export_writes_one_file_per_level(tmp_path
 ])
 @pytest.mark.gl
 def test_bad_levels_and_looks_are_one_line_errors(tmp_path, args, words):
-    result = isoscope("render", "sphere", "--resolution", "32", *args, "--out", tmp_path / "x.png")
+    result = isoscope_here("render", "sphere", "--resolution", "32", *args, "--out", tmp_path / "x.png")
     assert_one_line_error(result, *words)
     assert not (tmp_path / "x.png").exists()
 
