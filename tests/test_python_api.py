@@ -10,7 +10,7 @@ import pytest
 import xarray
 import zarr
 from PIL import Image
-from support.command import isoscope as run
+from support.command import isoscope_here as run
 
 import isoscope
 from isoscope.volumes import VolumeError

@@ -4,7 +4,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 import pytest
-from support.command import assert_one_line_error, isoscope
+from support.command import assert_one_line_error, isoscope_here
 from support.mesh_checks import assert_closed_manifold, edge_use_counts, signed_volume, triangle_areas
 from support.sdf_boxes import Box, distance_to_mesh, grid_points, rotation
 
@@ -297,12 +297,13 @@ def test_feature_angle_outside_the_open_range_is_refused_in_one_line(angle):
 def test_cli_export_and_render_take_sharp(tmp_path):
     plain, sharp = tmp_path / "plain.ply", tmp_path / "sharp.ply"
     for out, extra in ((plain, ()), (sharp, ("--sharp", "30"))):
-        result = isoscope("export", "box", "--resolution", "24", "--out", out, "--space", "voxel", *extra)
+        result = isoscope_here("export", "box", "--resolution", "24", "--out", out, "--space", "voxel", *extra)
         assert result.returncode == 0, result.stderr
     assert sharp.stat().st_size > plain.stat().st_size
-    assert_one_line_error(isoscope("export", "box", "--out", tmp_path / "x.ply", "--sharp", "180"), "--sharp")
-    assert_one_line_error(isoscope("render", "box", "--out", tmp_path / "x.png", "--sharp", "0"), "--sharp")
-    assert_one_line_error(isoscope("render", "box", "--out", tmp_path / "x.png", "--sharp", "30", "--panel"), "--panel")
+    assert_one_line_error(isoscope_here("export", "box", "--out", tmp_path / "x.ply", "--sharp", "180"), "--sharp")
+    assert_one_line_error(isoscope_here("render", "box", "--out", tmp_path / "x.png", "--sharp", "0"), "--sharp")
+    assert_one_line_error(isoscope_here("render", "box", "--out", tmp_path / "x.png", "--sharp", "30", "--panel"),
+                          "--panel")
 
 
 @pytest.mark.gl
@@ -312,7 +313,7 @@ def test_rendered_box_fills_its_edges_and_corners(tmp_path):
 
     def surface_pixels(*extra):
         out = tmp_path / f"box{len(extra)}.png"
-        result = isoscope("render", "box", "--resolution", "24", "--size", "480x360", "--out", out, *extra)
+        result = isoscope_here("render", "box", "--resolution", "24", "--size", "480x360", "--out", out, *extra)
         assert result.returncode == 0, result.stderr
         rgb = np.asarray(Image.open(out).convert("RGB")).astype(int)
         return ((np.abs(rgb - rgb[0, 0]).sum(axis=-1) > 60) & (rgb[..., 2] > rgb[..., 0] + 30)).sum()

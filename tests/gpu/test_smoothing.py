@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.ndimage import gaussian_filter, map_coordinates
 from support.command import assert_one_line_error
-from support.command import isoscope as run_cli
+from support.command import isoscope_here as run_cli
 from support.mesh_checks import signed_volume, triangle_areas
 
 import isoscope

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy.ndimage import gaussian_filter
+from support.command import isoscope_here
 from support.mesh_checks import (
     assert_clean_geometry,
     assert_closed_manifold,
@@ -252,9 +253,7 @@ def test_bad_arguments_are_one_line_value_errors(volume, level, kwargs, words):
 def test_cli_exports_and_renders_tetrahedra(tmp_path):
     from isoscope.volumes import open_volume
     out = tmp_path / "amb.ply"
-    run = [sys.executable, "-m", "isoscope"]
-    result = subprocess.run([*run, "export", "ambiguous", "--tetrahedra", "--out", str(out)],
-                            capture_output=True, text=True, timeout=120)
+    result = isoscope_here("export", "ambiguous", "--tetrahedra", "--out", out)
     assert result.returncode == 0, result.stderr
     volume = open_volume("ambiguous")
     verts, _, _, faces = read_ply(out)
@@ -264,8 +263,7 @@ def test_cli_exports_and_renders_tetrahedra(tmp_path):
     pictures = []
     for extra in ([], ["--tetrahedra"]):
         png = tmp_path / f"amb{len(extra)}.png"
-        result = subprocess.run([*run, "render", "ambiguous", "--size", "200x150", "--out", str(png), *extra],
-                                capture_output=True, text=True, timeout=120)
+        result = isoscope_here("render", "ambiguous", "--size", "200x150", "--out", png, *extra)
         assert result.returncode == 0, result.stderr
         from PIL import Image
         pictures.append(np.asarray(Image.open(png).convert("RGB")).astype(int))

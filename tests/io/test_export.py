@@ -4,11 +4,10 @@ from __future__ import annotations
 import json
 import os
 import struct
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from support.command import isoscope_here
 from support.mesh_checks import assert_closed_manifold, read_ply, signed_volume
 
 from isoscope.api import outward_marching_cubes
@@ -160,8 +159,7 @@ def test_an_empty_mesh_and_inconsistent_input_are_refused(tmp_path):
 
 def test_the_command_line_writes_stl_and_refuses_an_unknown_extension(tmp_path):
     def export(out):
-        return subprocess.run([sys.executable, "-m", "isoscope", "export", "torus", "--resolution", "24",
-                               "--out", str(out)], capture_output=True, text=True, timeout=120)
+        return isoscope_here("export", "torus", "--resolution", "24", "--out", out)
     done = export(tmp_path / "torus.stl")
     assert done.returncode == 0, done.stderr
     corners, _ = read_stl(tmp_path / "torus.stl")

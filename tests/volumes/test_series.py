@@ -10,7 +10,7 @@ import tifffile
 import trimesh
 import zarr
 from support.command import assert_one_line_error
-from support.command import isoscope as run
+from support.command import isoscope_here as run
 
 import isoscope
 from isoscope.volumes import open_volume

@@ -1,9 +1,8 @@
 """--inside says which side of the level the object is on, so normals point out of it."""
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from support.command import isoscope_here
 from support.mesh_checks import read_ply
 
 from isoscope.api import outward_marching_cubes
@@ -47,8 +46,7 @@ def test_bad_inside_value_is_a_one_line_error(sdf_file):
 
 
 def export(sdf_file, out, *flags):
-    return subprocess.run([sys.executable, "-m", "isoscope", "export", str(sdf_file), "--iso", "0",
-                           "--out", str(out), *flags], capture_output=True, text=True)
+    return isoscope_here("export", sdf_file, "--iso", "0", "--out", out, *flags)
 
 
 def test_cli_flag_reaches_the_exported_mesh(sdf_file, tmp_path):

@@ -1,13 +1,11 @@
 """export --space world: meshes in the scan's own coordinates (NIfTI RAS, NRRD and DICOM LPS)."""
 from __future__ import annotations
 
-import subprocess
-import sys
-
 import nibabel
 import nrrd
 import numpy as np
 import pytest
+from support.command import isoscope_here
 from support.dicom_series import COL_DIR, NORMAL, ROW_DIR, ct_ball, write_series
 from support.mesh_checks import read_ply, signed_volume
 
@@ -34,8 +32,7 @@ def sphere_in(shape, index_to_world, centre_world):
 
 
 def export(path, out, *flags):
-    done = subprocess.run([sys.executable, "-m", "isoscope", "export", str(path), "--iso", "0", "--inside",
-                           "below", "--out", str(out), *flags], capture_output=True, text=True, timeout=120)
+    done = isoscope_here("export", path, "--iso", "0", "--inside", "below", "--out", out, *flags)
     assert done.returncode == 0, done.stderr
     return done.stdout, read_ply(out)
 
@@ -79,8 +76,7 @@ def test_a_ras_nrrd_exports_in_lps(tmp_path):
 
 def test_a_dicom_ball_exports_to_its_patient_position(tmp_path):
     write_series(tmp_path / "ct", ct_ball(slices=16, rows=32, cols=36), step=-2.5)
-    done = subprocess.run([sys.executable, "-m", "isoscope", "export", str(tmp_path / "ct"), "--iso", "-250",
-                           "--out", str(tmp_path / "ct.ply")], capture_output=True, text=True, timeout=120)
+    done = isoscope_here("export", tmp_path / "ct", "--iso", "-250", "--out", tmp_path / "ct.ply")
     assert done.returncode == 0 and "LPS coordinates" in done.stdout, done.stderr
     verts, normals, _, faces = read_ply(tmp_path / "ct.ply")
     # ct_ball's centre is at (slice 5.5, row 9.5, column 11.5) of the slices as written, the
@@ -93,6 +89,5 @@ def test_a_dicom_ball_exports_to_its_patient_position(tmp_path):
 
 @pytest.mark.parametrize("flag", [["--space", "galactic"]])
 def test_an_unknown_space_is_a_usage_error(tmp_path, flag):
-    done = subprocess.run([sys.executable, "-m", "isoscope", "export", "torus", "--out", str(tmp_path / "t.ply"),
-                           *flag], capture_output=True, text=True, timeout=60)
+    done = isoscope_here("export", "torus", "--out", tmp_path / "t.ply", *flag)
     assert done.returncode == 2 and "--space" in done.stderr
