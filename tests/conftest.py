@@ -13,6 +13,47 @@ GL_FIXTURES = {"gl_ctx", "gpu_mesh", "x_display"}  # a test that uses one needs 
 def pytest_configure(config):
     config.addinivalue_line("markers", "gl: needs OpenGL 4.3 (EGL, or Xvfb for the window); `pytest -m 'not gl'` "
                                        "runs the rest where there is none")
+    if not hasattr(config, "workerinput"):   # the controller (or a one-process run), before any worker starts
+        compile_the_cpu_kernels_once()
+
+
+def compile_the_cpu_kernels_once():
+    """numba compiles the CPU extractor's kernels (isoscope.cpu) at their first call and caches them on disk. On a
+    fresh checkout, or after a kernel's source changed, each worker and each command a test starts that gets
+    there before the cache is written compiles them itself (30 CPU seconds here), several at once. Here they
+    are compiled once before the workers start; a stamp beside numba's cache, named by the sources, skips this
+    while they are unchanged."""
+    import hashlib
+    import importlib.metadata
+    import importlib.util
+    import sys
+    from pathlib import Path
+    folder = Path(importlib.util.find_spec("isoscope.cpu").origin).parent
+    digest = hashlib.sha1(f"{sys.version_info[:2]} {importlib.metadata.version('numba')}".encode())
+    for source in sorted(folder.glob("*.py")):
+        digest.update(source.read_bytes())
+    cache = Path(os.environ.get("NUMBA_CACHE_DIR") or folder / "__pycache__")   # where numba writes (cache=True)
+    stamp = cache / f"tests-compiled-{digest.hexdigest()[:16]}"
+    if stamp.exists():
+        return
+    import isoscope
+    x, y, z = grid(12)
+    ball = (0.6 - np.sqrt(x * x + y * y + z * z)).astype(np.float32)
+    read_only = ball.copy()
+    read_only.flags.writeable = False   # as a memory-mapped file's: another signature
+    for field in (ball, read_only):
+        isoscope.marching_cubes(field, 0.0, backend="cpu")
+        isoscope.marching_tetrahedra(field, 0.0, backend="cpu")
+    extractor = isoscope.Extractor(ball, backend="cpu")
+    for level in (0.0, 0.1):   # a new level measures the words' ranges first
+        extractor.extract(level)
+    extractor.release()
+    try:
+        for old in cache.glob("tests-compiled-*"):
+            old.unlink()
+        stamp.touch()
+    except OSError:   # no stamp: this runs again next time, and finds the kernels cached
+        pass
 
 
 def pytest_collection_modifyitems(items):
