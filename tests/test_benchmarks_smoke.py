@@ -52,7 +52,8 @@ def test_benchmark_script_prints_every_peer(tmp_path):
     out_json = tmp_path / "bench.json"
 
     proc = subprocess.run(
-        [sys.executable, str(SCRIPT), "--sizes", "24", "--repeats", "1", "--json", str(out_json)],
+        # --warmup 0: no untimed runs, which would go on for half a second per runner and volume
+        [sys.executable, str(SCRIPT), "--sizes", "24", "--repeats", "1", "--warmup", "0", "--json", str(out_json)],
         capture_output=True, text=True, timeout=300, env=env, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr[-3000:]
     stdout = proc.stdout
