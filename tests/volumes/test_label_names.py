@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from support.command import assert_one_line_error, isoscope
+from support.command import assert_one_line_error, isoscope_here
 
 from isoscope.volumes import VolumeError
 from isoscope.volumes.label_names import beside, read_label_names
@@ -107,16 +107,17 @@ def segmentation(tmp_path):
 
 
 def test_measure_json_names_each_label(segmentation, tmp_path):
-    result = isoscope("measure", segmentation, "--labels", "--json")
+    result = isoscope_here("measure", segmentation, "--labels", "--json")
     assert result.returncode == 0, result.stderr
     records = json.loads(result.stdout)
     assert {r["label"]: r["name"] for r in records} == {1: "Left hippocampus", 2: "Right hippocampus",
                                                       12: "Hidden structure"}
     other = tmp_path / "other.ctbl"
     other.write_text("2 right 1 2 3 255\n")   # --label-names wins over the file beside; unlisted labels: null
-    result = isoscope("measure", segmentation, "--labels", "--json", "--label-names", other)
+    result = isoscope_here("measure", segmentation, "--labels", "--json", "--label-names", other)
     assert {r["label"]: r["name"] for r in json.loads(result.stdout)} == {1: None, 2: "right", 12: None}
     other.write_text("2 right 1 2 3\n")
-    assert_one_line_error(isoscope("measure", segmentation, "--labels", "--label-names", other),
+    assert_one_line_error(isoscope_here("measure", segmentation, "--labels", "--label-names", other),
                           "other.ctbl line 1", "5 fields")
-    assert_one_line_error(isoscope("measure", segmentation, "--label-names", other), "--label-names needs --labels")
+    assert_one_line_error(isoscope_here("measure", segmentation, "--label-names", other),
+                          "--label-names needs --labels")
