@@ -4,6 +4,7 @@ intrinsics, and the cells of a word of sign bits (compiled.py's words: 32 sample
 from __future__ import annotations
 
 import contextlib
+import os
 import threading
 
 import numba
@@ -13,6 +14,13 @@ from numba import njit, types
 from numba.extending import intrinsic
 
 from ..core.layout import WORD_BITS
+
+# numba's "omp" threading layer (libgomp, read when its first parallel kernel launches): threads that wait
+# for the next launch sleep instead of spinning.  Iso changes come in bursts with idle gaps; a spinning thread
+# takes a core from the rest of the process (the viewer's drawing on llvmpipe) and from other programs, and
+# on a busy machine is then scheduled late for the next launch, which waits for it (MNI T1 iso change, two
+# threads, load ~2.5: 24-36 ms spinning against 7-16 ms).  A value the user set is kept.
+os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 
 _SERIAL = threading.Lock()
 
