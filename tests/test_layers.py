@@ -6,7 +6,9 @@ sibling` is an edge to the sibling, not to the package."""
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
+from types import MappingProxyType
 
 import isoscope
 
@@ -29,7 +31,8 @@ def _skipped(tree: ast.Module) -> set[int]:
     return skipped
 
 
-def import_graph() -> dict[str, set[str]]:
+@functools.cache   # read once a process: the tests below only look at it
+def import_graph() -> MappingProxyType[str, frozenset[str]]:
     modules = {_name(path): path for path in ROOT.rglob("*.py")}
     graph = {name: set() for name in modules}
     for name, path in modules.items():
@@ -49,7 +52,7 @@ def import_graph() -> dict[str, set[str]]:
             else:
                 continue
             graph[name].update(t for t in targets if t in modules and t != name)
-    return graph
+    return MappingProxyType({name: frozenset(targets) for name, targets in graph.items()})
 
 
 def circles(graph: dict[str, set[str]]) -> list[list[str]]:
