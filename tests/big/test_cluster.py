@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 import zarr
-from support.command import NO_GL, isoscope
+from support.command import NO_GL, isoscope, isoscope_here
 
 from isoscope.big import cluster
 from isoscope.big.cluster import ClusterError, marching_cubes_on_cluster
@@ -29,10 +29,11 @@ def noise_zarr(tmp_path_factory):
 @pytest.mark.gl
 def test_two_worker_local_cluster_writes_the_single_process_file(noise_zarr):
     folder, _ = noise_zarr
-    single = isoscope("export", folder / "v.npy", "--iso", "0", "--out", folder / "single.ply")
+    single = isoscope_here("export", folder / "v.npy", "--iso", "0", "--out", folder / "single.ply")
+    # The cluster runs in a command of its own: its worker processes and dask's warning filters stay there.
     spread = isoscope("export", folder / "v.zarr", "--iso", "0", "--out", folder / "spread.ply",
                       "--workers", "2", "--chunk", "12")
-    chunked = isoscope("export", folder / "v.zarr", "--iso", "0", "--out", folder / "chunked.ply")  # Zarr: chunked
+    chunked = isoscope_here("export", folder / "v.zarr", "--iso", "0", "--out", folder / "chunked.ply")  # Zarr: chunked
     assert single.returncode == 0 and spread.returncode == 0 and chunked.returncode == 0, spread.stderr
     assert (folder / "spread.ply").read_bytes() == (folder / "single.ply").read_bytes()
     assert (folder / "chunked.ply").read_bytes() == (folder / "single.ply").read_bytes()
@@ -43,7 +44,7 @@ def test_two_workers_on_a_machine_with_no_gl_export_the_gpu_mesh(noise_zarr):
     """Workers without GL extract with the compiled CPU extractor: the same faces as the GPU's single-process
     file, positions and normals within float32 rounding (the two backends round the normal's last bit apart)."""
     folder, _ = noise_zarr
-    gpu = isoscope("export", folder / "v.npy", "--iso", "0", "--out", folder / "gpu.ply")
+    gpu = isoscope_here("export", folder / "v.npy", "--iso", "0", "--out", folder / "gpu.ply")
     no_gl = isoscope("export", folder / "v.zarr", "--iso", "0", "--out", folder / "no-gl.ply", "--workers", "2",
                      "--chunk", "12", env_add=NO_GL, env_drop=("DISPLAY",))
     assert gpu.returncode == 0 and no_gl.returncode == 0, no_gl.stderr
