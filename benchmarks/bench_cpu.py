@@ -113,7 +113,8 @@ def main():
 
     import numba
     print(f"numba {numba.__version__}, {numba.get_num_threads()} threads (NUMBA_NUM_THREADS), "
-          f"numpy {np.__version__}")
+          f"numpy {np.__version__}, OMP_WAIT_POLICY {os.environ.get('OMP_WAIT_POLICY', 'unset')} before import; "
+          f"load average {os.getloadavg()[0]:.2f} (the ratios matter on a shared machine, not the ms)")
     if not args.no_startup:
         with tempfile.TemporaryDirectory() as cache:
             cold = startup_seconds(cache)
@@ -140,6 +141,7 @@ def main():
     print("|---|---:|" + "---:|" * (len(columns) + 3))
     for case in cases(args.volumes.split(","), args.size):
         run_case(*case, columns=columns, fe=fe, skimage=skimage, rounds=args.rounds, gpu=args.gpu)
+    print(f"\nload average at the end {os.getloadavg()[0]:.2f}")
 
 
 def run_case(label, volume, spacing, direction, level, other, *, columns, fe, skimage, rounds, gpu):
