@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 import pytest
-from support.command import isoscope as run_cli
+from support.command import isoscope_here as run_cli
 
 import isoscope
 
