@@ -2,11 +2,9 @@
 the command line and the viewer refuse a combination with that same wording (issue 23, point 3)."""
 from __future__ import annotations
 
-import subprocess
-import sys
-
 import numpy as np
 import pytest
+from support.command import isoscope_here
 
 import isoscope
 from isoscope.options import MeshOptions, MeshOptionsError
@@ -45,8 +43,7 @@ def test_the_api_the_command_and_the_viewer_say_the_same(sphere_sdf, tmp_path):
     assert str(caught.value) == rule
 
     np.save(tmp_path / "f.npy", field)
-    run = subprocess.run([sys.executable, "-m", "isoscope", "export", tmp_path / "f.npy", "--smooth", "2",
-                          "--sharp", "30", "--out", tmp_path / "f.stl"], capture_output=True, text=True, timeout=120)
+    run = isoscope_here("export", tmp_path / "f.npy", "--smooth", "2", "--sharp", "30", "--out", tmp_path / "f.stl")
     assert run.returncode == 2 and run.stderr.strip() == f"isoscope: error: {rule}"
 
     from isoscope.viewer.model.state import ViewerState  # the viewer's model: no GL

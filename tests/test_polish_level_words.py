@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from support.command import isoscope as run
+from support.command import isoscope_here as run
 
 import isoscope
 from isoscope.validation import named_level

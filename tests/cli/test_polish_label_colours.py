@@ -7,7 +7,7 @@ import pytest
 import trimesh
 from PIL import Image
 from support.command import assert_one_line_error
-from support.command import isoscope as run
+from support.command import isoscope_here as run
 
 NAMES = """\
 # IDX   -R-  -G-  -B-  -A--  VIS MSH  LABEL

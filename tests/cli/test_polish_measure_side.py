@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from support.command import isoscope
+from support.command import isoscope_here
 
 from isoscope.cpu.measure import measure_surface
 
@@ -21,7 +21,7 @@ def torus_mm3(tube: float, scale=(1.0, 1.0, 1.0)) -> float:
 
 
 def measured(*args):
-    result = isoscope("measure", *args, "--json")
+    result = isoscope_here("measure", *args, "--json")
     assert result.returncode == 0, result.stderr
     return json.loads(result.stdout), result.stderr
 
@@ -47,7 +47,7 @@ def test_the_sample_nrrd_torus_is_positive_where_it_was_minus_10_9_ml():
     (record,), notes = measured("volumes/torus.nrrd", "--iso", "0.5")
     assert record["volume_ml"] > 0 and record["inside"] == "below" and "--inside below" in notes
     assert record["volume_ml"] * 1000 == pytest.approx(torus_mm3(TUBE + 0.0005, scale), rel=0.02)
-    text = isoscope("measure", "volumes/torus.nrrd", "--iso", "0.5")
+    text = isoscope_here("measure", "volumes/torus.nrrd", "--iso", "0.5")
     assert "volume 10.9" in text.stdout and "-" not in text.stdout.split("volume")[1].split("mL")[0]
     assert len(text.stderr.strip().splitlines()) == 1
     # --closed: the box capped at the border, the object above the level is the box less the torus.

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from PIL import Image
-from support.command import isoscope as run
+from support.command import isoscope_here as run
 
 import isoscope
 
