@@ -31,8 +31,9 @@ def isoscope_here(*args, cwd=None) -> subprocess.CompletedProcess:
     exit status, stdout and stderr. It skips what a new process pays before the command does anything (the
     interpreter, the imports, a GL context, shader compiles: about 1.3 CPU seconds), so it suits tests of
     what the command does (its files, its messages, its exit status); what only a process shows (signals,
-    the environment, a GL version override, chatter written to the file descriptor) needs `isoscope`.
-    A warning the command lets through is on stderr, as the process would print it."""
+    the environment, a GL version override, chatter written to the file descriptor, bytes to stdout with
+    `--out -`, a cluster's worker processes) needs `isoscope`. A warning the command lets through is on
+    stderr, as the process would print it."""
     from isoscope.cli.main import main
     argv = [str(arg) for arg in args]
     out, err = io.StringIO(), io.StringIO()
