@@ -408,9 +408,19 @@ def rough_noise(n, seed=5):
 BEND_SCENES = {**GPU_SCENES, "rough noise": lambda: rough_noise(N)}
 
 
+_WIDEST = {}   # by mesh: a scene's four angles share theirs
+
+
 def widest_opening_per_cell(verts, faces, normals, spacing):
     """(cells' face lists, the largest angle in degrees between two vertex normals of each cell), cells
-    found from the faces' centroids (an MC triangle's centroid lies inside its cell)."""
+    found from the faces' centroids (an MC triangle's centroid lies inside its cell); found once a mesh."""
+    key = (verts.tobytes(), faces.tobytes(), normals.tobytes(), tuple(spacing))
+    if key not in _WIDEST:
+        _WIDEST[key] = _widest_opening_per_cell(verts, faces, normals, spacing)
+    return _WIDEST[key]
+
+
+def _widest_opening_per_cell(verts, faces, normals, spacing):
     cells = np.floor(verts[faces].mean(axis=1) / np.asarray(spacing)).astype(np.int64)
     _, cell_of_face = np.unique(cells, axis=0, return_inverse=True)
     widest = []
