@@ -1,11 +1,9 @@
 """DICOM series from folders: real files written here with pydicom, read back through isoscope."""
 from __future__ import annotations
 
-import subprocess
-import sys
-
 import numpy as np
 import pytest
+from support.command import isoscope_here
 from support.dicom_series import NORMAL, ct_ball, write_series
 
 import isoscope
@@ -94,10 +92,9 @@ def test_a_folder_without_dicom_and_series_on_a_file_are_one_line_errors(tmp_pat
 def test_the_command_line_renders_a_dicom_folder_and_picks_a_series(tmp_path):
     write_series(tmp_path / "study", ct_ball(), number=1)
     write_series(tmp_path / "study", ct_ball(), number=2)
-    run = [sys.executable, "-m", "isoscope", "render", str(tmp_path / "study"), "--iso", "-200",
-           "--size", "160x120", "--out", str(tmp_path / "shot.png")]
-    refused = subprocess.run(run, capture_output=True, text=True, timeout=120)
+    run = ["render", tmp_path / "study", "--iso", "-200", "--size", "160x120", "--out", tmp_path / "shot.png"]
+    refused = isoscope_here(*run)   # the command in this process: what it draws and says
     assert refused.returncode == 2 and "--series" in refused.stderr and refused.stderr.count("\n") == 1
-    done = subprocess.run(run + ["--series", "2"], capture_output=True, text=True, timeout=120)
+    done = isoscope_here(*run, "--series", "2")
     assert done.returncode == 0, done.stderr
     assert (tmp_path / "shot.png").stat().st_size > 0

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from pydicom import dcmread
-from support.command import assert_one_line_error, isoscope
+from support.command import assert_one_line_error, isoscope_here
 from support.dicom_series import ct_ball, write_series
 
 import isoscope as api
@@ -78,11 +78,11 @@ def test_bad_temporal_series_are_one_line(tmp_path):
 
 def test_export_time_all_writes_a_closed_mesh_per_dicom_time_point(tmp_path):
     write_temporal(tmp_path / "cine", "AcquisitionNumber")
-    result = isoscope("export", str(tmp_path / "cine"), "--iso", "-250", "--time", "all",
+    result = isoscope_here("export", str(tmp_path / "cine"), "--iso", "-250", "--time", "all",
                       "--out", str(tmp_path / "ball.stl"), "--closed")
     assert result.returncode == 0, result.stderr
     written = sorted(tmp_path.glob("ball_t*.stl"))
     assert [p.name for p in written] == [f"ball_t{t:03d}.stl" for t in range(TIMES)]
-    result = isoscope("export", str(tmp_path / "cine"), "--iso", "-250", "--time", "7", "--out",
+    result = isoscope_here("export", str(tmp_path / "cine"), "--iso", "-250", "--time", "7", "--out",
                       str(tmp_path / "x.stl"))
     assert_one_line_error(result, "past the end")
