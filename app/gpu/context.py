@@ -35,6 +35,15 @@ def version_text(code: int) -> str:
     return f"{code // 100}.{code % 100 // 10}"
 
 
+SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast", "swiftshader", "software")
+"""GL_RENDERER words of renderers that draw on the CPU (buffers in CPU memory, every triangle costly)."""
+
+
+def is_software_renderer(ctx: moderngl.Context) -> bool:
+    renderer = ctx.info.get("GL_RENDERER", "").lower()
+    return any(name in renderer for name in SOFTWARE_RENDERERS)
+
+
 def has_compute(ctx: moderngl.Context) -> bool:
     """Compute shaders and storage buffers (the GPU extractor): by the context's version, >= 4.3."""
     return ctx.version_code >= REQUIRED_GL

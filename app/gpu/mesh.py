@@ -17,6 +17,7 @@ import moderngl
 import numpy as np
 
 from ..core.layout import INDEX_BYTES, VERTEX_BYTES, VERTEX_FIELDS, VERTEX_FLOATS, VERTEX_FORMAT
+from .context import is_software_renderer
 
 
 def empty_mesh():
@@ -80,10 +81,6 @@ class OwnedMesh(GpuMesh):
         self.index_buffer.release()
 
 
-SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast")
-"""GL renderers that keep buffers in CPU memory, where mapping a whole buffer costs nothing."""
-
-
 def _read_fields(buffer: moderngl.Buffer, n_vertices: int) -> dict[str, np.ndarray]:
     """Each named field of the first `n_vertices` records, (N, width) float32, C-contiguous.
 
@@ -93,9 +90,8 @@ def _read_fields(buffer: moderngl.Buffer, n_vertices: int) -> dict[str, np.ndarr
     (which grows by half again ahead of the mesh), once per field: on a GPU with memory of its own
     that could move it over the bus three times, so there the records are read once, as far as the
     mesh goes, and split in numpy."""
-    renderer = buffer.ctx.info["GL_RENDERER"]
     fields, start = {}, 0
-    if any(name in renderer for name in SOFTWARE_RENDERERS):
+    if is_software_renderer(buffer.ctx):   # buffers in CPU memory: mapping a whole one costs nothing
         for name, width in VERTEX_FIELDS:
             if name:
                 fields[name] = np.empty((n_vertices, width), np.float32)

@@ -19,7 +19,7 @@ import moderngl
 import numpy as np
 
 from ...errors import IsoscopeError
-from ...gpu.context import DRAWING_GL
+from ...gpu.context import DRAWING_GL, is_software_renderer
 from ...volumes import Volume, open_volume
 from ..gfx.renderer import OffscreenTarget, SceneRenderer, read_rgb
 from ..gfx.scene import USER_ERRORS, GpuScene
@@ -90,11 +90,6 @@ def _open_gl_window(size, title: str, samples: int):
     return window, moderngl.create_context(require=DRAWING_GL)
 
 
-def _is_software_renderer(ctx: moderngl.Context) -> bool:
-    renderer = ctx.info.get("GL_RENDERER", "").lower()
-    return any(name in renderer for name in ("llvmpipe", "softpipe", "swiftshader", "software"))
-
-
 class ViewerWindow:
     def __init__(self, volume: Volume | None = None, iso: float | None = None, size=(1280, 800),
                  screenshot_dir=".", recent: RecentFiles | None = None, title="isoscope",
@@ -105,7 +100,7 @@ class ViewerWindow:
             raise WindowUnavailable(f"cannot open a window ({_glfw_error_text() or 'no display'}); "
                                     "run it on a desktop, or under xvfb-run, or use `isoscope render` for a PNG")
         self.window, self.ctx = _open_gl_window(size, title, 4 if msaa is None else msaa)
-        if msaa is None and _is_software_renderer(self.ctx):
+        if msaa is None and is_software_renderer(self.ctx):
             # 4x MSAA triples llvmpipe's frame time (measured: 38 vs 13 ms idle at 1280x800):
             # a responsive slider matters more there than smooth edges.
             self.ctx.release()
