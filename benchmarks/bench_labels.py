@@ -19,6 +19,9 @@ frame: also what a toggle cost if it made the meshes again), `frame` (nothing ch
 label hidden or shown again: the meshes are kept, only the draw list changes; its own work, then with
 the frame that shows it: on a software rasteriser such as llvmpipe the frame is nearly all), `fade`
 (a label's opacity to 0.5 and back: the OIT pass), and how many extractions the toggles made (0: none).
+Then the toggle as the window shows it (no multisampling on a software renderer, as the window opens
+there; each toggle's first frame): with its full surfaces, and with the window's coarse twins of a big
+label map on a software renderer (label_scene.py; the full ones are back once the labels rest).
 
 Volumes: `blobs` (16 ellipsoids of 8-30 voxels radius in 256^3 uint32, seeded, later
 ones overwriting earlier ones where they overlap, so many pairs share a boundary)
@@ -145,6 +148,42 @@ def toggle_row(name: str, labels: np.ndarray, size: tuple[int, int], repeats: in
         viewer.release()
 
 
+def window_toggle_ms(labels: np.ndarray, size: tuple[int, int], repeats: int, previews: bool) -> float:
+    """A toggle's first frame as the window draws it: GpuScene(previews) into a single-sampled target."""
+    from isoscope.gpu.context import DRAWING_GL, current_or_standalone
+    from isoscope.viewer.gfx.renderer import OffscreenTarget, SceneRenderer
+    from isoscope.viewer.gfx.scene import GpuScene
+    from isoscope.viewer.model.camera import OrbitCamera
+    from isoscope.viewer.model.state import ViewerState
+    from isoscope.volumes.inputs import as_volume
+    ctx = current_or_standalone(DRAWING_GL)
+    state = ViewerState()
+    scene = GpuScene(ctx, state, previews=previews)
+    renderer, target = SceneRenderer(ctx), OffscreenTarget(ctx, size, samples=0)
+    try:
+        scene.show(as_volume(labels))
+        state.show_labels()
+        scene.update(0.0)
+        camera = OrbitCamera()
+        camera.fit(*state.bounds())
+        first = state.labels.layers[0].label
+        samples = []
+        for i in range(2 * repeats + 1):
+            start = time.perf_counter()
+            state.labels.set_visible(first, i % 2 == 1)
+            scene.update(1 / 60)
+            target.use()
+            renderer.draw_scene(scene, camera, target.viewport)
+            ctx.finish()
+            samples.append((time.perf_counter() - start) * 1000)
+            scene.update(1.0)   # the labels rest: the full surfaces again
+        return statistics.median(samples)
+    finally:
+        scene.release()
+        renderer.release()
+        target.release()
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--volumes", default="blobs,mni-tissue", help="comma-separated: blobs, mni-tissue")
@@ -159,14 +198,16 @@ def main() -> int:
         size = tuple(int(v) for v in args.frame_size.split("x"))
         print(f"### A label map in the viewer, {size[0]}x{size[1]} (median ms of {args.repeats})\n")
         print("| volume | labels | triangles | show (= re-extract) | frame | toggle, no frame | toggle + frame | "
-              "fade + frame | extractions by toggles |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+              "fade + frame | extractions by toggles | window: toggle + frame, full | window: with coarse twins |"
+              "\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
         for name in args.volumes.split(","):
             try:
                 labels = blobs(args.size) if name == "blobs" else mni_tissue()
             except MissingVolume as exc:
                 print(f"skipped {name}: {exc}", file=sys.stderr)
                 continue
-            print(toggle_row(name, labels, size, args.repeats), flush=True)
+            window = [window_toggle_ms(labels, size, args.repeats, previews) for previews in (False, True)]
+            print(toggle_row(name, labels, size, args.repeats) + f" {window[0]:.0f} | {window[1]:.0f} |", flush=True)
         print()
         if args.only_toggle:
             return 0

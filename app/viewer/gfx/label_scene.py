@@ -3,10 +3,13 @@ and the clip's cut drawn in the labels' colours.
 
 `LabelMeshes` is the GPU side of a `LabelMap` (model/labels.py): it extracts every label's surface once
 per label map (`extractions` counts it) and keeps them all, so a label shown, hidden or faded changes
-only the draw list (`drawn`), never a mesh.  `LabelCaps` draws the clip's cut (label_cap.frag): the
-labels' index on the grid plane nearest the clip, looked up in a table of their colours, each label's
-part in its colour as its surface is cut.  `label_scene` is the one-shot upload of `label_surfaces`'
-result for a caller that owns its buffers.
+only the draw list (`drawn`), never a mesh.  With `previews` (the window), a label map whose surfaces are
+too many triangles to draw at once on a software renderer is also kept as coarse surfaces (every
+`preview_step`-th sample), which the scene draws for the frames right after a label is shown, hidden or
+faded, until it rests (scene.py's REST_S), as a dragged level is previewed.  `LabelCaps` draws the
+clip's cut (label_cap.frag): the labels' index on the grid plane nearest the clip, looked up in a table
+of their colours, each label's part in its colour as its surface is cut.  `label_scene` is the one-shot
+upload of `label_surfaces`' result for a caller that owns its buffers.
 """
 from __future__ import annotations
 
@@ -20,6 +23,7 @@ from ...resources import shader_source
 from ..model.labels import LabelLayer, LabelMap
 from ..model.slices import SliceScene
 
+PREVIEW_TRIANGLES = 250_000   # label surfaces above this many triangles get coarse twins for the frames after a toggle
 TABLE_WIDTH = 1024   # the colour table's texture is this wide, as many rows as the labels need
 PLANE_UNIT, TABLE_UNIT = 5, 6   # texture units (the slices use 0 and 1, the surfaces' looks 3 and 4)
 
@@ -45,9 +49,12 @@ def release_scene(scene) -> None:
 class LabelMeshes:
     """Every label's surface of the label map on show, on the GPU, by label."""
 
-    def __init__(self, ctx: moderngl.Context):
+    def __init__(self, ctx: moderngl.Context, previews: bool = False):
         self.ctx = ctx
+        self.previews = previews
         self.meshes: dict[int, GpuMesh] = {}
+        self.coarse: dict[int, GpuMesh] = {}   # with previews, of a big label map: every preview_step-th sample
+        self.preview_step = 1
         self.serial: int | None = None   # the label map (LabelMap.serial) they are of
         self.extractions = 0             # label maps extracted so far: a toggle makes none
 
@@ -59,20 +66,32 @@ class LabelMeshes:
         self.release()
         if not labels:
             return
+        backend = "gpu" if has_compute(self.ctx) else "cpu"
         try:
-            surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing,
-                                      backend="gpu" if has_compute(self.ctx) else "cpu")
-            scene = label_scene(self.ctx, surfaces)
+            data = labels_of(volume)
+            surfaces = label_surfaces(data, spacing=volume.spacing, backend=backend)
+            self.meshes = {label: mesh for label, mesh, _ in label_scene(self.ctx, surfaces)}
+            triangles = sum(len(faces) for _, faces, _ in surfaces.values())
+            if self.previews and triangles > PREVIEW_TRIANGLES:
+                # Triangles fall with the square of the step: the coarse ones fit the budget.
+                step = int(np.ceil(np.sqrt(triangles / PREVIEW_TRIANGLES)))
+                coarse = label_surfaces(data[::step, ::step, ::step],
+                                        spacing=tuple(s * step for s in volume.spacing), backend=backend)
+                self.coarse = {label: mesh for label, mesh, _ in label_scene(self.ctx, coarse)}
+                self.preview_step = step
         except BaseException:
+            self.release()
             labels.hide()
             raise
         self.extractions += 1
-        self.meshes = {label: mesh for label, mesh, _ in scene}
         self.serial = labels.serial
 
-    def drawn(self, labels: LabelMap) -> list[tuple[GpuMesh, LabelLayer]]:
-        """The visible labels' meshes and layers (their colours and opacities: the renderer's looks)."""
-        return [(self.meshes[layer.label], layer) for layer in labels.visible() if layer.label in self.meshes]
+    def drawn(self, labels: LabelMap, coarse: bool = False) -> list[tuple[GpuMesh, LabelLayer]]:
+        """The visible labels' meshes and layers (their colours and opacities: the renderer's looks); with
+        `coarse`, their coarse twins where they have them (a label too small for the coarse grid keeps its own)."""
+        kept = self.coarse if coarse else self.meshes
+        return [(kept.get(layer.label, self.meshes[layer.label]), layer) for layer in labels.visible()
+                if layer.label in self.meshes]
 
     def triangles(self, label: int) -> int:
         mesh = self.meshes.get(label)
@@ -84,9 +103,9 @@ class LabelMeshes:
         return len(shown), sum(m.n_vertices for m in shown), sum(m.n_triangles for m in shown)
 
     def release(self) -> None:
-        for mesh in self.meshes.values():
+        for mesh in [*self.meshes.values(), *self.coarse.values()]:
             mesh.release()
-        self.meshes, self.serial = {}, None
+        self.meshes, self.coarse, self.preview_step, self.serial = {}, {}, 1, None
 
 
 def plane_indices(data: np.ndarray, labels: np.ndarray, axis: int, position: float) -> tuple[int, np.ndarray]:

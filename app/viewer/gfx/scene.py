@@ -28,7 +28,7 @@ import moderngl
 
 from ...core.layout import INDEX_BYTES, VERTEX_BYTES
 from ...gpu.buffers import GrowableBuffer
-from ...gpu.context import gl_summary, has_compute
+from ...gpu.context import gl_summary, has_compute, is_software_renderer
 from ...gpu.mesh import GpuMesh
 from ...labels import check_label_output, write_labelled
 from ...volumes import Volume
@@ -96,7 +96,10 @@ class GpuScene:
         self._on_extractor: Level | None = None   # the level whose mesh the extractor holds
         self._extracted: float | None = None      # the value it was extracted at (None: extract it again)
         self._copies: dict[Level, MeshCopy] = {}  # the other levels' meshes
-        self.labels = LabelMeshes(ctx)            # a label map's surfaces, kept while it is on show
+        # a label map's surfaces, kept while it is on show; coarse twins where a frame of them is slow
+        self.labels = LabelMeshes(ctx, previews and is_software_renderer(ctx))
+        self._label_look = None                   # the labels' (label, visible, opacity) last frame
+        self._label_rest_s = REST_S               # how long they have not changed
         self._wait = False                        # the next extraction makes its sharp features at once
         self._moved_last_frame = False
         self._rest_s = 0.0                        # how long the value has not moved
@@ -130,6 +133,7 @@ class GpuScene:
             self._attempt(self._answer_open if response.kind == "open" else state.exported, response)
         self._attempt(self._follow_time, dt_seconds, wait)
         self._attempt(self._follow)
+        self._follow_label_look(dt_seconds, wait)
         if state.save_request is not None:
             path, state.save_request = state.save_request, None
             self._attempt(self.save_mesh, path)
@@ -186,6 +190,18 @@ class GpuScene:
                     raise
         self.labels.follow(state.labels, state.volume)
         self._follow_color_by()
+
+    def _follow_label_look(self, dt_seconds: float, wait: bool) -> None:
+        """How long the label map's looks have rested: coarse label surfaces are drawn until REST_S."""
+        labels = self.state.labels
+        look = tuple((layer.label, layer.visible, layer.opacity) for layer in labels.layers) if labels else None
+        if wait:
+            self._label_rest_s = REST_S
+        elif look != self._label_look and self._label_look is not None and look is not None:
+            self._label_rest_s = 0.0
+        else:
+            self._label_rest_s += dt_seconds
+        self._label_look = look
 
     def _upload_again(self) -> None:
         """The object's side changed: the volume uploaded again with its new gradient direction (a
@@ -333,7 +349,9 @@ class GpuScene:
         """A label map's visible labels while one is on show, else the visible levels."""
         state = self.state
         if state.labels:
-            return [(mesh, SurfaceLook(layer.color, layer.opacity)) for mesh, layer in self.labels.drawn(state.labels)]
+            coarse = self._label_rest_s < REST_S   # just toggled or faded: the coarse twins, if it has them
+            return [(mesh, SurfaceLook(layer.color, layer.opacity))
+                    for mesh, layer in self.labels.drawn(state.labels, coarse)]
         shown = []
         for i, level in enumerate(state.levels):
             mesh = self._level_mesh(level) if level.visible else None
