@@ -52,6 +52,16 @@ def act(state, change, *args) -> bool:
     return True
 
 
+def choose(state, label: str, current: str, choices, change) -> None:
+    """A combo box `label` showing `current`, listing `choices` (strings); picking one makes the state
+    change `change(choice)` through `act` (a refusal is noted at the combo box)."""
+    if imgui.begin_combo(label, current):
+        for choice in choices:
+            if imgui.selectable(choice, choice == current)[0]:
+                act(state, change, choice)
+        imgui.end_combo()
+
+
 def _where(text: str) -> Refusal | None:
     """The control last drawn, as a Refusal of `text`: a combo's choice is placed at its combo box (its
     popup opens just under it).  None outside a layout (no imgui context: a script acting on the state)."""

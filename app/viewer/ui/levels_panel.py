@@ -12,7 +12,7 @@ from ..model.formats import level_text
 from ..model.hints import empty_level_hint, enclosing_levels
 from ..model.levels import MAX_LEVELS
 from ..model.state import ViewerState
-from .gui import act, imgui, px, section, tooltip
+from .gui import act, choose, imgui, px, section, tooltip
 
 NEW_LEVEL_STEP = 0.1    # an added level starts this fraction of the range above the selected one
 COLORBAR_HEIGHT = 14.0
@@ -110,11 +110,8 @@ class LevelsSection:
     def _color_by(self, state: ViewerState) -> None:
         current = state.color_by.source if state.color_by is not None else "off"
         imgui.set_next_item_width(px(COMBO_WIDTH))
-        if imgui.begin_combo("colour by", current):
-            for choice in ("off", *SOURCES):
-                if imgui.selectable(choice, choice == current)[0]:
-                    act(state, state.set_color_by, None if choice == "off" else choice)
-            imgui.end_combo()
+        choose(state, "colour by", current, ("off", *SOURCES),
+               lambda choice: state.set_color_by(None if choice == "off" else choice))
         imgui.set_next_item_width(-imgui.calc_text_size("Colour by it").x - 2 * imgui.get_style().frame_padding.x
                                   - imgui.get_style().item_spacing.x)
         entered, self.volume_text = imgui.input_text_with_hint(
@@ -125,11 +122,8 @@ class LevelsSection:
         if state.color_by is None:
             return
         imgui.set_next_item_width(px(COMBO_WIDTH))
-        if imgui.begin_combo("colour map", state.color_by.colormap):
-            for name in COLORMAPS:
-                if imgui.selectable(name, name == state.color_by.colormap)[0]:
-                    act(state, state.set_color_by, state.color_by.spec, name)
-            imgui.end_combo()
+        choose(state, "colour map", state.color_by.colormap, COLORMAPS,
+               lambda name: state.set_color_by(state.color_by.spec, name))
         _colorbar(state.color_by)
 
 

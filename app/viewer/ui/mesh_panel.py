@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ...options import CELLS
 from ..model.state import ViewerState
-from .gui import act, imgui, px, section, tooltip
+from .gui import act, choose, imgui, px, section, tooltip
 
 MAX_SMOOTH_SLIDER = 10
 DEFAULT_SHARP_ANGLE = 30.0
@@ -25,11 +25,7 @@ class MeshSection:
         if not section(MESH_TITLE, default_open=False):
             return
         imgui.set_next_item_width(px(COMBO_WIDTH))
-        if imgui.begin_combo("cells", state.cells):
-            for cells in CELLS:
-                if imgui.selectable(cells, cells == state.cells)[0]:
-                    act(state, state.set_cells, cells)
-            imgui.end_combo()
+        choose(state, "cells", state.cells, CELLS, state.set_cells)
         tooltip("tetrahedra: six per cube, no ambiguous cells, about 3x the triangles")
         # Sliders write their value beside them, never under their grab.
         imgui.set_next_item_width(px(SLIDER_WIDTH))

@@ -23,7 +23,7 @@ from ..model.settings import PanelSettings
 from ..model.state import ViewerState
 from . import gui
 from .file_browser import FileBrowser, default_recent_folders, has_dialog_tool, patterns_of
-from .gui import act, imgui, px, refusal, remember_sections, section, tooltip
+from .gui import act, choose, imgui, px, refusal, remember_sections, section, tooltip
 from .labels_panel import LabelsSection
 from .levels_panel import LevelsSection
 from .measure_panel import MeasureSection
@@ -234,11 +234,7 @@ class Panel:
             if toggled:
                 act(state, state.set_gradient_direction, "ascent" if below else "descent")
         current = state.volume.name if state.volume is not None else ""
-        if imgui.begin_combo("built-in", current if current in builtin_names() else ""):
-            for name in builtin_names():
-                if imgui.selectable(name, name == current)[0]:
-                    act(state, state.open, name)
-            imgui.end_combo()
+        choose(state, "built-in", current if current in builtin_names() else "", builtin_names(), state.open)
         if state.recent.paths and imgui.begin_combo("recent", ""):
             for path in state.recent.paths:
                 if imgui.selectable(Path(path).name + "##" + path, False)[0]:

@@ -7,7 +7,7 @@ from __future__ import annotations
 from ..model.colormaps import COLORMAPS
 from ..model.slices import AXES, default_window
 from ..model.state import ViewerState
-from .gui import act, imgui, px, section, tooltip
+from .gui import act, choose, imgui, px, section, tooltip
 
 CLIP_SIDES = ("hide above", "hide below")
 AXIS_WIDTH = 50.0
@@ -54,11 +54,7 @@ class SlicePanel:
             act(state, settings.set_window, *default_window(state.volume.data, state.value_range))
         imgui.same_line()
         imgui.set_next_item_width(-1)
-        if imgui.begin_combo("##colormap", settings.colormap):
-            for name in COLORMAPS:
-                if imgui.selectable(name, name == settings.colormap)[0]:
-                    act(state, settings.set_colormap, name)
-            imgui.end_combo()
+        choose(state, "##colormap", settings.colormap, COLORMAPS, settings.set_colormap)
         self._clip(state)
 
     @staticmethod
@@ -71,19 +67,13 @@ class SlicePanel:
             return
         imgui.same_line()
         imgui.set_next_item_width(px(AXIS_WIDTH))
-        if imgui.begin_combo("##clip_axis", AXES[clip.axis]):
-            for axis in range(3):
-                if imgui.selectable(AXES[axis], axis == clip.axis)[0]:
-                    act(state, state.slices.set_clip, axis, None, clip.hide_above)
-            imgui.end_combo()
+        choose(state, "##clip_axis", AXES[clip.axis], AXES,
+               lambda name: state.slices.set_clip(AXES.index(name), None, clip.hide_above))
         imgui.same_line()
         imgui.set_next_item_width(-1)
         side = CLIP_SIDES[0 if clip.hide_above else 1]
-        if imgui.begin_combo("##clip_side", side):
-            for name in CLIP_SIDES:
-                if imgui.selectable(name, name == side)[0]:
-                    act(state, state.slices.set_clip, clip.axis, clip.position, name == CLIP_SIDES[0])
-            imgui.end_combo()
+        choose(state, "##clip_side", side, CLIP_SIDES,
+               lambda name: state.slices.set_clip(clip.axis, clip.position, name == CLIP_SIDES[0]))
         text = f"{clip.position:.1f}"
         width = imgui.calc_text_size(f"{state.slices.shape[clip.axis] - 1:.1f}").x
         imgui.set_next_item_width(-width - imgui.get_style().item_spacing.x)

@@ -16,7 +16,7 @@ from ..gfx.renderer import read_rgb
 from ..model.errors import USER_ERRORS, one_line
 from ..model.series import MAX_FPS, PLAY_MODES
 from ..model.state import ViewerState
-from .gui import act, imgui, tooltip
+from .gui import act, choose, imgui, tooltip
 
 RECORD_FPS = 30.0          # a recording's default frame rate: each drawn frame is written as often as wall time asks
 MAX_RECORD_FPS = 240.0     # as `isoscope movie --fps`
@@ -183,11 +183,7 @@ class TimeSection:
             act(state, series.set_fps, fps)
         imgui.same_line()
         imgui.set_next_item_width(-1)
-        if imgui.begin_combo("##mode", series.mode):
-            for mode in PLAY_MODES:
-                if imgui.selectable(mode, mode == series.mode)[0]:
-                    act(state, series.set_mode, mode)
-            imgui.end_combo()
+        choose(state, "##mode", series.mode, PLAY_MODES, series.set_mode)
         tooltip("loop: back to the first time point after the last; bounce: back and forth")
         toggled, fixed = imgui.checkbox("range of the whole series", series.fixed_range)
         if toggled:
