@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import os
 import subprocess
 import sys
@@ -54,6 +55,33 @@ def isoscope_here(*args, cwd=None) -> subprocess.CompletedProcess:
             os.chdir(before)
     shown = "".join(warnings.formatwarning(w.message, w.category, w.filename, w.lineno, w.line) for w in caught)
     return subprocess.CompletedProcess(["isoscope", *argv], status, out.getvalue(), err.getvalue() + shown)
+
+
+# Each command of a batch run by `isoscope_here` in one process; one JSON line each: status, stdout, stderr.
+_BATCH = """
+import json, sys
+sys.path.insert(0, sys.argv[1])
+from support.command import isoscope_here
+for args in json.loads(sys.argv[2]):
+    done = isoscope_here(*args, cwd=sys.argv[3])
+    print("\\n" + json.dumps([done.returncode, done.stdout, done.stderr]), flush=True)
+"""
+
+
+def isoscope_batch(*commands, env_drop=(), env_add=None, cwd=None) -> list[subprocess.CompletedProcess]:
+    """Each of `commands` (argument lists) run one after another by one process of its own, in the
+    environment `isoscope` would give it, each as `isoscope_here` runs it: for commands that need a process
+    (a display, a GL version override, windows) but not one process each. Their results, in order."""
+    env = {k: v for k, v in os.environ.items() if k not in env_drop}
+    env.update(env_add or {})
+    jobs = [[str(arg) for arg in args] for args in commands]
+    child = subprocess.run([sys.executable, "-c", _BATCH, str(Path(__file__).resolve().parents[1]),
+                            json.dumps(jobs), str(cwd or REPO)], capture_output=True, text=True, env=env,
+                           cwd=cwd or REPO, timeout=300)
+    results = [json.loads(line) for line in child.stdout.splitlines() if line.startswith("[")]
+    assert len(results) == len(jobs), f"the batch stopped after {len(results)} of {len(jobs)}:\n{child.stderr}"
+    return [subprocess.CompletedProcess(["isoscope", *args], status, out, err)
+            for args, (status, out, err) in zip(jobs, results)]
 
 
 def assert_one_line_error(result, *words):
