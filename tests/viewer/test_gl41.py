@@ -5,12 +5,13 @@ Mesa's MESA_GL_VERSION_OVERRIDE=4.1 imitates a Mac: the driver offers a 4.1 core
 the meshes come from the CPU extractor and are drawn from a VBO (viewer/gfx/cpu_surface.py).  A 4.1 run is a
 subprocess with the override in its environment (Mesa reads it when the process makes its first context);
 the 4.3 picture it is held to is drawn by the same command in this process (the tests' own context is 4.3).
-The render modes are drawn on 4.1 by one process, one command after another; the torus by a command of its
-own.  "No GL" is an EGL vendor list that names nothing and no DISPLAY.
+The render modes, the torus and `--version` run on 4.1 in one process, one command after another; the
+viewer and its window on 4.1 in processes of their own.  "No GL" is an EGL vendor list that names nothing
+and no DISPLAY: export and `--version` run in one such process, render (its one line on the process's
+stderr) in another.
 """
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import subprocess
@@ -21,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
-from support.command import isoscope_here
+from support.command import isoscope_batch, isoscope_here
 
 REPO = Path(__file__).resolve().parents[2]
 GL41 = {"MESA_GL_VERSION_OVERRIDE": "4.1", "MESA_GLSL_VERSION_OVERRIDE": "410"}
@@ -57,14 +58,6 @@ def render_43(tmp_path, name, *args) -> np.ndarray:
     return pixels(out)
 
 
-def render_both(tmp_path, name, *args):
-    """The same `isoscope render` on 4.1 (a process of its own) and on 4.3: both images."""
-    out = tmp_path / f"{name}-41.png"
-    result = isoscope("render", *args, "--size", SIZE, "--out", out, gl41=True)
-    assert result.returncode == 0, result.stderr
-    return pixels(out), render_43(tmp_path, name, *args)
-
-
 MODES = {   # name: `isoscope render` arguments that take a path of their own on 4.1
     "levels": ["metaballs", "--iso", "0.3", "--iso", "0.6", "--opacity", "0.35,1"],   # translucency (OIT)
     "slices": ["bucky", "--slice", "z=32", "--slice", "x=20", "--clip", "y=30"],       # isocurves, clip cap, inset
@@ -74,28 +67,20 @@ MODES = {   # name: `isoscope render` arguments that take a path of their own on
     "labels": ["{folder}/labels.npy", "--labels"],
 }
 
-RENDER_ALL = textwrap.dedent("""
-    import json, sys
-    from isoscope.cli.main import main
-    for name, args in json.loads(sys.argv[1]).items():
-        print(json.dumps([name, main(args)]), flush=True)
-""")
-
-
 @pytest.fixture(scope="module")
 def on41(tmp_path_factory):
-    """Every scene of MODES drawn on 4.1 by one process (the command's `main`, scene after scene): the
-    folder of the images (NAME-41.png) and each scene's exit status."""
+    """Every scene of MODES, the torus and `--version` run on 4.1 by one process, one command after another
+    (support.command.isoscope_batch): the folder of the images (NAME-41.png) and each command's result."""
     folder = tmp_path_factory.mktemp("on41")
     labels = np.zeros((24, 24, 24), np.uint8)
     labels[4:12, 4:20, 4:20], labels[14:20, 6:18, 8:16] = 1, 2
     np.save(folder / "labels.npy", labels)
     jobs = {name: ["render", *(arg.format(folder=folder) for arg in args), "--size", SIZE,
-                   "--out", str(folder / f"{name}-41.png")] for name, args in MODES.items()}
-    result = subprocess.run([sys.executable, "-c", RENDER_ALL, json.dumps(jobs)], capture_output=True, text=True,
-                            env=environment(gl41=True), cwd=REPO, timeout=300)
-    statuses = dict(json.loads(line) for line in result.stdout.splitlines() if line.startswith("["))
-    return folder, statuses, result.stderr
+                   "--out", str(folder / f"{name}-41.png")] for name, args in {**MODES, "torus": ["torus"]}.items()}
+    jobs["version"] = ["--version"]
+    results = isoscope_batch(*jobs.values(), env_drop=[k for k in os.environ if k.startswith("MESA_GL")],
+                             env_add=GL41)
+    return folder, dict(zip(jobs, results))
 
 
 def same_share(a, b) -> float:
@@ -103,8 +88,10 @@ def same_share(a, b) -> float:
 
 
 @pytest.mark.gl
-def test_render_on_41_draws_the_surface_as_on_43(tmp_path):
-    on41, on43 = render_both(tmp_path, "torus", "torus")
+def test_render_on_41_draws_the_surface_as_on_43(on41, tmp_path):
+    folder, results = on41
+    assert results["torus"].returncode == 0, results["torus"].stderr
+    on41, on43 = pixels(folder / "torus-41.png"), render_43(tmp_path, "torus", "torus")
     background = on41[2, 2]
     surface = np.abs(on41 - background).max(axis=2) > 30
     assert 0.05 < surface.mean() < 0.6                     # the surface covers part of the image...
@@ -115,8 +102,8 @@ def test_render_on_41_draws_the_surface_as_on_43(tmp_path):
 @pytest.mark.gl
 @pytest.mark.parametrize("name", MODES)   # labels: a label map's surfaces in their colours
 def test_render_modes_on_41_match_43(on41, tmp_path, name):
-    folder, statuses, stderr = on41
-    assert statuses.get(name) == 0, stderr
+    folder, results = on41
+    assert results[name].returncode == 0, results[name].stderr
     on43 = render_43(tmp_path, name, *(arg.format(folder=folder) for arg in MODES[name]))
     assert same_share(pixels(folder / f"{name}-41.png"), on43) >= SAME_SHARE, name
 
@@ -190,8 +177,8 @@ def test_viewer_on_41_extracts_on_the_cpu_and_follows_the_slider(tmp_path):
 
 
 @pytest.mark.gl
-def test_version_says_the_gl_version_and_the_extractor():
-    on41 = isoscope("--version", gl41=True)
+def test_version_says_the_gl_version_and_the_extractor(on41):
+    on41 = on41[1]["version"]
     assert on41.returncode == 0 and "OpenGL 4.1" in on41.stdout and "CPU extractor" in on41.stdout, on41.stdout
     on43 = isoscope_here("--version")
     assert on43.returncode == 0 and "GPU extractor" in on43.stdout, on43.stdout
@@ -199,7 +186,9 @@ def test_version_says_the_gl_version_and_the_extractor():
 
 def test_with_no_gl_export_works_and_render_says_it_needs_opengl(tmp_path):
     out = tmp_path / "torus.ply"
-    exported = isoscope("export", "torus", "--out", out, no_gl=True)
+    exported, version = isoscope_batch(["export", "torus", "--out", out], ["--version"],
+                                       env_drop=[k for k in os.environ if k.startswith("MESA_GL")] + ["DISPLAY"],
+                                       env_add={"__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent.json"})
     assert exported.returncode == 0, exported.stderr
     assert out.stat().st_size > 0
     rendered = isoscope("render", "torus", "--out", tmp_path / "t.png", no_gl=True)
@@ -207,7 +196,6 @@ def test_with_no_gl_export_works_and_render_says_it_needs_opengl(tmp_path):
     lines = rendered.stderr.strip().splitlines()
     assert len(lines) == 1 and "needs OpenGL 4.1" in lines[0], rendered.stderr
     assert not (tmp_path / "t.png").exists()
-    version = isoscope("--version", no_gl=True)
     assert version.returncode == 0 and "no OpenGL" in version.stdout and "CPU extractor" in version.stdout
 
 
