@@ -1,11 +1,9 @@
 """export --decimate: fewer triangles, the same closed surface, and an honest distance off the level set."""
 from __future__ import annotations
 
-import subprocess
-import sys
-
 import numpy as np
 import pytest
+from support.command import isoscope_here
 from support.mesh_checks import assert_closed_manifold, read_ply, signed_volume
 
 from isoscope.cpu.cubes import marching_cubes_reference
@@ -64,9 +62,8 @@ def test_fractions_outside_zero_to_one_are_refused():
 
 
 def test_the_command_line_decimates_and_reports(tmp_path):
-    def export(*flags):
-        return subprocess.run([sys.executable, "-m", "isoscope", "export", "torus", "--resolution", "32",
-                               "--out", str(tmp_path / "t.ply"), *flags], capture_output=True, text=True, timeout=120)
+    def export(*flags):   # the command in this process: the mesh it writes and what it says
+        return isoscope_here("export", "torus", "--resolution", "32", "--out", tmp_path / "t.ply", *flags)
     full = export()
     assert full.returncode == 0, full.stderr
     full_faces = len(read_ply(tmp_path / "t.ply")[3])
