@@ -50,8 +50,9 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     backend : {"auto", "gpu", "cpu", "numpy"}, default "auto"
         "gpu" (OpenGL 4.3 compute shaders; a standalone EGL context when none is
         current), "cpu" (compiled CPU kernels, `isoscope.cpu.compiled`), "numpy"
-        (the numpy reference extractor, `isoscope.cpu.cubes`), or "auto" (GPU when
-        an OpenGL 4.3 context can be had, else "cpu").  All give the same mesh.
+        (the numpy reference extractor, `isoscope.cpu.cubes`), or "auto" (GPU where
+        an OpenGL 4.3 context runs on graphics hardware, else "cpu", llvmpipe included:
+        it runs the passes on the same cores, slower).  All give the same mesh.
     smooth : int, default 0
         Iterations of smoothing, each projected back onto the level set
         (`smooth_mesh`); 0 is the plain marching-cubes mesh.  A few iterations
@@ -369,12 +370,10 @@ def _extract_and_read(cubes, level, iterations, tetrahedra, values_of=None):
 
 
 def _backend(backend: str, allowed=BACKENDS) -> str:
-    if backend not in allowed:
+    if backend not in allowed:  # "auto": a one-shot call's, as gpu.context.one_shot_backend decides
         raise ValueError(f"backend {backend!r} is not one of {allowed}")
-    if backend == "auto":
-        from .gpu.context import gl_available
-        return "gpu" if gl_available() else "cpu"
-    return backend
+    from .gpu.context import one_shot_backend
+    return one_shot_backend() if backend == "auto" else backend
 
 
 def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0, 1.0),
@@ -588,8 +587,9 @@ class Extractor(metaclass=_ExtractorKind):
 
     def __new__(cls, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent", ctx=None, table=None,
                 limits=None, *, backend="auto"):
-        if backend == "auto" and ctx is not None:
-            backend = "gpu"
+        if backend == "auto":   # resident: the GPU wherever a 4.3 context can be had, llvmpipe included
+            from .gpu.context import gl_available
+            backend = "gpu" if ctx is not None or gl_available() else "cpu"
         backend = _backend(backend)
         if backend == "gpu":
             from .gpu.cubes import Extractor as GpuExtractor

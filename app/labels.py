@@ -241,16 +241,16 @@ def label_count_hint(data) -> int:
 def _extractor(backend: str):
     """indicator -> (verts, faces, normals) at level 0.5: one GL context found once for all labels
     (asking for the current context costs a few ms each time), else the compiled CPU extractor ("cpu",
-    or "auto" with no GL) or the numpy one ("numpy")."""
+    or "auto" with no GL or a software renderer: gpu.context's one_shot_backend) or the numpy one ("numpy")."""
     from .api import BACKENDS
-    from .gpu.context import current_or_standalone, gl_available
+    from .gpu.context import current_or_standalone, one_shot_backend
     if backend not in BACKENDS:
         raise ValueError(f"backend {backend!r} is not one of {BACKENDS}")
     table = label_table()
     if backend == "numpy":
         from .cpu.cubes import marching_cubes_reference
         return lambda indicator: marching_cubes_reference(indicator.astype(np.float32), 0.5, table=table)[:3]
-    if backend == "cpu" or (backend == "auto" and not gl_available()):
+    if backend == "cpu" or (backend == "auto" and one_shot_backend() == "cpu"):
         from .cpu.compiled import marching_cubes_compiled
         return lambda indicator: marching_cubes_compiled(indicator.astype(np.float32), 0.5, table=table)[:3]
     from .gpu.cubes import Extractor

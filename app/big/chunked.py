@@ -172,10 +172,13 @@ def merge(parts: list[ChunkMesh | None], shape):
 
 def marching_cubes_chunked(source, level: float, spacing=(1.0, 1.0, 1.0), descent: bool = True,
                            chunks=DEFAULT_CHUNK, ctx=None, progress: Callable[[float, str], None] | None = None,
-                           backend: str = "gpu"):
+                           backend: str = "auto"):
     """The whole-volume mesh of `source` (an array, memory map or Zarr array), a box at a time in one
-    GL context (or with backend "cpu" / "numpy", on the CPU).  `level` must already be checked against
-    the volume's range."""
+    GL context (or with backend "cpu" / "numpy", on the CPU; "auto": gpu.context's one_shot_backend).
+    `level` must already be checked against the volume's range."""
+    if backend == "auto":
+        from ..gpu.context import one_shot_backend
+        backend = one_shot_backend()
     if backend == "gpu":
         from ..gpu.context import current_or_standalone
         ctx = ctx or current_or_standalone()

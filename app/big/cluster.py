@@ -48,14 +48,14 @@ def _worker_context():
 
 def _worker_backend(backend: str) -> str:
     """The backend this worker extracts with: "auto" is the GPU where the worker can open an OpenGL 4.3
-    context, else the compiled CPU extractor (the same mesh), decided once per worker thread."""
+    context on graphics hardware, else the compiled CPU extractor (the same mesh; gpu.context's
+    one_shot_backend), decided once per worker thread."""
     if backend != "auto":
         return backend
     if getattr(_local, "backend", None) is None:
-        from ..gpu.context import GLUnavailable
+        from ..gpu.context import GLUnavailable, one_shot_backend_on
         try:
-            _worker_context()
-            _local.backend = "gpu"
+            _local.backend = one_shot_backend_on(_worker_context())
         except GLUnavailable:
             _local.backend = "cpu"
     return _local.backend

@@ -15,6 +15,7 @@ with the default `require=REQUIRED_GL` and get GLUnavailable on a 4.1 context.
 from __future__ import annotations
 
 import ctypes
+import importlib.util
 
 import moderngl
 
@@ -117,6 +118,24 @@ def gl_available() -> bool:
         return True
     except GLUnavailable:
         return False
+
+
+def one_shot_backend() -> str:
+    """What backend="auto" gives a one-shot extraction (marching_cubes, a chunk, a worker's box, a label
+    map): the GPU where an OpenGL 4.3 context can be had on real graphics hardware; the compiled CPU
+    extractor where there is none, or where that context is a software renderer such as llvmpipe, which
+    runs the compute passes on the same CPU cores and measured 1.2-3x slower one-shot than the compiled
+    kernels (benchmarks/results-llvmpipe.md), unless numba is missing.  The same mesh either way."""
+    try:
+        ctx = current_or_standalone()
+    except GLUnavailable:
+        return "cpu"
+    return one_shot_backend_on(ctx)
+
+
+def one_shot_backend_on(ctx: moderngl.Context) -> str:
+    """`one_shot_backend` where `ctx` is the context a 4.3 extraction would use."""
+    return "cpu" if is_software_renderer(ctx) and importlib.util.find_spec("numba") is not None else "gpu"
 
 
 def gl_summary(ctx: moderngl.Context) -> str:

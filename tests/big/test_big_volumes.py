@@ -78,7 +78,7 @@ def test_chunked_mesh_of_a_zarr_volume_equals_the_in_memory_mesh(tmp_path, field
     path = _ome(tmp_path, field, 3, (1.0, 1.0, 1.0))
     volume = open_volume(str(path))
     whole = isoscope.marching_cubes(field, 0.0, backend="gpu")
-    stitched = isoscope.marching_cubes(volume.data, 0.0, chunks=11)
+    stitched = isoscope.marching_cubes(volume.data, 0.0, chunks=11, backend="gpu")
     for got, expected in zip(stitched, whole):
         np.testing.assert_array_equal(got, expected)
 

@@ -27,7 +27,7 @@ def test_chunked_mesh_equals_the_whole_volume_mesh(gl_ctx, chunks, direction):
     volume = smooth_noise((50, 41, 70))
     whole = isoscope.marching_cubes(volume, 0.0, spacing=(1, 0.7, 1.3), gradient_direction=direction, backend="gpu")
     stitched = isoscope.marching_cubes(volume, 0.0, spacing=(1, 0.7, 1.3), gradient_direction=direction,
-                                       chunks=chunks)
+                                       chunks=chunks, backend="gpu")
     for got, expected in zip(stitched, whole):  # same arrays, same order: not only the same set
         np.testing.assert_array_equal(got, expected)
 

@@ -81,7 +81,7 @@ def test_scheduler_address_progress_and_a_dying_worker(noise_zarr, scheduler, gl
     seen = []
     mesh = marching_cubes_on_cluster(source, 0.0, (1.0, 1.0, 1.0), True, (15, 15, 15), scheduler=scheduler,
                                      progress=lambda fraction, message: seen.append(fraction))
-    for got, expected in zip(mesh, outward_marching_cubes(field, 0.0, backend="gpu")):
+    for got, expected in zip(mesh, outward_marching_cubes(field, 0.0)):   # "auto" here as on the workers
         np.testing.assert_array_equal(got, expected)
     assert seen == sorted(seen) and seen[-1] == 1.0 and len(seen) == 3 * 3 * 4
     with pytest.raises(ClusterError, match="a dask worker failed on a chunk.*KilledWorker"):
