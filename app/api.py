@@ -166,11 +166,11 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     >>> bool(np.array_equal(sharp[:len(plain)], plain))  # the plain vertices come first
     True
     """
-    descent = validation.as_gradient_direction(gradient_direction)
     verts, faces, normals, values = _cubes(
         volume, level, spacing=spacing, gradient_direction=gradient_direction, step_size=step_size, method=method,
         backend=backend, smooth=smooth, chunks=chunks, sharp_features=sharp_features, mask=mask, skimage=True)
-    return verts, np.ascontiguousarray(faces[:, ::-1]), normals if descent else -normals, values
+    from .cpu.skimage_values import skimage_orientation  # the arrays are this call's own: turned in place
+    return verts, *skimage_orientation(faces, normals, validation.as_gradient_direction(gradient_direction)), values
 
 
 def outward_marching_cubes(volume, level=None, **options):
