@@ -1,10 +1,11 @@
-"""Helpers for tests of the real window under Xvfb: X key events, bounded frame loops, a fresh process.
+"""Helpers for the real window under Xvfb: X key events, bounded frame loops, one spawned process for the windows.
 
 Keys go through the X server (XSendEvent from libX11, which GLFW itself needs),
 so they take the same path as a user's: X -> GLFW -> imgui's backend -> our callbacks.
 """
 from __future__ import annotations
 
+import atexit
 import ctypes
 import ctypes.util
 import multiprocessing
@@ -55,11 +56,31 @@ def frames_until(viewer_window, condition) -> bool:
     return False
 
 
-def run_spawned(target, *args) -> None:
-    """Run a test body in a fresh process (a GLX context needs a thread without the tests' EGL one)."""
-    child = multiprocessing.get_context("spawn").Process(target=target, args=args)
-    child.start()
-    child.join(timeout=300)
-    if child.is_alive():
-        child.kill()
-    assert child.exitcode == 0, "the window process failed: its traceback is in the captured stderr"
+_window_process = None   # a pool of one spawned process, started by the first run_spawned
+
+
+def run_spawned(target, *args, fresh: bool = False) -> None:
+    """Run a test body in a process of its own (a GLX context needs a thread without the tests' EGL one).
+    One spawned process runs the window tests' bodies one after another (each opens and closes its own
+    windows, on the same Xvfb display), sparing each the process's start (the interpreter, the imports, GL,
+    the shaders); after a body fails, or runs past 300 s, the process is ended and the next body gets a new
+    one. A body's exception is raised here, with its traceback from the process. `fresh`: a process of the
+    body's own, for a body that changes what the process is (a GL version override before its first context)."""
+    global _window_process
+    if fresh:
+        child = multiprocessing.get_context("spawn").Process(target=target, args=args)
+        child.start()
+        child.join(timeout=300)
+        if child.is_alive():
+            child.kill()
+        assert child.exitcode == 0, "the window process failed: its traceback is in the captured stderr"
+        return
+    if _window_process is None:
+        _window_process = multiprocessing.get_context("spawn").Pool(1)
+        atexit.register(_window_process.terminate)
+    try:
+        _window_process.apply_async(target, args).get(timeout=300)
+    except BaseException:
+        _window_process.terminate()
+        _window_process = None
+        raise

@@ -202,7 +202,7 @@ def test_with_no_gl_export_works_and_render_says_it_needs_opengl(tmp_path):
 @pytest.mark.skipif(shutil.which("Xvfb") is None, reason="Xvfb is not installed (CI installs it)")
 def test_window_on_41_opens_re_extracts_and_drags(x_display, tmp_path):
     from support.x_window import run_spawned
-    run_spawned(drive_window_on_41, x_display, tmp_path)
+    run_spawned(drive_window_on_41, x_display, tmp_path, fresh=True)   # Mesa reads the override once
 
 
 def drive_window_on_41(x_display, tmp_path):
