@@ -476,6 +476,7 @@ def _wait_for_numpy(process, seconds: float = 60.0) -> None:
         time.sleep(0.002)
 
 
+@pytest.mark.gl   # it interrupts renders, which need a GL context
 def test_ctrl_c_at_any_moment_of_start_up_prints_nothing(tmp_path):
     """SIGINT at 8 (times ISOSCOPE_STRESS) seeded moments of a render's first half second once its imports
     begin (imports, argument parsing, imgui's native start, the GL context): never a traceback, nor nanobind's

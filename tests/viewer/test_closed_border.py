@@ -90,6 +90,7 @@ def test_render_closed_draws_the_cap_in_the_front_colour(ball_file, tmp_path):
     assert (capped[:, 2] > capped[:, 0]).mean() > 0.97                  # blue over red
 
 
+@pytest.mark.gl   # held to what `isoscope render` says: it needs a GL context first
 def test_render_closed_with_sharp_is_one_line(ball_file, tmp_path):
     result = isoscope_here("render", ball_file, "--iso", "0", "--sharp", "30", "--closed", "--out", tmp_path / "x.png")
     assert_one_line_error(result, "--closed")
@@ -122,6 +123,7 @@ def test_save_mesh_closed_at_the_border_is_watertight(gl_ctx, ball_file, tmp_pat
     assert not trimesh.load(tmp_path / "open.ply", process=True).is_watertight
 
 
+@pytest.mark.gl   # held to what `isoscope render` says: it needs a GL context first
 def test_a_saved_scene_keeps_closed_and_render_redraws_it(ball_file, tmp_path):
     scene_path, picture = tmp_path / "ball.json", tmp_path / "ball.png"
     result = isoscope_here("render", ball_file, *VIEW, "--closed", "--out", picture, "--save-scene", scene_path)

@@ -74,6 +74,7 @@ def test_the_model_round_trips_a_scene_without_gl():
         apply_scene(scene, fresh, OrbitCamera())
 
 
+@pytest.mark.gl   # held to what `isoscope render` says: it needs a GL context first
 def test_bad_scenes_are_one_line(tmp_path):
     good = {"format": "isoscope-scene", "version": 1, "volume": {"source": str(tmp_path / "gone.nii.gz")},
             "levels": [{"value": 1.0}], "camera": {}}

@@ -157,6 +157,7 @@ def cli_error(*args) -> str:
     return lines[0].removeprefix("isoscope: error: ")
 
 
+@pytest.mark.gl   # held to what `isoscope render` says: it needs a GL context first
 @pytest.mark.parametrize("door", ["view", "render", "widget", "isosurface"])
 def test_bad_arguments_are_the_commands_one_line_value_error(door, tmp_path, monkeypatch):
     monkeypatch.delenv("DISPLAY", raising=False)  # a window opened anyway would fail differently

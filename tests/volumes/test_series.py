@@ -104,7 +104,8 @@ def test_export_time_all_writes_one_closed_mesh_per_point(tmp_path):
     (("export", "--time", "1:7"), ("--time 1:7 is past the end", "3 time points")),
     (("export", "--time", "2:1"), ("--time",)),
     (("export", "--time", "soon"), ("--time", "'all'")),
-    (("render", "--time", "all"), ("several time points", "--time N")),
+    pytest.param(("render", "--time", "all"), ("several time points", "--time N"),
+                 marks=pytest.mark.gl),   # render says first that it needs a GL context
 ])
 def test_a_time_past_the_end_or_a_range_where_one_point_is_shown_is_one_line(tmp_path, args, words):
     path = write_npy(tmp_path, balls(), balls()[0])[0]
