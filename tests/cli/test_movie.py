@@ -6,7 +6,7 @@ import imageio.v2 as imageio
 import numpy as np
 import pytest
 from PIL import Image
-from support.command import assert_one_line_error, isoscope_here
+from support.command import NO_GL, assert_one_line_error, isoscope, isoscope_here
 
 pytestmark = pytest.mark.gl
 SIZE = ("--size", "160x120")
@@ -74,13 +74,7 @@ def test_bad_movies_are_one_line_and_leave_no_file(tmp_path, args, words):
 
 
 def test_with_no_gl_a_movie_says_it_needs_opengl_in_one_line(tmp_path):
-    import os
-    import subprocess
-    import sys
-    env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
-    env["__EGL_VENDOR_LIBRARY_FILENAMES"] = "/nonexistent.json"
-    done = subprocess.run([sys.executable, "-m", "isoscope", "movie", "torus", "--out", tmp_path / "m.mp4"],
-                          capture_output=True, text=True, timeout=120, env=env)
+    done = isoscope("movie", "torus", "--out", tmp_path / "m.mp4", env_add=NO_GL, env_drop=("DISPLAY",))
     lines = done.stderr.strip().splitlines()
     assert done.returncode == 1 and len(lines) == 1 and "movie needs OpenGL 4.1" in lines[0], done.stderr
     assert not list(tmp_path.iterdir())

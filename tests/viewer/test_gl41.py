@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
-from support.command import isoscope_batch, isoscope_here
+from support.command import NO_GL, isoscope_batch, isoscope_here
 
 REPO = Path(__file__).resolve().parents[2]
 GL41 = {"MESA_GL_VERSION_OVERRIDE": "4.1", "MESA_GLSL_VERSION_OVERRIDE": "410"}
@@ -36,7 +36,7 @@ def environment(gl41: bool = False, no_gl: bool = False) -> dict[str, str]:
     if gl41:
         env.update(GL41)
     if no_gl:
-        env["__EGL_VENDOR_LIBRARY_FILENAMES"] = "/nonexistent.json"
+        env.update(NO_GL)
         env.pop("DISPLAY", None)
     return env
 
@@ -188,7 +188,7 @@ def test_with_no_gl_export_works_and_render_says_it_needs_opengl(tmp_path):
     out = tmp_path / "torus.ply"
     exported, version = isoscope_batch(["export", "torus", "--out", out], ["--version"],
                                        env_drop=[k for k in os.environ if k.startswith("MESA_GL")] + ["DISPLAY"],
-                                       env_add={"__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent.json"})
+                                       env_add=NO_GL)
     assert exported.returncode == 0, exported.stderr
     assert out.stat().st_size > 0
     rendered = isoscope("render", "torus", "--out", tmp_path / "t.png", no_gl=True)
