@@ -146,4 +146,5 @@ def _refuse_options(spec: str, kind: str, **options) -> None:
     given = [name for name, value in options.items() if value is not None]
     if given:
         flags = " ".join(f"--{name}" for name in given)
-        raise VolumeError(f"{spec} is {kind}; {flags} only apply to files: drop {flags}")
+        verb = "applies" if len(given) == 1 else "apply"
+        raise VolumeError(f"{spec} is {kind}; {flags} only {verb} to files: drop {flags}")
