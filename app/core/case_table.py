@@ -91,6 +91,7 @@ FACE_CORNERS = _face_cycles()
 FACE_NORMAL = np.array([[(1 if f & 1 else -1) if a == f // 2 else 0 for a in range(3)] for f in range(6)])
 
 
+@cache
 def _edge_between(c0: int, c1: int) -> int:
     for e, (lo, hi) in enumerate(EDGE_CORNERS):
         if {lo, hi} == {c0, c1}:
@@ -122,14 +123,20 @@ def _face_segments(case: int, face: int) -> list[tuple[int, int, int]]:
 
 def _oriented(case: int, face: int, a: int, b: int, corner: int) -> tuple[int, int]:
     """Order (a, b) so that, seen from outside the cell, the inside is on the segment's left."""
+    return (a, b) if _left_of(face, a, b, corner) == bool(case >> corner & 1) else (b, a)
+
+
+@cache
+def _left_of(face: int, a: int, b: int, corner: int) -> bool:
+    """Whether `corner` lies left of the segment from edge a's midpoint to edge b's, seen from outside."""
     pa, pb = EDGE_MIDPOINT[a], EDGE_MIDPOINT[b]
     towards_left = np.cross(pb - pa, FACE_NORMAL[face])
-    corner_side = float(np.dot(towards_left, CORNER_OFFSETS[corner] - pa))
-    corner_inside = bool(case >> corner & 1)
-    return (a, b) if (corner_side > 0) == corner_inside else (b, a)
+    return float(np.dot(towards_left, CORNER_OFFSETS[corner] - pa)) > 0
 
 
-def _loops(case: int) -> list[list[int]]:
+@cache
+def _loops(case: int) -> tuple[tuple[int, ...], ...]:
+    """The case's closed loops of edges (both tables fold the same loops: made once per case)."""
     successor: dict[int, int] = {}
     for face in range(6):
         for a, b, corner in _face_segments(case, face):
@@ -145,8 +152,8 @@ def _loops(case: int) -> list[list[int]]:
         while nxt != start:
             loop.append(nxt)
             nxt = successor.pop(nxt)
-        loops.append(loop)
-    return loops
+        loops.append(tuple(loop))
+    return tuple(loops)
 
 
 def _triangulations(n: int):
@@ -165,30 +172,41 @@ def _triangulations(n: int):
     return tri(0, n - 1)
 
 
-def _min_angle(points: np.ndarray, triangles) -> float:
+@cache
+def _triangle_min_angle(a: int, b: int, c: int) -> float:
+    """Smallest angle of the triangle on edges (a, b, c) at their midpoints (computed once per triangle:
+    a loop's triangulations share most of their triangles)."""
+    p = EDGE_MIDPOINT[[a, b, c]]
     worst = np.pi
-    for t in triangles:
-        p = points[list(t)]
-        for k in range(3):
-            u, v = p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]
-            cos = np.dot(u, v) / (np.linalg.norm(u) * np.linalg.norm(v))
-            worst = min(worst, float(np.arccos(np.clip(cos, -1.0, 1.0))))
+    for k in range(3):
+        u, v = p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]
+        cos = np.dot(u, v) / (np.linalg.norm(u) * np.linalg.norm(v))
+        worst = min(worst, float(np.arccos(np.clip(cos, -1.0, 1.0))))
     return worst
 
 
-def _enclosed_volume(points: np.ndarray, triangles) -> float:
+@cache
+def _triangle_cone_volume(a: int, b: int, c: int) -> float:
+    """Six times the signed volume of the cone from the cell centre to the triangle on edges (a, b, c)."""
+    return float(np.linalg.det(EDGE_MIDPOINT[[a, b, c]] - 0.5))
+
+
+def _min_angle(loop: list[int], triangles) -> float:
+    return min((_triangle_min_angle(*(loop[k] for k in t)) for t in triangles), default=np.pi)
+
+
+def _enclosed_volume(loop: list[int], triangles) -> float:
     """Signed volume of the cones from the cell centre to the triangles: triangulations of one
     loop differ in it by exactly the difference of the volume they enclose (outward winding)."""
-    centred = points - 0.5
-    return float(sum(np.linalg.det(centred[list(t)]) for t in triangles) / 6.0)
+    return float(sum(_triangle_cone_volume(*(loop[k] for k in t)) for t in triangles) / 6.0)
 
 
-def _max_angle_score(points, triangles) -> tuple[float, ...]:
-    return (_min_angle(points, triangles),)
+def _max_angle_score(loop: list[int], triangles) -> tuple[float, ...]:
+    return (_min_angle(loop, triangles),)
 
 
-def _max_volume_score(points, triangles) -> tuple[float, ...]:
-    return (round(_enclosed_volume(points, triangles), 9), _min_angle(points, triangles))
+def _max_volume_score(loop: list[int], triangles) -> tuple[float, ...]:
+    return (round(_enclosed_volume(loop, triangles), 9), _min_angle(loop, triangles))
 
 
 def _triangulate(loop: list[int], score=_max_angle_score) -> list[tuple[int, int, int]]:
@@ -204,7 +222,7 @@ def _triangulate(loop: list[int], score=_max_angle_score) -> list[tuple[int, int
         }
         if any(EDGE_FACES[loop[p]] & EDGE_FACES[loop[q]] for p, q in diagonals):
             continue  # a diagonal lying in a cube face could be drawn by the neighbour too
-        value = tuple(round(v, 9) for v in score(EDGE_MIDPOINT[loop], triangles))
+        value = tuple(round(v, 9) for v in score(loop, triangles))
         if best_score is None or value > best_score:
             best, best_score = triangles, value
     if best is None:
@@ -249,7 +267,7 @@ def _table(score) -> CaseTable:
     for case in range(256):
         triangles = []
         for loop in _loops(case):
-            triangles.extend(_triangulate(loop, score))
+            triangles.extend(_triangulate(list(loop), score))
         per_case.append(triangles)
     return CaseTable(*padded_cases(per_case))
 
