@@ -42,6 +42,7 @@ class XWindowAttributes(ctypes.Structure):
 
 
 IS_VIEWABLE = 2
+X_ERROR_HANDLER = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p)
 
 
 class Keyboard:
@@ -72,6 +73,13 @@ class Keyboard:
         self.xtst.XTestFakeKeyEvent.argtypes = [ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_ulong]
         self.xtst.XTestFakeMotionEvent.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int,
                                                    ctypes.c_ulong]
+        # The script's windows come and go while the tree is read (GLFW's helper window, the window itself as
+        # the script ends): a query on one that is gone is a BadWindow error, whose default handler in Xlib
+        # ends the process, here the test worker. Such a window is simply not the one looked for.
+        x.XSetErrorHandler.restype = ctypes.c_void_p
+        x.XSetErrorHandler.argtypes = [ctypes.c_void_p]
+        self._ignore_errors = X_ERROR_HANDLER(lambda display, event: 0)
+        self._previous_handler = x.XSetErrorHandler(ctypes.cast(self._ignore_errors, ctypes.c_void_p))
         self.display = x.XOpenDisplay(display_name.encode())
         assert self.display, f"cannot open X display {display_name}"
 
@@ -107,6 +115,7 @@ class Keyboard:
 
     def close(self) -> None:
         self.x.XCloseDisplay(self.display)
+        self.x.XSetErrorHandler(self._previous_handler)
 
 
 @pytest.mark.gl
