@@ -113,6 +113,15 @@ def gpu_mesh(gl_ctx):
     return extract
 
 
+def _end_with_the_parent():
+    """In the child before exec: SIGTERM it when the process that started it dies (a worker that crashed
+    never tears its fixtures down, and an Xvfb left behind spins a little CPU for good)."""
+    import ctypes
+    import signal
+    PR_SET_PDEATHSIG = 1
+    ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
 FIRST_TEST_DISPLAY = 90
 """Test X servers take displays from :90 up: never :0, which a desktop (or a program with no DISPLAY, as
 Xlib's default) would reach; a no-GL test must not find another worker's Xvfb there."""
@@ -127,7 +136,7 @@ def x_display():
         read_end, write_end = os.pipe()
         server = subprocess.Popen(["Xvfb", f":{number}", "-displayfd", str(write_end), "-screen", "0", "1024x768x24",
                                    "-nolisten", "tcp", "-noreset"], pass_fds=(write_end,), stdout=subprocess.DEVNULL,
-                                  stderr=subprocess.DEVNULL)
+                                  stderr=subprocess.DEVNULL, preexec_fn=_end_with_the_parent)
         os.close(write_end)
         with os.fdopen(read_end) as ready:
             said = ready.readline().strip()

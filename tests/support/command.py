@@ -93,4 +93,6 @@ def assert_one_line_error(result, *words):
         assert word in lines[0]
 
 
-NO_GL = {"__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent.json"}   # with env_drop=("DISPLAY",): a machine with no GL
+# With env_drop=("DISPLAY",): a machine with no GL. No EGL vendor, and no libGL for glcontext's fallback, which
+# opens X display :0.0 whatever DISPLAY says (a desktop or a stray Xvfb there would give it GL).
+NO_GL = {"__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent.json", "GLCONTEXT_LINUX_LIBGL": "/nonexistent/libGL.so.1"}
