@@ -1,11 +1,12 @@
 """Written files under hostile conditions, through the real command (issue 22, "Nothing a user trips on").
 
-Each run is `python -m isoscope export|render ... --out X` in a subprocess:
+Killed runs are `python -m isoscope export|render ... --out X` in a subprocess:
 - killed by SIGTERM or SIGINT at seeded random moments across its run (and just after its temporary
   file appears, so that some land while the file is being written): afterwards no `.partial` file is
   left, the output is absent, or the old file is there byte for byte, or it is the complete file (the
   same bytes as an uninterrupted run, which trimesh/PIL read); and the exit status is 0 only if the
-  new file is there;
+  new file is there.
+The rest run the same command in this process (`isoscope_here`: the same code, without a process's start):
 - under umask 022 and 077 (new files 0644, 0600), replacing a 0644 file under umask 077 (stays 0644);
 - writing through a symbolic link (the link stays, its target gets the new file), into a named pipe
   (it stays a pipe and gets the file);
@@ -16,6 +17,7 @@ is held until the temporary file is gone; off the main thread the write works as
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import random
 import signal
@@ -26,7 +28,8 @@ import time
 from pathlib import Path
 
 import pytest
-from support.hostile import STRESS, run_isoscope, succeeded
+from support.command import isoscope_here
+from support.hostile import STRESS, succeeded
 
 MESH_VOLUME = ("gyroid", "--resolution", "80")         # 3-6 MB files: encoding and writing take a while
 RENDER_ARGS = ("torus", "--size", "800x600")
@@ -41,9 +44,17 @@ def command(kind: str, out) -> list[str]:
     return [sys.executable, "-m", "isoscope", *args, "--out", str(out)]
 
 
+def written_here(*args):
+    """The command run in this process; it must succeed and say nothing on stderr."""
+    done = isoscope_here(*args)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    return done
+
+
 @pytest.fixture(scope="module")
 def references(tmp_path_factory):
-    """Uninterrupted runs: each output's bytes (read back by trimesh / PIL), and each kind's run time."""
+    """Uninterrupted runs: each output's bytes (read back by trimesh / PIL), and each kind's run time as a
+    process (one uninterrupted command of each kind; its bytes must equal the in-process run's)."""
     import trimesh
     from PIL import Image
     folder = tmp_path_factory.mktemp("reference")
@@ -51,8 +62,11 @@ def references(tmp_path_factory):
     for suffix in (*MESH_SUFFIXES, ".png"):
         out = folder / f"reference{suffix}"
         kind = "png" if suffix == ".png" else "mesh"
-        run = succeeded(*command(kind, out)[3:])
-        seconds[kind].append(run.seconds)
+        written_here(*command(kind, out)[3:])
+        if suffix in (".stl", ".png"):
+            process_out = folder / f"process{suffix}"
+            seconds[kind].append(succeeded(*command(kind, process_out)[3:]).seconds)
+            assert process_out.read_bytes() == out.read_bytes(), suffix
         if suffix == ".png":
             with Image.open(out) as image:
                 assert image.size == (800, 600)
@@ -60,8 +74,8 @@ def references(tmp_path_factory):
             mesh = trimesh.load(out, file_type=suffix[1:], force="mesh")
             assert len(mesh.faces) > 100_000
         result[suffix] = out.read_bytes()
-    # the quickest run: under a loaded machine (the suite's other workers) a mean runs long, and kills timed
-    # from it would land after the command has finished
+    # the random kills fall between 5% and 80% of this run's time (under load a run can take twice as long, so
+    # some land after the command finished; kill_many asks only that some land)
     return result, {kind: min(times) for kind, times in seconds.items()}
 
 
@@ -186,10 +200,18 @@ def test_new_files_follow_the_umask(umask, mode, tmp_path):
     kinds = {0o022: ("mesh", "new.stl"), 0o077: ("png", "new.png")}
     kind, name = kinds[umask]
     out = tmp_path / name
-    process = subprocess.run(command(kind, out), preexec_fn=lambda: os.umask(umask), capture_output=True,
-                             text=True, stdin=subprocess.DEVNULL, timeout=120)
-    assert process.returncode == 0, process.stderr
+    with umask_of(umask):
+        written_here(*command(kind, out)[3:])
     assert stat.S_IMODE(out.stat().st_mode) == mode, oct(out.stat().st_mode)
+
+
+@contextlib.contextmanager
+def umask_of(mask: int):
+    previous = os.umask(mask)
+    try:
+        yield
+    finally:
+        os.umask(previous)
 
 
 def test_a_replaced_file_keeps_its_mode(tmp_path):
@@ -199,9 +221,8 @@ def test_a_replaced_file_keeps_its_mode(tmp_path):
     os.chmod(out, 0o644)
     if os.geteuid() == 0:
         os.chown(out, 4321, 4322)
-    process = subprocess.run(command("mesh", out), preexec_fn=lambda: os.umask(0o077), capture_output=True,
-                             text=True, stdin=subprocess.DEVNULL, timeout=120)
-    assert process.returncode == 0, process.stderr
+    with umask_of(0o077):
+        written_here(*command("mesh", out)[3:])
     assert out.read_bytes() != OLD_BYTES
     assert stat.S_IMODE(out.stat().st_mode) == 0o644, oct(out.stat().st_mode)
     if os.geteuid() == 0:
@@ -217,7 +238,7 @@ def test_a_symlinked_output_is_written_through(tmp_path, references):
     os.chmod(real, 0o644)
     link = tmp_path / "link.stl"
     link.symlink_to(Path("store") / "torus.stl")
-    succeeded(*command("mesh", link)[3:])
+    written_here(*command("mesh", link)[3:])
     assert link.is_symlink() and os.readlink(link) == str(Path("store") / "torus.stl")
     assert real.read_bytes() == reference_bytes[".stl"]
     assert stat.S_IMODE(real.stat().st_mode) == 0o644
@@ -236,7 +257,7 @@ def test_a_read_only_folder_is_named_in_the_error(tmp_path):
             pytest.skip("no sysfs to be refused by")
         out = Path("/sys/kernel/isoscope-test.stl")
     try:
-        run = run_isoscope("export", "torus", "--out", out)
+        run = isoscope_here("export", "torus", "--out", out)
     finally:
         if os.geteuid() != 0:
             os.chmod(out.parent, 0o755)
@@ -251,7 +272,7 @@ def test_a_folder_in_the_way_is_named_in_the_error(tmp_path):
     """A folder where the PNG should go: the message names the path the user gave, never the temporary file."""
     blocker = tmp_path / "x.png"
     blocker.mkdir()
-    run = run_isoscope("render", "torus", "--size", "64x48", "--out", blocker)
+    run = isoscope_here("render", "torus", "--size", "64x48", "--out", blocker)
     lines = run.stderr.splitlines()
     assert run.returncode == 2 and len(lines) == 1, run.stderr
     assert lines[0].startswith("isoscope: error: ") and str(blocker) in lines[0], lines[0]
@@ -356,7 +377,7 @@ def test_a_named_pipe_is_written_into_not_replaced(tmp_path, references):
     reader = threading.Thread(target=lambda: received.append(fifo.read_bytes()), daemon=True)
     reader.start()
     try:
-        succeeded(*command("mesh", fifo)[3:])
+        written_here(*command("mesh", fifo)[3:])
         reader.join(10)
     finally:
         if reader.is_alive():  # nothing opened the pipe: let the reader see its end
