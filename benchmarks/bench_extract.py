@@ -217,10 +217,10 @@ SETTLE_SECONDS = 0.5
 (~0.1-0.4 s; the MNI T1 @ 60, the first case of a run, read 10.2 ms against a steady 6.9)."""
 
 
-def alternate(run, levels, start, untimed, repeats, after_timed=None):
-    """Runs run(level) -> triangles at a, b, a, ... (from levels["ab"[start]]): `untimed` runs (and
-    more until SETTLE_SECONDS have passed), then `repeats` timed ones, so every run follows one at
-    the other level, like a slider drag.
+def alternate(run, levels, start, untimed, repeats, after_timed=None, settle=True):
+    """Runs run(level) -> triangles at a, b, a, ... (from levels["ab"[start]]): `untimed` runs (and,
+    with `settle`, more until SETTLE_SECONDS have passed), then `repeats` timed ones, so every run
+    follows one at the other level, like a slider drag.
 
     The untimed runs let the allocator settle: here the first two or three runs at a new size
     in a process are up to 1.5x slower for every library alike (fresh pages for fresh outputs).
@@ -228,7 +228,7 @@ def alternate(run, levels, start, untimed, repeats, after_timed=None):
     triangles, samples = {}, []
     settled_at = time.perf_counter() + SETTLE_SECONDS
     done = 0
-    while done < untimed or (untimed and time.perf_counter() < settled_at):
+    while done < untimed or (untimed and settle and time.perf_counter() < settled_at):
         which = "ab"[(start + done) % 2]
         _, triangles[which] = timed(run, levels[which])
         done += 1
@@ -276,9 +276,10 @@ def bench_ours_iso_change(volume, gd, levels, repeats, untimed):
             if getattr(ex, "last_gpu_ms", None) is not None:
                 gpu_ms.append(float(ex.last_gpu_ms))
 
-        # At least one untimed run: the first extraction allocates the mesh buffers.
+        # At least one untimed run: the first extraction allocates the mesh buffers (with --warmup 0 only that
+        # one, without the settling time).
         result, triangles = alternate(lambda level: ex.extract(level)[1], levels, 0, max(untimed, 1),
-                                      repeats, after_timed)
+                                      repeats, after_timed, settle=untimed > 0)
         result.update(triangles=triangles, scratch_bytes=max(scratch), renderer=ex.ctx.info["GL_RENDERER"])
         if gpu_ms:
             result["gpu_median_ms"] = statistics.median(gpu_ms)
@@ -313,10 +314,10 @@ def bench_peer(peer, volume, gd, levels, repeats, untimed):
         gc.collect()
 
 
-def warm_up(peers) -> str:
+def warm_up(peers, busy_seconds: float = 1.0) -> str:
     """Create the GL context, compile the shaders and load every peer's code, on a tiny volume."""
     busy = np.random.default_rng(0).random((600, 600))
-    until = time.perf_counter() + 1.0
+    until = time.perf_counter() + busy_seconds
     while time.perf_counter() < until:  # both cores busy for a second: this VM ramps idle vCPUs up slowly
         busy @ busy
     tiny = VOLUMES["sphere"][0](12)
@@ -637,7 +638,8 @@ def parse_args(argv=None):
                         help="timed runs per measurement (default 5 up to 128^3, 3 above)")
     parser.add_argument("--warmup", type=int, default=2,
                         help="untimed runs before the timed ones, per runner and volume (default 2; "
-                             "the numpy reference gets none)")
+                             "the numpy reference gets none); 0 also skips the settling time and the "
+                             "busy second that wakes the CPUs: for a quick check, not for numbers")
     parser.add_argument("--rounds", type=int, default=1,
                         help="measure each case this many times over, every runner in turn, and pool "
                              "each runner's samples (default 1; 3 or more on a noisy machine)")
@@ -676,7 +678,7 @@ def main(argv=None) -> int:
     for n in notes:
         log(n)
     started, load = time.perf_counter(), MachineLoad()
-    renderer = warm_up(peers)
+    renderer = warm_up(peers, busy_seconds=1.0 if args.warmup else 0.0)
     meta = {"date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
             "renderer": renderer, "cpus": os.cpu_count(), "platform": platform.platform(),
             "lp_num_threads": os.environ.get("LP_NUM_THREADS", "unset"),
