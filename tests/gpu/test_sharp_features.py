@@ -423,13 +423,17 @@ def widest_opening_per_cell(verts, faces, normals, spacing):
 def _widest_opening_per_cell(verts, faces, normals, spacing):
     cells = np.floor(verts[faces].mean(axis=1) / np.asarray(spacing)).astype(np.int64)
     _, cell_of_face = np.unique(cells, axis=0, return_inverse=True)
-    widest = []
-    groups = np.split(np.argsort(cell_of_face.reshape(-1), kind="stable"),
-                      np.flatnonzero(np.diff(np.sort(cell_of_face.reshape(-1)))) + 1)
-    for rows in groups:
-        n = normals[np.unique(faces[rows])].astype(np.float64)
-        widest.append(np.degrees(np.arccos(np.clip((n @ n.T).min(), -1, 1))))
-    return [faces[rows] for rows in groups], np.array(widest)
+    cell_of_face = cell_of_face.reshape(-1)
+    groups = np.split(np.argsort(cell_of_face, kind="stable"), np.flatnonzero(np.diff(np.sort(cell_of_face))) + 1)
+    # each cell's distinct vertices, padded to the most any cell has, then every pair's dot product at once
+    pairs = np.unique(np.stack([np.repeat(cell_of_face, 3), faces.reshape(-1)], axis=1), axis=0)
+    starts = np.searchsorted(pairs[:, 0], np.arange(len(groups)))
+    slot = np.arange(len(pairs)) - starts[pairs[:, 0]]
+    n = np.full((len(groups), slot.max() + 1, 3), np.nan)
+    n[pairs[:, 0], slot] = normals[pairs[:, 1]]
+    dots = np.einsum("cik,cjk->cij", n, n)
+    widest = np.degrees(np.arccos(np.clip(np.nanmin(dots.reshape(len(groups), -1), axis=1), -1, 1)))
+    return [faces[rows] for rows in groups], widest
 
 
 @pytest.mark.parametrize("angle", [10, 30, 60, 120])

@@ -57,9 +57,10 @@ def grid_points(n):
 
 
 def point_triangle_distances(points, tri):
-    """Distance from each point (N, 3) to each triangle (M, 3, 3): (N, M), by the closest point (Ericson)."""
+    """Distance from each point (N, 3) to each triangle (M, 3, 3): (N, M), by the closest point (Ericson).
+    With triangles per point (N, M, 3, 3): each point to its own M triangles."""
     p = points[:, None, :]
-    a, b, c = tri[None, :, 0], tri[None, :, 1], tri[None, :, 2]
+    a, b, c = tri[..., 0, :], tri[..., 1, :], tri[..., 2, :]
     ab, ac, ap = b - a, c - a, p - a
     d1, d2 = (ab * ap).sum(-1), (ac * ap).sum(-1)
     bp, cp = p - b, p - c
@@ -84,4 +85,7 @@ def distance_to_mesh(points, verts, faces, near=32):
     from scipy.spatial import cKDTree
     tri = verts[faces].astype(np.float64)
     _, nearest = cKDTree(tri.mean(axis=1)).query(points, k=min(near, len(tri)))
-    return np.array([point_triangle_distances(p[None], tri[i])[0].min() for p, i in zip(points, nearest)])
+    nearest = nearest.reshape(len(points), -1)
+    batch = 2048   # points at a time: (batch, near, 3) temporaries of a few MB
+    return np.concatenate([point_triangle_distances(points[i:i + batch], tri[nearest[i:i + batch]]).min(axis=1)
+                           for i in range(0, len(points), batch)]) if len(points) else np.zeros(0)
