@@ -2,13 +2,16 @@
 
 The promise (README, "Bad input"): exit 2 and one line on stderr with nothing before it, within a few
 seconds, and under 200 MB of resident memory beyond what the command needs to start and refuse a
-missing file. Each run is a real subprocess; its peak RSS is the kernel's high-water mark of its
-own memory (VmHWM), which exec starts afresh. (wait4's ru_maxrss would not do: Linux carries the
-pre-exec high-water mark into it, so a child of a big pytest process starts at pytest's size.)
+missing file. Each run is a process of its own (forked from a warm interpreter: see run_isoscope); its
+peak RSS is the kernel's high-water mark of its own memory (VmHWM), which exec, or clear_refs after the
+fork, starts afresh. (wait4's ru_maxrss would not do: Linux carries the pre-exec high-water mark into it,
+so a child of a big pytest process starts at pytest's size.)
 """
 from __future__ import annotations
 
+import atexit
 import functools
+import json
 import os
 import subprocess
 import sys
@@ -46,24 +49,137 @@ sys.argv[0] = "isoscope"
 runpy.run_module("isoscope", run_name="__main__", alter_sys=True)
 """
 
+# The same command in a process forked from a warm one. The server imports, once, what every command
+# imports before it reads its arguments (and numba's typing registries, which its first kernel call
+# loads: 0.3 s); it starts no thread and makes no GL context, so forking it is safe. Each request forks a
+# child that takes the caller's environment, folder and files for stdin (/dev/null), stdout and stderr,
+# resets its peak RSS to what it holds now (clear_refs 5), and runs the command as the wrapper above
+# does, exiting through the interpreter as the command does. A command's own start (the interpreter, the
+# imports: 0.3-0.8 CPU s) is what this spares; its peak is measured from the warm start, as the fresh
+# one's is from after its imports (the baseline is measured the same way).
+_SERVER = """
+import atexit, json, os, runpy, signal, sys, threading, traceback
+import numpy
+import isoscope, isoscope.cli.main, isoscope.api, isoscope.io.export, isoscope.cpu.compiled  # noqa: E401
+for optional in ("trimesh", "PIL.Image", "pydicom", "nibabel", "tifffile", "nrrd", "scipy.ndimage"):
+    try:
+        __import__(optional)
+    except ImportError:
+        pass
+from numba.core.registry import cpu_target
+cpu_target.target_context.refresh()
 
-def run_isoscope(*args, timeout: float = HARD_STOP_SECONDS, env: dict | None = None, cwd=None) -> Run:
-    """`python -m isoscope ARGS` in a subprocess: its exit status, output, wall time and peak RSS (MB;
-    NaN where it ended without exiting: a signal)."""
-    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err, \
+def _child(job):
+    null = os.open(os.devnull, os.O_RDONLY)
+    os.dup2(null, 0)
+    os.dup2(os.open(job["out"], os.O_WRONLY), 1)
+    os.dup2(os.open(job["err"], os.O_WRONLY), 2)
+    os.chdir(job["cwd"])
+    os.environ.clear()
+    os.environ.update(job["env"])
+    with open("/proc/self/clear_refs", "w") as refs:
+        refs.write("5")
+
+    def peak(path=job["peak"]):
+        with open("/proc/self/status") as status, open(path, "w") as out:
+            out.write(next(line.split()[1] for line in status if line.startswith("VmHWM:")))
+    atexit.register(peak)
+    sys.argv = ["isoscope", *job["args"]]
+    code, killed_by = 0, None
+    try:
+        runpy.run_module("isoscope", run_name="__main__", alter_sys=True)
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+        if isinstance(exc.code, str):
+            print(exc.code, file=sys.stderr)
+    except KeyboardInterrupt:   # as the interpreter ends on one: a traceback, then killed by SIGINT
+        traceback.print_exc()
+        killed_by = signal.SIGINT
+    except BaseException:
+        traceback.print_exc()
+        code = 1
+    # The interpreter's own way out would tear down every module the server imported (0.3 s and more);
+    # the command's exit handlers run, its output is flushed, and the process ends as the command did.
+    threading._shutdown()
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except Exception:
+            pass
+    if killed_by is not None:
+        signal.signal(killed_by, signal.SIG_DFL)
+        os.kill(os.getpid(), killed_by)
+    os._exit(code)
+
+requests = os.fdopen(os.dup(0), "r")
+replies = os.fdopen(os.dup(1), "w")
+for line in iter(requests.readline, ""):
+    job = json.loads(line)
+    pid = os.fork()
+    if pid == 0:
+        requests.close()
+        replies.close()
+        _child(job)
+    replies.write(json.dumps(pid) + "\\n")
+    replies.flush()
+    _, status = os.waitpid(pid, 0)
+    replies.write(json.dumps(os.waitstatus_to_exitcode(status)) + "\\n")
+    replies.flush()
+"""
+
+_server = None            # the warm process of this test process, started by the first forked run
+_server_lock = threading.Lock()
+
+
+def _forked(args, timeout: float, cwd, out, err, peak_file) -> int:
+    """Run the command in a child of the warm server; its exit status (negative: the signal that ended it)."""
+    global _server
+    with _server_lock:
+        if _server is None or _server.poll() is not None:
+            _server = subprocess.Popen([sys.executable, "-c", _SERVER], stdin=subprocess.PIPE,
+                                       stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+            atexit.register(_server.kill)
+        server = _server
+        server.stdin.write(json.dumps({"args": [str(a) for a in args], "env": dict(os.environ),
+                                       "cwd": str(cwd or os.getcwd()), "out": out, "err": err,
+                                       "peak": str(peak_file)}) + "\n")
+        server.stdin.flush()
+        pid = json.loads(server.stdout.readline())
+        killer = threading.Timer(timeout, os.kill, (pid, 9))
+        killer.start()
+        try:
+            reply = server.stdout.readline()
+        finally:
+            killer.cancel()
+        if not reply:
+            raise AssertionError(f"the command server ended while running isoscope {' '.join(map(str, args))}")
+        return json.loads(reply)
+
+
+def run_isoscope(*args, timeout: float = HARD_STOP_SECONDS, env: dict | None = None, cwd=None,
+                 fresh: bool = False) -> Run:
+    """`python -m isoscope ARGS` in a process of its own: its exit status, output, wall time and peak RSS (MB;
+    NaN where it ended without exiting: a signal). Forked from the warm server unless `fresh` (a new
+    interpreter, as a user starts it: for a start-up's own time) or `env` (a different environment from the
+    start, which imports may read) is given."""
+    with tempfile.NamedTemporaryFile("w+") as out, tempfile.NamedTemporaryFile("w+") as err, \
             tempfile.TemporaryDirectory() as scratch:
         peak_file = Path(scratch) / "peak"
         start = time.monotonic()
-        process = subprocess.Popen([sys.executable, "-c", _WRAPPER, *map(str, args)], stdout=out, stderr=err,
-                                   stdin=subprocess.DEVNULL, text=True, cwd=cwd,
-                                   env={**(os.environ if env is None else env),
-                                        "ISOSCOPE_TEST_PEAK_FILE": str(peak_file)})
-        killer = threading.Timer(timeout, process.kill)
-        killer.start()
-        try:
-            process.wait()
-        finally:
-            killer.cancel()
+        if fresh or env is not None:
+            process = subprocess.Popen([sys.executable, "-c", _WRAPPER, *map(str, args)], stdout=out, stderr=err,
+                                       stdin=subprocess.DEVNULL, text=True, cwd=cwd,
+                                       env={**(os.environ if env is None else env),
+                                            "ISOSCOPE_TEST_PEAK_FILE": str(peak_file)})
+            killer = threading.Timer(timeout, process.kill)
+            killer.start()
+            try:
+                returncode = process.wait()
+            finally:
+                killer.cancel()
+        else:
+            returncode = _forked(args, timeout, cwd, out.name, err.name, peak_file)
         seconds = time.monotonic() - start
         out.seek(0)
         err.seek(0)
@@ -71,7 +187,7 @@ def run_isoscope(*args, timeout: float = HARD_STOP_SECONDS, env: dict | None = N
         peak_mb = int(peak_file.read_text()) / 1024.0 if peak_file.exists() else float("nan")
     if seconds >= timeout:
         raise AssertionError(f"isoscope {' '.join(map(str, args))} ran past {timeout} s; stderr:\n{stderr[-2000:]}")
-    return Run(process.returncode, stdout, stderr, seconds, peak_mb)
+    return Run(returncode, stdout, stderr, seconds, peak_mb)
 
 
 @functools.cache
