@@ -22,15 +22,16 @@ def share_one_bytecode_cache(config):
     """Where Python is told not to write bytecode (PYTHONDONTWRITEBYTECODE, as on these machines), every
     interpreter the suite starts (the workers, and the ~200 commands the tests run as a user would) compiled
     isoscope's modules from source again and rewrote the tests' asserts: about 0.17 CPU s a command and 3 s a
-    worker. Here they share one bytecode cache under .pytest_cache instead (PYTHONPYCACHEPREFIX: nothing is
-    written beside the sources). A prefix the user set is kept; what the code does is unchanged."""
+    worker. For the suite's processes Python writes its bytecode as it does by default (the __pycache__
+    folders, which git ignores), so each module is compiled once. (A PYTHONPYCACHEPREFIX would keep them
+    out of the tree, but Python then ignores the __pycache__ that pip wrote for every installed package
+    and compiles all of numpy, scipy, numba... again into it: 20 s more on a fresh checkout.) A prefix the
+    user set is kept; what the code does is unchanged."""
     import sys
     if not os.environ.get("PYTHONDONTWRITEBYTECODE") or os.environ.get("PYTHONPYCACHEPREFIX"):
         return
-    prefix = str(config.rootpath / ".pytest_cache" / "pycache")
-    os.environ["PYTHONPYCACHEPREFIX"] = prefix   # the workers and the commands, which start after this
-    del os.environ["PYTHONDONTWRITEBYTECODE"]
-    sys.pycache_prefix, sys.dont_write_bytecode = prefix, False   # this process, from here on
+    del os.environ["PYTHONDONTWRITEBYTECODE"]   # the workers and the commands, which start after this
+    sys.dont_write_bytecode = False               # this process, from here on
 
 
 def compile_the_cpu_kernels_once():
