@@ -47,7 +47,7 @@ def compile_the_cpu_kernels_once():
     from pathlib import Path
     folder = Path(importlib.util.find_spec("isoscope.cpu").origin).parent
     digest = hashlib.sha1(f"{sys.version_info[:2]} {importlib.metadata.version('numba')}".encode())
-    for source in sorted(folder.glob("*.py")):
+    for source in (*sorted(folder.glob("*.py")), Path(__file__)):   # the kernels, and the calls below
         digest.update(source.read_bytes())
     cache = Path(os.environ.get("NUMBA_CACHE_DIR") or folder / "__pycache__")   # where numba writes (cache=True)
     stamp = cache / f"tests-compiled-{digest.hexdigest()[:16]}"
@@ -61,6 +61,8 @@ def compile_the_cpu_kernels_once():
     for field in (ball, read_only):
         isoscope.marching_cubes(field, 0.0, backend="cpu")
         isoscope.marching_tetrahedra(field, 0.0, backend="cpu")
+    for dtype in (np.float64, np.int16, np.uint8):   # scikit-image's `values` read the volume in its own dtype
+        isoscope.marching_cubes(((ball + 1.0) * 100.0).astype(dtype), 100.0, backend="cpu")
     extractor = isoscope.Extractor(ball, backend="cpu")
     for level in (0.0, 0.1):   # a new level measures the words' ranges first
         extractor.extract(level)
