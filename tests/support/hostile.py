@@ -132,42 +132,69 @@ _server = None            # the warm process of this test process, started by th
 _server_lock = threading.Lock()
 
 
-def _forked(args, timeout: float, cwd, out, err, peak_file) -> int:
-    """Run the command in a child of the warm server; its exit status (negative: the signal that ended it)."""
-    global _server
-    with _server_lock:
-        if _server is None or _server.poll() is not None:
-            _server = subprocess.Popen([sys.executable, "-c", _SERVER], stdin=subprocess.PIPE,
-                                       stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-            atexit.register(_server.kill)
-        server = _server
-        server.stdin.write(json.dumps({"args": [str(a) for a in args], "env": dict(os.environ),
-                                       "cwd": str(cwd or os.getcwd()), "out": out, "err": err,
-                                       "peak": str(peak_file)}) + "\n")
-        server.stdin.flush()
-        pid = json.loads(server.stdout.readline())
-        killer = threading.Timer(timeout, os.kill, (pid, 9))
+class Forked:
+    """A command running in a child of the warm server (one at a time per test process): its `pid`, to
+    signal it; `wait()` gives its exit status (negative: the signal that ended it)."""
+
+    def __init__(self, args, cwd=None, out: str = os.devnull, err: str = os.devnull, peak_file=os.devnull):
+        global _server
+        _server_lock.acquire()
+        try:
+            if _server is None or _server.poll() is not None:
+                _server = subprocess.Popen([sys.executable, "-c", _SERVER], stdin=subprocess.PIPE,
+                                           stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+                atexit.register(_server.kill)
+            self._server, self.args = _server, [str(a) for a in args]
+            self._server.stdin.write(json.dumps({"args": self.args, "env": dict(os.environ),
+                                                 "cwd": str(cwd or os.getcwd()), "out": str(out), "err": str(err),
+                                                 "peak": str(peak_file)}) + "\n")
+            self._server.stdin.flush()
+            self.pid = json.loads(self._server.stdout.readline())
+        except BaseException:
+            _server_lock.release()
+            raise
+        self.returncode = None
+
+    def running(self) -> bool:
+        """Whether the command has not ended yet (its child is neither gone nor a zombie)."""
+        try:
+            with open(f"/proc/{self.pid}/stat") as stat:
+                return stat.read().rsplit(")", 1)[1].split()[0] != "Z"
+        except OSError:
+            return False
+
+    def send_signal(self, signum: int) -> None:
+        if self.returncode is None:
+            try:
+                os.kill(self.pid, signum)
+            except ProcessLookupError:   # it ended, and the server has already reaped it
+                pass
+
+    def wait(self, timeout: float = HARD_STOP_SECONDS) -> int:
+        if self.returncode is not None:
+            return self.returncode
+        killer = threading.Timer(timeout, os.kill, (self.pid, 9))
         killer.start()
         try:
-            reply = server.stdout.readline()
+            reply = self._server.stdout.readline()
         finally:
             killer.cancel()
+            _server_lock.release()
         if not reply:
-            raise AssertionError(f"the command server ended while running isoscope {' '.join(map(str, args))}")
-        return json.loads(reply)
+            raise AssertionError(f"the command server ended while running isoscope {' '.join(self.args)}")
+        self.returncode = json.loads(reply)
+        return self.returncode
 
 
-def run_isoscope(*args, timeout: float = HARD_STOP_SECONDS, env: dict | None = None, cwd=None,
-                 fresh: bool = False) -> Run:
+def run_isoscope(*args, timeout: float = HARD_STOP_SECONDS, env: dict | None = None, cwd=None) -> Run:
     """`python -m isoscope ARGS` in a process of its own: its exit status, output, wall time and peak RSS (MB;
-    NaN where it ended without exiting: a signal). Forked from the warm server unless `fresh` (a new
-    interpreter, as a user starts it: for a start-up's own time) or `env` (a different environment from the
-    start, which imports may read) is given."""
+    NaN where it ended without exiting: a signal). Forked from the warm server unless `env` (a different
+    environment from the start, which imports may read) is given: then a new interpreter."""
     with tempfile.NamedTemporaryFile("w+") as out, tempfile.NamedTemporaryFile("w+") as err, \
             tempfile.TemporaryDirectory() as scratch:
         peak_file = Path(scratch) / "peak"
         start = time.monotonic()
-        if fresh or env is not None:
+        if env is not None:
             process = subprocess.Popen([sys.executable, "-c", _WRAPPER, *map(str, args)], stdout=out, stderr=err,
                                        stdin=subprocess.DEVNULL, text=True, cwd=cwd,
                                        env={**(os.environ if env is None else env),
@@ -179,7 +206,7 @@ def run_isoscope(*args, timeout: float = HARD_STOP_SECONDS, env: dict | None = N
             finally:
                 killer.cancel()
         else:
-            returncode = _forked(args, timeout, cwd, out.name, err.name, peak_file)
+            returncode = Forked(args, cwd, out.name, err.name, peak_file).wait(timeout)
         seconds = time.monotonic() - start
         out.seek(0)
         err.seek(0)
