@@ -14,11 +14,11 @@ def pytest_configure(config):
     config.addinivalue_line("markers", "gl: needs OpenGL 4.3 (EGL, or Xvfb for the window); `pytest -m 'not gl'` "
                                        "runs the rest where there is none")
     if not hasattr(config, "workerinput"):   # the controller (or a one-process run), before any worker starts
-        share_one_bytecode_cache(config)
+        write_bytecode_for_the_suite()
         compile_the_cpu_kernels_once()
 
 
-def share_one_bytecode_cache(config):
+def write_bytecode_for_the_suite():
     """Where Python is told not to write bytecode (PYTHONDONTWRITEBYTECODE, as on these machines), every
     interpreter the suite starts (the workers, and the ~200 commands the tests run as a user would) compiled
     isoscope's modules from source again and rewrote the tests' asserts: about 0.17 CPU s a command and 3 s a

@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 import pytest
+from support.command import succeeded_here
 from support.hostile import STRESS, refused
 
 
@@ -312,18 +313,11 @@ def big_npy(tmp_path_factory):
     return folder / "big.npy"
 
 
-def assert_exported_here(*args):
-    """The single-process export a cluster's file is compared with: run in this process, exit 0, stderr empty."""
-    from support.command import isoscope_here
-    done = isoscope_here(*args)
-    assert done.returncode == 0 and done.stderr == "", done.stderr
-
-
 @pytest.mark.gl
 def test_a_big_npy_opened_by_path_goes_to_dask_workers_by_path(big_npy, tmp_path):
     from support.hostile import succeeded
     succeeded("export", big_npy, "--iso", "0.5", "--out", tmp_path / "spread.stl", "--workers", "1")
-    assert_exported_here("export", big_npy, "--iso", "0.5", "--out", tmp_path / "single.stl")
+    succeeded_here("export", big_npy, "--iso", "0.5", "--out", tmp_path / "single.stl")
     assert (tmp_path / "spread.stl").read_bytes() == (tmp_path / "single.stl").read_bytes()
 
 
@@ -339,7 +333,7 @@ def test_a_big_raw_file_goes_to_dask_workers_by_path(big_npy, tmp_path):
             out.write(np.ascontiguousarray(field[:, :, k].T).tobytes())
     flags = ("--dims", *map(str, field.shape), "--dtype", "float64", "--iso", "0.5")
     succeeded("export", raw, *flags, "--out", tmp_path / "spread.stl", "--workers", "1")
-    assert_exported_here("export", raw, *flags, "--out", tmp_path / "single.stl")
+    succeeded_here("export", raw, *flags, "--out", tmp_path / "single.stl")
     assert (tmp_path / "spread.stl").read_bytes() == (tmp_path / "single.stl").read_bytes()
 
 

@@ -29,7 +29,7 @@ import time
 from pathlib import Path
 
 import pytest
-from support.command import isoscope_here
+from support.command import isoscope_here, succeeded_here
 from support.hostile import STRESS, Forked, succeeded
 
 MESH_VOLUME = ("gyroid", "--resolution", "80")         # 3-6 MB files: encoding and writing take a while
@@ -45,13 +45,6 @@ def command(kind: str, out) -> list[str]:
     return [sys.executable, "-m", "isoscope", *args, "--out", str(out)]
 
 
-def written_here(*args):
-    """The command run in this process; it must succeed and say nothing on stderr."""
-    done = isoscope_here(*args)
-    assert done.returncode == 0 and done.stderr == "", done.stderr
-    return done
-
-
 @pytest.fixture(scope="module")
 def references(tmp_path_factory):
     """Uninterrupted runs: each output's bytes (read back by trimesh / PIL), and each kind's run time as a
@@ -63,7 +56,7 @@ def references(tmp_path_factory):
     for suffix in (*MESH_SUFFIXES, ".png"):
         out = folder / f"reference{suffix}"
         kind = "png" if suffix == ".png" else "mesh"
-        written_here(*command(kind, out)[3:])
+        succeeded_here(*command(kind, out)[3:])
         process_out = folder / f"process{suffix}"
         seconds[kind].append(succeeded(*command(kind, process_out)[3:]).seconds)
         assert process_out.read_bytes() == out.read_bytes(), suffix
@@ -205,7 +198,7 @@ def test_new_files_follow_the_umask(umask, mode, tmp_path):
     kind, name = kinds[umask]
     out = tmp_path / name
     with umask_of(umask):
-        written_here(*command(kind, out)[3:])
+        succeeded_here(*command(kind, out)[3:])
     assert stat.S_IMODE(out.stat().st_mode) == mode, oct(out.stat().st_mode)
 
 
@@ -226,7 +219,7 @@ def test_a_replaced_file_keeps_its_mode(tmp_path):
     if os.geteuid() == 0:
         os.chown(out, 4321, 4322)
     with umask_of(0o077):
-        written_here(*command("mesh", out)[3:])
+        succeeded_here(*command("mesh", out)[3:])
     assert out.read_bytes() != OLD_BYTES
     assert stat.S_IMODE(out.stat().st_mode) == 0o644, oct(out.stat().st_mode)
     if os.geteuid() == 0:
@@ -242,7 +235,7 @@ def test_a_symlinked_output_is_written_through(tmp_path, references):
     os.chmod(real, 0o644)
     link = tmp_path / "link.stl"
     link.symlink_to(Path("store") / "torus.stl")
-    written_here(*command("mesh", link)[3:])
+    succeeded_here(*command("mesh", link)[3:])
     assert link.is_symlink() and os.readlink(link) == str(Path("store") / "torus.stl")
     assert real.read_bytes() == reference_bytes[".stl"]
     assert stat.S_IMODE(real.stat().st_mode) == 0o644
@@ -381,7 +374,7 @@ def test_a_named_pipe_is_written_into_not_replaced(tmp_path, references):
     reader = threading.Thread(target=lambda: received.append(fifo.read_bytes()), daemon=True)
     reader.start()
     try:
-        written_here(*command("mesh", fifo)[3:])
+        succeeded_here(*command("mesh", fifo)[3:])
         reader.join(10)
     finally:
         if reader.is_alive():  # nothing opened the pipe: let the reader see its end

@@ -57,6 +57,13 @@ def isoscope_here(*args, cwd=None) -> subprocess.CompletedProcess:
     return subprocess.CompletedProcess(["isoscope", *argv], status, out.getvalue(), err.getvalue() + shown)
 
 
+def succeeded_here(*args, cwd=None) -> subprocess.CompletedProcess:
+    """`isoscope_here`, which must exit 0 with nothing on stderr."""
+    done = isoscope_here(*args, cwd=cwd)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    return done
+
+
 # Each command of a batch run by `isoscope_here` in one process; one JSON line each: status, stdout, stderr.
 _BATCH = """
 import json, sys

@@ -39,12 +39,14 @@ class Run:
 
 # `python -m isoscope ARGS`, which on its way out (sys.exit, as the command ends) writes its own
 # VmHWM to the file named by the environment. The command itself is unchanged.
-_WRAPPER = """
-import atexit, os, runpy, sys
-def _peak(path=os.environ.pop("ISOSCOPE_TEST_PEAK_FILE")):
+_WRITE_PEAK = """
+def write_peak(path):
     with open("/proc/self/status") as status, open(path, "w") as out:
         out.write(next(line.split()[1] for line in status if line.startswith("VmHWM:")))
-atexit.register(_peak)
+"""
+_WRAPPER = _WRITE_PEAK + """
+import atexit, os, runpy, sys
+atexit.register(write_peak, os.environ.pop("ISOSCOPE_TEST_PEAK_FILE"))
 sys.argv[0] = "isoscope"
 runpy.run_module("isoscope", run_name="__main__", alter_sys=True)
 """
@@ -57,7 +59,7 @@ runpy.run_module("isoscope", run_name="__main__", alter_sys=True)
 # does, exiting through the interpreter as the command does. A command's own start (the interpreter, the
 # imports: 0.3-0.8 CPU s) is what this spares; its peak is measured from the warm start, as the fresh
 # one's is from after its imports (the baseline is measured the same way).
-_SERVER = """
+_SERVER = _WRITE_PEAK + """
 import atexit, json, os, runpy, signal, sys, threading, traceback
 import numpy
 import isoscope, isoscope.cli.main, isoscope.api, isoscope.io.export, isoscope.cpu.compiled  # noqa: E401
@@ -70,20 +72,17 @@ from numba.core.registry import cpu_target
 cpu_target.target_context.refresh()
 
 def _child(job):
-    null = os.open(os.devnull, os.O_RDONLY)
-    os.dup2(null, 0)
-    os.dup2(os.open(job["out"], os.O_WRONLY), 1)
-    os.dup2(os.open(job["err"], os.O_WRONLY), 2)
+    for fd, path, flags in ((0, os.devnull, os.O_RDONLY), (1, job["out"], os.O_WRONLY), (2, job["err"], os.O_WRONLY)):
+        opened = os.open(path, flags)
+        os.dup2(opened, fd)
+        os.close(opened)
     os.chdir(job["cwd"])
     os.environ.clear()
     os.environ.update(job["env"])
     with open("/proc/self/clear_refs", "w") as refs:
         refs.write("5")
 
-    def peak(path=job["peak"]):
-        with open("/proc/self/status") as status, open(path, "w") as out:
-            out.write(next(line.split()[1] for line in status if line.startswith("VmHWM:")))
-    atexit.register(peak)
+    atexit.register(write_peak, job["peak"])
     sys.argv = ["isoscope", *job["args"]]
     code, killed_by = 0, None
     try:
@@ -197,8 +196,7 @@ def run_isoscope(*args, timeout: float = HARD_STOP_SECONDS, env: dict | None = N
         if env is not None:
             process = subprocess.Popen([sys.executable, "-c", _WRAPPER, *map(str, args)], stdout=out, stderr=err,
                                        stdin=subprocess.DEVNULL, text=True, cwd=cwd,
-                                       env={**(os.environ if env is None else env),
-                                            "ISOSCOPE_TEST_PEAK_FILE": str(peak_file)})
+                                       env={**env, "ISOSCOPE_TEST_PEAK_FILE": str(peak_file)})
             killer = threading.Timer(timeout, process.kill)
             killer.start()
             try:
