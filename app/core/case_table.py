@@ -41,6 +41,7 @@ midpoints, and the angle rule gives better triangles.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cache
 
@@ -191,25 +192,25 @@ def _triangle_cone_volume(a: int, b: int, c: int) -> float:
     return float(np.linalg.det(EDGE_MIDPOINT[[a, b, c]] - 0.5))
 
 
-def _min_angle(loop: list[int], triangles) -> float:
+def _min_angle(loop: Sequence[int], triangles) -> float:
     return min((_triangle_min_angle(*(loop[k] for k in t)) for t in triangles), default=np.pi)
 
 
-def _enclosed_volume(loop: list[int], triangles) -> float:
+def _enclosed_volume(loop: Sequence[int], triangles) -> float:
     """Signed volume of the cones from the cell centre to the triangles: triangulations of one
     loop differ in it by exactly the difference of the volume they enclose (outward winding)."""
     return float(sum(_triangle_cone_volume(*(loop[k] for k in t)) for t in triangles) / 6.0)
 
 
-def _max_angle_score(loop: list[int], triangles) -> tuple[float, ...]:
+def _max_angle_score(loop: Sequence[int], triangles) -> tuple[float, ...]:
     return (_min_angle(loop, triangles),)
 
 
-def _max_volume_score(loop: list[int], triangles) -> tuple[float, ...]:
+def _max_volume_score(loop: Sequence[int], triangles) -> tuple[float, ...]:
     return (round(_enclosed_volume(loop, triangles), 9), _min_angle(loop, triangles))
 
 
-def _triangulate(loop: list[int], score=_max_angle_score) -> list[tuple[int, int, int]]:
+def _triangulate(loop: Sequence[int], score=_max_angle_score) -> list[tuple[int, int, int]]:
     """The triangulation of `loop` with no diagonal in a cube face whose `score` (a tuple,
     compared in order; the first best is kept) is largest at edge-midpoint positions."""
     n = len(loop)
@@ -267,7 +268,7 @@ def _table(score) -> CaseTable:
     for case in range(256):
         triangles = []
         for loop in _loops(case):
-            triangles.extend(_triangulate(list(loop), score))
+            triangles.extend(_triangulate(loop, score))
         per_case.append(triangles)
     return CaseTable(*padded_cases(per_case))
 

@@ -3,6 +3,8 @@
 back after REST_S, a render (wait) always draws them, and no toggle extracts anything."""
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 import pytest
 
@@ -17,21 +19,31 @@ def two_blobs(n: int = 48) -> np.ndarray:
     return labels
 
 
-@pytest.mark.gl
-def test_a_toggle_draws_the_coarse_twins_until_the_labels_rest(gl_ctx, monkeypatch):
-    import isoscope.viewer.gfx.label_scene as label_scene
-    from isoscope.gpu.context import is_software_renderer
-    from isoscope.viewer.gfx.scene import REST_S, GpuScene
+@contextlib.contextmanager
+def two_blobs_shown(gl_ctx, previews: bool):
+    """(state, scene): a viewer's model and its scene showing two_blobs() as labels, the first frame made."""
+    from isoscope.viewer.gfx.scene import GpuScene
     from isoscope.viewer.model.state import ViewerState
-    if not is_software_renderer(gl_ctx):
-        pytest.skip("coarse twins are for software renderers, where a frame of a big label map is slow")
-    monkeypatch.setattr(label_scene, "PREVIEW_TRIANGLES", 2_000)   # these small blobs count as big
     state = ViewerState()
-    scene = GpuScene(gl_ctx, state, previews=True)
+    scene = GpuScene(gl_ctx, state, previews=previews)
     try:
         scene.show(as_volume(two_blobs()))
         state.show_labels()
         scene.update(0.0)
+        yield state, scene
+    finally:
+        scene.release()
+
+
+@pytest.mark.gl
+def test_a_toggle_draws_the_coarse_twins_until_the_labels_rest(gl_ctx, monkeypatch):
+    import isoscope.viewer.gfx.label_scene as label_scene
+    from isoscope.gpu.context import is_software_renderer
+    from isoscope.viewer.gfx.scene import REST_S
+    if not is_software_renderer(gl_ctx):
+        pytest.skip("coarse twins are for software renderers, where a frame of a big label map is slow")
+    monkeypatch.setattr(label_scene, "PREVIEW_TRIANGLES", 2_000)   # these small blobs count as big
+    with two_blobs_shown(gl_ctx, previews=True) as (state, scene):
         meshes = scene.labels
         assert meshes.preview_step >= 2 and sorted(meshes.coarse) == [3, 9]
         full = {label: mesh.n_triangles for label, mesh in meshes.meshes.items()}
@@ -56,21 +68,10 @@ def test_a_toggle_draws_the_coarse_twins_until_the_labels_rest(gl_ctx, monkeypat
         scene.update(0.0, wait=True)                           # a render waits: always the full ones
         assert drawn_triangles() == [full[3], full[9]]
         assert meshes.extractions == made                      # no toggle made a mesh
-    finally:
-        scene.release()
 
 
 @pytest.mark.gl
 def test_a_small_label_map_or_a_render_makes_no_coarse_twins(gl_ctx):
-    from isoscope.viewer.gfx.scene import GpuScene
-    from isoscope.viewer.model.state import ViewerState
     for previews in (True, False):
-        state = ViewerState()
-        scene = GpuScene(gl_ctx, state, previews=previews)
-        try:
-            scene.show(as_volume(two_blobs()))
-            state.show_labels()
-            scene.update(0.0)
+        with two_blobs_shown(gl_ctx, previews) as (_, scene):
             assert scene.labels.coarse == {} and scene.labels.preview_step == 1
-        finally:
-            scene.release()
