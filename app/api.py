@@ -3,16 +3,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import validation
-from .core.masking import check_mask, keep_masked_cells
-from .cpu.cubes import marching_cubes_reference
-from .cpu.sharp.features import check_feature_angle, sharpen_extracted
+from . import one_shot, validation
 from .cpu.smooth import check_iterations, smooth_projected
-from .cpu.tetra import marching_tetrahedra_reference
-from .options import MeshOptions
+from .one_shot import BACKENDS, METHODS
 
-BACKENDS = ("auto", "gpu", "cpu", "numpy")
-METHODS = ("lewiner", "lorensen")
+__all__ = ["BACKENDS", "METHODS", "Extractor", "marching_cubes", "marching_tetrahedra", "outward_marching_cubes",
+           "smooth_mesh"]
 
 
 def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
@@ -166,7 +162,7 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     >>> bool(np.array_equal(sharp[:len(plain)], plain))  # the plain vertices come first
     True
     """
-    verts, faces, normals, values = _cubes(
+    verts, faces, normals, values = one_shot.cubes(
         volume, level, spacing=spacing, gradient_direction=gradient_direction, step_size=step_size, method=method,
         backend=backend, smooth=smooth, chunks=chunks, sharp_features=sharp_features, mask=mask, skimage=True)
     from .cpu.skimage_values import skimage_orientation  # the arrays are this call's own: turned in place
@@ -178,54 +174,7 @@ def outward_marching_cubes(volume, level=None, **options):
     triangles counter-clockwise seen from outside the object and normals out of it for either
     `gradient_direction`, `values` the volume at each vertex (the level, up to rounding and ties)."""
     options.pop("allow_degenerate", None)
-    return _cubes(volume, level, **options)
-
-
-def _cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent", step_size=1,
-           method="lewiner", backend="auto", smooth=0, chunks=None, sharp_features=None, mask=None, skimage=False):
-    """The outward mesh; `skimage`: with scikit-image's values (`isoscope.cpu.skimage_values`)."""
-    iterations = check_iterations(smooth)
-    backend = _backend(backend)
-    if method not in METHODS:
-        raise ValueError(f"method {method!r} is not one of {METHODS}")
-    angle = check_feature_angle(sharp_features)
-    MeshOptions(smooth=iterations, sharp=angle, masked=mask is not None, chunked=chunks is not None).check()
-    if chunks is not None:
-        return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks, skimage)
-    # The plain GPU mesh of every sample leaves the value scan to the upload (check_volume's scan_values).
-    every_sample = isinstance(step_size, (int, np.integer)) and step_size == 1
-    on_cpu = backend in ("cpu", "numpy")
-    checked = validation.check_volume(volume, scan_values=on_cpu or angle is not None or not every_sample)
-    step = validation.as_step_size(step_size)
-    spacing = validation.as_spacing(spacing)
-    descent = validation.as_gradient_direction(gradient_direction)
-    if checked.value_range is not None:
-        level = validation.as_level(level, checked.value_range)
-    mask = check_mask(mask, checked.data.shape)
-    if step > 1:
-        checked = validation.subsampled(checked, step)
-        spacing = tuple(s * step for s in spacing)
-    def values_of(verts, level):  # scikit-image's, of the plain vertices (before smoothing moves them)
-        from .cpu.skimage_values import skimage_values  # numba loads on first use
-        return skimage_values(checked.data, verts, level, spacing, mask, step)
-
-    plain_values = values_of if skimage and angle is None else None
-    if on_cpu:
-        from .cpu.compiled import marching_cubes_compiled  # numba loads on first use
-        extract = marching_cubes_compiled if backend == "cpu" else marching_cubes_reference
-        mesh = _on_cpu(extract, checked, level, spacing, descent, iterations, plain_values)
-    elif angle is not None:
-        from .gpu.sharp_features import marching_cubes_sharp_gpu
-        mesh = marching_cubes_sharp_gpu(checked, level, spacing, gradient_direction, angle)
-    else:
-        mesh = _on_gpu(checked, level, spacing, gradient_direction, iterations, False, plain_values)
-    if mask is not None:
-        return keep_masked_cells(mesh, mask, spacing, step)
-    if angle is None:
-        return mesh
-    if on_cpu:
-        mesh = sharpen_extracted(mesh, checked.data, spacing, descent, angle)[:4]
-    return (*mesh[:3], values_of(mesh[0], level)) if skimage else mesh
+    return one_shot.cubes(volume, level, **options)
 
 
 def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
@@ -296,86 +245,8 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     >>> len(verts) - len(edges) + len(faces)  # closed, a sphere's Euler characteristic
     2
     """
-    iterations = check_iterations(smooth)
-    backend = _backend(backend)
-    on_cpu = backend in ("cpu", "numpy")
-    checked = validation.check_volume(volume, scan_values=on_cpu)  # else scanned on upload
-    mask = check_mask(mask, checked.data.shape)
-    MeshOptions(cells="tetrahedra", smooth=iterations, masked=mask is not None).check()
-    spacing = validation.as_spacing(spacing)
-    descent = validation.as_gradient_direction(gradient_direction)
-    if checked.value_range is not None:
-        level = validation.as_level(level, checked.value_range)
-    if backend == "cpu":
-        from .cpu.compiled import marching_tetrahedra_compiled  # numba loads on first use
-        mesh = _on_cpu(marching_tetrahedra_compiled, checked, level, spacing, descent, iterations)
-    elif backend == "numpy":
-        mesh = _on_cpu(marching_tetrahedra_reference, checked, level, spacing, descent, iterations)
-    else:
-        mesh = _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra=True)
-    return mesh if mask is None else keep_masked_cells(mesh, mask, spacing)
-
-
-def _on_cpu(extract, checked, level, spacing, descent, iterations, values_of=None):
-    """A CPU extractor's mesh (`extract`: compiled or numpy cubes, or tetrahedra), smoothed `iterations` times;
-    `values_of(verts, level)`: its values from the plain vertices, in place of the extractor's."""
-    field = checked.data.astype(np.float32, copy=False)
-    verts, faces, normals, values = extract(field, level, spacing, descent)
-    if values_of is not None:
-        values = values_of(verts, level)
-    if iterations:
-        smoothed = smooth_projected(verts, faces, field, level, iterations, spacing, descent=descent,
-                                    normals=normals, value_range=checked.value_range)
-        return smoothed if values_of is None else (*smoothed[:3], values)
-    return verts, faces, normals, values
-
-
-def _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra, values_of=None):
-    """Upload, extract (cubes, or tetrahedra from the same resident volume), smooth, read back."""
-    from .gpu.pool import pooled_extractor
-    bad_level = None
-    with pooled_extractor(checked, spacing, gradient_direction) as cubes:
-        if checked.value_range is None:  # its values were scanned on upload
-            try:
-                level = validation.as_level(level, cubes.value_range)
-            except ValueError as exc:
-                bad_level = exc  # raised once the extractor is back in the pool, intact
-        if bad_level is None:
-            return _extract_and_read(cubes, level, iterations, tetrahedra, values_of)
-    raise bad_level
-
-
-def _extract_and_read(cubes, level, iterations, tetrahedra, values_of=None):
-    """Extract at `level` from the resident volume of `cubes` (or from a TetraExtractor on it), smooth, read back;
-    `values_of` as for `_on_cpu`."""
-    from .gpu.smooth import Smoother
-    from .gpu.tetra import TetraExtractor
-    extractor = TetraExtractor(cubes) if tetrahedra else cubes
-    smoother = None
-    try:
-        extractor.extract(level)
-        values = None
-        if values_of is not None:  # read before smoothing moves the vertices off their grid edges
-            values = values_of(extractor.read_mesh()[0], level)
-        if iterations:
-            smoother = Smoother(extractor)
-            smoother.smooth(extractor.mesh, iterations)
-        mesh = extractor.read_mesh()
-        return mesh if values is None else (*mesh[:3], values)
-    finally:
-        if smoother is not None:
-            smoother.release()
-        if tetrahedra:
-            extractor.release()
-
-
-def _backend(backend: str, allowed=BACKENDS) -> str:
-    if backend not in allowed:  # "auto": a one-shot call's, as gpu.context.one_shot_backend decides
-        raise ValueError(f"backend {backend!r} is not one of {allowed}")
-    from .gpu.context import one_shot_backend
-    return one_shot_backend() if backend == "auto" else backend
-
-
+    return one_shot.tetrahedra(volume, level, spacing=spacing, gradient_direction=gradient_direction,
+                               backend=backend, smooth=smooth, mask=mask)
 def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0, 1.0),
                 gradient_direction="descent", normals=None, backend="auto"):
     """Smooth a mesh on ``volume == level`` (e.g. from `marching_cubes`) and project it back onto the level set.
@@ -457,7 +328,7 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
     True
     """
     iterations = check_iterations(iterations)
-    backend = _backend(backend)
+    backend = one_shot.backend_of(backend)
     checked = validation.check_volume(volume)
     spacing = validation.as_spacing(spacing)
     descent = validation.as_gradient_direction(gradient_direction)
@@ -486,28 +357,6 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
             if smoother is not None:
                 smoother.release()
             mesh.release()
-
-
-def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks, skimage=False):
-    from .big.chunked import as_chunks, marching_cubes_chunked, value_range
-    from .core.lazy_arrays import is_lazy
-    if step_size != 1:
-        raise ValueError("chunks= runs at step_size 1; drop chunks, or use step_size=1")
-    source = volume.data if isinstance(volume, validation.CheckedVolume) else volume
-    if not is_lazy(source):
-        source = validation._numeric_3d(source, "volume")[0]  # shape and dtype only: no scan of the values
-    as_chunks(chunks, source.shape)
-    spacing = validation.as_spacing(spacing)
-    descent = validation.as_gradient_direction(gradient_direction)
-    known = volume.value_range if isinstance(volume, validation.CheckedVolume) else None
-    if known is None and level is not None:
-        known = (-np.inf, np.inf)  # not scanned for a range: boxes the level misses give no surface
-    level = validation.as_level(level, known or value_range(source, chunks))
-    mesh = marching_cubes_chunked(source, level, spacing, descent, chunks, backend=backend)
-    if not skimage:
-        return mesh
-    from .cpu.skimage_values import skimage_values
-    return (*mesh[:3], skimage_values(source, mesh[0], level, spacing))
 
 
 class _ExtractorKind(type):
@@ -590,7 +439,7 @@ class Extractor(metaclass=_ExtractorKind):
         if backend == "auto":   # resident: the GPU wherever a 4.3 context can be had, llvmpipe included
             from .gpu.context import gl_available
             backend = "gpu" if ctx is not None or gl_available() else "cpu"
-        backend = _backend(backend)
+        backend = one_shot.backend_of(backend)
         if backend == "gpu":
             from .gpu.cubes import Extractor as GpuExtractor
             return GpuExtractor(volume, spacing, gradient_direction, ctx=ctx, table=table, limits=limits)

@@ -242,8 +242,8 @@ def _extractor(backend: str):
     """indicator -> (verts, faces, normals) at level 0.5: one GL context found once for all labels
     (asking for the current context costs a few ms each time), else the compiled CPU extractor ("cpu",
     or "auto" with no GL or a software renderer: gpu.context's one_shot_backend) or the numpy one ("numpy")."""
-    from .api import BACKENDS
     from .gpu.context import current_or_standalone, one_shot_backend
+    from .one_shot import BACKENDS
     if backend not in BACKENDS:
         raise ValueError(f"backend {backend!r} is not one of {BACKENDS}")
     table = label_table()

@@ -81,7 +81,8 @@ def isosurface(volume, level=None, *, spacing=None, affine=None, gradient_direct
         verts, faces, normals = (np.concatenate(p) for p in zip(*parts))
         return trimesh.Trimesh(verts, faces, vertex_normals=normals, vertex_colors=np.concatenate(colors),
                                process=False)
-    from .api import marching_tetrahedra, outward_marching_cubes
+    from .one_shot import cubes
+    from .one_shot import tetrahedra as tetrahedra_extract
     from .validation import named_level
     from .volumes import VolumeError
     if level is not None:
@@ -89,7 +90,7 @@ def isosurface(volume, level=None, *, spacing=None, affine=None, gradient_direct
             level = named_level(level, shown.value_range, shown.name)
         except ValueError as exc:
             raise VolumeError(str(exc)) from None
-    extract = marching_tetrahedra if tetrahedra else outward_marching_cubes
+    extract = tetrahedra_extract if tetrahedra else cubes
     verts, faces, normals, _ = extract(shown.checked, level if level is not None else shown.default_level,
                                        spacing=shown.spacing, gradient_direction=shown.gradient_direction,
                                        **options)

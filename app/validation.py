@@ -3,10 +3,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-from .core.lazy_arrays import is_lazy, release_pages
+from .core.layout import IN_PLACE_DTYPES
+from .core.lazy_arrays import is_lazy, maps_a_file, release_pages
 
 GRADIENT_DIRECTIONS = ("descent", "ascent")
 
@@ -23,9 +25,13 @@ FLOAT32_MAX = float(np.finfo(np.float32).max)
 class CheckedVolume:
     """An array that passed `check_volume`, with the value range that same scan found.
 
-    `data` is 3-D, C-contiguous, in native byte order, numeric (float16 and bool widened),
-    finite, at least 2 long on every axis, and within float32's range; its dtype is otherwise
-    kept (integers stay integers).  The extractors take one as it is, without scanning again.
+    `samples` is the array as the user gave it: 3-D, numeric (float16 and bool widened), finite, at
+    least 2 long on every axis, and within float32's range, in any memory order and byte order (nibabel
+    gives Fortran order; a slice may have negative strides; some files are big-endian); its dtype is
+    otherwise kept (integers stay integers).  The compiled CPU kernels read it in place
+    (`isoscope.cpu.samples`).  `data` is the same samples C-contiguous in native byte order, made on first
+    use (the array itself where it is so already), for the code that needs that layout (the GPU upload,
+    numpy's reference).  The extractors take one as it is, without scanning again.
     A lazy array (Zarr: see lazy_arrays) is checked block by block and kept lazy; chunked.py reads it.
 
     `value_range` is None for a volume made by `check_volume(..., scan_values=False)`: its shape
@@ -33,19 +39,33 @@ class CheckedVolume:
     its upload pass scans them (measuring the brick ranges it needs anyway), and it raises
     check_volume's own error for a non-finite sample.
     """
-    data: np.ndarray
+    samples: np.ndarray
     value_range: tuple[float, float] | None
     notes: tuple[str, ...] = ()
+
+    @cached_property
+    def data(self) -> np.ndarray:
+        """The samples C-contiguous in native byte order (a copy only where they are not)."""
+        return c_ordered(self.samples)
+
+
+def c_ordered(data):
+    """`data` C-contiguous in native byte order: itself where it is, a copy where it is not; a lazy array as it is."""
+    if is_lazy(data):
+        return data
+    if not data.dtype.isnative:
+        data = data.astype(data.dtype.newbyteorder("="), order="C")
+    return np.ascontiguousarray(data)
 
 
 def subsampled(checked: CheckedVolume, step: int) -> CheckedVolume:
     """Every `step`-th sample along each axis (scikit-image's step_size).  Its value range is the
     full volume's, a bound on the samples kept, so every level of the full volume stays valid."""
-    data = checked.data[::step, ::step, ::step]
+    data = checked.samples[::step, ::step, ::step]   # a view: the kernels read it in place, strides and all
     if min(data.shape) < 2:
-        raise ValueError(f"step_size {step} leaves the volume {'x'.join(map(str, checked.data.shape))} "
+        raise ValueError(f"step_size {step} leaves the volume {'x'.join(map(str, checked.samples.shape))} "
                          f"with an axis shorter than 2 samples; use a smaller step_size")
-    return CheckedVolume(np.ascontiguousarray(data), checked.value_range, checked.notes)
+    return CheckedVolume(data, checked.value_range, checked.notes)
 
 
 def as_step_size(step_size) -> int:
@@ -59,27 +79,35 @@ def _at_index(index) -> str:
 
 
 GPU_SCANNED_DTYPES = ("float32", "uint8", "int8", "uint16", "int16")
-"""Sample types the GPU holds exactly (gpu_layout.VOLUME_TEXEL_FORMATS), so that its scan of the
+"""Sample types the GPU holds exactly (layout.VOLUME_TEXEL_FORMATS), so that its scan of the
 values finds the same range as numpy's."""
+CPU_SCANNED_DTYPES = IN_PLACE_DTYPES
+"""Sample types whose values the compiled CPU extractor measures in its first pass (`isoscope.cpu.compiled`,
+reading them in their own type), so that they need no scan of their own."""
 
 
 def check_volume(volume, what: str = "volume", *, progress: Progress | None = None,
-                 where: Callable[[tuple], str] | None = None, scan_values: bool = True) -> CheckedVolume:
+                 where: Callable[[tuple], str] | None = None, scan_values: bool = True,
+                 deferred: tuple[str, ...] = GPU_SCANNED_DTYPES) -> CheckedVolume:
     """The one check every volume passes, from a user's array or a file: shape, dtype, values.
 
-    Values are scanned once, a slab of planes at a time.  `what` names the volume in messages;
-    `where` words the first bad sample's place and the fix.  scan_values=False leaves the values of
-    an in-memory array of a GPU_SCANNED_DTYPES type to the Extractor that uploads it (value_range
-    None): one pass over the samples fewer in a one-shot GPU call (9 ms of a 256^3 float32 one).
+    Values are scanned once: an array in memory by numpy in its memory order, a memory map or a lazy
+    array a slab at a time.  `what` names the volume in messages; `where` words the first bad sample's
+    place and the fix.  scan_values=False leaves the values of an in-memory array of a `deferred` type
+    to the extractor that reads them anyway (value_range None): the GPU upload (GPU_SCANNED_DTYPES, 9 ms
+    of a 256^3 float32 one-shot call) or the compiled CPU extractor's first pass (CPU_SCANNED_DTYPES).
     """
     if isinstance(volume, CheckedVolume):
         if volume.value_range is not None or not scan_values:
             return volume
-        volume = volume.data  # its values were left to an upload: scan them here after all
+        volume = volume.samples  # its values were left to an upload: scan them here after all
     where = where or _at_index
     data, notes = _numeric_3d(volume, what)
-    if not scan_values and not is_lazy(data) and str(data.dtype) in GPU_SCANNED_DTYPES:
+    if not scan_values and not is_lazy(data) and str(data.dtype.newbyteorder("=")) in deferred:
         return CheckedVolume(data, None, tuple(notes))
+    lo, hi = _in_memory_range(data)
+    if lo is not None:
+        return CheckedVolume(data, _within_float32(lo, hi, what), tuple(notes))
     lo, hi = np.inf, -np.inf
     pieces = list(blocks(data.shape, data.dtype.itemsize))
     for number, block in enumerate(pieces, 1):
@@ -99,10 +127,40 @@ def check_volume(volume, what: str = "volume", *, progress: Progress | None = No
         lo, hi = min(lo, slab_lo), max(hi, slab_hi)
         if len(pieces) > 1 and progress is not None:
             progress(number / len(pieces), f"checking {what}")
+    return CheckedVolume(data, _within_float32(lo, hi, what), tuple(notes))
+
+
+def _in_memory_range(data) -> tuple[float | None, float | None]:
+    """The smallest and largest sample of an array in memory, each one pass of numpy's over the samples in
+    their memory order (a 512x512x400 int16 CT: 15 ms for both, a Fortran-ordered one too, against 140 ms
+    in slabs of planes across its memory); (None, None) where the slab scan must run instead: a memory map
+    (its pages are dropped slab by slab), a lazy array, or a NaN or infinite sample (the slabs find the
+    first and count them, for the message)."""
+    if is_lazy(data) or maps_a_file(data):
+        return None, None
+    lo, hi = data.min(), data.max()
+    if data.dtype.kind == "f" and not (np.isfinite(lo) and np.isfinite(hi)):
+        return None, None
+    return float(lo), float(hi)
+
+
+def accept_measured(checked: CheckedVolume, value_range: tuple[float, float] | None, level,
+                    what: str = "volume") -> tuple[float, float]:
+    """The value range an extractor measured of `checked` (left unscanned), held to check_volume's rules and
+    `level` to it (as_level): raises check_volume's own error where a sample is NaN or infinite (None)."""
+    if value_range is None:
+        check_volume(checked.samples, what)  # raises, naming the first bad sample
+        raise AssertionError("a non-finite sample the scan did not find")
+    value_range = _within_float32(*value_range, what)
+    as_level(level, value_range)
+    return value_range
+
+
+def _within_float32(lo: float, hi: float, what: str) -> tuple[float, float]:
     if max(-lo, hi) > FLOAT32_MAX:
         raise ValueError(f"{what} has values up to {max(-lo, hi):g}, beyond float32's range "
                          f"(+-{FLOAT32_MAX:.3g}) that the GPU computes in; rescale the data")
-    return CheckedVolume(data, (lo, hi), tuple(notes))
+    return lo, hi
 
 
 def blocks(shape, itemsize: int):
@@ -125,7 +183,8 @@ def blocks(shape, itemsize: int):
 
 
 def _numeric_3d(volume, what: str) -> tuple[np.ndarray, list[str]]:
-    """A C-ordered, native-endian, numeric 3-D view (or copy) of `volume`, and notes on what changed."""
+    """A numeric 3-D view of `volume` in its own memory order and byte order (a copy only for bool and
+    float16), and notes on what changed."""
     if is_lazy(volume) and volume.dtype.kind in "iuf" and volume.dtype != np.float16 and len(volume.shape) == 3 \
             and min(volume.shape) >= 2:
         return volume, []  # read on demand, a block at a time; never as a whole
@@ -152,9 +211,7 @@ def _numeric_3d(volume, what: str) -> tuple[np.ndarray, list[str]]:
     if min(data.shape) < 2:
         raise ValueError(f"{what} has shape {'x'.join(str(n) for n in data.shape)}, an axis shorter than 2; "
                          "every axis needs at least 2 samples to hold a surface")
-    if not data.dtype.isnative:
-        data = data.astype(data.dtype.newbyteorder("="))
-    return np.ascontiguousarray(data), notes
+    return data, notes
 
 
 MIN_SPACING = 2.0 ** -60  # 8.7e-19

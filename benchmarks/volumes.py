@@ -98,3 +98,71 @@ def load_real(name: str) -> tuple[np.ndarray, tuple[float, float, float]]:
     image = nibabel.load(real_volume_path(name))
     data = np.ascontiguousarray(np.asanyarray(image.dataobj))
     return data, tuple(float(z) for z in image.header.get_zooms()[:3])
+
+
+# -- a CT-like torso, saved and read back as nibabel gives it ---------------------------------
+
+CT_SHAPE = (512, 512, 400)
+CT_SPACING = (0.8, 0.8, 1.0)
+CT_LEVELS = (-300.0, 300.0)
+"""Skin (air/soft tissue, -300 HU) and bone (300 HU): the two levels a CT user picks first."""
+
+
+def ct_torso(shape=CT_SHAPE, seed: int = 0) -> np.ndarray:
+    """A CT-like torso in Hounsfield units, int16, C order (x, y, z): air -1000 around an elliptic body of
+    soft tissue (40) with a fat rim (-100), two lungs (-850) with vessels, a spine of vertebrae (bone 700,
+    a hollow marrow 250) and ribs every 25 mm, an aorta with contrast (250), and scanner noise (sigma 20
+    HU) after a partial-volume blur.  No CT volume ships in a package (README), so one is made: what matters
+    for speed is its size, its type, its empty air and the many small pieces bone gives at 300 HU."""
+    from scipy.ndimage import gaussian_filter
+    nx, ny, nz = shape
+    x = np.linspace(-1, 1, nx, dtype=np.float32)[:, None]
+    y = np.linspace(-1, 1, ny, dtype=np.float32)[None, :]
+    rng = np.random.default_rng(seed)
+    out = np.empty(shape, np.int16)
+    body = (x / 0.85) ** 2 + (y / 0.62) ** 2
+    lung_l = ((x + 0.38) / 0.27) ** 2 + ((y + 0.02) / 0.38) ** 2
+    lung_r = ((x - 0.38) / 0.27) ** 2 + ((y + 0.02) / 0.38) ** 2
+    vertebra = (x / 0.1) ** 2 + ((y - 0.36) / 0.09) ** 2
+    marrow = (x / 0.07) ** 2 + ((y - 0.36) / 0.06) ** 2
+    aorta = ((x + 0.05) / 0.06) ** 2 + ((y - 0.18) / 0.06) ** 2
+    ring = np.sqrt((x / 0.76) ** 2 + (y / 0.54) ** 2)
+    vessels = gaussian_filter(rng.standard_normal((nx, ny)).astype(np.float32), 3)
+    for k in range(nz):
+        z = k / max(nz - 1, 1)
+        plane = np.full((nx, ny), -1000.0, np.float32)
+        plane[body < 1.0] = -100.0
+        plane[body < 0.88] = 40.0
+        lungs = (lung_l < 1.0) | (lung_r < 1.0)
+        if 0.15 < z < 0.9:
+            plane[lungs] = -850.0
+            plane[lungs & (np.abs(vessels) < 0.004 + 0.002 * np.sin(9 * z))] = 30.0
+        disc = (k % 32) < 26  # vertebrae with discs between them
+        plane[vertebra < 1.0] = 700.0 if disc else 80.0
+        plane[(marrow < 1.0) & disc] = 250.0
+        if (k % 25) < 6 and z > 0.1:  # a rib pair
+            plane[(np.abs(ring - 0.93) < 0.03) & (y < 0.45)] = 650.0
+        plane[aorta < 1.0] = 250.0
+        out[:, :, k] = np.clip(gaussian_filter(plane, 1.2) + rng.normal(0, 20, plane.shape), -1024, 3071)
+    return out
+
+
+def ct_torso_nifti(folder: Path, shape=CT_SHAPE) -> Path:
+    """ct_torso written once as `folder/ct_torso_AxBxC.nii` (int16, CT_SPACING; made again if missing)."""
+    import nibabel
+    path = Path(folder) / f"ct_torso_{'x'.join(map(str, shape))}.nii"
+    if not path.is_file():
+        image = nibabel.Nifti1Image(ct_torso(shape), np.diag([*CT_SPACING, 1.0]))
+        image.header.set_data_dtype(np.int16)
+        part = path.with_suffix(".part.nii")
+        nibabel.save(image, part)
+        part.replace(path)
+    return path
+
+
+def as_nibabel_gives(path: Path) -> tuple[np.ndarray, tuple[float, float, float]]:
+    """The array exactly as a nibabel user has it: `np.asarray(nibabel.load(path).dataobj)` (Fortran order,
+    the file's dtype), and the voxel size."""
+    import nibabel
+    image = nibabel.load(path)
+    return np.asarray(image.dataobj), tuple(float(z) for z in image.header.get_zooms()[:3])

@@ -61,8 +61,11 @@ def compile_the_cpu_kernels_once():
     for field in (ball, read_only):
         isoscope.marching_cubes(field, 0.0, backend="cpu")
         isoscope.marching_tetrahedra(field, 0.0, backend="cpu")
-    for dtype in (np.float64, np.int16, np.uint8):   # scikit-image's `values` read the volume in its own dtype
-        isoscope.marching_cubes(((ball + 1.0) * 100.0).astype(dtype), 100.0, backend="cpu")
+    for dtype in (np.float64, np.int16, np.uint8):   # the kernels read the volume in its own dtype, any order
+        scan = ((ball + 1.0) * 100.0).astype(dtype)
+        for volume in (scan, np.asfortranarray(scan)):
+            isoscope.marching_cubes(volume, 100.0, backend="cpu")
+    isoscope.marching_cubes(np.asfortranarray(ball), 0.0, backend="cpu")
     extractor = isoscope.Extractor(ball, backend="cpu")
     for level in (0.0, 0.1):   # a new level measures the words' ranges first
         extractor.extract(level)

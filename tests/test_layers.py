@@ -126,9 +126,10 @@ BELOW = {
     "gpu": {"core", "cpu", "errors", "resources", "validation"},
     "big": {"core", "cpu", "gpu", "io", "errors", "validation"},
     "volumes": {"core", "gpu", "errors", "resources", "validation"},
-    "api": {"core", "cpu", "gpu", "big", "options", "errors", "validation"},
-    "labels": {"core", "cpu", "gpu", "io", "api", "options", "errors", "validation"},
-    "surface": {"core", "cpu", "gpu", "io", "volumes", "api", "labels", "errors", "validation"},
+    "one_shot": {"core", "cpu", "gpu", "big", "options", "errors", "validation"},
+    "api": {"core", "cpu", "gpu", "big", "one_shot", "options", "errors", "validation"},
+    "labels": {"core", "cpu", "gpu", "io", "one_shot", "options", "errors", "validation"},
+    "surface": {"core", "cpu", "gpu", "io", "volumes", "one_shot", "labels", "errors", "validation"},
 }
 TOP = {"viewer": {"cli", "launch", "__main__"}, "cli": {"launch", "__main__"}, "launch": {"__main__"},
        "__main__": set(), "isoscope": set()}  # a front end's forbidden layers

@@ -63,7 +63,7 @@ def _extract_for_export(volume, iso, args):
 def _whole(volume, iso, args, closed: bool):
     """The whole volume's mesh in one extraction; `closed`: of the volume padded on the outside of the level,
     so capped where it leaves the volume."""
-    from ..api import marching_tetrahedra, outward_marching_cubes
+    from ..one_shot import cubes, tetrahedra
     data, level = volume.checked, iso
     if closed:
         from ..core.closing import padded_for_closing
@@ -73,9 +73,9 @@ def _whole(volume, iso, args, closed: bool):
                                   as_gradient_direction(volume.gradient_direction))
     options = dict(spacing=volume.spacing, gradient_direction=volume.gradient_direction, smooth=args.smooth)
     if args.tetrahedra:
-        verts, faces, normals, values = marching_tetrahedra(data, level, **options)
+        verts, faces, normals, values = tetrahedra(data, level, **options)
     else:
-        verts, faces, normals, values = outward_marching_cubes(data, level, sharp_features=args.sharp, **options)
+        verts, faces, normals, values = cubes(data, level, sharp_features=args.sharp, **options)
     if closed:
         from ..core.closing import unpad
         verts = unpad(verts, volume.spacing)

@@ -39,6 +39,12 @@ as they are (a quarter or half of float32's upload and memory) and read back exa
 every other type is converted to float32 on upload."""
 
 
+IN_PLACE_DTYPES = ("uint8", "int8", "uint16", "int16", "float32", "float64")
+"""Sample types the compiled CPU kernels read where they lie, in any memory order and byte order
+(`isoscope.cpu.samples`): what the loaders give (8- and 16-bit scans, float32 and float64 fields).  Other
+numbers are read from a float32 copy."""
+
+
 def volume_texel_format(dtype) -> tuple[str, str, str]:
     """(moderngl dtype, GLSL format, GLSL image type) of the volume image for samples of `dtype`."""
     return VOLUME_TEXEL_FORMATS.get(str(dtype), VOLUME_TEXEL_FORMATS["float32"])

@@ -17,11 +17,21 @@ def is_lazy(array) -> bool:
     return not isinstance(array, np.ndarray) and all(hasattr(array, a) for a in ("shape", "dtype", "__getitem__"))
 
 
-def release_pages(array) -> None:
-    """Drop the resident pages of the file `array` maps (if it maps one); they are read again on demand."""
+def _mapping(array) -> mmap.mmap | None:
     base = array
     while base is not None and not isinstance(base, mmap.mmap):
         base = getattr(base, "base", None)  # a view's array, a memmap's mmap, a wrapper's array
+    return base
+
+
+def maps_a_file(array) -> bool:
+    """Whether `array` is (a view of) a memory-mapped file."""
+    return _mapping(array) is not None
+
+
+def release_pages(array) -> None:
+    """Drop the resident pages of the file `array` maps (if it maps one); they are read again on demand."""
+    base = _mapping(array)
     if base is not None and hasattr(mmap, "MADV_DONTNEED"):
         base.madvise(mmap.MADV_DONTNEED)
 

@@ -25,9 +25,13 @@ axis 0 that the threads take in turn (so a thread the machine holds back leaves 
 3 is a serial loop over words.
 Tetrahedra run the same passes with seven kinds of edge (tetra.KINDS: the axes, the face and body
 diagonals) instead of three, and their table's codes.
-The arithmetic of a vertex is the reference's, in float32 and in the same order, so positions, normals
-and values are the reference's bit for bit.  The kernels take float32 volumes only (one compiled
-signature a kernel; the JIT's output is cached on disk, numba's cache=True).
+Passes 1 to 3 are `isoscope.cpu.words`; this module writes the mesh.  The samples are read where they lie,
+in their own type and memory order (`isoscope.cpu.samples`: nibabel's Fortran order, 8- and 16-bit
+scans, big-endian files, negative strides); a volume in Fortran order is packed in its own memory order
+(`words._pack_rows_along_0`) before pass 2.  The arithmetic of a vertex is the reference's, on each sample
+as float32 and in the same order, so positions, normals and values are the reference's bit for bit.
+One compiled version of a kernel serves every layout of a sample type; the JIT's output is cached on
+disk (numba's cache=True).
 """
 from __future__ import annotations
 
@@ -36,189 +40,56 @@ import numpy as np
 from numba import prange
 
 from ..core.case_table import EDGE_AXIS, EDGE_ORIGIN, CaseTable, montani_table
-from ..core.layout import BRICK_I, BRICK_J, EDGE_MARGIN, WORD_BITS
-from .jit import _cached_njit, _case, _cut_cells, _launch_guard, _low_bits, _lowest_bit, _popcount, _shifted, _take
+from ..core.layout import EDGE_MARGIN, WORD_BITS
+from .jit import _cached_njit, _case, _cut_cells, _launch_guard, _low_bits, _lowest_bit, _popcount, _take
+from .samples import ORDER_F, SampleView, raw, sample, sample_view
+from .words import _pack_and_count, _pack_rows_along_0, _scan, _word_ranges, rows_per_block
 
 __all__ = ["marching_cubes_compiled", "marching_tetrahedra_compiled", "CompiledCubes"]
 
-# Pass 4's time per word, vertex and triangle, roughly (in 2 ns on one core here): how planes are split in runs.
-WORK_WORD, WORK_VERTEX, WORK_TRIANGLE = 1, 16, 4
+MAX_INDEX = 2**31 - 1
+"""The most vertices (and triangles) a mesh may have: its faces are int32, as scikit-image's."""
+
 # Pass 4's runs of planes per thread: a run costs a plane of gradients more; more runs let a thread that runs
 # on take up the work of one the machine holds back.
 RUNS_PER_THREAD = 4
 
 
-@_cached_njit(parallel=True, error_model="numpy")
-def _word_ranges(field, lows, highs):
-    """The smallest and largest sample of each word (its 32 samples along axis 2 and the next one, the
-    far end of its last edge)."""
-    n0, n1, n2 = field.shape
-    nw = lows.shape[2]
-    for i in prange(n0):
-        for j in range(n1):
-            for w in range(nw):
-                k0 = w * WORD_BITS
-                k1 = min(k0 + WORD_BITS + 1, n2)
-                lo = field[i, j, k0]
-                hi = lo
-                for k in range(k0 + 1, k1):
-                    v = field[i, j, k]
-                    lo = min(lo, v)
-                    hi = max(hi, v)
-                lows[i, j, w] = lo
-                highs[i, j, w] = hi
-
-
-@_cached_njit(error_model="numpy")
-def _pack_plane(field, sign, level, lows, highs, ranged, signs, i):
-    """Pass 1 on plane i: bit k of signs[i, j, w] is set where sample (i, j, 32 w + k) of the signed field
-    (sign * field) is at or above `level`.  With `ranged`, lows/highs (the words' ranges of `field`)
-    let a word the level does not cut be filled without reading its samples."""
-    n0, n1, n2 = field.shape
-    nw = signs.shape[2]
-    for j in range(n1):
-        for w in range(nw):
-            k0 = w * WORD_BITS
-            count = min(WORD_BITS, n2 - k0)
-            if ranged:
-                lo = sign * lows[i, j, w]
-                hi = sign * highs[i, j, w]
-                if hi < lo:
-                    lo, hi = hi, lo
-                if lo >= level:
-                    signs[i, j, w] = _low_bits(count)
-                    continue
-                if hi < level:
-                    signs[i, j, w] = 0
-                    continue
-            word = np.int64(0)
-            for b in range(count):
-                if sign * field[i, j, k0 + b] >= level:
-                    word |= np.int64(1) << b
-            signs[i, j, w] = word
-
-
-@_cached_njit(error_model="numpy")
-def _count_plane(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts, plane_work, i):
-    """Pass 2 on plane i: per word, the crossing-edge masks (edges[i, j, w, kind]: the edges from its samples
-    to the samples steps[kind] away), its vertex count and triangle count; an estimate of pass 4's time
-    on the plane (WORK_* units).  Three steps must be the axes in order (CUBE_STEPS)."""
-    n0, n1, nw = signs.shape
-    axes_only = steps.shape[0] == 3
-    work = n1 * nw * WORK_WORD
-    for j in range(n1):
-        for w in range(nw):
-            k0 = w * WORD_BITS
-            s = signs[i, j, w]
-            # Edges with a step along axis 2 end in the row: the last sample owns none.
-            along2 = _low_bits(min(WORD_BITS, n2 - 1 - k0))
-            if axes_only:  # cubes (steps the three axes, in order): unrolled, 40% of this pass's time
-                e0 = s ^ signs[i + 1, j, w] if i + 1 < n0 else 0
-                e1 = s ^ signs[i, j + 1, w] if j + 1 < n1 else 0
-                e2 = (s ^ _shifted(signs, i, j, w, nw)) & along2
-                edges[i, j, w, 0] = e0
-                edges[i, j, w, 1] = e1
-                edges[i, j, w, 2] = e2
-                vertices = _popcount(e0) + _popcount(e1) + _popcount(e2)
-            else:
-                vertices = 0
-                for kind in range(steps.shape[0]):
-                    oi = i + steps[kind, 0]
-                    oj = j + steps[kind, 1]
-                    e = 0
-                    if oi < n0 and oj < n1:
-                        if steps[kind, 2]:
-                            e = (s ^ _shifted(signs, oi, oj, w, nw)) & along2
-                        else:
-                            e = s ^ signs[oi, oj, w]
-                    edges[i, j, w, kind] = e
-                    vertices += _popcount(e)
-            vertex_counts[i, j, w] = vertices
-            triangles = 0
-            if i + 1 < n0 and j + 1 < n1:
-                cut, a, b, c, d, a1, b1, c1, d1 = _cut_cells(signs, i, j, w, nw, along2)
-                while cut:
-                    k = _lowest_bit(cut)
-                    cut &= cut - 1
-                    triangles += table_counts[_case(k, a, b, c, d, a1, b1, c1, d1)]
-            triangle_counts[i, j, w] = triangles
-            work += vertices * WORK_VERTEX + triangles * WORK_TRIANGLE
-    plane_work[i] = work
-
-
-@_cached_njit(parallel=True, error_model="numpy")
-def _pack_and_count(field, sign, level, lows, highs, ranged, signs, steps, table_counts, edges, vertex_counts,
-                    triangle_counts, plane_work, workers, starts, taken):
-    """Passes 1 and 2 in one launch (one wait for the threads, not two), over runs of planes (starts[r] to
-    starts[r + 1]) taken in turn by `workers` threads (taken[0], reset to 0 by the caller): a run packs its
-    planes and the plane after it, then counts its planes.  That next plane's words are packed twice, by
-    this run and the next, to the same values."""
-    n0 = field.shape[0]
-    for _worker in prange(workers):
-        while True:
-            run = _take(taken)
-            if run >= starts.shape[0] - 1:
-                break
-            for i in range(starts[run], min(starts[run + 1] + 1, n0)):
-                _pack_plane(field, sign, level, lows, highs, ranged, signs, i)
-            for i in range(starts[run], starts[run + 1]):
-                _count_plane(signs, field.shape[2], steps, table_counts, edges, vertex_counts, triangle_counts,
-                             plane_work, i)
-
-
-@_cached_njit(error_model="numpy")
-def _scan(vertex_counts, triangle_counts):
-    """Pass 3: the counts become exclusive prefix sums in the GPU's word order (brick (i // BRICK_I,
-    j // BRICK_J, w) in C order, then (i % BRICK_I, j % BRICK_J)); returns the totals."""
-    n0, n1, nw = vertex_counts.shape
-    vertices = 0
-    triangles = 0
-    for bi in range(0, n0, BRICK_I):
-        for bj in range(0, n1, BRICK_J):
-            for w in range(nw):
-                for i in range(bi, min(bi + BRICK_I, n0)):
-                    for j in range(bj, min(bj + BRICK_J, n1)):
-                        v = vertex_counts[i, j, w]
-                        t = triangle_counts[i, j, w]
-                        vertex_counts[i, j, w] = vertices
-                        triangle_counts[i, j, w] = triangles
-                        vertices += v
-                        triangles += t
-    return vertices, triangles
-
-
 @_cached_njit(inline="always", error_model="numpy")
-def _gradient(field, sign, i, j, k, spacing):
+def _gradient(flat, swap, grid, sign, i, j, k, spacing):
     """cubes.gradient_at of the signed field at one grid point: central differences, one-sided at the
     border, in physical units (float32 throughout)."""
-    n0, n1, n2 = field.shape
+    n0, n1, n2 = grid[4], grid[5], grid[6]
     lo = max(i - 1, 0)
     hi = min(i + 1, n0 - 1)
-    g0 = (sign * field[hi, j, k] - sign * field[lo, j, k]) / (np.float32(hi - lo) * spacing[0])
+    g0 = (sign * sample(flat, swap, grid, hi, j, k)
+          - sign * sample(flat, swap, grid, lo, j, k)) / (np.float32(hi - lo) * spacing[0])
     lo = max(j - 1, 0)
     hi = min(j + 1, n1 - 1)
-    g1 = (sign * field[i, hi, k] - sign * field[i, lo, k]) / (np.float32(hi - lo) * spacing[1])
+    g1 = (sign * sample(flat, swap, grid, i, hi, k)
+          - sign * sample(flat, swap, grid, i, lo, k)) / (np.float32(hi - lo) * spacing[1])
     lo = max(k - 1, 0)
     hi = min(k + 1, n2 - 1)
-    g2 = (sign * field[i, j, hi] - sign * field[i, j, lo]) / (np.float32(hi - lo) * spacing[2])
+    g2 = (sign * sample(flat, swap, grid, i, j, hi)
+          - sign * sample(flat, swap, grid, i, j, lo)) / (np.float32(hi - lo) * spacing[2])
     return g0, g1, g2
 
 
 @_cached_njit(inline="always", error_model="numpy")
-def _vertex(field, sign, level, spacing, i, j, k, d0, d1, d2, verts, normals, values, n):
+def _vertex(flat, swap, grid, sign, level, spacing, i, j, k, d0, d1, d2, verts, normals, values, n):
     """cubes.place_vertices for the edge from (i, j, k) to (i + d0, j + d1, k + d2), written at row n."""
-    a0, a1, a2 = _gradient(field, sign, i, j, k, spacing)
-    b0, b1, b2 = _gradient(field, sign, i + d0, j + d1, k + d2, spacing)
-    _vertex_between(field, sign, level, spacing, i, j, k, d0, d1, d2, a0, a1, a2, b0, b1, b2, verts, normals,
+    a0, a1, a2 = _gradient(flat, swap, grid, sign, i, j, k, spacing)
+    b0, b1, b2 = _gradient(flat, swap, grid, sign, i + d0, j + d1, k + d2, spacing)
+    _vertex_between(flat, swap, grid, sign, level, spacing, i, j, k, d0, d1, d2, a0, a1, a2, b0, b1, b2, verts, normals,
                     values, n)
 
 
 @_cached_njit(inline="always", error_model="numpy")
-def _vertex_between(field, sign, level, spacing, i, j, k, d0, d1, d2, a0, a1, a2, b0, b1, b2, verts, normals,
+def _vertex_between(flat, swap, grid, sign, level, spacing, i, j, k, d0, d1, d2, a0, a1, a2, b0, b1, b2, verts, normals,
                     values, n):
     """_vertex with the gradients at the edge's ends given (a at its start, b at its end)."""
-    v0 = sign * field[i, j, k]
-    v1 = sign * field[i + d0, j + d1, k + d2]
+    v0 = sign * sample(flat, swap, grid, i, j, k)
+    v1 = sign * sample(flat, swap, grid, i + d0, j + d1, k + d2)
     t = (level - v0) / (v1 - v0)
     t = min(max(t, EDGE_MARGIN), np.float32(1) - EDGE_MARGIN)
     zero = np.float32(0)
@@ -253,8 +124,8 @@ def _vertex_index(edges, vertex_offsets, i, j, k, kind):
     bit = k & 31
     index = vertex_offsets[i, j, w]
     for lower in range(kind):
-        index += _popcount(edges[i, j, w, lower])
-    return index + _popcount(edges[i, j, w, kind] & _low_bits(bit))
+        index += _popcount(np.int64(edges[i, j, w, lower]))
+    return index + _popcount(np.int64(edges[i, j, w, kind]) & _low_bits(bit))
 
 
 @_cached_njit(inline="always", error_model="numpy")
@@ -262,25 +133,25 @@ def _cube_rows(edges, vertex_offsets, i, j, w, masks, firsts):
     """masks and firsts of ROW_OWNER's rows: (0, 0, axis 0, 1, 2), (0, 1, axis 0, 2), (1, 0, axis 1, 2),
     (1, 1, axis 2)."""
     first = vertex_offsets[i, j, w]
-    masks[0] = edges[i, j, w, 0]
+    masks[0] = np.int64(edges[i, j, w, 0])
     firsts[0] = first
     first += _popcount(masks[0])
-    masks[1] = edges[i, j, w, 1]
+    masks[1] = np.int64(edges[i, j, w, 1])
     firsts[1] = first
-    masks[2] = edges[i, j, w, 2]
+    masks[2] = np.int64(edges[i, j, w, 2])
     firsts[2] = first + _popcount(masks[1])
-    masks[3] = edges[i, j + 1, w, 0]
+    masks[3] = np.int64(edges[i, j + 1, w, 0])
     firsts[3] = vertex_offsets[i, j + 1, w]
-    masks[4] = edges[i, j + 1, w, 2]
-    firsts[4] = firsts[3] + _popcount(masks[3]) + _popcount(edges[i, j + 1, w, 1])
-    first = vertex_offsets[i + 1, j, w] + _popcount(edges[i + 1, j, w, 0])
-    masks[5] = edges[i + 1, j, w, 1]
+    masks[4] = np.int64(edges[i, j + 1, w, 2])
+    firsts[4] = firsts[3] + _popcount(masks[3]) + _popcount(np.int64(edges[i, j + 1, w, 1]))
+    first = vertex_offsets[i + 1, j, w] + _popcount(np.int64(edges[i + 1, j, w, 0]))
+    masks[5] = np.int64(edges[i + 1, j, w, 1])
     firsts[5] = first
-    masks[6] = edges[i + 1, j, w, 2]
+    masks[6] = np.int64(edges[i + 1, j, w, 2])
     firsts[6] = first + _popcount(masks[5])
-    masks[7] = edges[i + 1, j + 1, w, 2]
-    firsts[7] = vertex_offsets[i + 1, j + 1, w] + _popcount(edges[i + 1, j + 1, w, 0]) + _popcount(
-        edges[i + 1, j + 1, w, 1])
+    masks[7] = np.int64(edges[i + 1, j + 1, w, 2])
+    firsts[7] = vertex_offsets[i + 1, j + 1, w] + _popcount(np.int64(edges[i + 1, j + 1, w, 0])) + _popcount(
+        np.int64(edges[i + 1, j + 1, w, 1]))
 
 
 @_cached_njit(inline="always", error_model="numpy")
@@ -303,10 +174,10 @@ def _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts
         oi = i + row_owner[r, 0]
         oj = j + row_owner[r, 1]
         kind = row_owner[r, 2]
-        masks[r] = edges[oi, oj, w, kind]
+        masks[r] = np.int64(edges[oi, oj, w, kind])
         first = vertex_offsets[oi, oj, w]
         for lower in range(kind):
-            first += _popcount(edges[oi, oj, w, lower])
+            first += _popcount(np.int64(edges[oi, oj, w, lower]))
         firsts[r] = first
     m = triangle_offsets[i, j, w]
     while cut:
@@ -327,13 +198,15 @@ def _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts
 
 
 @_cached_njit(parallel=True, error_model="numpy")
-def _write(field, sign, level, spacing, steps, signs, edges, vertex_offsets, triangle_offsets, table_counts,
-           corners, row_owner, verts, faces, normals, values):
+def _write(flat, swap, layout, sign, level, spacing, steps, signs, edges, vertex_offsets, triangle_offsets,
+           table_counts, corners, row_owner, verts, faces, normals, values):
     """Pass 4 (any kinds of edge: tetrahedra's): each word's vertices and triangles at its offsets."""
     n0, n1, nw = signs.shape
-    n2 = field.shape[2]
+    n2 = layout[6]
     rows = row_owner.shape[0]
     for i in prange(n0):
+        grid = (layout[0], layout[1], layout[2], layout[3], layout[4], layout[5], layout[6])  # a tuple in the
+        # loop's body (numba's parallel loops capture no tuples): its numbers stay in registers
         masks = np.empty(rows, np.int64)
         firsts = np.empty(rows, np.int64)
         for j in range(n1):
@@ -341,9 +214,9 @@ def _write(field, sign, level, spacing, steps, signs, edges, vertex_offsets, tri
                 k0 = w * WORD_BITS
                 n = vertex_offsets[i, j, w]
                 for kind in range(steps.shape[0]):
-                    bits = edges[i, j, w, kind]
+                    bits = np.int64(edges[i, j, w, kind])
                     while bits:
-                        _vertex(field, sign, level, spacing, i, j, k0 + _lowest_bit(bits), steps[kind, 0],
+                        _vertex(flat, swap, grid, sign, level, spacing, i, j, k0 + _lowest_bit(bits), steps[kind, 0],
                                 steps[kind, 1], steps[kind, 2], verts, normals, values, n)
                         bits &= bits - 1
                         n += 1
@@ -352,61 +225,106 @@ def _write(field, sign, level, spacing, steps, signs, edges, vertex_offsets, tri
 
 
 @_cached_njit(inline="always", error_model="numpy")
-def _plane_gradients(field, sign, spacing, edges, i, grads):
+def _plane_gradients(flat, swap, grid, sign, spacing, edges, i, grads):
     """grads[j, k] = the gradient (_gradient) at each sample (i, j, k) a crossing edge ends at: the plane's
     own edges (both ends) and the axis-0 edges of plane i - 1.  Cubes' edges only."""
     n1, nw = edges.shape[1], edges.shape[2]
     for j in range(n1):
         carry = np.int64(0)  # the end of the last word's edge at bit 31 along axis 2
         for w in range(nw):
-            e2 = edges[i, j, w, 2]
-            need = edges[i, j, w, 0] | edges[i, j, w, 1] | e2 | ((e2 << 1) & 0xFFFFFFFF) | carry
+            e2 = np.int64(edges[i, j, w, 2])
+            need = np.int64(edges[i, j, w, 0]) | np.int64(edges[i, j, w, 1]) | e2 | ((e2 << 1) & 0xFFFFFFFF) | carry
             carry = (e2 >> (WORD_BITS - 1)) & 1
             if i > 0:
-                need |= edges[i - 1, j, w, 0]
+                need |= np.int64(edges[i - 1, j, w, 0])
             if j > 0:
-                need |= edges[i, j - 1, w, 1]
+                need |= np.int64(edges[i, j - 1, w, 1])
             k0 = w * WORD_BITS
             while need:
                 k = k0 + _lowest_bit(need)
                 need &= need - 1
-                g0, g1, g2 = _gradient(field, sign, i, j, k, spacing)
+                g0, g1, g2 = _gradient(flat, swap, grid, sign, i, j, k, spacing)
                 grads[j, k, 0] = g0
                 grads[j, k, 1] = g1
                 grads[j, k, 2] = g2
 
 
 @_cached_njit(inline="always", error_model="numpy")
-def _axis_vertices(field, sign, level, spacing, edges, i, j, w, n, axis, starts, ends, end_row, verts, normals,
-                   values):
+def _edge_spread(flat, swap, grid, i, j, k, axis, level, columns):
+    """scikit-image's `values` of the vertex on the edge along `axis` from (i, j, k): the largest spread of
+    the cells next to the edge (`isoscope.cpu.skimage_values`, whose arithmetic this repeats: float64 of
+    each float32 sample less the level, each cell's range taken with 0).  The edge lies on grid planes of
+    the two other axes: the cells on both sides of each that the volume has, up to four.  Their corners are
+    up to nine columns of two samples (the edge's start and end plane), each read once: `columns` holds
+    each column's largest and smallest (a thread's scratch, 2 x 9)."""
+    at = grid[0] + i * grid[1] + j * grid[2] + k * grid[3]
+    if axis == 0:
+        step, sb, sc, xb, xc, nb, nc = grid[1], grid[2], grid[3], j, k, grid[5], grid[6]
+    elif axis == 1:
+        step, sb, sc, xb, xc, nb, nc = grid[2], grid[1], grid[3], i, k, grid[4], grid[6]
+    else:
+        step, sb, sc, xb, xc, nb, nc = grid[3], grid[1], grid[2], i, j, grid[4], grid[5]
+    b0, b1 = max(xb - 1, 0), min(xb, nb - 2)  # the cells along the two other axes
+    c0, c1 = max(xc - 1, 0), min(xc, nc - 2)
+    for pb in range(b0, b1 + 2):
+        for pc in range(c0, c1 + 2):
+            x = at + (pb - xb) * sb + (pc - xc) * sc
+            u = np.float64(np.float32(raw(flat, swap, x))) - level
+            v = np.float64(np.float32(raw(flat, swap, x + step))) - level
+            slot = (pb - xb + 1) * 3 + pc - xc + 1
+            columns[0, slot] = max(u, v)
+            columns[1, slot] = min(u, v)
+    best = 0.0
+    for qb in range(b0, b1 + 1):
+        for qc in range(c0, c1 + 1):
+            slot = (qb - xb + 1) * 3 + qc - xc + 1   # the cell's columns: slot, slot + 1, slot + 3, slot + 4
+            high = max(max(0.0, max(columns[0, slot], columns[0, slot + 1])),
+                       max(columns[0, slot + 3], columns[0, slot + 4]))
+            low = min(min(0.0, min(columns[1, slot], columns[1, slot + 1])),
+                      min(columns[1, slot + 3], columns[1, slot + 4]))
+            best = max(best, high - low)
+    return np.float32(best)
+
+
+@_cached_njit(inline="always", error_model="numpy")
+def _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, axis, starts, ends, end_row, verts,
+                   normals, values, spreads, spread_level, columns):
     """The vertices of word (i, j, w)'s edges along `axis` from row n on, their gradients from the planes
     of gradients (starts[j, k] at an edge's start, ends[end_row, k or k + 1] at its end); returns the next
-    row."""
-    bits = edges[i, j, w, axis]
+    row.  With `spreads`, values[n] is scikit-image's (_edge_spread at `spread_level`, `columns` its scratch), not
+    the level."""
+    bits = np.int64(edges[i, j, w, axis])
     d2 = 1 if axis == 2 else 0
     while bits:
         k = w * WORD_BITS + _lowest_bit(bits)
-        _vertex_between(field, sign, level, spacing, i, j, k, 1 if axis == 0 else 0, 1 if axis == 1 else 0, d2,
-                        starts[j, k, 0], starts[j, k, 1], starts[j, k, 2], ends[end_row, k + d2, 0],
-                        ends[end_row, k + d2, 1], ends[end_row, k + d2, 2], verts, normals, values, n)
+        _vertex_between(flat, swap, grid, sign, level, spacing, i, j, k, 1 if axis == 0 else 0,
+                        1 if axis == 1 else 0, d2, starts[j, k, 0], starts[j, k, 1], starts[j, k, 2],
+                        ends[end_row, k + d2, 0], ends[end_row, k + d2, 1], ends[end_row, k + d2, 2], verts, normals,
+                        values, n)
+        if spreads:
+            values[n] = _edge_spread(flat, swap, grid, i, j, k, axis, spread_level, columns)
         bits &= bits - 1
         n += 1
     return n
 
 
 @_cached_njit(parallel=True, error_model="numpy")
-def _write_cubes(field, sign, level, spacing, signs, edges, vertex_offsets, triangle_offsets, table_counts,
-                 corners, row_owner, workers, starts, taken, verts, faces, normals, values):
+def _write_cubes(flat, swap, layout, sign, level, spacing, signs, edges, vertex_offsets, triangle_offsets, table_counts,
+                 corners, row_owner, workers, starts, taken, verts, faces, normals, values, spreads, spread_level):
     """Pass 4 for cubes: _write's mesh, each sample's gradient computed once (not once per edge that ends
     there) into a plane of gradients, two planes held at a time.  The planes go in runs (starts[r] to
     starts[r + 1]) to `workers` threads, each taking the next run not yet taken (taken[0], reset to 0 by the
-    caller) when it is done with one: a thread the machine holds back leaves its runs to the other."""
+    caller) when it is done with one: a thread the machine holds back leaves its runs to the other.  With
+    `spreads`, the values are scikit-image's at `spread_level` (_edge_spread)."""
     n0, n1, nw = signs.shape
-    n2 = field.shape[2]
+    n2 = layout[6]
     rows = row_owner.shape[0]
     for _worker in prange(workers):
+        grid = (layout[0], layout[1], layout[2], layout[3], layout[4], layout[5], layout[6])  # a tuple in the
+        # loop's body (numba's parallel loops capture no tuples): its numbers stay in registers
         masks = np.empty(rows, np.int64)
         firsts = np.empty(rows, np.int64)
+        columns = np.empty((2, 9), np.float64)  # _edge_spread's scratch
         here = np.empty((n1, n2, 3), np.float32)  # the gradients of plane i
         after = np.empty((n1, n2, 3), np.float32)  # and of plane i + 1
         while True:
@@ -414,19 +332,19 @@ def _write_cubes(field, sign, level, spacing, signs, edges, vertex_offsets, tria
             if run >= starts.shape[0] - 1:
                 break
             if starts[run] < starts[run + 1]:
-                _plane_gradients(field, sign, spacing, edges, starts[run], here)
+                _plane_gradients(flat, swap, grid, sign, spacing, edges, starts[run], here)
             for i in range(starts[run], starts[run + 1]):
                 if i + 1 < n0:
-                    _plane_gradients(field, sign, spacing, edges, i + 1, after)
+                    _plane_gradients(flat, swap, grid, sign, spacing, edges, i + 1, after)
                 for j in range(n1):
                     for w in range(nw):
                         n = vertex_offsets[i, j, w]
-                        n = _axis_vertices(field, sign, level, spacing, edges, i, j, w, n, 0, here, after, j,
-                                           verts, normals, values)
-                        n = _axis_vertices(field, sign, level, spacing, edges, i, j, w, n, 1, here, here, j + 1,
-                                           verts, normals, values)
-                        n = _axis_vertices(field, sign, level, spacing, edges, i, j, w, n, 2, here, here, j,
-                                           verts, normals, values)
+                        n = _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, 0, here, after,
+                                           j, verts, normals, values, spreads, spread_level, columns)
+                        n = _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, 1, here, here,
+                                           j + 1, verts, normals, values, spreads, spread_level, columns)
+                        n = _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, 2, here, here,
+                                           j, verts, normals, values, spreads, spread_level, columns)
                         _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, corners,
                                         row_owner, i, j, w, n2, masks, firsts, faces, True)
                 here, after = after, here
@@ -458,16 +376,21 @@ def tetra_rows(kinds: np.ndarray):
 
 
 class CompiledCubes:
-    """The compiled extractor's state for one float32 volume: per word of 32 samples its sign bits, edge
-    masks and offsets (48 bytes a word for cubes' three kinds of edge, 80 for tetrahedra's seven) and,
+    """The compiled extractor's state for one volume, read in place (`samples.sample_view`: any memory order,
+    byte order and sample type, as float32): per word of 32 samples its sign bits, edge
+    masks and offsets (20 bytes a word for cubes' three kinds of edge, 36 for tetrahedra's seven) and,
     made on the first iso change, its value range (8 bytes a word), so a new level packs only the words it
     cuts.  `extract(level)` returns (verts, faces, normals, values).  With `tetrahedra`, the cells are
-    marched as six tetrahedra each (`isoscope.cpu.tetra`'s table, edges and order)."""
+    marched as six tetrahedra each (`isoscope.cpu.tetra`'s table, edges and order).
 
-    def __init__(self, field: np.ndarray, spacing, descent: bool, table: CaseTable | None = None,
-                 reuse_outputs: bool = False, tetrahedra: bool = False):
-        if field.dtype != np.float32 or field.ndim != 3 or not field.flags.c_contiguous:
-            raise ValueError("CompiledCubes takes a C-contiguous 3-D float32 volume")
+    `value_range`: the samples' (smallest, largest), or None where nothing has scanned them: the first
+    extraction then measures it in pass 1, which reads every sample anyway, and hands it to its `accept`
+    (None where a sample is NaN or infinite) before the mesh is written."""
+
+    def __init__(self, volume: np.ndarray | SampleView, spacing, descent: bool, table: CaseTable | None = None,
+                 reuse_outputs: bool = False, tetrahedra: bool = False, value_range=None):
+        view = volume if isinstance(volume, SampleView) else sample_view(volume)
+        self.value_range = value_range
         if tetrahedra:
             from .tetra import KINDS, tetra_table
             table = table or tetra_table()
@@ -476,20 +399,22 @@ class CompiledCubes:
         else:
             table = table or montani_table()
             self._steps, self._row_owner, self._edge_row = CUBE_STEPS, ROW_OWNER, EDGE_ROW
-        self.field = field
+        self.view = view
         self.sign = np.float32(1.0 if descent else -1.0)
         self.spacing = np.asarray(spacing, dtype=np.float64).astype(np.float32)
-        n0, n1, n2 = field.shape
+        n0, n1, n2 = view.shape
         nw = -(-n2 // WORD_BITS)
         self._counts = table.counts.astype(np.int64)
         # Each triangle corner's edge as its row << 1 | its step along axis 2 (the table's -1 padding: 0).
         triangles = table.triangles.astype(np.int64)
         self._corners = np.where(triangles >= 0, self._edge_row[triangles, 0] * 2 + self._edge_row[triangles, 1],
                                  0).astype(np.int32)
-        self._signs = np.empty((n0, n1, nw), np.int64)
-        self._edges = np.empty((n0, n1, nw, len(self._steps)), np.int64)
-        self._vertex_offsets = np.empty((n0, n1, nw), np.int64)
-        self._triangle_offsets = np.empty((n0, n1, nw), np.int64)
+        # 32-bit words and counts (a word's bits, a mesh's vertex and triangle numbers: faces are int32): the
+        # passes are bound by these arrays' memory traffic, 20 bytes a word for cubes, not 48 at 64 bits.
+        self._signs = np.empty((n0, n1, nw), np.uint32)
+        self._edges = np.empty((n0, n1, nw, len(self._steps)), np.uint32)
+        self._vertex_offsets = np.empty((n0, n1, nw), np.int32)
+        self._triangle_offsets = np.empty((n0, n1, nw), np.int32)
         self._plane_work = np.empty(n0, np.int64)
         self.runs = None  # the runs of planes pass 4 hands to the threads; None: RUNS_PER_THREAD a thread
         self._taken = np.zeros(2, np.int64)  # the runs taken: in pass 4, in passes 1 and 2
@@ -519,13 +444,15 @@ class CompiledCubes:
         if self._lows is None:
             lows = np.empty(self._signs.shape, np.float32)
             highs = np.empty(self._signs.shape, np.float32)
-            _word_ranges(self.field, lows, highs)
+            view = self.view
+            _word_ranges(view.flat, view.swap, view.grid, view.order, lows, highs)
             self._lows, self._highs = lows, highs
 
     def _plane_runs(self, workers: int) -> np.ndarray:
         """Runs of planes of equal size for passes 1 and 2."""
-        runs = min(self.runs or RUNS_PER_THREAD * workers, self.field.shape[0])
-        return np.linspace(0, self.field.shape[0], runs + 1).astype(np.int64)
+        n0 = self.view.shape[0]
+        runs = min(self.runs or RUNS_PER_THREAD * workers, n0)
+        return np.linspace(0, n0, runs + 1).astype(np.int64)
 
     def _runs(self, workers: int) -> np.ndarray:
         """The first plane of each run (and the end): runs of planes with equal shares of the work."""
@@ -535,11 +462,16 @@ class CompiledCubes:
         inner = np.searchsorted(done, shares, side="right")
         return np.concatenate(([0], inner, [len(done)])).astype(np.int64)
 
-    def extract(self, level: float):
+    def extract(self, level: float, accept=None, skimage_values: bool = False):
+        """The mesh at `level`; `accept(value_range)`, where the range is measured in this pass 1, may raise
+        to stop before the mesh is written (a level outside the range, a NaN sample: value_range None).
+        With `skimage_values` (cubes only), the values are scikit-image's (`isoscope.cpu.skimage_values`),
+        made as the vertices are, not the level."""
         with _launch_guard():
-            return self._extract(level)
+            return self._extract(level, accept, skimage_values)
 
-    def _extract(self, level: float):
+    def _extract(self, level: float, accept=None, skimage_values: bool = False):
+        user_level = float(level)
         if self.extractions >= 1:
             self.measure_ranges()  # an iso change: worth a pass over the samples for the words' ranges
         self.extractions += 1
@@ -549,17 +481,39 @@ class CompiledCubes:
         highs = self._highs if ranged else lows
         workers = numba.get_num_threads()
         self._taken[:] = 0
-        _pack_and_count(self.field, self.sign, level, lows, highs, ranged, self._signs, self._steps, self._counts,
-                        self._edges, self._vertex_offsets, self._triangle_offsets, self._plane_work, workers,
-                        self._plane_runs(workers), self._taken[1:])
+        flat, swap, grid = self.view.flat, self.view.swap, self.view.grid
+        along_0 = self.view.order == ORDER_F
+        block_rows = rows_per_block(self.view.shape)
+        measure = self.value_range is None and not ranged
+        parts = -(-self.view.shape[1] // block_rows) if along_0 else self.view.shape[0]
+        los, his = np.empty(parts, flat.dtype), np.empty(parts, flat.dtype)
+        nans = np.zeros(parts, np.bool_)
+        if along_0:  # pass 1 in the volume's memory order, then pass 2
+            _pack_rows_along_0(flat, swap, grid, self.sign, level, lows, highs, ranged, self._signs, block_rows,
+                               measure, los, his, nans)
+        _pack_and_count(flat, swap, grid, not along_0, self.sign, level, lows, highs, ranged, self._signs,
+                        self._steps, self._counts, self._edges, self._vertex_offsets, self._triangle_offsets,
+                        self._plane_work, workers, self._plane_runs(workers), self._taken[1:], measure, los, his,
+                        nans)
+        if measure:
+            lo, hi = float(los.min()), float(his.max())
+            finite = not nans.any() and np.isfinite(lo) and np.isfinite(hi)
+            self.value_range = (lo, hi) if finite else None
+            if accept is not None:
+                accept(self.value_range)
         n_vertices, n_triangles = _scan(self._vertex_offsets, self._triangle_offsets)
+        if max(n_vertices, n_triangles) > MAX_INDEX:
+            raise ValueError(f"the mesh at level {user_level:g} has {n_vertices:,} vertices and {n_triangles:,} "
+                             f"triangles, more than int32 faces index ({MAX_INDEX:,}); extract it in pieces "
+                             "(chunks=128) or at a coarser step_size")
         verts, faces, normals, values = self._output_arrays(n_vertices, n_triangles)
         if self._steps is CUBE_STEPS:
-            _write_cubes(self.field, self.sign, level, self.spacing, self._signs, self._edges, self._vertex_offsets,
-                         self._triangle_offsets, self._counts, self._corners, self._row_owner,
-                         workers, self._runs(workers), self._taken, verts, faces, normals, values)
+            _write_cubes(flat, swap, grid, self.sign, level, self.spacing, self._signs, self._edges,
+                         self._vertex_offsets, self._triangle_offsets, self._counts, self._corners, self._row_owner,
+                         workers, self._runs(workers), self._taken, verts, faces, normals, values, skimage_values,
+                         user_level)
         else:
-            _write(self.field, self.sign, level, self.spacing, self._steps, self._signs, self._edges,
+            _write(flat, swap, grid, self.sign, level, self.spacing, self._steps, self._signs, self._edges,
                    self._vertex_offsets, self._triangle_offsets, self._counts, self._corners, self._row_owner,
                    verts, faces, normals, values)
         return verts, faces, normals, values
@@ -569,11 +523,9 @@ def marching_cubes_compiled(volume: np.ndarray, level: float, spacing=(1.0, 1.0,
                             table: CaseTable | None = None):
     """`cubes.marching_cubes_reference`'s mesh from the compiled kernels: verts (N, 3) float32, faces (M, 3)
     int32, normals (N, 3) float32, values (N,) float32.  `volume` must already be validated."""
-    field = np.ascontiguousarray(volume, dtype=np.float32)
-    return CompiledCubes(field, spacing, descent, table).extract(level)
+    return CompiledCubes(volume, spacing, descent, table).extract(level)
 
 
 def marching_tetrahedra_compiled(volume: np.ndarray, level: float, spacing=(1.0, 1.0, 1.0), descent: bool = True):
     """`tetra.marching_tetrahedra_reference`'s mesh from the compiled kernels (the same arrays)."""
-    field = np.ascontiguousarray(volume, dtype=np.float32)
-    return CompiledCubes(field, spacing, descent, tetrahedra=True).extract(level)
+    return CompiledCubes(volume, spacing, descent, tetrahedra=True).extract(level)

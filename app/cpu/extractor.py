@@ -19,7 +19,8 @@ __all__ = ["CpuExtractor"]
 
 
 class CpuExtractor:
-    """Keeps one volume in memory (as float32) and extracts its marching-cubes isosurface at any level.
+    """Keeps one volume in memory (as given: its own type and memory order) and extracts its marching-cubes
+    isosurface at any level.
 
     Parameters
     ----------
@@ -52,30 +53,38 @@ class CpuExtractor:
         if backend not in ("cpu", "numpy"):
             raise ValueError(f"backend {backend!r} is not one of ('cpu', 'numpy')")
         checked = validation.check_volume(volume)
-        self.spacing = validation.as_spacing(spacing, checked.data.shape)
+        self.spacing = validation.as_spacing(spacing, checked.samples.shape)
         self.descent = validation.as_gradient_direction(gradient_direction)
         self.gradient_direction = gradient_direction
         self.value_range = checked.value_range
-        self.shape = tuple(int(n) for n in checked.data.shape)
-        self._field = np.ascontiguousarray(checked.data, dtype=np.float32)
+        self.shape = tuple(int(n) for n in checked.samples.shape)
         self.backend = backend
         self.table = table or montani_table()
+        self._checked = checked
         self._compiled = None
         if backend == "cpu":
             from .compiled import CompiledCubes  # numba loads on first use: `import isoscope` stays light
-            self._compiled = CompiledCubes(self._field, self.spacing, self.descent, self.table, reuse_outputs=True)
+            # the samples read where they lie, in their own type and order: no float32 copy of the volume
+            self._compiled = CompiledCubes(checked.samples, self.spacing, self.descent, self.table,
+                                           reuse_outputs=True, value_range=self.value_range)
         self._mesh = None
+        self._field = None
         self.level: float | None = None
         self.n_vertices = self.n_triangles = 0
 
     @property
-    def field(self) -> np.ndarray:
-        """The resident samples (float32, C order); None after release."""
+    def field(self) -> np.ndarray | None:
+        """The samples as float32 in C order (for smoothing and sharp features), made on first use; None after
+        release.  The compiled extractor itself reads the volume as it was given."""
+        if self._checked is None:
+            return None
+        if self._field is None:
+            self._field = np.ascontiguousarray(self._checked.data, dtype=np.float32)
         return self._field
 
     def extract(self, level: float) -> tuple[int, int]:
         """Extract the surface at `level` (within value_range); returns (vertices, triangles)."""
-        if self._field is None:
+        if self._checked is None:
             raise ValueError("this CpuExtractor was released; make a new one")
         level = validation.as_level(level, self.value_range)
         self._mesh = self._extract(level)
@@ -86,7 +95,7 @@ class CpuExtractor:
     def _extract(self, level: float):
         if self._compiled is not None:
             return self._compiled.extract(level)
-        return marching_cubes_reference(self._field, level, self.spacing, self.descent, self.table)
+        return marching_cubes_reference(self.field, level, self.spacing, self.descent, self.table)
 
     @property
     def mesh(self):
@@ -104,7 +113,7 @@ class CpuExtractor:
 
     def release(self) -> None:
         """Drop the volume and the mesh; safe to call twice."""
-        self._field = None
+        self._checked = self._field = None
         self._compiled = None
         self._mesh = None
 

@@ -83,8 +83,8 @@ def _low_bits(count):
 @_cached_njit(inline="always", error_model="numpy")
 def _shifted(signs, i, j, w, nw):
     """The word's bits moved down by one, the next word's first bit on top: bit k is sample k + 1."""
-    s = signs[i, j, w]
-    nxt = (signs[i, j, w + 1] & 1) << (WORD_BITS - 1) if w + 1 < nw else 0
+    s = np.int64(signs[i, j, w])
+    nxt = (np.int64(signs[i, j, w + 1]) & 1) << (WORD_BITS - 1) if w + 1 < nw else 0
     return (s >> 1) | nxt
 
 
@@ -92,10 +92,10 @@ def _shifted(signs, i, j, w, nw):
 def _cut_cells(signs, i, j, w, nw, cell_mask):
     """The word's cells with corners on both sides of the level (bit k: cell (i, j, 32 w + k)) and its
     four rows' words, plain and shifted by one sample."""
-    a = signs[i, j, w]
-    b = signs[i + 1, j, w]
-    c = signs[i, j + 1, w]
-    d = signs[i + 1, j + 1, w]
+    a = np.int64(signs[i, j, w])
+    b = np.int64(signs[i + 1, j, w])
+    c = np.int64(signs[i, j + 1, w])
+    d = np.int64(signs[i + 1, j + 1, w])
     a1 = _shifted(signs, i, j, w, nw)
     b1 = _shifted(signs, i + 1, j, w, nw)
     c1 = _shifted(signs, i, j + 1, w, nw)

@@ -26,7 +26,8 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from .compiled import _cached_njit, _launch_guard
+from .jit import _cached_njit, _launch_guard
+from .samples import sample, sample_view
 
 __all__ = ["skimage_orientation", "skimage_values"]
 
@@ -46,10 +47,13 @@ def _cell_span(c, n_cells):
 
 
 @_cached_njit(parallel=True, error_model="numpy")
-def _spreads(field, row0, n_cells, verts, spacing, level, mask, use_mask, step, out):
-    """out[n]: the largest spread over the cells vertex n touches (those the mask keeps); `field` holds
-    the grid's samples from row `row0` of axis 0 on, `verts / spacing` are the vertices' positions in cells."""
+def _spreads(flat, swap, layout, row0, n_cells, verts, spacing, level, mask, use_mask, step, out):
+    """out[n]: the largest spread over the cells vertex n touches (those the mask keeps); the samples
+    (`isoscope.cpu.samples`: flat, swap, layout) hold the layout's samples from row `row0` of axis 0 on,
+    `verts / spacing` are the vertices' positions in cells."""
     for n in prange(verts.shape[0]):
+        grid = (layout[0], layout[1], layout[2], layout[3], layout[4], layout[5], layout[6])  # a tuple in the
+        # loop's body (numba's parallel loops capture no tuples): its numbers stay in registers
         lo0, hi0 = _cell_span(np.float64(verts[n, 0]) / spacing[0], n_cells[0])
         lo1, hi1 = _cell_span(np.float64(verts[n, 1]) / spacing[1], n_cells[1])
         lo2, hi2 = _cell_span(np.float64(verts[n, 2]) / spacing[2], n_cells[2])
@@ -62,7 +66,7 @@ def _spreads(field, row0, n_cells, verts, spacing, level, mask, use_mask, step, 
                     high = 0.0
                     low = 0.0
                     for c in range(8):
-                        v = np.float64(np.float32(field[i - row0 + (c & 1), j + (c >> 1 & 1), k + (c >> 2)]))
+                        v = np.float64(sample(flat, swap, grid, i - row0 + (c & 1), j + (c >> 1 & 1), k + (c >> 2)))
                         v -= level
                         high = max(high, v)
                         low = min(low, v)
@@ -111,8 +115,10 @@ def skimage_values(field, verts, level, spacing, mask=None, step=1) -> np.ndarra
     mask = np.ones((1, 1, 1), np.bool_) if mask is None else np.ascontiguousarray(mask, np.bool_)
     level = float(level)
     if isinstance(field, np.ndarray):
+        view = sample_view(field)   # read in place: any memory order, byte order, 8- to 64-bit type
         with _launch_guard():
-            _spreads(np.asarray(field), 0, n_cells, verts, spacing, level, mask, use_mask, int(step), out)
+            _spreads(view.flat, view.swap, view.grid, 0, n_cells, verts, spacing, level, mask, use_mask, int(step),
+                     out)
         return out
     # Slabs of SLAB_CELLS cells along axis 0: a vertex belongs to the slab of the cell its coordinate
     # rounds into, and touches at most the cell before it, so each slab reads one plane more each side.
@@ -122,9 +128,10 @@ def skimage_values(field, verts, level, spacing, mask=None, step=1) -> np.ndarra
     for slab in np.flatnonzero(np.diff(bounds)):
         which = order[bounds[slab]:bounds[slab + 1]]
         row0 = max(slab * SLAB_CELLS - 1, 0)
-        block = np.asarray(field[row0:min((slab + 1) * SLAB_CELLS + 2, field.shape[0])])
+        block = sample_view(np.asarray(field[row0:min((slab + 1) * SLAB_CELLS + 2, field.shape[0])]))
         part = np.zeros(len(which), np.float32)
         with _launch_guard():
-            _spreads(block, row0, n_cells, verts[which], spacing, level, mask, use_mask, int(step), part)
+            _spreads(block.flat, block.swap, block.grid, row0, n_cells, verts[which], spacing, level, mask, use_mask,
+                     int(step), part)
         out[which] = part
     return out

@@ -25,6 +25,8 @@ REQUIRED_GL = 430  # compute shaders and SSBOs
 DRAWING_GL = 410   # the least the viewer and `isoscope render` draw with (4.1 core: macOS)
 
 _standalone: moderngl.Context | None = None
+_no_standalone: GLUnavailable | None = None  # why no standalone context could be made: not tried again
+_one_shot: str | None = None  # one_shot_backend's choice, made once per process
 
 
 class GLUnavailable(IsoscopeError, RuntimeError):
@@ -80,8 +82,9 @@ def current_or_standalone(require: int = REQUIRED_GL) -> moderngl.Context:
 
     Whether one is current is asked of libGL directly: moderngl's own detection looks for libGL
     with ctypes.util.find_library, which runs `ldconfig -p` in a subprocess, ~2.3 ms a call, and
-    every one-shot `marching_cubes` asked twice."""
-    global _standalone
+    every one-shot `marching_cubes` asked twice.  Where no standalone context can be made, that is
+    remembered: the search cost 10-15 ms, and a machine without GL does not grow one."""
+    global _standalone, _no_standalone
     if _window_context_current() is not False:
         try:
             ctx = moderngl.create_context(require=DRAWING_GL)
@@ -89,8 +92,14 @@ def current_or_standalone(require: int = REQUIRED_GL) -> moderngl.Context:
             ctx = None
         if ctx is not None:
             return _check_version(ctx, require)
+    if _no_standalone is not None:
+        raise _no_standalone
     if _standalone is None:
-        _standalone = standalone(DRAWING_GL)
+        try:
+            _standalone = standalone(DRAWING_GL)
+        except GLUnavailable as exc:
+            _no_standalone = exc
+            raise
     return _check_version(_standalone, require)
 
 
@@ -125,12 +134,15 @@ def one_shot_backend() -> str:
     map): the GPU where an OpenGL 4.3 context can be had on real graphics hardware; the compiled CPU
     extractor where there is none, or where that context is a software renderer such as llvmpipe, which
     runs the compute passes on the same CPU cores and measured 1.2-3x slower one-shot than the compiled
-    kernels (benchmarks/results-llvmpipe.md), unless numba is missing.  The same mesh either way."""
-    try:
-        ctx = current_or_standalone()
-    except GLUnavailable:
-        return "cpu"
-    return one_shot_backend_on(ctx)
+    kernels (benchmarks/results-llvmpipe.md), unless numba is missing.  The same mesh either way.
+    Decided once per process (the machine's GL does not change under it): a call costs nothing more."""
+    global _one_shot
+    if _one_shot is None:
+        try:
+            _one_shot = one_shot_backend_on(current_or_standalone())
+        except GLUnavailable:
+            _one_shot = "cpu"
+    return _one_shot
 
 
 def one_shot_backend_on(ctx: moderngl.Context) -> str:
@@ -144,14 +156,18 @@ def gl_summary(ctx: moderngl.Context) -> str:
 
 
 def describe() -> str:
-    """What `isoscope --version` says of GL here: the context to be had, and which extractor makes meshes."""
+    """What `isoscope --version` says of GL here: the context to be had, which extractor the viewer uses,
+    and what backend="auto" gives one-shot calls (marching_cubes, export)."""
+    one_shot = {"cpu": "the compiled CPU extractor", "gpu": "the GPU"}[one_shot_backend()]
+    one_shot = f"one-shot calls (marching_cubes, isosurface, export; backend='auto'): {one_shot}"
     try:
         ctx = current_or_standalone(DRAWING_GL)
     except GLUnavailable as exc:
         return (f"no OpenGL here ({str(exc).split(': ', 1)[-1][:120]}): CPU extractor; `isoscope export` and the "
-                "API work, the viewer and `isoscope render` need OpenGL 4.1")
+                f"API work, the viewer and `isoscope render` need OpenGL 4.1\n{one_shot}")
     renderer = ctx.info.get("GL_RENDERER", "unknown renderer")
     if has_compute(ctx):
-        return f"OpenGL {version_text(ctx.version_code)} ({renderer}): GPU extractor (compute shaders)"
+        return (f"OpenGL {version_text(ctx.version_code)} ({renderer}): GPU extractor for the viewer and Extractor "
+                f"(compute shaders)\n{one_shot}")
     return (f"OpenGL {version_text(ctx.version_code)} ({renderer}): CPU extractor (no compute shaders below "
-            f"{version_text(REQUIRED_GL)}); the viewer and `isoscope render` draw its meshes")
+            f"{version_text(REQUIRED_GL)}); the viewer and `isoscope render` draw its meshes\n{one_shot}")

@@ -60,8 +60,8 @@ def slab_samples(data, ranges, far: np.float32) -> np.ndarray:
 def extractor(cells: str):
     """The extraction isoscope draws, exports and measures: outward-wound cubes (the public `marching_cubes`
     is scikit-image's drop-in, wound the other way), or marching tetrahedra."""
-    from ...api import marching_tetrahedra, outward_marching_cubes
-    return marching_tetrahedra if cells == "tetrahedra" else outward_marching_cubes
+    from ...one_shot import cubes, tetrahedra
+    return tetrahedra if cells == "tetrahedra" else cubes
 
 
 def caps(data, level: float, spacing=(1.0, 1.0, 1.0), gradient_direction: str = "descent", value_range=None,

@@ -1,0 +1,302 @@
+"""Passes 1 to 3 of the compiled CPU extractor (`isoscope.cpu.compiled`): the volume's inside bits packed 32
+to a word along axis 2, each word's crossing edges and counts, and their prefix sums.
+
+The samples are read where they lie (`isoscope.cpu.samples`): a volume whose axis 2 is contiguous (C order)
+a row of 32 samples a word, one whose axis 0 is (Fortran order: nibabel's) in blocks of rows of axis 0,
+each row setting one bit of n0 words; every such row is a slice LLVM vectorizes.  A volume nothing has
+scanned before has its value range measured in the same reads (`measure`).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import prange
+
+from ..core.layout import BRICK_I, BRICK_J, WORD_BITS
+from .jit import _cached_njit, _case, _cut_cells, _low_bits, _lowest_bit, _popcount, _shifted, _take
+from .samples import ORDER_F, raw, sample
+
+# Pass 4's time per word, vertex and triangle, roughly (in 2 ns on one core here): how planes are split in runs.
+WORK_WORD, WORK_VERTEX, WORK_TRIANGLE = 1, 16, 4
+
+
+@_cached_njit(parallel=True, error_model="numpy")
+def _word_ranges(flat, swap, layout, order, lows, highs):
+    """The smallest and largest sample (as float32) of each word (its 32 samples along axis 2 and the next
+    one, the far end of its last edge).  A volume whose axis 0 is contiguous (ORDER_F) is read a row of
+    axis 0 at a time, each row updating the ranges of n0 words at once."""
+    off, s1, s2 = layout[0], layout[2], layout[3]
+    n0, n1, n2 = layout[4], layout[5], layout[6]
+    nw = lows.shape[2]
+    if order == ORDER_F:
+        for j in prange(n1):
+            lo = np.empty(n0, np.float32)
+            hi = np.empty(n0, np.float32)
+            for w in range(nw):
+                k0 = w * WORD_BITS
+                k1 = min(k0 + WORD_BITS + 1, n2)
+                for k in range(k0, k1):
+                    start = off + j * s1 + k * s2
+                    for i in range(n0):
+                        v = np.float32(raw(flat, swap, start + i))
+                        lo[i] = v if k == k0 else min(lo[i], v)
+                        hi[i] = v if k == k0 else max(hi[i], v)
+                for i in range(n0):
+                    lows[i, j, w] = lo[i]
+                    highs[i, j, w] = hi[i]
+        return
+    for i in prange(n0):
+        grid = (layout[0], layout[1], layout[2], layout[3], layout[4], layout[5], layout[6])  # a tuple in the
+        # loop's body (numba's parallel loops capture no tuples): its numbers stay in registers
+        for j in range(n1):
+            for w in range(nw):
+                k0 = w * WORD_BITS
+                k1 = min(k0 + WORD_BITS + 1, n2)
+                lo = sample(flat, swap, grid, i, j, k0)
+                hi = lo
+                for k in range(k0 + 1, k1):
+                    v = sample(flat, swap, grid, i, j, k)
+                    lo = min(lo, v)
+                    hi = max(hi, v)
+                lows[i, j, w] = lo
+                highs[i, j, w] = hi
+
+
+@_cached_njit(inline="always", error_model="numpy")
+def _word_outside(sign, level, lows, highs, i, j, w, count):
+    """With the words' ranges known: -1 where the level does not cut word (i, j, w) and every sample is
+    inside (the word is all ones), 0 where every sample is outside, 1 where its samples must be read."""
+    lo = sign * lows[i, j, w]
+    hi = sign * highs[i, j, w]
+    if hi < lo:
+        lo, hi = hi, lo
+    if lo >= level:
+        return -1
+    if hi < level:
+        return 0
+    return 1
+
+
+@_cached_njit(inline="always", error_model="numpy")
+def _extent(values, lo, hi, nan):
+    """lo, hi and nan (a NaN seen) taken over `values` too: a loop LLVM vectorizes."""
+    for x in range(values.shape[0]):
+        v = values[x]
+        lo = min(lo, v)
+        hi = max(hi, v)
+        nan |= v != v
+    return lo, hi, nan
+
+
+@_cached_njit(error_model="numpy")
+def _pack_plane(flat, swap, grid, sign, level, lows, highs, ranged, signs, i, measure, los, his, nans):
+    """Pass 1 on plane i: bit k of signs[i, j, w] is set where sample (i, j, 32 w + k) of the signed field
+    (sign * field) is at or above `level`.  With `ranged`, lows/highs (the words' ranges of `field`)
+    let a word the level does not cut be filled without reading its samples.  With `measure`, the plane's
+    smallest and largest sample (in their own type) go to los[i] and his[i], and whether one is NaN to
+    nans[i]: the value range of a volume nothing scanned before, read in the same pass."""
+    off, s0, s1, s2 = grid[0], grid[1], grid[2], grid[3]
+    n1, n2 = grid[5], grid[6]
+    nw = signs.shape[2]
+    contiguous = s2 == 1 and not swap
+    lo = raw(flat, swap, off + i * s0)
+    hi = lo
+    nan = False
+    for j in range(n1):
+        row = off + i * s0 + j * s1
+        if measure and contiguous:
+            lo, hi, nan = _extent(flat[row:row + n2], lo, hi, nan)
+        for w in range(nw):
+            k0 = w * WORD_BITS
+            count = min(WORD_BITS, n2 - k0)
+            if ranged:
+                outside = _word_outside(sign, level, lows, highs, i, j, w, count)
+                if outside <= 0:
+                    signs[i, j, w] = _low_bits(count) if outside else 0
+                    continue
+            word = np.int64(0)
+            start = row + k0 * s2
+            if contiguous:  # on a slice of the row, which LLVM vectorizes
+                samples = flat[start:start + count]
+                for b in range(count):
+                    word |= np.int64(sign * np.float32(samples[b]) >= level) << b
+            else:
+                for b in range(count):
+                    v = raw(flat, swap, start + b * s2)
+                    word |= np.int64(sign * np.float32(v) >= level) << b
+                    if measure:
+                        lo = min(lo, v)
+                        hi = max(hi, v)
+                        nan |= v != v
+            signs[i, j, w] = word
+    if measure:
+        los[i] = lo
+        his[i] = hi
+        nans[i] = nan
+
+
+BLOCK_BYTES = 1 << 20
+"""_pack_rows_along_0 gathers the words of a block of rows of axis 1 (at most 32 rows, at most this many bytes
+of words: a core's L2 cache) before it stores them to signs plane by plane, 32 x nw words in a row, not one
+word per cache line; the rows of a block lie one after another in the volume's memory."""
+
+
+def rows_per_block(shape) -> int:
+    n0, _, n2 = shape
+    return int(max(1, min(32, BLOCK_BYTES // (4 * n0 * -(-n2 // WORD_BITS)))))
+
+
+@_cached_njit(parallel=True, error_model="numpy")
+def _pack_rows_along_0(flat, swap, grid, sign, level, lows, highs, ranged, signs, block_rows, measure, los,
+                       his, nans):
+    """Pass 1 for a volume whose axis 0 is contiguous (ORDER_F, nibabel's arrays): _pack_plane's words, read
+    in memory order.  Per row (j, w) of words, bit b of all n0 words is set from the contiguous row of
+    samples (:, j, 32 w + b); with `ranged` only the words the level cuts are read.  Rows of axis 1 go in
+    blocks of `block_rows` (rows_per_block) to the threads.  With `measure`, _pack_plane's extent of each
+    block's samples goes to los, his and nans[block]."""
+    off, s1, s2 = grid[0], grid[2], grid[3]
+    n0, n1, n2 = grid[4], grid[5], grid[6]
+    nw = signs.shape[2]
+    blocks = -(-n1 // block_rows)
+    for block in prange(blocks):
+        j0 = block * block_rows
+        rows = min(block_rows, n1 - j0)
+        bits = np.empty((rows, nw, n0), np.uint32)
+        cut = np.empty((rows, n0), np.int64)
+        cuts = np.empty(rows, np.int64)
+        lo = raw(flat, swap, off + j0 * s1)
+        hi = lo
+        nan = False
+        for w in range(nw):
+            k0 = w * WORD_BITS
+            count = min(WORD_BITS, n2 - k0)
+            every = True
+            for r in range(rows):
+                found = 0
+                for i in range(n0):
+                    outside = _word_outside(sign, level, lows, highs, i, j0 + r, w, count) if ranged else 1
+                    bits[r, w, i] = np.uint32(_low_bits(count)) if outside < 0 else np.uint32(0)
+                    if outside > 0:
+                        cut[r, found] = i
+                        found += 1
+                cuts[r] = found
+                every &= found == n0
+            for b in range(count):  # the block's rows of sample 32 w + b lie one after another in memory
+                shift = np.uint32(b)
+                for r in range(rows):
+                    start = off + (j0 + r) * s1 + (k0 + b) * s2
+                    words = bits[r, w]
+                    if every and not swap:  # every word read: on a slice of the row, which LLVM vectorizes
+                        row = flat[start:start + n0]
+                        for i in range(n0):
+                            words[i] |= np.uint32(sign * np.float32(row[i]) >= level) << shift
+                        if measure:
+                            lo, hi, nan = _extent(row, lo, hi, nan)
+                    else:
+                        for c in range(cuts[r]):
+                            i = cut[r, c]
+                            v = raw(flat, swap, start + i)
+                            words[i] |= np.uint32(sign * np.float32(v) >= level) << shift
+                            if measure:
+                                lo = min(lo, v)
+                                hi = max(hi, v)
+                                nan |= v != v
+        for i in range(n0):
+            for r in range(rows):
+                for w in range(nw):
+                    signs[i, j0 + r, w] = bits[r, w, i]
+        if measure:
+            los[block] = lo
+            his[block] = hi
+            nans[block] = nan
+
+
+@_cached_njit(error_model="numpy")
+def _count_plane(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts, plane_work, i):
+    """Pass 2 on plane i: per word, the crossing-edge masks (edges[i, j, w, kind]: the edges from its samples
+    to the samples steps[kind] away), its vertex count and triangle count; an estimate of pass 4's time
+    on the plane (WORK_* units).  Three steps must be the axes in order (CUBE_STEPS)."""
+    n0, n1, nw = signs.shape
+    axes_only = steps.shape[0] == 3
+    work = n1 * nw * WORK_WORD
+    for j in range(n1):
+        for w in range(nw):
+            k0 = w * WORD_BITS
+            s = np.int64(signs[i, j, w])
+            # Edges with a step along axis 2 end in the row: the last sample owns none.
+            along2 = _low_bits(min(WORD_BITS, n2 - 1 - k0))
+            if axes_only:  # cubes (steps the three axes, in order): unrolled, 40% of this pass's time
+                e0 = s ^ np.int64(signs[i + 1, j, w]) if i + 1 < n0 else 0
+                e1 = s ^ np.int64(signs[i, j + 1, w]) if j + 1 < n1 else 0
+                e2 = (s ^ _shifted(signs, i, j, w, nw)) & along2
+                edges[i, j, w, 0] = e0
+                edges[i, j, w, 1] = e1
+                edges[i, j, w, 2] = e2
+                vertices = _popcount(e0) + _popcount(e1) + _popcount(e2)
+            else:
+                vertices = 0
+                for kind in range(steps.shape[0]):
+                    oi = i + steps[kind, 0]
+                    oj = j + steps[kind, 1]
+                    e = 0
+                    if oi < n0 and oj < n1:
+                        if steps[kind, 2]:
+                            e = (s ^ _shifted(signs, oi, oj, w, nw)) & along2
+                        else:
+                            e = s ^ np.int64(signs[oi, oj, w])
+                    edges[i, j, w, kind] = e
+                    vertices += _popcount(e)
+            vertex_counts[i, j, w] = vertices
+            triangles = 0
+            if i + 1 < n0 and j + 1 < n1:
+                cut, a, b, c, d, a1, b1, c1, d1 = _cut_cells(signs, i, j, w, nw, along2)
+                while cut:
+                    k = _lowest_bit(cut)
+                    cut &= cut - 1
+                    triangles += table_counts[_case(k, a, b, c, d, a1, b1, c1, d1)]
+            triangle_counts[i, j, w] = triangles
+            work += vertices * WORK_VERTEX + triangles * WORK_TRIANGLE
+    plane_work[i] = work
+
+
+@_cached_njit(parallel=True, error_model="numpy")
+def _pack_and_count(flat, swap, layout, pack, sign, level, lows, highs, ranged, signs, steps, table_counts, edges,
+                    vertex_counts, triangle_counts, plane_work, workers, starts, taken, measure, los, his, nans):
+    """Passes 1 and 2 in one launch (one wait for the threads, not two), over runs of planes (starts[r] to
+    starts[r + 1]) taken in turn by `workers` threads (taken[0], reset to 0 by the caller): a run packs its
+    planes and the plane after it, then counts its planes.  That next plane's words are packed twice, by
+    this run and the next, to the same values.  With `pack` False the words are packed already
+    (_pack_rows_along_0): pass 2 alone.  `measure`, los, his, nans: as for _pack_plane."""
+    n0, n2 = layout[4], layout[6]
+    for _worker in prange(workers):
+        grid = (layout[0], layout[1], layout[2], layout[3], layout[4], layout[5], layout[6])  # a tuple in the
+        # loop's body (numba's parallel loops capture no tuples): its numbers stay in registers
+        while True:
+            run = _take(taken)
+            if run >= starts.shape[0] - 1:
+                break
+            if pack:
+                for i in range(starts[run], min(starts[run + 1] + 1, n0)):
+                    _pack_plane(flat, swap, grid, sign, level, lows, highs, ranged, signs, i, measure, los, his, nans)
+            for i in range(starts[run], starts[run + 1]):
+                _count_plane(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts, plane_work, i)
+
+
+@_cached_njit(error_model="numpy")
+def _scan(vertex_counts, triangle_counts):
+    """Pass 3: the counts become exclusive prefix sums in the GPU's word order (brick (i // BRICK_I,
+    j // BRICK_J, w) in C order, then (i % BRICK_I, j % BRICK_J)); returns the totals."""
+    n0, n1, nw = vertex_counts.shape
+    vertices = 0
+    triangles = 0
+    for bi in range(0, n0, BRICK_I):
+        for bj in range(0, n1, BRICK_J):
+            for w in range(nw):
+                for i in range(bi, min(bi + BRICK_I, n0)):
+                    for j in range(bj, min(bj + BRICK_J, n1)):
+                        v = vertex_counts[i, j, w]
+                        t = triangle_counts[i, j, w]
+                        vertex_counts[i, j, w] = vertices
+                        triangle_counts[i, j, w] = triangles
+                        vertices += v
+                        triangles += t
+    return vertices, triangles
