@@ -250,49 +250,55 @@ def _plane_gradients(flat, swap, grid, sign, spacing, edges, i, grads):
 
 
 @_cached_njit(inline="always", error_model="numpy")
-def _edge_spread(flat, swap, grid, i, j, k, axis, level, columns):
+def _plane_spreads(flat, swap, grid, signs, i, level, out):
+    """out[j, k]: scikit-image's spread of cell (i, j, k) for every cell of plane i the level cuts (the only
+    cells a vertex's value is taken from: every cell next to a crossing edge is cut).  The arithmetic is
+    `isoscope.cpu.skimage_values`': float64 of each float32 sample less the level, the cell's range taken
+    with 0, then float32 (which keeps the order of values, so the largest of a vertex's cells is the same)."""
+    n0, n1, nw = signs.shape
+    n2 = grid[6]
+    if i + 1 >= n0:
+        return
+    for j in range(n1 - 1):
+        for w in range(nw):
+            k0 = w * WORD_BITS
+            cut = _cut_cells(signs, i, j, w, nw, _low_bits(min(WORD_BITS, n2 - 1 - k0)))[0]
+            while cut:
+                k = k0 + _lowest_bit(cut)
+                cut &= cut - 1
+                high = 0.0
+                low = 0.0
+                for c in range(8):
+                    v = np.float64(sample(flat, swap, grid, i + (c & 1), j + (c >> 1 & 1), k + (c >> 2))) - level
+                    high = max(high, v)
+                    low = min(low, v)
+                out[j, k] = np.float32(high - low)
+
+
+@_cached_njit(inline="always", error_model="numpy")
+def _edge_spread(grid, i, j, k, axis, before, here):
     """scikit-image's `values` of the vertex on the edge along `axis` from (i, j, k): the largest spread of
-    the cells next to the edge (`isoscope.cpu.skimage_values`, whose arithmetic this repeats: float64 of
-    each float32 sample less the level, each cell's range taken with 0).  The edge lies on grid planes of
-    the two other axes: the cells on both sides of each that the volume has, up to four.  Their corners are
-    up to nine columns of two samples (the edge's start and end plane), each read once: `columns` holds
-    each column's largest and smallest (a thread's scratch, 2 x 9)."""
-    at = grid[0] + i * grid[1] + j * grid[2] + k * grid[3]
-    if axis == 0:
-        step, sb, sc, xb, xc, nb, nc = grid[1], grid[2], grid[3], j, k, grid[5], grid[6]
-    elif axis == 1:
-        step, sb, sc, xb, xc, nb, nc = grid[2], grid[1], grid[3], i, k, grid[4], grid[6]
-    else:
-        step, sb, sc, xb, xc, nb, nc = grid[3], grid[1], grid[2], i, j, grid[4], grid[5]
-    b0, b1 = max(xb - 1, 0), min(xb, nb - 2)  # the cells along the two other axes
-    c0, c1 = max(xc - 1, 0), min(xc, nc - 2)
-    for pb in range(b0, b1 + 2):
-        for pc in range(c0, c1 + 2):
-            x = at + (pb - xb) * sb + (pc - xc) * sc
-            u = np.float64(np.float32(raw(flat, swap, x))) - level
-            v = np.float64(np.float32(raw(flat, swap, x + step))) - level
-            slot = (pb - xb + 1) * 3 + pc - xc + 1
-            columns[0, slot] = max(u, v)
-            columns[1, slot] = min(u, v)
-    best = 0.0
-    for qb in range(b0, b1 + 1):
-        for qc in range(c0, c1 + 1):
-            slot = (qb - xb + 1) * 3 + qc - xc + 1   # the cell's columns: slot, slot + 1, slot + 3, slot + 4
-            high = max(max(0.0, max(columns[0, slot], columns[0, slot + 1])),
-                       max(columns[0, slot + 3], columns[0, slot + 4]))
-            low = min(min(0.0, min(columns[1, slot], columns[1, slot + 1])),
-                      min(columns[1, slot + 3], columns[1, slot + 4]))
-            best = max(best, high - low)
-    return np.float32(best)
+    the cells next to the edge, from the planes of cell spreads (_plane_spreads) of planes i - 1 (`before`)
+    and i (`here`).  Along the edge's own axis the cell it runs through; along the others (it lies on their
+    grid planes) the cells on both sides that the volume has."""
+    best = np.float32(0)
+    lo1, hi1 = (j, j) if axis == 1 else (max(j - 1, 0), min(j, grid[5] - 2))
+    lo2, hi2 = (k, k) if axis == 2 else (max(k - 1, 0), min(k, grid[6] - 2))
+    for cj in range(lo1, hi1 + 1):
+        for ck in range(lo2, hi2 + 1):
+            best = max(best, here[cj, ck]) if axis == 0 or i < grid[4] - 1 else best
+            if axis != 0 and i > 0:
+                best = max(best, before[cj, ck])
+    return best
 
 
 @_cached_njit(inline="always", error_model="numpy")
 def _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, axis, starts, ends, end_row, verts,
-                   normals, values, spreads, spread_level, columns):
+                   normals, values, spreads, spreads_before, spreads_here):
     """The vertices of word (i, j, w)'s edges along `axis` from row n on, their gradients from the planes
     of gradients (starts[j, k] at an edge's start, ends[end_row, k or k + 1] at its end); returns the next
-    row.  With `spreads`, values[n] is scikit-image's (_edge_spread at `spread_level`, `columns` its scratch), not
-    the level."""
+    row.  With `spreads`, values[n] is scikit-image's (_edge_spread, from the planes of cell spreads of planes
+    i - 1 and i), not the level."""
     bits = np.int64(edges[i, j, w, axis])
     d2 = 1 if axis == 2 else 0
     while bits:
@@ -302,7 +308,7 @@ def _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, ax
                         ends[end_row, k + d2, 0], ends[end_row, k + d2, 1], ends[end_row, k + d2, 2], verts, normals,
                         values, n)
         if spreads:
-            values[n] = _edge_spread(flat, swap, grid, i, j, k, axis, spread_level, columns)
+            values[n] = _edge_spread(grid, i, j, k, axis, spreads_before, spreads_here)
         bits &= bits - 1
         n += 1
     return n
@@ -315,7 +321,8 @@ def _write_cubes(flat, swap, layout, sign, level, spacing, signs, edges, vertex_
     there) into a plane of gradients, two planes held at a time.  The planes go in runs (starts[r] to
     starts[r + 1]) to `workers` threads, each taking the next run not yet taken (taken[0], reset to 0 by the
     caller) when it is done with one: a thread the machine holds back leaves its runs to the other.  With
-    `spreads`, the values are scikit-image's at `spread_level` (_edge_spread)."""
+    `spreads`, the values are scikit-image's at `spread_level` (_edge_spread), from two planes of cell
+    spreads (_plane_spreads) made alongside the planes of gradients."""
     n0, n1, nw = signs.shape
     n2 = layout[6]
     rows = row_owner.shape[0]
@@ -324,7 +331,9 @@ def _write_cubes(flat, swap, layout, sign, level, spacing, signs, edges, vertex_
         # loop's body (numba's parallel loops capture no tuples): its numbers stay in registers
         masks = np.empty(rows, np.int64)
         firsts = np.empty(rows, np.int64)
-        columns = np.empty((2, 9), np.float64)  # _edge_spread's scratch
+        cells = n1 * n2 if spreads else 1
+        spreads_here = np.empty(cells, np.float32).reshape((n1, n2) if spreads else (1, 1))  # of cells (i, j, k)
+        spreads_before = np.empty_like(spreads_here)  # and of cells (i - 1, j, k)
         here = np.empty((n1, n2, 3), np.float32)  # the gradients of plane i
         after = np.empty((n1, n2, 3), np.float32)  # and of plane i + 1
         while True:
@@ -333,18 +342,23 @@ def _write_cubes(flat, swap, layout, sign, level, spacing, signs, edges, vertex_
                 break
             if starts[run] < starts[run + 1]:
                 _plane_gradients(flat, swap, grid, sign, spacing, edges, starts[run], here)
+                if spreads and starts[run] > 0:
+                    _plane_spreads(flat, swap, grid, signs, starts[run] - 1, spread_level, spreads_here)
             for i in range(starts[run], starts[run + 1]):
                 if i + 1 < n0:
                     _plane_gradients(flat, swap, grid, sign, spacing, edges, i + 1, after)
+                if spreads:
+                    spreads_here, spreads_before = spreads_before, spreads_here
+                    _plane_spreads(flat, swap, grid, signs, i, spread_level, spreads_here)
                 for j in range(n1):
                     for w in range(nw):
                         n = vertex_offsets[i, j, w]
                         n = _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, 0, here, after,
-                                           j, verts, normals, values, spreads, spread_level, columns)
+                                           j, verts, normals, values, spreads, spreads_before, spreads_here)
                         n = _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, 1, here, here,
-                                           j + 1, verts, normals, values, spreads, spread_level, columns)
+                                           j + 1, verts, normals, values, spreads, spreads_before, spreads_here)
                         n = _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, 2, here, here,
-                                           j, verts, normals, values, spreads, spread_level, columns)
+                                           j, verts, normals, values, spreads, spreads_before, spreads_here)
                         _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, corners,
                                         row_owner, i, j, w, n2, masks, firsts, faces, True)
                 here, after = after, here
