@@ -42,7 +42,7 @@ from numba import prange
 from ..core.case_table import EDGE_AXIS, EDGE_ORIGIN, CaseTable, montani_table
 from ..core.layout import EDGE_MARGIN, WORD_BITS
 from .jit import _cached_njit, _case, _cut_cells, _launch_guard, _low_bits, _lowest_bit, _popcount, _take
-from .samples import ORDER_F, SampleView, raw, sample, sample_view
+from .samples import ORDER_F, SampleView, sample, sample_view
 from .words import _pack_and_count, _pack_rows_along_0, _scan, _word_ranges, rows_per_block
 
 __all__ = ["marching_cubes_compiled", "marching_tetrahedra_compiled", "CompiledCubes"]

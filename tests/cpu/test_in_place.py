@@ -86,7 +86,7 @@ def test_scikit_image_s_call_and_tetrahedra_in_place(dtype):
     level = level_of(volume)
     for options in ({}, {"step_size": 2, "gradient_direction": "ascent"}):
         want = isoscope.marching_cubes(copy, level, backend="numpy", **options)
-        for name, layout in layouts(volume).items():
+        for layout in layouts(volume).values():
             got = isoscope.marching_cubes(layout, level, backend="cpu", **options)
             assert_identical(got, want)
     tetrahedra = marching_tetrahedra_reference(copy, level, (1.0, 1.0, 1.0), True)
