@@ -47,7 +47,7 @@ numbers are read from a float32 copy."""
 
 def volume_texel_format(dtype) -> tuple[str, str, str]:
     """(moderngl dtype, GLSL format, GLSL image type) of the volume image for samples of `dtype`."""
-    return VOLUME_TEXEL_FORMATS.get(str(dtype), VOLUME_TEXEL_FORMATS["float32"])
+    return VOLUME_TEXEL_FORMATS.get(str(np.dtype(dtype).newbyteorder("=")), VOLUME_TEXEL_FORMATS["float32"])
 
 
 MAX_WORD_IMAGE_SHIFT = 12

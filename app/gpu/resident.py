@@ -43,9 +43,9 @@ class ResidentVolume:
                  ctx: moderngl.Context | None = None, limits: GpuLimits | None = None):
         checked = validation.check_volume(volume)
         self.ctx = ctx or current_or_standalone()
-        self.shape = checked.data.shape
+        self.shape = checked.samples.shape
         self.plan = plan_extractor(self.shape, limits or GpuLimits.of(self.ctx))  # refuses before allocating
-        self.texel_format = volume_texel_format(checked.data.dtype)
+        self.texel_format = volume_texel_format(checked.samples.dtype)
         _, volume_format, volume_image = self.texel_format
         self.defines = {"VOLUME_FORMAT": volume_format, "VOLUME_IMAGE": volume_image}
         """What a program that reads the image must be compiled with (its sample format)."""
@@ -57,7 +57,7 @@ class ResidentVolume:
         self.brick_ranges: moderngl.Buffer | None = None
         self._non_finite: moderngl.Buffer | None = None
         try:
-            self.texture = upload_volume(self.ctx, checked.data, self.plan)
+            self.texture = upload_volume(self.ctx, checked.samples, self.plan)  # any order: slabs, no copy
             self.brick_ranges = self._storage(self.plan.storage_elements()["brick ranges"])
             self._non_finite = self._storage(1)  # set by mc_row_range.comp: a NaN or infinite sample
             self._measure(checked)
@@ -109,7 +109,7 @@ class ResidentVolume:
     def fits(self, volume) -> bool:
         """Whether `reload` can take `volume` (an array or a CheckedVolume): the same shape, and samples
         the volume image holds in the same format."""
-        data = volume.data if isinstance(volume, validation.CheckedVolume) else np.asarray(volume)
+        data = volume.samples if isinstance(volume, validation.CheckedVolume) else np.asarray(volume)
         return data.shape == self.shape and volume_texel_format(data.dtype) == self.texel_format
 
     def reload(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent") -> None:
@@ -121,10 +121,10 @@ class ResidentVolume:
         validation.as_spacing(spacing)  # every argument checked before anything changes
         validation.as_gradient_direction(gradient_direction)
         if not self.fits(checked):
-            raise ValueError(f"a {checked.data.dtype} volume of shape {checked.data.shape} does not fit this "
+            raise ValueError(f"a {checked.samples.dtype} volume of shape {checked.samples.shape} does not fit this "
                              f"extractor's {self.plan.dims_text} image; make a new Extractor for it")
         self._take(checked, spacing, gradient_direction)
-        write_volume(self.texture, checked.data, self.plan)
+        write_volume(self.texture, checked.samples, self.plan)
         self._measure(checked)
 
     def _measure(self, checked) -> None:
@@ -156,7 +156,7 @@ class ResidentVolume:
         if checked.value_range is not None:
             return checked.value_range
         if np.frombuffer(self._non_finite.read(4), np.uint32)[0]:
-            checked = validation.check_volume(checked.data)  # raises, naming the first bad sample
+            checked = validation.check_volume(checked.samples)  # raises, naming the first bad sample
             return checked.value_range
         ranges = np.frombuffer(self.brick_ranges.read(8 * self.brick_count), np.float32).reshape(-1, 2)
         return float(ranges[:, 0].min()), float(ranges[:, 1].max())

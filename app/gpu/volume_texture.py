@@ -1,8 +1,10 @@
 """The volume's upload: RGBA texels of 4 consecutive axis-2 samples, so one image load reads 4.
 
-8- and 16-bit integer samples stay integers (gpu_layout.VOLUME_TEXEL_FORMATS); anything else
-becomes float32.  A volume whose rows fill whole texels and whose type needs no conversion
-goes up as it is, without a copy; otherwise a slab of planes at a time is padded or converted.
+8- and 16-bit integer samples stay integers (layout.VOLUME_TEXEL_FORMATS), in either byte order; anything
+else becomes float32.  A C-ordered volume whose rows fill whole texels and whose type needs no conversion
+goes up as it is, without a copy; otherwise a slab at a time is padded, converted or put in texel order:
+slabs of planes of axis 0, or for a volume whose axis 0 is contiguous in memory (Fortran order, nibabel's)
+slabs of whole texels along axis 2, each a contiguous block of its memory.  No copy of the whole volume.
 """
 from __future__ import annotations
 
@@ -50,8 +52,9 @@ def write_volume(texture: moderngl.Texture3D, field: np.ndarray, plan: Extractor
 
 
 def _as_texels(field: np.ndarray) -> bool:
-    """Whether `field`'s bytes are the image's texels as they are (rows of whole texels, no conversion)."""
-    return field.shape[2] % SAMPLES_PER_TEXEL == 0 and field.dtype == texel_dtype(field)
+    """Whether `field`'s bytes are the image's texels as they are (C order, rows of whole texels, no
+    conversion)."""
+    return field.shape[2] % SAMPLES_PER_TEXEL == 0 and field.dtype == texel_dtype(field) and field.flags.c_contiguous
 
 
 def _write_slabs(texture: moderngl.Texture3D, field: np.ndarray, plan: ExtractorPlan) -> None:
@@ -59,6 +62,9 @@ def _write_slabs(texture: moderngl.Texture3D, field: np.ndarray, plan: Extractor
     n0, n1, n2 = plan.shape
     quads = plan.volume_texels[0]
     stored = texel_dtype(field)
+    if n0 > 1 and abs(field.strides[0]) < abs(field.strides[2]):
+        _write_texel_slabs(texture, field, plan, stored)
+        return
     texel_plane_bytes = n1 * quads * SAMPLES_PER_TEXEL * stored.itemsize
     planes = min(n0, max(1, UPLOAD_SLAB_BYTES // texel_plane_bytes))
     buffer = np.zeros((planes, n1, SAMPLES_PER_TEXEL * quads), stored)  # one, reused: padding stays 0
@@ -66,3 +72,20 @@ def _write_slabs(texture: moderngl.Texture3D, field: np.ndarray, plan: Extractor
         slab = buffer[:min(planes, n0 - i0)]
         slab[:, :, :n2] = field[i0:i0 + planes]
         texture.write(slab, viewport=(0, 0, i0, quads, n1, len(slab)))
+
+
+def _write_texel_slabs(texture: moderngl.Texture3D, field: np.ndarray, plan: ExtractorPlan, stored: np.dtype) -> None:
+    """`field`, whose axis 0 varies fastest in memory, a slab of whole texels along axis 2 at a time: each slab
+    is a contiguous block of a Fortran-ordered array, put in texel order (C order) in one reused buffer."""
+    n0, n1, n2 = plan.shape
+    quads = plan.volume_texels[0]
+    texel_column_bytes = n0 * n1 * SAMPLES_PER_TEXEL * stored.itemsize
+    step = min(quads, max(1, UPLOAD_SLAB_BYTES // texel_column_bytes))
+    buffer = np.zeros((n0, n1, SAMPLES_PER_TEXEL * step), stored)   # the last texel's padding stays 0
+    for q0 in range(0, quads, step):
+        count = min(step, quads - q0)
+        k0 = q0 * SAMPLES_PER_TEXEL
+        k1 = min(n2, (q0 + count) * SAMPLES_PER_TEXEL)
+        slab = buffer[:, :, :count * SAMPLES_PER_TEXEL]
+        slab[:, :, :k1 - k0] = field[:, :, k0:k1]
+        texture.write(np.ascontiguousarray(slab), viewport=(q0, 0, 0, count, n1, n0))

@@ -213,3 +213,19 @@ def test_without_gl_the_search_runs_once_and_version_says_what_auto_gives():
     version = subprocess.run([sys.executable, "-m", "isoscope", "--version"], capture_output=True, text=True,
                              env=env, timeout=120)
     assert "one-shot calls" in version.stdout and "the compiled CPU extractor" in version.stdout
+
+
+@pytest.mark.parametrize("backend", ["gpu"])
+@pytest.mark.parametrize("dtype", ["uint8", ">i2", "float64"])
+def test_the_gpu_takes_every_layout_as_it_is(dtype, backend):
+    """The GPU's upload puts any layout in texel order a slab at a time (a Fortran array in slabs of axis 2, each
+    a contiguous block of its memory; big-endian 16-bit samples stay 16-bit): the same faces as the CPU's."""
+    volume = scan(dtype)
+    level = level_of(volume)
+    want = marching_cubes_reference(np.ascontiguousarray(volume, dtype=np.float32), level, (1, 1, 1), True)
+    for name, layout in layouts(volume).items():
+        verts, faces, _, _ = outward_marching_cubes(layout, level, backend=backend)
+        assert np.array_equal(faces, want[1]) and np.array_equal(verts, want[0]), name
+        with isoscope.Extractor(layout, backend=backend) as extractor:
+            extractor.extract(level)
+            assert np.array_equal(extractor.read_mesh()[1], want[1]), name
