@@ -25,7 +25,9 @@ MAP_BYTES = 256 << 20  # .npy and raw files this big are memory-mapped, not read
 def read_in_slabs(read, shape, axis: int, what: str, progress: Progress | None) -> np.ndarray:
     """A new array filled by read(index) over slabs along one axis, reporting progress.
 
-    Slabbing along the axis the file stores slowest keeps each read contiguous.
+    Slabbing along the axis the file stores slowest keeps each read contiguous; slabs along the last axis
+    (a NIfTI's z, a Fortran-ordered .npy) fill an array in Fortran order, the file's own, so each slab is
+    one contiguous copy, not a transpose (the extractors read any order in place).
     The array takes the dtype of the first slab (a scaled NIfTI reads as float).
     """
     if 0 in tuple(shape):  # nothing to read: the common checks say what is wrong with its shape
@@ -37,7 +39,7 @@ def read_in_slabs(read, shape, axis: int, what: str, progress: Progress | None) 
         index[axis] = slice(start, min(start + step, shape[axis]))
         slab = read(tuple(index))
         if out is None:
-            out = np.empty(shape, dtype=slab.dtype)
+            out = np.empty(shape, dtype=slab.dtype, order="F" if axis == len(shape) - 1 else "C")
             step = max(1, SLAB_BYTES // (plane_voxels * slab.dtype.itemsize))
         out[tuple(index)] = slab
         start = index[axis].stop

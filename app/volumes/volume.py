@@ -21,7 +21,8 @@ from .errors import VolumeError
 
 @dataclass
 class Volume:
-    data: np.ndarray  # 3-D, C-order, axis 0 is drawn as x; real values (ints keep their range)
+    data: np.ndarray  # 3-D, native byte order, any memory order (a NIfTI's is Fortran); axis 0 is drawn as x;
+    # real values (ints keep their range)
     spacing: tuple[float, float, float]  # voxel size along axes 0, 1, 2
     name: str  # short, for the window title / panel
     source: str  # the spec or path it came from
@@ -165,7 +166,7 @@ def finish_volume(data: np.ndarray, *, spacing, name: str, source: str, gradient
             f"check the file, time point or formula"
         )
     try:
-        spacing = as_spacing(spacing, checked.data.shape)  # the one rule, as for the Python API's arrays
+        spacing = as_spacing(spacing, checked.samples.shape)  # the one rule, as for the Python API's arrays
     except ValueError as exc:
         raise VolumeError(f"{what}: {exc}") from None
     notes = list(notes or [])
@@ -175,7 +176,9 @@ def finish_volume(data: np.ndarray, *, spacing, name: str, source: str, gradient
         world = None
     if gradient_direction not in ("descent", "ascent"):
         raise ValueError(f"gradient_direction must be 'descent' or 'ascent', not {gradient_direction!r}")
-    return Volume(data=checked.data, spacing=spacing, name=name, source=source,
+    # The samples in their own memory order (no transpose of a Fortran-ordered file); native byte order.
+    data = checked.samples if is_lazy(checked.samples) or checked.samples.dtype.isnative else checked.data
+    return Volume(data=data, spacing=spacing, name=name, source=source,
                   gradient_direction=gradient_direction, default_level=default_level,
                   value_range=checked.value_range, notes=notes + list(checked.notes),
                   world=world)
