@@ -2,6 +2,16 @@
 """The compiled CPU extractor against scikit-image and VTK Flying Edges, one-shot and iso change.
 
     NUMBA_NUM_THREADS=2 python benchmarks/bench_cpu.py [--volumes mni-t1,sphere,gyroid,noise] [--size 256]
+    python benchmarks/bench_cpu.py --arrays          # the arrays as users have them, with GL and without
+
+--arrays: `isoscope.marching_cubes(array, level, spacing=...)` with the default backend, one-shot, on the
+arrays exactly as nibabel returns them (`np.asarray(nibabel.load(path).dataobj)`: Fortran order, the file's
+dtype): the MNI T1 (uint8) and a CT-like 512x512x400 int16 torso written once as NIfTI (a memory map, as
+nibabel gives an uncompressed file), and the MNI T1 as C-ordered float32; beside VTK Flying Edges with 2
+threads given the same array without a copy (a Fortran array is VTK's native x-fastest layout:
+SetDimensions(n0, n1, n2)), in the same process, in turns; then the resident iso change on the MNI T1.  The
+whole table again in a child process without GL (its EGL vendor path pointing at nothing, no DISPLAY), where
+backend="auto" has no context to find.
 
 - ours one-shot: `isoscope.marching_cubes(volume, level, backend="cpu")` (check, extract, arrays out);
 - ours iso change: `CpuExtractor.extract(level)` on a resident volume, after an extraction at another
@@ -61,14 +71,17 @@ def fe_runner(threads: int):
     smp.Initialize(threads)
 
     def build(volume):
+        """The pipeline on `volume`'s own memory: a C array as an n2 x n1 x n0 image (x = axis 2), a Fortran
+        one (nibabel's) as n0 x n1 x n2 (x = axis 0, VTK's native layout), neither copied."""
         n0, n1, n2 = volume.shape
-        scalars = numpy_support.numpy_to_vtk(volume.reshape(-1), deep=False)
+        fortran = volume.flags.f_contiguous and not volume.flags.c_contiguous
+        scalars = numpy_support.numpy_to_vtk(volume.ravel(order="F" if fortran else "C"), deep=False)
         image = vtkImageData()
-        image.SetDimensions(n2, n1, n0)
+        image.SetDimensions(*((n0, n1, n2) if fortran else (n2, n1, n0)))
         image.GetPointData().SetScalars(scalars)
         fe = vtkFlyingEdges3D()
         fe.SetInputData(image)
-        return fe, image, scalars
+        return fe, image, scalars, volume
 
     def run(state, level):
         fe = state[0]
@@ -79,9 +92,9 @@ def fe_runner(threads: int):
     return build, run
 
 
-def timed(fn):
+def timed(fn, *args, **kwargs):
     start = time.perf_counter()
-    result = fn()
+    result = fn(*args, **kwargs)
     return (time.perf_counter() - start) * 1000.0, result
 
 
@@ -101,8 +114,79 @@ def cases(names, size):
             yield f"{name} {size}^3", generate(size), (1.0, 1.0, 1.0), direction, 0.0, 0.1
 
 
+def as_given_cases(cache: Path):
+    """(label, array as the user has it, spacing, levels, resident iso change too) for --arrays."""
+    from volumes import as_nibabel_gives, ct_torso_nifti, real_volume_path
+    try:
+        mri, mri_spacing = as_nibabel_gives(real_volume_path("mni-t1"))
+    except MissingVolume as exc:
+        print(f"skipped the MNI T1: {exc}")
+        mri = None
+    if mri is not None:
+        yield "MNI T1 197x233x189 uint8, as nibabel gives it (Fortran)", mri, mri_spacing, (128.0,), True
+    ct, ct_spacing = as_nibabel_gives(ct_torso_nifti(cache))
+    yield "CT-like 512x512x400 int16, as nibabel gives it (Fortran, memory map)", ct, ct_spacing, (300.0, -300.0), False
+    if mri is not None:
+        yield "MNI T1 as C-ordered float32", np.ascontiguousarray(mri, np.float32), mri_spacing, (128.0,), False
+
+
+def run_arrays(rounds: int, cache: Path) -> None:
+    """The --arrays table in this process's GL situation."""
+    from isoscope.gpu.context import describe
+    fe = fe_runner(2)
+    if fe is None:
+        print("VTK is not installed (pip install -e .[bench]): no Flying Edges to compare with")
+        return
+    print(describe().replace("\n", "; "))
+
+    def fe_once(volume, level):  # a pipeline built and run, as a one-shot call does
+        return fe[1](fe[0](volume), level)
+    print()
+    print("| array, as the user has it | level | triangles | ours ms (default backend) | FE 2T ms | FE 2T / ours |")
+    print("|---|---:|---:|---:|---:|---:|")
+    resident = []
+    for label, volume, spacing, levels, iso_change in as_given_cases(cache):
+        for level in levels:
+            samples = {"ours": [], "fe": []}
+            triangles = None
+            for _ in range(rounds + 1):  # a first round to warm up, not counted
+                ms, mesh = timed(isoscope.marching_cubes, volume, level, spacing=spacing)
+                samples["ours"].append(ms)
+                triangles = len(mesh[1])
+                ms, theirs = timed(fe_once, volume, level)
+                samples["fe"].append(ms)
+                assert theirs == triangles, (theirs, triangles)
+            ours, theirs = (statistics.median(samples[k][1:]) for k in ("ours", "fe"))
+            print(f"| {label} | {level:g} | {triangles:,} | {ours:.1f} | {theirs:.1f} | x{theirs / ours:.2f} |",
+                  flush=True)
+        if iso_change:
+            resident.append((label, volume, spacing))
+    for label, volume, spacing in resident:
+        print()
+        print("| resident iso change, 128 <-> 129 | ours ms | FE 2T ms | FE 2T / ours |")
+        print("|---|---:|---:|---:|")
+        fe_state = fe[0](volume)
+        for backend in ("auto", "cpu"):
+            extractor = isoscope.Extractor(volume, spacing, backend=backend)
+            samples = {"ours": [], "fe": []}
+            for n in range(2 * rounds + 2):
+                level = (128.0, 129.0)[n % 2]
+                samples["ours"].append(timed(extractor.extract, level)[0])
+                samples["fe"].append(timed(fe[1], fe_state, level)[0])
+            extractor.release()
+            ours, theirs = (statistics.median(samples[k][2:]) for k in ("ours", "fe"))
+            kind = type(extractor).__name__
+            print(f"| {label}, Extractor(backend={backend!r}): {kind} | {ours:.1f} | {theirs:.1f} | "
+                  f"x{theirs / ours:.2f} |", flush=True)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--arrays", action="store_true",
+                        help="the arrays as users have them (see above), with GL and then without")
+    parser.add_argument("--without-gl", action="store_true", help=argparse.SUPPRESS)  # the child's half
+    parser.add_argument("--cache", default=str(Path(tempfile.gettempdir()) / "isoscope-bench"),
+                        help="where --arrays writes its CT-like NIfTI once (about 200 MB)")
     parser.add_argument("--volumes", default="mni-t1,sphere,gyroid,noise")
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--rounds", type=int, default=5)
@@ -110,6 +194,19 @@ def main():
     parser.add_argument("--no-startup", action="store_true", help="skip the JIT compile and start-up timings")
     parser.add_argument("--gpu", action="store_true", help="also time backend='gpu' one-shot (an OpenGL 4.3 context)")
     args = parser.parse_args()
+    if args.arrays:
+        Path(args.cache).mkdir(parents=True, exist_ok=True)
+        if args.without_gl:
+            print("\n### Without GL\n")
+            run_arrays(args.rounds, Path(args.cache))
+            return
+        print("### With GL as this machine has it\n")
+        run_arrays(args.rounds, Path(args.cache))
+        env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
+        env.update({"__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent.json", "GLCONTEXT_LINUX_LIBGL": "/nonexistent"})
+        subprocess.run([sys.executable, __file__, "--arrays", "--without-gl", "--rounds", str(args.rounds),
+                        "--cache", args.cache], env=env, check=True)
+        return
 
     import numba
     print(f"numba {numba.__version__}, {numba.get_num_threads()} threads (NUMBA_NUM_THREADS), "

@@ -456,8 +456,10 @@ class CompiledCubes:
     def measure_ranges(self) -> None:
         """Measure each word's value range, so that later levels skip the words they do not cut."""
         if self._lows is None:
-            lows = np.empty(self._signs.shape, np.float32)
-            highs = np.empty(self._signs.shape, np.float32)
+            # In the volume's order: pass 1 of a Fortran volume reads a word's range for every i of a row at once.
+            order = "F" if self.view.order == ORDER_F else "C"
+            lows = np.empty(self._signs.shape, np.float32, order=order)
+            highs = np.empty(self._signs.shape, np.float32, order=order)
             view = self.view
             _word_ranges(view.flat, view.swap, view.grid, view.order, lows, highs)
             self._lows, self._highs = lows, highs

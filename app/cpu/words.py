@@ -62,11 +62,11 @@ def _word_ranges(flat, swap, layout, order, lows, highs):
 
 
 @_cached_njit(inline="always", error_model="numpy")
-def _word_outside(sign, level, lows, highs, i, j, w, count):
-    """With the words' ranges known: -1 where the level does not cut word (i, j, w) and every sample is
-    inside (the word is all ones), 0 where every sample is outside, 1 where its samples must be read."""
-    lo = sign * lows[i, j, w]
-    hi = sign * highs[i, j, w]
+def _range_outside(sign, level, low, high):
+    """With samples' range (low, high) known: -1 where the level does not cut them and every one is inside,
+    0 where every one is outside, 1 where they must be read."""
+    lo = sign * low
+    hi = sign * high
     if hi < lo:
         lo, hi = hi, lo
     if lo >= level:
@@ -74,6 +74,12 @@ def _word_outside(sign, level, lows, highs, i, j, w, count):
     if hi < level:
         return 0
     return 1
+
+
+@_cached_njit(inline="always", error_model="numpy")
+def _word_outside(sign, level, lows, highs, i, j, w, count):
+    """_range_outside of word (i, j, w) (every sample inside: the word is all ones)."""
+    return _range_outside(sign, level, lows[i, j, w], highs[i, j, w])
 
 
 @_cached_njit(inline="always", error_model="numpy")
@@ -150,9 +156,11 @@ def _pack_rows_along_0(flat, swap, grid, sign, level, lows, highs, ranged, signs
                        his, nans):
     """Pass 1 for a volume whose axis 0 is contiguous (ORDER_F, nibabel's arrays): _pack_plane's words, read
     in memory order.  Per row (j, w) of words, bit b of all n0 words is set from the contiguous row of
-    samples (:, j, 32 w + b); with `ranged` only the words the level cuts are read.  Rows of axis 1 go in
-    blocks of `block_rows` (rows_per_block) to the threads.  With `measure`, _pack_plane's extent of each
-    block's samples goes to los, his and nans[block]."""
+    samples (:, j, 32 w + b), a slice LLVM vectorizes.  With `ranged` (lows and highs in Fortran order), a row
+    of words none of which the level cuts is filled without reading its samples; a row the level cuts is
+    read whole (its words' ranges, one by one, cost more than the vectorized reads they would save).  Rows
+    of axis 1 go in blocks of `block_rows` (rows_per_block) to the threads.  With `measure`, _pack_plane's
+    extent of each block's samples goes to los, his and nans[block]."""
     off, s1, s2 = grid[0], grid[2], grid[3]
     n0, n1, n2 = grid[4], grid[5], grid[6]
     nw = signs.shape[2]
@@ -161,39 +169,39 @@ def _pack_rows_along_0(flat, swap, grid, sign, level, lows, highs, ranged, signs
         j0 = block * block_rows
         rows = min(block_rows, n1 - j0)
         bits = np.empty((rows, nw, n0), np.uint32)
-        cut = np.empty((rows, n0), np.int64)
-        cuts = np.empty(rows, np.int64)
+        read = np.empty(rows, np.bool_)
         lo = raw(flat, swap, off + j0 * s1)
         hi = lo
         nan = False
         for w in range(nw):
             k0 = w * WORD_BITS
             count = min(WORD_BITS, n2 - k0)
-            every = True
             for r in range(rows):
-                found = 0
-                for i in range(n0):
-                    outside = _word_outside(sign, level, lows, highs, i, j0 + r, w, count) if ranged else 1
-                    bits[r, w, i] = np.uint32(_low_bits(count)) if outside < 0 else np.uint32(0)
-                    if outside > 0:
-                        cut[r, found] = i
-                        found += 1
-                cuts[r] = found
-                every &= found == n0
+                outside = 1
+                if ranged:  # the row's range: the smallest low and largest high of its words
+                    row_low = lows[0, j0 + r, w]
+                    row_high = highs[0, j0 + r, w]
+                    for i in range(1, n0):
+                        row_low = min(row_low, lows[i, j0 + r, w])
+                        row_high = max(row_high, highs[i, j0 + r, w])
+                    outside = _range_outside(sign, level, row_low, row_high)
+                bits[r, w, :] = np.uint32(_low_bits(count)) if outside < 0 else np.uint32(0)
+                read[r] = outside > 0
             for b in range(count):  # the block's rows of sample 32 w + b lie one after another in memory
                 shift = np.uint32(b)
                 for r in range(rows):
+                    if not read[r]:
+                        continue
                     start = off + (j0 + r) * s1 + (k0 + b) * s2
                     words = bits[r, w]
-                    if every and not swap:  # every word read: on a slice of the row, which LLVM vectorizes
+                    if not swap:  # on a slice of the row, which LLVM vectorizes
                         row = flat[start:start + n0]
                         for i in range(n0):
                             words[i] |= np.uint32(sign * np.float32(row[i]) >= level) << shift
                         if measure:
                             lo, hi, nan = _extent(row, lo, hi, nan)
                     else:
-                        for c in range(cuts[r]):
-                            i = cut[r, c]
+                        for i in range(n0):
                             v = raw(flat, swap, start + i)
                             words[i] |= np.uint32(sign * np.float32(v) >= level) << shift
                             if measure:
