@@ -14,11 +14,18 @@ volumes.REAL_VOLUMES, or a volume file, at each of its levels) it times, as medi
   "fresh memory" is the same call after `isoscope.release_gpu_memory()` each time (a
   process's first call on a volume of a new shape or sample type);
 - ours, numpy: `isoscope.marching_cubes(vol, 0, backend="cpu")` (not above 256^3);
+- ours, default backend: `isoscope.marching_cubes(vol, level)` as a script calls it (backend="auto": the
+  compiled CPU extractor on a software renderer or without GL, the GPU on graphics hardware);
 - each peer re-run at the new level the way its users would: scikit-image
   (lewiner), PyMCubes, and VTK vtkFlyingEdges3D on an already-built pipeline
   (`SetValue(0, level)`, `Modified()`, `Update()`) with 2 threads (STDThread) and 1
   (Sequential). A peer keeps nothing between levels, so its time serves both as
   its "iso change" and as its "first".
+
+Real scans (and the CT-like torso, `ct-torso`) are given to every runner C-ordered, unless --as-given:
+then exactly as nibabel returns them (`np.asarray(image.dataobj)`: Fortran order, the file's dtype), and VTK
+wraps a Fortran array as its native x-fastest image without a copy (SetDimensions(n0, n1, n2)), as PyVista
+does.
 
 It prints a markdown table (stdout; progress goes to stderr) and can write JSON.
 Run `python benchmarks/bench_extract.py --help`; see benchmarks/README.md.
@@ -49,7 +56,16 @@ try:  # an installed isoscope (editable or not)
 except ImportError:  # the source folder is app/, so the checkout alone cannot be imported as isoscope
     sys.exit("bench_extract.py: isoscope is not installed; run `python3 -m pip install -e .` first")
 
-from volumes import REAL_VOLUMES, VOLUMES, MissingVolume, load_real  # noqa: E402
+from volumes import (  # noqa: E402
+    CT_LEVELS,
+    REAL_VOLUMES,
+    VOLUMES,
+    MissingVolume,
+    as_nibabel_gives,
+    ct_torso_nifti,
+    load_real,
+    real_volume_path,
+)
 
 LEVEL_STEP = 0.005  # the second level: 0 + 0.5% of the data range, one notch of a 200-step slider
 TRIANGLE_TOLERANCE = 0.03  # peers must agree with our triangle count within 3%
@@ -172,21 +188,24 @@ class FlyingEdgesPeer(Peer):
         self.active_threads = self.smp.GetEstimatedNumberOfThreads()
 
     def prepare(self, volume, gradient_direction):
-        # A C-order (n0, n1, n2) array has axis 2 varying fastest, which is VTK's x:
-        # the image is n2 x n1 x n0 and shares numpy's memory (no copy, no transpose).
-        # Its points come out as (x, y, z) = (axis 2, axis 1, axis 0).
-        volume = np.ascontiguousarray(volume)
+        # A C-order (n0, n1, n2) array has axis 2 varying fastest, which is VTK's x: the image is
+        # n2 x n1 x n0 and shares numpy's memory (no copy, no transpose); its points come out as
+        # (x, y, z) = (axis 2, axis 1, axis 0).  A Fortran-order array (nibabel's) has axis 0 fastest:
+        # VTK's native layout, an n0 x n1 x n2 image on the same memory, points in axis order.
+        fortran = volume.flags.f_contiguous and not volume.flags.c_contiguous
+        if not fortran:
+            volume = np.ascontiguousarray(volume)
         n0, n1, n2 = volume.shape
-        scalars = self.numpy_support.numpy_to_vtk(volume.reshape(-1), deep=False)
+        scalars = self.numpy_support.numpy_to_vtk(volume.ravel(order="F" if fortran else "C"), deep=False)
         image = self.image_data()
-        image.SetDimensions(n2, n1, n0)
+        image.SetDimensions(*((n0, n1, n2) if fortran else (n2, n1, n0)))
         image.GetPointData().SetScalars(scalars)
         fe = self.lib.vtkFlyingEdges3D()  # defaults, as a user gets them: normals on
         fe.SetInputData(image)
-        return fe, image, scalars, volume  # keep the numpy memory alive as long as VTK uses it
+        return fe, image, scalars, volume, fortran  # keep the numpy memory alive as long as VTK uses it
 
     def run(self, state, level, want_points=False):
-        fe = state[0]
+        fe, fortran = state[0], state[4]
         fe.SetValue(0, level)
         fe.Modified()
         fe.Update()
@@ -195,7 +214,8 @@ class FlyingEdgesPeer(Peer):
         if want_points:
             points = np.zeros((0, 3))
             if output.GetNumberOfPoints():  # (x, y, z) -> array-index order (axis 0, 1, 2)
-                points = self.numpy_support.vtk_to_numpy(output.GetPoints().GetData())[:, ::-1]
+                points = self.numpy_support.vtk_to_numpy(output.GetPoints().GetData())
+                points = points if fortran else points[:, ::-1]
         return output.GetNumberOfPolys(), points
 
 
@@ -373,10 +393,17 @@ def plan(args) -> list[dict]:
     for name in args.volumes:
         if name in REAL_VOLUMES:
             gd, levels = REAL_VOLUMES[name][2], REAL_VOLUMES[name][3]
-            cases.append({"volume": name, "load": lambda name=name: load_real(name)[0], "gd": gd,
-                          "levels": args.levels or levels})
+            load = (lambda name=name: as_nibabel_gives(real_volume_path(name))[0]) if args.as_given else \
+                (lambda name=name: load_real(name)[0])
+            cases.append({"volume": name, "load": load, "gd": gd, "levels": args.levels or levels})
+        elif name == "ct-torso":
+            def load_ct():
+                data = as_nibabel_gives(ct_torso_nifti(args.cache))[0]
+                return data if args.as_given else np.ascontiguousarray(data)
+            cases.append({"volume": name, "load": load_ct, "gd": "descent", "levels": args.levels or CT_LEVELS})
         elif name not in VOLUMES:  # a file, checked by parse_args
-            cases.append({"volume": Path(name).name, "load": lambda name=name: load_file(name), "gd": "descent",
+            cases.append({"volume": Path(name).name, "load": lambda name=name: load_file(name, args.as_given),
+                          "gd": "descent",
                           "levels": args.levels, "fractions": (0.25, 0.5, 0.75)})
     return cases
 
@@ -386,9 +413,10 @@ def synthetic(size: int, name: str) -> dict:
     return {"volume": name, "load": lambda: generate(size), "gd": gd, "levels": (0.0,), "synthetic": True}
 
 
-def load_file(path: str) -> np.ndarray:
+def load_file(path: str, as_given: bool = False) -> np.ndarray:
     from isoscope.volumes import open_volume
-    return np.ascontiguousarray(open_volume(path).data)
+    data = open_volume(path).data  # in the file's own memory order (a NIfTI's is Fortran)
+    return np.asarray(data) if as_given else np.ascontiguousarray(data)
 
 
 def repeats_for(voxels: int, args) -> int:
@@ -443,6 +471,7 @@ def run_case(volume, spec, level, peers, args) -> dict:
     levels = {"a": float(level), "b": float(level) + step}
     case = {"size": n0 if spec.get("synthetic") else list(volume.shape), "grid": grid, "voxels": voxels,
             "volume": name, "level": float(level), "dtype": str(volume.dtype), "gradient_direction": gd,
+            "order": "Fortran" if volume.flags.f_contiguous and not volume.flags.c_contiguous else "C",
             "repeats": repeats, "levels": levels, "value_range": [lo, hi], "ours": {}, "peers": {}}
     if not spec.get("synthetic"):
         case["real"] = True
@@ -456,6 +485,8 @@ def run_case(volume, spec, level, peers, args) -> dict:
     if voxels <= CPU_MAX_SIZE ** 3 and not args.no_cpu:
         log(f"{tag} ours: numpy")
         case["ours"]["numpy"] = bench_ours_first(volume, gd, levels["a"], repeats, "cpu", 0)
+    log(f"{tag} ours: first, default backend")
+    case["ours"]["auto"] = bench_ours_first(volume, gd, levels["a"], repeats, "auto", args.warmup)
     gc.collect()
     for peer in peers:
         if peer.missing is not None:
@@ -578,6 +609,15 @@ def markdown(meta, cases, peers, warnings, notes) -> str:
         row = [c["grid"], case_name(c), fmt_ms(first["median_ms"]), fmt_ms(fresh_ms), fmt_ms(numpy_ms)]
         row += [cell_ratio(c["peers"][p.key], first["median_ms"]) for p in peers]
         out.append("| " + " | ".join(row) + " |")
+    out += ["", "### One-shot with the default backend (`isoscope.marching_cubes(volume, level)`): peer ms / our ms",
+            ""]
+    head = ["size", "volume", "dtype, order", "ours ms"] + [p.label for p in peers]
+    out += ["| " + " | ".join(head) + " |", "|" + "---|" * 3 + "---:|" * (len(head) - 3)]
+    for c in cases:
+        auto = c["ours"]["auto"]
+        row = [c["grid"], case_name(c), f"{c['dtype']}, {c['order']}", fmt_ms(auto["median_ms"])]
+        row += [cell_ratio(c["peers"][p.key], auto["median_ms"]) for p in peers]
+        out.append("| " + " | ".join(row) + " |")
     out += ["", "### Medians (ms) and triangle counts at the first level (0; a real scan's L)", ""]
     head = ["size", "volume", "runner", "median ms", "min ms", "runs", "triangles", "vs ours"]
     out += ["| " + " | ".join(head) + " |", "|---|---|---|---:|---:|---:|---:|---:|"]
@@ -646,6 +686,11 @@ def parse_args(argv=None):
     parser.add_argument("--float32", action="store_true",
                         help="give every runner the real scans and files as float32 (default: their file's dtype)")
     parser.add_argument("--no-cpu", action="store_true", help="skip our numpy reference")
+    parser.add_argument("--as-given", action="store_true",
+                        help="give every runner the real scans and files as nibabel returns them (Fortran order), "
+                             "not C-ordered; VTK wraps them without a copy")
+    parser.add_argument("--cache", default=str(Path(__import__("tempfile").gettempdir()) / "isoscope-bench"),
+                        help="where the ct-torso volume is written once as NIfTI (about 200 MB)")
     parser.add_argument("--json", metavar="PATH", help="also write every sample and count as JSON")
     args = parser.parse_args(argv)
     try:
@@ -655,10 +700,13 @@ def parse_args(argv=None):
     if any(s < 8 for s in args.sizes):
         parser.error("--sizes: every size must be at least 8")
     args.volumes = [v.strip() for v in args.volumes.split(",") if v.strip()]
-    unknown = sorted(v for v in args.volumes if v not in VOLUMES and v not in REAL_VOLUMES and not Path(v).is_file())
+    unknown = sorted(v for v in args.volumes
+                     if v not in VOLUMES and v not in REAL_VOLUMES and v != "ct-torso" and not Path(v).is_file())
     if unknown:
         parser.error(f"--volumes: unknown {', '.join(unknown)}; choose from "
-                     f"{', '.join([*VOLUMES, *REAL_VOLUMES])} or name an existing volume file")
+                     f"{', '.join([*VOLUMES, *REAL_VOLUMES, 'ct-torso'])} or name an existing volume file")
+    if "ct-torso" in args.volumes:
+        Path(args.cache).mkdir(parents=True, exist_ok=True)
     try:
         args.levels = [float(v) for v in args.levels.split(",") if v.strip()]
     except ValueError:
