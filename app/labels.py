@@ -252,7 +252,7 @@ def _extractor(backend: str):
         return lambda indicator: marching_cubes_reference(indicator.astype(np.float32), 0.5, table=table)[:3]
     if backend == "cpu" or (backend == "auto" and one_shot_backend() == "cpu"):
         from .cpu.compiled import marching_cubes_compiled
-        return lambda indicator: marching_cubes_compiled(indicator.astype(np.float32), 0.5, table=table)[:3]
+        return lambda indicator: marching_cubes_compiled(indicator, 0.5, table=table)[:3]  # uint8, read in place
     from .gpu.cubes import Extractor
     ctx = current_or_standalone()
 

@@ -133,7 +133,7 @@ def extract_box(source, box, level: float, spacing, descent: bool, ctx=None, sha
     keep = np.all((cells >= start) & (cells < stop), axis=1)
     faces, cells = faces[keep], cells[keep]
     used, corners = np.unique(faces, return_inverse=True)
-    field = checked.data.astype(np.float32) if descent else -checked.data.astype(np.float32)
+    field = checked.samples.astype(np.float32) if descent else -checked.samples.astype(np.float32)  # its own order
     lvl = np.float32(level if descent else -level)
     positions = vertex_positions(field, lvl, points[used], axes[used], np.asarray(spacing, np.float64), origin)
     edge_ids = np.ravel_multi_index((points[used] + origin).T, shape) * 3 + axes[used]

@@ -229,3 +229,29 @@ def test_the_gpu_takes_every_layout_as_it_is(dtype, backend):
         with isoscope.Extractor(layout, backend=backend) as extractor:
             extractor.extract(level)
             assert np.array_equal(extractor.read_mesh()[1], want[1]), name
+
+
+def test_label_maps_chunks_and_isosurface_take_nibabel_s_order(tmp_path):
+    """label_surfaces, the chunked extraction and isosurface() on Fortran-ordered arrays (a NIfTI written and
+    read back by nibabel, the independent reader) give what they give on the C-ordered array."""
+    import nibabel
+    volume = scan("int16", shape=(40, 36, 44))
+    labels = np.digitize(volume, [-6000, 0, 6000]).astype(np.uint8)
+    fortran_labels = np.asfortranarray(labels)
+    for key, (verts, faces, normals) in isoscope.label_surfaces(labels, backend="cpu").items():
+        other = isoscope.label_surfaces(fortran_labels, backend="cpu")[key]
+        for a, b in zip((verts, faces, normals), other):
+            np.testing.assert_array_equal(a, b)
+    level = level_of(volume)
+    whole = outward_marching_cubes(volume, level, backend="cpu")
+    for chunks in (16, (40, 10, 44)):
+        for a, b in zip(outward_marching_cubes(np.asfortranarray(volume), level, backend="cpu", chunks=chunks), whole):
+            np.testing.assert_array_equal(a, b)
+    path = tmp_path / "scan.nii"
+    nibabel.save(nibabel.Nifti1Image(volume, np.eye(4)), path)
+    given = np.asarray(nibabel.load(path).dataobj)
+    assert given.flags.f_contiguous and not given.flags.c_contiguous
+    mesh = isoscope.isosurface(given, level)
+    want = isoscope.isosurface(volume, level)
+    np.testing.assert_array_equal(mesh.faces, want.faces)
+    np.testing.assert_array_equal(mesh.vertices, want.vertices)
