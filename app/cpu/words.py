@@ -9,7 +9,9 @@ scanned before has its value range measured in the same reads (`measure`).
 from __future__ import annotations
 
 import numpy as np
-from numba import prange
+from llvmlite import ir
+from numba import prange, types
+from numba.extending import intrinsic, overload
 
 from ..core.layout import BRICK_I, BRICK_J, WORD_BITS
 from .jit import _cached_njit, _case, _cut_cells, _low_bits, _lowest_bit, _popcount, _shifted, _take
@@ -82,15 +84,69 @@ def _word_outside(sign, level, lows, highs, i, j, w, count):
     return _range_outside(sign, level, lows[i, j, w], highs[i, j, w])
 
 
-@_cached_njit(inline="always", error_model="numpy")
 def _extent(values, lo, hi, nan):
-    """lo, hi and nan (a NaN seen) taken over `values` too: a loop LLVM vectorizes."""
-    for x in range(values.shape[0]):
-        v = values[x]
-        lo = min(lo, v)
-        hi = max(hi, v)
-        nan |= v != v
-    return lo, hi, nan
+    """lo, hi and nan (a NaN seen) taken over `values` too (compiled only: the loop is made by type below)."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_extent, inline="always")
+def _extent_of(values, lo, hi, nan):
+    """Integers: min and max, a loop LLVM vectorizes.  Floats: LLVM vectorizes no float min or max (their NaN
+    rules), so a float's bits stand in for it, as an int64 that orders as the floats do (_order_key), and a
+    NaN is found by its bits; an infinite sample comes out as an infinite bound.  Three times faster on a
+    float32 row here."""
+    if not isinstance(values.dtype, types.Float):
+        def integers(values, lo, hi, nan):
+            for x in range(values.shape[0]):
+                v = values[x]
+                lo = min(lo, v)
+                hi = max(hi, v)
+            return lo, hi, nan
+        return integers
+    single = values.dtype.bitwidth == 32
+    bits = np.int32 if single else np.int64
+    magnitude = np.int64(0x7FFFFFFF if single else 0x7FFFFFFFFFFFFFFF)   # every bit but the sign
+    infinity = np.int64(0x7F800000 if single else 0x7FF0000000000000)    # a larger magnitude is a NaN
+
+    def floats(values, lo, hi, nan):
+        words = values.view(bits)
+        low = _order_key(_bits_of(lo), magnitude)
+        high = _order_key(_bits_of(hi), magnitude)
+        found = False
+        for x in range(words.shape[0]):
+            word = np.int64(words[x])
+            key = _order_key(word, magnitude)
+            low = min(low, key)
+            high = max(high, key)
+            found |= (word & magnitude) > infinity
+        return _float_of(_order_key(low, magnitude), lo), _float_of(_order_key(high, magnitude), hi), nan | found
+    return floats
+
+
+@_cached_njit(inline="always", error_model="numpy")
+def _order_key(word, magnitude):
+    """An IEEE float's bits (sign-extended to int64) as an int64 that orders as the floats do: a negative
+    float's magnitude bits flipped.  Its own inverse."""
+    return word ^ ((word >> 63) & magnitude)
+
+
+@intrinsic
+def _bits_of(typingctx, value):
+    """A float32's or float64's bits as an int64 (sign-extended)."""
+    width = value.bitwidth
+
+    def codegen(context, builder, signature, args):
+        return builder.sext(builder.bitcast(args[0], ir.IntType(width)), ir.IntType(64))
+    return types.int64(value), codegen
+
+
+@intrinsic
+def _float_of(typingctx, word, like):
+    """The float of `like`'s type whose bits are the low bits of the int64 `word`."""
+    def codegen(context, builder, signature, args):
+        kind = context.get_value_type(like)
+        return builder.bitcast(builder.trunc(args[0], ir.IntType(like.bitwidth)), kind)
+    return like(word, like), codegen
 
 
 @_cached_njit(error_model="numpy")
