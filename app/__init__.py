@@ -23,7 +23,9 @@ _HOMES = {"marching_cubes": "api", "marching_tetrahedra": "api", "smooth_mesh": 
 
 
 def __getattr__(name):
+    from importlib import import_module
+    if name == "api":   # `isoscope.api.outward_marching_cubes`: the public module, imported on first use too
+        return import_module(".api", __name__)
     if name not in _HOMES:
         raise AttributeError(name)
-    from importlib import import_module
     return getattr(import_module(f".{_HOMES[name]}", __name__), name)

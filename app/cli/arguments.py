@@ -166,6 +166,21 @@ def feature_angle(text: str) -> float:
                                          "(exclusive), e.g. 30") from None
 
 
+def memory_budget(text: str) -> int:
+    from ..core.budget import BudgetError, parse_size  # the API's rule, in the flag's words
+    try:
+        return parse_size(text, "--memory-budget")
+    except BudgetError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _add_memory_budget(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--memory-budget", type=memory_budget, metavar="SIZE",
+                        help="the memory a volume on show may take, e.g. 4G or 512M (default: the GPU's free "
+                             "memory where the driver reports it, else 2G; half the free RAM on a software "
+                             "renderer such as llvmpipe); a volume over it is shown at every Nth sample")
+
+
 def max_labels(text: str) -> int:
     try:
         value = int(text)
@@ -243,6 +258,7 @@ def viewer_parser() -> argparse.ArgumentParser:
                         help="multisampling, samples per pixel: 0, 2, 4 or 8 (default 4 on a GPU, "
                              "0 on software OpenGL such as llvmpipe, where it costs 3x the frame time)")
     add_slice_arguments(parser)
+    _add_memory_budget(parser)
     add_volume_arguments(parser)
     return parser
 
@@ -316,6 +332,7 @@ def add_render_options(parser: argparse.ArgumentParser, out_help: str, out_metav
     add_slice_arguments(parser)
     _add_mesh_modes(parser, labels="draw each non-zero label's surface in its own colour")
     _add_label_names(parser)
+    _add_memory_budget(parser)
     parser.add_argument("--save-scene", metavar="JSON",
                         help="also write the scene drawn (volume, levels, colours, camera, slices, modes) as JSON: "
                              "`isoscope render JSON --out PNG` redraws it, `isoscope JSON` opens it")

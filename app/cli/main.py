@@ -43,9 +43,12 @@ def main(argv: list[str] | None = None) -> int:
     else:
         args, runner = viewer_parser().parse_args(argv), run_viewer
     from ..big.cluster import ClusterError
+    from ..core.budget import MemoryBudget, using_budget
     from ..gpu.context import GLUnavailable
+    given = getattr(args, "memory_budget", None)
     try:
-        return runner(args)
+        with using_budget(None if given is None else MemoryBudget(given, "--memory-budget")):
+            return runner(args)
     except ClusterError as exc:
         print(f"isoscope: error: {exc}", file=sys.stderr)
         return exc.exit_status  # 2 for an address that is no dask scheduler: the input

@@ -7,23 +7,27 @@ import numpy as np
 
 
 def widget(volume, level=None, *, size=(640, 480), spacing=None, affine=None, gradient_direction="descent",
-           **options):
+           memory_budget=None, **options):
     """An ipywidgets box showing `volume`'s surface: ``.canvas`` (a jupyter_rfb RemoteFrameBuffer whose
     ``get_frame()`` is the current picture), ``.slider`` (the iso value) and ``.viewer`` (the headless
     viewer drawing it).  `options` are `isoscope.render`'s mesh and look options (opacities, color_by,
-    colormap, tetrahedra, smooth, wireframe).  Call ``.close_viewer()`` to free its GL resources."""
+    colormap, tetrahedra, smooth, wireframe); `memory_budget` as `isoscope.view`'s.  Call ``.close_viewer()``
+    to free its GL resources."""
     try:
         import ipywidgets
         from jupyter_rfb import RemoteFrameBuffer
     except ImportError:
         raise ImportError("isoscope.widget needs ipywidgets and jupyter-rfb: "
                           'pip install "isoscope[notebook]"') from None
+    from ..core.budget import requested_budget, using_budget
     from ..volumes.inputs import as_volume
     from .scripting import checked_levels
     from .ui.headless import prepared_viewer
 
+    budget = requested_budget(memory_budget, "memory_budget")
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
-    viewer = prepared_viewer(shown, checked_levels(shown, level), (int(size[0]), int(size[1])), **options)
+    with using_budget(budget):
+        viewer = prepared_viewer(shown, checked_levels(shown, level), (int(size[0]), int(size[1])), **options)
 
     class Canvas(RemoteFrameBuffer):
         """The scene, drawn on request; pointer events move the camera as in the window."""

@@ -16,6 +16,9 @@ class Viewed:
     elevation: float
     slices: tuple[int | None, int | None, int | None]   # each axis' slice index where one is shown
     volume: str                            # the name of the volume on show (the user may open another)
+    shown_shape: tuple[int, int, int] | None = None   # the samples along each axis of the surface on screen:
+    # the volume's own shape when it was shown at full resolution, fewer where the memory budget or a
+    # preview (a level still moving) showed every Nth sample
 
 
 def checked_levels(shown, level):
@@ -36,7 +39,7 @@ def checked_levels(shown, level):
 
 
 def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="descent", labels=False,
-         size=(1280, 800), max_frames: int | None = None) -> Viewed:
+         size=(1280, 800), max_frames: int | None = None, memory_budget=None) -> Viewed:
     """Open the desktop window on `volume` and block until it is closed, as ``plt.show()`` does.
 
     Parameters
@@ -53,12 +56,16 @@ def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="d
         The window's size in screen pixels.
     max_frames : int, optional
         Close after this many frames (scripts and tests); None: when the user closes it.
+    memory_budget : int or str, optional
+        The memory the volume on show may take, in bytes or as a size such as "4G" (default: the GPU's
+        free memory where its driver reports it, else 2 GiB; half the free RAM on a software renderer).
+        A volume over it is shown at every Nth sample along each axis.
 
     Returns
     -------
     Viewed
-        The selected level and all levels, the camera's angles and the slices on show when the window
-        closed: ``level = isoscope.view(ct).level``.
+        The selected level and all levels, the camera's angles, the slices on show and `shown_shape` (the
+        samples of the surface on screen) when the window closed: ``level = isoscope.view(ct).level``.
 
     Raises
     ------
@@ -71,10 +78,13 @@ def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="d
 
     >>> level = isoscope.view(ct).level   # doctest: +SKIP
     """
+    from ..core.budget import requested_budget, using_budget
     from ..volumes.inputs import as_volume
     from .ui.window import ViewerWindow
+    budget = requested_budget(memory_budget, "memory_budget")
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
-    window = ViewerWindow(shown, checked_levels(shown, level), size=size)
+    with using_budget(budget):
+        window = ViewerWindow(shown, checked_levels(shown, level), size=size)
     state, camera = window.state, window.camera
     try:
         if labels:
@@ -86,13 +96,14 @@ def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="d
     slices = tuple(index if on else None for on, index in zip(state.slices.shown, state.slices.index))
     return Viewed(level=float(state.iso), levels=tuple(float(item.value) for item in state.levels.items),
                   azimuth=float(camera.azimuth), elevation=float(camera.elevation), slices=slices,
-                  volume=state.volume.name if state.volume is not None else shown.name)
+                  volume=state.volume.name if state.volume is not None else shown.name,
+                  shown_shape=window.scene.shown_shape)
 
 
 def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None, spacing=None, affine=None,
            gradient_direction="descent", opacities=(), color_by=None, colormap=None, labels=False,
            label_names=None, slices=(), clip=None, tetrahedra=False, smooth=0, wireframe=False, panel=False,
-           transparent=False, letters=False) -> np.ndarray:
+           transparent=False, letters=False, memory_budget=None) -> np.ndarray:
     """Render `volume`'s surface(s) offscreen, as ``isoscope render`` does, and return the pixels.
 
     Parameters
@@ -131,6 +142,8 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
         A transparent background (the alpha channel 0 where nothing is drawn).
     letters : bool
         A scan's orientation letters (R/L, A/P, S/I) at the picture's edges, as ``--orientation-letters``.
+    memory_budget : int or str, optional
+        As for `isoscope.view` (``--memory-budget``): a volume over it is drawn from every Nth sample.
 
     Returns
     -------
@@ -146,8 +159,10 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     >>> image.shape, image.dtype
     ((120, 160, 4), dtype('uint8'))
     """
+    from ..core.budget import requested_budget, using_budget
     from ..volumes.inputs import as_volume
     from .ui.headless import prepared_viewer
+    budget = requested_budget(memory_budget, "memory_budget")
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
     size = (int(size[0]), int(size[1]))
     if labels and level is not None:
@@ -164,8 +179,9 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
         if labels:
             state.show_labels(names=label_names)
 
-    viewer = prepared_viewer(shown, level, size, azimuth, elevation, transparent, opacities, color_by, colormap,
-                             prepare, tetrahedra, smooth, wireframe)
+    with using_budget(budget):
+        viewer = prepared_viewer(shown, level, size, azimuth, elevation, transparent, opacities, color_by,
+                                 colormap, prepare, tetrahedra, smooth, wireframe)
     try:
         pixels = viewer.picture(panel=panel, letters=letters)
     finally:

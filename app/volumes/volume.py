@@ -7,13 +7,13 @@ and the viewer can trust any Volume they are handed.
 from __future__ import annotations
 
 import contextlib
-import os
 from collections.abc import Callable
 from contextvars import ContextVar
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.budget import available_memory_bytes, size_text
 from ..core.lazy_arrays import is_lazy
 from ..validation import CheckedVolume, Progress, as_spacing, check_volume
 from .errors import VolumeError
@@ -63,29 +63,6 @@ def report(progress: Progress | None, fraction: float, message: str) -> None:
 
 def shape_text(shape) -> str:
     return "x".join(str(int(n)) for n in shape)
-
-
-def size_text(n_bytes: float) -> str:
-    units = ("B", "KiB", "MiB", "GiB", "TiB", "PiB")
-    step = 0
-    while n_bytes >= 1024 and step < len(units) - 1:
-        n_bytes, step = n_bytes / 1024, step + 1
-    return f"{n_bytes:.1f} {units[step]}" if step else f"{int(n_bytes)} B"
-
-
-def available_memory_bytes() -> int:
-    """What this process may still allocate: MemAvailable on Linux, physical memory elsewhere."""
-    try:
-        with open("/proc/meminfo") as meminfo:
-            for line in meminfo:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (ValueError, OSError, AttributeError):
-        return 1 << 34
 
 
 # (whether one extraction takes a 3-D shape, the refusal's words) for the caller of an open that

@@ -9,26 +9,26 @@ import pytest
 import trimesh
 
 import isoscope
-from isoscope.viewer.model import big_volume
 from isoscope.viewer.model.errors import ViewerError
 from isoscope.viewer.ui.headless import HeadlessViewer
 from isoscope.volumes import open_volume
 
 
 @pytest.fixture
-def big_npy(tmp_path, monkeypatch):
-    """A 61^3 gyroid on disk, memory-mapped when opened; the viewer's budget lowered so it counts as big."""
+def big_npy(tmp_path):
+    """A 61^3 float32 gyroid on disk (900 KB), memory-mapped when opened."""
     axis = np.linspace(0, 4 * np.pi, 61, dtype=np.float32)
     x, y, z = np.meshgrid(axis, axis, axis, indexing="ij")
     path = tmp_path / "big.npy"
     np.save(path, np.sin(x) * np.cos(y) + np.sin(y) * np.cos(z) + np.sin(z) * np.cos(x))
-    monkeypatch.setattr(big_volume, "VIEWER_MAX_VOXELS", 25 ** 3)
     return path
 
 
 @pytest.fixture
 def viewer(gl_ctx):
-    viewer = HeadlessViewer((64, 64), ctx=gl_ctx)
+    """A viewer whose memory budget, 1 MiB, takes the 61^3 float32 gyroid at every other sample: whole, with its
+    previews (1.2 x 4.75 bytes a sample, core/budget.py), it needs 1.7 MiB; at step 2 (31^3), 0.22 MiB."""
+    viewer = HeadlessViewer((64, 64), ctx=gl_ctx, memory_budget="1M")
     yield viewer
     viewer.release()
 
@@ -47,12 +47,13 @@ def test_a_big_volume_is_shown_downsampled_with_a_note(viewer, big_npy):
     full = np.load(big_npy)
     viewer.open(str(big_npy))
     state = viewer.state
-    assert state.full_volume is not None and state.step == 3 and state.full_volume.data.shape == (61, 61, 61)
-    assert state.volume.data.shape == (21, 21, 21)               # every 3rd sample: 21^3 <= 25^3
-    np.testing.assert_array_equal(state.volume.data, full[::3, ::3, ::3])
-    assert state.volume.spacing == (3.0, 3.0, 3.0)
+    assert state.full_volume is not None and state.step == 2 and state.full_volume.data.shape == (61, 61, 61)
+    assert state.volume.data.shape == (31, 31, 31)               # every 2nd sample
+    np.testing.assert_array_equal(state.volume.data, full[::2, ::2, ::2])
+    assert state.volume.spacing == (2.0, 2.0, 2.0)
     assert state.bounds() == ((0, 0, 0), (60.0, 60.0, 60.0))     # the full volume's box
-    assert any("one sample in 3" in note for note in state.volume.notes)
+    note = [note for note in state.volume.notes if "one sample in 2" in note]
+    assert note and "memory budget of 1.0 MiB (--memory-budget)" in note[0]
     assert viewer.scene.n_triangles > 0
 
 
@@ -87,11 +88,15 @@ def test_a_failed_export_is_one_line_in_the_panel_and_leaves_no_file(viewer, big
     assert not out.exists() and not out.parent.exists()
 
 
-def test_a_small_volume_is_shown_whole(viewer):
-    viewer.show(open_volume("torus"))
-    assert viewer.state.full_volume is None and viewer.state.step == 1
-    with pytest.raises(ViewerError, match="Save mesh"):
-        viewer.state.export_full_resolution("x.ply")
+def test_a_small_volume_is_shown_whole(gl_ctx):
+    viewer = HeadlessViewer((64, 64), ctx=gl_ctx)   # this GL's own budget: half the RAM on llvmpipe
+    try:
+        viewer.show(open_volume("torus"))
+        assert viewer.state.full_volume is None and viewer.state.step == 1
+        with pytest.raises(ViewerError, match="Save mesh"):
+            viewer.state.export_full_resolution("x.ply")
+    finally:
+        viewer.release()
 
 
 def test_colour_by_a_second_big_volume_of_the_full_shape(viewer, big_npy, tmp_path):
@@ -101,7 +106,7 @@ def test_colour_by_a_second_big_volume_of_the_full_shape(viewer, big_npy, tmp_pa
     np.save(partner, np.random.default_rng(3).random((61, 61, 61)).astype(np.float32))
     state.set_color_by(str(partner))
     viewer.update()
-    assert viewer.scene.color_by.scalar_texture.size == (21, 21, 21)   # downsampled like the volume on show
+    assert viewer.scene.color_by.scalar_texture.size == (31, 31, 31)   # downsampled like the volume on show
     np.save(partner, np.random.default_rng(4).random((60, 61, 61)).astype(np.float32))
     with pytest.raises(ValueError, match="same shape"):
         state.set_color_by(str(partner))

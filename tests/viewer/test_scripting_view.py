@@ -142,6 +142,7 @@ def test_view_returns_the_level_the_user_raised_with_the_keyboard(x_display):
     levels = re.search(r"levels=\(([^)]*)\)", out).group(1)
     assert level > START_LEVEL, out            # raised, by the keys alone (the script asked for 0.1)
     assert levels.startswith(repr(level)), out  # the one level, the selected one
+    assert "shown_shape=(24, 24, 24)" in out, out   # the whole sphere on screen: within the budget, at rest
 
 
 def sphere():

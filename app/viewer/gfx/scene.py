@@ -26,9 +26,11 @@ from pathlib import Path
 
 import moderngl
 
+from ...core.budget import shown_shape
 from ...core.layout import INDEX_BYTES, VERTEX_BYTES
 from ...gpu.buffers import GrowableBuffer
 from ...gpu.context import gl_summary, has_compute, is_software_renderer
+from ...gpu.memory import default_memory_budget
 from ...gpu.mesh import GpuMesh
 from ...labels import check_label_output, write_labelled
 from ...volumes import Volume
@@ -87,6 +89,8 @@ class GpuScene:
         self.previews = previews   # coarse meshes while the value moves (the window)
         # The panel's Stats: the driver, its OpenGL version and which extractor makes the meshes.
         state.gl_renderer = f"{ctx.info.get('GL_RENDERER', 'unknown')} ({gl_summary(ctx)})"
+        if state.memory_budget is None:   # what a volume may take here: the GPU's memory (gpu/memory.py)
+            state.memory_budget = default_memory_budget(ctx)
         # Below OpenGL 4.3 (no compute shaders: macOS's 4.1) the meshes are made on the CPU (cpu_surface.py).
         self._surface_class = GpuSurface if has_compute(ctx) else CpuSurface
         self.surface: GpuSurface | CpuSurface | None = None   # the GL side of state.volume
@@ -109,7 +113,7 @@ class GpuScene:
         """Upload `volume` and extract its first level (at `level`, default the volume's own); the old
         volume stays on a failed upload.  A volume too big to drag live is shown downsampled
         (big_volume.py), the full one kept for 'Export full resolution'."""
-        shown, step = downsampled(volume)
+        shown, step = downsampled(volume, self.state.budget)
         self.show_opened(Opened("", volume, shown, step), level)
 
     def show_opened(self, opened: Opened, level: float | None = None) -> None:
@@ -386,6 +390,14 @@ class GpuScene:
     def preview_step(self) -> int:
         """1 when the full-resolution mesh is on show, else the sample step of the preview."""
         return self.surface.shown_step if self.surface is not None else 1
+
+    @property
+    def shown_shape(self) -> tuple[int, int, int] | None:
+        """The samples along each axis of the surface on screen: the volume on show (every `state.step`-th
+        sample of a volume over the memory budget), fewer while a preview is on show; None with no volume."""
+        if self.state.volume is None:
+            return None
+        return shown_shape(self.state.volume.data.shape, self.preview_step)
 
     @property
     def n_vertices(self) -> int:

@@ -1,55 +1,59 @@
-"""A volume too big to drag live: the viewer shows every `step`-th sample, and exports the full one
+"""A volume over the memory budget: the viewer shows every `step`-th sample, and exports the full one
 in the background.
 
-Above `VIEWER_MAX_VOXELS` samples the window would neither fit a modest GPU nor re-extract
-at a dragging pace on llvmpipe, so the viewer shows every `step`-th sample along each axis
-(read a block at a time from a Zarr array or a memory-mapped file: the whole volume is never
-in memory), with a note saying so.  "Export full resolution..." then runs `isoscope export
---chunk` in a child process, which extracts the full volume a chunk at a time (chunked.py)
-with its own GL context; the window only reads the child's progress lines, so it stays
-responsive, and the file is written atomically by the child (no half file on failure).
+A volume is shown whole when it and what the viewer makes of it fit the memory budget (core/budget.py: the
+GPU's memory, or half the RAM on a software renderer, or --memory-budget); above it the viewer shows every
+`step`-th sample along each axis, the smallest step that fits (read a block at a time from a Zarr array
+or a memory-mapped file: the whole volume is never in memory), with a note saying so.  While the level
+moves, coarse previews keep the frames fluid whatever the budget (gfx/surface.py).  "Export full
+resolution..." then runs `isoscope export --chunk` in a child process, which extracts the full volume a
+chunk at a time (chunked.py) with its own GL context; the window only reads the child's progress lines, so
+it stays responsive, and the file is written atomically by the child (no half file on failure).
 """
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
 import subprocess
 import sys
 
 import numpy as np
 
+from ...core.budget import MemoryBudget, budget_step, needed_bytes, size_text
 from ...core.lazy_arrays import read_block
 from ...volumes import Volume
 from .errors import ViewerError
 
-VIEWER_MAX_VOXELS = 256 ** 3
-"""Samples the viewer shows live; a larger volume is shown at every step-th sample."""
 EXPORT_CHUNK = 128
 
 
-def downsampled(volume: Volume, max_voxels: int | None = None) -> tuple[Volume, int]:
-    """(`volume`, 1), or a volume of every step-th sample of it and that step, the smallest step
-    that brings it under `max_voxels` (default VIEWER_MAX_VOXELS).  Spacing, world transform and
-    value range stay the full volume's (the range bounds the samples kept)."""
-    budget = VIEWER_MAX_VOXELS if max_voxels is None else max_voxels
-    size = math.prod(volume.data.shape)
-    if size <= budget:
+def downsampled(volume: Volume, budget: MemoryBudget) -> tuple[Volume, int]:
+    """(`volume`, 1) where it fits `budget`, else a volume of every step-th sample of it and that step, the
+    smallest step that fits (core/budget.py; BudgetError where not even the coarsest view fits)."""
+    shape, itemsize = volume.data.shape, volume.data.dtype.itemsize
+    step = budget_step(shape, itemsize, budget, volume.name)
+    if step == 1:
         return volume, 1
-    step = max(2, math.ceil((size / budget) ** (1 / 3)))
-    while math.prod(-(-n // step) for n in volume.data.shape) > budget:
-        step += 1
+    note = (f"a big volume ({'x'.join(map(str, shape))}, {size_text(needed_bytes(shape, itemsize) / 0.75)} to "
+            f"show whole): shown at one sample in {step} along each axis to fit the memory budget of "
+            f"{budget.text}; --memory-budget SIZE changes it, 'Export full resolution...' writes the full mesh")
+    return every_step(volume, step, note), step
+
+
+def every_step(volume: Volume, step: int, note: str | None = None) -> Volume:
+    """A volume of every `step`-th sample of `volume` along each axis (`volume` itself for step 1).  Spacing,
+    world transform and value range stay the full volume's (the range bounds the samples kept)."""
+    if step == 1:
+        return volume
     every = (slice(None, None, step),) * 3
     data = read_block(volume.data, every)   # a memory map's pages are dropped again, as a Zarr array's chunks
     world = None
     if volume.world is not None:
         matrix, space = volume.world
         world = (matrix @ np.diag([step, step, step, 1.0]), space)
-    shape = "x".join(map(str, volume.data.shape))
-    note = (f"a big volume ({shape}): shown at one sample in {step} along each axis; 'Export full resolution...' "
-            "writes the full mesh")
+    notes = [*volume.notes, note] if note else list(volume.notes)
     return dataclasses.replace(volume, data=data, spacing=tuple(s * step for s in volume.spacing), world=world,
-                               notes=[*volume.notes, note], _in_memory=None), step
+                               notes=notes, _in_memory=None)
 
 
 class FullResolutionExport:

@@ -24,7 +24,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .big_volume import downsampled
+from ...core.budget import available_memory_bytes, shown_shape
+from .big_volume import every_step
 from .errors import ViewerError
 from .histogram import BINS, value_histogram
 from .jobs import Jobs
@@ -57,14 +58,14 @@ class SeriesRange(NamedTuple):
     histogram: np.ndarray
 
 
-def read_time_point(spec: str, options: dict, index: int, shape, progress=None) -> TimePoint:
+def read_time_point(spec: str, options: dict, index: int, shape, step: int, progress=None) -> TimePoint:
     """Time point `index` of the series `spec` (opened with `options`), refused in one line unless it
-    has `shape` (the series' first shape)."""
+    has `shape` (the series' first shape); every `step`-th sample of it on show, as the first."""
     from ...volumes import open_volume
     from ...volumes.time_points import same_shape
     volume = open_volume(spec, time=index, progress=progress, **options)
     same_shape(volume, shape, index)
-    shown, step = downsampled(volume)
+    shown = every_step(volume, step)
     _ = shown.checked   # a lazy (Zarr) time point is read here, on the worker, not when it is uploaded
     return TimePoint(index, volume, shown, step, sampled_histogram(shown.data, shown.value_range))
 
@@ -97,14 +98,12 @@ def read_series_range(spec: str, options: dict, count: int, progress=None) -> Se
     return SeriesRange((float(low), float(high)), np.log1p(counts).astype(np.float32))
 
 
-def read_ahead(volume) -> int:
+def read_ahead(volume, step: int = 1) -> int:
     """How many time points playback reads ahead: READ_AHEAD, fewer where they would take more than an
-    eighth of the memory available (each is held whole as the viewer shows it)."""
+    eighth of the memory available (each is held as the viewer shows it, every `step`-th sample)."""
     if volume is None:
         return 1
-    from ...volumes.volume import available_memory_bytes
-    from .big_volume import VIEWER_MAX_VOXELS
-    shown_bytes = min(math.prod(volume.data.shape), VIEWER_MAX_VOXELS) * volume.data.dtype.itemsize
+    shown_bytes = math.prod(shown_shape(volume.data.shape, step)) * volume.data.dtype.itemsize
     return int(max(1, min(READ_AHEAD, available_memory_bytes() // 8 // max(shown_bytes, 1))))
 
 
@@ -117,15 +116,17 @@ class TimeAxis:
         self.fixed_range = False   # the value range and histogram: the whole series' (else the time point's)
         self.attach(None)
 
-    def attach(self, volume) -> None:
-        """A new volume on show (`state.show`): its time axis, at the time point it was opened at."""
+    def attach(self, volume, step: int = 1) -> None:
+        """A new volume on show (`state.show`, every `step`-th sample of it): its time axis, at the time
+        point it was opened at."""
+        self.sample_step = step
         self.count = int(volume.time_points) if volume is not None else 1
         self.spec = volume.source if volume is not None else ""
         options = dict(volume.open_options) if volume is not None else {}
         self.index = self.shown = int(options.pop("time", None) or 0)   # wanted, and on show
         self.options = options
         self.shape = tuple(volume.data.shape) if volume is not None else None
-        self._ahead = read_ahead(volume)
+        self._ahead = read_ahead(volume, step)
         self.playing, self.direction, self._clock = False, 1, 0.0
         self.series_range: SeriesRange | None = None
         self.range_changed = False                # the slider's range is to be set again (time_step)
@@ -288,7 +289,7 @@ class TimeAxis:
     def _read(self, index: int, kind: str) -> None:
         """Read time point `index` on a worker: "time" (the one wanted) or "prefetch" (read ahead); a newer
         request of the same kind makes an older one's answer stale."""
-        request = self.jobs.submit(kind, read_time_point, self.spec, self.options, index, self.shape,
+        request = self.jobs.submit(kind, read_time_point, self.spec, self.options, index, self.shape, self.sample_step,
                                    message=f"reading time point {index}", failure=f"could not read time point {index}")
         self._reading[kind] = (request, index)
 

@@ -22,12 +22,13 @@ import dataclasses
 from pathlib import Path
 from typing import NamedTuple
 
+from ...core.budget import MemoryBudget, default_budget, given_budget
 from ...cpu.sharp.features import check_feature_angle
 from ...cpu.smooth import check_iterations
 from ...labels import label_count_hint, labels_of
 from ...options import MeshOptions
 from ...volumes import Volume, open_volume
-from .big_volume import FullResolutionExport, downsampled
+from .big_volume import FullResolutionExport, downsampled, every_step
 from .colorby import DEFAULT_COLORMAP, SOURCES, ColorBy, make_color_by
 from .errors import ViewerError, one_line
 from .histogram import value_histogram
@@ -51,17 +52,21 @@ class Opened(NamedTuple):
     step: int
 
 
-def read_for_viewer(opener, spec: str, open_options: dict, progress=None) -> Opened:
-    """Read `spec` with `opener` (open_volume's signature) and downsample it if it is big."""
+def read_for_viewer(opener, spec: str, open_options: dict, budget: MemoryBudget, progress=None) -> Opened:
+    """Read `spec` with `opener` (open_volume's signature) and downsample it if it is over `budget`."""
     volume = opener(spec, progress=progress, **open_options)
-    shown, step = downsampled(volume)
+    shown, step = downsampled(volume, budget)
     return Opened(spec, volume, shown, step)
 
 
 class ViewerState:
-    def __init__(self, recent: RecentFiles | None = None, opener=None):
+    def __init__(self, recent: RecentFiles | None = None, opener=None, memory_budget: MemoryBudget | None = None):
         """`opener`: reads expr: volumes in the caller's thread (the window passes open_volume with
-        its GL context, to sample them on its GPU); other volumes are read on a worker thread."""
+        its GL context, to sample them on its GPU); other volumes are read on a worker thread.
+        `memory_budget`: what a volume on show may take (core/budget.py); None until the GPU side sets its
+        default (the GPU's memory, or half the RAM on a software renderer); by default the budget of the
+        enclosing core.budget.using_budget block (a command's --memory-budget, a Python call's)."""
+        self.memory_budget = memory_budget if memory_budget is not None else given_budget()
         self.volume: Volume | None = None     # on show (downsampled, for a big one)
         self.full_volume: Volume | None = None  # a big volume shown at every `step`-th sample (big_volume.py)
         self.step = 1
@@ -93,10 +98,15 @@ class ViewerState:
         to this request, the newest, comes in.  The request's id."""
         failure = f"could not open {spec[:80]}"
         if spec.strip().lower().startswith("expr:"):
-            return self.jobs.submit("open", read_for_viewer, self._opener, spec, open_options, inline=True,
-                                    failure=failure)
-        return self.jobs.submit("open", read_for_viewer, open_volume, spec, open_options,
+            return self.jobs.submit("open", read_for_viewer, self._opener, spec, open_options, self.budget,
+                                    inline=True, failure=failure)
+        return self.jobs.submit("open", read_for_viewer, open_volume, spec, open_options, self.budget,
                                 message=f"opening {spec}", failure=failure)
+
+    @property
+    def budget(self) -> MemoryBudget:
+        """The memory budget (the default of a software renderer until the GPU side sets its own)."""
+        return self.memory_budget or default_budget(None, software=True)
 
     @property
     def loading(self):
@@ -122,7 +132,7 @@ class ViewerState:
         self.levels.reset(volume.value_range, level if level is not None else volume.default_level)
         self.labels.hide()
         self.color_by = None
-        self.series.attach(full_volume if full_volume is not None else volume)
+        self.series.attach(full_volume if full_volume is not None else volume, step)
         self.volume_serial += 1
         self.error = None
 
@@ -215,7 +225,7 @@ class ViewerState:
             return
         second = self._opener(source)
         if self.full_volume is not None and second.data.shape == self.full_volume.data.shape:
-            second = downsampled(second)[0]   # a big volume's partner, at the step on show
+            second = every_step(second, self.step)   # a big volume's partner, at the step on show
         self.color_by = make_color_by(self.volume, "volume", colormap, second, spec=source)
 
     # --- saving ------------------------------------------------------------

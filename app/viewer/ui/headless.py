@@ -11,6 +11,7 @@ from functools import partial
 
 import numpy as np
 
+from ...core.budget import requested_budget
 from ...cpu.sharp.features import sharpen_extracted
 from ...cpu.sharp.normals import crisp_normals
 from ...gpu.context import DRAWING_GL, current_or_standalone, has_compute
@@ -81,14 +82,18 @@ def render_samples(size) -> int:
 
 
 class HeadlessViewer:
-    def __init__(self, size=(800, 600), ctx=None):
+    def __init__(self, size=(800, 600), ctx=None, memory_budget=None):
+        """`memory_budget`: what a volume on show may take (a size such as "2G", or bytes; core/budget.py);
+        None: the enclosing using_budget block's, else this GL's default (the GPU's memory, or half the RAM
+        on a software renderer)."""
+        budget = requested_budget(memory_budget)   # refused in one line before a context is made
         self.size = (int(size[0]), int(size[1]))
         # The process's one headless context (the API's too): a second standalone context would
         # become current and leave the first one's compiled programs running in the wrong context.
         # 4.3 where the driver has it, else 4.1 core: meshes then come from the CPU (gfx/cpu_surface.py).
         self.ctx = ctx if ctx is not None else current_or_standalone(DRAWING_GL)
         check_render_size(self.size, self.ctx)  # "the framebuffer is not complete" is no message
-        self.state = ViewerState(opener=partial(open_volume, ctx=self.ctx))
+        self.state = ViewerState(opener=partial(open_volume, ctx=self.ctx), memory_budget=budget)
         self.scene = GpuScene(self.ctx, self.state)
         self.camera = OrbitCamera()
         self.renderer = SceneRenderer(self.ctx)

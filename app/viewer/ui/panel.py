@@ -342,6 +342,14 @@ class Panel:
     def _level_stats(state: ViewerState, scene) -> None:
         imgui.text(f"vertices   {scene.n_vertices:,}")
         imgui.text(f"triangles  {scene.n_triangles:,}")
+        if scene.shown_shape is not None:
+            full = state.full_volume.data.shape if state.full_volume is not None else state.volume.data.shape
+            shown = "x".join(map(str, scene.shown_shape))
+            if tuple(scene.shown_shape) == tuple(full):
+                imgui.text(f"shown      {shown}, full resolution")
+            else:
+                imgui.text_colored(NOTE_COLOR, f"shown      {shown} of {'x'.join(map(str, full))}")
+                tooltip(f"memory budget {state.budget.text}" if state.step > 1 else "a preview while the level moves")
         if scene.preview_step > 1:
             imgui.text_colored(NOTE_COLOR, f"preview at 1/{scene.preview_step} resolution")
         imgui.text(f"extraction {scene.extract_ms:.1f} ms")
