@@ -54,6 +54,8 @@ def main(argv=None) -> int:
     parser.add_argument("--surfaces", type=int, default=1, help="levels on show, 1..4 (the first is dragged)")
     parser.add_argument("--opacity", type=float, default=1.0,
                         help="opacity of the levels not dragged (below 1: drawn by weighted blended OIT)")
+    parser.add_argument("--memory-budget", default=None, metavar="SIZE",
+                        help="the viewer's memory budget (default: this GL's, half the free RAM on llvmpipe)")
     parser.add_argument("--gl41", action="store_true",
                         help="imitate macOS on Mesa (MESA_GL_VERSION_OVERRIDE=4.1): an OpenGL 4.1 window, meshes made "
                              "by the CPU extractor")
@@ -65,12 +67,13 @@ def main(argv=None) -> int:
     width, height = (int(v) for v in args.size.lower().split("x"))
 
     with display():
+        from isoscope.core.budget import requested_budget, using_budget
         from isoscope.viewer.model.recent import RecentFiles
         from isoscope.viewer.ui.window import ViewerWindow
         from isoscope.volumes import DEFAULT_VOLUME, open_volume
-
         volume = open_volume(args.volume or DEFAULT_VOLUME)
-        window = ViewerWindow(volume, size=(width, height), recent=RecentFiles(None))
+        with using_budget(requested_budget(args.memory_budget)):
+            window = ViewerWindow(volume, size=(width, height), recent=RecentFiles(None))
         try:
             state, scene = window.state, window.scene
             for axis, index in slices:
@@ -107,6 +110,7 @@ def main(argv=None) -> int:
             print(f"viewer frame while dragging the iso slider: {volume.name} {shape}, "
                   f"window {width}x{height}, slices {shown}, {state.gl_renderer}, {len(state.levels)} surface(s)"
                   + (f", the others at opacity {args.opacity:g}" if len(state.levels) > 1 else ""))
+            print("  frames ms  ", " ".join(f"{ms:.0f}" for ms in frame_ms), "steps", steps)
             print(f"  frame       median {np.median(frame_ms):.1f} ms, "
                   f"90th percentile {np.percentile(frame_ms, 90):.1f} ms over {args.frames} frames")
             print(f"  extraction  median {np.median(extract_ms):.1f} ms; "
@@ -115,6 +119,10 @@ def main(argv=None) -> int:
             print(f"  preview     {len(previews)} of {args.frames} frames drew a coarse preview"
                   + (f" (sample step {min(previews)}..{max(previews)})" if previews else "")
                   + f"; full mesh back {full_after_ms:.0f} ms after the last move")
+            import resource
+            peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+            print(f"  shown       {'x'.join(map(str, scene.shown_shape))} of {shape} at rest (memory budget "
+                  f"{state.budget.text}); peak RSS {peak:.0f} MiB")
         finally:
             window.close()
     return 0

@@ -325,8 +325,8 @@ def test_a_dragged_value_shows_a_coarse_preview_then_the_full_mesh_at_rest(gl_ct
         drag = [low + f * (high - low) for f in (0.45, 0.47, 0.49, 0.51)]
 
         state.iso = drag[0]
-        scene.update(0.04)                 # one change alone (a key, a typed value): full mesh
-        assert scene.preview_step == 1 and scene.extractor.level == drag[0]
+        scene.update(0.04)                 # the first change of a drag is a preview too (no stall as it starts)
+        assert scene.preview_step > 1 and scene.n_triangles < full / 2
         for value in drag[1:]:             # changing frame after frame: a drag
             state.iso = value
             assert scene.update(0.04)

@@ -288,9 +288,11 @@ class GpuScene:
         value = state.iso
         moved = value != self._extracted
         if moved:
-            # A value that moved in the last frame too is being dragged (or animated): a preview
-            # will do.  A single change (a key, a typed value, a new volume) gets the full mesh.
-            preview = self.previews and self._moved_last_frame
+            # A moving value (a drag, an animation, Play, keys pressed in turn) gets a preview where the full
+            # mesh is big (surface.preview_step), its first change too: a 512x512x400 CT's full mesh took
+            # 0.25-0.4 s, a stall at the start of every drag.  The full mesh follows once it rests.  A new
+            # volume's first extraction, and any without previews (headless renders), are full.
+            preview = self.previews and self._extracted is not None
             self._rest_s = 0.0
         else:
             self._rest_s += dt_seconds

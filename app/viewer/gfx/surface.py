@@ -24,7 +24,10 @@ from ...volumes import Volume
 PREVIEW_TRIANGLES = 60_000
 """Triangles a preview mesh aims to stay under: llvmpipe draws about that many in 10-15 ms."""
 
-MAX_PREVIEW_STEP = 4
+MAX_PREVIEW_STEP = 8
+"""The coarsest preview: every 8th sample.  A 512x512x400 CT's full mesh at bone (1.2-2.4 M triangles) needs a
+step of 5-7 to stay near PREVIEW_TRIANGLES; at 4 (the old cap) its drag frames took 64 ms median, 183 at the
+90th percentile on llvmpipe (benchmarks/bench_viewer.py), now 31 and 42."""
 
 
 def preview_step(full_triangles: int, shape, budget: int | None = None) -> int:
