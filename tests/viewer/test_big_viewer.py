@@ -126,3 +126,21 @@ def test_the_export_reopens_a_raw_file_with_the_options_it_was_opened_with(viewe
     assert state.error is None, state.error
     full = state.full_volume.checked.data
     assert len(trimesh.load(out, process=False).faces) == len(isoscope.marching_cubes(full, 0.3)[1])
+
+
+def test_a_stopped_export_writes_nothing(viewer, tmp_path):
+    """The export runs in this process on a worker thread (the library's big/export.py, no child process);
+    stopping it, as closing the window does, ends it before its file is written."""
+    axis = np.linspace(0, 8 * np.pi, 200, dtype=np.float32)
+    x, y, z = np.meshgrid(axis, axis, axis, indexing="ij")
+    path = tmp_path / "gyroid200.npy"
+    np.save(path, np.sin(x) * np.cos(y) + np.sin(y) * np.cos(z) + np.sin(z) * np.cos(x))
+    viewer.open(str(path))
+    state = viewer.state
+    assert state.step > 1
+    out = tmp_path / "full.ply"
+    state.export_full_resolution(out)
+    state._export.cancel()
+    wait_for_export(viewer, 60)
+    assert state.error is not None and "stopped" in state.error and "\n" not in state.error
+    assert not out.exists() and [p.name for p in tmp_path.iterdir()] == ["gyroid200.npy"]

@@ -6,23 +6,23 @@ GPU's memory, or half the RAM on a software renderer, or --memory-budget); above
 `step`-th sample along each axis, the smallest step that fits (read a block at a time from a Zarr array
 or a memory-mapped file: the whole volume is never in memory), with a note saying so.  While the level
 moves, coarse previews keep the frames fluid whatever the budget (gfx/surface.py).  "Export full
-resolution..." then runs `isoscope export --chunk` in a child process, which extracts the full volume a
-chunk at a time (chunked.py) with its own GL context; the window only reads the child's progress lines, so
-it stays responsive, and the file is written atomically by the child (no half file on failure).
+resolution..." writes the full volume's mesh on a worker thread with the library's export (big/export.py,
+what `isoscope export --chunk` writes), a chunk at a time on the CPU, with progress and a stop; the file is
+written atomically (no half file on failure).
 """
 from __future__ import annotations
 
 import dataclasses
 import os
-import subprocess
-import sys
+import threading
 
 import numpy as np
 
 from ...core.budget import MemoryBudget, budget_step, needed_bytes, size_text
 from ...core.lazy_arrays import read_block
+from ...errors import IsoscopeError
 from ...volumes import Volume
-from .errors import ViewerError
+from .errors import ViewerError, one_line
 
 EXPORT_CHUNK = 128
 
@@ -57,44 +57,28 @@ def every_step(volume: Volume, step: int, note: str | None = None) -> Volume:
 
 
 class FullResolutionExport:
-    """`isoscope export SOURCE --iso LEVEL --out PATH --chunk N` in a child process, started at once;
-    `wait` (a background job's work, model/jobs.py) reads its progress from its stderr."""
+    """The full volume's mesh at one level written on a worker thread by the library's own export
+    (big/export.py: what `isoscope export --chunk` writes); `wait` is the background job's work (model/jobs.py)
+    and reports each chunk; `cancel` stops it before its file is written."""
 
     def __init__(self, volume: Volume, level: float, out, gradient_direction: str):
-        """`volume`: the full volume (its source is re-opened by the child, with its open options);
-        `gradient_direction`: the side the viewer shows as inside now."""
-        self.out = str(out)
+        """`volume`: the full volume; `gradient_direction`: the side the viewer shows as inside now."""
+        self.volume, self.level, self.out = volume, float(level), str(out)
+        self.gradient_direction = gradient_direction
         self.message = f"exporting {os.path.basename(self.out)}"
-        inside = "below" if gradient_direction == "ascent" else "above"   # the command line's word for it
-        reopen = []   # the flags it was opened with: --dims X Y Z, --frame N, ...
-        for name, value in volume.open_options.items():
-            reopen += [f"--{name}", *map(str, value if isinstance(value, (list, tuple)) else [value])]
-        command = [sys.executable, "-m", "isoscope", "export", volume.source, "--iso", repr(float(level)),
-                   "--out", self.out, "--chunk", str(EXPORT_CHUNK), "--inside", inside, *reopen]
-        env = dict(os.environ, ISOSCOPE_PROGRESS="1")   # progress lines even though stderr is a pipe
-        self._process = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                         stderr=subprocess.PIPE, text=True, env=env)
+        self._stop = threading.Event()
 
     def wait(self, progress) -> str:
-        """Report the child's progress lines to `progress(fraction, message)` until it ends; its
-        "wrote" line, or a ViewerError with its last line."""
-        last = ""
-        for line in self._process.stderr:
-            line = line.strip()
-            if not line:
-                continue
-            last = line
-            words = line.rsplit(" ", 1)
-            if len(words) == 2 and words[1].endswith("%"):
-                try:
-                    progress(float(words[1][:-1]) / 100, words[0])
-                except ValueError:
-                    pass
-        code = self._process.wait()
-        if code != 0:
-            raise ViewerError(last or f"the export stopped (exit code {code})")
-        return f"wrote {self.out}"
+        """Write the mesh, reporting to `progress(fraction, message)`; its "wrote" line, or a ViewerError with
+        the reason in one line."""
+        from ...big.export import write_full_resolution
+        try:
+            path, vertices, triangles, _ = write_full_resolution(
+                self.volume, self.level, self.out, gradient_direction=self.gradient_direction, chunk=EXPORT_CHUNK,
+                progress=progress, stop=self._stop)
+        except (ValueError, OSError, IsoscopeError) as exc:
+            raise ViewerError(f"full-resolution export failed: {one_line(exc)}") from None
+        return f"wrote {path}: {vertices:,} vertices, {triangles:,} triangles"
 
     def cancel(self) -> None:
-        if self._process.poll() is None:
-            self._process.terminate()
+        self._stop.set()

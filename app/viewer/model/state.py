@@ -81,7 +81,7 @@ class ViewerState:
         self.color_by: ColorBy | None = None
         self.style = SurfaceStyle()
         self.jobs = Jobs()
-        self._export: FullResolutionExport | None = None   # the child of the last export, to stop on closing
+        self._export: FullResolutionExport | None = None   # the last full-resolution export, to stop on closing
         self.closed = False                   # surfaces capped where they leave the volume (gfx/caps.py)
         self.save_request: str | None = None   # "Save mesh..." chosen in the panel: the GPU side writes it
         self.error: str | None = None         # shown in the panel until the next successful action
