@@ -5,6 +5,7 @@ import numpy as np
 
 from . import one_shot, validation
 from .cpu.smooth import check_iterations, smooth_projected
+from .errors import InputError
 from .one_shot import BACKENDS, METHODS
 
 __all__ = ["BACKENDS", "METHODS", "Extractor", "marching_cubes", "marching_tetrahedra", "outward_marching_cubes",
@@ -336,7 +337,7 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
     verts = np.ascontiguousarray(verts, np.float32).reshape(-1, 3)
     faces = np.ascontiguousarray(faces, np.int32).reshape(-1, 3)
     if faces.size and (faces.min() < 0 or faces.max() >= len(verts)):
-        raise ValueError(f"faces index vertices 0 .. {faces.max()}, but there are {len(verts)} vertices; "
+        raise InputError(f"faces index vertices 0 .. {faces.max()}, but there are {len(verts)} vertices; "
                          "pass the faces of this mesh")
     normals = np.zeros_like(verts) if normals is None else np.ascontiguousarray(normals, np.float32).reshape(-1, 3)
     if backend in ("cpu", "numpy") or not len(faces):
@@ -444,6 +445,6 @@ class Extractor(metaclass=_ExtractorKind):
             from .gpu.cubes import Extractor as GpuExtractor
             return GpuExtractor(volume, spacing, gradient_direction, ctx=ctx, table=table, limits=limits)
         if ctx is not None or limits is not None:
-            raise ValueError(f"ctx and limits are the GPU extractor's; backend {backend!r} takes neither")
+            raise InputError(f"ctx and limits are the GPU extractor's; backend {backend!r} takes neither")
         from .cpu.extractor import CpuExtractor
         return CpuExtractor(volume, spacing, gradient_direction, backend=backend, table=table)

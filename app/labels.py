@@ -40,7 +40,7 @@ import numpy as np
 
 from . import validation
 from .core.case_table import label_table
-from .errors import IsoscopeError
+from .errors import InputError, IsoscopeError
 
 # Labels from 1 up to this are their own ids for scipy's find_objects; others (negative, or
 # wide such as 32-bit ids) are numbered 1.. first, by sorting.
@@ -53,16 +53,16 @@ def check_labels(labels) -> np.ndarray:
         try:
             labels = np.asarray(labels)
         except Exception as exc:
-            raise ValueError(f"labels must be a 3-D integer array; got {type(labels).__name__} ({exc})") from None
+            raise InputError(f"labels must be a 3-D integer array; got {type(labels).__name__} ({exc})") from None
     if labels.dtype == bool:
         labels = labels.view(np.uint8)
     if labels.dtype.kind not in "iu":
-        raise ValueError(f"labels must be an integer array (one whole number per voxel); got {labels.dtype}: "
+        raise InputError(f"labels must be an integer array (one whole number per voxel); got {labels.dtype}: "
                          "cast it, e.g. labels.astype(np.int32), if its values are whole numbers")
     if labels.ndim != 3:
-        raise ValueError(f"labels must be 3-D; got shape {labels.shape}")
+        raise InputError(f"labels must be 3-D; got shape {labels.shape}")
     if 0 in labels.shape:
-        raise ValueError(f"labels has an empty axis (shape {labels.shape}); pass at least one voxel per axis")
+        raise InputError(f"labels has an empty axis (shape {labels.shape}); pass at least one voxel per axis")
     return labels
 
 
@@ -186,7 +186,7 @@ def labels_of(volume) -> np.ndarray:
             fractional = slab != np.round(slab)
             if fractional.any():
                 first = tuple(int(i) + part.start for i, part in zip(np.argwhere(fractional)[0], block))
-                raise ValueError(f"{volume.name} is not a label map: it has fractional values (e.g. "
+                raise InputError(f"{volume.name} is not a label map: it has fractional values (e.g. "
                                  f"{data[first]:g} at index {first}); leave out --labels to draw an isosurface")
         low, high = volume.value_range
         data = data.astype(_narrowest_int(int(low), int(high)))
@@ -245,7 +245,7 @@ def _extractor(backend: str):
     from .gpu.context import current_or_standalone, one_shot_backend
     from .one_shot import BACKENDS
     if backend not in BACKENDS:
-        raise ValueError(f"backend {backend!r} is not one of {BACKENDS}")
+        raise InputError(f"backend {backend!r} is not one of {BACKENDS}")
     table = label_table()
     if backend == "numpy":
         from .cpu.cubes import marching_cubes_reference
@@ -288,9 +288,9 @@ def check_label_output(path, one_file: bool) -> None:
     mesh_format(path)
     folder = Path(path).parent
     if not folder.is_dir():
-        raise ValueError(f"the folder {folder} for {Path(path).name} does not exist; create it or write elsewhere")
+        raise InputError(f"the folder {folder} for {Path(path).name} does not exist; create it or write elsewhere")
     if one_file and Path(path).suffix.lower() not in COLOR_FORMATS:
-        raise ValueError(f"--one-file needs a format that carries vertex colours ({', '.join(COLOR_FORMATS)}); "
+        raise InputError(f"--one-file needs a format that carries vertex colours ({', '.join(COLOR_FORMATS)}); "
                          f"rename {Path(path).name}, or leave out --one-file for a file per label")
 
 
@@ -304,7 +304,7 @@ def write_label_meshes(volume, path, *, one_file: bool = False, world: bool = Tr
     check_label_output(path, one_file)
     surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing, max_labels=max_labels)
     if not surfaces:
-        raise ValueError(f"{volume.name} has no non-zero labels, so no surface to write; leave out --labels "
+        raise InputError(f"{volume.name} has no non-zero labels, so no surface to write; leave out --labels "
                          "to export an isosurface")
     placed = {label: in_volume_space(volume, *mesh, world=world) for label, mesh in surfaces.items()}
     meshes = {label: mesh[:3] for label, mesh in placed.items()}

@@ -17,6 +17,7 @@ from .cpu.cubes import marching_cubes_reference
 from .cpu.sharp.features import check_feature_angle, sharpen_extracted
 from .cpu.smooth import check_iterations, smooth_projected
 from .cpu.tetra import marching_tetrahedra_reference
+from .errors import InputError
 from .options import MeshOptions
 
 BACKENDS = ("auto", "gpu", "cpu", "numpy")
@@ -30,7 +31,7 @@ def cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="de
     iterations = check_iterations(smooth)
     backend = backend_of(backend)
     if method not in METHODS:
-        raise ValueError(f"method {method!r} is not one of {METHODS}")
+        raise InputError(f"method {method!r} is not one of {METHODS}")
     angle = check_feature_angle(sharp_features)
     MeshOptions(smooth=iterations, sharp=angle, masked=mask is not None, chunked=chunks is not None).check()
     if chunks is not None:
@@ -175,7 +176,7 @@ def _extract_and_read(cubes, level, iterations, tetrahedra, values_of=None):
 def backend_of(backend: str, allowed=BACKENDS) -> str:
     """`backend` checked; "auto" made the one-shot choice of this process (gpu.context.one_shot_backend)."""
     if backend not in allowed:  # "auto": a one-shot call's, as gpu.context.one_shot_backend decides
-        raise ValueError(f"backend {backend!r} is not one of {allowed}")
+        raise InputError(f"backend {backend!r} is not one of {allowed}")
     from .gpu.context import one_shot_backend
     return one_shot_backend() if backend == "auto" else backend
 
@@ -184,7 +185,7 @@ def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chu
     from .big.chunked import as_chunks, marching_cubes_chunked, value_range
     from .core.lazy_arrays import is_lazy
     if step_size != 1:
-        raise ValueError("chunks= runs at step_size 1; drop chunks, or use step_size=1")
+        raise InputError("chunks= runs at step_size 1; drop chunks, or use step_size=1")
     source = volume.data if isinstance(volume, validation.CheckedVolume) else volume
     if not is_lazy(source):
         source = validation._numeric_3d(source, "volume")[0]  # shape and dtype only: no scan of the values

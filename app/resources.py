@@ -8,6 +8,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from .errors import InputError
+
 _PACKAGE_DIR = Path(__file__).resolve().parent
 _CHECKOUT_ROOT = _PACKAGE_DIR.parent
 _INCLUDE = re.compile(r'^\s*#include\s+"([\w./-]+)"\s*$', re.MULTILINE)
@@ -49,7 +51,7 @@ def shader_source(name: str, defines: dict[str, object] | None = None) -> str:
     if defines:
         lines = source.split("\n", 1)
         if not lines[0].startswith("#version"):
-            raise ValueError(f"{name}: first line must be #version")
+            raise InputError(f"{name}: first line must be #version")
         extra = "".join(f"#define {k} {v}\n" for k, v in defines.items())
         source = lines[0] + "\n" + extra + (lines[1] if len(lines) > 1 else "")
     return source

@@ -9,6 +9,7 @@ import numpy as np
 
 from .core.layout import IN_PLACE_DTYPES
 from .core.lazy_arrays import is_lazy, maps_a_file, release_pages
+from .errors import InputError
 
 GRADIENT_DIRECTIONS = ("descent", "ascent")
 
@@ -63,14 +64,14 @@ def subsampled(checked: CheckedVolume, step: int) -> CheckedVolume:
     full volume's, a bound on the samples kept, so every level of the full volume stays valid."""
     data = checked.samples[::step, ::step, ::step]   # a view: the kernels read it in place, strides and all
     if min(data.shape) < 2:
-        raise ValueError(f"step_size {step} leaves the volume {'x'.join(map(str, checked.samples.shape))} "
+        raise InputError(f"step_size {step} leaves the volume {'x'.join(map(str, checked.samples.shape))} "
                          f"with an axis shorter than 2 samples; use a smaller step_size")
     return CheckedVolume(data, checked.value_range, checked.notes)
 
 
 def as_step_size(step_size) -> int:
     if isinstance(step_size, bool) or not isinstance(step_size, (int, np.integer)) or step_size < 1:
-        raise ValueError(f"step_size must be a whole number of voxels, 1 or more; got {step_size!r}")
+        raise InputError(f"step_size must be a whole number of voxels, 1 or more; got {step_size!r}")
     return int(step_size)
 
 
@@ -122,7 +123,7 @@ def check_volume(volume, what: str = "volume", *, progress: Progress | None = No
                 index = tuple(int(i) + part.start for i, part in
                               zip(np.unravel_index(int(np.argmax(bad)), slab.shape), block))
                 count = sum(int(np.count_nonzero(~np.isfinite(np.asarray(data[b])))) for b in pieces)
-                raise ValueError(f"{what} has {count} NaN/Inf sample(s), the first ({data[index]}) "
+                raise InputError(f"{what} has {count} NaN/Inf sample(s), the first ({data[index]}) "
                                  f"{where(index)}")
         lo, hi = min(lo, slab_lo), max(hi, slab_hi)
         if len(pieces) > 1 and progress is not None:
@@ -158,7 +159,7 @@ def accept_measured(checked: CheckedVolume, value_range: tuple[float, float] | N
 
 def _within_float32(lo: float, hi: float, what: str) -> tuple[float, float]:
     if max(-lo, hi) > FLOAT32_MAX:
-        raise ValueError(f"{what} has values up to {max(-lo, hi):g}, beyond float32's range "
+        raise InputError(f"{what} has values up to {max(-lo, hi):g}, beyond float32's range "
                          f"(+-{FLOAT32_MAX:.3g}) that the GPU computes in; rescale the data")
     return lo, hi
 
@@ -191,25 +192,25 @@ def _numeric_3d(volume, what: str) -> tuple[np.ndarray, list[str]]:
     try:
         data = np.asarray(volume)
     except Exception as exc:  # ragged lists and the like
-        raise ValueError(f"{what} is not an array ({exc}); pass a 3-D numpy array") from None
+        raise InputError(f"{what} is not an array ({exc}); pass a 3-D numpy array") from None
     notes: list[str] = []
     if data.dtype == np.bool_:
         data = data.astype(np.uint8)
         notes.append("boolean array shown as 0/1")
     elif data.dtype.kind == "c":
-        raise ValueError(f"{what} holds complex numbers ({data.dtype}); use its magnitude or real "
+        raise InputError(f"{what} holds complex numbers ({data.dtype}); use its magnitude or real "
                          "part (np.abs(a) or a.real)")
     elif data.dtype.kind not in "iuf":
-        raise ValueError(f"{what} holds {data.dtype} values, not numbers (dtype {data.dtype}); "
+        raise InputError(f"{what} holds {data.dtype} values, not numbers (dtype {data.dtype}); "
                          "convert it to numbers (e.g. a.astype(np.float32))")
     if data.dtype == np.float16:
         data = data.astype(np.float32)
     if data.ndim != 3:
         hint = "stack the slices into one 3-D array (np.stack)" if data.ndim < 3 else "pick one 3-D volume from it"
         shape = "x".join(str(n) for n in data.shape) or "scalar"
-        raise ValueError(f"{what} is a {data.ndim}-D array (shape {shape}); isoscope needs a 3-D array: {hint}")
+        raise InputError(f"{what} is a {data.ndim}-D array (shape {shape}); isoscope needs a 3-D array: {hint}")
     if min(data.shape) < 2:
-        raise ValueError(f"{what} has shape {'x'.join(str(n) for n in data.shape)}, an axis shorter than 2; "
+        raise InputError(f"{what} has shape {'x'.join(str(n) for n in data.shape)}, an axis shorter than 2; "
                          "every axis needs at least 2 samples to hold a surface")
     return data, notes
 
@@ -232,19 +233,19 @@ def as_spacing(spacing, shape=None) -> tuple[float, float, float]:
     try:
         values = tuple(float(s) for s in spacing)
     except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"spacing {spacing!r} is not three numbers; pass e.g. (1.0, 1.0, 1.0)") from None
+        raise InputError(f"spacing {spacing!r} is not three numbers; pass e.g. (1.0, 1.0, 1.0)") from None
     if len(values) != 3:
-        raise ValueError(f"spacing needs 3 values, one per axis, got {len(values)}")
+        raise InputError(f"spacing needs 3 values, one per axis, got {len(values)}")
     if not all(np.isfinite(v) and v > 0 for v in values):
-        raise ValueError(f"spacing {_numbers(values)} must be finite and positive")
+        raise InputError(f"spacing {_numbers(values)} must be finite and positive")
     if not all(MIN_SPACING <= v <= MAX_SPACING for v in values):
-        raise ValueError(f"spacing {_numbers(values)} is out of range: each voxel size must lie within "
+        raise InputError(f"spacing {_numbers(values)} is out of range: each voxel size must lie within "
                          f"{MIN_SPACING:.2g} .. {MAX_SPACING:.2g}, or the mesh's float32 vertices and normals "
                          f"overflow or collapse to a point; give it in other units (e.g. mm instead of m)")
     if shape is not None:
         extent = max(v * (int(n) - 1) for v, n in zip(values, shape))
         if not extent <= FLOAT32_MAX:
-            raise ValueError(f"spacing {_numbers(values)} over {'x'.join(map(str, shape))} samples spans "
+            raise InputError(f"spacing {_numbers(values)} over {'x'.join(map(str, shape))} samples spans "
                              f"{extent:.3g}, beyond float32's range; give the spacing in other units")
     return values
 
@@ -256,7 +257,7 @@ def _numbers(values) -> str:
 def as_gradient_direction(direction: str) -> bool:
     """True for "descent" (object above the level), False for "ascent"."""
     if direction not in GRADIENT_DIRECTIONS:
-        raise ValueError(f"gradient_direction {direction!r} is not one of {GRADIENT_DIRECTIONS}")
+        raise InputError(f"gradient_direction {direction!r} is not one of {GRADIENT_DIRECTIONS}")
     return direction == "descent"
 
 
@@ -267,10 +268,10 @@ def named_level(level, value_range: tuple[float, float], name: str) -> float:
     try:
         value = float(level)
     except (TypeError, ValueError):
-        raise ValueError(f"level {level!r} is not a number; give the iso value as a float") from None
+        raise InputError(f"level {level!r} is not a number; give the iso value as a float") from None
     low, high = value_range
     if not low <= value <= high:   # NaN too
-        raise ValueError(f"level {value:g} is outside {name}'s value range {low:g} .. {high:g}; "
+        raise InputError(f"level {value:g} is outside {name}'s value range {low:g} .. {high:g}; "
                          "pick a value inside it")
     return value
 
@@ -283,9 +284,9 @@ def as_level(level, value_range: tuple[float, float]) -> float:
     try:
         value = float(level)
     except (TypeError, ValueError):
-        raise ValueError(f"level {level!r} is not a number") from None
+        raise InputError(f"level {level!r} is not a number") from None
     if not np.isfinite(value):
-        raise ValueError(f"level {value} is not finite")
+        raise InputError(f"level {value} is not finite")
     if not lo <= value <= hi:
-        raise ValueError(f"level {value:g} is outside the data range [{lo:g}, {hi:g}]; pick a level inside it")
+        raise InputError(f"level {value:g} is outside the data range [{lo:g}, {hi:g}]; pick a level inside it")
     return value

@@ -32,6 +32,7 @@ import numpy as np
 from .. import validation
 from ..core.lazy_arrays import read_block
 from ..cpu.cubes import brick_order_key, vertex_positions
+from ..errors import InputError
 from ..gpu.mesh import empty_mesh
 
 DEFAULT_CHUNK = 128  # cells per axis: a 131^3 float32 block is 8.6 MiB
@@ -63,7 +64,7 @@ def as_chunks(chunks, shape) -> tuple[int, int, int]:
     sizes = (chunks,) * 3 if np.isscalar(chunks) else tuple(chunks)
     if len(sizes) != 3 or not all(isinstance(c, (int, np.integer)) and not isinstance(c, bool) and c >= 1
                                   for c in sizes):
-        raise ValueError(f"chunks must be a whole number of cells (1 or more) or three of them, got {chunks!r}")
+        raise InputError(f"chunks must be a whole number of cells (1 or more) or three of them, got {chunks!r}")
     return tuple(min(int(c), n - 1) for c, n in zip(sizes, shape))
 
 

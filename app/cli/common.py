@@ -4,6 +4,7 @@ from __future__ import annotations
 import os
 import sys
 
+from ..errors import InputError
 from ..volumes import VolumeError
 
 EXIT_BAD_INPUT = 2
@@ -57,7 +58,7 @@ def check_label_options(args, *options: str) -> None:
     """--labels draws or writes every label's boundary: refuse the options that have no meaning there."""
     for option in options:
         if getattr(args, option.strip("-").replace("-", "_"), None) not in (None, False):
-            raise ValueError(f"{option} does not apply with --labels (each label's surface is its boundary); "
+            raise InputError(f"{option} does not apply with --labels (each label's surface is its boundary); "
                              f"leave out {option}" if args.labels else f"{option} needs --labels; add --labels")
 
 

@@ -6,6 +6,7 @@ import os
 import sys
 from pathlib import Path
 
+from ..errors import InputError
 from ..validation import as_gradient_direction
 from ..volumes.time_points import same_shape
 from .common import check_label_options, checked_levels, count_line, level_path, progress, wrote
@@ -20,13 +21,13 @@ def max_workers() -> int:
 def _check_workers(args) -> None:
     """--workers within 1..max_workers(), refused before the volume is read."""
     if args.workers is not None and args.workers < 1:
-        raise ValueError(f"--workers {args.workers}: give 1 or more worker processes")
+        raise InputError(f"--workers {args.workers}: give 1 or more worker processes")
     if args.workers is not None and args.workers > max_workers():
-        raise ValueError(f"--workers {args.workers} is more worker processes than this machine runs "
+        raise InputError(f"--workers {args.workers} is more worker processes than this machine runs "
                          f"({os.cpu_count()} cores: at most {max_workers()}); give fewer, or --scheduler for a "
                          "cluster of machines")
     if args.workers is not None and args.scheduler is not None:
-        raise ValueError("--workers starts a local cluster, --scheduler uses another one; give one of them")
+        raise InputError("--workers starts a local cluster, --scheduler uses another one; give one of them")
 
 
 def _extract_for_export(volume, iso, args):
@@ -40,10 +41,10 @@ def _extract_for_export(volume, iso, args):
     if problem is not None:
         why = "" if not chunked else ("this export is chunked (--chunk, --workers, --scheduler, or a Zarr or "
                                       "memory-mapped volume): ")
-        raise ValueError(why + problem)
+        raise InputError(why + problem)
     closed = getattr(args, "closed", False)
     if closed and chunked:
-        raise ValueError("--closed pads the whole volume, and this export is chunked (--chunk, --workers, "
+        raise InputError("--closed pads the whole volume, and this export is chunked (--chunk, --workers, "
                          "--scheduler, or a Zarr or memory-mapped volume); leave out --closed, or the chunking")
     if not chunked:
         return _whole(volume, iso, args, closed)
@@ -147,10 +148,10 @@ def _export_labels(args) -> int:
     check_label_options(args, "--iso", "--decimate")
     for option in ("--chunk", "--workers", "--scheduler"):
         if getattr(args, option.strip("-")) is not None:
-            raise ValueError(f"export --labels makes every label's surface here, from the whole volume; "
+            raise InputError(f"export --labels makes every label's surface here, from the whole volume; "
                              f"leave out {option}")
     if args.label_names is not None and not args.one_file:
-        raise ValueError("--label-names gives the colours of --one-file's vertices (a file per label holds no "
+        raise InputError("--label-names gives the colours of --one-file's vertices (a file per label holds no "
                          "colour); add --one-file")
     check_label_output(args.out, args.one_file)
     volume = open_volume_from_args(args.volume, args, progress)
@@ -165,7 +166,7 @@ def _export_labels(args) -> int:
     except TooManyLabels as exc:
         would = (f"one file holding {exc.count} meshes" if args.one_file else
                  f"{exc.count} files ({label_file(args.out, 'N').name})")
-        raise ValueError(f"{volume.name} has {exc.count} distinct non-zero values, more than --max-labels {limit}: "
+        raise InputError(f"{volume.name} has {exc.count} distinct non-zero values, more than --max-labels {limit}: "
                          f"--labels would write {would}; if it is a scan, not a segmentation, leave out --labels; "
                          f"if it is a label map, raise the limit with --max-labels {exc.count}") from None
     space = volume.world[1] if args.space == "world" and volume.world is not None else "index x spacing"
@@ -188,7 +189,7 @@ def _write_named_labels(volume, out, names: dict, world: bool, limit):
     from ..viewer.model.labels import layers
     surfaces = label_surfaces(labels_of(volume), spacing=volume.spacing, max_labels=limit)
     if not surfaces:
-        raise ValueError(f"{volume.name} has no non-zero labels, so no surface to write; leave out --labels "
+        raise InputError(f"{volume.name} has no non-zero labels, so no surface to write; leave out --labels "
                          "to export an isosurface")
     placed = {label: in_volume_space(volume, *mesh, world=world) for label, mesh in surfaces.items()}
     colors = [layer.color for layer in layers(list(placed), names)]

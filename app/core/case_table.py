@@ -47,6 +47,8 @@ from functools import cache
 
 import numpy as np
 
+from ..errors import InputError
+
 CORNER_OFFSETS = np.array([(c & 1, c >> 1 & 1, c >> 2 & 1) for c in range(8)], dtype=np.int64)
 
 
@@ -97,7 +99,7 @@ def _edge_between(c0: int, c1: int) -> int:
     for e, (lo, hi) in enumerate(EDGE_CORNERS):
         if {lo, hi} == {c0, c1}:
             return e
-    raise ValueError(f"corners {c0} and {c1} share no edge")
+    raise InputError(f"corners {c0} and {c1} share no edge")
 
 
 EDGE_MIDPOINT = (EDGE_ORIGIN + np.eye(3, dtype=np.int64)[EDGE_AXIS] * 0.5).astype(np.float64)

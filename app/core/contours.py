@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from .layout import EDGE_MARGIN
 
 PARAM_OPTIONS = ("low", "high")
@@ -142,17 +143,17 @@ def find_contours(image, level=None, fully_connected="low", positive_orientation
     """
     image = np.asarray(image, dtype=np.float64)
     if image.ndim != 2:
-        raise ValueError(f"image must be 2-D, got {image.ndim}-D with shape {image.shape}; pick one slice")
+        raise InputError(f"image must be 2-D, got {image.ndim}-D with shape {image.shape}; pick one slice")
     if min(image.shape) < 2:
-        raise ValueError(f"image shape {image.shape} has an axis shorter than 2; contours need 2x2 samples")
+        raise InputError(f"image shape {image.shape} has an axis shorter than 2; contours need 2x2 samples")
     for name, value in (("fully_connected", fully_connected), ("positive_orientation", positive_orientation)):
         if value not in PARAM_OPTIONS:
-            raise ValueError(f"{name} must be 'low' or 'high', not {value!r}")
+            raise InputError(f"{name} must be 'low' or 'high', not {value!r}")
     valid = ~np.isnan(image)
     if mask is not None:
         mask = np.asarray(mask)
         if mask.shape != image.shape or mask.dtype != bool:
-            raise ValueError(f"mask must be a bool array of the image's shape {image.shape}, "
+            raise InputError(f"mask must be a bool array of the image's shape {image.shape}, "
                              f"got {mask.dtype} {mask.shape}")
         valid &= mask
     if not valid.any():

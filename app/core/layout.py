@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
+
 # --- the marching-cubes grid layout ------------------------------------------------------------
 WORD_BITS = 32
 """Inside bits packed per uint along axis 2: word w of a row holds samples 32w .. 32w + 31."""
@@ -125,7 +127,7 @@ def divisor_magic(d: int) -> tuple[int, int, int]:
     every 32-bit n: Granlund and Montgomery, "Division by invariant integers using multiplication"
     (PLDI 1994), figure 4.1.  1 <= d < 2^32."""
     if not 1 <= d < 1 << 32:
-        raise ValueError(f"divisor {d} is outside 1 .. 2^32 - 1")
+        raise InputError(f"divisor {d} is outside 1 .. 2^32 - 1")
     bits = (d - 1).bit_length()  # ceil(log2 d)
     return ((1 << 32) * ((1 << bits) - d)) // d + 1, min(bits, 1), max(bits - 1, 0)
 

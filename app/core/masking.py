@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
+
 
 def check_mask(mask, shape) -> np.ndarray | None:
     """The mask as a boolean array of the volume's `shape`, or a one-line ValueError."""
@@ -18,10 +20,10 @@ def check_mask(mask, shape) -> np.ndarray | None:
         return None
     mask = np.asarray(mask)
     if mask.shape != tuple(shape):
-        raise ValueError(f"mask of shape {'x'.join(map(str, mask.shape))} does not match the volume's "
+        raise InputError(f"mask of shape {'x'.join(map(str, mask.shape))} does not match the volume's "
                          f"{'x'.join(map(str, shape))}; give a boolean array of the volume's shape")
     if mask.dtype != np.bool_:
-        raise ValueError(f"mask must be a boolean array (True where the surface is wanted), not {mask.dtype}; "
+        raise InputError(f"mask must be a boolean array (True where the surface is wanted), not {mask.dtype}; "
                          "e.g. mask=volume_labels > 0")
     return mask
 

@@ -41,6 +41,7 @@ from numba import prange
 
 from ..core.case_table import EDGE_AXIS, EDGE_ORIGIN, CaseTable, montani_table
 from ..core.layout import EDGE_MARGIN, WORD_BITS
+from ..errors import InputError
 from .jit import _cached_njit, _case, _cut_cells, _launch_guard, _low_bits, _lowest_bit, _popcount, _take
 from .samples import ORDER_F, SampleView, sample, sample_view
 from .words import _pack_and_count, _pack_rows_along_0, _scan, _word_ranges, rows_per_block
@@ -519,7 +520,7 @@ class CompiledCubes:
                 accept(self.value_range)
         n_vertices, n_triangles = _scan(self._vertex_offsets, self._triangle_offsets)
         if max(n_vertices, n_triangles) > MAX_INDEX:
-            raise ValueError(f"the mesh at level {user_level:g} has {n_vertices:,} vertices and {n_triangles:,} "
+            raise InputError(f"the mesh at level {user_level:g} has {n_vertices:,} vertices and {n_triangles:,} "
                              f"triangles, more than int32 faces index ({MAX_INDEX:,}); extract it in pieces "
                              "(chunks=128) or at a coarser step_size")
         verts, faces, normals, values = self._output_arrays(n_vertices, n_triangles)

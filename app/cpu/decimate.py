@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from .interpolate import trilinear_value
 
 
@@ -34,7 +35,7 @@ def vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 def check_fraction(fraction: float) -> float:
     if not 0 < fraction <= 1:
-        raise ValueError(f"--decimate {fraction:g} must be a fraction of the triangles to keep, in (0, 1]")
+        raise InputError(f"--decimate {fraction:g} must be a fraction of the triangles to keep, in (0, 1]")
     return float(fraction)
 
 

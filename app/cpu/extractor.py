@@ -13,6 +13,7 @@ import numpy as np
 
 from .. import validation
 from ..core.case_table import CaseTable, montani_table
+from ..errors import InputError, ReleasedError
 from .cubes import marching_cubes_reference
 
 __all__ = ["CpuExtractor"]
@@ -51,7 +52,7 @@ class CpuExtractor:
     def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent", backend: str = "cpu",
                  table: CaseTable | None = None):
         if backend not in ("cpu", "numpy"):
-            raise ValueError(f"backend {backend!r} is not one of ('cpu', 'numpy')")
+            raise InputError(f"backend {backend!r} is not one of ('cpu', 'numpy')")
         checked = validation.check_volume(volume)
         self.spacing = validation.as_spacing(spacing, checked.samples.shape)
         self.descent = validation.as_gradient_direction(gradient_direction)
@@ -85,7 +86,8 @@ class CpuExtractor:
     def extract(self, level: float) -> tuple[int, int]:
         """Extract the surface at `level` (within value_range); returns (vertices, triangles)."""
         if self._checked is None:
-            raise ValueError("this CpuExtractor was released; make a new one")
+            raise ReleasedError("this CpuExtractor was released (release(), or its with block ended): its volume "
+                                "is gone; make a new one")
         level = validation.as_level(level, self.value_range)
         self._mesh = self._extract(level)
         self.level = level
@@ -107,8 +109,11 @@ class CpuExtractor:
         """verts (N, 3) float32, faces (M, 3) int32, normals (N, 3) float32, values (N,) float32 of the
         last extraction, as `isoscope.api.outward_marching_cubes` returns them (copies: the caller may keep
         them)."""
+        if self._checked is None:
+            raise ReleasedError("this CpuExtractor was released (release(), or its with block ended): its volume "
+                                "is gone; make a new one")
         if self._mesh is None:
-            raise ValueError("nothing extracted yet: call extract(level) first")
+            raise InputError("nothing extracted yet: call extract(level) first")
         return tuple(part.copy() for part in self._mesh)
 
     def release(self) -> None:

@@ -19,6 +19,7 @@ import moderngl
 
 from ..core.case_table import CaseTable, montani_table
 from ..core.layout import WORD_BITS
+from ..errors import InputError
 from .extraction import CellKind, SurfaceExtractor
 from .limits import GPULimitError, GpuLimits
 from .resident import ResidentVolume
@@ -100,7 +101,7 @@ class Extractor(SurfaceExtractor):
                  limits: GpuLimits | None = None):
         table = table or montani_table()
         if WORD_BITS * table.max_triangles > 255:  # a word's triangle count has 8 bits (mc_common.glsl)
-            raise ValueError(f"a case table with up to {table.max_triangles} triangles per cell does not fit "
+            raise InputError(f"a case table with up to {table.max_triangles} triangles per cell does not fit "
                              f"the per-word counts; at most {255 // WORD_BITS} can")
         resident = ResidentVolume(volume, spacing, gradient_direction, ctx=ctx, limits=limits)
         try:

@@ -46,6 +46,7 @@ from ..core.layout import (
     ImageUnit,
     StorageBlock,
 )
+from ..errors import ReleasedError
 from .buffers import GrowableBuffer
 from .limits import GPULimitError
 from .mesh import GpuMesh
@@ -102,6 +103,7 @@ class SurfaceExtractor:
     """
 
     def __init__(self, volume: ResidentVolume, kind: CellKind, table: CaseTable | None = None):
+        self._released = False
         self.resident = volume
         self.kind = kind
         self.ctx = volume.ctx
@@ -245,6 +247,7 @@ class SurfaceExtractor:
 
     def extract(self, level: float) -> tuple[int, int]:
         """Extract the surface at `level` into vertex_buffer/index_buffer; returns (vertices, triangles)."""
+        self._check_alive()
         level = validation.as_level(level, self.value_range)
         start = time.perf_counter()
         self._set_common_uniforms(level)
@@ -376,7 +379,13 @@ class SurfaceExtractor:
 
     def read_mesh(self):
         """The last extraction as numpy arrays: verts, faces, normals, values (skimage's layout)."""
+        self._check_alive()
         return self.mesh.read()
+
+    def _check_alive(self) -> None:
+        if self._released:
+            raise ReleasedError(f"this {type(self).__name__} was released (release(), or its with block ended): "
+                                "its GPU memory is gone; make a new one")
 
     def scratch_bytes(self) -> int:
         """GPU memory of its own beyond the mesh buffers (the vertex-job buffer included)."""
@@ -404,6 +413,7 @@ class SurfaceExtractor:
     def release(self) -> None:
         """Free every GL object this extractor made; safe to call twice, or on a half-built one.  The
         resident volume is not its to free."""
+        self._released = True
         for obj in self._owned:
             obj.release()
         self._owned.clear()

@@ -17,6 +17,7 @@ import moderngl
 import numpy as np
 
 from ..core.layout import INDEX_BYTES, VERTEX_BYTES, VERTEX_FIELDS, VERTEX_FLOATS, VERTEX_FORMAT
+from ..errors import InputError
 from .context import is_software_renderer
 
 
@@ -62,7 +63,7 @@ class GpuMesh:
     def read(self):
         """verts (N, 3), faces (M, 3) int32, normals (N, 3), values (N,): scikit-image's layout."""
         if self.vertex_format != VERTEX_FORMAT:
-            raise ValueError(f"cannot read vertex records of format {self.vertex_format!r}")
+            raise InputError(f"cannot read vertex records of format {self.vertex_format!r}")
         if self.n_vertices == 0:
             return empty_mesh()
         fields = _read_fields(self.vertex_buffer, self.n_vertices)

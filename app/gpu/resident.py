@@ -21,6 +21,7 @@ import numpy as np
 
 from .. import validation
 from ..core.layout import GROUP_SIZE, ImageUnit, StorageBlock, divisor_magic, job_coordinate_bits, volume_texel_format
+from ..errors import InputError
 from .context import current_or_standalone
 from .limits import GpuLimits, plan_extractor
 from .programs import compute_program, dispatch_groups, set_uniforms
@@ -121,7 +122,7 @@ class ResidentVolume:
         validation.as_spacing(spacing)  # every argument checked before anything changes
         validation.as_gradient_direction(gradient_direction)
         if not self.fits(checked):
-            raise ValueError(f"a {checked.samples.dtype} volume of shape {checked.samples.shape} does not fit this "
+            raise InputError(f"a {checked.samples.dtype} volume of shape {checked.samples.shape} does not fit this "
                              f"extractor's {self.plan.dims_text} image; make a new Extractor for it")
         self._take(checked, spacing, gradient_direction)
         write_volume(self.texture, checked.samples, self.plan)

@@ -42,6 +42,7 @@ from ..cpu.sharp.patches import MAX_PATCH_VERTICES
 from ..cpu.sharp.points import CLUSTER_ANGLE, LINE_MARGIN, third_side_bound
 from ..cpu.sharp.points import patch_points as numpy_patch_points
 from ..cpu.sharp.qef import JACOBI_SWEEPS, SINGULAR_CUTOFF
+from ..errors import InputError
 from .buffers import GrowableBuffers
 from .mesh import GpuMesh
 from .programs import compute_program, dispatch_groups, set_uniforms
@@ -95,7 +96,7 @@ class SharpExtractor:
         None: the mesh is too large for one storage block, so the pass did not run (ask numpy)."""
         if mesh is None:
             if self.extractor is None:
-                raise ValueError("may_bend needs the mesh: this SharpExtractor was made from a resident volume")
+                raise InputError("may_bend needs the mesh: this SharpExtractor was made from a resident volume")
             mesh = self.extractor.mesh
         volume = self.volume
         n = mesh.n_vertices

@@ -19,6 +19,7 @@ from concurrent.futures import wait as wait_for
 
 from ..cpu.sharp.features import Stopped, sharpen, signed_field
 from ..cpu.sharp.normals import crisp_normals
+from ..errors import InputError
 from .mesh import GpuMesh, OwnedMesh
 from .sharp import SharpExtractor
 
@@ -63,7 +64,7 @@ def step_result(future):
     try:
         return future.result()
     except Exception as exc:
-        raise ValueError(f"sharp features failed ({type(exc).__name__}: {exc}); the plain mesh is shown") from None
+        raise InputError(f"sharp features failed ({type(exc).__name__}: {exc}); the plain mesh is shown") from None
 
 
 class SharpenedMesh:

@@ -40,6 +40,7 @@ from ..cpu.smooth import (
     UMBRELLA_WEIGHT,
     check_iterations,
 )
+from ..errors import InputError
 from .buffers import GrowableBuffer
 from .limits import GPULimitError, GpuLimits
 from .mesh import GpuMesh
@@ -97,7 +98,7 @@ class Smoother:
         if level is None and self._extractor is not None:
             level = self._extractor.level
         if level is None:
-            raise ValueError("smoothing needs a level: extract one first, or pass level=")
+            raise InputError("smoothing needs a level: extract one first, or pass level=")
         if iterations == 0 or mesh.n_vertices == 0:
             return
         n_v, n_t = mesh.n_vertices, mesh.n_triangles

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import InputError
 from .atomic import signals_not_swallowed, write_atomically
 
 FORMATS = {".ply": "ply", ".obj": "obj", ".stl": "stl", ".glb": "glb", ".off": "off"}
@@ -26,7 +27,7 @@ def mesh_format(path) -> str:
     suffix = Path(path).suffix.lower()
     if suffix not in FORMATS:
         given = f"'{suffix}'" if suffix else "no extension"
-        raise ValueError(f"{Path(path).name}: {given} is not a mesh format isoscope writes; "
+        raise InputError(f"{Path(path).name}: {given} is not a mesh format isoscope writes; "
                          f"end the name in one of {', '.join(FORMATS)}")
     return FORMATS[suffix]
 
@@ -48,12 +49,12 @@ def mesh_bytes(file_type: str, verts, faces, normals, colors=None, comment: str 
     normals = np.asarray(normals, np.float32).reshape(-1, 3)
     faces = np.asarray(faces).reshape(-1, 3)
     if not len(faces):
-        raise ValueError("the mesh is empty (no surface at this level); nothing written: pick a level "
+        raise InputError("the mesh is empty (no surface at this level); nothing written: pick a level "
                          "between the values inside and outside the object")
     if len(normals) != len(verts):
-        raise ValueError(f"{len(verts)} vertices but {len(normals)} normals; pass one normal per vertex")
+        raise InputError(f"{len(verts)} vertices but {len(normals)} normals; pass one normal per vertex")
     if len(faces) and (faces.min() < 0 or faces.max() >= len(verts)):
-        raise ValueError(f"face indices must lie in [0, {len(verts)}); got {faces.min()}..{faces.max()}")
+        raise InputError(f"face indices must lie in [0, {len(verts)}); got {faces.min()}..{faces.max()}")
     options = {"ply": {"encoding": "binary", "vertex_normal": True}, "obj": {"include_normals": True},
                "glb": {"include_normals": True}}.get(file_type, {})
     if comment and file_type == "obj":

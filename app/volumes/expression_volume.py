@@ -10,6 +10,7 @@ import numpy as np
 
 from isoscope.core.layout import MAX_WORDS, WORD_BITS, fits_one_extraction
 
+from ..errors import InputError
 from .errors import VolumeError
 from .expression import FLOAT32_MAX, evaluate, parse, peak_intermediates
 from .grid import Box, pick_resolution, sample_function
@@ -118,7 +119,7 @@ def open_expression(spec: str, *, resolution=None, progress: Progress | None = N
 
 def _sample(tree, box: Box, shape, backend: str, ctx, progress):
     if backend not in ("auto", "gpu", "cpu"):
-        raise ValueError(f"backend must be 'auto', 'gpu' or 'cpu', not {backend!r}")
+        raise InputError(f"backend must be 'auto', 'gpu' or 'cpu', not {backend!r}")
     if backend != "cpu":
         from isoscope.gpu.context import REQUIRED_GL, GLUnavailable, current_or_standalone, version_text
 

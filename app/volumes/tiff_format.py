@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import InputError
 from .errors import VolumeError
 from .reading import library_messages, read_or_explain
 from .time_points import select_time
@@ -53,7 +54,7 @@ def load_tiff(path: Path, time: int | None, progress: Progress | None = None):
     def read():
         with tifffile.TiffFile(path) as tif:
             if not tif.series:
-                raise ValueError("no image in it")
+                raise InputError("no image in it")
             series = tif.series[0]
             # The size the tags claim, refused before tifffile allocates it (8 pages of 46000^2 reached
             # the allocator); one time point of a series is what is kept, but the series is read whole.

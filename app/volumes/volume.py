@@ -15,6 +15,7 @@ import numpy as np
 
 from ..core.budget import available_memory_bytes, size_text
 from ..core.lazy_arrays import is_lazy
+from ..errors import InputError
 from ..validation import CheckedVolume, Progress, as_spacing, check_volume
 from .errors import VolumeError
 
@@ -152,7 +153,7 @@ def finish_volume(data: np.ndarray, *, spacing, name: str, source: str, gradient
                      "index x spacing coordinates instead of world ones")
         world = None
     if gradient_direction not in ("descent", "ascent"):
-        raise ValueError(f"gradient_direction must be 'descent' or 'ascent', not {gradient_direction!r}")
+        raise InputError(f"gradient_direction must be 'descent' or 'ascent', not {gradient_direction!r}")
     # The samples in their own memory order (no transpose of a Fortran-ordered file); native byte order.
     data = checked.samples if is_lazy(checked.samples) or checked.samples.dtype.isnative else checked.data
     return Volume(data=data, spacing=spacing, name=name, source=source,

@@ -4,6 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import isoscope
+
 from isoscope.cpu.cubes import marching_cubes_reference
 from isoscope.cpu.extractor import CpuExtractor
 from isoscope.validation import check_volume
@@ -49,8 +51,9 @@ def test_bad_arguments_and_use_after_release():
         ex.read_mesh()
     ex.release()
     ex.release()
-    with pytest.raises(ValueError, match="released"):
-        ex.extract(0.5)
+    for use in (lambda: ex.extract(0.5), ex.read_mesh):   # one line saying so, not an AttributeError
+        with pytest.raises(isoscope.IsoscopeError, match="released.*make a new one"):
+            use()
 
 
 def test_examples_run():

@@ -172,3 +172,13 @@ def test_reading_a_mesh_by_records_or_by_fields_gives_the_same_arrays(gl_ctx, mo
         assert a.dtype == b.dtype and a.flags.c_contiguous and b.flags.c_contiguous
         assert a.tobytes() == b.tobytes()
     assert_same_mesh(by_fields, marching_cubes_reference(volume, 0.3))
+
+
+def test_use_after_release_says_so_in_one_line(gl_ctx):
+    import isoscope
+    volume = np.random.default_rng(3).random((12, 12, 12), dtype=np.float32)
+    with Extractor(volume, ctx=gl_ctx) as ex:
+        assert ex.extract(0.5)[1] > 0
+    for use in (lambda: ex.extract(0.5), ex.read_mesh):   # was AttributeError: 'NoneType' ... bind_to_image
+        with pytest.raises(isoscope.IsoscopeError, match="released.*make a new one"):
+            use()

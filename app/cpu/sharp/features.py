@@ -64,7 +64,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...errors import IsoscopeError
+from ...errors import InputError, IsoscopeError
 from .arrays import _padded, _unique
 from .cells import CANDIDATE_FRACTION, _normal_spread, _occupancy, _plane_cells, cell_runs, vertex_may_bend
 from .eno import eno_normals
@@ -90,7 +90,7 @@ def check_feature_angle(sharp_features) -> float | None:
     except (TypeError, ValueError):
         angle = float("nan")
     if not 0.0 < angle < 180.0:
-        raise ValueError(f"sharp_features={sharp_features!r} must be a feature angle in degrees between 0 and 180 "
+        raise InputError(f"sharp_features={sharp_features!r} must be a feature angle in degrees between 0 and 180 "
                          "(exclusive), e.g. 30, or None for plain marching cubes")
     return angle
 

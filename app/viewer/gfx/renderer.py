@@ -16,6 +16,7 @@ import moderngl
 import numpy as np
 
 from ...core.layout import VERTEX_FORMAT, vertex_format
+from ...errors import InputError
 from ...gpu.mesh import GpuMesh
 from ...resources import shader_source
 from ..model.slices import SliceScene
@@ -70,7 +71,7 @@ class SceneRenderer:
         key = (mesh.vertex_buffer, mesh.index_buffer)
         if key not in self._vaos:
             if mesh.vertex_format != VERTEX_FORMAT:
-                raise ValueError(f"the renderer cannot draw vertex records of format {mesh.vertex_format!r}")
+                raise InputError(f"the renderer cannot draw vertex records of format {mesh.vertex_format!r}")
             vbo, ibo = key
             lit = [(vbo, VERTEX_FORMAT, "in_position", "in_value", "in_normal")]
             self._vaos[key] = (

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...errors import InputError
 from ...volumes import Volume
 from .colormaps import LUT_SIZE, colormap_rgba
 
@@ -66,7 +67,7 @@ def make_color_by(volume: Volume, source: str, colormap: str, second: Volume | N
     else:
         if second.data.shape != volume.data.shape:
             shape = "x".join(map(str, second.data.shape))
-            raise ValueError(f"{second.name} is {shape} but {volume.name} is {'x'.join(map(str, volume.data.shape))}; "
+            raise InputError(f"{second.name} is {shape} but {volume.name} is {'x'.join(map(str, volume.data.shape))}; "
                              "colour by a volume of the same shape")
         scalar = np.asarray(second.data, np.float32)
         value_range, name = second.value_range, second.name

@@ -6,6 +6,8 @@ import warnings
 
 import numpy as np
 
+from ...errors import InputError
+
 COLORMAPS = ("gray", "bone", "viridis", "magma", "inferno", "plasma", "cividis", "turbo", "hot")
 """Offered in the panel; any name the cmap library knows is accepted."""
 LUT_SIZE = 256
@@ -19,7 +21,7 @@ def colormap_rgba(name: str) -> np.ndarray:
             warnings.simplefilter("ignore")
             return np.asarray(Colormap(name).lut(LUT_SIZE), np.float64)
     except (ValueError, KeyError, TypeError):
-        raise ValueError(f"unknown colour map {name!r}; try one of {', '.join(COLORMAPS)} "
+        raise InputError(f"unknown colour map {name!r}; try one of {', '.join(COLORMAPS)} "
                          "(any name of the cmap library)") from None
 
 

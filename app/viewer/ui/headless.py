@@ -14,6 +14,7 @@ import numpy as np
 from ...core.budget import requested_budget
 from ...cpu.sharp.features import sharpen_extracted
 from ...cpu.sharp.normals import crisp_normals
+from ...errors import InputError
 from ...gpu.context import DRAWING_GL, current_or_standalone, has_compute
 from ...gpu.mesh import GpuMesh
 from ...gpu.sharp_features import sharp_mesh_of
@@ -62,14 +63,14 @@ def check_render_size(size, ctx=None) -> None:
     MAX_RENDER_PIXELS, or (with `ctx`) wider or taller than the GL driver allows."""
     width, height = int(size[0]), int(size[1])
     if width * height > MAX_RENDER_PIXELS:
-        raise ValueError(f"--size {width}x{height} is {width * height / 1e6:.0f} million pixels, more than a "
+        raise InputError(f"--size {width}x{height} is {width * height / 1e6:.0f} million pixels, more than a "
                          f"render makes ({MAX_RENDER_PIXELS / 1e6:.1f} million, e.g. 4096x4096 or 5120x3276: "
                          "its buffers would take gigabytes); choose a smaller --size")
     if ctx is not None:
         max_width, max_height = max_render_size(ctx)
         if width > max_width or height > max_height:
             renderer = ctx.info.get("GL_RENDERER", "this OpenGL driver")
-            raise ValueError(f"--size {width}x{height} is beyond the largest image {renderer} can render, "
+            raise InputError(f"--size {width}x{height} is beyond the largest image {renderer} can render, "
                              f"{max_width}x{max_height} (its GL_MAX_RENDERBUFFER_SIZE, GL_MAX_VIEWPORT_DIMS, "
                              "GL_MAX_TEXTURE_SIZE); choose a smaller --size")
 

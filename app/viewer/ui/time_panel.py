@@ -11,6 +11,7 @@ import threading
 import time
 from pathlib import Path
 
+from ...errors import InputError
 from ...io.movie import MovieWriter, movie_kind
 from ..gfx.renderer import read_rgb
 from ..model.errors import USER_ERRORS, one_line
@@ -60,7 +61,7 @@ class Recorder:
         """The frame rate of the recordings started from now (one under way keeps its own)."""
         fps = float(fps)
         if not 1.0 <= fps <= MAX_RECORD_FPS:   # NaN too
-            raise ValueError(f"record at {fps:g} fps: give 1 to {MAX_RECORD_FPS:g} frames per second")
+            raise InputError(f"record at {fps:g} fps: give 1 to {MAX_RECORD_FPS:g} frames per second")
         self.fps = fps
 
     def start(self, path) -> None:
@@ -68,7 +69,7 @@ class Recorder:
         path = Path(path)
         kind = movie_kind(path, "record to")
         if kind != "folder" and not path.parent.is_dir():
-            raise ValueError(f"record to {path}: the folder {path.parent} does not exist; pick another")
+            raise InputError(f"record to {path}: the folder {path.parent} does not exist; pick another")
         self._rate = self.fps
         self._writer = MovieWriter(path, self._rate, kind)
         self.path, self.frames, self._size, self._error, self.message = path, 0, None, None, None
