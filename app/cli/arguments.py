@@ -4,6 +4,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..core.numbers import AZIMUTH, ELEVATION, MAX_LABELS, SMOOTH
+from ..errors import InputError
 from ..volumes import DEFAULT_VOLUME
 from .common import EXIT_BAD_INPUT
 from .slice_options import add_slice_arguments
@@ -96,13 +98,11 @@ def volume_after_dashes(args: list[str]) -> list[str]:
 
 
 def window_size(text: str) -> tuple[int, int]:
+    from ..core.numbers import image_size
     try:
-        width, height = (int(part) for part in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"size {text!r} is not WIDTHxHEIGHT, e.g. 800x600") from None
-    if not (16 <= width <= 16384 and 16 <= height <= 16384):
-        raise argparse.ArgumentTypeError(f"size {text!r} must be between 16x16 and 16384x16384 pixels")
-    return width, height
+        return image_size(text, "--size")
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _add_iso(parser: argparse.ArgumentParser, several: str = "") -> None:
@@ -148,13 +148,7 @@ def _add_smooth(parser: argparse.ArgumentParser) -> None:
                              "sliver triangles without moving the surface (default 0: none)")
 
 
-def smooth_iterations(text: str) -> int:
-    from ..cpu.smooth import check_iterations  # the API's rule, in the flag's words
-    try:
-        return check_iterations(int(text))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--smooth {text!r} must be a whole number of iterations, 0 or more") \
-            from None
+smooth_iterations = SMOOTH.argument()
 
 
 def feature_angle(text: str) -> float:
@@ -181,14 +175,7 @@ def _add_memory_budget(parser: argparse.ArgumentParser) -> None:
                              "renderer such as llvmpipe); a volume over it is shown at every Nth sample")
 
 
-def max_labels(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"--max-labels {text!r} must be a whole number of labels, 1 or more")
-    return value
+max_labels = MAX_LABELS.argument()
 
 
 def _add_sharp(parser: argparse.ArgumentParser) -> None:
@@ -270,11 +257,8 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         parser = OneLineParser(
             prog="isoscope render",
             description="Render the viewer's scene to a PNG with no window or display (EGL).")
-        add_render_options(parser, out_help="the PNG file to write")
+        add_render_options(parser, out_help="the PNG file to write", scenes=True)
         _add_closed(parser)
-        parser.add_argument("--orientation-letters", action="store_true",
-                            help="a scan's anatomical letters (R/L, A/P, S/I) at the picture's edges (and its 2-D "
-                                 "slice view's); --panel draws them anyway")
     else:
         parser = OneLineParser(prog="isoscope export",
                                description="Extract the isosurface and write it as a mesh file: binary PLY, OBJ, "
@@ -309,26 +293,32 @@ def command_parser(command: str) -> argparse.ArgumentParser:
     return parser
 
 
-def add_render_options(parser: argparse.ArgumentParser, out_help: str, out_metavar: str = "PNG") -> None:
+def add_render_options(parser: argparse.ArgumentParser, out_help: str, out_metavar: str = "PNG",
+                       scenes: bool = False) -> None:
     """What `render` draws and how: the volume, levels and their look, --out, size, camera, slices, mesh
-    modes (`movie` takes the same)."""
-    parser.add_argument("volume", metavar="VOLUME", help=VOLUME_HELP)
+    modes (`movie` takes the same); with `scenes`, VOLUME may be left out for --scene JSON."""
+    parser.add_argument("volume", metavar="VOLUME", help=VOLUME_HELP, **({"nargs": "?"} if scenes else {}))
+    if scenes:
+        parser.add_argument("--scene", metavar="JSON", help="draw a saved scene (the same as giving it as VOLUME)")
     _add_iso(parser, "; repeat for several surfaces (up to 4)")
     _add_levels_look(parser)
     parser.add_argument("--out", required=True, metavar=out_metavar, help=out_help)
     parser.add_argument("--size", type=window_size, metavar="WxH",
                         help="image size in pixels (default 800x600, or a scene's own)")
-    parser.add_argument("--azimuth", type=float, metavar="DEG",
+    parser.add_argument("--azimuth", type=AZIMUTH.argument(), metavar="DEG",
                         help="camera angle around the vertical (z) axis, degrees (default -60); for a scan with "
                              "a patient frame (NIfTI, NRRD, DICOM) around its superior axis: -90, the default, "
                              "looks from anterior, 0 from the left, 90 from posterior")
-    parser.add_argument("--elevation", type=float, metavar="DEG",
+    parser.add_argument("--elevation", type=ELEVATION.argument(), metavar="DEG",
                         help="camera angle above the x-y plane, degrees, -90..90 (default 25; 0 for a scan: "
                              "above its axial plane, superior up)")
     parser.add_argument("--panel", action="store_true", help="draw the imgui panel over the scene")
     parser.add_argument("--transparent", action="store_true",
                         help="a transparent background: an RGBA PNG, for slides and figures")
     parser.add_argument("--wireframe", action="store_true", help="draw the triangles' edges over the surface")
+    parser.add_argument("--orientation-letters", action="store_true",
+                        help="a scan's anatomical letters (R/L, A/P, S/I) at the picture's edges (and its 2-D "
+                             "slice view's); --panel draws them anyway")
     add_slice_arguments(parser)
     _add_mesh_modes(parser, labels="draw each non-zero label's surface in its own colour")
     _add_label_names(parser)

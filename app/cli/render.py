@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import sys
 
+from ..errors import InputError
 from .common import EXIT_NO_GL, check_label_options, checked_iso, checked_levels, progress, wrote
 from .slice_options import apply_slice_arguments
 from .volume_options import open_volume_from_args
@@ -61,7 +62,12 @@ def _apply_mesh_arguments(state, args) -> None:
 def run_render(args) -> int:
     from ..viewer.model.scene_file import is_scene_file, read_scene, scene_size
     from ..viewer.ui.headless import check_render_size
-    scene = read_scene(args.volume) if is_scene_file(args.volume) else None   # render scene.json
+    if (args.scene is None) == (args.volume is None):
+        raise InputError("render draws one VOLUME or one --scene JSON: give either, not both")
+    if args.scene is not None:
+        scene, args.volume = read_scene(args.scene), args.scene   # render --scene scene.json
+    else:
+        scene = read_scene(args.volume) if is_scene_file(args.volume) else None   # render scene.json
     if args.size is None:
         args.size = scene_size(scene) if scene is not None else DEFAULT_RENDER_SIZE
     check_render_size(args.size)  # pixels: before a GL context is made
@@ -90,9 +96,9 @@ def run_render(args) -> int:
         for option in ("--panel", "--tetrahedra", "--smooth", "--labels", "--slice", "--clip", "--color-by",
                        "--orientation-letters", "--closed"):
             if getattr(args, option.strip("-").replace("-", "_"), None) not in (None, False, 0, []):
-                raise ValueError(f"render --sharp draws the one sharp-featured surface; leave out {option}")
+                raise InputError(f"render --sharp draws the one sharp-featured surface; leave out {option}")
         if len(isos) > 1:
-            raise ValueError("render --sharp draws one level; give one --iso")
+            raise InputError("render --sharp draws one level; give one --iso")
         from ..viewer.ui.headless import render_sharp_png
         path = render_sharp_png(volume, args.out, isos[0], args.sharp, size=args.size, azimuth=args.azimuth,
                                 elevation=args.elevation, transparent=args.transparent)
@@ -138,7 +144,7 @@ def _render_scene(scene, args) -> int:
     for option in ("iso", "opacity", "color_by", "slice", "clip", "window", "level", "colormap", "azimuth",
                    "elevation", "tetrahedra", "smooth", "sharp", "labels", "label_names", "save_scene", "closed"):
         if getattr(args, option, None) not in (None, False, 0, []):
-            raise ValueError(f"a scene holds the view; --{option.replace('_', '-')} does not go with {args.volume} "
+            raise InputError(f"a scene holds the view; --{option.replace('_', '-')} does not go with {args.volume} "
                              "(open it in the window to change it, then save it again)")
     from ..viewer.gfx.screenshot import save_png
     from ..viewer.ui.headless import scene_pixels

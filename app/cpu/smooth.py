@@ -58,6 +58,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.numbers import SMOOTH
 from .cubes import gradient_at, signed
 from .interpolate import trilinear
 
@@ -83,15 +84,9 @@ FLOOR_SQUARED = float(np.float32((2 * MIN_AREA) ** 2))
 F32 = np.float32
 
 
-def check_iterations(iterations) -> int:
-    """`iterations` as an int >= 0, or a one-line ValueError."""
-    try:
-        whole = not isinstance(iterations, bool) and float(iterations).is_integer() and iterations >= 0
-    except (TypeError, ValueError):
-        whole = False
-    if not whole:
-        raise ValueError(f"smooth={iterations!r} must be a whole number of iterations, 0 or more (e.g. smooth=5)")
-    return int(iterations)
+def check_iterations(iterations, said: str = "smooth") -> int:
+    """`iterations` as an int in SMOOTH's range (0 to a few hundred), or a one-line InputError."""
+    return SMOOTH.check(iterations, said)
 
 
 def half_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -13,21 +13,19 @@ def widget(volume, level=None, *, size=(640, 480), spacing=None, affine=None, gr
     viewer drawing it).  `options` are `isoscope.render`'s mesh and look options (opacities, color_by,
     colormap, tetrahedra, smooth, wireframe); `memory_budget` as `isoscope.view`'s.  Call ``.close_viewer()``
     to free its GL resources."""
-    try:
-        import ipywidgets
-        from jupyter_rfb import RemoteFrameBuffer
-    except ImportError:
-        raise ImportError("isoscope.widget needs ipywidgets and jupyter-rfb: "
-                          'pip install "isoscope[notebook]"') from None
+    ipywidgets = _needed("ipywidgets")
+    RemoteFrameBuffer = _needed("jupyter_rfb").RemoteFrameBuffer
     from ..core.budget import requested_budget, using_budget
+    from ..core.numbers import image_size
     from ..volumes.inputs import as_volume
     from .scripting import checked_levels
     from .ui.headless import prepared_viewer
 
     budget = requested_budget(memory_budget, "memory_budget")
+    size = image_size(size, "size")
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
     with using_budget(budget):
-        viewer = prepared_viewer(shown, checked_levels(shown, level), (int(size[0]), int(size[1])), **options)
+        viewer = prepared_viewer(shown, checked_levels(shown, level), size, **options)
 
     class Canvas(RemoteFrameBuffer):
         """The scene, drawn on request; pointer events move the camera as in the window."""
@@ -71,3 +69,15 @@ def widget(volume, level=None, *, size=(640, 480), spacing=None, affine=None, gr
     box.canvas, box.slider, box.viewer = canvas, slider, viewer
     box.close_viewer = viewer.release
     return box
+
+
+def _needed(module: str):
+    """The optional module `module`, or MissingPackage naming it (not both packages, when one is there)."""
+    import importlib
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        from ..errors import MissingPackage
+        package = module.replace("_", "-")
+        raise MissingPackage(f"isoscope.widget needs {package}, which is not installed here: pip install {package} "
+                             '(or pip install "isoscope[notebook]" for everything the widget uses)') from None

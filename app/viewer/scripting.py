@@ -6,6 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.numbers import AZIMUTH, ELEVATION, image_size
+from ..errors import InputError
+
 
 @dataclass(frozen=True)
 class Viewed:
@@ -82,6 +85,7 @@ def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="d
     from ..volumes.inputs import as_volume
     from .ui.window import ViewerWindow
     budget = requested_budget(memory_budget, "memory_budget")
+    size = image_size(size, "size")
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
     with using_budget(budget):
         window = ViewerWindow(shown, checked_levels(shown, level), size=size)
@@ -163,12 +167,14 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     from ..volumes.inputs import as_volume
     from .ui.headless import prepared_viewer
     budget = requested_budget(memory_budget, "memory_budget")
+    size = image_size(size, "size")
+    azimuth = None if azimuth is None else AZIMUTH.check(azimuth, "azimuth")
+    elevation = None if elevation is None else ELEVATION.check(elevation, "elevation")
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
-    size = (int(size[0]), int(size[1]))
     if labels and level is not None:
-        raise ValueError("labels=True draws every label's surface; leave out the level")
+        raise InputError("labels=True draws every label's surface; leave out the level")
     if not labels and label_names is not None:
-        raise ValueError("label_names goes with labels=True")
+        raise InputError("label_names goes with labels=True")
     level = None if labels else checked_levels(shown, level)
 
     def prepare(state) -> None:   # as the command's apply_slice_arguments and --labels
@@ -198,4 +204,4 @@ def _axis(axis) -> int:
         return AXES.index(axis.strip().lower())
     if axis in (0, 1, 2):
         return int(axis)
-    raise ValueError(f"axis {axis!r} is not 0, 1, 2 or x, y, z")
+    raise InputError(f"axis {axis!r} is not 0, 1, 2 or x, y, z")

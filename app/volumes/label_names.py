@@ -24,10 +24,15 @@ import shlex
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..core.opener import read_text, shown
+from ..errors import InputError
 from .errors import VolumeError
 
 ITKSNAP_LAYOUT = 'IDX R G B A VIS MSH "LABEL" (ITK-SNAP label description)'
 SLICER_LAYOUT = "index name R G B A (3D Slicer colour table)"
+# FreeSurfer's LUT, the largest table in use, is ~100 kB and 1,300 labels; a label is a 16-bit value or so
+MAX_TABLE_BYTES = 16 << 20
+MAX_TABLE_LABELS = 65_536
 SIDE_SUFFIXES = (".ctbl", ".txt", "_label_description.txt")
 """`beside(path)` looks for STEM + each of these next to the segmentation, in this order."""
 VOLUME_SUFFIXES = (".nii.gz", ".nii", ".nrrd", ".nhdr", ".mha", ".mhd", ".npy", ".npz", ".tif",
@@ -47,11 +52,8 @@ def read_label_names(path) -> dict[int, LabelName]:
     (which one: by the first label's line: a quoted name is ITK-SNAP's).  Label 0 (the background)
     is kept if listed; the viewer draws no surface for it."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8", errors="replace")
-    except OSError as exc:
-        raise VolumeError(f"cannot read the label names file {path}: {exc.strerror or exc}; "
-                          "check the path given to --label-names") from None
+    text = read_text(path, "the label names file", MAX_TABLE_BYTES, errors="replace")
+    name = shown(path.name)
     names: dict[int, LabelName] = {}
     layout = None
     for number, line in enumerate(text.splitlines(), 1):
@@ -63,13 +65,15 @@ def read_label_names(path) -> dict[int, LabelName]:
         try:
             label, entry = _itksnap_line(line) if layout is ITKSNAP_LAYOUT else _slicer_line(line)
         except ValueError as exc:
-            raise VolumeError(f"{path.name} line {number}: {exc}; each line must be {layout}: "
+            raise VolumeError(f"{name} line {number}: {exc}; each line must be {layout}: "
                               f"fix that line or pass another file with --label-names") from None
         if label in names:
-            raise VolumeError(f"{path.name} line {number}: label {label} is listed twice; keep one of its lines")
+            raise VolumeError(f"{name} line {number}: label {label} is listed twice; keep one of its lines")
+        if len(names) >= MAX_TABLE_LABELS:
+            raise VolumeError(f"{name} lists more than {MAX_TABLE_LABELS:,} labels; is it a label table?")
         names[label] = entry
     if not names:
-        raise VolumeError(f"{path.name} lists no labels; each line must be {ITKSNAP_LAYOUT} or {SLICER_LAYOUT}")
+        raise VolumeError(f"{name} lists no labels; each line must be {ITKSNAP_LAYOUT} or {SLICER_LAYOUT}")
     return names
 
 
@@ -77,49 +81,49 @@ def _itksnap_line(line: str) -> tuple[int, LabelName]:
     try:
         fields = shlex.split(line)
     except ValueError:
-        raise ValueError("its quoted name is not closed") from None
+        raise InputError("its quoted name is not closed") from None
     if len(fields) != 8:
-        raise ValueError(f"{len(fields)} fields, not 8")
+        raise InputError(f"{len(fields)} fields, not 8")
     label, red, green, blue = (_whole(text, what) for text, what in zip(fields[:4], ("IDX", "R", "G", "B")))
     opacity = _number(fields[4], "A", 1.0)
     visible, mesh = (_whole(text, what) for text, what in zip(fields[5:7], ("VIS", "MSH")))
     if visible not in (0, 1) or mesh not in (0, 1):
-        raise ValueError(f"VIS and MSH must be 0 or 1, not {fields[5]} {fields[6]}")
-    return label, LabelName(fields[7], _color(red, green, blue), opacity, bool(visible and mesh))
+        raise InputError(f"VIS and MSH must be 0 or 1, not {fields[5]} {fields[6]}")
+    return label, LabelName(shown(fields[7]), _color(red, green, blue), opacity, bool(visible and mesh))
 
 
 def _slicer_line(line: str) -> tuple[int, LabelName]:
     fields = line.split()
     if len(fields) != 6:
-        raise ValueError(f"{len(fields)} fields, not 6 (a name with spaces needs the ITK-SNAP layout)")
+        raise InputError(f"{len(fields)} fields, not 6 (a name with spaces needs the ITK-SNAP layout)")
     label = _whole(fields[0], "index")
     red, green, blue, alpha = (_whole(text, what) for text, what in zip(fields[2:], "RGBA"))
     if not 0 <= alpha <= 255:
-        raise ValueError(f"A is {alpha}, not 0..255")
-    return label, LabelName(fields[1], _color(red, green, blue))
+        raise InputError(f"A is {alpha}, not 0..255")
+    return label, LabelName(shown(fields[1]), _color(red, green, blue))
 
 
 def _whole(text: str, what: str) -> int:
     try:
         return int(text)
     except ValueError:
-        raise ValueError(f"{what} is {text!r}, not a whole number") from None
+        raise InputError(f"{what} is {text!r}, not a whole number") from None
 
 
 def _number(text: str, what: str, high: float) -> float:
     try:
         value = float(text)
     except ValueError:
-        raise ValueError(f"{what} is {text!r}, not a number") from None
+        raise InputError(f"{what} is {text!r}, not a number") from None
     if not 0 <= value <= high:
-        raise ValueError(f"{what} is {text}, not 0..{high:g}")
+        raise InputError(f"{what} is {text}, not 0..{high:g}")
     return value
 
 
 def _color(red: int, green: int, blue: int) -> tuple[float, float, float]:
     for value, what in ((red, "R"), (green, "G"), (blue, "B")):
         if not 0 <= value <= 255:
-            raise ValueError(f"{what} is {value}, not 0..255")
+            raise InputError(f"{what} is {value}, not 0..255")
     return (red / 255, green / 255, blue / 255)
 
 

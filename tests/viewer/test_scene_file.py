@@ -77,7 +77,8 @@ def test_the_model_round_trips_a_scene_without_gl():
 @pytest.mark.gl   # held to what `isoscope render` says: it needs a GL context first
 def test_bad_scenes_are_one_line(tmp_path):
     good = {"format": "isoscope-scene", "version": 1, "volume": {"source": str(tmp_path / "gone.nii.gz")},
-            "levels": [{"value": 1.0}], "camera": {}}
+            "levels": [{"value": 1.0}],
+            "camera": {"azimuth": 0.0, "elevation": 0.0, "distance": 5.0, "target": [0, 0, 0]}}
     cases = {
         "gone.json": (good, ("gone.nii.gz", "not there any more")),
         "future.json": ({**good, "version": 7}, ("version 7", "save it again")),

@@ -15,16 +15,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ...core.opener import UnreadablePath, read_text, shown
 from .errors import ViewerError
+from .scene_schema import SceneError, _brief, check_scene
 from .style import SurfaceStyle
 
 FORMAT = "isoscope-scene"
 VERSION = 1
 MAX_SCENE_BYTES = 1 << 20   # a scene is a few kilobytes; anything larger is not one
-
-
-class SceneError(ViewerError):
-    """A scene file that cannot be read or put on show; the message is one line."""
 
 
 def is_scene_file(spec: str) -> bool:
@@ -73,38 +71,65 @@ def write_scene(path, scene: dict) -> Path:
 
 
 def read_scene(path) -> dict:
-    """The scene in the file `path`, its format and version checked; SceneError with one line if not."""
+    """The scene in the file `path`, its format, version and every field checked (scene_schema), relative
+    paths in it taken from the scene's folder; SceneError with one line if not."""
     path = Path(path).expanduser()
+    name = shown(path.name)
     try:
-        if path.stat().st_size > MAX_SCENE_BYTES:
-            raise SceneError(f"{path.name} is {path.stat().st_size:,} bytes, too big for a scene; is it one?")
-        scene = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise SceneError(f"{path}: {exc.strerror or exc}; check the path") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise SceneError(f"{path.name} is not a scene (not JSON: {str(exc).splitlines()[0]})") from None
+        text = read_text(path, "the scene", MAX_SCENE_BYTES)
+        scene = json.loads(text, parse_constant=_no_constant)
+    except UnreadablePath as exc:
+        raise SceneError(str(exc)) from None
+    except RecursionError:
+        raise SceneError(f"{name} nests its JSON too deeply to be a scene; is it one?") from None
+    except ValueError as exc:   # json.JSONDecodeError, and NaN / Infinity (not JSON, though Python writes them)
+        raise SceneError(f"{name} is not a scene (not JSON: {shown(str(exc).splitlines()[0])[:120]})") from None
     if not isinstance(scene, dict) or scene.get("format") != FORMAT:
-        raise SceneError(f"{path.name} is JSON but not an isoscope scene (no \"format\": \"{FORMAT}\")")
-    if scene.get("version") != VERSION:
-        raise SceneError(f"{path.name} is a scene of version {scene.get('version')!r}; this isoscope reads "
-                         f"version {VERSION}: save it again with this version")
-    source = _field(scene, "volume", dict).get("source")
-    if not isinstance(source, str) or not source:
-        raise SceneError(f"{path.name} names no volume (volume.source)")
-    looks_like_file = "/" in source or Path(source).suffix != ""
-    if looks_like_file and not source.lower().startswith("expr:") and not _exists(source):
-        raise SceneError(f"{path.name} shows {source}, which is not there any more; put the file back, or edit "
+        raise SceneError(f"{name} is JSON but not an isoscope scene (no \"format\": \"{FORMAT}\")")
+    version = scene.get("version")
+    if isinstance(version, bool) or version != VERSION:
+        raise SceneError(f"{name} is a scene of version {_brief(version)}; this isoscope reads version {VERSION}: "
+                         "save it again with this version")
+    scene = check_scene(scene, name)
+    folder = path.resolve().parent
+    scene["volume"]["source"] = _from_folder(scene["volume"]["source"], folder)
+    if scene.get("color_by"):
+        scene["color_by"]["source"] = _from_folder(scene["color_by"]["source"], folder)
+    if isinstance(scene.get("labels"), dict) and scene["labels"].get("names"):
+        scene["labels"]["names"] = _from_folder(scene["labels"]["names"], folder)
+    source = scene["volume"]["source"]
+    if _looks_like_file(source) and not _exists(source):
+        raise SceneError(f"{name} shows {shown(source)}, which is not there any more; put the file back, or edit "
                          "volume.source in the scene")
     return scene
 
 
+def _no_constant(word: str):
+    raise ValueError(f"{word} is not a JSON number")
+
+
+def _looks_like_file(source: str) -> bool:
+    return not source.lower().startswith("expr:") and ("/" in source or Path(source).suffix != "")
+
+
+def _from_folder(source: str, folder: Path) -> str:
+    """A relative path in a scene, taken from the scene's folder (as a web page's links are) where it names
+    something there; an absolute path, a built-in's name or an expr: as it is."""
+    if not _looks_like_file(source) or Path(source).expanduser().is_absolute():
+        return source
+    beside = folder / source
+    return str(beside) if _exists(str(beside)) else source
+
+
 def volume_spec(scene: dict) -> tuple[str, dict]:
-    """(spec, open options) of the scene's volume, for open_volume."""
+    """(spec, open options) of the scene's volume (read_scene checked them: the command's own volume flags),
+    for open_volume."""
     volume = scene["volume"]
-    options = volume.get("open_options") or {}
-    if not isinstance(options, dict):
-        raise SceneError("the scene's volume.open_options is not a mapping")
-    return volume["source"], dict(options)
+    options = dict(volume.get("open_options") or {})
+    for key in ("dims", "spacing"):
+        if key in options:
+            options[key] = tuple(options[key])
+    return volume["source"], options
 
 
 def apply_scene(scene: dict, state, camera) -> None:
@@ -151,11 +176,9 @@ def apply_scene(scene: dict, state, camera) -> None:
             if name in known:
                 setattr(state.style, name, tuple(value) if isinstance(value, list) else value)
         cam = _field(scene, "camera", dict)
-        camera.azimuth, camera.elevation = float(cam["azimuth"]), float(np.clip(cam["elevation"], -90, 90))
+        camera.azimuth, camera.elevation = float(cam["azimuth"]), float(cam["elevation"])
         camera.distance = float(cam["distance"])
         camera.target = np.asarray(cam["target"], float).reshape(3)
-        if not (np.all(np.isfinite(camera.target)) and np.isfinite(camera.distance) and camera.distance > 0):
-            raise SceneError("the scene's camera is not finite, or its distance not positive")
     except (KeyError, TypeError, ValueError, IndexError) as exc:
         if isinstance(exc, ViewerError):
             raise
@@ -163,17 +186,14 @@ def apply_scene(scene: dict, state, camera) -> None:
 
 
 def scene_size(scene: dict) -> tuple[int, int]:
-    size = scene.get("size") or [800, 600]
-    try:
-        width, height = (int(v) for v in size)
-    except (TypeError, ValueError):
-        raise SceneError(f"the scene's size {size!r} is not [width, height]") from None
-    return width, height
+    """The scene's image size (read_scene checked it: each side as --size takes it), else 800x600."""
+    width, height = scene.get("size") or [800, 600]
+    return int(width), int(height)
 
 
 def _apply_slices(settings: dict, slices) -> None:
-    for axis, (shown, index) in enumerate(zip(settings.get("shown", [False] * 3), settings.get("index", [0] * 3))):
-        if shown:
+    for axis, (on, index) in enumerate(zip(settings.get("shown", [False] * 3), settings.get("index", [0] * 3))):
+        if on:
             slices.show(axis, True, int(index))
         else:
             slices.index[axis] = int(index)

@@ -12,6 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ...errors import InputError
 from .colormaps import check_colormap
 
 AXES = "xyz"  # array axes 0, 1, 2 as the flags and the panel name them
@@ -21,11 +22,12 @@ MAX_PERCENTILE_SAMPLES = 1 << 21
 
 def default_window(data: np.ndarray, value_range: tuple[float, float]) -> tuple[float, float]:
     """(window, centre) spanning WINDOW_PERCENTILES of the values: a scan's few extreme voxels do
-    not wash out the rest.  Big volumes are sampled on a regular sub-grid."""
+    not wash out the rest.  Big volumes are sampled on a regular sub-grid, read into memory (a dask array's
+    percentile works along one axis only)."""
     step = 1
     while data.size > MAX_PERCENTILE_SAMPLES * step**3:
         step += 1
-    low, high = np.percentile(data[::step, ::step, ::step], WINDOW_PERCENTILES)
+    low, high = np.percentile(np.asarray(data[::step, ::step, ::step]), WINDOW_PERCENTILES)
     if not high > low:
         low, high = value_range
     window = float(high - low) if high > low else 1.0
@@ -73,7 +75,7 @@ class SliceSettings:
         if index is not None:
             n = self.shape[axis]
             if not (float(index).is_integer() and 0 <= index < n):
-                raise ValueError(f"slice {AXES[axis]}={index} is outside the volume; "
+                raise InputError(f"slice {AXES[axis]}={index} is outside the volume; "
                                  f"{AXES[axis]} runs from 0 to {n - 1}")
             self.index[axis] = int(index)
         self.shown[axis] = bool(shown)
@@ -87,7 +89,7 @@ class SliceSettings:
         n = self.shape[axis]
         position = (n - 1) / 2 if position is None else float(position)
         if not 0 <= position <= n - 1:
-            raise ValueError(f"clip {AXES[axis]}={position:g} is outside the volume; "
+            raise InputError(f"clip {AXES[axis]}={position:g} is outside the volume; "
                              f"{AXES[axis]} runs from 0 to {n - 1}")
         self.clip = Clip(axis, position, hide_above)
 
@@ -96,7 +98,7 @@ class SliceSettings:
         window = self.window if window is None else float(window)
         centre = self.centre if centre is None else float(centre)
         if not (np.isfinite(window) and window > 0 and np.isfinite(centre)):
-            raise ValueError(f"window {window:g} must be a positive number (and the level finite)")
+            raise InputError(f"window {window:g} must be a positive number (and the level finite)")
         self.window, self.centre = window, centre
 
     def set_colormap(self, name: str) -> None:
