@@ -7,13 +7,15 @@ import argparse
 import math
 from pathlib import Path
 
+from ..core.numbers import FPS, FRAMES
+from ..errors import InputError
 from ..io.movie import movie_kind
 from .arguments import OneLineParser, add_render_options
 from .common import check_label_options, checked_levels, count_line, progress, wrote
 from .slice_options import apply_slice_arguments
 from .volume_options import TimeRange, add_volume_arguments, open_volume_from_args
 
-MAX_FRAMES = 10_000
+MAX_FRAMES = FRAMES.high
 
 
 def movie_parser() -> argparse.ArgumentParser:
@@ -23,24 +25,14 @@ def movie_parser() -> argparse.ArgumentParser:
     add_render_options(parser, out_help="the movie: NAME.mp4, NAME.gif, or a folder (ending in /) for "
                                         "frame_0000.png, ...", out_metavar="MOVIE")
     motion = parser.add_mutually_exclusive_group()
-    motion.add_argument("--turntable", type=_positive, metavar="N",
+    motion.add_argument("--turntable", type=FRAMES.argument("--turntable"), metavar="N",
                         help="N frames once around the vertical axis, from --azimuth (the default motion: 72)")
     motion.add_argument("--sweep", type=_sweep, metavar="A:B",
                         help="the iso value from A to B over --frames frames (a negative A: --sweep=-0.5:0.5)")
-    parser.add_argument("--frames", type=_positive, metavar="N", help="frames of a sweep (default 60)")
-    parser.add_argument("--fps", type=float, default=24.0, metavar="F", help="frames per second (default 24)")
+    parser.add_argument("--frames", type=FRAMES.argument(), metavar="N", help="frames of a sweep (default 60)")
+    parser.add_argument("--fps", type=FPS.argument(), default=24.0, metavar="F", help="frames per second (default 24)")
     add_volume_arguments(parser)
     return parser
-
-
-def _positive(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if not 1 <= value <= MAX_FRAMES:
-        raise argparse.ArgumentTypeError(f"{value} frames: give 1 to {MAX_FRAMES:,}")
-    return value
 
 
 def _sweep(text: str) -> tuple[float, float]:
@@ -57,21 +49,22 @@ def _sweep(text: str) -> tuple[float, float]:
 def run_movie(args) -> int:
     kind = movie_kind(str(args.out))
     args.size = args.size or (800, 600)
-    if not math.isfinite(args.fps) or not 0 < args.fps <= 240:
-        raise ValueError(f"--fps {args.fps:g}: give 0 < F <= 240")
     several_times = isinstance(args.time, TimeRange)
     if several_times and (args.turntable or args.sweep):
-        raise ValueError("--time all (or A:B) is the movie's motion; leave out --turntable and --sweep")
+        raise InputError("--time all (or A:B) is the movie's motion; leave out --turntable and --sweep")
     if args.frames is not None and not args.sweep:
-        raise ValueError("--frames sets a sweep's length; a turntable's is --turntable N, a series' its time points")
+        raise InputError("--frames sets a sweep's length; a turntable's is --turntable N, a series' its time points")
     if args.save_scene:
-        raise ValueError("movie saves no scene; leave out --save-scene (render --save-scene does)")
+        raise InputError("movie saves no scene; leave out --save-scene (render --save-scene does)")
     if args.labels:   # each label's surface, as render --labels draws it
         check_label_options(args, "--iso", "--panel", "--sweep")
     else:
         check_label_options(args, "--label-names")
     volume = open_volume_from_args(args.volume, args, progress, several_times=True)
     times = args.time.points(volume.time_points) if several_times else None
+    if times is not None and len(times) > MAX_FRAMES:
+        raise InputError(f"--time gives {len(times):,} time points, more frames than a movie makes ({MAX_FRAMES:,}); "
+                         "choose a range, e.g. --time 0:99")
     from ..viewer.ui.headless import check_render_size, prepared_viewer
     from .render import drawing_context
     check_render_size(args.size)
@@ -107,19 +100,23 @@ def _frames(viewer, volume, args, times):
     """The movie's frames, one (H, W, 3) uint8 array at a time, each as `render` draws it."""
 
     def shot():
-        return viewer.picture(panel=args.panel)
+        return viewer.picture(panel=args.panel, letters=args.orientation_letters)
     if times is not None:   # the viewer's time axis: levels, slices and clip stay as time moves
         for time in times:
             if time != viewer.state.series.shown:
                 viewer.state.series.go_to(time)
-            yield shot()
+            frame = shot()
+            if viewer.state.series.shown != time:   # its read failed: the frame shows the time point before
+                raise InputError(f"time point {time} of {volume.name} cannot be drawn "
+                                 f"({viewer.state.error or 'it could not be read'}); the movie stops there")
+            yield frame
         return
     if args.sweep:
         start, stop = args.sweep
         low, high = volume.value_range
         for value in (start, stop):
             if not low <= value <= high:
-                raise ValueError(f"--sweep {start:g}:{stop:g} leaves {volume.name}'s value range {low:g} .. "
+                raise InputError(f"--sweep {start:g}:{stop:g} leaves {volume.name}'s value range {low:g} .. "
                                  f"{high:g}; sweep inside it")
         n = _count(args, times)
         for i in range(n):
