@@ -68,13 +68,15 @@ def isosurface(volume, level=None, *, spacing=None, affine=None, gradient_direct
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
     if labels:
         from .labels import label_colors, label_surfaces, labels_of
+        # labels=True is the caller's word that it is a label map (as label_surfaces takes an array)
         surfaces = label_surfaces(labels_of(shown), spacing=shown.spacing, backend=options.get("backend", "auto"))
         parts, colors, start = [], [], 0
-        palette = label_colors(max(surfaces, default=0) + 1)
-        for label, mesh in surfaces.items():
+        # Coloured in the labels' order, as the viewer colours them (a palette indexed by a label's value
+        # allocated 2e9 colours for a label numbered 2e9).
+        for mesh, color in zip(surfaces.values(), label_colors(len(surfaces))):
             verts, faces, normals, _ = in_volume_space(shown, *mesh, world=world)
             parts.append((verts, faces + start, normals))
-            colors.append(np.repeat(palette[label][None, :], len(verts), axis=0))
+            colors.append(np.repeat(color[None, :], len(verts), axis=0))
             start += len(verts)
         if not parts:
             return trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64), process=False)

@@ -203,6 +203,13 @@ def _add_mesh_modes(parser: argparse.ArgumentParser, labels: str) -> None:
     _add_sharp(parser)
     parser.add_argument("--labels", action="store_true",
                         help=f"VOLUME is a label map (a segmentation): {labels}")
+    add_force_labels(parser)
+
+
+def add_force_labels(parser) -> None:
+    parser.add_argument("--force-labels", action="store_true",
+                        help="with --labels: take VOLUME as a label map even where it looks like a scan (its "
+                             "neighbouring voxels mostly differ, where a segmentation's labels fill flat regions)")
 
 
 class VersionAction(argparse.Action):

@@ -101,7 +101,7 @@ def _export_open_options(args) -> dict:
 def run_export(args) -> int:
     if args.labels:
         return _export_labels(args)
-    check_label_options(args, "--one-file", "--max-labels", "--label-names")
+    check_label_options(args, "--one-file", "--max-labels", "--label-names", "--force-labels")
     _check_workers(args)
     from ..io.export import mesh_format
     mesh_format(args.out)  # an unknown extension or fraction is refused before any work
@@ -144,7 +144,14 @@ def _export_levels(volume, args, out) -> None:
 
 
 def _export_labels(args) -> int:
-    from ..labels import DEFAULT_MAX_LABELS, TooManyLabels, check_label_output, label_file, write_label_meshes
+    from ..labels import (
+        DEFAULT_MAX_LABELS,
+        TooManyLabels,
+        check_label_output,
+        label_file,
+        refuse_a_scan,
+        write_label_meshes,
+    )
     check_label_options(args, "--iso", "--decimate")
     for option in ("--chunk", "--workers", "--scheduler"):
         if getattr(args, option.strip("-")) is not None:
@@ -155,6 +162,7 @@ def _export_labels(args) -> int:
                          "colour); add --one-file")
     check_label_output(args.out, args.one_file)
     volume = open_volume_from_args(args.volume, args, progress)
+    refuse_a_scan(volume, args.force_labels)   # before a file is written
     limit = DEFAULT_MAX_LABELS if args.max_labels is None else args.max_labels
     try:
         names = _label_names(volume, args) if args.one_file else {}

@@ -11,7 +11,7 @@ import json
 import math
 import sys
 
-from .arguments import VOLUME_HELP, OneLineParser, _add_iso, max_labels
+from .arguments import VOLUME_HELP, OneLineParser, _add_iso, add_force_labels, max_labels
 from .common import check_label_options, checked_levels, progress
 from .volume_options import add_volume_arguments, open_volume_from_args
 
@@ -25,6 +25,7 @@ def measure_parser() -> argparse.ArgumentParser:
     parser.add_argument("volume", metavar="VOLUME", help=VOLUME_HELP)
     _add_iso(parser, "; repeat for several surfaces (up to 4)")
     parser.add_argument("--labels", action="store_true", help="measure each non-zero label's surface instead")
+    add_force_labels(parser)
     parser.add_argument("--max-labels", type=max_labels, metavar="N",
                         help="with --labels: refuse a volume of more than N labels (default 255)")
     parser.add_argument("--label-names", metavar="FILE",
@@ -47,12 +48,13 @@ def run_measure(args) -> int:
     if args.labels:
         check_label_options(args, "--iso", "--closed")   # a label's surface is closed already
     else:
-        check_label_options(args, "--max-labels", "--label-names")
+        check_label_options(args, "--max-labels", "--label-names", "--force-labels")
     volume = open_volume_from_args(args.volume, args, progress)
     world = args.space == "world"
     rows = []
     if args.labels:
-        from ..labels import DEFAULT_MAX_LABELS, label_surfaces, labels_of
+        from ..labels import DEFAULT_MAX_LABELS, label_surfaces, labels_of, refuse_a_scan
+        refuse_a_scan(volume, args.force_labels)
         limit = DEFAULT_MAX_LABELS if args.max_labels is None else args.max_labels
         from ..volumes.label_names import label_names_for
         names = label_names_for(volume.source, args.label_names)   # a bad file: its line, before any work

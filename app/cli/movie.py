@@ -59,7 +59,7 @@ def run_movie(args) -> int:
     if args.labels:   # each label's surface, as render --labels draws it
         check_label_options(args, "--iso", "--panel", "--sweep")
     else:
-        check_label_options(args, "--label-names")
+        check_label_options(args, "--label-names", "--force-labels")
     volume = open_volume_from_args(args.volume, args, progress, several_times=True)
     times = args.time.points(volume.time_points) if several_times else None
     if times is not None and len(times) > MAX_FRAMES:
@@ -74,7 +74,7 @@ def run_movie(args) -> int:
     def prepare(state) -> None:
         apply_slice_arguments(state, args)
         if args.labels:
-            state.show_labels(names=args.label_names)
+            state.show_labels(names=args.label_names, force=args.force_labels)
     viewer = prepared_viewer(volume, isos, size=args.size, azimuth=args.azimuth, elevation=args.elevation,
                              transparent=False, opacities=[a for values in args.opacity or [] for a in values],
                              color_by=args.color_by, colormap=args.color_by_map, tetrahedra=args.tetrahedra,

@@ -47,9 +47,9 @@ def _apply_mesh_arguments(state, args) -> None:
     """--labels, --tetrahedra, --smooth, --sharp on the viewer: through ViewerState, as the panel does;
     a refusal raises its one line (MeshOptionsError, a ValueError) and changes nothing."""
     if args.labels:
-        state.show_labels(names=args.label_names)
+        state.show_labels(names=args.label_names, force=args.force_labels)
     else:
-        check_label_options(args, "--label-names")
+        check_label_options(args, "--label-names", "--force-labels")
     if args.tetrahedra:
         state.set_cells("tetrahedra")
     if args.smooth:
@@ -83,10 +83,11 @@ def run_render(args) -> int:
                           transparent=args.transparent, wireframe=args.wireframe, then=_scene_saver(args),
                           letters=args.orientation_letters,
                           prepare=lambda state: (apply_slice_arguments(state, args),
-                                                 state.show_labels(names=args.label_names)))
+                                                 state.show_labels(names=args.label_names,
+                                                                   force=args.force_labels)))
         wrote(path, f"({args.size[0]}x{args.size[1]})")
         return 0
-    check_label_options(args, "--label-names")
+    check_label_options(args, "--label-names", "--force-labels")
     from ..viewer.model.colormaps import check_colormap
     if args.color_by_map:
         check_colormap(args.color_by_map)  # an unknown map is refused before any work

@@ -92,7 +92,7 @@ def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="d
     state, camera = window.state, window.camera
     try:
         if labels:
-            state.show_labels()
+            state.show_labels(force=True)   # labels=True: the caller's word, as isosurface takes it
     except BaseException:
         window.close()
         raise
@@ -183,7 +183,7 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
         if clip is not None:
             state.slices.set_clip(_axis(clip[0]), *clip[1:])
         if labels:
-            state.show_labels(names=label_names)
+            state.show_labels(names=label_names, force=True)
 
     with using_budget(budget):
         viewer = prepared_viewer(shown, level, size, azimuth, elevation, transparent, opacities, color_by,

@@ -41,7 +41,8 @@ def _nibabel_errors() -> tuple[type[Exception], ...]:
     """What nibabel raises for a header it cannot take (several are not ValueErrors)."""
     from nibabel.filebasedimages import ImageFileError
     from nibabel.spatialimages import HeaderDataError, HeaderTypeError, ImageDataError
-    return ImageFileError, HeaderDataError, HeaderTypeError, ImageDataError
+    from nibabel.wrapstruct import WrapStructError  # a header cut short ("Binary block is wrong size")
+    return ImageFileError, HeaderDataError, HeaderTypeError, ImageDataError, WrapStructError
 
 
 def load_nifti(path: Path, time: int | None, progress: Progress | None = None) -> Loaded:
@@ -64,7 +65,16 @@ def _load(path: Path, time: int | None, notes: list[str], progress: Progress | N
     with open(path, "rb") as compressed, gzip.GzipFile(fileobj=compressed) as stream:
         result, limit = _read(path, time, notes, progress, stream)
         read_or_explain(path, lambda: _read_to_end(stream, limit, path.name))
+        if stream.tell() < limit - HEADER_SLACK:
+            raise cut_short(path.name, None, stream.tell(), limit - HEADER_SLACK)
     return result
+
+
+def cut_short(name: str, shape, have: int, needed: int) -> VolumeError:
+    """A file that ends before the samples its header promises (a copy or download stopped part-way)."""
+    sizes = "" if shape is None else f" ({' x '.join(str(n) for n in shape)})"
+    return VolumeError(f"{name} ends after {have:,} bytes, but its header{sizes} needs {needed:,}: it was cut "
+                       "off; copy or export it again")
 
 
 class HeldSeries:
@@ -171,15 +181,18 @@ def _read(path: Path, time: int | None, notes: list[str], progress: Progress | N
     if not 0 <= offset <= (available if available is not None else 2**62):
         raise VolumeError(f"{path.name}'s header puts its samples at byte {offset:g}, outside the file; the file "
                           "is damaged or truncated: export it again")
+    needed = int(offset) + math.prod(shape) * image.header.get_data_dtype().itemsize
     scaled = getattr(image.dataobj, "slope", 1.0) != 1.0 or getattr(image.dataobj, "inter", 0.0) != 0.0
     itemsize = 8 if scaled else image.header.get_data_dtype().itemsize
-    limit = int(offset) + math.prod(shape) * image.header.get_data_dtype().itemsize + HEADER_SLACK
+    limit = needed + HEADER_SLACK
     if len(shape) < 3 or any(n != 1 for n in shape[4:]):
         # Not a volume or a series of them: read it so the common checks can say what it is.
         refuse_if_too_big(shape, itemsize, path.name)
         refuse_time(time, path.name, len(shape))
         return (read_or_explain(path, lambda: np.asarray(image.dataobj)), None), limit
     refuse_if_too_big(shape[:3], itemsize, path.name)
+    if available is not None and available < needed:   # a 4-D file cut short: its first time points read fine
+        raise cut_short(path.name, shape, available, needed)
     which = ()
     if len(shape) >= 4:
         index = time_index(time, shape[3], path.name)

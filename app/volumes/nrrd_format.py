@@ -140,7 +140,7 @@ def load_nrrd(path: Path, time: int | None, progress: Progress | None = None) ->
     import nrrd
     try:
         header = nrrd.read_header(str(path))
-    except (nrrd.NRRDError, OSError, ValueError, UnicodeDecodeError) as exc:
+    except (nrrd.NRRDError, OSError, ValueError, UnicodeDecodeError, StopIteration) as exc:  # Stop: no lines
         raise VolumeError(f"{path.name} has no valid NRRD header ({reason(exc)}); check the file") from None
     missing = [field for field in ("type", "sizes", "encoding") if field not in header]
     if missing:

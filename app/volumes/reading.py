@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import stat
 import threading
 import warnings
 import zlib
@@ -11,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.opener import UnreadablePath, regular_file, shown
 from .errors import VolumeError
 from .volume import Progress, report
 
@@ -77,14 +77,17 @@ def damaged(path: Path, exc: Exception, fix: str = "export it again") -> VolumeE
 
 
 def refuse_unless_regular(path: Path, what: str | None = None) -> None:
-    """A pipe, socket or device would block a read or never end: only regular files are read."""
+    """Through the one opener (core/opener.py): a pipe, socket or device would block a read or never end, so
+    only regular files are read; an empty one holds no volume, whatever its name says."""
     try:
-        mode = path.stat().st_mode
-    except OSError as exc:
-        raise VolumeError(f"{what or path.name} cannot be read ({exc.strerror}); check the path") from None
-    if not stat.S_ISREG(mode):
-        kind = "a named pipe" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
-        raise VolumeError(f"{what or path.name} is {kind}, not a regular file; save the data to a file and open that")
+        path = regular_file(path, what or "the volume")
+        empty = path.stat().st_size == 0
+    except (UnreadablePath, OSError) as exc:
+        raise VolumeError(str(exc) if isinstance(exc, UnreadablePath) else
+                          f"{what or shown(path.name)} cannot be read ({exc.strerror}); check the path") from None
+    if empty:
+        raise VolumeError(f"{what or 'the volume'} {shown(path)} is empty (0 bytes): cut off while copying or "
+                          "saving? Copy or export it again")
 
 
 GZIP_CHUNK = 1 << 20

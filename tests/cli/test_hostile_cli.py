@@ -159,6 +159,8 @@ def label_files(tmp_path_factory):
     rng = np.random.default_rng(5)
     np.save(folder / "mri_whole.npy", np.round(rng.random((32, 32, 32)) * 300).astype(np.float32))
     np.save(folder / "mri.npy", rng.random((32, 32, 32)).astype(np.float32))
+    blocks = np.arange(8 ** 3).reshape(8, 8, 8) % 300 + 1   # 300 labels, each in flat 4^3 blocks
+    np.save(folder / "many_labels.npy", np.kron(blocks, np.ones((4, 4, 4), np.int32)).astype(np.int32))
     seg = np.zeros((24, 24, 24), np.uint8)
     seg[4:10, 4:10, 4:10], seg[12:20, 12:20, 12:20] = 1, 2
     np.save(folder / "seg.npy", seg)
@@ -174,7 +176,7 @@ def test_a_float_scan_with_fractions_is_not_a_label_map(label_files, tmp_path):
 @pytest.mark.parametrize("one_file", [False, True])
 def test_more_labels_than_the_limit_writes_nothing_and_says_how_many(label_files, tmp_path, one_file):
     out = tmp_path / ("m.ply" if one_file else "m.stl")
-    line = refused("export", label_files / "mri_whole.npy", "--labels", "--out", out,
+    line = refused("export", label_files / "many_labels.npy", "--labels", "--out", out,
                    *(["--one-file"] if one_file else []),
                    words=("300", "--max-labels 255", "--max-labels 300", "leave out --labels"))
     assert ("one file holding 300 meshes" if one_file else "300 files") in line

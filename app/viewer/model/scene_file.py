@@ -164,7 +164,8 @@ def apply_scene(scene: dict, state, camera) -> None:
         state.closed = bool(mesh.get("closed", False))
         labels = scene.get("labels")
         if labels:
-            state.show_labels(names=labels.get("names") if isinstance(labels, dict) else None)
+            state.show_labels(names=labels.get("names") if isinstance(labels, dict) else None,
+                              force=True)   # shown as labels when it was saved
             state.labels.restore(labels if isinstance(labels, dict) else {})
         color_by = scene.get("color_by")
         if color_by:

@@ -25,7 +25,7 @@ from typing import NamedTuple
 from ...core.budget import MemoryBudget, default_budget, given_budget
 from ...cpu.sharp.features import check_feature_angle
 from ...cpu.smooth import check_iterations
-from ...labels import label_count_hint, labels_of
+from ...labels import label_count_hint, labels_of, refuse_a_scan
 from ...options import MeshOptions
 from ...volumes import Volume, open_volume
 from .big_volume import FullResolutionExport, downsampled, every_step
@@ -198,16 +198,18 @@ class ViewerState:
         return changed
 
     # --- label map, colour by ---------------------------------------------------
-    def show_labels(self, volume: Volume | None = None, names=None) -> bool:
+    def show_labels(self, volume: Volume | None = None, names=None, force: bool = False) -> bool:
         """Show the volume on show (`volume`, if given, must be it) as a label map: every non-zero
         label's surface in its own colour, named and coloured by the label names file `names` (default:
-        the one beside the volume's file, model/labels.py).  No label map raises; the view stays."""
+        the one beside the volume's file, model/labels.py).  No label map raises; the view stays.  A
+        volume that looks like a scan is refused unless `force` (labels.refuse_a_scan)."""
         volume = self.volume if volume is None else volume
         if volume is None:
             raise ViewerError("open a volume before showing it as a label map")
         if volume is not self.volume:
             labels_of(volume)   # no label map: say that first
             raise ViewerError(f"{volume.name} is not the volume on show; show it before showing its labels")
+        refuse_a_scan(volume, force)
         self.labels.show(volume, names)
         return True
 
