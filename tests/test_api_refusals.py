@@ -17,7 +17,8 @@ def _ball(n=16):
 
 
 @pytest.mark.parametrize("options, words", [
-    ({"size": (0, 0)}, r"size \(0, 0\)"), ({"size": (-800, 600)}, "-800"), ({"size": "axb"}, "not a number"), ({"size": "800"}, "WIDTHxHEIGHT"),
+    ({"size": (0, 0)}, r"size \(0, 0\)"), ({"size": (-800, 600)}, "-800"), ({"size": "axb"}, "not a number"),
+    ({"size": "800"}, "WIDTHxHEIGHT"),
     ({"azimuth": float("nan")}, "azimuth"), ({"elevation": 120}, "elevation 120"),
     ({"smooth": 10**9}, "smooth 1000000000"), ({"smooth": -1}, "smooth"),
 ])

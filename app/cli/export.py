@@ -1,16 +1,14 @@
 """`isoscope export`: mesh files of one or several levels, of label maps, chunked or on dask workers."""
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 from pathlib import Path
 
 from ..errors import InputError
 from ..validation import as_gradient_direction
-from ..volumes.time_points import same_shape
 from .common import check_label_options, checked_levels, count_line, level_path, progress, wrote
-from .volume_options import TimeRange, open_volume_from_args
+from .volume_options import each_time_point, open_volume_from_args
 
 
 def max_workers() -> int:
@@ -108,19 +106,11 @@ def run_export(args) -> int:
     if args.decimate is not None:
         from ..cpu.decimate import check_fraction
         check_fraction(args.decimate)
-    volume = open_volume_from_args(args.volume, args, progress, several_times=True, **_export_open_options(args))
-    if not isinstance(args.time, TimeRange):
-        _export_levels(volume, args, args.out)
-        return 0
-    points = args.time.points(volume.time_points)   # --time all or A:B: one mesh (per level) per time point
-    first_shape = volume.data.shape
-    for time in points:
-        if time != points[0]:
-            volume = open_volume_from_args(args.volume, argparse.Namespace(**{**vars(args), "time": time}),
-                                           progress, **_export_open_options(args))
-            same_shape(volume, first_shape, time)
-        _export_levels(volume, args, time_path(args.out, time))
-        count_line(time - points[0] + 1, len(points), "time point")
+    # --time all or A:B: one mesh (per level) per time point, STEM_t000.EXT
+    for done, (time, volume) in enumerate(each_time_point(args.volume, args, progress, **_export_open_options(args))):
+        _export_levels(volume, args, args.out if time is None else time_path(args.out, time))
+        if time is not None:
+            count_line(done + 1, len(args.time.points(volume.time_points)), "time point")
     return 0
 
 

@@ -72,13 +72,30 @@ def open_volume_from_args(spec: str, args: argparse.Namespace, progress: Progres
     options = {name: getattr(args, name) for name in names}
     if isinstance(options["time"], TimeRange):
         if not several_times:
-            raise VolumeError(f"--time {options['time'].text} picks several time points, and only export writes "
-                              "them (one mesh each); give one, --time N")
+            raise VolumeError(f"--time {options['time'].text} picks several time points, which export, measure "
+                              "and movie take (a mesh, a row, a frame each); give one here, --time N")
         options["time"] = options["time"].start
     if options["spacing"] is not None:
         _checked_spacing(options["spacing"], None, "--spacing")  # before a big file is read
     # finish_volume holds the spacing (the header's, or --spacing) to the same rule against the shape.
     return open_volume(spec, progress=progress, backend=backend, **options, **more)
+
+
+def each_time_point(spec: str, args: argparse.Namespace, progress: Progress | None = None, **more):
+    """(time point, volume) for each time point --time names: (None, the volume) for one (or none given),
+    else each of --time all or A:B in turn, read one at a time, each the first one's shape."""
+    from ..volumes.time_points import same_shape
+    volume = open_volume_from_args(spec, args, progress, several_times=True, **more)
+    if not isinstance(args.time, TimeRange):
+        yield None, volume
+        return
+    points = args.time.points(volume.time_points)
+    first_shape = volume.data.shape
+    for time in points:
+        if time != points[0]:
+            volume = open_volume_from_args(spec, argparse.Namespace(**{**vars(args), "time": time}), progress, **more)
+            same_shape(volume, first_shape, time)
+        yield time, volume
 
 
 def _checked_spacing(spacing, shape, what: str) -> None:

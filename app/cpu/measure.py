@@ -26,6 +26,12 @@ class SurfaceMeasure:
     open_edges: int                  # edges used by one triangle: where the surface is not closed
     smallest_component_volume: float = 0.0   # of the piece enclosing the least (a cavity: below 0)
     turned: bool = False             # measured with its triangles facing the other way (`inside_out`)
+    # Pieces enclosing less than nothing are cavities (a hollow's inner wall, an air pocket): their count and
+    # what they take away (<= 0); the rest are solid pieces and what they enclose.  volume = the two summed.
+    cavities: int = 0
+    cavity_volume: float = 0.0
+    solids: int = 0
+    solid_volume: float = 0.0
 
     @property
     def inside_out(self) -> bool:
@@ -37,7 +43,9 @@ class SurfaceMeasure:
     def turn(self) -> SurfaceMeasure:
         """The measures with the triangles facing the other way: the object on the other side of the level."""
         return replace(self, volume=-self.volume, largest_component_volume=-self.smallest_component_volume,
-                       smallest_component_volume=-self.largest_component_volume, turned=not self.turned)
+                       smallest_component_volume=-self.largest_component_volume, turned=not self.turned,
+                       cavities=self.solids, cavity_volume=-self.solid_volume, solids=self.cavities,
+                       solid_volume=-self.cavity_volume)
 
 
 def components(n_vertices: int, faces: np.ndarray) -> np.ndarray:
@@ -93,4 +101,6 @@ def _measured(verts: np.ndarray, faces: np.ndarray) -> SurfaceMeasure:
                           smallest_component_volume=float(volumes.min()),
                           bbox_min=tuple(float(v) for v in verts[used].min(axis=0)),
                           bbox_max=tuple(float(v) for v in verts[used].max(axis=0)),
-                          open_edges=open_edge_count(faces))
+                          open_edges=open_edge_count(faces),
+                          cavities=int((volumes < 0).sum()), cavity_volume=float(volumes[volumes < 0].sum()),
+                          solids=int((volumes > 0).sum()), solid_volume=float(volumes[volumes > 0].sum()))

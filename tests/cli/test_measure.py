@@ -123,3 +123,41 @@ def test_a_reader_that_leaves_early_ends_it_quietly():
     done = subprocess.run(["bash", "-c", f'"{sys.executable}" -m isoscope measure torus --json | true; '
                                          'echo "${PIPESTATUS[0]}"'], capture_output=True, text=True, timeout=120)
     assert done.stderr == "" and done.stdout.split()[-1] == "141", (done.stdout, done.stderr)
+
+
+def _ball_series(path, radii=(0.3, 0.5, 0.7)):
+    x, y, z = np.mgrid[-1:1:40j, -1:1:40j, -1:1:40j]
+    r = np.sqrt(x * x + y * y + z * z)
+    np.save(path, np.stack([(r < a).astype(np.float32) for a in radii]))
+
+
+def test_measure_takes_time_all_and_ranges_a_row_per_time_point(tmp_path):
+    import json
+    _ball_series(tmp_path / "grow.npy")
+    done = isoscope_here("measure", tmp_path / "grow.npy", "--iso", "0.5", "--time", "all", "--json")
+    assert done.returncode == 0, done.stderr
+    rows = json.loads(done.stdout)
+    assert [row["time"] for row in rows] == [0, 1, 2]
+    volumes = [row["volume_ml"] for row in rows]
+    assert volumes == sorted(volumes) and volumes[0] < volumes[-1]
+    for row in rows:   # each row is measure --time N of that time point
+        alone = json.loads(isoscope_here("measure", tmp_path / "grow.npy", "--iso", "0.5", "--time", str(row["time"]),
+                                         "--json").stdout)
+        assert alone == [{k: v for k, v in row.items() if k != "time"}]
+    part = isoscope_here("measure", tmp_path / "grow.npy", "--iso", "0.5", "--time", "1:3")
+    assert part.returncode == 0 and [line.split(",")[0] for line in part.stdout.splitlines()] == ["time 1", "time 2"]
+
+
+def test_measure_names_the_cavities_among_the_pieces(tmp_path):
+    x, y, z = np.mgrid[-1:1:40j, -1:1:40j, -1:1:40j]
+    r = np.sqrt(x * x + y * y + z * z)
+    np.save(tmp_path / "shell.npy", ((r < 0.8) & (r > 0.5)).astype(np.float32))
+    done = isoscope_here("measure", tmp_path / "shell.npy", "--iso", "0.5")
+    assert done.returncode == 0, done.stderr
+    assert "2 pieces" in done.stdout and "1 of them a cavity taking" in done.stdout
+    import json
+    row = json.loads(isoscope_here("measure", tmp_path / "shell.npy", "--iso", "0.5", "--json").stdout)[0]
+    assert row["cavities"] == 1
+    # the hollow ball's volume is the outer piece less the cavity, each a ball of its radius (in voxels)
+    assert row["volume_ml"] == pytest.approx(row["largest_component_ml"] - row["cavities_ml"], rel=1e-9)
+    assert row["cavities_ml"] * 1000 == pytest.approx(4 / 3 * np.pi * (0.5 * 19.5) ** 3, rel=0.03)

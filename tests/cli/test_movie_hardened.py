@@ -51,9 +51,10 @@ def test_a_gif_is_not_held_in_memory(tmp_path):
 
 def test_a_failed_write_names_the_users_path_and_leaves_nothing(tmp_path):
     """ffmpeg killed half-way (as by the OOM killer or a full disk): one OSError about the user's path."""
-    def children():
-        return [int(pid) for tasks in glob.glob(f"/proc/{os.getpid()}/task/*/children")
+    def children():   # this process's ffmpeg, and nothing else of its children (multiprocessing's tracker)
+        pids = [int(pid) for tasks in glob.glob(f"/proc/{os.getpid()}/task/*/children")
                 for pid in open(tasks).read().split()]
+        return [pid for pid in pids if "ffmpeg" in open(f"/proc/{pid}/cmdline", "rb").read().decode(errors="replace")]
 
     def frames():
         for i, frame in enumerate(_frames(20, (64, 64))):

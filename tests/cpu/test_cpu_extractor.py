@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 import isoscope
-
 from isoscope.cpu.cubes import marching_cubes_reference
 from isoscope.cpu.extractor import CpuExtractor
 from isoscope.validation import check_volume
