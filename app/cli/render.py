@@ -129,14 +129,17 @@ def drawing_context(command: str):
 
 
 def _scene_saver(args):
-    """render --save-scene PATH: the scene of the picture just written, as `isoscope render PATH` redraws it."""
-    if not args.save_scene:
-        return None
-
-    def save(viewer) -> None:
-        from ..viewer.model.scene_file import scene_of, write_scene
-        wrote(write_scene(args.save_scene, scene_of(viewer.state, viewer.camera, args.size)), "(scene)")
-    return save
+    """After the picture is written: the panel's hint for each level that drew nothing, on stderr (a blank
+    picture otherwise says nothing of why), and with --save-scene PATH the scene of the picture, as
+    `isoscope render PATH` redraws it."""
+    def then(viewer) -> None:
+        from ..viewer.ui.headless import empty_level_hints
+        for hint in empty_level_hints(viewer):
+            print(f"note: {hint}", file=sys.stderr)
+        if args.save_scene:
+            from ..viewer.model.scene_file import scene_of, write_scene
+            wrote(write_scene(args.save_scene, scene_of(viewer.state, viewer.camera, args.size)), "(scene)")
+    return then
 
 
 def _render_scene(scene, args) -> int:

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.numbers import AZIMUTH, ELEVATION, image_size
+from ..core.numbers import AZIMUTH, ELEVATION, SMOOTH, image_size
 from ..errors import InputError
 
 
@@ -170,6 +170,7 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     size = image_size(size, "size")
     azimuth = None if azimuth is None else AZIMUTH.check(azimuth, "azimuth")
     elevation = None if elevation is None else ELEVATION.check(elevation, "elevation")
+    smooth = SMOOTH.check(smooth, "smooth")   # before a GL context is made: the refusal needs none
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
     if labels and level is not None:
         raise InputError("labels=True draws every label's surface; leave out the level")

@@ -5,6 +5,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from support.command import isoscope_here
 
 from isoscope.viewer.ui.headless import HeadlessViewer
 from isoscope.volumes import open_volume
@@ -226,3 +227,16 @@ def test_a_headless_render_leaves_the_shared_context_working(gl_ctx, tmp_path):
     faces = extract()
     assert len(faces) == len(expected) > 1000
     np.testing.assert_array_equal(faces, expected)
+
+
+@pytest.mark.gl
+def test_render_of_an_empty_level_says_why_on_stderr(tmp_path):
+    """A blank picture with exit 0 said nothing; the panel's hint for an empty level is printed as a note."""
+    data = np.zeros((16, 16, 16), np.float32)
+    data[4:12, 4:12, 4:12] = 1.0
+    np.save(tmp_path / "box.npy", data)
+    empty = isoscope_here("render", tmp_path / "box.npy", "--iso", "0", "--out", tmp_path / "e.png")
+    assert empty.returncode == 0, empty.stderr
+    assert empty.stderr.strip().startswith("note: no surface at 0") and "the values lie in" in empty.stderr
+    drawn = isoscope_here("render", tmp_path / "box.npy", "--iso", "0.5", "--out", tmp_path / "d.png")
+    assert drawn.returncode == 0 and "no surface" not in drawn.stderr, drawn.stderr

@@ -31,8 +31,10 @@ CLOSE = 8              # a channel this near counts as the same pixel
 SAME_SHARE = 0.99      # of the pixels, at least, the same on 4.1 as on 4.3
 
 
-def environment(gl41: bool = False, no_gl: bool = False) -> dict[str, str]:
+def environment(gl41: bool = False, no_gl: bool = False, env_drop_display: bool = False) -> dict[str, str]:
     env = {k: v for k, v in os.environ.items() if not k.startswith("MESA_GL")}
+    if env_drop_display:
+        env.pop("DISPLAY", None)
     if gl41:
         env.update(GL41)
     if no_gl:
@@ -197,6 +199,12 @@ def test_with_no_gl_export_works_and_render_says_it_needs_opengl(tmp_path):
     assert len(lines) == 1 and "needs OpenGL 4.1" in lines[0], rendered.stderr
     assert not (tmp_path / "t.png").exists()
     assert version.returncode == 0 and "no OpenGL" in version.stdout and "CPU extractor" in version.stdout
+    window = isoscope("torus", "--frames", "2", no_gl=True)   # the window's refusal points at what works here
+    lines = window.stderr.strip().splitlines()
+    assert window.returncode == 1 and len(lines) == 1, window.stderr
+    assert "isoscope export" in lines[0] and "isoscope render" not in lines[0], lines[0]
+    no_display = isoscope("torus", "--frames", "2", env_drop_display=True)   # GL headless, but no display
+    assert no_display.returncode == 1 and "isoscope render" in no_display.stderr, no_display.stderr
 
 
 @pytest.mark.skipif(shutil.which("Xvfb") is None, reason="Xvfb is not installed (CI installs it)")

@@ -241,6 +241,17 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
         viewer.release()
 
 
+def empty_level_hints(viewer) -> list[str]:
+    """The panel's line for each visible level whose surface drew nothing (model/hints.py), e.g. "no surface
+    at 254.0: the values lie in 0.0..254.0, most between 20.0 and 140.0"."""
+    from ..model.hints import empty_level_hint
+    state, scene = viewer.state, viewer.scene
+    if state.volume is None or state.labels or scene is None or scene.surface is None:
+        return []
+    return [empty_level_hint(level.value, state.value_range, state.histogram)
+            for i, level in enumerate(state.levels.items) if level.visible and scene.level_stats(i)[0] == 0]
+
+
 def scene_pixels(scene: dict, size=None, panel: bool = False, letters: bool = False) -> np.ndarray:
     """The picture of a saved scene (model/scene_file.py) at its own size, or `size`; `letters`: a scan's
     orientation letters."""

@@ -84,10 +84,21 @@ def _open_gl_window(size, title: str, samples: int):
     if not window:
         glfw.terminate()
         raise WindowUnavailable(f"cannot create an OpenGL 4.1 (or 4.3) core window ({'; '.join(messages)}); "
-                                "update the graphics driver, or use `isoscope render` for a PNG")
+                                f"update the graphics driver, or {_without_a_window()}")
     glfw.make_context_current(window)
     glfw.swap_interval(1)
     return window, moderngl.create_context(require=DRAWING_GL)
+
+
+def _without_a_window() -> str:
+    """What works here without a window: `isoscope render` where a headless OpenGL 4.1 context can be had
+    (it draws with one), else only `isoscope export` and `measure`, which need no OpenGL at all."""
+    from ...gpu.context import DRAWING_GL, GLUnavailable, standalone
+    try:
+        standalone(DRAWING_GL).release()
+    except GLUnavailable:
+        return "use `isoscope export` for a mesh file or `isoscope measure` (no OpenGL needed: there is none here)"
+    return "use `isoscope render` for a PNG"
 
 
 class ViewerWindow:
@@ -98,7 +109,7 @@ class ViewerWindow:
         screenshot_scale: key `s` saves the scene at this many times the window's pixels (no panel)."""
         if not glfw.init():
             raise WindowUnavailable(f"cannot open a window ({_glfw_error_text() or 'no display'}); "
-                                    "run it on a desktop, or under xvfb-run, or use `isoscope render` for a PNG")
+                                    f"run it on a desktop, or under xvfb-run, or {_without_a_window()}")
         self.window, self.ctx = _open_gl_window(size, title, 4 if msaa is None else msaa)
         if msaa is None and is_software_renderer(self.ctx):
             # 4x MSAA triples llvmpipe's frame time (measured: 38 vs 13 ms idle at 1280x800):
