@@ -126,7 +126,7 @@ def _open(spec: str, *, dims, dtype, endian, spacing, time, series, resolution, 
         raise VolumeError(f"--resolution applies to built-ins and expr: volumes, not to the file "
                           f"{spec}; drop it")
     from .loaders import open_file
-    from .time_points import is_pattern, series_files, time_index
+    from .time_points import is_pattern, series_files, time_index, time_note
     if is_pattern(spec):   # 'run/field_*.npy': each file a time point, in natural order
         files = series_files(spec)
         index = time_index(time, len(files), spec)
@@ -136,8 +136,8 @@ def _open(spec: str, *, dims, dtype, endian, spacing, time, series, resolution, 
             raise VolumeError(f"{files[index].name} is itself a series of {volume.time_points} time points; a "
                               "pattern names 3-D files, one per time point")
         volume.time_points, volume.source = len(files), spec
-        volume.notes.append(f"series of {len(files)} files: showing time point {index}, {files[index].name} "
-                            "(use --time N)")
+        volume.notes.append(time_note(index, len(files), f"series of {len(files)} files: showing time point "
+                                                         f"{index}, {files[index].name} (use --time N)"))
         return volume
     return open_file(spec, progress=progress, spacing=spacing, map_files=map_files, **file_only)
 

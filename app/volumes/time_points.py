@@ -14,8 +14,8 @@ class TimeNote(str):
     count: int
 
 
-def time_note(index: int, count: int) -> TimeNote:
-    note = TimeNote(f"4-D file: showing time point {index} of {count} (use --time N)")
+def time_note(index: int, count: int, text: str | None = None) -> TimeNote:
+    note = TimeNote(text or f"4-D file: showing time point {index} of {count} (use --time N)")
     note.count = int(count)
     return note
 

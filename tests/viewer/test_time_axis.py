@@ -197,6 +197,10 @@ def test_the_window_steps_with_the_bracket_keys_and_records_a_movie(x_display, s
     from isoscope.viewer.model.style import SurfaceStyle
     background = 255 * np.array(SurfaceStyle().background)
     assert np.abs(last[10:20, 10:60] - background).max() <= 12   # within H.264's error
+    # Framed as render frames it, centred in the whole frame: on screen the scene is centred in what the panel
+    # leaves free, and the movie had an empty strip where the panel was.
+    drawn = np.flatnonzero((np.abs(last - background).max(axis=2) > 40).any(axis=0))
+    assert abs((drawn[0] + drawn[-1]) / 2 - 160) < 12, (drawn[0], drawn[-1])
     assert not list(tmp_path.glob(".record.mp4.*"))   # no partial file left
 
 
@@ -225,3 +229,23 @@ def drive_window(x_display, series, tmp_path):
         assert path == tmp_path / "record.mp4", recorder.message
     finally:
         window.close()
+
+
+def test_while_playing_the_time_label_names_the_time_point_drawn(viewer, any_series):
+    """The label beside the slider named the time point asked for, a read ahead of the mesh on screen (9 of
+    16 screenshots showed N over the mesh of N+1): it names the one whose samples are on show."""
+    from isoscope.viewer.ui.panel import shown_notes
+    from isoscope.viewer.ui.time_panel import time_text
+    viewer.open(any_series)
+    state, scene = viewer.state, viewer.scene
+    assert not any("--time N" in note for note in shown_notes(state))   # the slider says which, not a stale note
+    state.series.set_fps(30)
+    state.series.toggle_play()
+    ahead = 0
+    for _ in range(40):
+        scene.update(0.05)   # no waiting: reads finish when they finish, as in the window
+        label = time_text(state.series)
+        drawn = int(label.split()[0])
+        assert np.array_equal(np.asarray(state.volume.data), ball(drawn)), label
+        ahead += state.series.index != state.series.shown
+    assert ahead > 0   # the case that was wrong happened

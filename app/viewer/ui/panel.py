@@ -62,6 +62,13 @@ def render_scale(height: int) -> float:
     return max(1.0, round(4 * height / 1080) / 4)
 
 
+def shown_notes(state: ViewerState) -> list[str]:
+    """The volume's notes the panel shows: a series' "showing time point i of n (use --time N)" left out, as
+    the Time section's slider and label say which time point is drawn (the note went stale as time moved)."""
+    from ...volumes.time_points import TimeNote
+    return [note for note in state.volume.notes if not (state.series.active and isinstance(note, TimeNote))]
+
+
 class ImguiLayer:
     def __init__(self, glfw_window_address: int | None = None):
         """With a GLFW window's address, imgui reads that window's input; without, it is headless (and
@@ -224,7 +231,7 @@ class Panel:
             volume = state.volume
             shape = "x".join(str(n) for n in volume.data.shape)
             imgui.text_wrapped(f"{volume.name}  {shape} {volume.data.dtype}")
-            for note in volume.notes:
+            for note in shown_notes(state):
                 imgui.text_wrapped(note)
             LabelsSection.offer(state)
             # The checkbox's words for the package's gradient direction: "ascent" is inside below.

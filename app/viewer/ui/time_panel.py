@@ -79,8 +79,9 @@ class Recorder:
         self._started = time.perf_counter()
 
     def capture(self, framebuffer, size) -> None:
-        """The frame just drawn in `framebuffer` (its `size`), written as often as the frame rate asks since
-        the last; nothing while not recording."""
+        """The frame just drawn in `framebuffer` (its `size`), or the pixels `framebuffer()` gives where it is
+        a function (called only for a frame due), written as often as the frame rate asks since the last;
+        nothing while not recording."""
         if not self.recording:
             return
         if self._error is not None or (self._size is not None and tuple(size) != self._size):
@@ -94,7 +95,7 @@ class Recorder:
             self._started += (due - MAX_REPEAT) / self._rate
             due = MAX_REPEAT
         self._size = tuple(size)
-        self._queue.put((read_rgb(framebuffer, size), due))
+        self._queue.put((framebuffer() if callable(framebuffer) else read_rgb(framebuffer, size), due))
         self.frames += due
 
     def _encode(self) -> None:
@@ -137,6 +138,14 @@ class Recorder:
         return f"recording {seconds:.1f} s, {self.frames} frames -> {self.path.name}"
 
 
+def time_text(series) -> str:
+    """The label beside the time slider: the time point drawn (`shown`), not the one asked for (`index`),
+    which during Play runs a read ahead of the mesh on screen; "-> N" while N is read."""
+    last = series.count - 1
+    text = f"{series.shown} of 0..{last}"
+    return text if series.index == series.shown else f"{text} -> {series.index}"
+
+
 class TimeSection:
     def __init__(self):
         self.recorder = Recorder()
@@ -158,7 +167,7 @@ class TimeSection:
     def _time_controls(self, state: ViewerState) -> None:
         series = state.series
         last = series.count - 1
-        width = imgui.calc_text_size(f"{last} of 0..{last}").x   # the value beside the slider, not under its grab
+        width = imgui.calc_text_size(f"{last} of 0..{last} -> {last}").x   # beside the slider, not under its grab
         spacing = imgui.get_style().item_spacing.x
         imgui.set_next_item_width(-width - spacing)
         changed, index = imgui.slider_int("##time", series.index, 0, last, "")
@@ -166,7 +175,7 @@ class TimeSection:
             act(state, series.go_to, index)
         tooltip("the series' time point ([ and ] step back and on)")
         imgui.same_line()
-        text = f"{series.index} of 0..{last}"
+        text = time_text(series)
         imgui.set_cursor_pos_x(imgui.get_cursor_pos_x() + width - imgui.calc_text_size(text).x)
         imgui.text(text)
         if imgui.button("<"):
@@ -226,7 +235,7 @@ class TimeSection:
         state.message, self.recorder.message = self.recorder.message, None
 
     def capture(self, framebuffer, size) -> None:
-        """The window's frame just drawn (scene only), for Record."""
+        """The window's frame just drawn (scene only), for Record: a framebuffer, or a function giving it."""
         self.recorder.capture(framebuffer, size)
 
     def keys(self, camera) -> dict:

@@ -181,9 +181,13 @@ class ViewerWindow:
 
         self.ctx.screen.use()
         pixels_per_unit = fb_width / max(glfw.get_window_size(self.window)[0], 1)  # framebuffer scale
-        self.renderer.draw_scene(self.scene, self.camera, (0, 0, fb_width, fb_height),
-                                 covered_left=int(self.panel.covered_width * pixels_per_unit))
-        self.panel.time_section.capture(self.ctx.screen, (fb_width, fb_height))   # Record: the scene, no panel
+        covered_left = int(self.panel.covered_width * pixels_per_unit)
+        self.renderer.draw_scene(self.scene, self.camera, (0, 0, fb_width, fb_height), covered_left=covered_left)
+        # Record: the scene, no panel.  On screen it is centred in what the panel leaves free; a movie of that
+        # had an empty strip where the panel was, so a frame due is drawn again, centred, as render draws it.
+        self.panel.time_section.capture(
+            self.ctx.screen if not covered_left else lambda: self._scene_frame((fb_width, fb_height)),
+            (fb_width, fb_height))
         self.imgui.render()
         if self._screenshot_requested:
             self._save_screenshot((fb_width, fb_height))
@@ -214,6 +218,17 @@ class ViewerWindow:
         self.last_screenshot = path
         self.state.message = f"screenshot saved: {path}"
         print(self.state.message, flush=True)
+
+    def _scene_frame(self, size) -> np.ndarray:
+        """The scene drawn offscreen at `size`, centred in the whole frame (no room kept for the panel)."""
+        target = OffscreenTarget(self.ctx, size)
+        try:
+            target.use()
+            self.renderer.draw_scene(self.scene, self.camera, target.viewport)
+            return target.read_rgb()
+        finally:
+            target.release()
+            self.ctx.screen.use()
 
     def _scaled_scene(self, size) -> np.ndarray:
         """The scene (not the panel) drawn offscreen at screenshot_scale times `size`, as `render` draws it."""
