@@ -2,12 +2,26 @@
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 
 import numpy as np
 import pytest
 
 GL_FIXTURES = {"gl_ctx", "gpu_mesh", "x_display"}  # a test that uses one needs a GL context (or a display)
+
+
+def restore_default_interrupt() -> None:
+    """A suite started in the background (`pytest &` in a shell without job control, nohup, CI runners) has
+    SIGINT ignored, and every process it starts inherits that: a command the tests interrupt with SIGINT
+    runs on (the hostile tests waited out their two-minute stops), and in-process tests get no
+    KeyboardInterrupt.  Python's own handler, back in this process (each xdist worker imports this file),
+    is what the processes it starts get too: their SIGINT acts as a user's Ctrl-C does."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+restore_default_interrupt()
 
 
 def pytest_configure(config):

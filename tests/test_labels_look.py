@@ -88,3 +88,6 @@ def test_label_colours_are_sized_by_the_count_of_labels_not_their_values():
         tracemalloc.stop()
     assert peak < 50 << 20, peak   # a palette by value: 2e9 colours, 48 GB
     assert len(np.unique(mesh.visual.vertex_colors[:, :3], axis=0)) == 2
+    seg[seg == 7] = -5   # indexed by value, a negative label was an IndexError
+    assert len(np.unique(isoscope.isosurface(seg, labels=True, backend="cpu").visual.vertex_colors[:, :3],
+                         axis=0)) == 2

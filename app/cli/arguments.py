@@ -65,7 +65,8 @@ class OneLineParser(argparse.ArgumentParser):
             message += (f"; {stray!r} is not an option: a path that starts with '-' goes after '--', e.g. "
                         f"{self.prog} ... -- {stray}")
         # "isoscope: error:" as every other refusal, whichever subcommand: scripts look for one prefix.
-        self.exit(EXIT_BAD_INPUT, f"isoscope: error: {message} (see {self.prog} --help)\n")
+        from ..core.opener import shown  # a flag's value may carry ESC or a newline: one line, escaped
+        self.exit(EXIT_BAD_INPUT, f"isoscope: error: {shown(message)} (see {self.prog} --help)\n")
 
     def _stray_option(self) -> str | None:
         """The first argument that looks like an option but is none of this parser's (nor a prefix of one)."""

@@ -29,6 +29,14 @@ def run_volumes(args) -> int:
 RUNNERS = {"render": run_render, "export": run_export, "volumes": run_volumes}
 
 
+def _error(text: str) -> None:
+    """The one line of a refusal, on stderr: control characters escaped, so that a path or a name carrying
+    ESC or BEL (from a file name, a scene, a label table) cannot clear the terminal or retitle it, and a
+    newline in one cannot split the line."""
+    from ..core.opener import shown
+    print(f"isoscope: error: {shown(text)}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv and argv[0] == "measure":
@@ -50,11 +58,11 @@ def main(argv: list[str] | None = None) -> int:
         with using_budget(None if given is None else MemoryBudget(given, "--memory-budget")):
             return runner(args)
     except ClusterError as exc:
-        print(f"isoscope: error: {exc}", file=sys.stderr)
+        _error(str(exc))
         return exc.exit_status  # 2 for an address that is no dask scheduler: the input
     except (VolumeError, ValueError) as exc:
         # VolumeError and the extractor's ValueErrors carry one-line, user-facing messages.
-        print(f"isoscope: error: {exc}", file=sys.stderr)
+        _error(str(exc))
         return EXIT_BAD_INPUT
     except BrokenPipeError:
         # `isoscope measure --json | head`: the reader left; stop quietly, as Unix tools do on SIGPIPE
@@ -63,11 +71,10 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_BROKEN_PIPE
     except OSError as exc:
         if exc.errno in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT):  # the disk (or a size limit) is full
-            print(f"isoscope: error: {exc.strerror}: the output did not fit, and no partial file was left; "
-                  "free disk space or write it elsewhere", file=sys.stderr)
+            _error(f"{exc.strerror}: the output did not fit, and no partial file was left; free disk space or "
+                   "write it elsewhere")
             return EXIT_CLUSTER_FAILED
-        print(f"isoscope: error: {exc.strerror or exc}: {exc.filename or ''}; check the path and its permissions",
-              file=sys.stderr)
+        _error(f"{exc.strerror or exc}: {exc.filename or ''}; check the path and its permissions")
         return EXIT_BAD_INPUT
     except GLUnavailable as exc:
         print(f"isoscope: {exc}", file=sys.stderr)

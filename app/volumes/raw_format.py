@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.lazy_arrays import Block3D
+from ..core.opener import UnreadablePath, read_text
 from .errors import VolumeError
 from .reading import MAP_BYTES
 from .volume import Progress, refuse_if_too_big, report, shape_text, size_text
@@ -39,10 +40,15 @@ def sidecar_path(path: Path) -> Path | None:
     return None
 
 
+MAX_SIDECAR_BYTES = 64 << 10   # a few keys: a sidecar is under a kilobyte
+
+
 def _read_sidecar(path: Path) -> dict:
     try:
-        keys = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        keys = json.loads(read_text(path, "the sidecar", MAX_SIDECAR_BYTES))
+    except UnreadablePath as exc:
+        raise VolumeError(str(exc)) from None
+    except (UnicodeDecodeError, RecursionError, ValueError) as exc:   # ValueError: json.JSONDecodeError
         raise VolumeError(f"sidecar {path.name} is not valid JSON ({exc}); fix it or pass --dims "
                           f"--dtype on the command line") from None
     if not isinstance(keys, dict):

@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from support.command import succeeded_here
+from support.command import isoscope_here, succeeded_here
 from support.hostile import STRESS, refused
 
 
@@ -568,3 +568,15 @@ sys.exit(main())
 '''
     run = subprocess.run([sys.executable, "-c", child], capture_output=True, text=True, timeout=60)
     assert run.returncode == 130 and run.stderr == "", (run.returncode, run.stderr[-2000:])
+
+
+def test_control_characters_in_refusals_are_escaped(tmp_path):
+    """A file name or a flag's value carrying ESC/BEL (clear screen, retitle the terminal) or a newline
+    reaches stderr escaped, on one line."""
+    name = tmp_path / "a\x1b]0;owned\x07\nb.npy"
+    np.save(name, np.zeros((4, 4, 4), np.float32) + np.arange(4))
+    for args in (("export", name, "--iso", "9", "--out", tmp_path / "m.ply"),
+                 ("render", "sphere", "--out", tmp_path / "x.png", "--size", "8\x1b[2Jx9")):
+        done = isoscope_here(*args)
+        assert done.returncode == 2 and "\x1b" not in done.stderr and "\x07" not in done.stderr, done.stderr
+        assert len(done.stderr.strip().splitlines()) == 1 and "\\x1b" in done.stderr

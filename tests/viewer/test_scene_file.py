@@ -97,3 +97,26 @@ def test_bad_scenes_are_one_line(tmp_path):
     assert_one_line_error(isoscope_here("render", tmp_path / "t.json", "--iso", "0", "--out", tmp_path / "x.png"),
                           "a scene holds the view", "--iso")
     assert not (tmp_path / "x.png").exists()
+
+
+def test_the_viewer_opens_a_scene_where_it_opens_a_volume(tmp_path, gl_ctx):
+    """Open file (and a drop, and Recent) go through ViewerState.open: a scene opens its volume on the
+    worker, then its levels, slices and camera are put on it; a bad scene is its one line."""
+    from isoscope.viewer.ui.headless import HeadlessViewer
+    saved = isoscope_here("render", "bucky", *VIEW, "--out", tmp_path / "a.png", "--save-scene", tmp_path / "a.json")
+    assert saved.returncode == 0, saved.stderr
+    viewer = HeadlessViewer((320, 240), ctx=gl_ctx)
+    try:
+        viewer.open(str(tmp_path / "a.json"))
+        state = viewer.state
+        assert [level.value for level in state.levels.items] == [100.0, 170.0]
+        assert (viewer.camera.azimuth, viewer.camera.elevation) == (40.0, 10.0)
+        assert state.slices.shown[2] and state.slices.index[2] == 32
+        assert str(tmp_path / "a.json") in [str(p) for p in state.recent.paths]
+        assert np.array_equal(viewer.picture(), pixels(tmp_path / "a.png"))   # the picture render drew
+        (tmp_path / "bad.json").write_text('{"format": "isoscope-scene", "version": 1, "volume": 3}')
+        with pytest.raises(SceneError, match="bad.json: levels is missing"):
+            viewer.open(str(tmp_path / "bad.json"))
+        assert [level.value for level in state.levels.items] == [100.0, 170.0]   # the last good one stays
+    finally:
+        viewer.release()

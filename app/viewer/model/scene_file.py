@@ -186,6 +186,22 @@ def apply_scene(scene: dict, state, camera) -> None:
         raise SceneError(f"the scene does not fit: {exc}") from None
 
 
+def apply_opened_scene(state, camera, raise_errors: bool = False) -> None:
+    """A scene opened through `ViewerState.open` whose volume is now on show: its levels, modes, slices,
+    look and camera put on it (model/scene_file.py).  A scene that does not fit this volume leaves the
+    volume as opened, with the one line in the status bar (or raised, `raise_errors`)."""
+    scene, state.scene_to_apply = state.scene_to_apply, None
+    if scene is None:
+        return
+    from .errors import USER_ERRORS, one_line
+    try:
+        apply_scene(scene, state, camera)
+    except USER_ERRORS as exc:
+        if raise_errors:
+            raise
+        state.error = one_line(exc)
+
+
 def scene_size(scene: dict) -> tuple[int, int]:
     """The scene's image size (read_scene checked it: each side as --size takes it), else 800x600."""
     width, height = scene.get("size") or [800, 600]

@@ -36,6 +36,7 @@ from .jobs import Jobs, Response
 from .labels import LabelMap
 from .levels import Levels
 from .recent import RecentFiles
+from .scene_file import is_scene_file, read_scene, volume_spec
 from .series import TimeAxis
 from .slices import SliceScene, SliceSettings
 from .style import SurfaceStyle
@@ -90,12 +91,16 @@ class ViewerState:
         self.frame_ms = 0.0
         self.gl_renderer = "unknown"          # the GPU side says which
         self._opener = opener if opener is not None else open_volume
+        self._pending_scene = None            # (request, scene, its path) while a scene's volume is read
+        self.scene_to_apply: dict | None = None   # a scene whose volume is on show: the view side applies it
 
     # --- volumes -----------------------------------------------------------
     def open(self, spec: str, **open_options) -> int:
         """Ask for the built-in name, file path or 'expr:...' `spec`: read on a worker thread (the panel
         shows its progress; expr: at once, with the opener); the GPU side puts it on show when the answer
         to this request, the newest, comes in.  The request's id."""
+        if not open_options and is_scene_file(spec):   # a saved scene: its volume, then the scene on it
+            return self._open_scene(spec)
         failure = f"could not open {spec[:80]}"
         if spec.strip().lower().startswith("expr:"):
             return self.jobs.submit("open", read_for_viewer, self._opener, spec, open_options, self.budget,
@@ -113,11 +118,25 @@ class ViewerState:
         """The volume being read (its `fraction` and `message`), or None."""
         return self.jobs.current("open")
 
+    def _open_scene(self, path: str) -> int:
+        """Open a scene file (scene_file.py): its volume asked for as `open` asks; once that volume is on
+        show, the view side puts the scene on it (`scene_to_apply`).  A bad scene raises its one line."""
+        scene = read_scene(path)
+        spec, options = volume_spec(scene)
+        request = self.open(spec, **options)
+        self._pending_scene = (request, scene, path)
+        return request
+
     def opened(self, response: Response) -> Opened:
-        """An "open" job's answer: its volume, or its error raised."""
+        """An "open" job's answer: its volume, or its error raised.  The answer to a scene's volume leaves
+        the scene in `scene_to_apply` for the view side, which owns the camera, once it has shown it."""
+        pending, self._pending_scene = self._pending_scene, None
         if response.error is not None:
             raise response.error
-        if _names_a_file(response.value.spec):
+        if pending is not None and pending[0] == response.request_id:
+            self.scene_to_apply = pending[1]
+            self.recent.add(pending[2])
+        elif _names_a_file(response.value.spec):
             self.recent.add(response.value.spec)
         return response.value
 

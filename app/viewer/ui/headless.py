@@ -25,6 +25,7 @@ from ..gfx.scene import GpuScene
 from ..gfx.screenshot import save_png
 from ..model.camera import OrbitCamera, volume_frame
 from ..model.errors import ViewerError
+from ..model.scene_file import apply_opened_scene
 from ..model.state import ViewerState
 from .panel import ImguiLayer, Panel
 
@@ -121,6 +122,7 @@ class HeadlessViewer:
             if response.request_id == request:
                 self.scene.show_opened(self.state.opened(response))
                 self.frame()
+                apply_opened_scene(self.state, self.camera, raise_errors=True)
                 return
         raise ViewerError(f"{spec[:80]} was not read within {wait_s:g} s")
 

@@ -50,7 +50,8 @@ FLOATING = (imgui.WindowFlags_.no_decoration | imgui.WindowFlags_.no_saved_setti
 HINT_COLOR = imgui.ImVec4(0.95, 0.75, 0.35, 1.0)
 ERROR_COLOR = imgui.ImVec4(1.0, 0.45, 0.40, 1.0)
 NOTE_COLOR = imgui.ImVec4(0.60, 0.85, 0.60, 1.0)
-VOLUME_FILE_FILTERS = ["Volumes", "*.npy *.npz *.nii *.nii.gz *.nrrd *.nhdr *.raw *.vol *.mhd *.tif *.tiff",
+VOLUME_FILE_FILTERS = ["Volumes and scenes",
+                       "*.npy *.npz *.nii *.nii.gz *.nrrd *.nhdr *.raw *.vol *.mhd *.tif *.tiff *.json",
                        "All files", "*"]
 MESH_FILE_FILTERS = ["Meshes", "*.stl *.ply *.obj *.glb *.off", "All files", "*"]
 EXPR_HINT = "x^2 + y^2 + z^2 - 0.5"   # the volumes grammar; inside is where it is < 0

@@ -27,6 +27,7 @@ from ..gfx.screenshot import next_screenshot_path, save_png
 from ..model.camera import OrbitCamera, volume_frame
 from ..model.errors import one_line
 from ..model.recent import RecentFiles
+from ..model.scene_file import apply_opened_scene
 from ..model.settings import PanelSettings
 from ..model.state import ViewerState
 from .panel import ImguiLayer, Panel
@@ -177,6 +178,7 @@ class ViewerWindow:
         self.scene.update(dt)
         if self.state.volume_serial != self._framed_serial:
             self._frame_volume()
+        apply_opened_scene(self.state, self.camera)
         self.panel.draw_view_labels(self.state, self.camera)
 
         self.ctx.screen.use()
