@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..core.numbers import AZIMUTH, ELEVATION, MAX_LABELS, SMOOTH
+from ..core.numbers import AZIMUTH, ELEVATION, MAX_LABELS, SMOOTH, WINDOW_FRAMES
 from ..errors import InputError
 from ..volumes import DEFAULT_VOLUME
 from .common import EXIT_BAD_INPUT
@@ -247,7 +247,7 @@ def viewer_parser() -> argparse.ArgumentParser:
     parser.add_argument("--screenshot-scale", type=int, default=1, choices=range(1, 9), metavar="N",
                         help="key s saves the scene at N times the window's pixels, 1-8 (default 1: the "
                              "window as shown, panel included; above 1 the scene alone, for print)")
-    parser.add_argument("--frames", type=int, metavar="N",
+    parser.add_argument("--frames", type=WINDOW_FRAMES.argument(), metavar="N",
                         help="quit after drawing N frames (scripts, benchmarks, smoke tests)")
     parser.add_argument("--msaa", type=int, choices=(0, 2, 4, 8), metavar="N",
                         help="multisampling, samples per pixel: 0, 2, 4 or 8 (default 4 on a GPU, "

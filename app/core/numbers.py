@@ -93,6 +93,7 @@ def _shown(value) -> str:
 SMOOTH = Number("--smooth", "iterations", True, 0, 500, "5")
 FPS = Number("--fps", "frames per second", False, 0, 240, "24", above_low=True)
 FRAMES = Number("--frames", "frames", True, 1, 10_000, "60")
+WINDOW_FRAMES = Number("--frames", "frames", True, 1, 10**9, "100")   # the window quits after N (scripts)
 IMAGE_SIDE = Number("--size", "pixels", True, 16, 16384, "800x600")
 MAX_LABELS = Number("--max-labels", "labels", True, 1, 65_535, "255")
 AZIMUTH = Number("--azimuth", "degrees", False, -36_000, 36_000, "-60")
