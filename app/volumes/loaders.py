@@ -88,6 +88,7 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, ti
                 raise VolumeError(f"{path.name} has a header that gives its type; drop {flag}")
     if spacing is not None:
         spacing = three_positive(spacing, "--spacing", float, path.name)
+    pyramid = ()   # lower-resolution levels that come with the volume (OME-Zarr)
     try:
         world = None  # (4x4 array index -> world mm, its space), for files that define one
         if kind == "dicom":
@@ -96,7 +97,7 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, ti
         elif kind == "raw":
             data, header_spacing, notes = load_raw(path, dims, dtype, endian, spacing, progress, map_file=map_files)
         elif kind == "zarr":
-            data, header_spacing, notes = load_zarr(path, time, progress)
+            data, header_spacing, notes, pyramid = load_zarr(path, time, progress)
         elif kind == "npy":
             data, header_spacing, notes = load_npy(path, progress)
         elif kind == "tiff":
@@ -129,4 +130,8 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, ti
                          source=spec, gradient_direction="descent", default_level=None,
                          notes=notes, what=path.name, progress=progress, world=world)
     volume.time_points = time_points_of(notes)
+    if pyramid:   # each level's spacing in the spacing chosen (--spacing scales them alike)
+        ratio = [c / h for c, h in zip(chosen, header_spacing or (1.0, 1.0, 1.0))]
+        volume.pyramid = tuple(level._replace(spacing=tuple(s * r for s, r in zip(level.spacing, ratio)))
+                               for level in pyramid)
     return volume

@@ -10,6 +10,7 @@ import contextlib
 from collections.abc import Callable
 from contextvars import ContextVar
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -18,6 +19,14 @@ from ..core.lazy_arrays import is_lazy
 from ..errors import InputError
 from ..validation import CheckedVolume, Progress, as_spacing, check_volume
 from .errors import VolumeError
+
+
+class PyramidLevel(NamedTuple):
+    """A lower-resolution level of a volume: its lazy samples (same axes), their spacing, and its name in
+    the file (an OME-Zarr dataset's path)."""
+    data: object
+    spacing: tuple[float, float, float]
+    name: str
 
 
 @dataclass
@@ -41,6 +50,9 @@ class Volume:
     # How many 3-D volumes its source holds (a 4-D file's time points; 1 for the rest); open_options'
     # `time` says which one this is.
     time_points: int = 1
+    # Lower-resolution copies of the same samples that came with it (an OME-Zarr image's multiscale levels),
+    # finest first: what a viewer over its memory budget shows instead of striding through this one.
+    pyramid: tuple[PyramidLevel, ...] = field(default=(), compare=False)
 
     @property
     def checked(self) -> CheckedVolume:

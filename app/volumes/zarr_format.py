@@ -19,7 +19,7 @@ from ..core.lazy_arrays import Block3D
 from .errors import VolumeError
 from .reading import damaged, reason
 from .time_points import time_index, time_note
-from .volume import Progress, refuse_if_too_big, report, shape_text
+from .volume import Progress, PyramidLevel, refuse_if_too_big, report, shape_text
 
 MARKERS = (".zarray", ".zgroup", "zarr.json")
 # What a store's metadata may claim before a byte is read: each chunk is a read with its own
@@ -52,18 +52,19 @@ def is_zarr(path: Path) -> bool:
 
 
 def load_zarr(path: Path, time: int | None, progress: Progress | None = None):
-    """(lazy 3-D array, spacing or None, notes)."""
+    """(lazy 3-D array, spacing or None, notes, pyramid): an OME-Zarr image's lower-resolution levels as
+    PyramidLevels (finest first; none for a plain array), read as lazily as the full one."""
     import zarr
     report(progress, 0.0, f"opening {path.name}")
     try:
         node = zarr.open(store=str(path), mode="r")
     except Exception as exc:  # zarr raises many kinds for a damaged store
         raise damaged(path, exc, "check that it is a Zarr array or an OME-Zarr image") from None
-    spacing, notes, spatial = None, [], 3
+    spacing, notes, spatial, coarser = None, [], 3, []
     if isinstance(node, zarr.Group):
         multiscales = node.attrs.get("multiscales") or dict(node.attrs.get("ome") or {}).get("multiscales")
         if multiscales:
-            node, spacing, spatial, notes = _ome_level(node, multiscales[0], path)
+            node, spacing, spatial, notes, coarser = _ome_level(node, multiscales[0], path)
         else:
             arrays = sorted(node.array_keys())
             if not arrays:
@@ -84,7 +85,11 @@ def load_zarr(path: Path, time: int | None, progress: Progress | None = None):
     _refuse_unreadable_size(path, shape[-3:], tuple(node.chunks[-3:]), node.dtype)
     notes.append(f"Zarr {shape_text(shape[-3:])} {node.dtype} in {shape_text(node.chunks[-3:])} chunks, "
                  "read on demand")
-    return Block3D(CheckedReads(node, path.name), tuple(lead)), spacing, [n for n in notes if n]
+    pyramid = tuple(PyramidLevel(Block3D(CheckedReads(level, f"{path.name}/{name}"), tuple(lead)), level_spacing,
+                                 name)
+                    for name, level, level_spacing in coarser
+                    if tuple(level.shape[:-3]) == shape[:-3] and all(2 <= n for n in level.shape[-3:]))
+    return Block3D(CheckedReads(node, path.name), tuple(lead)), spacing, [n for n in notes if n], pyramid
 
 
 def _settle_pending_reads() -> None:
@@ -114,7 +119,9 @@ def _refuse_unreadable_size(path: Path, shape, chunks, dtype) -> None:
 
 
 def _ome_level(group, multiscale: dict, path: Path):
-    """(array of the full-resolution level, its (z, y, x) spacing or None, spatial axis count, notes)."""
+    """(array of the full-resolution level, its (z, y, x) spacing or None, spatial axis count, notes, the
+    lower-resolution levels as (name, array, spacing), finest first).  A level that cannot be opened or
+    whose metadata does not parse is left out of the pyramid (the full one must open)."""
     try:
         datasets = multiscale["datasets"]
         level = group[datasets[0]["path"]]
@@ -124,11 +131,25 @@ def _ome_level(group, multiscale: dict, path: Path):
     axes = multiscale.get("axes") or [{"name": n, "type": "space"} for n in "zyx"[-len(level.shape):]]
     axes = [{"name": a, "type": "space" if a in "zyx" else ""} if isinstance(a, str) else a for a in axes]
     spatial = sum(1 for a in axes if a.get("type") == "space")
-    scale = [1.0] * len(level.shape)
-    for transforms in (datasets[0].get("coordinateTransformations", []),
+    notes = [f"OME-Zarr level {datasets[0]['path']!r} of {len(datasets)} (full resolution)"]
+    coarser = []
+    for dataset in datasets[1:]:
+        try:
+            array = group[dataset["path"]]
+            coarser.append((str(dataset["path"]), array, _spacing_of(dataset, multiscale, len(array.shape))))
+        except (KeyError, IndexError, TypeError, ValueError) as exc:
+            notes.append(f"OME-Zarr level {dataset.get('path') if isinstance(dataset, dict) else dataset!r} left "
+                         f"out ({reason(exc)})")
+    coarser.sort(key=lambda item: -math.prod(item[1].shape[-3:]))   # finest first, whatever the file's order
+    return level, _spacing_of(datasets[0], multiscale, len(level.shape)), spatial, notes, coarser
+
+
+def _spacing_of(dataset: dict, multiscale: dict, ndim: int) -> tuple[float, float, float]:
+    """The (z, y, x) spacing of one OME-Zarr level: its dataset's "scale" times the image's."""
+    scale = [1.0] * ndim
+    for transforms in (dataset.get("coordinateTransformations", []),
                        multiscale.get("coordinateTransformations", [])):
         for transform in transforms:
             if transform.get("type") == "scale" and len(transform.get("scale", [])) == len(scale):
                 scale = [a * float(b) for a, b in zip(scale, transform["scale"])]
-    notes = [f"OME-Zarr level {datasets[0]['path']!r} of {len(datasets)} (full resolution)"]
-    return level, tuple(scale[-3:]), spatial, notes
+    return tuple(scale[-3:])

@@ -132,3 +132,45 @@ def test_the_command_takes_a_budget_and_refuses_a_bad_one_in_one_line(tmp_path):
         assert not (tmp_path / "t.png").exists()
     done = isoscope_here("render", "torus", "--out", tmp_path / "t.png", "--memory-budget", "2M")
     assert done.returncode == 0 and (tmp_path / "t.png").stat().st_size > 0, done.stderr
+
+
+def _pyramid(tmp_path, field, levels=3):
+    """An OME-Zarr image (NGFF 0.4) whose levels are 2x2x2 means of the one above, as pyramid writers make
+    them: not what striding the full level gives, so the level shown says where it was read from."""
+    import zarr
+    path = tmp_path / "pyramid.ome.zarr"
+    group = zarr.open_group(str(path), mode="w", zarr_format=2)
+    data, datasets = field, []
+    for level in range(levels):
+        group.create_array(str(level), shape=data.shape, chunks=(16, 16, 16), dtype="f4")[:] = data
+        datasets.append({"path": str(level), "coordinateTransformations": [
+            {"type": "scale", "scale": [0.5 * 2 ** level] * 3}]})
+        n = [s // 2 for s in data.shape]
+        data = data[: 2 * n[0], : 2 * n[1], : 2 * n[2]].reshape(n[0], 2, n[1], 2, n[2], 2).mean(axis=(1, 3, 5))
+    group.attrs["multiscales"] = [{"version": "0.4", "axes": [{"name": a, "type": "space"} for a in "zyx"],
+                                   "datasets": datasets}]
+    return path, [np.asarray(group[str(level)]) for level in range(levels)]
+
+
+def test_an_ome_zarr_over_the_budget_is_shown_from_the_finest_level_that_fits(viewer_with, tmp_path):
+    from scipy.ndimage import gaussian_filter
+
+    from isoscope.volumes import open_volume
+    field = gaussian_filter(np.random.default_rng(3).normal(size=(128, 128, 128)), 3).astype(np.float32)
+    path, levels = _pyramid(tmp_path, field)
+    volume = open_volume(str(path))
+    assert [level.name for level in volume.pyramid] == ["1", "2"]
+    assert [level.spacing for level in volume.pyramid] == [(1.0, 1.0, 1.0), (2.0, 2.0, 2.0)]
+    viewer = viewer_with("4M")   # level 0 (128^3 float32) needs ~12 MB to show, level 1 ~1.5 MB, level 2 0.2
+    viewer.open(str(path))
+    state = viewer.state
+    assert state.full_volume.data.shape == (128, 128, 128) and state.volume.spacing == (1.0, 1.0, 1.0)
+    np.testing.assert_array_equal(state.volume.data, levels[1])   # the file's level, not field[::2, ::2, ::2]
+    assert not np.array_equal(levels[1], field[::2, ::2, ::2])
+    assert viewer.scene.shown_shape == (64, 64, 64) and state.step == 2
+    assert any("from its level '1'" in note for note in state.volume.notes)
+    assert state.bounds()[1] == (63.0, 63.0, 63.0)   # the full level's extent (0.5 * 127), to a step
+    tight = viewer_with("1M")   # only level 2 (32^3) fits
+    tight.open(str(path))
+    np.testing.assert_array_equal(tight.state.volume.data, levels[2])
+    assert tight.state.volume.spacing == (2.0, 2.0, 2.0)

@@ -28,16 +28,48 @@ EXPORT_CHUNK = 128
 
 
 def downsampled(volume: Volume, budget: MemoryBudget) -> tuple[Volume, int]:
-    """(`volume`, 1) where it fits `budget`, else a volume of every step-th sample of it and that step, the
-    smallest step that fits (core/budget.py; BudgetError where not even the coarsest view fits)."""
+    """(`volume`, 1) where it fits `budget`, else a volume of fewer samples and how many of the full volume's
+    samples one of its steps spans: the finest of the volume's own lower-resolution levels that fits (an
+    OME-Zarr pyramid: read whole, never striding through the full level's chunks), else every step-th sample,
+    the smallest step that fits (core/budget.py; BudgetError where not even the coarsest view fits)."""
     shape, itemsize = volume.data.shape, volume.data.dtype.itemsize
     step = budget_step(shape, itemsize, budget, volume.name)
     if step == 1:
         return volume, 1
-    note = (f"a big volume ({'x'.join(map(str, shape))}, {size_text(needed_bytes(shape, itemsize) / 0.75)} to "
-            f"show whole): shown at one sample in {step} along each axis to fit the memory budget of "
-            f"{budget.text}; --memory-budget SIZE changes it, 'Export full resolution...' writes the full mesh")
+    whole = (f"{'x'.join(map(str, shape))}, {size_text(needed_bytes(shape, itemsize) / 0.75)} to show whole")
+    fix = "--memory-budget SIZE changes it, 'Export full resolution...' writes the full mesh"
+    for level in volume.pyramid:   # finest first
+        level_shape = tuple(level.data.shape)
+        if budget_step(level_shape, level.data.dtype.itemsize, budget, volume.name) == 1:
+            return from_level(volume, level, f"a big volume ({whole}): shown from its level {level.name!r} "
+                                             f"({'x'.join(map(str, level_shape))}) to fit the memory budget "
+                                             f"of {budget.text}; {fix}")
+    if volume.pyramid:   # not even the coarsest level fits: every step-th sample of it
+        coarsest = from_level(volume, volume.pyramid[-1])[0]
+        level_step = budget_step(coarsest.data.shape, itemsize, budget, volume.name)
+        shown = every_step(coarsest, level_step, f"a big volume ({whole}): shown from its coarsest level "
+                                                 f"{volume.pyramid[-1].name!r} at one sample in {level_step} to "
+                                                 f"fit the memory budget of {budget.text}; {fix}")
+        return shown, max(1, round(shown.spacing[0] / volume.spacing[0]))
+    note = (f"a big volume ({whole}): shown at one sample in {step} along each axis to fit the memory budget of "
+            f"{budget.text}; {fix}")
     return every_step(volume, step, note), step
+
+
+def from_level(volume: Volume, level, note: str | None = None) -> tuple[Volume, int]:
+    """`volume` shown from its lower-resolution `level` (a PyramidLevel), read whole; and the step, the
+    level's spacing over the full one's along the first axis, rounded.  The value range stays the full
+    volume's; a world transform is scaled by each axis' ratio of spacings."""
+    ratio = [s / f for s, f in zip(level.spacing, volume.spacing)]
+    data = read_block(level.data, (slice(None),) * 3)
+    world = None
+    if volume.world is not None:
+        matrix, space = volume.world
+        world = (matrix @ np.diag([*ratio, 1.0]), space)
+    notes = [*volume.notes, note] if note else list(volume.notes)
+    shown = dataclasses.replace(volume, data=data, spacing=tuple(level.spacing), world=world, notes=notes,
+                                _in_memory=None, pyramid=())
+    return shown, max(1, round(ratio[0]))
 
 
 def every_step(volume: Volume, step: int, note: str | None = None) -> Volume:
