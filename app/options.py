@@ -1,5 +1,5 @@
 """The mesh modes and which go together: one spec that the Python API, the command line and the viewer
-all check a combination with, in one wording per rule (issue 23, point 3).
+all check a combination with, in one wording per rule.
 
 Modes: the cells marched (cubes or tetrahedra), smoothing iterations, sharp features (Extended Marching
 Cubes, a feature angle), a mask of cells, and chunks (extraction a box at a time, stitched).

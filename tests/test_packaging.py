@@ -42,6 +42,7 @@ def test_wheel_contains_shaders_volumes_and_the_console_script(tmp_path):
     assert in_checkout and in_checkout <= shipped
     modules = {"isoscope/" + str(p.relative_to(ROOT / "app")) for p in (ROOT / "app").rglob("*.py")}
     assert modules <= set(names), f"modules missing from the wheel: {sorted(modules - set(names))}"
+    assert "isoscope/py.typed" in names   # PEP 561: type checkers read the package's annotations
     entry_points = next(n for n in names if n.endswith("entry_points.txt"))
     assert "isoscope = isoscope.launch:main" in zipfile.ZipFile(wheel).read(entry_points).decode()
 

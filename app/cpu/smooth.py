@@ -38,7 +38,7 @@ even out while the surface stays where the volume puts it.
   around a sample equal to the level 1/256 of an edge from it (the tie rule), so those little
   caps of triangles start off the level by up to 1/256 of the range, and umbrella + projection
   pulled them into the sample itself: zero-area faces (~2,000 in 40 tie-heavy 6^3-14^3 meshes
-  after one iteration, 5,000 after 12), faces with coincident corners, and (issue 22) the GPU
+  after one iteration, 5,000 after 12), faces with coincident corners, and the GPU
   and numpy 0.175 cell apart at one vertex.  Now such a cap stays about where marching cubes
   put it, off the level by up to 1/256 of the range: the level set has no place for it that is
   not a point.  Turning over is not checked: a triangle that turns over within one move still
@@ -58,35 +58,21 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.numbers import SMOOTH
+from ..core.smoothing import (  # noqa: F401  (the rules both backends read; re-exported)
+    ACCEPT,
+    BORDER,
+    CONVERGED,
+    CORRECTION,
+    FLOOR_SQUARED,
+    MIN_AREA,
+    NEWTON_STEPS,
+    UMBRELLA_WEIGHT,
+    check_iterations,
+)
 from .cubes import gradient_at, signed
 from .interpolate import trilinear
 
-UMBRELLA_WEIGHT = 0.5
-"""Fraction of the way to the neighbours' average moved per iteration (0.5 damps every mode)."""
-NEWTON_STEPS = 4
-"""Newton steps per projection (quadratic convergence: 4 reach float precision from < 1 cell)."""
-CONVERGED = 0.1
-"""Newton stops stepping a vertex once it is within this fraction of ACCEPT x the range of the level
-(1e-5 of the range: 0.01 took a third evaluation for ~40% of the vertices, ~10% of an iteration)."""
-ACCEPT = 1e-4
-"""A projection ending further off its (corrected) level than this fraction of the value range is discarded."""
-CORRECTION = 5e-4
-"""Largest correction of the level for the interpolant's error, as a fraction of the value range."""
-BORDER = 1e-3
-"""A coordinate within this many cells of the volume's first or last sample lies on the border."""
-MIN_AREA = 1e-5
-"""No move shrinks a triangle below this fraction of a voxel face (index units), nor one already
-smaller at all (the caps around a tie: 1.3e-5 from marching cubes, 7.6e-6 from tetrahedra)."""
-FLOOR_SQUARED = float(np.float32((2 * MIN_AREA) ** 2))
-"""MIN_AREA as both backends compare it: against |edge x edge|^2, which is 4 area^2 (float32)."""
-
 F32 = np.float32
-
-
-def check_iterations(iterations, said: str = "smooth") -> int:
-    """`iterations` as an int in SMOOTH's range (0 to a few hundred), or a one-line InputError."""
-    return SMOOTH.check(iterations, said)
 
 
 def half_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -15,7 +15,7 @@ _timers: weakref.WeakKeyDictionary[moderngl.Context, tuple] = weakref.WeakKeyDic
 def compute_program(ctx: moderngl.Context, name: str, defines: dict | None = None) -> moderngl.ComputeShader:
     """shaders/NAME compiled for ctx, cached: llvmpipe spends tens of ms compiling each one.
 
-    Every program gets gpu_layout's #defines, then `defines` (the case table's sizes and the like).
+    Every program gets core/layout.py's #defines, then `defines` (the case table's sizes and the like).
     """
     programs = _cache.setdefault(ctx, {})
     key = (name, tuple(sorted((defines or {}).items())))

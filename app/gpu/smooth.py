@@ -30,7 +30,7 @@ from __future__ import annotations
 import moderngl
 
 from ..core.layout import GROUP_SIZE, VERTEX_BYTES, ImageUnit, StorageBlock
-from ..cpu.smooth import (
+from ..core.smoothing import (
     ACCEPT,
     BORDER,
     CONVERGED,

@@ -20,7 +20,7 @@ two uints per vertex here (job_components; the encoding is in shaders/mt_jobs.gl
 """
 from __future__ import annotations
 
-from ..cpu.tetra import tetra_table
+from ..core.tetra_table import tetra_table
 from .extraction import CellKind, SurfaceExtractor
 from .resident import resident_of
 

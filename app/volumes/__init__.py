@@ -91,7 +91,7 @@ def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, 
     moderngl context) only matter for expr: specs; "auto" samples on the GPU
     when a GL 4.3 context can be had and says so in `notes` when it falls back.
     inside ("above" or "below"), if given, overrides which side of the level
-    the object is on. fits, if given, is a test on a 3-D shape (gpu_layout.fits_one_extraction):
+    the object is on. fits, if given, is a test on a 3-D shape (core.layout.fits_one_extraction):
     a file whose header gives a shape it rejects is refused before its data is read, in words
     ending with fits_refusal. map_files: a raw file is memory-mapped whatever its size (its data is then
     read by name, as dask workers do), not read whole when small.

@@ -8,7 +8,7 @@ import re
 import numpy as np
 import pytest
 
-from isoscope.core import layout as gpu_layout
+from isoscope.core import layout
 from isoscope.gpu.programs import compute_program
 from isoscope.resources import shader_source, shaders_dir
 
@@ -28,7 +28,7 @@ def test_no_layout_number_is_spelled_as_a_literal(name):
     code = code_of(name).replace("#version 430", "")
     if name == "mc_case_table.glsl":  # 256 cases is the cube's 2^8 corner signs, not a layout choice
         code = code.replace("256u * MAX_TRIANGLES_PER_CELL", "")
-    assert not LITERAL.findall(code), f"{name}: use the #define from app/gpu_layout.py"
+    assert not LITERAL.findall(code), f"{name}: use the #define from app/layout.py"
 
 
 def test_the_check_catches_a_literal(tmp_path):
@@ -51,8 +51,8 @@ def test_every_program_sees_the_layout_as_python_has_it(gl_ctx, tmp_path, monkey
     program.run(1)
     data = np.frombuffer(out.read(), np.uint32)
     out.release()
-    assert dict(zip(names, data[:-1].tolist())) == {name: getattr(gpu_layout, name) for name in names}
-    assert data[-1:].view(np.float32)[0] == gpu_layout.EDGE_MARGIN
+    assert dict(zip(names, data[:-1].tolist())) == {name: getattr(layout, name) for name in names}
+    assert data[-1:].view(np.float32)[0] == layout.EDGE_MARGIN
 
 
 def emulated_divide(n: np.ndarray, magic) -> np.ndarray:
@@ -70,9 +70,9 @@ def test_divisor_magic_divides_every_32_bit_number_exactly():
         n = np.concatenate([multiples, multiples + np.uint64(d - 1), rng.integers(0, 2**32, 500, dtype=np.uint64),
                             np.array([0, 1, 2**31, 2**32 - 1], np.uint64)])
         n = n[n < 2**32]
-        assert np.array_equal(emulated_divide(n, gpu_layout.divisor_magic(d)), n // np.uint64(d)), d
+        assert np.array_equal(emulated_divide(n, layout.divisor_magic(d)), n // np.uint64(d)), d
     with pytest.raises(ValueError):
-        gpu_layout.divisor_magic(0)
+        layout.divisor_magic(0)
 
 
 # -- binding slots ----------------------------------------------------------------------------------
@@ -97,10 +97,10 @@ def declared_slots(source: str) -> list[tuple[str, str, str]]:
 
 
 def test_the_slot_names_are_the_defines_every_program_gets():
-    defines = gpu_layout.shader_defines()
-    assert defines["UNIT_VOLUME"] == gpu_layout.ImageUnit.VOLUME == 0
-    assert defines["BLOCK_BRICK_RANGES"] == gpu_layout.StorageBlock.BRICK_RANGES
-    assert gpu_layout.binding_defines().items() <= defines.items()
+    defines = layout.shader_defines()
+    assert defines["UNIT_VOLUME"] == layout.ImageUnit.VOLUME == 0
+    assert defines["BLOCK_BRICK_RANGES"] == layout.StorageBlock.BRICK_RANGES
+    assert layout.binding_defines().items() <= defines.items()
 
 
 @pytest.mark.parametrize("name", sorted(p.name for p in shaders_dir().iterdir()))
@@ -119,7 +119,7 @@ def test_the_binding_check_reads_what_the_shaders_declare():
 def test_each_pass_binds_every_slot_by_a_known_name_and_no_number_twice(name):
     """Slots are reused between passes (core/layout.py): within one program, with its includes,
     every binding is a name layout.py defines, and no two images or two blocks share a number."""
-    defines = gpu_layout.binding_defines()
+    defines = layout.binding_defines()
     slots = declared_slots(re.sub(r"//[^\n]*", "", shader_source(name)))
     assert slots, name
     for kind, prefix in (("image", "UNIT_"), ("block", "BLOCK_")):

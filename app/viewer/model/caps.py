@@ -1,4 +1,4 @@
-"""Caps that close a surface where it leaves the volume, for the viewer's "closed at the border" (issue 26).
+"""Caps that close a surface where it leaves the volume, for the viewer's "closed at the border".
 
 `export --closed` extracts the whole volume padded with one sample on the outside of any level
 (core/closing.py).  The viewer keeps its surface as it is and draws only what that padding adds: the

@@ -1,4 +1,4 @@
-"""The time axis of a series on show (issue 27): which time point, playing or not, its frame rate and
+"""The time axis of a series on show: which time point, playing or not, its frame rate and
 loop / bounce, and the time points read (and prepared) on a worker thread, a request id in and a
 response out as model/jobs.py does.  No GL here: the GPU side (gfx/scene.py) asks `advance` once a
 frame for the time point to put on show, uploads it and hands it back to `take_time_point`.

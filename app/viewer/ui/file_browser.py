@@ -1,5 +1,5 @@
 """A file browser drawn inside the window, for desktops with no dialog tool (zenity, kdialog): Open file,
-Save mesh, Save scene (issue 26).
+Save mesh, Save scene.
 
 imgui-bundle's ImFileDialog cannot serve: its `open` asserts "CreateTexture function pointer is not set"
 (its icons' texture callback, which only hello_imgui's runner installs and Python cannot set), and

@@ -1,4 +1,4 @@
-"""The panel's Measure section (issue 26): each surface's area, enclosed volume, pieces and bounding box,
+"""The panel's Measure section: each surface's area, enclosed volume, pieces and bounding box,
 measured on request in the background (model/measure.py); the cursor probe (position, voxel and value
 under the cursor: ctrl+click, or live with "probe under the cursor") and the distance between the last
 two ctrl+clicks (gfx/picking.py); and Save scene, which writes what `render --save-scene` writes.

@@ -1,4 +1,4 @@
-"""The panel's Time section (issue 27): a series' time slider, play button (frame rate, loop / bounce), the
+"""The panel's Time section: a series' time slider, play button (frame rate, loop / bounce), the
 fixed value range, and Record, which writes the frames as they are drawn (without the panel) to a movie.
 
 Plugged into `Panel.draw` (panel.py); its keys reach the window through `keys()`: `[` and `]` step back

@@ -1,4 +1,4 @@
-"""The panel's View section: the six standard view directions (issue 26).
+"""The panel's View section: the six standard view directions.
 
 A scan with a patient frame (NIfTI, NRRD, DICOM) gets anterior, posterior, left, right, superior and
 inferior, superior up (anterior up from above and below), as 3D Slicer's view buttons; a volume without
