@@ -113,7 +113,7 @@ def test_only_the_front_ends_import_the_front_ends():
     assert not wrong, wrong
 
 
-# What each layer may import (besides itself): dependencies point one way, down.  The README's layout
+# What each layer may import (besides itself): dependencies point one way, down.  docs/guide/how-it-works.md's layout
 # section draws the same table.  Front ends (viewer, cli, launch) sit on top; the viewer never imports
 # the command.
 BELOW = {
