@@ -20,13 +20,11 @@ from ...gpu.mesh import GpuMesh
 from ...gpu.sharp_features import sharp_mesh_of
 from ...volumes import Volume, open_volume
 from ..gfx.colorbar import draw_colorbar
-from ..gfx.renderer import OffscreenTarget, SceneRenderer
-from ..gfx.scene import GpuScene
+from ..gfx.renderer import OffscreenTarget
 from ..gfx.screenshot import save_png
-from ..model.camera import OrbitCamera, volume_frame
 from ..model.errors import ViewerError
-from ..model.scene_file import apply_opened_scene
 from ..model.state import ViewerState
+from .app import ViewerApp
 from .panel import ImguiLayer, Panel
 
 MAX_RENDER_PIXELS = 4096 * 4096
@@ -96,23 +94,23 @@ class HeadlessViewer:
         self.ctx = ctx if ctx is not None else current_or_standalone(DRAWING_GL)
         check_render_size(self.size, self.ctx)  # "the framebuffer is not complete" is no message
         self.state = ViewerState(opener=partial(open_volume, ctx=self.ctx), memory_budget=budget)
-        self.scene = GpuScene(self.ctx, self.state)
-        self.camera = OrbitCamera()
-        self.renderer = SceneRenderer(self.ctx)
+        self.app = ViewerApp(self.ctx, self.state, Panel(can_browse=False))
         self.target = OffscreenTarget(self.ctx, self.size, samples=render_samples(self.size))
         self._imgui: ImguiLayer | None = None   # made on the first render with the panel
-        self._panel = Panel(can_browse=False)
+
+    # The app's parts, as callers and tests name them.
+    scene = property(lambda self: self.app.scene)
+    renderer = property(lambda self: self.app.renderer)
+    camera = property(lambda self: self.app.camera)
+    _panel = property(lambda self: self.app.panel, lambda self, panel: setattr(self.app, "panel", panel))
 
     def show(self, volume: Volume, iso: float | None = None, azimuth=None, elevation=None) -> None:
         """Load `volume` and frame it; what fails is raised (the old volume stays)."""
-        self.scene.show(volume, iso)
-        self.frame(azimuth, elevation)
+        self.app.show(volume, iso, azimuth, elevation)
 
     def frame(self, azimuth=None, elevation=None) -> None:
         """The camera and box fitted to the volume on show (a scan's superior up, model/camera.py)."""
-        lower, upper = self.state.bounds()
-        self.camera.fit(lower, upper, azimuth, elevation, volume_frame(self.state.volume))
-        self.renderer.set_box(lower, upper)
+        self.app.frame(azimuth, elevation)
 
     def open(self, spec: str, wait_s: float = 60.0, **open_options) -> None:
         """`ViewerState.open`, its answer waited for and shown (as a frame of the window would); what
@@ -121,8 +119,7 @@ class HeadlessViewer:
         for response in self.state.jobs.poll(wait_s):
             if response.request_id == request:
                 self.scene.show_opened(self.state.opened(response))
-                self.frame()
-                apply_opened_scene(self.state, self.camera, raise_errors=True)
+                self.app.follow(0.0, wait=True, raise_errors=True)   # framed, and a scene put on it
                 return
         raise ViewerError(f"{spec[:80]} was not read within {wait_s:g} s")
 
@@ -161,10 +158,9 @@ class HeadlessViewer:
             self._imgui.new_frame(self.size)
         if panel or letters:
             self._panel.draw_view_labels(self.state, self.camera)
-        self.scene.update(0.0, wait=True)  # a render shows the finished scene
+        self.app.follow(0.0, wait=True)  # a render shows the finished scene
         self.target.use()
-        self.renderer.draw_scene(self.scene, self.camera, self.target.viewport,
-                                 covered_left=int(self._panel.covered_width) if panel else 0)
+        self.app.draw(self.target.viewport, covered_left=int(self._panel.covered_width) if panel else 0)
         if panel or letters:
             self._imgui.render()
         return self.target.read_rgba() if self.state.style.transparent_background else self.target.read_rgb()
@@ -190,9 +186,7 @@ class HeadlessViewer:
     def release(self) -> None:
         if self._imgui is not None:
             self._imgui.shutdown()
-        self.state.release()
-        self.scene.release()
-        self.renderer.release()
+        self.app.release()
         self.target.release()
 
 

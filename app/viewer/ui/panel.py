@@ -277,14 +277,14 @@ class Panel:
         imgui.set_next_item_width(-exact_width - imgui.get_style().item_spacing.x)
         changed, value = imgui.slider_float("##iso", state.iso, low, high, "")
         self.iso_slider_box = (tuple(imgui.get_item_rect_min()), tuple(imgui.get_item_rect_max()))
-        if changed:
-            state.levels.set_value(value)
+        if changed:   # through `act`, as every control: a refusal is its one line beside the slider
+            act(state, state.levels.set_value, value)
         imgui.same_line()
         imgui.set_next_item_width(exact_width)
         typed, value = imgui.input_double("##exact", state.iso, 0.0, 0.0, level_format((low, high)),
                                           imgui.InputTextFlags_.enter_returns_true)
         if typed:
-            state.levels.set_value(value)
+            act(state, state.levels.set_value, value)
         tooltip("the level: type a value and press Enter")
         if state.histogram is not None:
             self._histogram(state, (low, high))
@@ -293,7 +293,7 @@ class Panel:
         running = state.levels.animation.running
         toggled, animate = imgui.checkbox("animate (space)", running)
         if toggled and animate != running:
-            state.levels.toggle_animation()
+            act(state, state.levels.toggle_animation)
 
     def _histogram(self, state: ViewerState, value_range: tuple[float, float]) -> None:
         """The values' histogram (log counts) with the level marked; a click or drag on it sets the level."""
@@ -303,7 +303,8 @@ class Panel:
         # The button first: of overlapping items, the first submitted takes the mouse.
         imgui.invisible_button("##histogram_pick", size)
         if imgui.is_item_active():
-            state.levels.set_value(level_at((imgui.get_io().mouse_pos.x - top_left.x) / size.x, value_range))
+            act(state, state.levels.set_value,
+                level_at((imgui.get_io().mouse_pos.x - top_left.x) / size.x, value_range))
         else:
             tooltip("values in the volume (log counts): click or drag to set the level")
         imgui.set_cursor_screen_pos(top_left)

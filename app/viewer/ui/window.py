@@ -16,20 +16,18 @@ from pathlib import Path
 
 import glfw
 import moderngl
-import numpy as np
 
 from ...errors import IsoscopeError
 from ...gpu.context import DRAWING_GL, is_software_renderer
 from ...volumes import Volume, open_volume
-from ..gfx.renderer import OffscreenTarget, SceneRenderer, read_rgb
-from ..gfx.scene import USER_ERRORS, GpuScene
+from ..gfx.renderer import read_rgb
+from ..gfx.scene import USER_ERRORS
 from ..gfx.screenshot import next_screenshot_path, save_png
-from ..model.camera import OrbitCamera, volume_frame
 from ..model.errors import one_line
 from ..model.recent import RecentFiles
-from ..model.scene_file import apply_opened_scene
 from ..model.settings import PanelSettings
 from ..model.state import ViewerState
+from .app import ViewerApp
 from .panel import ImguiLayer, Panel
 
 # GLFW errors reach the user through WindowUnavailable's one line, not as Python warnings.
@@ -124,14 +122,10 @@ class ViewerWindow:
         self.state = ViewerState(recent if recent is not None else RecentFiles(RecentFiles.default_path()),
                                  opener=partial(open_volume, ctx=self.ctx))
         self.settings = PanelSettings.beside(self.state.recent)   # folded sections, kept with the recent files
-        self.scene = GpuScene(self.ctx, self.state, previews=True)
-        self.renderer = SceneRenderer(self.ctx)
-        self.camera = OrbitCamera()
-        self._framed_serial = -1
+        self.app = ViewerApp(self.ctx, self.state, Panel(can_browse=True, settings=self.settings), previews=True)
         self._install_callbacks()   # before imgui's: its GLFW backend chains to these
         self.imgui = ImguiLayer(ctypes.cast(self.window, ctypes.c_void_p).value)
         self._scale_ui_to_monitor()
-        self.panel = Panel(can_browse=True, settings=self.settings)
         self.panel.time_section.record_dir = self.screenshot_dir   # Record's movies go beside screenshots
         self._drag_button: int | None = None
         self._mouse_events: list[MouseEvent] = []   # waiting for imgui to say whether they are its
@@ -175,20 +169,18 @@ class ViewerWindow:
         self._route_mouse_events()
         self.panel.draw(self.state, self.scene, self.camera)
         self.panel.measure_section.pick(self.scene, self.camera, self.panel.covered_width)   # ctrl+click: probe
-        self.scene.update(dt)
-        if self.state.volume_serial != self._framed_serial:
-            self._frame_volume()
-        apply_opened_scene(self.state, self.camera)
+        if self.app.follow(dt) and self.state.volume is not None:
+            glfw.set_window_title(self.window, f"isoscope - {self.state.volume.name}")
         self.panel.draw_view_labels(self.state, self.camera)
 
         self.ctx.screen.use()
         pixels_per_unit = fb_width / max(glfw.get_window_size(self.window)[0], 1)  # framebuffer scale
         covered_left = int(self.panel.covered_width * pixels_per_unit)
-        self.renderer.draw_scene(self.scene, self.camera, (0, 0, fb_width, fb_height), covered_left=covered_left)
+        self.app.draw((0, 0, fb_width, fb_height), covered_left=covered_left)
         # Record: the scene, no panel.  On screen it is centred in what the panel leaves free; a movie of that
         # had an empty strip where the panel was, so a frame due is drawn again, centred, as render draws it.
         self.panel.time_section.capture(
-            self.ctx.screen if not covered_left else lambda: self._scene_frame((fb_width, fb_height)),
+            self.ctx.screen if not covered_left else lambda: self.app.offscreen((fb_width, fb_height)),
             (fb_width, fb_height))
         self.imgui.render()
         if self._screenshot_requested:
@@ -196,20 +188,20 @@ class ViewerWindow:
         glfw.swap_buffers(self.window)
         return True
 
-    def _frame_volume(self) -> None:
-        lower, upper = self.state.bounds()
-        self.camera.fit(lower, upper, frame=volume_frame(self.state.volume))   # a scan: superior up
-        self.renderer.set_box(lower, upper)
-        self._framed_serial = self.state.volume_serial
-        if self.state.volume is not None:
-            glfw.set_window_title(self.window, f"isoscope - {self.state.volume.name}")
+    # The app's parts, as the window's callers and tests name them.
+    scene = property(lambda self: self.app.scene)
+    renderer = property(lambda self: self.app.renderer)
+    camera = property(lambda self: self.app.camera)
+    panel = property(lambda self: self.app.panel)
 
     def _save_screenshot(self, size) -> None:
         # Read the back buffer before the swap: exactly what this frame shows, panel included.
         self._screenshot_requested = False
         path = next_screenshot_path(self.screenshot_dir)
         try:
-            save_png(read_rgb(self.ctx.screen, size) if self.screenshot_scale == 1 else self._scaled_scene(size), path)
+            save_png(read_rgb(self.ctx.screen, size) if self.screenshot_scale == 1 else
+                     self.app.offscreen((size[0] * self.screenshot_scale, size[1] * self.screenshot_scale),
+                                        alpha=self.state.style.transparent_background), path)
         except moderngl.Error as exc:
             self.state.error = (f"cannot render a {self.screenshot_scale}x screenshot ({exc}); "
                                 "use a smaller --screenshot-scale")
@@ -221,29 +213,6 @@ class ViewerWindow:
         self.state.message = f"screenshot saved: {path}"
         print(self.state.message, flush=True)
 
-    def _scene_frame(self, size) -> np.ndarray:
-        """The scene drawn offscreen at `size`, centred in the whole frame (no room kept for the panel)."""
-        target = OffscreenTarget(self.ctx, size)
-        try:
-            target.use()
-            self.renderer.draw_scene(self.scene, self.camera, target.viewport)
-            return target.read_rgb()
-        finally:
-            target.release()
-            self.ctx.screen.use()
-
-    def _scaled_scene(self, size) -> np.ndarray:
-        """The scene (not the panel) drawn offscreen at screenshot_scale times `size`, as `render` draws it."""
-        scaled = (size[0] * self.screenshot_scale, size[1] * self.screenshot_scale)
-        target = OffscreenTarget(self.ctx, scaled)
-        try:
-            target.use()
-            self.renderer.draw_scene(self.scene, self.camera, target.viewport)
-            return target.read_rgba() if self.state.style.transparent_background else target.read_rgb()
-        finally:
-            target.release()
-            self.ctx.screen.use()
-
     def _scale_ui_to_monitor(self) -> None:
         """The panel's sizes and fonts at the monitor's content scale (2 on most 4K screens)."""
         self.imgui.set_scale(max(1.0, *glfw.get_window_content_scale(self.window)))
@@ -252,10 +221,7 @@ class ViewerWindow:
         if self.window is None:
             return
         self.panel.time_section.recorder.stop()   # a recording under way is written whole
-        self.state.release()
-        self.panel.measure_section.release()
-        self.scene.release()
-        self.renderer.release()
+        self.app.release()
         self.imgui.shutdown()
         glfw.destroy_window(self.window)
         glfw.terminate()

@@ -1,0 +1,78 @@
+"""The viewer's one app: what the window, the headless viewer (and through them `isoscope.view`, `render`,
+`movie` and the notebook widget) share: the state, the GPU scene that follows it, the camera, the
+renderer and the panel, and the order a frame runs in.
+
+A frame, wherever it is drawn:
+  1. the panel lays itself out and changes the state (the window; the headless viewer with `panel=True`);
+  2. `follow`: the scene brings the GPU in line with the state (extractions, reads answered), a volume
+     new on show is framed, a scene opened through the state is put on it;
+  3. `draw`: the scene into a viewport (the window's screen, or an offscreen target).
+The window adds input and the swap; the headless viewer reads the pixels back.  Each GL object here has
+this app as its one owner: `release` frees them.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..gfx.renderer import OffscreenTarget, SceneRenderer
+from ..gfx.scene import GpuScene
+from ..model.camera import OrbitCamera, volume_frame
+from ..model.scene_file import apply_opened_scene
+from ..model.state import ViewerState
+from .panel import Panel
+
+
+class ViewerApp:
+    def __init__(self, ctx, state: ViewerState, panel: Panel, previews: bool = False):
+        """`previews`: coarse meshes while a level moves (the window; a render shows finished meshes)."""
+        self.ctx, self.state, self.panel = ctx, state, panel
+        self.scene = GpuScene(ctx, state, previews=previews)
+        self.renderer = SceneRenderer(ctx)
+        self.camera = OrbitCamera()
+        self._framed_serial = -1
+
+    def show(self, volume, iso: float | None = None, azimuth=None, elevation=None) -> None:
+        """Put `volume` on show at `iso` and frame it from (azimuth, elevation); what fails is raised."""
+        self.scene.show(volume, iso)
+        self.frame(azimuth, elevation)
+
+    def frame(self, azimuth=None, elevation=None) -> None:
+        """The camera and the box fitted to the volume on show (a scan's superior up, model/camera.py)."""
+        lower, upper = self.state.bounds()
+        self.camera.fit(lower, upper, azimuth, elevation, volume_frame(self.state.volume))
+        self.renderer.set_box(lower, upper)
+        self._framed_serial = self.state.volume_serial
+
+    def follow(self, dt_seconds: float, wait: bool = False, raise_errors: bool = False) -> bool:
+        """Step 2 of a frame: the scene follows the state (`wait`: for the reads and meshes asked for), a
+        volume new on show is framed, an opened scene is put on it.  Whether a new volume was framed."""
+        self.scene.update(dt_seconds, wait=wait)
+        framed = self.state.volume_serial != self._framed_serial
+        if framed:
+            self.frame()
+        apply_opened_scene(self.state, self.camera, raise_errors=raise_errors)
+        return framed
+
+    def draw(self, viewport, covered_left: int = 0) -> None:
+        """Step 3: the scene into `viewport` of the bound framebuffer, centred in what `covered_left` pixels
+        of panel leave free."""
+        self.renderer.draw_scene(self.scene, self.camera, viewport, covered_left=covered_left)
+
+    def offscreen(self, size, alpha: bool = False) -> np.ndarray:
+        """The scene drawn into a new offscreen target of `size`, centred in the whole of it (no panel), as
+        `isoscope render` draws it: (H, W, 3) uint8, or RGBA with `alpha`.  The screen is bound again after."""
+        target = OffscreenTarget(self.ctx, size)
+        try:
+            target.use()
+            self.draw(target.viewport)
+            return target.read_rgba() if alpha else target.read_rgb()
+        finally:
+            target.release()
+            self.ctx.screen.use()
+
+    def release(self) -> None:
+        """Free what the app owns: the state's workers, the panel's measure jobs, the scene and the renderer."""
+        self.state.release()
+        self.panel.measure_section.release()
+        self.scene.release()
+        self.renderer.release()
