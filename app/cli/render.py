@@ -146,7 +146,8 @@ def _render_scene(scene, args) -> int:
     """render SCENE.json: the saved scene's picture (at its size, or --size); the command's other view
     options are the scene's, so giving them is refused."""
     for option in ("iso", "opacity", "color_by", "slice", "clip", "window", "level", "colormap", "azimuth",
-                   "elevation", "tetrahedra", "smooth", "sharp", "labels", "label_names", "save_scene", "closed"):
+                   "elevation", "tetrahedra", "smooth", "sharp", "labels", "label_names", "save_scene", "closed",
+                   "raycast"):
         if getattr(args, option, None) not in (None, False, 0, []):
             raise InputError(f"a scene holds the view; --{option.replace('_', '-')} does not go with {args.volume} "
                              "(open it in the window to change it, then save it again)")

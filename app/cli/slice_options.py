@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..viewer.model.raycast import RAYCAST_MODES
 from ..viewer.model.slices import AXES
 
 
@@ -62,6 +63,11 @@ def add_slice_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--colormap", type=colormap_name, metavar="NAME",
                        help="slices: a colour map of the cmap library, e.g. gray (default), bone, viridis, magma")
     group.add_argument("--no-inset", action="store_true", help="no 2-D view of the slice at the bottom right")
+    group.add_argument("--raycast", choices=RAYCAST_MODES, metavar="MODE",
+                       help="draw the volume itself by ray casting instead of the meshes: mip, minip or mean "
+                            "(the largest, smallest or mean value along each ray, through --colormap over "
+                            "--window/--level), iso (the level's first hit, no mesh made) or dvr "
+                            "(emission-absorption, opacity ramping up over the window); on OpenGL 4.1 too")
 
 
 def apply_slice_arguments(state, args: argparse.Namespace) -> None:
@@ -77,3 +83,5 @@ def apply_slice_arguments(state, args: argparse.Namespace) -> None:
     if args.colormap is not None:
         slices.set_colormap(args.colormap)
     slices.inset = not args.no_inset
+    if getattr(args, "raycast", None) is not None:
+        state.set_raycast(args.raycast)

@@ -107,7 +107,7 @@ def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="d
 def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None, spacing=None, affine=None,
            gradient_direction="descent", opacities=(), color_by=None, colormap=None, labels=False,
            label_names=None, slices=(), clip=None, tetrahedra=False, smooth=0, wireframe=False, panel=False,
-           transparent=False, letters=False, memory_budget=None) -> np.ndarray:
+           transparent=False, letters=False, memory_budget=None, raycast=None) -> np.ndarray:
     """Render `volume`'s surface(s) offscreen, as ``isoscope render`` does, and return the pixels.
 
     Parameters
@@ -148,6 +148,10 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
         A scan's orientation letters (R/L, A/P, S/I) at the picture's edges, as ``--orientation-letters``.
     memory_budget : int or str, optional
         As for `isoscope.view` (``--memory-budget``): a volume over it is drawn from every Nth sample.
+    raycast : {"mip", "minip", "mean", "iso", "dvr"}, optional
+        Draw the volume itself by ray casting in the surfaces' place, as ``--raycast``: the largest,
+        smallest or mean value along each ray (through the slices' colour map and window), the level's
+        first hit (shaded, no mesh made), or emission-absorption rendering.
 
     Returns
     -------
@@ -179,6 +183,7 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     level = None if labels else checked_levels(shown, level)
 
     def prepare(state) -> None:   # as the command's apply_slice_arguments and --labels
+        state.set_raycast(raycast)
         for axis, index in slices:
             state.slices.show(_axis(axis), True, index)
         if clip is not None:

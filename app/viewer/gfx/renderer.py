@@ -23,6 +23,7 @@ from ..model.slices import SliceScene
 from ..model.style import SurfaceStyle
 from .colorby import GpuColorBy
 from .oit import OitTargets
+from .raycast import RaycastRequest, VolumeRaycaster, raycast_request
 from .slices import GL_CLIP_DISTANCE0, SliceRenderer
 
 WIRE_COLOR = (0.02, 0.02, 0.05)
@@ -53,6 +54,7 @@ class SceneRenderer:
             program["u_colormap"].value = COLORMAP_UNIT
             program["u_scalar"].value = SCALAR_UNIT
         self.oit = OitTargets(ctx)
+        self._raycaster: VolumeRaycaster | None = None   # made the first time the volume is ray-cast
         self.box_program = ctx.program(vertex_shader=shader_source("box.vert"),
                                        fragment_shader=shader_source("flat.frag"))
         self.box_buffer = ctx.buffer(reserve=len(_BOX_EDGES) * 2 * 3 * 4)
@@ -89,12 +91,13 @@ class SceneRenderer:
 
     def draw(self, meshes: Sequence[GpuMesh], camera, viewport: tuple[int, int, int, int], style: SurfaceStyle,
              covered_left: int = 0, looks: Sequence[SurfaceLook] | None = None,
-             slices: SliceScene | None = None) -> None:
+             slices: SliceScene | None = None, raycast: RaycastRequest | None = None) -> None:
         """Clear `viewport` of the bound framebuffer and draw the box, the slices and `meshes` into it.
 
         `covered_left`: pixels at the left hidden by the panel; the scene centres in the rest.
         `looks`: each mesh's colour, opacity and colour map (default: opaque, the style's colour).
         `slices`: ViewerState.slice_scene; its clip plane hides the meshes on one side.
+        `raycast`: the volume itself drawn by ray casting (gfx/raycast.py) in the meshes' place.
         """
         ctx = self.ctx
         if looks is None:
@@ -133,6 +136,12 @@ class SceneRenderer:
             self.box_program["u_opacity"].value = 1.0
             self.box_vao.render(moderngl.LINES)
         self.slices.draw(slices, view, projection)   # opaque: with translucent meshes, into the OIT scene
+        if raycast is not None:
+            if self._raycaster is None:
+                self._raycaster = VolumeRaycaster(ctx)
+            self._raycaster.draw(raycast, view, projection, camera.eye())
+            self._release_vaos(keep=set())
+            return
 
         self._release_vaos(keep={(m.vertex_buffer, m.index_buffer) for m, _ in drawn})
         if not drawn:
@@ -174,7 +183,7 @@ class SceneRenderer:
         """What a GpuScene shows of its state: the meshes in their looks, the slices and clip, then the 2-D view."""
         drawn, slices = scene.drawn(), scene.state.slice_scene   # each worked out once a frame
         self.draw([mesh for mesh, _ in drawn], camera, viewport, scene.state.style, covered_left=covered_left,
-                  looks=[look for _, look in drawn], slices=slices)
+                  looks=[look for _, look in drawn], slices=slices, raycast=raycast_request(scene.state))
         self.draw_inset(slices, viewport)
 
     def draw_inset(self, slices: SliceScene | None, viewport: tuple[int, int, int, int]) -> None:
@@ -211,6 +220,8 @@ class SceneRenderer:
 
     def release(self) -> None:
         self._release_vaos()
+        if self._raycaster is not None:
+            self._raycaster.release()
         self.oit.release()
         self.slices.release()
         for obj in (self.box_vao, self.box_buffer, self.mesh_program, self.wire_program, self.box_program,

@@ -61,6 +61,7 @@ def scene_of(state, camera, size) -> dict:
                                                              "position": slices.clip.position,
                                                              "hide_above": slices.clip.hide_above}},
         "style": _plain(asdict(state.style)),
+        "raycast": state.raycast,
     }
 
 
@@ -171,6 +172,7 @@ def apply_scene(scene: dict, state, camera) -> None:
         if color_by:
             state.set_color_by(color_by["source"], color_by.get("colormap"))
         _apply_slices(scene.get("slices") or {}, state.slices)
+        state.set_raycast(scene.get("raycast"))
         style = scene.get("style") or {}
         known = {f.name for f in fields(SurfaceStyle)}
         for name, value in style.items():

@@ -35,6 +35,7 @@ from .histogram import value_histogram
 from .jobs import Jobs, Response
 from .labels import LabelMap
 from .levels import Levels
+from .raycast import check_raycast
 from .recent import RecentFiles
 from .scene_file import is_scene_file, read_scene, volume_spec
 from .series import TimeAxis
@@ -91,6 +92,7 @@ class ViewerState:
         self.frame_ms = 0.0
         self.gl_renderer = "unknown"          # the GPU side says which
         self._opener = opener if opener is not None else open_volume
+        self.raycast: str | None = None       # a ray-casting mode drawn in the meshes' place (model/raycast.py)
         self._pending_scene = None            # (request, scene, its path) while a scene's volume is read
         self.scene_to_apply: dict | None = None   # a scene whose volume is on show: the view side applies it
 
@@ -185,6 +187,12 @@ class ViewerState:
     @iso.setter
     def iso(self, value: float) -> None:
         self.levels.set_value(value)   # clamped to the value range
+
+    # --- direct volume rendering ------------------------------------------------
+    def set_raycast(self, mode: str | None) -> None:
+        """Draw the volume itself by ray casting in `mode` (model/raycast.py: mip, minip, mean, iso, dvr)
+        in place of the meshes; None or "off": the meshes.  An unknown mode is one line; nothing changes."""
+        self.raycast = check_raycast(mode)
 
     # --- mesh options: one MeshOptions, replaced whole --------------------------
     @property

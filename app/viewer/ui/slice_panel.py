@@ -5,6 +5,7 @@ against the volume.
 from __future__ import annotations
 
 from ..model.colormaps import COLORMAPS
+from ..model.raycast import RAYCAST_MODES
 from ..model.slices import AXES, default_window
 from ..model.state import ViewerState
 from .gui import act, choose, imgui, px, section, tooltip
@@ -55,6 +56,11 @@ class SlicePanel:
         imgui.same_line()
         imgui.set_next_item_width(-1)
         choose(state, "##colormap", settings.colormap, COLORMAPS, settings.set_colormap)
+        # The volume itself through the same colour map and window (gfx/raycast.py).
+        choose(state, "volume rendering", state.raycast or "off", ("off", *RAYCAST_MODES), state.set_raycast)
+        tooltip("the volume itself, ray cast in the surfaces' place: the largest (mip), smallest or mean value\n"
+                "along each ray, or emission-absorption (dvr), through the colour map and window above;\n"
+                "iso: the level's first hit on the interpolant, shaded (no mesh made)")
         self._clip(state)
 
     @staticmethod

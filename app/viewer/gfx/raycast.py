@@ -1,0 +1,152 @@
+"""Direct volume rendering: the volume itself drawn by ray casting in a fragment shader (shaders/raycast.*),
+one ray per pixel of the volume's box, so it needs no compute shaders and runs on OpenGL 4.1 (macOS) too.
+
+The volume goes to a 3-D texture in its own sample type where GL has one that keeps it exactly (8- and
+16-bit integers as normalised textures, mapped back to their values in the shader), float32 otherwise;
+the texture is made again only when another volume comes on show.  One program per mode (MODE_MIP, ...:
+a #define), compiled the first time the mode is drawn.  This object owns its GL objects; `release` frees them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...resources import shader_source
+from ..model.colormaps import LUT_SIZE
+from ..model.raycast import RAYCAST_MODES
+from .slices import colormap_rgba8
+
+STEP_PER_SAMPLE = 0.5   # the ray's step: half the smallest sample spacing (no sample's peak is stepped over)
+DENSITY_PER_SAMPLE = 0.15   # DVR: extinction per sample spacing at the top of the ramp (a few samples' depth)
+
+# dtype -> (moderngl texture dtype, what one unit of the normalised texel is worth)
+NORMALISED = {np.dtype(np.uint8): ("nu1", 255.0), np.dtype(np.uint16): ("nu2", 65535.0),
+              np.dtype(np.int8): ("ni1", 127.0), np.dtype(np.int16): ("ni2", 32767.0)}
+
+def _outward(triangles: np.ndarray) -> np.ndarray:
+    """The unit cube's triangles, each wound counter-clockwise seen from outside (GL's front faces)."""
+    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    inward = np.einsum("ij,ij->i", np.cross(b - a, c - a), (a + b + c) / 3 - 0.5) < 0
+    triangles[inward] = triangles[inward][:, ::-1]
+    return triangles.reshape(-1, 3)
+
+
+CUBE = _outward(np.array([(x, y, z) for face in (
+    ((0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)), ((0, 0, 1), (0, 1, 1), (1, 1, 1), (1, 0, 1)),
+    ((0, 0, 0), (0, 1, 0), (0, 1, 1), (0, 0, 1)), ((1, 0, 0), (1, 0, 1), (1, 1, 1), (1, 1, 0)),
+    ((0, 0, 0), (0, 0, 1), (1, 0, 1), (1, 0, 0)), ((0, 1, 0), (1, 1, 0), (1, 1, 1), (0, 1, 1)))
+    for x, y, z in (face[0], face[1], face[2], face[0], face[2], face[3])], np.float32).reshape(-1, 3, 3))
+
+
+@dataclass(frozen=True)
+class RaycastRequest:
+    """What to ray-cast: the samples (axis 0 drawn as x) and their spacing, the mode, the level (iso), the
+    window mapped to the colour map's ends, the colour map, the object's side and the surface colour (iso)."""
+    data: object
+    spacing: tuple[float, float, float]
+    mode: str
+    level: float
+    window: tuple[float, float]
+    colormap: str
+    inside_above: bool
+    color: tuple[float, float, float]
+
+
+class VolumeRaycaster:
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self._programs: dict[str, object] = {}
+        self._cube = ctx.buffer(CUBE.tobytes())
+        self._vaos: dict[str, object] = {}
+        self._texture = None
+        self._texture_of = None          # the data array the texture holds
+        self._value_map = (1.0, 0.0)
+        self._lut = ctx.texture((LUT_SIZE, 1), 4)
+        self._lut.repeat_x = self._lut.repeat_y = False
+        self._lut_name: str | None = None
+
+    def _program(self, mode: str):
+        if mode not in self._programs:
+            define = {f"MODE_{mode.upper()}": 1}
+            program = self.ctx.program(vertex_shader=shader_source("raycast.vert"),
+                                       fragment_shader=shader_source("raycast.frag", define))
+            self._programs[mode] = program
+            self._vaos[mode] = self.ctx.vertex_array(program, [(self._cube, "3f", "in_position")])
+        return self._programs[mode]
+
+    def _upload(self, data) -> None:
+        """The volume's samples into the 3-D texture (again only for another array)."""
+        if self._texture is not None and self._texture_of is data:
+            return
+        if self._texture is not None:
+            self._texture.release()
+        array = np.asarray(data)
+        kind, unit = NORMALISED.get(array.dtype, ("f4", None))
+        array = np.ascontiguousarray(array if unit is not None else array.astype(np.float32, copy=False))
+        self._texture = self.ctx.texture3d(array.shape[::-1], 1, array.tobytes(), dtype=kind)
+        self._texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)   # the trilinear interpolant
+        self._texture.repeat_x = self._texture.repeat_y = self._texture.repeat_z = False
+        self._texture_of, self._value_map = data, ((unit, 0.0) if unit is not None else (1.0, 0.0))
+
+    def draw(self, request, view: bytes, projection: bytes, eye) -> None:
+        """Draw `request` (a RaycastRequest) into the bound framebuffer under the camera's matrices."""
+        if request.mode not in RAYCAST_MODES:
+            raise ValueError(f"unknown mode {request.mode!r}")
+        ctx = self.ctx
+        self._upload(request.data)
+        if request.colormap != self._lut_name:
+            self._lut.write(colormap_rgba8(request.colormap).tobytes())
+            self._lut_name = request.colormap
+        program = self._program(request.mode)
+        shape = np.array(request.data.shape, np.float64)
+        spacing = np.array(request.spacing, np.float64)
+        extent = (shape - 1) * spacing
+        uniforms = {"u_extent": tuple(extent), "u_shape": tuple(shape), "u_eye": tuple(float(v) for v in eye),
+                    "u_step": float(STEP_PER_SAMPLE * spacing.min()), "u_value_map": self._value_map,
+                    "u_window": tuple(request.window), "u_level": float(request.level),
+                    "u_inside": 1.0 if request.inside_above else -1.0,
+                    "u_density": float(DENSITY_PER_SAMPLE / spacing.min()), "u_front_color": tuple(request.color),
+                    "u_volume": 0, "u_colormap": 1}
+        for name, value in uniforms.items():
+            if name in program:
+                program[name].value = value
+        program["u_view"].write(view)
+        program["u_projection"].write(projection)
+        self._texture.use(0)
+        self._lut.use(1)
+        # The box's back faces: a ray for every pixel the box covers, the eye inside the box too.
+        ctx.enable(ctx.CULL_FACE)
+        ctx.cull_face = "front"   # outward faces are front faces, mirrored views too (front_face follows)
+        if request.mode == "dvr":
+            ctx.enable(ctx.BLEND)
+            ctx.blend_func = ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA   # premultiplied over what is drawn
+        self._vaos[request.mode].render(mode=ctx.TRIANGLES)
+        ctx.disable(ctx.CULL_FACE | ctx.BLEND)
+        ctx.cull_face = "back"
+
+    def release(self) -> None:
+        for vao in self._vaos.values():
+            vao.release()
+        for program in self._programs.values():
+            program.release()
+        self._vaos.clear()
+        self._programs.clear()
+        self._cube.release()
+        self._lut.release()
+        if self._texture is not None:
+            self._texture.release()
+            self._texture = self._texture_of = None
+
+
+def raycast_request(state) -> RaycastRequest | None:
+    """What the state asks to ray-cast (`ViewerState.raycast`), or None for the meshes: the volume on show,
+    the selected level and its colour, the slices' window and colour map (--window, --level, --colormap)."""
+    if state.raycast is None or state.volume is None:
+        return None
+    settings, level = state.slices, state.levels.current
+    half = settings.window / 2
+    color = level.color if level is not None and level.color is not None else state.style.front_color
+    return RaycastRequest(state.volume.data, tuple(state.volume.spacing), state.raycast, float(state.iso),
+                          (settings.centre - half, settings.centre + half), settings.colormap,
+                          state.gradient_direction == "descent", tuple(color))

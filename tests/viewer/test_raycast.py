@@ -1,0 +1,138 @@
+"""Direct volume rendering by ray casting (gfx/raycast.py, shaders/raycast.*), by pixel facts: MIP shows a
+bright ball hidden inside a dimmer one where the surface between them cannot; the iso mode's silhouette is
+the mesh's; MIP >= mean >= MinIP on every pixel; DVR of a uniform block follows Beer-Lambert with its
+depth; OpenGL 4.1 draws what 4.3 draws; the command, Python and scenes agree; a bad mode is one line."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from PIL import Image
+from support.command import isoscope_here
+
+import isoscope
+from isoscope.viewer.gfx.raycast import DENSITY_PER_SAMPLE
+from isoscope.viewer.model.style import SurfaceStyle
+from isoscope.viewer.ui.headless import HeadlessViewer
+from isoscope.volumes.inputs import as_volume
+
+pytestmark = pytest.mark.gl
+SIZE = (200, 150)
+BACKGROUND = np.round(255 * np.array(SurfaceStyle().background))
+
+
+def _grid(n=48):
+    axis = np.linspace(-1, 1, n)
+    return np.meshgrid(axis, axis, axis, indexing="ij")
+
+
+def nested() -> np.ndarray:
+    """A dim ball (0.4) with a bright one (1.0) inside it, off centre."""
+    x, y, z = _grid()
+    outer = np.where(np.sqrt(x * x + y * y + z * z) < 0.8, 0.4, 0.0)
+    inner = np.where(np.sqrt((x - 0.2) ** 2 + y * y + z * z) < 0.25, 0.6, 0.0)
+    return (outer + inner).astype(np.float32)
+
+
+@pytest.fixture
+def viewer(gl_ctx):
+    made = HeadlessViewer(SIZE, ctx=gl_ctx)
+    yield made
+    made.release()
+
+
+def picture(viewer, mode, level=0.2, window=(1.0, 0.5)):
+    viewer.state.set_raycast(mode)
+    viewer.state.slices.set_window(*window)
+    viewer.state.iso = level
+    return viewer.picture().astype(int)
+
+
+def white(image) -> int:
+    return int(np.count_nonzero((image >= 250).all(axis=2)))
+
+
+def test_mip_shows_a_bright_ball_that_the_surface_between_them_hides(viewer):
+    viewer.show(as_volume(nested()), 0.2)
+    assert white(picture(viewer, None)) == 0   # the level 0.2 surface: the dim ball, lit blue
+    mip = picture(viewer, "mip")
+    assert white(mip) > 100                    # the bright ball, through the dim one
+    ys, xs = np.nonzero((mip >= 250).all(axis=2))
+    assert abs(ys.mean() - SIZE[1] / 2) < 25 and abs(xs.mean() - SIZE[0] / 2) < 40
+
+
+def test_mip_mean_and_minip_order_on_every_pixel(viewer):
+    viewer.show(as_volume(nested()), 0.2)
+    mip, mean, minip = (picture(viewer, mode)[..., 0] for mode in ("mip", "mean", "minip"))
+    inside = mip != BACKGROUND[0]
+    assert inside.sum() > 1000
+    assert (mip[inside] >= mean[inside] - 1).all() and (mean[inside] >= minip[inside] - 1).all()
+    assert (mip[inside] > minip[inside]).any()
+
+
+def test_the_iso_mode_has_the_meshs_silhouette(viewer):
+    x, y, z = _grid(40)
+    ball = (0.7 - np.sqrt(x * x + 1.5 * y * y + z * z)).astype(np.float32)
+    viewer.show(as_volume(ball), 0.0)
+    mesh, iso = picture(viewer, None, 0.0), picture(viewer, "iso", 0.0)
+    drawn = [(np.abs(image - BACKGROUND).max(axis=2) > 30) for image in (mesh, iso)]
+    union, both = (drawn[0] | drawn[1]).sum(), (drawn[0] & drawn[1]).sum()
+    assert both > 2000 and both / union > 0.97, both / union
+
+
+@pytest.mark.parametrize("depth", [8, 16])
+def test_dvr_of_a_uniform_block_follows_beer_lambert_with_its_depth(viewer, depth):
+    """Seen from above, the centre ray crosses the block's whole depth, (depth - 1) samples: what reaches the
+    eye is the background times exp(-sigma L) plus white times the rest."""
+    block = np.ones((24, 24, depth), np.float32)
+    block[0, 0, 0] = 0.0   # not constant (a volume must vary); far from the centre ray
+    viewer.show(as_volume(block), 0.5, azimuth=0.0, elevation=90.0)
+    image = picture(viewer, "dvr", 0.5, window=(1.0, 0.5))
+    transmitted = np.exp(-DENSITY_PER_SAMPLE * (depth - 1))
+    expected = 255 * (1 - transmitted) + BACKGROUND * transmitted
+    centre = image[SIZE[1] // 2, SIZE[0] // 2]
+    assert np.abs(centre - expected).max() <= 3, (centre, expected)
+
+
+def test_the_command_python_and_a_scene_draw_the_same_picture(tmp_path):
+    np.save(tmp_path / "nested.npy", nested())
+    options = ("--iso", "0.2", "--window", "1", "--level", "0.5", "--size", "200x150")
+    done = isoscope_here("render", tmp_path / "nested.npy", "--raycast", "mip", *options,
+                         "--out", tmp_path / "cli.png", "--save-scene", tmp_path / "s.json")
+    assert done.returncode == 0, done.stderr
+    assert json.loads((tmp_path / "s.json").read_text())["raycast"] == "mip"
+    again = isoscope_here("render", "--scene", tmp_path / "s.json", "--out", tmp_path / "scene.png")
+    assert again.returncode == 0, again.stderr
+    cli = np.asarray(Image.open(tmp_path / "cli.png"))
+    assert np.array_equal(cli, np.asarray(Image.open(tmp_path / "scene.png")))
+    api = isoscope.render(nested(), 0.2, size=(200, 150), raycast="mip")   # its window: the default percentiles
+    assert api.shape == (150, 200, 4)
+    assert white(cli) > 50 and white(api[..., :3]) > 50
+
+
+def test_opengl_41_draws_what_43_draws(tmp_path):
+    np.save(tmp_path / "nested.npy", nested())
+    env = {**os.environ, "MESA_GL_VERSION_OVERRIDE": "4.1", "MESA_GLSL_VERSION_OVERRIDE": "410"}
+    pictures = {}
+    for name, environment in (("41", env), ("43", dict(os.environ))):
+        environment = {k: v for k, v in environment.items() if name == "41" or not k.startswith("MESA_GL")}
+        done = subprocess.run([sys.executable, "-m", "isoscope", "render", tmp_path / "nested.npy", "--raycast", "dvr",
+                               "--iso", "0.2", "--window", "1", "--level", "0.5", "--size", "160x120",
+                               "--out", tmp_path / f"{name}.png"], env=environment, capture_output=True, text=True,
+                              timeout=120)
+        assert done.returncode == 0, done.stderr
+        pictures[name] = np.asarray(Image.open(tmp_path / f"{name}.png")).astype(int)
+    assert np.abs(pictures["41"] - pictures["43"]).max() <= 2
+
+
+def test_a_bad_mode_is_one_line_everywhere(viewer, tmp_path):
+    with pytest.raises(isoscope.IsoscopeError, match="volume rendering 'xyz' is not one of mip"):
+        viewer.state.set_raycast("xyz")
+    with pytest.raises(isoscope.IsoscopeError, match="xyz"):
+        isoscope.render(nested(), 0.2, size=(64, 48), raycast="xyz")
+    done = isoscope_here("render", "sphere", "--raycast", "xyz", "--out", tmp_path / "x.png")
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and "--raycast" in done.stderr
