@@ -1,0 +1,65 @@
+"""Frame time of direct volume rendering (ray casting, gfx/raycast.py) against the mesh of the same view.
+
+    python benchmarks/bench_raycast.py [--size 1280x800] [--frames 8] [--volumes mri ct]
+
+Each mode (mip, minip, mean, iso, dvr) and the plain mesh drawn by the headless viewer (the `render`
+path: the same shaders as the window) with the camera turning a little every frame, so no frame repeats
+the last; the median and 90th percentile of whole frames (drawing and reading back the pixels), after one
+warm-up frame that uploads the volume and compiles the mode's program.  Volumes: the MNI T1 template
+(nilearn's wheel ships it: 197x233x189 uint8) and the 512x512x400 int16 CT-like torso of volumes.py.
+The issue's aim: < 100 ms a frame while moving on llvmpipe, < 5 ms on a GPU.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from volumes import ct_torso, load_real
+
+MODES = (None, "mip", "minip", "mean", "iso", "dvr")
+
+
+def frames(viewer, mode: str | None, count: int) -> list[float]:
+    viewer.state.set_raycast(mode)
+    viewer.render()   # warm-up: the texture, the program, the mesh
+    times = []
+    for i in range(count):
+        viewer.camera.azimuth += 3.0
+        start = time.perf_counter()
+        viewer.render()
+        times.append((time.perf_counter() - start) * 1000)
+    return times
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", default="1280x800")
+    parser.add_argument("--frames", type=int, default=8)
+    parser.add_argument("--volumes", nargs="+", default=["mri", "ct"], choices=["mri", "ct"])
+    args = parser.parse_args()
+    size = tuple(int(n) for n in args.size.split("x"))
+    from isoscope.viewer.ui.headless import HeadlessViewer
+    from isoscope.volumes.inputs import as_volume
+    for name in args.volumes:
+        if name == "mri":
+            data, spacing = load_real("mni-t1")
+            level = 80.0
+        else:
+            data, spacing = ct_torso(), (0.8, 0.8, 1.0)
+            level = 300.0
+        viewer = HeadlessViewer(size)
+        try:
+            viewer.show(as_volume(data, spacing=spacing), level)
+            renderer = viewer.ctx.info["GL_RENDERER"]
+            print(f"{name}: {'x'.join(map(str, data.shape))} {data.dtype}, {args.size}, {renderer}")
+            for mode in MODES:
+                times = frames(viewer, mode, args.frames)
+                print(f"  {mode or 'mesh':6s} median {np.median(times):8.1f} ms   p90 {np.percentile(times, 90):8.1f} ms")
+        finally:
+            viewer.release()
+
+
+if __name__ == "__main__":
+    main()
