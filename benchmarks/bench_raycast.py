@@ -25,7 +25,7 @@ def frames(viewer, mode: str | None, count: int) -> list[float]:
     viewer.state.set_raycast(mode)
     viewer.render()   # warm-up: the texture, the program, the mesh
     times = []
-    for i in range(count):
+    for _ in range(count):
         viewer.camera.azimuth += 3.0
         start = time.perf_counter()
         viewer.render()
