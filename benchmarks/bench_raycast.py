@@ -56,7 +56,8 @@ def main() -> None:
             print(f"{name}: {'x'.join(map(str, data.shape))} {data.dtype}, {args.size}, {renderer}")
             for mode in MODES:
                 times = frames(viewer, mode, args.frames)
-                print(f"  {mode or 'mesh':6s} median {np.median(times):8.1f} ms   p90 {np.percentile(times, 90):8.1f} ms")
+                median, p90 = np.median(times), np.percentile(times, 90)
+                print(f"  {mode or 'mesh':6s} median {median:8.1f} ms   p90 {p90:8.1f} ms")
         finally:
             viewer.release()
 
