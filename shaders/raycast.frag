@@ -8,12 +8,20 @@
 //     refined by bisection and shaded by the field's gradient as mesh.frag shades a surface;
 //   MODE_DVR    emission-absorption, front to back: extinction u_density * ramp(value) per model unit
 //     (Beer-Lambert within each step), colour from the map; stops once nearly opaque.
+// Empty space is skipped a brick at a time: u_ranges holds each brick's (min, max) over its samples (the
+// cells of BRICK samples a side, their shared faces included), and a brick that cannot change the result
+// (MIP: no value above the largest so far; MinIP: none below; iso: all of it on the outside of the level;
+// DVR: all of it below the window) is left at its far face.  The clip plane, where there is one, cuts
+// the rays: iso draws the cut through the object flat, in the surface's colour.
 in vec3 v_model;
 
 uniform sampler3D u_volume;    // the samples as C-ordered bytes: texture x is array axis 2 (sampled .zyx)
+uniform sampler3D u_ranges;    // per brick (min, max) in values, C-ordered the same way (texelFetch .zyx)
 uniform sampler2D u_colormap;  // LUT x 1 RGBA
 uniform vec3 u_extent;         // the box's far corner: (shape - 1) x spacing; the near one is 0
 uniform vec3 u_shape;
+uniform vec3 u_brick;          // a brick's size, model units: BRICK x spacing
+uniform vec3 u_bricks;         // bricks along each axis
 uniform vec3 u_eye;            // the camera, model space
 uniform float u_step;          // model units between samples
 uniform vec2 u_value_map;      // value = texel * x + y (a normalised integer texture back to its values)
@@ -22,12 +30,13 @@ uniform float u_level;
 uniform float u_inside;        // +1: the object is where values are above the level, -1: below
 uniform float u_density;       // DVR: extinction per model unit at the top of the ramp
 uniform vec3 u_front_color;
+uniform vec4 u_clip_plane;     // kept where dot(plane, (p, 1)) >= 0 (slices.py); (0, 0, 0, 1): no clip
 uniform mat4 u_view;
 uniform mat4 u_projection;
 
 out vec4 frag_color;
 
-const int MAX_STEPS = 4096;
+const int MAX_STEPS = 8192;
 
 float value_at(vec3 p) {
     vec3 texel = (p / max(u_extent, vec3(1e-30))) * (u_shape - 1.0) + 0.5;
@@ -52,6 +61,46 @@ vec2 box_span(vec3 dir) {
     return vec2(max(max(near.x, near.y), max(near.z, 0.0)), min(min(far.x, far.y), far.z));
 }
 
+// The span cut by the clip plane's kept half-space.
+vec2 clipped(vec2 span, vec3 dir) {
+    float at_eye = dot(u_clip_plane.xyz, u_eye) + u_clip_plane.w;
+    float along = dot(u_clip_plane.xyz, dir);
+    if (abs(along) < 1e-12) return at_eye >= 0.0 ? span : vec2(1.0, 0.0);
+    float t = -at_eye / along;
+    return along > 0.0 ? vec2(max(span.x, t), span.y) : vec2(span.x, min(span.y, t));
+}
+
+// The brick the point p lies in, and where the ray leaves it (t).
+ivec3 brick_of(vec3 p) {
+    return ivec3(clamp(floor(p / u_brick), vec3(0.0), u_bricks - 1.0));
+}
+
+vec2 range_of(ivec3 brick) {
+    return texelFetch(u_ranges, brick.zyx, 0).rg;
+}
+
+float brick_exit(ivec3 brick, vec3 dir) {
+    vec3 low = vec3(brick) * u_brick, high = low + u_brick;
+    vec3 inverse = 1.0 / dir;
+    vec3 a = (low - u_eye) * inverse, b = (high - u_eye) * inverse;
+    vec3 far = max(a, b);
+    return min(min(far.x, far.y), far.z);
+}
+
+bool skipped(vec2 range, float gathered) {
+#if defined(MODE_MIP)
+    return range.y <= gathered;
+#elif defined(MODE_MINIP)
+    return range.x >= gathered;
+#elif defined(MODE_ISO)
+    return u_inside > 0.0 ? range.y < u_level : range.x > u_level;
+#elif defined(MODE_DVR)
+    return range.y <= u_window.x;   // the ramp is 0 there: nothing absorbed, nothing emitted
+#else
+    return false;
+#endif
+}
+
 void finish_depth(vec3 p) {   // the depth of the point the pixel shows, so later draws are hidden by it
     vec4 clip = u_projection * u_view * vec4(p, 1.0);
     gl_FragDepth = clamp(0.5 * clip.z / clip.w + 0.5, 0.0, 1.0);
@@ -64,71 +113,102 @@ vec3 gradient_at(vec3 p) {
                 value_at(p + vec3(0, 0, h.z)) - value_at(p - vec3(0, 0, h.z))) / (2.0 * h);
 }
 
+vec3 lit(vec3 normal, vec3 p) {
+    vec3 view_normal = normalize(mat3(u_view) * normal);
+    vec3 to_eye = normalize(-(u_view * vec4(p, 1.0)).xyz);
+    return u_front_color * (0.15 + 0.85 * abs(dot(view_normal, to_eye)));
+}
+
 void main() {
     vec3 dir = normalize(v_model - u_eye);
-    vec2 span = box_span(dir);
+    vec2 box = box_span(dir);
+    vec2 span = clipped(box, dir);
     if (span.x >= span.y) discard;
-    int steps = min(int(ceil((span.y - span.x) / u_step)), MAX_STEPS);
-#if defined(MODE_MIP) || defined(MODE_MINIP) || defined(MODE_MEAN)
-  #ifdef MODE_MINIP
+    float t = span.x;
+#if defined(MODE_MINIP)
     float gathered = 1e38;
-  #elif defined(MODE_MIP)
+#elif defined(MODE_MIP)
     float gathered = -1e38;
-  #else
+#else
     float gathered = 0.0;
-  #endif
-    for (int i = 0; i <= steps; ++i) {
-        float v = value_at(u_eye + dir * min(span.x + float(i) * u_step, span.y));
-  #ifdef MODE_MINIP
-        gathered = min(gathered, v);
-  #elif defined(MODE_MIP)
-        gathered = max(gathered, v);
-  #else
-        gathered += v;
-  #endif
+#endif
+#if defined(MODE_MEAN)
+    float count = 0.0;
+#endif
+#if defined(MODE_ISO)
+    float t_before = t;
+    float before = u_inside * (value_at(u_eye + dir * t) - u_level);
+    if (before >= 0.0) {   // the ray starts inside the object: at the box's face, or the clip's cut
+        if (span.x > box.x + 1e-6 * length(u_extent)) {
+            vec3 p = u_eye + dir * span.x;
+            frag_color = vec4(lit(u_clip_plane.xyz, p), 1.0);
+            finish_depth(p);
+            return;
+        }
+        discard;
     }
-  #ifdef MODE_MEAN
-    gathered /= float(steps + 1);
-  #endif
-    frag_color = vec4(colour_of(gathered).rgb, 1.0);
-    finish_depth(u_eye + dir * span.x);
+#endif
+#if defined(MODE_DVR)
+    vec3 colour = vec3(0.0);
+    float transmitted = 1.0;
+#endif
+    for (int i = 0; i < MAX_STEPS && t <= span.y; ++i) {
+        vec3 p = u_eye + dir * t;
+#if !defined(MODE_MEAN)   // a mean takes every sample: nothing to skip
+        ivec3 brick = brick_of(p);
+        if (skipped(range_of(brick), gathered)) {
+            float leave = brick_exit(brick, dir);
+#if defined(MODE_ISO)
+            t_before = min(leave, span.y);
+#endif
+            // Past the face by a hundredth of a step (far above float32's rounding of a position, which a
+            // smaller nudge fell within: the same brick again, thousands of times a ray).
+            t = max(leave, t) + 0.01 * u_step;
+            continue;
+        }
+#endif
+        float v = value_at(p);
+#if defined(MODE_MINIP)
+        gathered = min(gathered, v);
+#elif defined(MODE_MIP)
+        gathered = max(gathered, v);
+#elif defined(MODE_MEAN)
+        gathered += v;
+        count += 1.0;
 #elif defined(MODE_ISO)
-    float t_before = span.x;
-    float before = u_inside * (value_at(u_eye + dir * span.x) - u_level);
-    if (before >= 0.0) discard;   // the ray starts inside the object: the box's face, not the surface
-    for (int i = 1; i <= steps; ++i) {
-        float t = min(span.x + float(i) * u_step, span.y);
-        float now = u_inside * (value_at(u_eye + dir * t) - u_level);
-        if (now >= 0.0) {   // crossed between t_before and t: bisect on the interpolant
+        float now = u_inside * (v - u_level);
+        if (now >= 0.0 && i > 0) {   // crossed between t_before and t: bisect on the interpolant
             float low = t_before, high = t;
             for (int k = 0; k < 8; ++k) {
                 float mid = 0.5 * (low + high);
                 if (u_inside * (value_at(u_eye + dir * mid) - u_level) >= 0.0) high = mid; else low = mid;
             }
-            vec3 p = u_eye + dir * high;
-            vec3 normal = -u_inside * normalize(gradient_at(p) + vec3(1e-30));   // out of the object
-            vec3 view_normal = normalize(mat3(u_view) * normal);
-            vec3 to_eye = normalize(-(u_view * vec4(p, 1.0)).xyz);
-            float diffuse = abs(dot(view_normal, to_eye));
-            frag_color = vec4(u_front_color * (0.15 + 0.85 * diffuse), 1.0);
-            finish_depth(p);
+            vec3 hit = u_eye + dir * high;
+            frag_color = vec4(lit(-u_inside * normalize(gradient_at(hit) + vec3(1e-30)), hit), 1.0);
+            finish_depth(hit);
             return;
         }
         t_before = t;
-    }
-    discard;
 #elif defined(MODE_DVR)
-    vec3 colour = vec3(0.0);
-    float transmitted = 1.0;
-    float length_step = (span.y - span.x) / float(max(steps, 1));
-    for (int i = 0; i < steps; ++i) {
-        float v = value_at(u_eye + dir * (span.x + (float(i) + 0.5) * length_step));
+        float length_step = min(u_step, span.y - t + 1e-6);
         float alpha = 1.0 - exp(-u_density * mapped(v) * length_step);
         colour += transmitted * alpha * colour_of(v).rgb;
         transmitted *= 1.0 - alpha;
         if (transmitted < 0.004) break;
+#endif
+        t += u_step;
     }
+#if defined(MODE_ISO)
+    discard;
+#elif defined(MODE_DVR)
     frag_color = vec4(colour, 1.0 - transmitted);   // premultiplied: blended ONE, ONE_MINUS_SRC_ALPHA
+    finish_depth(u_eye + dir * span.x);
+#else
+  #if defined(MODE_MEAN)
+    gathered /= max(count, 1.0);
+  #endif
+    if (gathered < -1e37 || gathered > 1e37) discard;   // every brick skipped: nothing on the ray
+    frag_color = vec4(colour_of(gathered).rgb, 1.0);
     finish_depth(u_eye + dir * span.x);
 #endif
 }

@@ -17,6 +17,7 @@ from ..model.colormaps import LUT_SIZE
 from ..model.raycast import RAYCAST_MODES
 from .slices import colormap_rgba8
 
+BRICK = 8              # samples a side of the bricks whose (min, max) let rays skip empty space
 STEP_PER_SAMPLE = 0.5   # the ray's step: half the smallest sample spacing (no sample's peak is stepped over)
 DENSITY_PER_SAMPLE = 0.15   # DVR: extinction per sample spacing at the top of the ramp (a few samples' depth)
 
@@ -51,6 +52,7 @@ class RaycastRequest:
     colormap: str
     inside_above: bool
     color: tuple[float, float, float]
+    clip_plane: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)   # kept where >= 0 (slices.py)
 
 
 class VolumeRaycaster:
@@ -60,7 +62,9 @@ class VolumeRaycaster:
         self._cube = ctx.buffer(CUBE.tobytes())
         self._vaos: dict[str, object] = {}
         self._texture = None
-        self._texture_of = None          # the data array the texture holds
+        self._ranges = None              # each brick's (min, max): empty space skipped
+        self._bricks = (1, 1, 1)
+        self._texture_of = None          # the data array the textures hold
         self._value_map = (1.0, 0.0)
         self._lut = ctx.texture((LUT_SIZE, 1), 4)
         self._lut.repeat_x = self._lut.repeat_y = False
@@ -81,7 +85,11 @@ class VolumeRaycaster:
             return
         if self._texture is not None:
             self._texture.release()
+            self._ranges.release()
         array = np.asarray(data)
+        ranges = brick_ranges(array, BRICK)
+        self._bricks = ranges.shape[:3]
+        self._ranges = self.ctx.texture3d(ranges.shape[2::-1], 2, np.ascontiguousarray(ranges).tobytes(), dtype="f4")
         kind, unit = NORMALISED.get(array.dtype, ("f4", None))
         array = np.ascontiguousarray(array if unit is not None else array.astype(np.float32, copy=False))
         self._texture = self.ctx.texture3d(array.shape[::-1], 1, array.tobytes(), dtype=kind)
@@ -107,7 +115,8 @@ class VolumeRaycaster:
                     "u_window": tuple(request.window), "u_level": float(request.level),
                     "u_inside": 1.0 if request.inside_above else -1.0,
                     "u_density": float(DENSITY_PER_SAMPLE / spacing.min()), "u_front_color": tuple(request.color),
-                    "u_volume": 0, "u_colormap": 1}
+                    "u_brick": tuple(BRICK * spacing), "u_bricks": tuple(float(n) for n in self._bricks),
+                    "u_clip_plane": tuple(request.clip_plane), "u_volume": 0, "u_colormap": 1, "u_ranges": 2}
         for name, value in uniforms.items():
             if name in program:
                 program[name].value = value
@@ -115,6 +124,7 @@ class VolumeRaycaster:
         program["u_projection"].write(projection)
         self._texture.use(0)
         self._lut.use(1)
+        self._ranges.use(2)
         # The box's back faces: a ray for every pixel the box covers, the eye inside the box too.
         ctx.enable(ctx.CULL_FACE)
         ctx.cull_face = "front"   # outward faces are front faces, mirrored views too (front_face follows)
@@ -136,7 +146,26 @@ class VolumeRaycaster:
         self._lut.release()
         if self._texture is not None:
             self._texture.release()
-            self._texture = self._texture_of = None
+            self._ranges.release()
+            self._texture = self._ranges = self._texture_of = None
+
+
+def brick_ranges(data: np.ndarray, brick: int) -> np.ndarray:
+    """(bx, by, bz, 2) float32: the (min, max) of the samples of each brick of `brick` cells a side (samples
+    b*brick .. (b+1)*brick along each axis, the faces shared with the next brick included), so a ray can
+    tell from one fetch that the trilinear interpolant inside a brick stays within that range.  An axis at a
+    time: each cell's range along it (a sample and the next), then those of `brick` cells together."""
+    low = high = np.asarray(data)
+    for axis in range(3):
+        if low.shape[axis] > 1:
+            first, second = [slice(None)] * 3, [slice(None)] * 3
+            first[axis], second[axis] = slice(0, -1), slice(1, None)
+            low = np.minimum(low[tuple(first)], low[tuple(second)])
+            high = np.maximum(high[tuple(first)], high[tuple(second)])
+        starts = np.arange(0, low.shape[axis], brick)
+        low = np.minimum.reduceat(low, starts, axis=axis)
+        high = np.maximum.reduceat(high, starts, axis=axis)
+    return np.stack([low, high], axis=-1).astype(np.float32)
 
 
 def raycast_request(state) -> RaycastRequest | None:
@@ -147,6 +176,7 @@ def raycast_request(state) -> RaycastRequest | None:
     settings, level = state.slices, state.levels.current
     half = settings.window / 2
     color = level.color if level is not None and level.color is not None else state.style.front_color
+    clip = settings.clip.plane(state.volume.spacing) if settings.clip is not None else (0.0, 0.0, 0.0, 1.0)
     return RaycastRequest(state.volume.data, tuple(state.volume.spacing), state.raycast, float(state.iso),
                           (settings.centre - half, settings.centre + half), settings.colormap,
-                          state.gradient_direction == "descent", tuple(color))
+                          state.gradient_direction == "descent", tuple(color), tuple(clip))
