@@ -158,12 +158,13 @@ void main() {
         ivec3 brick = brick_of(p);
         if (skipped(range_of(brick), gathered)) {
             float leave = brick_exit(brick, dir);
+            // On to the first sample of the ray's own lattice (span.x + k u_step) past the brick's far face:
+            // the samples taken are those a march without skipping takes, less the skipped ones, so the
+            // picture is the same.  At least one step on: a position on the face may round into this brick.
+            t = max(span.x + (floor((leave - span.x) / u_step) + 1.0) * u_step, t + u_step);
 #if defined(MODE_ISO)
-            t_before = min(leave, span.y);
+            t_before = t - u_step;   // in the skipped brick (or on its face): outside the level
 #endif
-            // Past the face by a hundredth of a step (far above float32's rounding of a position, which a
-            // smaller nudge fell within: the same brick again, thousands of times a ray).
-            t = max(leave, t) + 0.01 * u_step;
             continue;
         }
 #endif

@@ -136,3 +136,38 @@ def test_a_bad_mode_is_one_line_everywhere(viewer, tmp_path):
         isoscope.render(nested(), 0.2, size=(64, 48), raycast="xyz")
     done = isoscope_here("render", "sphere", "--raycast", "xyz", "--out", tmp_path / "x.png")
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and "--raycast" in done.stderr
+
+
+@pytest.mark.parametrize("mode", ["mip", "minip", "iso", "dvr"])
+def test_skipping_empty_bricks_changes_no_pixel(gl_ctx, monkeypatch, mode):
+    """The picture with 8^3-cell bricks left where they cannot change a ray's result equals the picture
+    with one brick for the whole volume (nothing skippable), within a grey level."""
+    import isoscope.viewer.gfx.raycast as raycast
+    x, y, z = _grid(40)
+    field = np.where(np.sqrt(x * x + y * y + z * z) < 0.6, 1.0 - x * x - y * y, 0.0).astype(np.float32)
+    pictures = []
+    for brick in (8, 10**6):
+        monkeypatch.setattr(raycast, "BRICK", brick)
+        viewer = HeadlessViewer(SIZE, ctx=gl_ctx)
+        try:
+            viewer.show(as_volume(field), 0.5)
+            pictures.append(picture(viewer, mode, 0.5, window=(1.0, 0.5)))
+        finally:
+            viewer.release()
+    assert np.abs(pictures[0] - pictures[1]).max() <= 1
+    assert np.abs(pictures[0] - BACKGROUND).max() > 50   # something was drawn
+
+
+def test_the_clip_plane_cuts_the_rays_and_iso_draws_the_cut(viewer):
+    x, y, z = _grid(40)
+    ball = (0.7 - np.sqrt(x * x + y * y + z * z)).astype(np.float32)
+    viewer.show(as_volume(ball), 0.0)
+    whole = picture(viewer, "iso", 0.0)
+    viewer.state.slices.set_clip(0, 20.0)   # hide x above the middle
+    mesh_cut = picture(viewer, None, 0.0)
+    iso_cut = picture(viewer, "iso", 0.0)
+    # anything but background (the mesh's cap is the slice there, dark where the field is near 0)
+    drawn = [(np.abs(image - BACKGROUND).max(axis=2) > 8) for image in (whole, mesh_cut, iso_cut)]
+    assert drawn[2].sum() < drawn[0].sum()                    # half the ball is gone
+    union, both = (drawn[1] | drawn[2]).sum(), (drawn[1] & drawn[2]).sum()
+    assert both / union > 0.95, both / union                  # where the capped mesh is, the cut rays are
