@@ -114,19 +114,31 @@ def test_the_command_python_and_a_scene_draw_the_same_picture(tmp_path):
     assert white(cli) > 50 and white(api[..., :3]) > 50
 
 
-def test_opengl_41_draws_what_43_draws(tmp_path):
+@pytest.mark.parametrize("mode", ["mip", "minip", "mean", "iso", "dvr"])
+def test_opengl_41_draws_what_43_draws(tmp_path, mode):
     np.save(tmp_path / "nested.npy", nested())
     env = {**os.environ, "MESA_GL_VERSION_OVERRIDE": "4.1", "MESA_GLSL_VERSION_OVERRIDE": "410"}
     pictures = {}
     for name, environment in (("41", env), ("43", dict(os.environ))):
         environment = {k: v for k, v in environment.items() if name == "41" or not k.startswith("MESA_GL")}
-        done = subprocess.run([sys.executable, "-m", "isoscope", "render", tmp_path / "nested.npy", "--raycast", "dvr",
+        done = subprocess.run([sys.executable, "-m", "isoscope", "render", tmp_path / "nested.npy", "--raycast", mode,
                                "--iso", "0.2", "--window", "1", "--level", "0.5", "--size", "160x120",
                                "--out", tmp_path / f"{name}.png"], env=environment, capture_output=True, text=True,
                               timeout=120)
         assert done.returncode == 0, done.stderr
         pictures[name] = np.asarray(Image.open(tmp_path / f"{name}.png")).astype(int)
     assert np.abs(pictures["41"] - pictures["43"]).max() <= 2
+    assert np.abs(pictures["43"] - BACKGROUND).max() > 50
+
+
+def test_python_render_is_the_commands_picture(tmp_path):
+    np.save(tmp_path / "nested.npy", nested())
+    for mode in ("mip", "dvr"):
+        done = isoscope_here("render", tmp_path / "nested.npy", "--raycast", mode, "--iso", "0.2", "--size", "200x150",
+                             "--out", tmp_path / f"{mode}.png")
+        assert done.returncode == 0, done.stderr
+        api = isoscope.render(nested(), 0.2, size=(200, 150), raycast=mode)
+        assert np.array_equal(api[..., :3], np.asarray(Image.open(tmp_path / f"{mode}.png"))), mode
 
 
 def test_a_bad_mode_is_one_line_everywhere(viewer, tmp_path):
