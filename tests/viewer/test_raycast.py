@@ -183,3 +183,18 @@ def test_the_clip_plane_cuts_the_rays_and_iso_draws_the_cut(viewer):
     assert drawn[2].sum() < drawn[0].sum()                    # half the ball is gone
     union, both = (drawn[1] | drawn[2]).sum(), (drawn[1] & drawn[2]).sum()
     assert both / union > 0.95, both / union                  # where the capped mesh is, the cut rays are
+
+
+@pytest.mark.parametrize("mode", ["mip", "dvr"])
+def test_the_coarse_picture_while_moving_is_the_full_one_stretched(viewer, mode):
+    """While the view moves the window casts a ray per 2x2 pixels and stretches the picture: the same
+    picture to within its blur (the bright ball where it is), the background untouched outside the box."""
+    viewer.show(as_volume(nested()), 0.2)
+    full = picture(viewer, mode)
+    viewer.target.use()
+    viewer.app.draw(viewer.target.viewport, moving=True)
+    coarse = viewer.target.read_rgb().astype(int)
+    assert np.abs(coarse - full).mean() < 4, np.abs(coarse - full).mean()
+    assert (coarse[0, 0] == BACKGROUND).all() and (coarse[-1, -1] == BACKGROUND).all()
+    if mode == "mip":
+        assert white(coarse) > 0.6 * white(full) > 50

@@ -19,6 +19,7 @@ from .slices import colormap_rgba8
 
 BRICK = 8              # samples a side of the bricks whose (min, max) let rays skip empty space
 STEP_PER_SAMPLE = 0.5   # the ray's step: half the smallest sample spacing (no sample's peak is stepped over)
+COARSE = 2             # while the view moves: one ray per COARSE x COARSE pixels, stretched (a quarter of the work)
 DENSITY_PER_SAMPLE = 0.15   # DVR: extinction per sample spacing at the top of the ramp (a few samples' depth)
 
 # dtype -> (moderngl texture dtype, what one unit of the normalised texel is worth)
@@ -69,6 +70,8 @@ class VolumeRaycaster:
         self._lut = ctx.texture((LUT_SIZE, 1), 4)
         self._lut.repeat_x = self._lut.repeat_y = False
         self._lut_name: str | None = None
+        self._coarse = None              # (framebuffer, colour texture, depth) of the moving view's picture
+        self._upscale = None             # the program stretching it over the viewport
 
     def _program(self, mode: str):
         if mode not in self._programs:
@@ -135,7 +138,53 @@ class VolumeRaycaster:
         ctx.disable(ctx.CULL_FACE | ctx.BLEND)
         ctx.cull_face = "back"
 
+    def draw_coarse(self, request, view: bytes, projection: bytes, eye, viewport) -> None:
+        """`draw` with one ray per COARSE x COARSE pixels of `viewport`, into a small target stretched over it
+        (linear), for the frames while the view or the level moves: about a quarter of the time."""
+        ctx = self.ctx
+        size = (max(1, viewport[2] // COARSE), max(1, viewport[3] // COARSE))
+        if self._coarse is None or self._coarse[1].size != size:
+            self._release_coarse()
+            colour = ctx.texture(size, 4)
+            colour.filter = (ctx.LINEAR, ctx.LINEAR)
+            colour.repeat_x = colour.repeat_y = False
+            depth = ctx.depth_renderbuffer(size)
+            self._coarse = (ctx.framebuffer(color_attachments=[colour], depth_attachment=depth), colour, depth)
+        if self._upscale is None:
+            program = ctx.program(vertex_shader=shader_source("oit_composite.vert"),
+                                  fragment_shader=shader_source("raycast_upscale.frag"))
+            self._upscale = (program, ctx.vertex_array(program, []))
+        destination = ctx.fbo
+        framebuffer, colour, _ = self._coarse
+        framebuffer.use()
+        ctx.viewport = (0, 0, *size)
+        framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.draw(request, view, projection, eye)
+        destination.use()
+        ctx.viewport = viewport
+        program, vao = self._upscale
+        program["u_coarse"].value = 3
+        program["u_viewport"].value = tuple(float(v) for v in viewport)
+        colour.use(3)
+        ctx.disable(ctx.DEPTH_TEST)
+        ctx.enable(ctx.BLEND)
+        ctx.blend_func = ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA
+        vao.render(mode=ctx.TRIANGLES, vertices=3)
+        ctx.disable(ctx.BLEND)
+        ctx.enable(ctx.DEPTH_TEST)
+
+    def _release_coarse(self) -> None:
+        if self._coarse is not None:
+            for obj in self._coarse:
+                obj.release()
+            self._coarse = None
+
     def release(self) -> None:
+        self._release_coarse()
+        if self._upscale is not None:
+            for obj in self._upscale[::-1]:
+                obj.release()
+            self._upscale = None
         for vao in self._vaos.values():
             vao.release()
         for program in self._programs.values():

@@ -91,13 +91,15 @@ class SceneRenderer:
 
     def draw(self, meshes: Sequence[GpuMesh], camera, viewport: tuple[int, int, int, int], style: SurfaceStyle,
              covered_left: int = 0, looks: Sequence[SurfaceLook] | None = None,
-             slices: SliceScene | None = None, raycast: RaycastRequest | None = None) -> None:
+             slices: SliceScene | None = None, raycast: RaycastRequest | None = None,
+             coarse: bool = False) -> None:
         """Clear `viewport` of the bound framebuffer and draw the box, the slices and `meshes` into it.
 
         `covered_left`: pixels at the left hidden by the panel; the scene centres in the rest.
         `looks`: each mesh's colour, opacity and colour map (default: opaque, the style's colour).
         `slices`: ViewerState.slice_scene; its clip plane hides the meshes on one side.
-        `raycast`: the volume itself drawn by ray casting (gfx/raycast.py) in the meshes' place.
+        `raycast`: the volume itself drawn by ray casting (gfx/raycast.py) in the meshes' place; `coarse`:
+        with a ray per 2x2 pixels (the window's frames while the view moves).
         """
         ctx = self.ctx
         if looks is None:
@@ -139,7 +141,10 @@ class SceneRenderer:
         if raycast is not None:
             if self._raycaster is None:
                 self._raycaster = VolumeRaycaster(ctx)
-            self._raycaster.draw(raycast, view, projection, camera.eye())
+            if coarse:
+                self._raycaster.draw_coarse(raycast, view, projection, camera.eye(), viewport)
+            else:
+                self._raycaster.draw(raycast, view, projection, camera.eye())
             self._release_vaos(keep=set())
             return
 
@@ -179,11 +184,13 @@ class SceneRenderer:
             self._draw_translucent(translucent, viewport, destination)
         ctx.disable_direct(GL_CLIP_DISTANCE0)   # imgui's shaders write no clip distance
 
-    def draw_scene(self, scene, camera, viewport: tuple[int, int, int, int], covered_left: int = 0) -> None:
+    def draw_scene(self, scene, camera, viewport: tuple[int, int, int, int], covered_left: int = 0,
+                   coarse: bool = False) -> None:
         """What a GpuScene shows of its state: the meshes in their looks, the slices and clip, then the 2-D view."""
         drawn, slices = scene.drawn(), scene.state.slice_scene   # each worked out once a frame
         self.draw([mesh for mesh, _ in drawn], camera, viewport, scene.state.style, covered_left=covered_left,
-                  looks=[look for _, look in drawn], slices=slices, raycast=raycast_request(scene.state))
+                  looks=[look for _, look in drawn], slices=slices, raycast=raycast_request(scene.state),
+                  coarse=coarse)
         self.draw_inset(slices, viewport)
 
     def draw_inset(self, slices: SliceScene | None, viewport: tuple[int, int, int, int]) -> None:

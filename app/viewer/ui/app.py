@@ -53,10 +53,11 @@ class ViewerApp:
         apply_opened_scene(self.state, self.camera, raise_errors=raise_errors)
         return framed
 
-    def draw(self, viewport, covered_left: int = 0) -> None:
+    def draw(self, viewport, covered_left: int = 0, moving: bool = False) -> None:
         """Step 3: the scene into `viewport` of the bound framebuffer, centred in what `covered_left` pixels
-        of panel leave free."""
-        self.renderer.draw_scene(self.scene, self.camera, viewport, covered_left=covered_left)
+        of panel leave free; `moving` (the window's frames while the view or the level moves): a ray-cast
+        volume at a ray per 2x2 pixels, the full picture once it rests."""
+        self.renderer.draw_scene(self.scene, self.camera, viewport, covered_left=covered_left, coarse=moving)
 
     def offscreen(self, size, alpha: bool = False) -> np.ndarray:
         """The scene drawn into a new offscreen target of `size`, centred in the whole of it (no panel), as

@@ -176,7 +176,7 @@ class ViewerWindow:
         self.ctx.screen.use()
         pixels_per_unit = fb_width / max(glfw.get_window_size(self.window)[0], 1)  # framebuffer scale
         covered_left = int(self.panel.covered_width * pixels_per_unit)
-        self.app.draw((0, 0, fb_width, fb_height), covered_left=covered_left)
+        self.app.draw((0, 0, fb_width, fb_height), covered_left=covered_left, moving=self._moving())
         # Record: the scene, no panel.  On screen it is centred in what the panel leaves free; a movie of that
         # had an empty strip where the panel was, so a frame due is drawn again, centred, as render draws it.
         self.panel.time_section.capture(
@@ -187,6 +187,13 @@ class ViewerWindow:
             self._save_screenshot((fb_width, fb_height))
         glfw.swap_buffers(self.window)
         return True
+
+    def _moving(self) -> bool:
+        """Whether the view or the level is moving this frame: a drag in the scene, the level animated or
+        playing, or the selected level still a preview."""
+        state = self.state
+        return (self._drag_button is not None or state.levels.animation.running or state.series.playing
+                or self.scene.preview_step > 1)
 
     # The app's parts, as the window's callers and tests name them.
     scene = property(lambda self: self.app.scene)
