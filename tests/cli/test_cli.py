@@ -77,7 +77,10 @@ def test_a_broken_file_is_one_line_and_exit_2(tmp_path):
 
 
 def test_window_without_a_display_says_so_in_one_line():
+    from isoscope.gpu.context import gl_available
     result = isoscope("sphere", env_drop=("DISPLAY", "WAYLAND_DISPLAY"))
     assert result.returncode == 1
     assert "Traceback" not in result.stderr and len(result.stderr.strip().splitlines()) == 1
-    assert "isoscope render" in result.stderr
+    # what works here instead: render where a headless context can be had, else export and measure
+    assert ("isoscope render" in result.stderr) == gl_available(), result.stderr
+    assert gl_available() or "isoscope export" in result.stderr

@@ -109,6 +109,7 @@ def test_a_small_budget_shows_every_nth_sample_and_says_so(viewer_with, ct):
     assert all(0 <= full - 1 - drawn < step for full, drawn in zip(ct.shape, state.bounds()[1]))
 
 
+@pytest.mark.gl
 def test_render_takes_a_budget_and_refuses_a_bad_one(ct):
     sphere = np.linalg.norm(np.mgrid[-1:1:64j, -1:1:64j, -1:1:64j], axis=0).astype(np.float32)
     whole = isoscope.render(sphere, 0.6, size=(120, 90), gradient_direction="ascent")
@@ -120,6 +121,7 @@ def test_render_takes_a_budget_and_refuses_a_bad_one(ct):
         isoscope.render(sphere, 0.6, memory_budget="lots")
 
 
+@pytest.mark.gl
 def test_the_command_takes_a_budget_and_refuses_a_bad_one_in_one_line(tmp_path):
     thin = tmp_path / "thin.npy"
     np.save(thin, np.random.default_rng(0).random((2, 2, 300_000)).astype(np.float32))
