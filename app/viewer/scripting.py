@@ -183,7 +183,6 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     level = None if labels else checked_levels(shown, level)
 
     def prepare(state) -> None:   # as the command's apply_slice_arguments and --labels
-        state.set_raycast(raycast)
         for axis, index in slices:
             state.slices.show(_axis(axis), True, index)
         if clip is not None:
@@ -193,7 +192,7 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
 
     with using_budget(budget):
         viewer = prepared_viewer(shown, level, size, azimuth, elevation, transparent, opacities, color_by,
-                                 colormap, prepare, tetrahedra, smooth, wireframe)
+                                 colormap, prepare, tetrahedra, smooth, wireframe, raycast=raycast)
     try:
         pixels = viewer.picture(panel=panel, letters=letters)
     finally:

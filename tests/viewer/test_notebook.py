@@ -37,3 +37,16 @@ def test_the_widget_draws_moves_its_level_and_orbits():
         assert lit(box.canvas.get_frame()) > lit(smaller)         # zoomed in
     finally:
         box.close_viewer()
+
+
+def test_the_widget_shows_the_volume_itself_as_render_does():
+    axis = np.linspace(-1, 1, 32, dtype=np.float32)
+    x, y, z = np.meshgrid(axis, axis, axis, indexing="ij")
+    field = np.exp(-4 * (x * x + y * y + z * z)).astype(np.float32)
+    box = isoscope.widget(field, 0.5, size=(160, 120), raycast="mip")
+    try:
+        frame = box.canvas.get_frame()
+        assert np.array_equal(frame, isoscope.render(field, 0.5, size=(160, 120), raycast="mip")[..., :3])
+        assert box.viewer.state.raycast == "mip"
+    finally:
+        box.close_viewer()

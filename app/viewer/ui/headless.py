@@ -192,11 +192,14 @@ class HeadlessViewer:
 
 def prepared_viewer(volume: Volume, iso=None, size=(800, 600), azimuth=None, elevation=None,
                     transparent: bool = False, opacities=(), color_by=None, colormap=None, prepare=None,
-                    tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False) -> HeadlessViewer:
-    """A HeadlessViewer showing `volume` as render_png draws it (its arguments), ready to render (again,
-    after moving its camera or level: `isoscope movie`); its caller releases it.  What fails is raised."""
+                    tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False,
+                    raycast: str | None = None) -> HeadlessViewer:
+    """A HeadlessViewer showing `volume` as render_png draws it (its arguments; `raycast`: a ray-casting
+    mode, model/raycast.py), ready to render (again, after moving its camera or level: `isoscope movie`);
+    its caller releases it.  What fails is raised."""
     viewer = HeadlessViewer(size)
     try:
+        viewer.state.set_raycast(raycast)
         viewer.state.style.transparent_background = transparent
         # Set before the levels are shown, so their first meshes are made with them.
         viewer.state.set_cells("tetrahedra" if tetrahedra else "cubes")
