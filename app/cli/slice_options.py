@@ -68,6 +68,9 @@ def add_slice_arguments(parser: argparse.ArgumentParser) -> None:
                             "(the largest, smallest or mean value along each ray, through --colormap over "
                             "--window/--level), iso (the level's first hit, no mesh made) or dvr "
                             "(emission-absorption, opacity ramping up over the window); on OpenGL 4.1 too")
+    group.add_argument("--transfer", metavar="V:A,...|PRESET",
+                       help="--raycast dvr: the opacity at each value, linear between the points, e.g. "
+                            "200:0,500:0.5,1200:1, or a preset: ct-bone, ct-soft (Hounsfield units), mri")
 
 
 def apply_slice_arguments(state, args: argparse.Namespace) -> None:
@@ -85,3 +88,5 @@ def apply_slice_arguments(state, args: argparse.Namespace) -> None:
     slices.inset = not args.no_inset
     if getattr(args, "raycast", None) is not None:
         state.set_raycast(args.raycast)
+    if getattr(args, "transfer", None) is not None:
+        state.set_transfer(args.transfer)

@@ -107,7 +107,7 @@ def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="d
 def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None, spacing=None, affine=None,
            gradient_direction="descent", opacities=(), color_by=None, colormap=None, labels=False,
            label_names=None, slices=(), clip=None, tetrahedra=False, smooth=0, wireframe=False, panel=False,
-           transparent=False, letters=False, memory_budget=None, raycast=None) -> np.ndarray:
+           transparent=False, letters=False, memory_budget=None, raycast=None, transfer=None) -> np.ndarray:
     """Render `volume`'s surface(s) offscreen, as ``isoscope render`` does, and return the pixels.
 
     Parameters
@@ -152,6 +152,9 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
         Draw the volume itself by ray casting in the surfaces' place, as ``--raycast``: the largest,
         smallest or mean value along each ray (through the slices' colour map and window), the level's
         first hit (shaded, no mesh made), or emission-absorption rendering.
+    transfer : str or sequence of (value, opacity), optional
+        With ``raycast="dvr"``: the opacity at each value, linear between the points (in increasing value,
+        inside the volume's range), or a preset: "ct-bone", "ct-soft" (Hounsfield units), "mri".
 
     Returns
     -------
@@ -192,7 +195,8 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
 
     with using_budget(budget):
         viewer = prepared_viewer(shown, level, size, azimuth, elevation, transparent, opacities, color_by,
-                                 colormap, prepare, tetrahedra, smooth, wireframe, raycast=raycast)
+                                 colormap, prepare, tetrahedra, smooth, wireframe, raycast=raycast,
+                                 transfer=transfer)
     try:
         pixels = viewer.picture(panel=panel, letters=letters)
     finally:

@@ -198,3 +198,46 @@ def test_the_coarse_picture_while_moving_is_the_full_one_stretched(viewer, mode)
     assert (coarse[0, 0] == BACKGROUND).all() and (coarse[-1, -1] == BACKGROUND).all()
     if mode == "mip":
         assert white(coarse) > 0.6 * white(full) > 50
+
+
+def test_a_transfer_function_shows_only_what_it_makes_opaque(viewer):
+    """With the dim ball's value (0.4) transparent and the core's (1.0) opaque, DVR shows the core alone:
+    where only the dim ball lies the picture is the background; with the window's ramp it is not."""
+    viewer.show(as_volume(nested()), 0.2)
+    ramp = picture(viewer, "dvr")
+    viewer.state.set_transfer("0:0,0.5:0,0.9:1,1:1")
+    core = picture(viewer, "dvr")
+    dim_only = (np.abs(ramp - BACKGROUND).max(axis=2) > 10) & ~(np.abs(core - BACKGROUND).max(axis=2) > 10)
+    assert dim_only.sum() > 1000                     # the dim ball's rim: drawn with the ramp, gone now
+    assert (np.abs(core - BACKGROUND).max(axis=2) > 40).sum() > 50   # the core is there
+    assert viewer.state.transfer == ((0.0, 0.0), (0.5, 0.0), (0.9, 1.0), (1.0, 1.0))
+
+
+@pytest.mark.parametrize("spec, words", [
+    ("0.6:1,0.5:0", "must go up in value"), ("5:1,6:1", "outside the volume's values 0 .. 1"),
+    ("0:0,1:2", "opacity 2 at 1 is not 0..1"), ("junk", "not VALUE:OPACITY"), ("0:1", "2 to 64"),
+])
+def test_bad_transfer_functions_are_one_line(viewer, tmp_path, spec, words):
+    viewer.show(as_volume(nested()), 0.2)
+    with pytest.raises(isoscope.IsoscopeError, match=words):
+        viewer.state.set_transfer(spec)
+    assert viewer.state.transfer is None
+    np.save(tmp_path / "nested.npy", nested())
+    done = isoscope_here("render", tmp_path / "nested.npy", "--raycast", "dvr", "--transfer", spec,
+                         "--out", tmp_path / "x.png")
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and words in done.stderr
+
+
+def test_presets_fit_the_volumes_range_and_a_scene_keeps_the_transfer(tmp_path):
+    from isoscope.viewer.model.raycast import check_transfer
+    bone = check_transfer("ct-bone", (-1024.0, 3071.0))
+    assert bone[0] == (150.0, 0.0) and [v for v, _ in bone] == sorted(v for v, _ in bone)
+    assert check_transfer("mri", (0.0, 255.0))[-1] == (255.0, 0.9)
+    np.save(tmp_path / "nested.npy", nested())
+    done = isoscope_here("render", tmp_path / "nested.npy", "--raycast", "dvr", "--transfer", "mri",
+                         "--out", tmp_path / "a.png", "--save-scene", tmp_path / "s.json")
+    assert done.returncode == 0, done.stderr
+    assert json.loads((tmp_path / "s.json").read_text())["transfer"][0] == [0.12, 0.0]
+    again = isoscope_here("render", tmp_path / "s.json", "--out", tmp_path / "b.png")
+    assert again.returncode == 0, again.stderr
+    assert np.array_equal(np.asarray(Image.open(tmp_path / "a.png")), np.asarray(Image.open(tmp_path / "b.png")))

@@ -17,6 +17,7 @@ from ..model.colormaps import LUT_SIZE
 from ..model.raycast import RAYCAST_MODES
 from .slices import colormap_rgba8
 
+TRANSFER_SIZE = 1024    # entries of the transfer function's opacity table over the value range
 BRICK = 8              # samples a side of the bricks whose (min, max) let rays skip empty space
 STEP_PER_SAMPLE = 0.5   # the ray's step: half the smallest sample spacing (no sample's peak is stepped over)
 COARSE = 2             # while the view moves: one ray per COARSE x COARSE pixels, stretched (a quarter of the work)
@@ -54,6 +55,8 @@ class RaycastRequest:
     inside_above: bool
     color: tuple[float, float, float]
     clip_plane: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)   # kept where >= 0 (slices.py)
+    transfer: tuple | None = None        # DVR: (value, opacity) points (model/raycast.py); None: the ramp
+    value_range: tuple[float, float] = (0.0, 1.0)
 
 
 class VolumeRaycaster:
@@ -70,6 +73,10 @@ class VolumeRaycaster:
         self._lut = ctx.texture((LUT_SIZE, 1), 4)
         self._lut.repeat_x = self._lut.repeat_y = False
         self._lut_name: str | None = None
+        self._transfer = ctx.texture((TRANSFER_SIZE, 1), 1, dtype="f4")
+        self._transfer.repeat_x = self._transfer.repeat_y = False
+        self._transfer.filter = (ctx.LINEAR, ctx.LINEAR)
+        self._transfer_of = None
         self._coarse = None              # (framebuffer, colour texture, depth) of the moving view's picture
         self._upscale = None             # the program stretching it over the viewport
 
@@ -119,7 +126,13 @@ class VolumeRaycaster:
                     "u_inside": 1.0 if request.inside_above else -1.0,
                     "u_density": float(DENSITY_PER_SAMPLE / spacing.min()), "u_front_color": tuple(request.color),
                     "u_brick": tuple(BRICK * spacing), "u_bricks": tuple(float(n) for n in self._bricks),
-                    "u_clip_plane": tuple(request.clip_plane), "u_volume": 0, "u_colormap": 1, "u_ranges": 2}
+                    "u_clip_plane": tuple(request.clip_plane), "u_volume": 0, "u_colormap": 1, "u_ranges": 2,
+                    "u_transfer": 4, "u_transfer_on": 0.0 if request.transfer is None else 1.0,
+                    "u_transfer_range": tuple(request.value_range),
+                    "u_transfer_floor": transparent_below(request.transfer, request.value_range)}
+        if request.transfer is not None and (request.transfer, request.value_range) != self._transfer_of:
+            self._transfer.write(opacity_table(request.transfer, request.value_range).tobytes())
+            self._transfer_of = (request.transfer, request.value_range)
         for name, value in uniforms.items():
             if name in program:
                 program[name].value = value
@@ -128,6 +141,7 @@ class VolumeRaycaster:
         self._texture.use(0)
         self._lut.use(1)
         self._ranges.use(2)
+        self._transfer.use(4)
         # The box's back faces: a ray for every pixel the box covers, the eye inside the box too.
         ctx.enable(ctx.CULL_FACE)
         ctx.cull_face = "front"   # outward faces are front faces, mirrored views too (front_face follows)
@@ -193,10 +207,33 @@ class VolumeRaycaster:
         self._programs.clear()
         self._cube.release()
         self._lut.release()
+        self._transfer.release()
         if self._texture is not None:
             self._texture.release()
             self._ranges.release()
             self._texture = self._ranges = self._texture_of = None
+
+
+def opacity_table(points, value_range) -> np.ndarray:
+    """TRANSFER_SIZE float32 opacities over `value_range`, linear between the points (0 below the first,
+    the last one's above the last)."""
+    low, high = value_range
+    values = np.linspace(low, high, TRANSFER_SIZE)
+    xs, ys = (np.array(column, np.float64) for column in zip(*points))
+    return np.interp(values, xs, ys, left=0.0, right=ys[-1]).astype(np.float32)
+
+
+def transparent_below(points, value_range) -> float:
+    """The value at or below which the transfer function is 0 (bricks all below it are skipped); below the
+    range where it is not 0 at its start."""
+    if points is None:
+        return float(value_range[0]) - 1.0
+    floor = float(value_range[0]) - 1.0
+    for value, opacity in points:
+        if opacity > 0.0:
+            break
+        floor = float(value)
+    return floor
 
 
 def brick_ranges(data: np.ndarray, brick: int) -> np.ndarray:
@@ -228,4 +265,5 @@ def raycast_request(state) -> RaycastRequest | None:
     clip = settings.clip.plane(state.volume.spacing) if settings.clip is not None else (0.0, 0.0, 0.0, 1.0)
     return RaycastRequest(state.volume.data, tuple(state.volume.spacing), state.raycast, float(state.iso),
                           (settings.centre - half, settings.centre + half), settings.colormap,
-                          state.gradient_direction == "descent", tuple(color), tuple(clip))
+                          state.gradient_direction == "descent", tuple(color), tuple(clip), state.transfer,
+                          tuple(float(v) for v in state.value_range))

@@ -17,3 +17,57 @@ def check_raycast(mode) -> str | None:
     if mode not in RAYCAST_MODES:
         raise ViewerError(f"volume rendering {mode!r} is not one of {', '.join(RAYCAST_MODES)} (or off)")
     return mode
+
+
+# A transfer function: DVR's opacity (0..1, per unit of extinction) at each value, piecewise linear between
+# points of strictly increasing value (0 below the first, the last one's above the last).
+# Presets: a CT's bone and soft tissue in Hounsfield units, and an MRI's by fractions of its value range.
+PRESETS = {
+    "ct-bone": (False, ((150.0, 0.0), (300.0, 0.35), (700.0, 0.8), (1500.0, 1.0))),
+    "ct-soft": (False, ((-400.0, 0.0), (-100.0, 0.08), (40.0, 0.3), (150.0, 0.45), (400.0, 0.0))),
+    "mri": (True, ((0.12, 0.0), (0.3, 0.15), (0.6, 0.5), (1.0, 0.9))),
+}
+MAX_TRANSFER_POINTS = 64
+
+
+def check_transfer(spec, value_range) -> tuple[tuple[float, float], ...] | None:
+    """A transfer function from `spec`: None / "off" (the window's linear ramp), a preset's name (PRESETS:
+    its points clamped into the volume's range), "V:A,V:A,..." or pairs (value, opacity); the points of a
+    given one must lie in the value range, in increasing order of value, opacities 0..1.  ViewerError in
+    one line otherwise."""
+    if spec is None or spec == "off":
+        return None
+    low, high = (float(v) for v in value_range)
+    if isinstance(spec, str) and spec in PRESETS:
+        relative, points = PRESETS[spec]
+        points = [(low + v * (high - low), a) if relative else (min(max(v, low), high), a) for v, a in points]
+        kept = [points[0]] + [p for before, p in zip(points, points[1:]) if p[0] > before[0]]
+        return tuple(kept) if len(kept) >= 2 else ((low, 0.0), (high, max(a for _, a in points)))
+    points = _parsed_points(spec)
+    for value, opacity in points:
+        if not low <= value <= high:
+            raise ViewerError(f"transfer point {value:g} lies outside the volume's values {low:g} .. {high:g}; "
+                              "give values inside it")
+        if not 0.0 <= opacity <= 1.0:
+            raise ViewerError(f"transfer opacity {opacity:g} at {value:g} is not 0..1")
+    if any(b[0] <= a[0] for a, b in zip(points, points[1:])):
+        raise ViewerError(f"transfer points must go up in value ({', '.join(f'{v:g}' for v, _ in points)} do "
+                          "not); order them")
+    return tuple(points)
+
+
+def _parsed_points(spec) -> list[tuple[float, float]]:
+    import math
+    try:
+        if isinstance(spec, str):
+            pairs = [part.split(":") for part in spec.replace(" ", "").split(",") if part]
+            points = [(float(v), float(a)) for v, a in pairs]
+        else:
+            points = [(float(v), float(a)) for v, a in spec]
+    except (TypeError, ValueError):
+        raise ViewerError(f"transfer {str(spec)[:60]!r} is not VALUE:OPACITY,... (e.g. 200:0,500:0.5,1200:1) "
+                          f"nor one of {', '.join(PRESETS)}") from None
+    if not 2 <= len(points) <= MAX_TRANSFER_POINTS or not all(math.isfinite(v) and math.isfinite(a)
+                                                              for v, a in points):
+        raise ViewerError(f"a transfer function is 2 to {MAX_TRANSFER_POINTS} finite VALUE:OPACITY points")
+    return points

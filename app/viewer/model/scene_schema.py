@@ -27,7 +27,7 @@ from ...errors import InputError
 from ...options import CELLS
 from .errors import ViewerError
 from .levels import MAX_LEVELS
-from .raycast import RAYCAST_MODES
+from .raycast import MAX_TRANSFER_POINTS, RAYCAST_MODES
 from .style import SurfaceStyle
 
 MAX_TEXT = 4096            # a path, a colour map's name: longer is not one
@@ -229,6 +229,7 @@ SCENE = Obj({
     "style": Obj({item.name: COLOR if isinstance(item.default, tuple) else Flag()   # SurfaceStyle's own fields
                   for item in fields(SurfaceStyle)}),
     "raycast": Maybe(Text(RAYCAST_MODES)),
+    "transfer": Maybe(Seq(Seq(Real(), 2, 2), 2, MAX_TRANSFER_POINTS)),
 }, required=("format", "version", "volume", "levels", "camera"))
 
 

@@ -35,7 +35,7 @@ from .histogram import value_histogram
 from .jobs import Jobs, Response
 from .labels import LabelMap
 from .levels import Levels
-from .raycast import check_raycast
+from .raycast import check_raycast, check_transfer
 from .recent import RecentFiles
 from .scene_file import is_scene_file, read_scene, volume_spec
 from .series import TimeAxis
@@ -93,6 +93,7 @@ class ViewerState:
         self.gl_renderer = "unknown"          # the GPU side says which
         self._opener = opener if opener is not None else open_volume
         self.raycast: str | None = None       # a ray-casting mode drawn in the meshes' place (model/raycast.py)
+        self.transfer = None                  # DVR's opacity points (value, opacity); None: the window's ramp
         self._pending_scene = None            # (request, scene, its path) while a scene's volume is read
         self.scene_to_apply: dict | None = None   # a scene whose volume is on show: the view side applies it
 
@@ -153,6 +154,7 @@ class ViewerState:
         self.levels.reset(volume.value_range, level if level is not None else volume.default_level)
         self.labels.hide()
         self.color_by = None
+        self.transfer = None   # a transfer function is in the values of the volume it was given for
         self.series.attach(full_volume if full_volume is not None else volume, step)
         self.volume_serial += 1
         self.error = None
@@ -193,6 +195,13 @@ class ViewerState:
         """Draw the volume itself by ray casting in `mode` (model/raycast.py: mip, minip, mean, iso, dvr)
         in place of the meshes; None or "off": the meshes.  An unknown mode is one line; nothing changes."""
         self.raycast = check_raycast(mode)
+
+    def set_transfer(self, spec) -> None:
+        """DVR's opacity over the values (model/raycast.py: a preset such as "ct-bone", "V:A,..." or pairs);
+        None or "off": the window's linear ramp.  A bad one is one line; nothing changes."""
+        if self.volume is None and spec not in (None, "off"):
+            raise ViewerError("open a volume before giving a transfer function")
+        self.transfer = check_transfer(spec, self.value_range if self.volume is not None else (0.0, 1.0))
 
     # --- mesh options: one MeshOptions, replaced whole --------------------------
     @property

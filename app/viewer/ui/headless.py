@@ -193,10 +193,10 @@ class HeadlessViewer:
 def prepared_viewer(volume: Volume, iso=None, size=(800, 600), azimuth=None, elevation=None,
                     transparent: bool = False, opacities=(), color_by=None, colormap=None, prepare=None,
                     tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False,
-                    raycast: str | None = None) -> HeadlessViewer:
+                    raycast: str | None = None, transfer=None) -> HeadlessViewer:
     """A HeadlessViewer showing `volume` as render_png draws it (its arguments; `raycast`: a ray-casting
-    mode, model/raycast.py), ready to render (again, after moving its camera or level: `isoscope movie`);
-    its caller releases it.  What fails is raised."""
+    mode, `transfer` its opacity over the values, model/raycast.py), ready to render (again, after moving
+    its camera or level: `isoscope movie`); its caller releases it.  What fails is raised."""
     viewer = HeadlessViewer(size)
     try:
         viewer.state.set_raycast(raycast)
@@ -207,6 +207,7 @@ def prepared_viewer(volume: Volume, iso=None, size=(800, 600), azimuth=None, ele
         viewer.state.style.wireframe = wireframe
         isos = list(iso) if isinstance(iso, (list, tuple)) else [iso]
         viewer.show_levels(volume, isos, opacities, color_by, colormap, azimuth, elevation)
+        viewer.state.set_transfer(transfer)
         if prepare is not None:
             prepare(viewer.state)
     except BaseException:
