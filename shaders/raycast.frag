@@ -30,6 +30,10 @@ uniform float u_level;
 uniform float u_inside;        // +1: the object is where values are above the level, -1: below
 uniform float u_density;       // DVR: extinction per model unit at the top of the ramp
 uniform vec3 u_front_color;
+uniform sampler2D u_transfer;  // DVR: opacity over [u_transfer_range] (TRANSFER_SIZE x 1), where u_transfer_on
+uniform float u_transfer_on;
+uniform vec2 u_transfer_range;
+uniform float u_transfer_floor; // values at or below it are transparent under the transfer function
 uniform vec4 u_clip_plane;     // kept where dot(plane, (p, 1)) >= 0 (slices.py); (0, 0, 0, 1): no clip
 uniform mat4 u_view;
 uniform mat4 u_projection;
@@ -45,6 +49,15 @@ float value_at(vec3 p) {
 
 float mapped(float v) {
     return clamp((v - u_window.x) / max(u_window.y - u_window.x, 1e-30), 0.0, 1.0);
+}
+
+float opacity_of(float v) {   // DVR: the transfer function, else the window's linear ramp
+    if (u_transfer_on > 0.5) {
+        float x = clamp((v - u_transfer_range.x) / max(u_transfer_range.y - u_transfer_range.x, 1e-30), 0.0, 1.0);
+        int size = textureSize(u_transfer, 0).x;
+        return texture(u_transfer, vec2((x * float(size - 1) + 0.5) / float(size), 0.5)).r;
+    }
+    return mapped(v);
 }
 
 vec4 colour_of(float v) {
@@ -95,7 +108,8 @@ bool skipped(vec2 range, float gathered) {
 #elif defined(MODE_ISO)
     return u_inside > 0.0 ? range.y < u_level : range.x > u_level;
 #elif defined(MODE_DVR)
-    return range.y <= u_window.x;   // the ramp is 0 there: nothing absorbed, nothing emitted
+    // transparent there: nothing absorbed, nothing emitted
+    return range.y <= (u_transfer_on > 0.5 ? u_transfer_floor : u_window.x);
 #else
     return false;
 #endif
@@ -192,7 +206,7 @@ void main() {
         t_before = t;
 #elif defined(MODE_DVR)
         float length_step = min(u_step, span.y - t + 1e-6);
-        float alpha = 1.0 - exp(-u_density * mapped(v) * length_step);
+        float alpha = 1.0 - exp(-u_density * opacity_of(v) * length_step);
         colour += transmitted * alpha * colour_of(v).rgb;
         transmitted *= 1.0 - alpha;
         if (transmitted < 0.004) break;
