@@ -45,10 +45,10 @@ def kind_of(mode: int) -> str:
     return "a device"
 
 
-def regular_file(path, what: str = "the file", max_bytes: int | None = None) -> Path:
-    """`path` (~ expanded) if it names a regular file (a link to one counts) of at most `max_bytes`; else
-    UnreadablePath in one line naming `what` and the path.  Nothing is opened: a FIFO is refused without
-    blocking, a device without a read."""
+def regular_file(path, what: str = "the file", max_bytes: int | None = None, empty_ok: bool = True) -> Path:
+    """`path` (~ expanded) if it names a regular file (a link to one counts) of at most `max_bytes` (and, unless
+    `empty_ok`, not empty); else UnreadablePath in one line naming `what` and the path.  Nothing is opened: a
+    FIFO is refused without blocking, a device without a read."""
     path = Path(os.path.expanduser(str(path)))
     try:
         st = path.stat()
@@ -58,6 +58,9 @@ def regular_file(path, what: str = "the file", max_bytes: int | None = None) -> 
     if not stat.S_ISREG(st.st_mode):
         raise UnreadablePath(f"{what} {shown(path)} is {kind_of(st.st_mode)}, not a regular file; "
                              "save the data to a file and name that")
+    if not empty_ok and st.st_size == 0:
+        raise UnreadablePath(f"{what} {shown(path)} is empty (0 bytes): cut off while copying or saving? Copy or "
+                             "export it again")
     if max_bytes is not None and st.st_size > max_bytes:
         raise UnreadablePath(f"{what} {shown(path)} is {st.st_size:,} bytes, more than one can be "
                              f"({max_bytes:,}); is it the right file?")

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.opener import UnreadablePath, regular_file, shown
+from ..core.opener import UnreadablePath, regular_file
 from .errors import VolumeError
 from .volume import Progress, report
 
@@ -80,14 +80,9 @@ def refuse_unless_regular(path: Path, what: str | None = None) -> None:
     """Through the one opener (core/opener.py): a pipe, socket or device would block a read or never end, so
     only regular files are read; an empty one holds no volume, whatever its name says."""
     try:
-        path = regular_file(path, what or "the volume")
-        empty = path.stat().st_size == 0
-    except (UnreadablePath, OSError) as exc:
-        raise VolumeError(str(exc) if isinstance(exc, UnreadablePath) else
-                          f"{what or shown(path.name)} cannot be read ({exc.strerror}); check the path") from None
-    if empty:
-        raise VolumeError(f"{what or 'the volume'} {shown(path)} is empty (0 bytes): cut off while copying or "
-                          "saving? Copy or export it again")
+        regular_file(path, what or "the volume", empty_ok=False)
+    except UnreadablePath as exc:
+        raise VolumeError(str(exc)) from None
 
 
 GZIP_CHUNK = 1 << 20

@@ -14,7 +14,6 @@ import numpy as np
 
 from ...resources import shader_source
 from ..model.colormaps import LUT_SIZE
-from ..model.raycast import RAYCAST_MODES
 from .slices import colormap_rgba8
 
 TRANSFER_SIZE = 1024    # entries of the transfer function's opacity table over the value range
@@ -108,9 +107,8 @@ class VolumeRaycaster:
         self._texture_of, self._value_map = data, ((unit, 0.0) if unit is not None else (1.0, 0.0))
 
     def draw(self, request, view: bytes, projection: bytes, eye) -> None:
-        """Draw `request` (a RaycastRequest) into the bound framebuffer under the camera's matrices."""
-        if request.mode not in RAYCAST_MODES:
-            raise ValueError(f"unknown mode {request.mode!r}")
+        """Draw `request` (a RaycastRequest; its mode checked by the state, model/raycast.py) into the bound
+        framebuffer under the camera's matrices."""
         ctx = self.ctx
         self._upload(request.data)
         if request.colormap != self._lut_name:

@@ -46,7 +46,7 @@ def downsampled(volume: Volume, budget: MemoryBudget) -> tuple[Volume, int]:
                                              f"of {budget.text}; {fix}")
     if volume.pyramid:   # not even the coarsest level fits: every step-th sample of it
         coarsest = from_level(volume, volume.pyramid[-1])[0]
-        level_step = budget_step(coarsest.data.shape, itemsize, budget, volume.name)
+        level_step = budget_step(coarsest.data.shape, coarsest.data.dtype.itemsize, budget, volume.name)
         shown = every_step(coarsest, level_step, f"a big volume ({whole}): shown from its coarsest level "
                                                  f"{volume.pyramid[-1].name!r} at one sample in {level_step} to "
                                                  f"fit the memory budget of {budget.text}; {fix}")

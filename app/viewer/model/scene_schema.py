@@ -122,12 +122,11 @@ class Either(Field):
         self.choices = choices
 
     def check(self, value, where):
-        problems = []
         for choice in self.choices:
             try:
                 return choice.check(value, where)
-            except _Bad as exc:
-                problems.append(str(exc))
+            except _Bad:
+                continue
         raise _Bad(f"{where} {_brief(value)} must be " + " or ".join(c.words() for c in self.choices))
 
     def words(self):
