@@ -35,13 +35,15 @@ class Number:
         return int(number) if self.whole else float(number)
 
     def parse(self, text: str, said: str | None = None):
-        """The number written in `text` (a command-line word; "5.0" and "1e3" iterations are whole), checked
-        as `check` does."""
+        """The number written in `text` (a command-line word), checked as `check` does."""
         try:
-            value = float(text)
+            value = int(text) if self.whole else float(text)
         except (TypeError, ValueError):
-            raise InputError(f"{said or self.flag} {text!r} is not a number; it must be "
-                             f"{self.range_words()} (e.g. {self.example})") from None
+            try:   # "5.0" iterations is 5; "1e3" too
+                value = float(text)
+            except (TypeError, ValueError):
+                raise InputError(f"{said or self.flag} {text!r} is not a number; it must be "
+                                 f"{self.range_words()} (e.g. {self.example})") from None
         return self.check(value, said)
 
     def argument(self, flag: str | None = None):
