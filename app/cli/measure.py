@@ -68,9 +68,12 @@ def run_measure(args) -> int:
         # of 1700.8 mL read wrong until the cavities were named.
         cavities = (f"; {record['cavities']:,} of them {'cavities' if record['cavities'] != 1 else 'a cavity'} taking "
                     f"{record['cavities_ml']:.6g} mL away" if record["cavities"] else "")
+        # Topology: the Euler characteristic, and for a closed surface its handles (genus, summed over pieces).
+        shape = (f", Euler characteristic {record['euler']}" +
+                 (f", genus {record['genus']}" if record["genus"] is not None else ""))
         print(f"{what}: area {record['area_mm2']:.6g} mm^2, volume {record['volume_ml']:.6g} mL, "
               f"{record['components']:,} piece{'s' * (record['components'] != 1)} (largest "
-              f"{record['largest_component_ml']:.6g} mL{cavities}), box {size} mm{note}")
+              f"{record['largest_component_ml']:.6g} mL{cavities}){shape}, box {size} mm{note}")
     return 0
 
 
@@ -105,7 +108,8 @@ def _records(volume, args) -> list[dict]:
     return [dict(key, area_mm2=m.area, volume_ml=m.volume * ML_PER_MM3, components=m.components,
                  largest_component_ml=m.largest_component_volume * ML_PER_MM3,
                  bbox_min=_finite_or_none(m.bbox_min), bbox_max=_finite_or_none(m.bbox_max),
-                 open_edges=m.open_edges, cavities=m.cavities, cavities_ml=-m.cavity_volume * ML_PER_MM3)
+                 open_edges=m.open_edges, cavities=m.cavities, cavities_ml=-m.cavity_volume * ML_PER_MM3,
+                 euler=m.euler, genus=m.genus)
             for key, m in rows]
 
 

@@ -32,6 +32,17 @@ class SurfaceMeasure:
     cavity_volume: float = 0.0
     solids: int = 0
     solid_volume: float = 0.0
+    # Topology: V - E + F over the vertices the triangles use; for a closed surface of `components` pieces,
+    # 2 * components - euler = 2 * genus (the handles, tunnels through the object, of all its pieces summed).
+    euler: int = 0
+
+    @property
+    def genus(self) -> int | None:
+        """The handles of a closed surface (a ball 0, a torus 1, a pretzel 2; summed over its pieces), None
+        where it is open (it leaves the volume: no genus without `export --closed`'s caps)."""
+        if self.open_edges or not self.components:
+            return None
+        return (2 * self.components - self.euler) // 2
 
     @property
     def inside_out(self) -> bool:
@@ -69,10 +80,22 @@ def components(n_vertices: int, faces: np.ndarray) -> np.ndarray:
             return labels
 
 
-def open_edge_count(faces: np.ndarray) -> int:
+def _edge_counts(faces: np.ndarray) -> np.ndarray:
+    """How many triangles use each distinct (undirected) edge."""
     edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
-    _, counts = np.unique(edges, axis=0, return_counts=True)
-    return int((counts == 1).sum())
+    return np.unique(edges, axis=0, return_counts=True)[1]
+
+
+def open_edge_count(faces: np.ndarray) -> int:
+    return int((_edge_counts(faces) == 1).sum())
+
+
+def euler_characteristic(faces: np.ndarray) -> int:
+    """V - E + F of a mesh whose pieces share vertices by index (vertices no triangle uses left out)."""
+    faces = np.asarray(faces, np.int64).reshape(-1, 3)
+    if not len(faces):
+        return 0
+    return int(len(np.unique(faces)) - len(_edge_counts(faces)) + len(faces))
 
 
 def measure_surface(verts: np.ndarray, faces: np.ndarray) -> SurfaceMeasure:
@@ -96,11 +119,13 @@ def _measured(verts: np.ndarray, faces: np.ndarray) -> SurfaceMeasure:
     piece = np.unique(labels[faces[:, 0]], return_inverse=True)[1].reshape(-1)
     volumes = np.bincount(piece, weights=signed)
     used = np.unique(faces)
+    edge_counts = _edge_counts(faces)
     return SurfaceMeasure(area=float(area.sum()), volume=float(volumes.sum()), components=len(volumes),
                           largest_component_volume=float(volumes.max()),
                           smallest_component_volume=float(volumes.min()),
                           bbox_min=tuple(float(v) for v in verts[used].min(axis=0)),
                           bbox_max=tuple(float(v) for v in verts[used].max(axis=0)),
-                          open_edges=open_edge_count(faces),
+                          open_edges=int((edge_counts == 1).sum()),
+                          euler=int(len(used) - len(edge_counts) + len(faces)),
                           cavities=int((volumes < 0).sum()), cavity_volume=float(volumes[volumes < 0].sum()),
                           solids=int((volumes > 0).sum()), solid_volume=float(volumes[volumes > 0].sum()))

@@ -161,3 +161,42 @@ def test_measure_names_the_cavities_among_the_pieces(tmp_path):
     # the hollow ball's volume is the outer piece less the cavity, each a ball of its radius (in voxels)
     assert row["volume_ml"] == pytest.approx(row["largest_component_ml"] - row["cavities_ml"], rel=1e-9)
     assert row["cavities_ml"] * 1000 == pytest.approx(4 / 3 * np.pi * (0.5 * 19.5) ** 3, rel=0.03)
+
+
+def torus_field(n=48, major=0.55, minor=0.22, holes=1):
+    """Positive inside a solid torus (holes=1) or two fused tori side by side (holes=2: a genus-2 pretzel)."""
+    x, y, z = np.mgrid[-1:1:n * 1j, -1:1:n * 1j, -1:1:n * 1j]
+    if holes == 2:   # two rings fused where they meet: x from -0.8 to 0.8
+        major, minor = 0.3, 0.12
+    parts = []
+    for centre in ((0.0,) if holes == 1 else (-0.38, 0.38)):
+        ring = np.sqrt((x - centre) ** 2 + y ** 2) - major
+        parts.append(minor - np.sqrt(ring ** 2 + z ** 2))
+    return np.max(parts, axis=0).astype(np.float32)
+
+
+@pytest.mark.parametrize("holes", [1, 2])
+def test_measure_counts_the_handles_of_a_closed_surface(tmp_path, holes):
+    np.save(tmp_path / "torus.npy", torus_field(holes=holes))
+    (row,) = measured(tmp_path / "torus.npy", "--iso", "0")
+    assert row["components"] == 1 and row["open_edges"] == 0
+    assert row["euler"] == 2 - 2 * holes and row["genus"] == holes
+    text = isoscope_here("measure", tmp_path / "torus.npy", "--iso", "0").stdout
+    assert f"Euler characteristic {2 - 2 * holes}, genus {holes}" in text
+
+
+def test_topology_of_balls_a_shell_and_an_open_surface(tmp_path):
+    two = measure_surface(*_mesh(ball_field(centres=((-0.5, 0, 0), (0.5, 0, 0)), radius=0.3)))
+    assert (two.components, two.euler, two.genus) == (2, 4, 0)
+    x, y, z = np.mgrid[-1:1:40j, -1:1:40j, -1:1:40j]
+    r = np.sqrt(x * x + y * y + z * z)
+    shell = measure_surface(*_mesh(((r < 0.8) & (r > 0.5)).astype(np.float32), 0.5))
+    assert (shell.components, shell.cavities, shell.euler, shell.genus) == (2, 1, 4, 0)
+    cut = measure_surface(*_mesh(ball_field(radius=1.3)))   # leaves the volume: a sphere with six holes
+    assert cut.open_edges and cut.genus is None and cut.euler == 2 - 6
+
+
+def _mesh(field, level=0.0):
+    from isoscope.cpu.cubes import marching_cubes_reference
+    verts, faces, _, _ = marching_cubes_reference(field, level)
+    return verts, faces

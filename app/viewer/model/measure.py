@@ -35,6 +35,8 @@ class SurfaceRecord:
     bbox_min: tuple[float, float, float] | None
     bbox_max: tuple[float, float, float] | None
     open_edges: int
+    euler: int = 0
+    genus: int | None = None          # the handles of a closed surface; None where it is open
 
     @property
     def size(self) -> tuple[float, float, float] | None:
@@ -60,7 +62,8 @@ def record_of(name: str, verts, faces) -> SurfaceRecord:
     m = measure_surface(verts, faces)
     finite = all(math.isfinite(v) for v in m.bbox_min)
     return SurfaceRecord(name, m.area, m.volume * ML_PER_MM3, m.components, m.largest_component_volume * ML_PER_MM3,
-                         tuple(m.bbox_min) if finite else None, tuple(m.bbox_max) if finite else None, m.open_edges)
+                         tuple(m.bbox_min) if finite else None, tuple(m.bbox_max) if finite else None, m.open_edges,
+                         m.euler, m.genus)
 
 
 def level_mesh(volume, level: float, cells: str = "cubes", smooth: int = 0, closed: bool = False):

@@ -79,6 +79,10 @@ class MeasureSection:
         imgui.text(f"  area {record.area_mm2:.6g} mm^2, volume {record.volume_ml:.5g} mL")
         imgui.text(f"  {record.components:,} piece{'s' * (record.components != 1)}, largest "
                    f"{record.largest_component_ml:.5g} mL")
+        imgui.text(f"  Euler characteristic {record.euler}" +
+                   (f", genus {record.genus}" if record.genus is not None else ""))
+        tooltip("V - E + F of the mesh; genus: the handles (tunnels through the object) of a closed surface, "
+                "summed over its pieces")
         imgui.text("  box " + " x ".join(f"{v:.4g}" for v in record.size) + " mm")
         if record.open_edges:
             imgui.text_colored(ERROR_COLOR, f"  open at {record.open_edges:,} edges: tick closed at the border")
