@@ -106,8 +106,10 @@ EDGE_MIDPOINT = (EDGE_ORIGIN + np.eye(3, dtype=np.int64)[EDGE_AXIS] * 0.5).astyp
 EDGE_FACES = [frozenset(f for f in range(6) if set(EDGE_CORNERS[e]) <= set(FACE_CORNERS[f])) for e in range(12)]
 
 
-def _face_segments(case: int, face: int) -> list[tuple[int, int, int]]:
-    """Segments (edge_a, edge_b, reference_corner) on one face, unoriented."""
+def _face_segments(case: int, face: int, joins_inside: bool = False) -> list[tuple[int, int, int]]:
+    """Segments (edge_a, edge_b, reference_corner) on one face, unoriented.  An ambiguous face cuts off each
+    corner of the side it does not join: Montani's rule joins the outside (`joins_inside` False); the
+    trilinear topology's asymptotic decider says per face (`isoscope.core.trilinear_table`)."""
     cycle = FACE_CORNERS[face]
     inside = [bool(case >> c & 1) for c in cycle]
     crossing = [m for m in range(4) if inside[m] != inside[(m + 1) % 4]]  # edge m joins cycle[m], cycle[m+1]
@@ -120,8 +122,8 @@ def _face_segments(case: int, face: int) -> list[tuple[int, int, int]]:
             shared = cycle[m1] if (m1 - m0) % 4 == 1 else cycle[m0]
             return [(edge(m0), edge(m1), shared)]
         return [(edge(m0), edge(m1), cycle[0])]  # opposite edges: any corner tells the side
-    # Ambiguous face (Montani 1994): cut off each inside corner on its own.
-    return [(edge((m - 1) % 4), edge(m), cycle[m]) for m in range(4) if inside[m]]
+    # Ambiguous face: cut off each corner of the side not joined (Montani 1994: the inside corners).
+    return [(edge((m - 1) % 4), edge(m), cycle[m]) for m in range(4) if inside[m] != joins_inside]
 
 
 def _oriented(case: int, face: int, a: int, b: int, corner: int) -> tuple[int, int]:
@@ -138,14 +140,15 @@ def _left_of(face: int, a: int, b: int, corner: int) -> bool:
 
 
 @cache
-def _loops(case: int) -> tuple[tuple[int, ...], ...]:
-    """The case's closed loops of edges (both tables fold the same loops: made once per case)."""
+def _loops(case: int, face_key: int = 0) -> tuple[tuple[int, ...], ...]:
+    """The case's closed loops of edges (both tables fold the same loops: made once per case); bit f of
+    `face_key` set joins ambiguous face f's inside corners (the trilinear topology's decision)."""
     successor: dict[int, int] = {}
     for face in range(6):
-        for a, b, corner in _face_segments(case, face):
+        for a, b, corner in _face_segments(case, face, bool(face_key >> face & 1)):
             a, b = _oriented(case, face, a, b, corner)
             if a in successor:
-                raise AssertionError(f"case {case}: edge {a} starts two segments")
+                raise AssertionError(f"case {case} faces {face_key}: edge {a} starts two segments")
             successor[a] = b
     loops = []
     while successor:
@@ -179,7 +182,11 @@ def _triangulations(n: int):
 def _triangle_min_angle(a: int, b: int, c: int) -> float:
     """Smallest angle of the triangle on edges (a, b, c) at their midpoints (computed once per triangle:
     a loop's triangulations share most of their triangles)."""
-    p = EDGE_MIDPOINT[[a, b, c]]
+    return smallest_angle(EDGE_MIDPOINT[[a, b, c]])
+
+
+def smallest_angle(p) -> float:
+    """The smallest angle (radians) of the triangle with corners p[0], p[1], p[2]."""
     worst = np.pi
     for k in range(3):
         u, v = p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]
