@@ -2,13 +2,14 @@
 ``topology="trilinear"`` (`isoscope.core.trilinear_table` derives its table and explains the keys).
 
 Per cell, three decisions, all in float64 from the signed field's float32 samples minus the float32
-level (exact: a float32 difference fits a float64; every decision below is a sign of products and sums
-taken in one fixed order, so the compiled and GPU extractors can repeat them bit for bit):
+level (exact while the two are within 2^29 of each other; rounded the same way everywhere beyond), each a
+sign of products and sums taken in one fixed order, so the compiled and GPU extractors can repeat them bit
+for bit:
 
 * **The case**: corners at or above the level are inside (ties inside), as in `cubes`.
 * **Each ambiguous face**: joins its inside corners when the product of their differences is at least the
-  product of the outside ones' (the bilinear saddle is at or above the level).  A float64 product of two
-  float32 numbers is exact, so the two cells that share the face agree.
+  product of the outside ones' (the bilinear saddle is at or above the level).  The two cells that share
+  the face multiply the same two numbers: they agree, so the mesh has no cracks.
 * **The tunnel**: along axis 2 each section of the cell is bilinear; the saddle value of the section through
   vertical edges 0..3 (corners i and i + 4) is g(t) = p0 p3 - p1 p2 = A t^2 + B t + C.  Where A != 0 and
   its extremum t* = -B / 2A lies inside the cell, the section there decides: with its corners' signs
