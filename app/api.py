@@ -14,7 +14,7 @@ __all__ = ["BACKENDS", "METHODS", "Extractor", "marching_cubes", "marching_tetra
 
 def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
                    step_size=1, allow_degenerate=True, method="lewiner", backend="auto", smooth=0,
-                   chunks=None, sharp_features=None, mask=None):
+                   chunks=None, sharp_features=None, mask=None, topology="montani"):
     """Extract the isosurface ``volume == level`` as an indexed, watertight triangle mesh.
 
     A drop-in for ``skimage.measure.marching_cubes``: the same call, and a mesh wound and valued as its
@@ -74,6 +74,17 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         As in scikit-image, only the cells whose far corner (i + 1, j + 1, k + 1)
         the mask holds true get triangles, so the surface is open where it leaves
         the mask (`isoscope.core.masking`).
+    topology : {"montani", "trilinear"}, default "montani"
+        How ambiguous cells are decided.  "montani" decides every ambiguous face
+        one way [2]_: watertight and fastest, but a thin neck or a tunnel between
+        samples may be cut or closed wrongly.  "trilinear" gives the mesh the
+        topology of the trilinear interpolant between the samples (MC33 [5]_):
+        faces by the bilinear saddle, cells by the interior extremum of the
+        sections' saddle value, tunnels as tubes (`isoscope.core.trilinear_table`),
+        so pieces, cavities and handles (`isoscope.measure`) are the field's.
+        The same vertices on the same edges, plus a vertex inside the few cells
+        whose tube needs one.  On the CPU backends ("auto" picks "cpu"); plain
+        cubes only (no sharp features, mask or chunks).
 
     Returns
     -------
@@ -120,6 +131,8 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     .. [4] T. Lewiner, H. Lopes, A. W. Vieira and G. Tavares, "Efficient
        implementation of Marching Cubes' cases with topological guarantees",
        Journal of Graphics Tools 8(2), 1-15, 2003.
+    .. [5] E. V. Chernyaev, "Marching cubes 33: construction of topologically
+       correct isosurfaces", CERN CN/95-17, 1995.
 
     Examples
     --------
@@ -162,10 +175,22 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     (0.5, 0.0)
     >>> bool(np.array_equal(sharp[:len(plain)], plain))  # the plain vertices come first
     True
+
+    Two bright corners of one cell, joined through its middle: the trilinear
+    interpolant has one piece there, a tube; Montani's rule cuts it in two.
+
+    >>> cell = np.full((2, 2, 2), -0.25, np.float32)
+    >>> cell[0, 0, 0] = cell[1, 1, 1] = 1.0
+    >>> for topology in ("montani", "trilinear"):
+    ...     _, faces, _, _ = isoscope.marching_cubes(cell, 0.0, backend="cpu", topology=topology)
+    ...     print(topology, len(faces), "triangles")
+    montani 2 triangles
+    trilinear 6 triangles
     """
     verts, faces, normals, values = one_shot.cubes(
         volume, level, spacing=spacing, gradient_direction=gradient_direction, step_size=step_size, method=method,
-        backend=backend, smooth=smooth, chunks=chunks, sharp_features=sharp_features, mask=mask, skimage=True)
+        backend=backend, smooth=smooth, chunks=chunks, sharp_features=sharp_features, mask=mask, skimage=True,
+        topology=topology)
     from .cpu.skimage_values import skimage_orientation  # the arrays are this call's own: turned in place
     return verts, *skimage_orientation(faces, normals, validation.as_gradient_direction(gradient_direction)), values
 
@@ -394,6 +419,8 @@ class Extractor(metaclass=_ExtractorKind):
     backend : {"auto", "gpu", "cpu", "numpy"}, default "auto"
         "gpu", "cpu" (compiled kernels), "numpy" (the numpy reference, for checking), or "auto": the
         GPU where an OpenGL 4.3 context can be had (or `ctx` is given), else the CPU.
+    topology : {"montani", "trilinear"}, default "montani"
+        As for `marching_cubes`; "trilinear" on the CPU backends ("auto" picks "cpu").
 
     Attributes
     ----------
@@ -436,15 +463,21 @@ class Extractor(metaclass=_ExtractorKind):
     """
 
     def __new__(cls, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent", ctx=None, table=None,
-                limits=None, *, backend="auto"):
-        if backend == "auto":   # resident: the GPU wherever a 4.3 context can be had, llvmpipe included
+                limits=None, *, backend="auto", topology="montani"):
+        from .options import MeshOptions
+        MeshOptions(topology=topology).check()
+        if backend == "auto" and topology == "trilinear":
+            backend = "cpu"
+        elif backend == "auto":   # resident: the GPU wherever a 4.3 context can be had, llvmpipe included
             from .gpu.context import gl_available
             backend = "gpu" if ctx is not None or gl_available() else "cpu"
         backend = one_shot.backend_of(backend)
+        if topology == "trilinear":
+            backend = one_shot.topology_backend(backend, backend)
         if backend == "gpu":
             from .gpu.cubes import Extractor as GpuExtractor
             return GpuExtractor(volume, spacing, gradient_direction, ctx=ctx, table=table, limits=limits)
         if ctx is not None or limits is not None:
             raise InputError(f"ctx and limits are the GPU extractor's; backend {backend!r} takes neither")
         from .cpu.extractor import CpuExtractor
-        return CpuExtractor(volume, spacing, gradient_direction, backend=backend, table=table)
+        return CpuExtractor(volume, spacing, gradient_direction, backend=backend, table=table, topology=topology)

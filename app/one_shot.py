@@ -25,15 +25,18 @@ METHODS = ("lewiner", "lorensen")
 
 
 def cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent", step_size=1,
-         method="lewiner", backend="auto", smooth=0, chunks=None, sharp_features=None, mask=None, skimage=False):
+         method="lewiner", backend="auto", smooth=0, chunks=None, sharp_features=None, mask=None, skimage=False,
+         topology="montani"):
     """`isoscope.marching_cubes`'s options, checked here: the outward mesh (`outward_marching_cubes`);
     `skimage`: with scikit-image's values (`isoscope.cpu.skimage_values`)."""
     iterations = check_iterations(smooth)
-    backend = backend_of(backend)
     if method not in METHODS:
         raise InputError(f"method {method!r} is not one of {METHODS}")
     angle = check_feature_angle(sharp_features)
-    MeshOptions(smooth=iterations, sharp=angle, masked=mask is not None, chunked=chunks is not None).check()
+    MeshOptions(smooth=iterations, sharp=angle, masked=mask is not None, chunked=chunks is not None,
+                topology=topology).check()
+    trilinear = topology == "trilinear"
+    backend = topology_backend(backend_of(backend), backend) if trilinear else backend_of(backend)
     if chunks is not None:
         return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks, skimage)
     # The plain GPU mesh of every sample leaves the value scan to the upload; the compiled CPU extractor
@@ -57,7 +60,7 @@ def cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="de
     plain_values = values_of if skimage and angle is None else None
     if on_cpu:
         mesh = _on_cpu(backend, False, checked, level, spacing, descent, iterations, plain_values,
-                       fused_values=plain_values is not None and mask is None)
+                       fused_values=plain_values is not None and mask is None and not trilinear, trilinear=trilinear)
     elif angle is not None:
         from .gpu.sharp_features import marching_cubes_sharp_gpu
         mesh = marching_cubes_sharp_gpu(checked, level, spacing, gradient_direction, angle)
@@ -102,22 +105,40 @@ def _checked(volume, backend: str, level, gpu_scans: bool) -> validation.Checked
     return validation.check_volume(volume, scan_values=False)
 
 
-def _on_cpu(backend, tetrahedra, checked, level, spacing, descent, iterations, values_of=None, fused_values=False):
+def topology_backend(chosen: str, asked: str) -> str:
+    """The backend of a trilinear-topology mesh: the CPU's ("auto" on graphics hardware too), which make the
+    same mesh; its GPU passes are not written yet, so "gpu" is refused in one line."""
+    if chosen != "gpu":
+        return chosen
+    if asked == "auto":
+        return "cpu"
+    raise InputError("topology='trilinear' runs on the CPU so far (backend 'cpu', compiled, or 'numpy'); "
+                     "use backend='cpu' or 'auto' for the same mesh")
+
+
+def _on_cpu(backend, tetrahedra, checked, level, spacing, descent, iterations, values_of=None, fused_values=False,
+            trilinear=False):
     """A CPU extractor's mesh (`backend` "cpu": compiled, reading the samples in place; "numpy": the
     reference; cubes or `tetrahedra`), smoothed `iterations` times; `values_of(verts, level)`: its values
     from the plain vertices, in place of the extractor's, or with `fused_values` (scikit-image's values,
     no mask) made by the compiled extractor as it writes the vertices.  A volume left unscanned
     (value_range None) has its range measured in the compiled extractor's first pass and `level` held to
-    it there."""
+    it there.  `trilinear`: cubes with the trilinear interpolant's topology (`isoscope.cpu.trilinear`)."""
     value_range = checked.value_range
     fused_values = fused_values and backend == "cpu"
     if backend == "numpy":
         field = checked.data.astype(np.float32, copy=False)
         extract = marching_tetrahedra_reference if tetrahedra else marching_cubes_reference
+        if trilinear:
+            from .cpu.trilinear import marching_cubes_trilinear as extract
         verts, faces, normals, values = extract(field, level, spacing, descent)
     else:
         from .cpu.compiled import CompiledCubes  # numba loads on first use
-        cubes = CompiledCubes(checked.samples, spacing, descent, tetrahedra=tetrahedra, value_range=value_range)
+        if trilinear:
+            from .cpu.compiled_trilinear import CompiledTrilinear
+            cubes = CompiledTrilinear(checked.samples, spacing, descent, value_range=value_range)
+        else:
+            cubes = CompiledCubes(checked.samples, spacing, descent, tetrahedra=tetrahedra, value_range=value_range)
         if value_range is None:
             level = validation.as_level(level, (-np.inf, np.inf))  # a finite number; the range comes next
         verts, faces, normals, values = cubes.extract(

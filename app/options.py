@@ -1,7 +1,8 @@
 """The mesh modes and which go together: one spec that the Python API, the command line and the viewer
 all check a combination with, in one wording per rule.
 
-Modes: the cells marched (cubes or tetrahedra), smoothing iterations, sharp features (Extended Marching
+Modes: the cells marched (cubes or tetrahedra), the topology of cubes (Montani's faces, or the trilinear
+interpolant's: `isoscope.core.trilinear_table`), smoothing iterations, sharp features (Extended Marching
 Cubes, a feature angle), a mask of cells, and chunks (extraction a box at a time, stitched).
 """
 from __future__ import annotations
@@ -11,6 +12,8 @@ from dataclasses import dataclass
 from .errors import IsoscopeError
 
 CELLS = ("cubes", "tetrahedra")
+TOPOLOGIES = ("montani", "trilinear")
+"""montani: every ambiguous face decided one way (fast, watertight); trilinear: the field's own topology."""
 
 
 class MeshOptionsError(IsoscopeError, ValueError):
@@ -24,11 +27,18 @@ class MeshOptions:
     sharp: float | None = None
     masked: bool = False
     chunked: bool = False
+    topology: str = "montani"
 
     def problem(self) -> str | None:
         """What is wrong with this combination, in the rule's one wording, or None."""
         if self.cells not in CELLS:
             return f"unknown cells {self.cells!r}; use one of {', '.join(CELLS)}"
+        if self.topology not in TOPOLOGIES:
+            return f"unknown topology {self.topology!r}; use one of {', '.join(TOPOLOGIES)}"
+        if self.topology == "trilinear" and (self.cells != "cubes" or self.sharp is not None or self.masked
+                                             or self.chunked):
+            return ("the trilinear topology decides the ambiguous cells of plain marching cubes: not with "
+                    "tetrahedra, sharp features, a mask or chunks")
         if self.sharp is not None and self.cells != "cubes":
             return "sharp features are Extended Marching Cubes, a method of cubes: not with tetrahedra"
         if self.sharp is not None and self.smooth:

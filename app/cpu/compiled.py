@@ -187,15 +187,22 @@ def _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts
         case = _case(bit, a, b, c, d, a1, b1, c1, d1)
         for slot in range(table_counts[case]):
             for corner in range(3):
-                code = corners[case, slot, corner]  # the edge's row << 1 | its step along axis 2
-                r = code >> 1
-                at = bit + (code & 1)
-                if at < WORD_BITS:
-                    faces[m, corner] = firsts[r] + _popcount(masks[r] & _low_bits(at))
-                else:  # the edge at the next word's bit 0
-                    faces[m, corner] = _vertex_index(edges, vertex_offsets, i + row_owner[r, 0],
-                                                     j + row_owner[r, 1], k0 + WORD_BITS, row_owner[r, 2])
+                faces[m, corner] = _edge_vertex(corners[case, slot, corner], bit, masks, firsts, edges,
+                                                vertex_offsets, row_owner, i, j, k0)
             m += 1
+
+
+@_cached_njit(inline="always", error_model="numpy")
+def _edge_vertex(code, bit, masks, firsts, edges, vertex_offsets, row_owner, i, j, k0):
+    """The vertex of a cell's edge: `code` is its row << 1 | its step along axis 2, the cell is at `bit` of
+    word (i, j, k0 // 32), whose rows' masks and first vertices are `masks` and `firsts`."""
+    r = code >> 1
+    at = bit + (code & 1)
+    if at < WORD_BITS:
+        return firsts[r] + _popcount(masks[r] & _low_bits(at))
+    # the edge at the next word's bit 0
+    return _vertex_index(edges, vertex_offsets, i + row_owner[r, 0], j + row_owner[r, 1], k0 + WORD_BITS,
+                         row_owner[r, 2])
 
 
 @_cached_njit(parallel=True, error_model="numpy")
@@ -317,13 +324,15 @@ def _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, ax
 
 @_cached_njit(parallel=True, error_model="numpy")
 def _write_cubes(flat, swap, layout, sign, level, spacing, signs, edges, vertex_offsets, triangle_offsets, table_counts,
-                 corners, row_owner, workers, starts, taken, verts, faces, normals, values, spreads, spread_level):
+                 corners, row_owner, workers, starts, taken, verts, faces, normals, values, spreads, spread_level,
+                 triangles=True):
     """Pass 4 for cubes: _write's mesh, each sample's gradient computed once (not once per edge that ends
     there) into a plane of gradients, two planes held at a time.  The planes go in runs (starts[r] to
     starts[r + 1]) to `workers` threads, each taking the next run not yet taken (taken[0], reset to 0 by the
     caller) when it is done with one: a thread the machine holds back leaves its runs to the other.  With
     `spreads`, the values are scikit-image's at `spread_level` (_edge_spread), from two planes of cell
-    spreads (_plane_spreads) made alongside the planes of gradients."""
+    spreads (_plane_spreads) made alongside the planes of gradients.  Without `triangles`, the vertices only
+    (the trilinear topology writes its triangles in a pass of its own, compiled_trilinear.py)."""
     n0, n1, nw = signs.shape
     n2 = layout[6]
     rows = row_owner.shape[0]
@@ -360,8 +369,9 @@ def _write_cubes(flat, swap, layout, sign, level, spacing, signs, edges, vertex_
                                            j + 1, verts, normals, values, spreads, spreads_before, spreads_here)
                         n = _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, 2, here, here,
                                            j, verts, normals, values, spreads, spreads_before, spreads_here)
-                        _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, corners,
-                                        row_owner, i, j, w, n2, masks, firsts, faces, True)
+                        if triangles:
+                            _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, corners,
+                                            row_owner, i, j, w, n2, masks, firsts, faces, True)
                 here, after = after, here
 
 
@@ -518,11 +528,20 @@ class CompiledCubes:
             self.value_range = (lo, hi) if finite else None
             if accept is not None:
                 accept(self.value_range)
-        n_vertices, n_triangles = _scan(self._vertex_offsets, self._triangle_offsets)
+        return self._write_mesh(level, user_level, workers, skimage_values)
+
+    @staticmethod
+    def _check_size(n_vertices: int, n_triangles: int, user_level: float) -> None:
         if max(n_vertices, n_triangles) > MAX_INDEX:
             raise InputError(f"the mesh at level {user_level:g} has {n_vertices:,} vertices and {n_triangles:,} "
                              f"triangles, more than int32 faces index ({MAX_INDEX:,}); extract it in pieces "
                              "(chunks=128) or at a coarser step_size")
+
+    def _write_mesh(self, level, user_level: float, workers: int, skimage_values: bool):
+        """Passes 3 and 4, after the words are packed and counted."""
+        flat, swap, grid = self.view.flat, self.view.swap, self.view.grid
+        n_vertices, n_triangles = _scan(self._vertex_offsets, self._triangle_offsets)
+        self._check_size(n_vertices, n_triangles, user_level)
         verts, faces, normals, values = self._output_arrays(n_vertices, n_triangles)
         if self._steps is CUBE_STEPS:
             _write_cubes(flat, swap, grid, self.sign, level, self.spacing, self._signs, self._edges,

@@ -14,6 +14,7 @@ import numpy as np
 from .. import validation
 from ..core.case_table import CaseTable, montani_table
 from ..errors import InputError, ReleasedError
+from ..options import MeshOptions
 from .cubes import marching_cubes_reference
 
 __all__ = ["CpuExtractor"]
@@ -36,6 +37,9 @@ class CpuExtractor:
         samples it cuts); "numpy": the reference extractor (`isoscope.cpu.cubes`).  The same mesh.
     table : CaseTable, optional
         The case table (default: the generated Montani table isoscope.marching_cubes uses).
+    topology : {"montani", "trilinear"}, default "montani"
+        As for `isoscope.marching_cubes` ("trilinear": the interpolant's topology, `isoscope.cpu.trilinear`;
+        not with `table`).
 
     Examples
     --------
@@ -50,9 +54,13 @@ class CpuExtractor:
     """
 
     def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent", backend: str = "cpu",
-                 table: CaseTable | None = None):
+                 table: CaseTable | None = None, topology: str = "montani"):
         if backend not in ("cpu", "numpy"):
             raise InputError(f"backend {backend!r} is not one of ('cpu', 'numpy')")
+        MeshOptions(topology=topology).check()
+        if topology == "trilinear" and table is not None:
+            raise InputError("topology='trilinear' has its own table: give no table with it")
+        self.topology = topology
         checked = validation.check_volume(volume)
         self.spacing = validation.as_spacing(spacing, checked.samples.shape)
         self.descent = validation.as_gradient_direction(gradient_direction)
@@ -63,7 +71,11 @@ class CpuExtractor:
         self.table = table or montani_table()
         self._checked = checked
         self._compiled = None
-        if backend == "cpu":
+        if backend == "cpu" and topology == "trilinear":
+            from .compiled_trilinear import CompiledTrilinear
+            self._compiled = CompiledTrilinear(checked.samples, self.spacing, self.descent, reuse_outputs=True,
+                                               value_range=self.value_range)
+        elif backend == "cpu":
             from .compiled import CompiledCubes  # numba loads on first use: `import isoscope` stays light
             # the samples read where they lie, in their own type and order: no float32 copy of the volume
             self._compiled = CompiledCubes(checked.samples, self.spacing, self.descent, self.table,
@@ -97,6 +109,9 @@ class CpuExtractor:
     def _extract(self, level: float):
         if self._compiled is not None:
             return self._compiled.extract(level)
+        if self.topology == "trilinear":
+            from .trilinear import marching_cubes_trilinear
+            return marching_cubes_trilinear(self.field, level, self.spacing, self.descent)
         return marching_cubes_reference(self.field, level, self.spacing, self.descent, self.table)
 
     @property

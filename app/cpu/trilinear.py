@@ -117,16 +117,17 @@ def marching_cubes_trilinear(volume: np.ndarray, level: float, spacing=(1.0, 1.0
         owner = cells[cell] + EDGE_ORIGIN[edges]
         wanted = np.ravel_multi_index(owner.T, field.shape) * 3 + EDGE_AXIS[edges]
         which = vertex_of_edges(edge_ids, wanted, "trilinear table")
-        total_p, total_n, total_v = np.zeros(3, np.float32), np.zeros(3, np.float32), np.float32(0)
+        # float32 sums in edge order, one number at a time (the compiled and GPU extractors' arithmetic)
+        p, n, value = [np.float32(0)] * 3, [np.float32(0)] * 3, np.float32(0)
         for v in which:
-            total_p = total_p + verts[v]
-            total_n = total_n + normals[v]
-            total_v = total_v + values[v]
+            p = [p[a] + verts[v, a] for a in range(3)]
+            n = [n[a] + normals[v, a] for a in range(3)]
+            value = value + values[v]
         count = np.float32(len(which))
-        extra_verts.append(total_p / count)
-        length = np.float32(np.sqrt(np.float32(np.dot(total_n, total_n))))
-        extra_normals.append(total_n / length if length > 0 else total_n)
-        extra_values.append(total_v / count)
+        length = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+        extra_verts.append([p[a] / count for a in range(3)])
+        extra_normals.append([n[a] / length for a in range(3)] if length > 0 else n)
+        extra_values.append(value / count)
 
     n_tri = table.counts[cell_keys].astype(np.int64)
     cell_of_tri = np.repeat(np.arange(len(cells)), n_tri)

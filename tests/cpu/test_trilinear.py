@@ -103,3 +103,59 @@ def test_vertices_on_todays_edges_and_todays_mesh_where_nothing_is_ambiguous():
     n = len(today[0])
     np.testing.assert_array_equal(ours[0][:n], today[0])   # every crossing edge's vertex, in today's order
     assert len(ours[0]) >= n and not np.array_equal(ours[1], today[1])
+
+
+def gyroid(n=40):
+    x, y, z = np.mgrid[0:2 * np.pi:n * 1j, 0:2 * np.pi:n * 1j, 0:2 * np.pi:n * 1j]
+    return (np.sin(2 * x) * np.cos(2 * y) + np.sin(2 * y) * np.cos(2 * z) + np.sin(2 * z) * np.cos(2 * x)
+            ).astype(np.float32)
+
+
+def compiled_cases():
+    rng = np.random.default_rng(11)
+    noise = rng.standard_normal((33, 20, 45)).astype(np.float32)
+    scan = np.asfortranarray((rng.standard_normal((30, 31, 40)) * 300).astype(np.int16))  # nibabel's layout
+    return [("noise", noise, 0.1, "descent"), ("noise ascent", noise, -0.2, "ascent"),
+            ("int16 Fortran", scan, 7.5, "descent"), ("gyroid", gyroid(), 0.3, "descent"),
+            ("closed", closed_noise(7, 20), 0.0, "descent")]
+
+
+@pytest.mark.parametrize("name, volume, level, direction", compiled_cases(), ids=lambda v: v if isinstance(v, str)
+                         else None)
+def test_the_compiled_extractor_gives_the_references_mesh_bit_for_bit(name, volume, level, direction):
+    import isoscope
+    spacing = (0.5, 1.0, 2.0)
+    ours = isoscope.api.outward_marching_cubes(volume, level, spacing=spacing, gradient_direction=direction,
+                                               backend="cpu", topology="trilinear")
+    reference = marching_cubes_trilinear(np.asarray(volume, np.float32), level, spacing,
+                                         descent=direction == "descent")
+    for a, b in zip(ours, reference):
+        np.testing.assert_array_equal(a, b)
+    assert len(ours[0]) > 100
+
+
+def test_every_door_takes_the_topology_and_refuses_what_it_cannot_do():
+    import isoscope
+    from isoscope.errors import IsoscopeError
+    cell = tunnel_cell(joined=True)
+    for backend in ("cpu", "numpy", "auto"):
+        _, faces, _, values = isoscope.marching_cubes(cell, 0.0, backend=backend, topology="trilinear")
+        assert len(faces) == 6 and np.isfinite(values).all()
+    field = closed_noise(3, 12)
+    one_shot = isoscope.api.outward_marching_cubes(field, 0.0, backend="cpu", topology="trilinear")
+    with isoscope.Extractor(field, topology="trilinear") as extractor:   # "auto": the CPU's
+        extractor.extract(0.5)
+        extractor.extract(0.0)
+        resident = extractor.read_mesh()
+    for a, b in zip(one_shot, resident):
+        np.testing.assert_array_equal(a, b)
+    mesh = isoscope.isosurface(field, 0.0, topology="trilinear")
+    assert len(mesh.faces) == len(one_shot[1])
+    refusals = [dict(backend="gpu", topology="trilinear"), dict(topology="mc33"),
+                dict(topology="trilinear", sharp_features=30), dict(topology="trilinear", chunks=8)]
+    for options in refusals:
+        with pytest.raises(IsoscopeError) as caught:
+            isoscope.marching_cubes(field, 0.0, **options)
+        assert "\n" not in str(caught.value)
+    with pytest.raises(IsoscopeError):
+        isoscope.Extractor(field, backend="gpu", topology="trilinear")
