@@ -1,4 +1,4 @@
-// The triangle passes' runs (mc_triangles.comp, mt_triangles.comp; isoscope.gpu.extraction): a mesh larger
+// The triangle pass's runs (cells_triangles.glsl; isoscope.gpu.extraction): a mesh larger
 // than one storage block is written a window of the index buffer at a time, one run per window,
 // and each word's invocation works only in the runs its triangles meet.  Each word writes its
 // vertices' jobs (vertex_jobs.glsl) in just one run, into the job window bound for it: the one

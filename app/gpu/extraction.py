@@ -17,7 +17,10 @@ the same orchestration, one compute shader a pass:
                         shaders/vertex_jobs.glsl)
 8. vertices             one invocation per vertex: position, value and outward normal
 
-Passes 1-2 are the same for every kind; the kind names the shaders of 3, 4 and 6-8.  Between passes
+Passes 1-2 are the same for every kind; the kind names the shaders of 3, 4 and 6-8: each a short
+``mc_*.comp`` or ``mt_*.comp`` that includes the kind's GLSL (its counts and jobs: ``mc_cells.glsl``,
+``mc_jobs.glsl`` or ``mt_cells.glsl``, ``mt_jobs.glsl``) and the pass's body that every kind shares
+(``cells_<pass>.glsl``), compiled with the kind's `CellKind.defines`.  Between passes
 1 and 2, ``mc_dispatch_args`` turns the active count into the indirect dispatch sizes of passes 2-4,
 6 and 7, so those touch only the bricks whose range contains the new level.  Read-backs per
 extraction: the two totals (8 bytes), which size the outputs, and the active-brick count (4 bytes).
@@ -57,6 +60,9 @@ from .scan import ExclusiveScan
 CASE_TABLE_SHIFT = 10
 """The case-table image is 2^10 texels wide (see mc_case_table.glsl)."""
 
+_UINT_IMAGE_FORMATS = {1: "r32ui", 2: "rg32ui", 4: "rgba32ui"}
+_UINT_TYPES = {1: "uint", 2: "uvec2", 3: "uvec3", 4: "uvec4"}
+
 SHARED_PASSES = {"bricks": "mc_bricks", "dispatch_args": "mc_dispatch_args", "signs": "mc_signs"}
 """The passes every kind of cell runs as they are (by role)."""
 
@@ -88,6 +94,13 @@ class CellKind:
     job_coordinates: bool = False
     """Whether its vertex jobs hold their sample's coordinates where the grid allows (JOB_COORDINATES)."""
 
+    @property
+    def defines(self) -> dict[str, str]:
+        """What its passes are compiled with, from the sizes above (the shared pass bodies, shaders/cells_*.glsl,
+        declare the counts image and the job buffer by these): the counts image's format and a job's type."""
+        return {"WORD_COUNTS_FORMAT": _UINT_IMAGE_FORMATS[self.count_components],
+                "VERTEX_JOB": _UINT_TYPES[self.job_components]}
+
     def passes(self) -> dict[str, str]:
         """Every pass's shader, by role."""
         return {**SHARED_PASSES, "classify": self.classify, "brick_sums": self.brick_sums,
@@ -109,8 +122,8 @@ class SurfaceExtractor:
         self.ctx = volume.ctx
         self.table = table or kind.table()
         defines = {"MAX_TRIANGLES_PER_CELL": f"{self.table.max_triangles}u", "CASE_TABLE_SHIFT": f"{CASE_TABLE_SHIFT}u",
-                   **volume.defines}
-        if kind.job_coordinates and volume.job_bits is not None:  # jobs hold their sample (mc_common.glsl)
+                   "TABLE_CODE_BITS": f"{self.table.code_bits}u", **volume.defines, **kind.defines}
+        if kind.job_coordinates and volume.job_bits is not None:  # jobs hold their sample (mc_jobs.glsl)
             defines["JOB_COORDINATES"] = 1
         self._passes = {role: compute_program(self.ctx, f"{shader}.comp", defines)
                         for role, shader in kind.passes().items()}
