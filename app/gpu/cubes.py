@@ -20,7 +20,7 @@ import moderngl
 from ..core.case_table import CaseTable, montani_table
 from ..core.layout import WORD_BITS
 from ..errors import InputError
-from .cells import CellKind
+from .cell_kind import CellKind
 from .extraction import SurfaceExtractor
 from .limits import GPULimitError, GpuLimits
 from .resident import ResidentVolume

@@ -17,7 +17,7 @@ the same orchestration, one compute shader a pass:
                         shaders/vertex_jobs.glsl)
 8. vertices             one invocation per vertex: position, value and outward normal
 
-Passes 1-2 are the same for every kind; the kind names the shaders of 3, 4 and 6-8 (cells.py).  Between
+Passes 1-2 are the same for every kind; the kind names the shaders of 3, 4 and 6-8 (cell_kind.py).  Between
 passes 1 and 2, ``mc_dispatch_args`` turns the active count into the indirect dispatch sizes of passes
 2-4, 6 and 7, so those touch only the bricks whose range contains the new level.  Read-backs per
 extraction: the two totals (8 bytes), which size the outputs, and the active-brick count (4 bytes).
@@ -42,7 +42,7 @@ import numpy as np
 from .. import validation
 from ..core.case_table import CaseTable
 from ..errors import ReleasedError
-from .cells import CellKind
+from .cell_kind import CellKind
 from .limits import GPULimitError
 from .mesh import GpuMesh
 from .outputs import MeshOutputs

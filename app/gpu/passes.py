@@ -12,7 +12,7 @@ import numpy as np
 
 from ..core.case_table import CaseTable
 from ..core.layout import GROUP_SIZE, INDEX_BYTES, STORAGE_OFFSET_ALIGNMENT, VERTEX_BYTES, StorageBlock
-from .cells import CASE_TABLE_SHIFT, CellKind
+from .cell_kind import CASE_TABLE_SHIFT, CellKind
 from .limits import ExtractorPlan, GPULimitError
 from .outputs import MeshOutputs
 from .programs import compute_program, dispatch_groups, set_uniforms

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..core.case_table import CaseTable
 from ..core.layout import ImageUnit, StorageBlock
-from .cells import CASE_TABLE_SHIFT
+from .cell_kind import CASE_TABLE_SHIFT
 from .limits import ExtractorPlan
 from .scan import ExclusiveScan
 

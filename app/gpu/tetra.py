@@ -23,7 +23,7 @@ two uints per vertex here (job_components; the encoding is in shaders/mt_jobs.gl
 from __future__ import annotations
 
 from ..core.tetra_table import tetra_table
-from .cells import CellKind
+from .cell_kind import CellKind
 from .extraction import SurfaceExtractor
 from .resident import resident_of
 
