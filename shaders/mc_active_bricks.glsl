@@ -2,7 +2,7 @@
 // listed by mc_bricks.comp (pass 1).
 // No pass here uses barrier(): on llvmpipe a work group with barriers runs its invocations as
 // coroutines and costs two to four times as much, so per-brick sums and offsets are serial loops
-// in one invocation per brick (mc_brick_sums.comp, mc_word_offsets.comp).
+// in one invocation per brick (cells_brick_sums.glsl, cells_word_offsets.glsl).
 layout(std430, binding = BLOCK_ACTIVE_BRICKS) readonly buffer ActiveBricks { uint active_count; uint active_bricks[]; };
 
 // The brick of this work group (one invocation per word), or false past the end of the list.
@@ -11,6 +11,15 @@ bool active_brick(out uint brick) {
     if (slot >= active_count) return false;
     brick = active_bricks[slot];
     return true;
+}
+
+// This work group's brick and this invocation's word (i, j, w) in it (one invocation per word), or
+// false past the end of the list or outside the grid.
+bool active_word(out uint brick, out ivec3 word) {
+    if (!active_brick(brick)) return false;
+    bool exists;
+    word = brick_word(brick, exists);
+    return exists;
 }
 
 // The brick of this invocation (one invocation per brick), or false past the end of the list.

@@ -70,34 +70,6 @@ ivec3 brick_origin(uint brick) {
                  int(brick - column * uint(u_words)));
 }
 
-// A vertex job, left by mc_triangles.comp for mc_vertices.comp (vertex_jobs.glsl): the edge's start
-// sample (i, j, k) and axis in one uint, ((i << bits of j | j) << bits of k | k) << 2 | axis, decoded
-// by shifts (app/gpu_layout.job_coordinate_bits: u_job_bits = the bits of j and of k).  A grid too
-// large for that (JOB_COORDINATES undefined) packs the owning word's id, the axis and the bit of the
-// start sample instead (word id << 7 | axis << 5 | bit: at most 2^25 words, gpu_layout.MAX_WORDS),
-// which costs two divisions to decode: a fifth of the vertex pass on the MNI T1.
-#ifdef JOB_COORDINATES
-uniform uvec2 u_job_bits;
-// The jobs of word (i, j, w) (grid id word_id) are job_base(...) | vertex_job_bits(axis, bit).
-uint job_base(ivec3 word, uint word_id) {
-    return ((((uint(word.x) << u_job_bits.x) | uint(word.y)) << u_job_bits.y) | uint(WORD_BITS * word.z)) << 2;
-}
-uint vertex_job_bits(uint axis, uint bit) { return (bit << 2) | axis; }
-ivec3 job_start(uint job) {
-    uint ij = job >> (2u + u_job_bits.y);
-    return ivec3(ij >> u_job_bits.x, ij & ((1u << u_job_bits.x) - 1u), (job >> 2) & ((1u << u_job_bits.y) - 1u));
-}
-int job_axis(uint job) { return int(job & 3u); }
-#else
-uint job_base(ivec3 word, uint word_id) { return word_id << 7; }
-uint vertex_job_bits(uint axis, uint bit) { return (axis << 5) | bit; }
-ivec3 job_start(uint job) {
-    ivec3 word = word_of_id(job >> 7);
-    return ivec3(word.xy, word.z * WORD_BITS + int(job & uint(WORD_BITS - 1)));
-}
-int job_axis(uint job) { return int((job >> 5) & 3u); }
-#endif
-
 // The texel of word `id` in a per-word image.
 ivec2 word_texel(uint id) { return ivec2(id & ((1u << u_word_shift) - 1u), id >> u_word_shift); }
 
@@ -128,13 +100,3 @@ float sample_at(ivec3 p) {
     return pick(quad_at(p.x, p.y, p.z / SAMPLES_PER_TEXEL), uint(p.z % SAMPLES_PER_TEXEL));
 }
 float field_at(ivec3 p) { return u_sign * sample_at(p); }
-
-// Per word, packed counts: vertices it owns along axes 0, 1, 2 (6 bits each), triangles of its cells
-// (8 bits: at most 32 cells x MAX_TRIANGLES_PER_CELL, checked in isoscope.gpu.cubes), and in the top 6
-// bits the brick-local index of the word that mc_triangles.comp's invocation at this word's place
-// takes (mc_word_offsets.comp orders them; mc_classify.comp writes each word its own place).
-uint vertices_along(uint counts, uint axis) { return (counts >> (6u * axis)) & 63u; }
-uint vertex_total(uint counts) { return vertices_along(counts, 0u) + vertices_along(counts, 1u) + vertices_along(counts, 2u); }
-uint triangle_total(uint counts) { return (counts >> 18) & 255u; }
-uint taken_word(uint counts) { return counts >> 26; }
-uint with_taken_word(uint counts, uint local) { return (counts & 0x03FFFFFFu) | (local << 26); }

@@ -9,15 +9,6 @@ uint next_samples(int i, int j, int w, uint word) {
     return (word >> 1) | (carry << 31);
 }
 
-// Per axis, the word's points whose edge towards +axis changes sign (the edges they own).
-uvec3 crossing_masks(int i, int j, int w) {
-    uint here = row_word(i, j, w);
-    uint along0 = (i + 1 < u_dims.x) ? (here ^ row_word(i + 1, j, w)) & point_bits(w) : 0u;
-    uint along1 = (j + 1 < u_dims.y) ? (here ^ row_word(i, j + 1, w)) & point_bits(w) : 0u;
-    uint along2 = (here ^ next_samples(i, j, w, here)) & axis2_edge_bits(w);
-    return uvec3(along0, along1, along2);
-}
-
 // The four sign rows around a row of cells, component d0 | d1 << 1, at k and at k + 1.
 struct CellRows { uvec4 at_k; uvec4 at_k1; };
 
@@ -38,11 +29,27 @@ uint mixed_cells(CellRows rows, int w) {
 
 bool has_cells(int i, int j) { return i + 1 < u_dims.x && j + 1 < u_dims.y; }
 
-// crossing_masks() of the word at rows' corner 0, from rows already loaded (needs has_cells).
-uvec3 crossing_from_rows(CellRows rows, int w) {
+// The sign rows around a row of cells as cell_rows() gives them, with the rows past the grid's
+// last row along axis 0 or 1 zero (the edges towards them are masked off by their users).
+CellRows border_rows(int i, int j, int w) {
+    if (has_cells(i, j)) return cell_rows(i, j, w);
+    CellRows rows;
+    rows.at_k = uvec4(row_word(i, j, w), 0u, 0u, 0u);
+    if (i + 1 < u_dims.x) rows.at_k.y = row_word(i + 1, j, w);
+    if (j + 1 < u_dims.y) rows.at_k.z = row_word(i, j + 1, w);
+    rows.at_k1 = uvec4(next_samples(i, j, w, rows.at_k.x), 0u, 0u, 0u);
+    if (i + 1 < u_dims.x) rows.at_k1.y = next_samples(i + 1, j, w, rows.at_k.y);
+    if (j + 1 < u_dims.y) rows.at_k1.z = next_samples(i, j + 1, w, rows.at_k.z);
+    return rows;
+}
+
+// Per axis, the points of word (i, j, w), the rows' corner 0, whose edge towards +axis changes sign:
+// the axis edges it owns, those whose far end is in the grid.
+uvec3 owned_axis_crossings(CellRows rows, ivec3 word) {
     uint here = rows.at_k.x;
-    return uvec3((here ^ rows.at_k.y) & point_bits(w), (here ^ rows.at_k.z) & point_bits(w),
-                 (here ^ rows.at_k1.x) & axis2_edge_bits(w));
+    uint along0 = word.x + 1 < u_dims.x ? (here ^ rows.at_k.y) & point_bits(word.z) : 0u;
+    uint along1 = word.y + 1 < u_dims.y ? (here ^ rows.at_k.z) & point_bits(word.z) : 0u;
+    return uvec3(along0, along1, (here ^ rows.at_k1.x) & axis2_edge_bits(word.z));
 }
 
 // Case index of cell k: bit c = corner (c & 1, c >> 1 & 1, c >> 2 & 1), as isoscope.core.case_table.

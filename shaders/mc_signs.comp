@@ -10,10 +10,8 @@ layout(r32ui, binding = UNIT_SIGN_WORDS) writeonly uniform uimage2D u_sign_words
 
 void main() {
     uint brick;
-    if (!active_brick(brick)) return;
-    bool exists;
-    ivec3 word = brick_word(brick, exists);
-    if (!exists) return;
+    ivec3 word;
+    if (!active_word(brick, word)) return;
     uint bits = 0u;
     for (int q = 0; q < QUADS_PER_WORD; ++q) {  // SAMPLES_PER_TEXEL (4) samples per load
         bvec4 inside = greaterThanEqual(u_sign * quad_at(word.x, word.y, QUADS_PER_WORD * word.z + q), vec4(u_level));

@@ -1,26 +1,5 @@
 #version 430
-// Tetrahedra pass 4, one invocation per active brick: the brick's vertex and triangle totals, for the scans.
+// Marching tetrahedra's pass 4 (cells_brick_sums.glsl): the brick totals of its per-word counts.
 layout(local_size_x = GROUP_SIZE) in;
-#include "mc_common.glsl"
-#include "mc_sign_words.glsl"
-#include "mc_active_bricks.glsl"
-#include "mt_common.glsl"
-
-layout(std430, binding = BLOCK_BRICK_VERTICES) writeonly buffer BrickVertexCounts { uint brick_vertex_counts[]; };
-layout(std430, binding = BLOCK_BRICK_TRIANGLES) writeonly buffer BrickTriangleCounts { uint brick_triangle_counts[]; };
-layout(rgba32ui, binding = UNIT_WORD_COUNTS) readonly uniform uimage2D u_word_counts;  // see mt_common.glsl
-
-void main() {
-    uint brick;
-    if (!active_brick_of_invocation(brick)) return;
-    uvec2 total = uvec2(0u);
-    for (uint local = 0u; local < WORDS_PER_BRICK; ++local) {
-        uint id;
-        if (word_of_brick(brick, local, id)) {
-            uvec4 counts = imageLoad(u_word_counts, word_texel(id));
-            total += uvec2(mt_vertex_total(counts), counts.z);
-        }
-    }
-    brick_vertex_counts[brick] = total.x;
-    brick_triangle_counts[brick] = total.y;
-}
+#include "mt_cells.glsl"
+#include "cells_brick_sums.glsl"

@@ -1,11 +1,11 @@
-// The triangle passes' runs (mc_triangles.comp, mt_triangles.comp; isoscope.gpu.extraction): a mesh larger
+// The triangle pass's runs (cells_triangles.glsl; isoscope.gpu.passes): a mesh larger
 // than one storage block is written a window of the index buffer at a time, one run per window,
 // and each word's invocation works only in the runs its triangles meet.  Each word writes its
 // vertices' jobs (vertex_jobs.glsl) in just one run, into the job window bound for it: the one
 // whose triangle slots [u_job_slots.x, u_job_slots.y) hold the word's first triangle slot (the last
 // run's end is 2^32 - 1, so a word with no triangles at the very end has a run too).  Not a run per
 // window of the vertex buffer as well: those runs did nothing but jobs, at the cost of a whole pass.
-// Each of several runs takes only its own bricks (isoscope.gpu.extraction's _run_bricks, in the active
+// Each of several runs takes only its own bricks (isoscope.gpu.passes.run_dispatches, in the active
 // list's place), so the words that leave at once are those that straddle a window's ends.
 uniform uvec2 u_job_slots;
 uniform uvec2 u_triangle_window;  // the (first, count) of the triangles bound in this run

@@ -72,7 +72,7 @@ def fits_one_extraction(shape) -> bool:
     return sign_words(shape) <= MAX_WORDS
 
 JOB_BITS = 32
-"""Bits of a marching-cubes vertex job (mc_common.glsl)."""
+"""Bits of a marching-cubes vertex job (mc_jobs.glsl)."""
 
 
 def job_coordinate_bits(shape) -> tuple[int, int] | None:

@@ -20,7 +20,8 @@ import moderngl
 from ..core.case_table import CaseTable, montani_table
 from ..core.layout import WORD_BITS
 from ..errors import InputError
-from .extraction import CellKind, SurfaceExtractor
+from .cell_kind import CellKind
+from .extraction import SurfaceExtractor
 from .limits import GPULimitError, GpuLimits
 from .resident import ResidentVolume
 
@@ -29,8 +30,8 @@ __all__ = ["CUBES", "Extractor", "GPULimitError"]
 CUBES = CellKind("cubes", classify="mc_classify", brick_sums="mc_brick_sums", word_offsets="mc_word_offsets",
                  triangles="mc_triangles", vertices="mc_vertices", job_components=1, count_components=1,
                  table=montani_table, job_coordinates=True)
-"""Marching cubes: a job is one uint (word id, axis, bit, or the sample's coordinates: mc_common.glsl),
-a word's counts one uint (mc_common.glsl)."""
+"""Marching cubes: a job is one uint (word id, axis, bit, or the sample's coordinates: mc_jobs.glsl),
+a word's counts one uint (mc_cells.glsl)."""
 
 
 class Extractor(SurfaceExtractor):
@@ -100,7 +101,7 @@ class Extractor(SurfaceExtractor):
                  ctx: moderngl.Context | None = None, table: CaseTable | None = None,
                  limits: GpuLimits | None = None):
         table = table or montani_table()
-        if WORD_BITS * table.max_triangles > 255:  # a word's triangle count has 8 bits (mc_common.glsl)
+        if WORD_BITS * table.max_triangles > 255:  # a word's triangle count has 8 bits (mc_cells.glsl)
             raise InputError(f"a case table with up to {table.max_triangles} triangles per cell does not fit "
                              f"the per-word counts; at most {255 // WORD_BITS} can")
         resident = ResidentVolume(volume, spacing, gradient_direction, ctx=ctx, limits=limits)

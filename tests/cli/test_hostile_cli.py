@@ -1,14 +1,14 @@
 """Hostile input from users' reports (issue 22), each run as a user would: a real `python -m isoscope`
 subprocess on real files, held to the promise (exit 2, one `isoscope: error:` line, seconds, little
-memory; tests/support/hostile.py), plus the pure rules behind the refusals."""
+memory; tests/support/command.py), plus the pure rules behind the refusals."""
 from __future__ import annotations
 
 import json
 
 import numpy as np
 import pytest
-from support.command import isoscope_here, succeeded_here
-from support.hostile import STRESS, refused
+from support.command import isoscope_here, refused, succeeded_here
+from support.forked import STRESS
 
 
 @pytest.fixture
@@ -57,7 +57,7 @@ def test_a_dash_path_without_dashes_says_to_put_it_after_double_dash(dash_npy):
 
 @pytest.mark.parametrize("order", ["before", "after"])
 def test_a_dash_path_after_double_dash_exports(dash_npy, order):
-    from support.hostile import succeeded
+    from support.command import succeeded
     args = ["--", "-lead.npy", "--out", "o.stl", "--iso", "0.5"] if order == "before" else \
         ["--out", "o.stl", "--iso", "0.5", "--", "-lead.npy"]
     succeeded("export", *args, cwd=dash_npy)
@@ -184,7 +184,7 @@ def test_more_labels_than_the_limit_writes_nothing_and_says_how_many(label_files
 
 
 def test_max_labels_raises_and_lowers_the_limit(label_files, tmp_path):
-    from support.hostile import succeeded
+    from support.command import succeeded
     refused("export", label_files / "seg.npy", "--labels", "--max-labels", "1", "--out", tmp_path / "s.stl",
             words=("2 distinct", "--max-labels 2"))
     refused("export", label_files / "seg.npy", "--labels", "--max-labels", "0", "--out", tmp_path / "s.stl",
@@ -317,7 +317,7 @@ def big_npy(tmp_path_factory):
 
 @pytest.mark.gl
 def test_a_big_npy_opened_by_path_goes_to_dask_workers_by_path(big_npy, tmp_path):
-    from support.hostile import succeeded
+    from support.command import succeeded
     succeeded("export", big_npy, "--iso", "0.5", "--out", tmp_path / "spread.stl", "--workers", "1")
     succeeded_here("export", big_npy, "--iso", "0.5", "--out", tmp_path / "single.stl")
     assert (tmp_path / "spread.stl").read_bytes() == (tmp_path / "single.stl").read_bytes()
@@ -327,7 +327,7 @@ def test_a_big_npy_opened_by_path_goes_to_dask_workers_by_path(big_npy, tmp_path
 def test_a_big_raw_file_goes_to_dask_workers_by_path(big_npy, tmp_path):
     """A raw file of 64-256 MiB (read whole otherwise) is mapped for a cluster export, so its workers read it
     by name: the same file as the single-process export."""
-    from support.hostile import succeeded
+    from support.command import succeeded
     field = np.load(big_npy, mmap_mode="r")
     raw = tmp_path / "big.raw"
     with open(raw, "wb") as out:
@@ -415,7 +415,7 @@ def test_ctrl_c_during_a_local_cluster_export_is_exit_130_without_tracebacks(big
 def test_no_dask_chatter_when_the_dashboard_port_is_taken(sphere_npy, tmp_path):
     import socket
 
-    from support.hostile import succeeded
+    from support.command import succeeded
     with socket.socket() as taken:
         try:
             taken.bind(("127.0.0.1", 8787))

@@ -142,7 +142,7 @@ def test_vertex_jobs_hold_coordinates_where_they_fit_in_32_bits():
 
 @pytest.mark.parametrize("shape", [(17, 5, 33), (6, 70, 97)])
 def test_word_id_vertex_jobs_give_the_same_mesh(gl_ctx, monkeypatch, shape):
-    """The encoding for grids too large for coordinates in a job (mc_common.glsl), forced on a small one."""
+    """The encoding for grids too large for coordinates in a job (mc_jobs.glsl), forced on a small one."""
     import isoscope.gpu.resident as resident_module
     volume = RNG.normal(size=shape).astype(np.float32)
     with Extractor(volume, ctx=gl_ctx) as packed:

@@ -12,6 +12,7 @@ from isoscope.core.layout import INDEX_BYTES, STORAGE_OFFSET_ALIGNMENT, VERTEX_B
 from isoscope.cpu.cubes import marching_cubes_reference
 from isoscope.gpu.cubes import Extractor, GPULimitError
 from isoscope.gpu.limits import GpuLimits, plan_extractor
+from isoscope.gpu.passes import run_dispatches
 from isoscope.gpu.resident import ResidentVolume
 
 RNG = np.random.default_rng(7)
@@ -164,7 +165,7 @@ def test_the_active_brick_dispatch_takes_every_brick_once_and_folds_evenly(gl_ct
 
 @pytest.mark.parametrize("block_kib", [24, 64])
 def test_each_run_of_a_large_mesh_takes_only_the_bricks_with_work_in_it(gl_ctx, block_kib):
-    # Extractor._run_bricks: every brick with vertices or triangles is in the runs its triangles meet
+    # PassRunner.dispatches: every brick with vertices or triangles is in the runs its triangles meet
     # and in the one run that writes its words' vertex jobs, and in no other (the mesh itself is checked
     # against the reference above).
     volume = RNG.normal(size=(30, 33, 45)).astype(np.float32)
@@ -173,15 +174,15 @@ def test_each_run_of_a_large_mesh_takes_only_the_bricks_with_work_in_it(gl_ctx, 
     with Extractor(volume, ctx=gl_ctx, limits=small) as ex:
         n_vertices, n_triangles = ex.extract(0.1)
         runs = ex.plan.triangle_runs(n_triangles)
-        dispatches = ex._run_bricks(runs, n_vertices)
+        dispatches = ex.passes.dispatches(ex.scratch, runs, n_vertices)
         lists = [np.concatenate([bricks for bricks, _ in run]) for run in dispatches]
         # and each dispatch's job window starts aligned and fits one block
         for run in dispatches:
             for _, (first, span) in run:
                 assert first * 4 % 256 == 0 and span * 4 <= block_kib << 10
         count = ex.brick_count + 1
-        firsts = np.frombuffer(ex._brick_triangle_offsets.read(4 * count), np.uint32).astype(np.int64)
-        vertex_firsts = np.frombuffer(ex._brick_vertex_offsets.read(4 * count), np.uint32)
+        firsts = np.frombuffer(ex.scratch.brick_triangle_offsets.read(4 * count), np.uint32).astype(np.int64)
+        vertex_firsts = np.frombuffer(ex.scratch.brick_vertex_offsets.read(4 * count), np.uint32)
         for run in dispatches:  # and holds its bricks' vertices
             for bricks, (first, span) in run:
                 assert first <= vertex_firsts[bricks[0]] and vertex_firsts[bricks[-1] + 1] <= first + span
@@ -200,6 +201,37 @@ def test_each_run_of_a_large_mesh_takes_only_the_bricks_with_work_in_it(gl_ctx, 
         assert needed <= held <= needed | allowed, (b, needed, held)
 
 
+@pytest.mark.parametrize("job_bytes", [4, 8])
+def test_run_dispatches_give_each_busy_brick_to_its_runs_in_aligned_job_windows(job_bytes):
+    # No GL: bricks' offsets as the scan leaves them (some bricks empty, some with vertices only), the
+    # runs of a 24 KiB storage block, and what each run's dispatches take.
+    rng = np.random.default_rng(11)
+    n = 400
+    triangles = rng.integers(0, 60, n) * (rng.random(n) < 0.7)
+    vertices = rng.integers(0, 40, n) * (rng.random(n) < 0.8)
+    firsts = np.concatenate([[0], np.cumsum(triangles)]).astype(np.int64)
+    vertex_firsts = np.concatenate([[0], np.cumsum(vertices)]).astype(np.int64)
+    block = 24 << 10
+    plan = plan_extractor((8, 8, 40), GpuLimits(16384, 16384, block))
+    runs = plan.triangle_runs(int(firsts[-1]))
+    dispatches = run_dispatches(runs, firsts, vertex_firsts, block, job_bytes)
+    assert len(runs) > 3 and len(dispatches) == len(runs)
+    busy = set(np.flatnonzero((triangles > 0) | (vertices > 0)).tolist())
+    for ((first_t, count_t), (s, e)), run in zip(runs, dispatches):
+        bricks = np.concatenate([b for b, _ in run]) if run else np.zeros(0, int)
+        assert np.all(np.diff(bricks) > 0)  # ascending, none twice
+        # every busy brick whose triangles meet the window or whose job slots lie in [s, e)
+        wanted = {b for b in busy if (firsts[b] < first_t + count_t and first_t < firsts[b + 1])
+                  or s <= firsts[b] < e}
+        assert wanted <= set(bricks.tolist()) <= busy
+        for taken, (first, span) in run:
+            assert first * job_bytes % STORAGE_OFFSET_ALIGNMENT == 0 and span * job_bytes <= block
+            assert first <= vertex_firsts[taken[0]] and vertex_firsts[taken[-1] + 1] <= first + span
+    vertex_firsts[n // 2 + 1:] += block  # one brick with more jobs than a block holds
+    with pytest.raises(GPULimitError, match="more vertex jobs than a storage block"):
+        run_dispatches(plan.triangle_runs(int(firsts[-1])), firsts, vertex_firsts, block, job_bytes)
+
+
 def test_a_brick_with_vertices_and_no_triangles_on_a_window_start_writes_its_jobs(gl_ctx):
     # A brick whose words own vertices but no triangle (the grid's last rows) has its words' first
     # triangle slot at the brick's end: where that slot starts a window of triangles, the brick's jobs
@@ -209,8 +241,8 @@ def test_a_brick_with_vertices_and_no_triangles_on_a_window_start_writes_its_job
     with Extractor(volume, ctx=gl_ctx) as ex:
         ex.extract(0.1)
         count = ex.brick_count + 1
-        firsts = np.frombuffer(ex._brick_triangle_offsets.read(4 * count), np.uint32).astype(np.int64)
-        vertices = np.frombuffer(ex._brick_vertex_offsets.read(4 * count), np.uint32).astype(np.int64)
+        firsts = np.frombuffer(ex.scratch.brick_triangle_offsets.read(4 * count), np.uint32).astype(np.int64)
+        vertices = np.frombuffer(ex.scratch.brick_vertex_offsets.read(4 * count), np.uint32).astype(np.int64)
     quiet = [b for b in range(count - 1) if firsts[b] == firsts[b + 1] and vertices[b + 1] > vertices[b]]
     # Index windows hold a multiple of 64 triangles (lcm(12, 256) bytes): blocks of 768 * m bytes.
     sizes = [m for m in range(21, 200) if any(firsts[b] > 0 and firsts[b] % (64 * m) == 0 for b in quiet)][:2]
@@ -260,13 +292,13 @@ def test_a_failed_output_allocation_leaves_an_empty_mesh_and_a_working_extractor
     with Extractor(volume, ctx=gl_ctx) as ex:
         ex.extract(few)
         failing = FailingThird(gl_ctx)
-        for output in ex._outputs.values():  # the growable mesh and job buffers (buffers.GrowableBuffer)
+        for output in ex.outputs.buffers.values():  # the growable mesh and job buffers (buffers.GrowableBuffer)
             output.ctx = failing
         with pytest.raises(GPULimitError) as refusal:
             ex.extract(0.0)
         assert "\n" not in str(refusal.value) and "could not allocate" in str(refusal.value)
         assert ex.n_vertices == ex.n_triangles == 0 and len(ex.read_mesh()[1]) == 0
-        for output in ex._outputs.values():
+        for output in ex.outputs.buffers.values():
             output.ctx = gl_ctx
         ex.extract(0.0)
         assert_same_mesh(ex.read_mesh(), marching_cubes_reference(volume, 0.0))

@@ -73,7 +73,7 @@ def test_releasing_an_extractor_releases_every_gl_object_it_owns(gl_ctx):
     tetra = TetraExtractor(cubes)
     cubes.extract(0.1)
     tetra.extract(0.1)
-    assert cubes._run_list is not None and tetra._run_list is not None
+    assert cubes.scratch.run_list is not None and tetra.scratch.run_list is not None
     resident = gl_objects(cubes.resident)
     own_cubes, own_tetra = gl_objects(cubes, borrowed=[cubes.resident]), gl_objects(tetra, borrowed=[cubes.resident])
     assert cubes.resident.texture in resident and cubes.resident.brick_ranges in resident

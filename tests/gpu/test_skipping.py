@@ -76,7 +76,7 @@ def sign_words(ex):
     """The extractor's sign-word image, word by word in grid order."""
     n0, n1, n2 = ex.shape
     count = n0 * n1 * -(-n2 // 32)
-    return np.frombuffer(ex._sign_words.read(), np.uint32)[:count].reshape(n0, n1, -1)
+    return np.frombuffer(ex.scratch.sign_words.read(), np.uint32)[:count].reshape(n0, n1, -1)
 
 
 @pytest.mark.parametrize("direction", ["descent", "ascent"])

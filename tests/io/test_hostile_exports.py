@@ -1,7 +1,7 @@
 """Written files under hostile conditions, through the real command (issue 22, "Nothing a user trips on").
 
 Killed runs are `isoscope export|render ... --out X` in a process of its own (forked from a warm interpreter,
-support.hostile.Forked, so that the kills land in the command's work rather than in the interpreter's start):
+support.forked.Forked, so that the kills land in the command's work rather than in the interpreter's start):
 - killed by SIGTERM or SIGINT at seeded random moments across its run (and just after its temporary
   file appears, so that some land while the file is being written): afterwards no `.partial` file is
   left, the output is absent, or the old file is there byte for byte, or it is the complete file (the
@@ -29,8 +29,8 @@ import time
 from pathlib import Path
 
 import pytest
-from support.command import isoscope_here, succeeded_here
-from support.hostile import STRESS, Forked, succeeded
+from support.command import isoscope_here, succeeded, succeeded_here
+from support.forked import STRESS, Forked
 
 MESH_VOLUME = ("gyroid", "--resolution", "80")         # 3-6 MB files: encoding and writing take a while
 RENDER_ARGS = ("torus", "--size", "800x600")

@@ -1,1 +1,2 @@
-"""Helpers the tests share: mesh facts, hostile-input runners, generated scans, the real window."""
+"""Helpers the tests share: running the command (command.py, the one entry point; forked.py behind it),
+mesh facts, generated scans, the real window."""

@@ -160,7 +160,7 @@ def test_a_failed_extraction_or_feature_step_leaves_a_drawable_plain_mesh(viewer
     assert scene.surface.sharp_pending
     extractor = scene.surface.extractor
 
-    vertices = extractor._outputs["vertices"]   # its GrowableBuffer: the next growth finds no memory
+    vertices = extractor.outputs.buffers["vertices"]   # its GrowableBuffer: the next growth finds no memory
 
     class NoMemory:
         def buffer(self, reserve):

@@ -10,7 +10,7 @@ import sys
 
 import numpy as np
 import pytest
-from support.hostile import refused, succeeded
+from support.command import refused, succeeded
 
 from isoscope.resources import shader_source
 from isoscope.volumes import VolumeError, open_volume

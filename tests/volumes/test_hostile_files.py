@@ -3,7 +3,7 @@ allocates; or opened right. The corpus is made here from numpy (nibabel, pynrrd,
 and zarr write the files), never checked in.
 
 Two layers: every case once through the real command (exit 2, one stderr line, seconds, peak RSS:
-tests/support/hostile.py), and many generated damages of each format in-process (each opens to the same
+tests/support/command.py), and many generated damages of each format in-process (each opens to the same
 samples or raises one VolumeError line, with nothing printed).
 """
 from __future__ import annotations
@@ -23,8 +23,8 @@ import pydicom
 import pytest
 import tifffile
 import zarr
+from support.command import refused, run_isoscope
 from support.dicom_series import ct_ball, write_series  # noqa: E402
-from support.hostile import refused, run_isoscope
 
 from isoscope.volumes import VolumeError, open_volume
 
