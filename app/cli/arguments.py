@@ -185,6 +185,14 @@ def _add_sharp(parser: argparse.ArgumentParser) -> None:
                              "degrees, e.g. 30")
 
 
+def add_topology(parser: argparse.ArgumentParser) -> None:
+    from ..options import TOPOLOGIES
+    parser.add_argument("--topology", choices=TOPOLOGIES,
+                        help="how ambiguous cells are decided: montani (default: every ambiguous face one way, "
+                             "fast) or trilinear (the field's own topology between the samples, MC33: pieces, "
+                             "cavities and handles as the data has them)")
+
+
 def _add_closed(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--closed", action="store_true",
                         help="cap each surface where it leaves the volume, watertight there (as export --closed; a "
@@ -289,6 +297,7 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         _add_mesh_modes(parser, labels="one closed surface per non-zero label, neighbours sharing their "
                                        "boundary vertices, written to STEM_label<N>.EXT beside --out "
                                        "(e.g. seg.stl -> seg_label1.stl, seg_label2.stl)")
+        add_topology(parser)
         parser.add_argument("--one-file", action="store_true",
                             help="with --labels: all labels in the one --out file (.ply or .glb), each vertex "
                                  "in its label's colour")

@@ -35,7 +35,7 @@ def _extract_for_export(volume, iso, args):
     distributed = args.scheduler is not None or args.workers is not None
     chunked = args.chunk is not None or distributed or is_lazy(volume.data)
     problem = MeshOptions(cells="tetrahedra" if args.tetrahedra else "cubes", smooth=args.smooth, sharp=args.sharp,
-                          chunked=chunked).problem()
+                          chunked=chunked, topology=getattr(args, "topology", None) or "montani").problem()
     if problem is not None:
         why = "" if not chunked else ("this export is chunked (--chunk, --workers, --scheduler, or a Zarr or "
                                       "memory-mapped volume): ")
@@ -74,7 +74,8 @@ def _whole(volume, iso, args, closed: bool):
     if args.tetrahedra:
         verts, faces, normals, values = tetrahedra(data, level, **options)
     else:
-        verts, faces, normals, values = cubes(data, level, sharp_features=args.sharp, **options)
+        verts, faces, normals, values = cubes(data, level, sharp_features=args.sharp,
+                                              topology=getattr(args, "topology", None) or "montani", **options)
     if closed:
         from ..core.closing import unpad
         verts = unpad(verts, volume.spacing)
@@ -142,7 +143,7 @@ def _export_labels(args) -> int:
         refuse_a_scan,
         write_label_meshes,
     )
-    check_label_options(args, "--iso", "--decimate")
+    check_label_options(args, "--iso", "--decimate", "--topology")
     for option in ("--chunk", "--workers", "--scheduler"):
         if getattr(args, option.strip("-")) is not None:
             raise InputError(f"export --labels makes every label's surface here, from the whole volume; "

@@ -11,7 +11,7 @@ import json
 import math
 import sys
 
-from .arguments import VOLUME_HELP, OneLineParser, _add_iso, add_force_labels, max_labels
+from .arguments import VOLUME_HELP, OneLineParser, _add_iso, add_force_labels, add_topology, max_labels
 from .common import check_label_options, checked_levels, progress
 from .volume_options import add_volume_arguments, each_time_point
 
@@ -36,6 +36,7 @@ def measure_parser() -> argparse.ArgumentParser:
                              "spacing")
     parser.add_argument("--closed", action="store_true",
                         help="cap each surface where it leaves the volume (as export --closed), so its volume counts")
+    add_topology(parser)
     parser.add_argument("--json", action="store_true",
                         help="print only JSON on stdout: a list with one object per surface")
     add_volume_arguments(parser)
@@ -44,7 +45,7 @@ def measure_parser() -> argparse.ArgumentParser:
 
 def run_measure(args) -> int:
     if args.labels:
-        check_label_options(args, "--iso", "--closed")   # a label's surface is closed already
+        check_label_options(args, "--iso", "--closed", "--topology")   # a label's surface is closed already
     else:
         check_label_options(args, "--max-labels", "--label-names", "--force-labels")
     records = []
@@ -99,7 +100,7 @@ def _records(volume, args) -> list[dict]:
         from .export import _extract_for_export
         # the plain, whole-volume extraction of export (--closed as given)
         args_for_export = argparse.Namespace(chunk=None, workers=None, scheduler=None, tetrahedra=False, smooth=0,
-                                             sharp=None, closed=args.closed)
+                                             sharp=None, closed=args.closed, topology=args.topology)
         for iso in checked_levels(volume, args.iso):
             verts, faces, normals, _ = _extract_for_export(volume, iso, args_for_export)
             verts, faces, _, _ = in_volume_space(volume, verts, faces, normals, world=world)
