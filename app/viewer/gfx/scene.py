@@ -7,8 +7,11 @@ what changed (the object's side: uploaded again; the mesh options: every level m
 level selected: the one that leaves keeps its mesh), advances the animation and re-extracts the
 selected level when its value moved, on every frame in which it moved and never when it did not.
 With `previews` (the window), a value that keeps moving is extracted from a coarser copy of the
-volume when the full mesh is big, and the full mesh comes back once the value has rested for `REST_S`
-(surface.py).
+volume (surface.py), every step-th sample: the finest step whose measured frame time stays under the
+target (model/pacing.py; each frame's time, the `dt_seconds` of the next `update`, is recorded against
+the step it drew); the full mesh comes back once the value has rested for `REST_S`, a frame after the
+status line says it is being made (the extraction stalls the frame it runs in), and the status line then
+says what it took.
 
 All levels come from the one `GpuSurface` (one upload, one set of brick ranges, one extractor and its
 previews), or, on a context below OpenGL 4.3 (macOS's 4.1: no compute shaders), from its CPU twin
@@ -39,6 +42,7 @@ from ..model.caps import closed_mesh
 from ..model.errors import USER_ERRORS as STATE_ERRORS
 from ..model.errors import ViewerError, one_line
 from ..model.levels import Level
+from ..model.pacing import FramePace
 from ..model.series import take_time_point, time_step
 from ..model.state import Opened, ViewerState
 from . import surface as surface_module
@@ -107,6 +111,10 @@ class GpuScene:
         self._wait = False                        # the next extraction makes its sharp features at once
         self._moved_last_frame = False
         self._rest_s = 0.0                        # how long the value has not moved
+        self.pace = FramePace()                   # frame times while the level moves, per preview step
+        self._pace_key = None                     # what they were measured with (the other levels, options)
+        self._last_frame: int | None = None       # the step the last frame drew moving (0: a preview, idle)
+        self._full_said: str | None = None        # the status line's word on the full mesh, while it stands
 
     # --- volumes -----------------------------------------------------------
     def show(self, volume: Volume, level: float | None = None) -> None:
@@ -125,6 +133,7 @@ class GpuScene:
         self.surface = surface
         self.state.show(opened.shown, level, opened.volume if opened.step > 1 else None, opened.step)
         self._on_extractor, self._extracted = self.state.levels.current, None
+        self.pace.forget()   # another volume: other frame times
         self._extract_selected(0.0, wait=True)
 
     # --- per frame ---------------------------------------------------------
@@ -285,25 +294,64 @@ class GpuScene:
         except USER_ERRORS as exc:   # the plain mesh stays on show
             state.error = one_line(exc)
         state.levels.animate(dt_seconds)
+        self._record_frame(dt_seconds)
         value = state.iso
         moved = value != self._extracted
         if moved:
-            # A moving value (a drag, an animation, Play, keys pressed in turn) gets a preview where the full
-            # mesh is big (surface.preview_step), its first change too: a 512x512x400 CT's full mesh took
-            # 0.25-0.4 s, a stall at the start of every drag.  The full mesh follows once it rests.  A new
-            # volume's first extraction, and any without previews (headless renders), are full.
+            # A moving value (a drag, an animation, Play, keys pressed in turn) gets a preview where its frames
+            # would be slow (`_preview_step`), its first change too: a 512x512x400 CT's full mesh took 0.25-0.4 s,
+            # a stall at the start of every drag.  The full mesh follows once it rests.  A new volume's first
+            # extraction, and any without previews (headless renders), are full.
             preview = self.previews and self._extracted is not None
             self._rest_s = 0.0
+            if self._full_said is not None and state.message == self._full_said:
+                state.message = None   # the last full mesh's word is not about the preview on show
+            self._full_said = None
         else:
             self._rest_s += dt_seconds
+            # A frame with a preview on show that extracts nothing times the frame's floor (model/pacing.py): all
+            # but the preview's extraction.  One drawing the full mesh does not: that mesh is no drag's.
+            self._moved_last_frame, self._last_frame = False, 0 if self.surface.shown_step > 1 else None
             if self.surface.shown_step == 1 or self._rest_s < REST_S:
-                self._moved_last_frame = False
+                return False
+            if self._full_said is None:   # rested: a frame says the full mesh is coming, the next makes it
+                shape = "x".join(map(str, state.volume.data.shape))
+                self._full_said = state.message = f"full resolution: extracting {shape} samples..."
                 return False
             preview = False  # rested long enough: back to full resolution
         self._moved_last_frame = moved and self._extracted is not None  # a new volume's first is no move
         self._extracted, wait, self._wait = value, wait or self._wait, False  # no retry of a failed value
-        self.surface.extract(value, self._options, preview=preview, budget=self.preview_budget(), wait=wait)
+        step = self._preview_step() if preview else 1
+        self.surface.extract(value, self._options, step=step, wait=wait)
+        # A frame that drew a preview (or a full mesh while moving) is timed by the next update; one that made
+        # a step's extractor (an upload) or the full mesh at rest says nothing about a drag's frames.
+        self._last_frame = self.surface.shown_step if self._moved_last_frame and not self.surface.made_preview else None
+        if not moved:
+            shown = self.surface.shown
+            self._full_said = state.message = (f"full resolution: {shown.n_triangles:,} triangles in "
+                                               f"{shown.last_extract_ms:.0f} ms")
         return True
+
+    def _record_frame(self, dt_seconds: float) -> None:
+        """The last frame took `dt_seconds`: a moving frame's time for its step, an idle one's with a preview on
+        show for the floor."""
+        key = (self.preview_budget(), self._options)
+        if key != self._pace_key:   # other levels' meshes or other cells: the frames measured no longer hold
+            self.pace.forget()
+            self._pace_key = key
+        elif dt_seconds > 0 and self._last_frame is not None:
+            if self._last_frame:
+                self.pace.record(self._last_frame, dt_seconds * 1000)
+            else:
+                self.pace.record_floor(dt_seconds * 1000)
+        self._last_frame = None
+
+    def _preview_step(self) -> int:
+        """The step of a moving level's next mesh: the finest whose frames stay under the target, as measured
+        (model/pacing.py); before any frame is measured, the step whose mesh fits `preview_budget`."""
+        shape = self.surface.volume.data.shape
+        first_guess = surface_module.preview_step(self.surface.full_triangles, shape, self.preview_budget())
+        return self.pace.step(first_guess, surface_module.coarsest_step(shape))
 
     def preview_budget(self) -> int:
         """Triangles the moving level's preview may have: the frame's budget less what the other
