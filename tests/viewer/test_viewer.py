@@ -271,7 +271,7 @@ def test_a_newer_open_request_wins_over_an_older_slower_one(viewer):
 
     def slow(spec, progress=None):
         release.wait(60)
-        return read_for_viewer(open_volume, spec, {"resolution": 16}, state.budget, progress)
+        return read_for_viewer(open_volume, spec, {"resolution": 16}, state.budget, progress=progress)
     old = state.jobs.submit("open", slow, "gyroid")
     new = state.open("torus", resolution=16)
     assert new > old and state.loading.request_id == new

@@ -97,6 +97,8 @@ class GpuScene:
             state.memory_budget = default_memory_budget(ctx)
         # Below OpenGL 4.3 (no compute shaders: macOS's 4.1) the meshes are made on the CPU (cpu_surface.py).
         self._surface_class = GpuSurface if has_compute(ctx) else CpuSurface
+        # A volume the GPU extractor cannot hold whole is shown downsampled, as one over the budget.
+        state.refusal = surface_module.extractor_refusal(ctx) if has_compute(ctx) else None
         self.surface: GpuSurface | CpuSurface | None = None   # the GL side of state.volume
         self.color_by: GpuColorBy | None = None  # the textures of state.color_by
         self.caps = CapMeshes(ctx)                # the levels' caps while state.closed (caps.py)
@@ -121,7 +123,7 @@ class GpuScene:
         """Upload `volume` and extract its first level (at `level`, default the volume's own); the old
         volume stays on a failed upload.  A volume too big to drag live is shown downsampled
         (big_volume.py), the full one kept for 'Export full resolution'."""
-        shown, step = downsampled(volume, self.state.budget)
+        shown, step = downsampled(volume, self.state.budget, self.state.refusal)
         self.show_opened(Opened("", volume, shown, step), level)
 
     def show_opened(self, opened: Opened, level: float | None = None) -> None:

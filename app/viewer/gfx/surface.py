@@ -14,6 +14,7 @@ of its own, only what is on show.
 from __future__ import annotations
 
 from ...gpu.cubes import Extractor
+from ...gpu.limits import GPULimitError, GpuLimits, plan_extractor
 from ...gpu.mesh import GpuMesh
 from ...gpu.sharp_features import SharpenedMesh
 from ...gpu.smooth import Smoother
@@ -47,6 +48,20 @@ def preview_step(full_triangles: int, shape, budget: int | None = None) -> int:
     while full_triangles > budget * step * step and step < MAX_PREVIEW_STEP:
         step += 1
     return min(step, coarsest_step(shape))
+
+
+def extractor_refusal(ctx):
+    """A function saying why a GpuSurface in `ctx` cannot hold a volume of a given shape (the extractor's GL
+    limits, gpu/limits.py: llvmpipe's 128 MiB storage blocks stop a 1024^3 volume), or None where it can."""
+    limits = GpuLimits.of(ctx)
+
+    def refusal(shape) -> str | None:
+        try:
+            plan_extractor(shape, limits)
+        except GPULimitError as exc:
+            return str(exc).split(";")[0]
+        return None
+    return refusal
 
 
 class GpuSurface:
