@@ -22,8 +22,10 @@ TARGET_FRAME_MS = 40.0
 (frames vary by a fifth or so as the level crosses more or less of the volume)."""
 RECENT_FRAMES = 5
 """Frames of a step whose median is its frame time: one slow frame (a page fault, a JIT) does not move it."""
-FORGET_AFTER = 120
-"""Frames recorded after which a step's last measurement no longer counts: it may be tried again."""
+FORGET_AFTER = 30
+"""Frames recorded after which a step's last measurement no longer counts: it may be tried again (a second
+of dragging; at 120 a step measured slow in the first frames after opening, page faults and JIT, kept a
+1024^3 map's drag at step 8 with 20 ms frames for a whole 60-frame bench)."""
 
 
 def estimated_ms(step: int, measured: Mapping[int, float], floor_ms: float = 0.0) -> float | None:
