@@ -65,7 +65,8 @@ def test_slow_frames_coarsen_the_preview_and_the_rested_mesh_is_export_s(viewer,
 
     assert viewer.scene.update(REST_S) is False and scene.preview_step == step   # rested: the status line says so
     assert state.message == f"full resolution: extracting {'x'.join(map(str, SHAPE))} samples..."
-    viewer.app.follow(0.02)                                                   # the next frame makes it
+    assert viewer.scene.update(0.02) is False and scene.preview_step == step     # a frame shows the word
+    viewer.app.follow(0.02)                                                   # the next makes the mesh
     assert scene.preview_step == 1 and scene.shown_shape == SHAPE
     assert state.message == f"full resolution: {scene.n_triangles:,} triangles in {scene.extract_ms:.0f} ms"
     verts, faces, _, _ = scene.surface.shown.read_mesh()

@@ -341,8 +341,9 @@ def test_a_dragged_value_shows_a_coarse_preview_then_the_full_mesh_at_rest(gl_ct
 
         assert scene.update(REST_S / 2) is False and scene.preview_step == step  # not rested yet
         assert scene.update(REST_S / 2) is False and scene.preview_step == step  # rested: the status line says
-        assert state.message.startswith("full resolution: extracting 48x48x48")  # the full mesh is coming
-        assert scene.update(0.01) is True and scene.preview_step == 1            # and the next frame makes it
+        assert state.message.startswith("full resolution: extracting 48x48x48")  # the full mesh is coming,
+        assert scene.update(0.01) is False and scene.preview_step == step        # a frame shows that,
+        assert scene.update(0.01) is True and scene.preview_step == 1            # and the next makes it
         assert state.message == f"full resolution: {scene.n_triangles:,} triangles in {scene.extract_ms:.0f} ms"
         assert scene.extractor.level == drag[-1]
         assert scene.n_triangles == len(marching_cubes_reference(volume.data.astype(np.float32), drag[-1],

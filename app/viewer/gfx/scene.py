@@ -9,9 +9,9 @@ selected level when its value moved, on every frame in which it moved and never 
 With `previews` (the window), a value that keeps moving is extracted from a coarser copy of the
 volume (surface.py), every step-th sample: the finest step whose measured frame time stays under the
 target (model/pacing.py; each frame's time, the `dt_seconds` of the next `update`, is recorded against
-the step it drew); the full mesh comes back once the value has rested for `REST_S`, a frame after the
-status line says it is being made (the extraction stalls the frame it runs in), and the status line then
-says what it took.
+the step it drew); the full mesh comes back once the value has rested for `REST_S`, `SAID_FRAMES`
+frames after the status line says it is being made (the extraction stalls the frame it runs in: the word
+is on screen meanwhile), and the status line then says what it took.
 
 All levels come from the one `GpuSurface` (one upload, one set of brick ranges, one extractor and its
 previews), or, on a context below OpenGL 4.3 (macOS's 4.1: no compute shaders), from its CPU twin
@@ -56,6 +56,10 @@ from .surface import GpuSurface
 USER_ERRORS = (*STATE_ERRORS, moderngl.Error)
 """What a bad volume, value or extraction raises: one-line messages meant for the user."""
 REST_S = 0.15                # a value unchanged this long gets its full-resolution mesh
+SAID_FRAMES = 2
+"""Frames between the status line's "full resolution: extracting..." and the extraction: the window lays
+out its panel before the scene follows the state, so a word said in one frame's update shows in the next
+frame's picture; the extraction waits for the frame after that, and the word is on screen while it runs."""
 MIN_PREVIEW_SHARE = 8        # the moving level's preview keeps at least 1/8 of the frame's triangle budget
 
 
@@ -117,6 +121,7 @@ class GpuScene:
         self._pace_key = None                     # what they were measured with (the other levels, options)
         self._last_frame: int | None = None       # the step the last frame drew moving (0: a preview, idle)
         self._full_said: str | None = None        # the status line's word on the full mesh, while it stands
+        self._said_frames = 0                     # frames since it said the full mesh is coming
 
     # --- volumes -----------------------------------------------------------
     def show(self, volume: Volume, level: float | None = None) -> None:
@@ -316,9 +321,12 @@ class GpuScene:
             self._moved_last_frame, self._last_frame = False, 0 if self.surface.shown_step > 1 else None
             if self.surface.shown_step == 1 or self._rest_s < REST_S:
                 return False
-            if self._full_said is None:   # rested: a frame says the full mesh is coming, the next makes it
+            if self._full_said is None:   # rested: the status line says the full mesh is coming...
                 shape = "x".join(map(str, state.volume.data.shape))
                 self._full_said = state.message = f"full resolution: extracting {shape} samples..."
+                self._said_frames = 0
+            if self._said_frames < SAID_FRAMES:   # ...and is drawn before the frame whose extraction stalls
+                self._said_frames += 1
                 return False
             preview = False  # rested long enough: back to full resolution
         self._moved_last_frame = moved and self._extracted is not None  # a new volume's first is no move
