@@ -5,7 +5,7 @@ drawing with the triangles, with noise), and the best step is found by trying ev
 import numpy as np
 import pytest
 
-from isoscope.viewer.model.pacing import FramePace, estimated_ms, paced_step
+from isoscope.viewer.model.pacing import FramePace, estimated_ms, pace_text, paced_step
 
 
 def test_with_nothing_measured_the_first_guess_stands_within_the_steps_allowed():
@@ -97,3 +97,12 @@ def test_a_step_time_is_the_median_of_its_recent_frames():
     for ms in (60.0, 61.0, 62.0):                # the scene got slower: three frames say so
         pace.record(4, ms)
     assert pace.measured[4] == 60.0
+
+
+def test_the_stats_tooltip_says_what_chose_the_step():
+    pace = FramePace(target_ms=40.0)
+    assert "triangle budget" in pace_text(pace)
+    for step, ms in ((8, 21.0), (7, 33.4), (6, 52.0)):
+        pace.record(step, ms)
+    assert pace_text(pace) == ("the finest step whose frames keep under 40 ms while the level moves "
+                               "(else the coarsest); measured 1/6 52 ms, 1/7 33 ms, 1/8 21 ms")

@@ -96,3 +96,13 @@ class FramePace:
         """What was measured no longer holds (another volume, other meshes on show): start again."""
         self._frames.clear()
         self._floor.clear()
+
+
+def pace_text(pace: FramePace) -> str:
+    """What chose the preview's step, in a line (the Stats line's tooltip)."""
+    measured = pace.measured
+    if not measured:
+        return "no frame measured yet: the step whose mesh keeps under the triangle budget"
+    times = ", ".join(f"1/{step} {ms:.0f} ms" for step, ms in sorted(measured.items()))
+    return (f"the finest step whose frames keep under {pace.target_ms:.0f} ms while the level moves (else the "
+            f"coarsest); measured {times}")
