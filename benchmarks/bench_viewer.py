@@ -1,11 +1,13 @@
 """Frame time of the real viewer window while the iso slider is dragged (the target: < 50 ms on llvmpipe).
 
-    python benchmarks/bench_viewer.py [--volume metaballs] [--frames 60] [--size 1280x800] [--slice z=40 ...]
-                                      [--surfaces 2] [--opacity 0.4]
+    python benchmarks/bench_viewer.py [--volume metaballs | --memmap 1024] [--frames 60] [--size 1280x800]
+                                      [--slice z=40 ...] [--surfaces 2] [--opacity 0.4] [--memory-budget SIZE]
 
 Opens the viewer's window (under a private Xvfb when there is no DISPLAY), then
 moves the iso value on every frame, as a slider drag does, and times whole
-frames: re-extraction, drawing, the imgui panel and the buffer swap.  With --surfaces N, N-1
+frames: re-extraction, drawing, the imgui panel and the buffer swap.  Then the value
+rests: the frames until the full-resolution mesh has been drawn once are timed
+(the time to full resolution after rest), and the process's peak RSS is reported.  With --surfaces N, N-1
 more levels stay on show (below the dragged range, at --opacity) while the first is dragged.
 """
 from __future__ import annotations
@@ -47,6 +49,10 @@ def display():
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--volume", default=None, help="a volume spec (default: the viewer's default)")
+    parser.add_argument("--memmap", type=int, default=None, metavar="N",
+                        help="drag an N^3 uint8 memory-mapped .npy instead (volumes.smooth_memmap, made once in "
+                             "--dir)")
+    parser.add_argument("--dir", default="/tmp/isoscope-bench", help="where --memmap's volume is kept")
     parser.add_argument("--frames", type=int, default=60, help="frames of dragging to time")
     parser.add_argument("--size", default="1280x800", help="window size WxH")
     parser.add_argument("--slice", action="append", default=[], metavar="AXIS=INDEX",
@@ -71,11 +77,19 @@ def main(argv=None) -> int:
         from isoscope.viewer.model.recent import RecentFiles
         from isoscope.viewer.ui.window import ViewerWindow
         from isoscope.volumes import DEFAULT_VOLUME, open_volume
+        if args.memmap:
+            sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+            from volumes import smooth_memmap
+            args.volume = str(smooth_memmap(args.dir, args.memmap))
+        opened = time.perf_counter()
         volume = open_volume(args.volume or DEFAULT_VOLUME)
         with using_budget(requested_budget(args.memory_budget)):
             window = ViewerWindow(volume, size=(width, height), recent=RecentFiles(None))
+        open_s = time.perf_counter() - opened
         try:
             state, scene = window.state, window.scene
+            if state.volume is None:
+                sys.exit(f"bench_viewer: the window did not show {volume.name}: {state.error}")
             for axis, index in slices:
                 try:
                     state.slices.show(axis, True, index)
@@ -102,9 +116,15 @@ def main(argv=None) -> int:
                 steps.append(scene.preview_step)
             # The value rests: frames go on until the full-resolution mesh is back on show.
             released = time.perf_counter()
-            while scene.preview_step > 1 and time.perf_counter() - released < 5.0:
+            rest_ms = []   # each frame after the last move, until the full mesh has been drawn once
+            while scene.preview_step > 1 and time.perf_counter() - released < 30.0:
+                start = time.perf_counter()
                 window.draw_frame()
+                rest_ms.append((time.perf_counter() - start) * 1000)
             full_after_ms = (time.perf_counter() - released) * 1000
+            start = time.perf_counter()
+            window.draw_frame()   # a frame at rest drawing the full mesh
+            full_frame_ms = (time.perf_counter() - start) * 1000
             shape = "x".join(map(str, volume.data.shape))
             shown = ", ".join(args.slice) or "none"
             print(f"viewer frame while dragging the iso slider: {volume.name} {shape}, "
@@ -118,11 +138,14 @@ def main(argv=None) -> int:
             previews = [s for s in steps if s > 1]
             print(f"  preview     {len(previews)} of {args.frames} frames drew a coarse preview"
                   + (f" (sample step {min(previews)}..{max(previews)})" if previews else "")
-                  + f"; full mesh back {full_after_ms:.0f} ms after the last move")
+                  + f"; full mesh back {full_after_ms:.0f} ms after the last move (frames "
+                  + " ".join(f"{ms:.0f}" for ms in rest_ms) + f"; its extraction {scene.extract_ms:.0f} ms), "
+                  f"a frame of it at rest {full_frame_ms:.0f} ms")
             import resource
             peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
             print(f"  shown       {'x'.join(map(str, scene.shown_shape))} of {shape} at rest (memory budget "
-                  f"{state.budget.text}); peak RSS {peak:.0f} MiB")
+                  f"{state.budget.text}), {volume.data.dtype}; window open with the first mesh in {open_s:.1f} s; "
+                  f"peak RSS {peak:.0f} MiB")
         finally:
             window.close()
     return 0

@@ -166,3 +166,28 @@ def as_nibabel_gives(path: Path) -> tuple[np.ndarray, tuple[float, float, float]
     import nibabel
     image = nibabel.load(path)
     return np.asarray(image.dataobj), tuple(float(z) for z in image.header.get_zooms()[:3])
+
+
+# -- a big memory-mapped volume, written a slab at a time ----------------------------------------
+
+def smooth_memmap(folder: Path, n: int = 1024, slab: int = 32) -> Path:
+    """`folder/smooth_N^3.npy`, an N^3 uint8 `.npy` made once (kept; made again if missing) with
+    np.lib.format.open_memmap a slab of `slab` planes at a time, so making it takes a few slabs of memory:
+    a ball (value 200 at the centre, 100 at radius ~0.53 of the half-side) with a ripple of 30 over it.
+    Level 100 gives a closed, wrinkled surface of a few million triangles at 1024^3."""
+    path = Path(folder) / f"smooth_{n}x{n}x{n}.npy"
+    if path.is_file():
+        return path
+    Path(folder).mkdir(parents=True, exist_ok=True)
+    part = path.with_suffix(".part.npy")
+    out = np.lib.format.open_memmap(part, mode="w+", dtype=np.uint8, shape=(n, n, n))
+    axis = np.linspace(-1, 1, n, dtype=np.float32)
+    y, z = axis[None, :, None], axis[None, None, :]
+    for start in range(0, n, slab):
+        x = axis[start:start + slab, None, None]
+        field = 200 * np.exp(-(x * x + y * y + z * z) / 0.4) + 30 * np.sin(6 * x) * np.sin(6 * y) * np.sin(6 * z)
+        out[start:start + slab] = np.clip(field + 20, 0, 255).astype(np.uint8)
+    out.flush()
+    del out
+    part.replace(path)
+    return path

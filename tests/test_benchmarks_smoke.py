@@ -14,6 +14,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 SCRIPT = Path(__file__).resolve().parent.parent / "benchmarks" / "bench_extract.py"
@@ -106,3 +107,18 @@ def test_viewer_benchmark_drags_and_prints_its_lines(flags, x_display):
     assert done.returncode == 0, done.stderr[-2000:]
     assert "frame       median" in done.stdout
     assert ("CPU extractor" if flags else "GPU extractor") in done.stdout
+
+
+@pytest.mark.gl
+def test_viewer_benchmark_makes_its_memory_map_and_reports_rest_and_memory(x_display, tmp_path):
+    """--memmap N makes an N^3 uint8 .npy once (a slab at a time) and drags it; the time back to full
+    resolution and the peak RSS are reported."""
+    env = dict(os.environ, DISPLAY=x_display)
+    command = [sys.executable, str(SCRIPT.parent / "bench_viewer.py"), "--frames", "3", "--memmap", "40",
+               "--dir", str(tmp_path), "--size", "320x240"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=300, env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    made = np.load(tmp_path / "smooth_40x40x40.npy", mmap_mode="r")
+    assert made.shape == (40, 40, 40) and made.dtype == np.uint8 and made.min() < 100 < made.max()
+    assert "smooth_40x40x40.npy 40x40x40" in done.stdout
+    assert "after the last move" in done.stdout and "peak RSS" in done.stdout and "uint8" in done.stdout

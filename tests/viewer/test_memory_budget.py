@@ -176,3 +176,30 @@ def test_an_ome_zarr_over_the_budget_is_shown_from_the_finest_level_that_fits(vi
     tight.open(str(path))
     np.testing.assert_array_equal(tight.state.volume.data, levels[2])
     assert tight.state.volume.spacing == (2.0, 2.0, 2.0)
+
+
+def test_a_volume_the_extractor_cannot_hold_is_shown_downsampled_and_says_why(gl_ctx, monkeypatch):
+    """llvmpipe's RAM budget lets a 1024^3 volume through, but its 128 MiB storage blocks do not (the window
+    showed only an error); a shape the extractor refuses is shown at the smallest step it takes."""
+    import isoscope.viewer.gfx.surface as surface_module
+    from isoscope.gpu.limits import GpuLimits
+    from isoscope.viewer.gfx.surface import extractor_refusal
+
+    assert extractor_refusal(gl_ctx)((64, 64, 64)) is None
+    said = extractor_refusal(gl_ctx)((1024, 1024, 1024))
+    assert "storage-block limit" in said and ";" not in said   # the real limit, where the window met it
+    real = GpuLimits.of(gl_ctx)
+    small = GpuLimits(real.max_3d_texture_size, real.max_texture_size, 32 << 10)   # 64^3's row ranges: 64 KiB
+    monkeypatch.setattr(surface_module.GpuLimits, "of", classmethod(lambda cls, ctx: small))
+    viewer = HeadlessViewer((96, 72), ctx=gl_ctx, memory_budget="8G")
+    try:
+        data = np.random.default_rng(0).random((64, 64, 64)).astype(np.float32)
+        viewer.show(as_volume(data), 0.5)
+        state = viewer.state
+        assert state.step == 2 and viewer.scene.shown_shape == (32, 32, 32)
+        np.testing.assert_array_equal(state.volume.data, data[::2, ::2, ::2])
+        note = [note for note in state.volume.notes if "one sample in 2" in note]
+        assert note and "this GPU's limits" in note[0] and "32 KiB" not in note[0] and "memory budget" not in note[0]
+        assert viewer.scene.n_triangles > 0
+    finally:
+        viewer.release()

@@ -271,7 +271,7 @@ def test_a_newer_open_request_wins_over_an_older_slower_one(viewer):
 
     def slow(spec, progress=None):
         release.wait(60)
-        return read_for_viewer(open_volume, spec, {"resolution": 16}, state.budget, progress)
+        return read_for_viewer(open_volume, spec, {"resolution": 16}, state.budget, progress=progress)
     old = state.jobs.submit("open", slow, "gyroid")
     new = state.open("torus", resolution=16)
     assert new > old and state.loading.request_id == new
@@ -340,7 +340,11 @@ def test_a_dragged_value_shows_a_coarse_preview_then_the_full_mesh_at_rest(gl_ct
                                                   descent=sign > 0))
 
         assert scene.update(REST_S / 2) is False and scene.preview_step == step  # not rested yet
-        assert scene.update(REST_S / 2) is True and scene.preview_step == 1      # rested: full mesh
+        assert scene.update(REST_S / 2) is False and scene.preview_step == step  # rested: the status line says
+        assert state.message.startswith("full resolution: extracting 48x48x48")  # the full mesh is coming,
+        assert scene.update(0.01) is False and scene.preview_step == step        # a frame shows that,
+        assert scene.update(0.01) is True and scene.preview_step == 1            # and the next makes it
+        assert state.message == f"full resolution: {scene.n_triangles:,} triangles in {scene.extract_ms:.0f} ms"
         assert scene.extractor.level == drag[-1]
         assert scene.n_triangles == len(marching_cubes_reference(volume.data.astype(np.float32), drag[-1],
                                                                  volume.spacing, descent=sign > 0)[1])

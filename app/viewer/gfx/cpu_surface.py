@@ -30,7 +30,7 @@ from ...gpu.sharp_features import step_result
 from ...options import MeshOptions
 from ...validation import as_gradient_direction, as_level, subsampled
 from ...volumes import Volume
-from .surface import preview_step
+from .surface import coarsest_step
 
 SERIAL_SAMPLES = 1 << 20
 """A volume with fewer samples (a drag's preview) is extracted on one thread: its work is a millisecond or
@@ -166,6 +166,7 @@ class CpuSurface:
         self._previews: dict[int, object] = {}   # sample step -> extractor of the subsampled volume
         self._shown = CpuMesh(ctx)
         self.shown_step = 1
+        self.made_preview = False
         self.shown_cells = "cubes"
         self.shown_sharp = False
         self.full_triangles = 0
@@ -185,13 +186,13 @@ class CpuSurface:
     def mesh(self) -> GpuMesh:
         return self._shown.mesh
 
-    def extract(self, iso: float, options: MeshOptions, preview: bool = False, budget: int | None = None,
-                wait: bool = True) -> None:
-        """As GpuSurface.extract: the full mesh, or with `preview` a coarser one where the full one is big."""
+    def extract(self, iso: float, options: MeshOptions, step: int = 1, wait: bool = True) -> None:
+        """As GpuSurface.extract: the full mesh, or with `step` > 1 a preview from every step-th sample."""
         start = time.perf_counter()
         self.drop_pending()
-        step = preview_step(self.full_triangles, self.volume.data.shape, budget) if preview else 1
-        if step > 1 and step not in self._previews:
+        step = min(int(step), coarsest_step(self.volume.data.shape))
+        self.made_preview = step > 1 and step not in self._previews
+        if self.made_preview:
             self._previews[step] = self._make(subsampled(self.volume.checked, step),
                                               spacing=tuple(s * step for s in self.volume.spacing),
                                               gradient_direction=self.gradient_direction)

@@ -7,8 +7,11 @@ what changed (the object's side: uploaded again; the mesh options: every level m
 level selected: the one that leaves keeps its mesh), advances the animation and re-extracts the
 selected level when its value moved, on every frame in which it moved and never when it did not.
 With `previews` (the window), a value that keeps moving is extracted from a coarser copy of the
-volume when the full mesh is big, and the full mesh comes back once the value has rested for `REST_S`
-(surface.py).
+volume (surface.py), every step-th sample: the finest step whose measured frame time stays under the
+target (model/pacing.py; each frame's time, the `dt_seconds` of the next `update`, is recorded against
+the step it drew); the full mesh comes back once the value has rested for `REST_S`, `SAID_FRAMES`
+frames after the status line says it is being made (the extraction stalls the frame it runs in: the word
+is on screen meanwhile), and the status line then says what it took.
 
 All levels come from the one `GpuSurface` (one upload, one set of brick ranges, one extractor and its
 previews), or, on a context below OpenGL 4.3 (macOS's 4.1: no compute shaders), from its CPU twin
@@ -39,6 +42,7 @@ from ..model.caps import closed_mesh
 from ..model.errors import USER_ERRORS as STATE_ERRORS
 from ..model.errors import ViewerError, one_line
 from ..model.levels import Level
+from ..model.pacing import FramePace
 from ..model.series import take_time_point, time_step
 from ..model.state import Opened, ViewerState
 from . import surface as surface_module
@@ -52,6 +56,10 @@ from .surface import GpuSurface
 USER_ERRORS = (*STATE_ERRORS, moderngl.Error)
 """What a bad volume, value or extraction raises: one-line messages meant for the user."""
 REST_S = 0.15                # a value unchanged this long gets its full-resolution mesh
+SAID_FRAMES = 2
+"""Frames between the status line's "full resolution: extracting..." and the extraction: the window lays
+out its panel before the scene follows the state, so a word said in one frame's update shows in the next
+frame's picture; the extraction waits for the frame after that, and the word is on screen while it runs."""
 MIN_PREVIEW_SHARE = 8        # the moving level's preview keeps at least 1/8 of the frame's triangle budget
 
 
@@ -93,6 +101,8 @@ class GpuScene:
             state.memory_budget = default_memory_budget(ctx)
         # Below OpenGL 4.3 (no compute shaders: macOS's 4.1) the meshes are made on the CPU (cpu_surface.py).
         self._surface_class = GpuSurface if has_compute(ctx) else CpuSurface
+        # A volume the GPU extractor cannot hold whole is shown downsampled, as one over the budget.
+        state.refusal = surface_module.extractor_refusal(ctx) if has_compute(ctx) else None
         self.surface: GpuSurface | CpuSurface | None = None   # the GL side of state.volume
         self.color_by: GpuColorBy | None = None  # the textures of state.color_by
         self.caps = CapMeshes(ctx)                # the levels' caps while state.closed (caps.py)
@@ -107,13 +117,18 @@ class GpuScene:
         self._wait = False                        # the next extraction makes its sharp features at once
         self._moved_last_frame = False
         self._rest_s = 0.0                        # how long the value has not moved
+        self.pace = FramePace()                   # frame times while the level moves, per preview step
+        self._pace_key = None                     # what they were measured with (the other levels, options)
+        self._last_frame: int | None = None       # the step the last frame drew moving (0: a preview, idle)
+        self._full_said: str | None = None        # the status line's word on the full mesh, while it stands
+        self._said_frames = 0                     # frames since it said the full mesh is coming
 
     # --- volumes -----------------------------------------------------------
     def show(self, volume: Volume, level: float | None = None) -> None:
         """Upload `volume` and extract its first level (at `level`, default the volume's own); the old
         volume stays on a failed upload.  A volume too big to drag live is shown downsampled
         (big_volume.py), the full one kept for 'Export full resolution'."""
-        shown, step = downsampled(volume, self.state.budget)
+        shown, step = downsampled(volume, self.state.budget, self.state.refusal)
         self.show_opened(Opened("", volume, shown, step), level)
 
     def show_opened(self, opened: Opened, level: float | None = None) -> None:
@@ -125,6 +140,7 @@ class GpuScene:
         self.surface = surface
         self.state.show(opened.shown, level, opened.volume if opened.step > 1 else None, opened.step)
         self._on_extractor, self._extracted = self.state.levels.current, None
+        self.pace.forget()   # another volume: other frame times
         self._extract_selected(0.0, wait=True)
 
     # --- per frame ---------------------------------------------------------
@@ -285,25 +301,67 @@ class GpuScene:
         except USER_ERRORS as exc:   # the plain mesh stays on show
             state.error = one_line(exc)
         state.levels.animate(dt_seconds)
+        self._record_frame(dt_seconds)
         value = state.iso
         moved = value != self._extracted
         if moved:
-            # A moving value (a drag, an animation, Play, keys pressed in turn) gets a preview where the full
-            # mesh is big (surface.preview_step), its first change too: a 512x512x400 CT's full mesh took
-            # 0.25-0.4 s, a stall at the start of every drag.  The full mesh follows once it rests.  A new
-            # volume's first extraction, and any without previews (headless renders), are full.
+            # A moving value (a drag, an animation, Play, keys pressed in turn) gets a preview where its frames
+            # would be slow (`_preview_step`), its first change too: a 512x512x400 CT's full mesh took 0.25-0.4 s,
+            # a stall at the start of every drag.  The full mesh follows once it rests.  A new volume's first
+            # extraction, and any without previews (headless renders), are full.
             preview = self.previews and self._extracted is not None
             self._rest_s = 0.0
+            if self._full_said is not None and state.message == self._full_said:
+                state.message = None   # the last full mesh's word is not about the preview on show
+            self._full_said = None
         else:
             self._rest_s += dt_seconds
+            # A frame with a preview on show that extracts nothing times the frame's floor (model/pacing.py): all
+            # but the preview's extraction.  One drawing the full mesh does not: that mesh is no drag's.
+            self._moved_last_frame, self._last_frame = False, 0 if self.surface.shown_step > 1 else None
             if self.surface.shown_step == 1 or self._rest_s < REST_S:
-                self._moved_last_frame = False
+                return False
+            if self._full_said is None:   # rested: the status line says the full mesh is coming...
+                shape = "x".join(map(str, state.volume.data.shape))
+                self._full_said = state.message = f"full resolution: extracting {shape} samples..."
+                self._said_frames = 0
+            if self._said_frames < SAID_FRAMES:   # ...and is drawn before the frame whose extraction stalls
+                self._said_frames += 1
                 return False
             preview = False  # rested long enough: back to full resolution
         self._moved_last_frame = moved and self._extracted is not None  # a new volume's first is no move
         self._extracted, wait, self._wait = value, wait or self._wait, False  # no retry of a failed value
-        self.surface.extract(value, self._options, preview=preview, budget=self.preview_budget(), wait=wait)
+        step = self._preview_step() if preview else 1
+        self.surface.extract(value, self._options, step=step, wait=wait)
+        # A frame that drew a preview (or a full mesh while moving) is timed by the next update; one that made
+        # a step's extractor (an upload) or the full mesh at rest says nothing about a drag's frames.
+        self._last_frame = self.surface.shown_step if self._moved_last_frame and not self.surface.made_preview else None
+        if not moved:
+            shown = self.surface.shown
+            self._full_said = state.message = (f"full resolution: {shown.n_triangles:,} triangles in "
+                                               f"{shown.last_extract_ms:.0f} ms")
         return True
+
+    def _record_frame(self, dt_seconds: float) -> None:
+        """The last frame took `dt_seconds`: a moving frame's time for its step, an idle one's with a preview on
+        show for the floor."""
+        key = (self.preview_budget(), self._options)
+        if key != self._pace_key:   # other levels' meshes or other cells: the frames measured no longer hold
+            self.pace.forget()
+            self._pace_key = key
+        elif dt_seconds > 0 and self._last_frame is not None:
+            if self._last_frame:
+                self.pace.record(self._last_frame, dt_seconds * 1000)
+            else:
+                self.pace.record_floor(dt_seconds * 1000)
+        self._last_frame = None
+
+    def _preview_step(self) -> int:
+        """The step of a moving level's next mesh: the finest whose frames stay under the target, as measured
+        (model/pacing.py); before any frame is measured, the step whose mesh fits `preview_budget`."""
+        shape = self.surface.volume.data.shape
+        first_guess = surface_module.preview_step(self.surface.full_triangles, shape, self.preview_budget())
+        return self.pace.step(first_guess, surface_module.coarsest_step(shape))
 
     def preview_budget(self) -> int:
         """Triangles the moving level's preview may have: the frame's budget less what the other

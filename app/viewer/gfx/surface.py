@@ -5,14 +5,16 @@ llvmpipe 100+ ms a frame to draw: its vertex work is single-threaded (130-250 ms
 per million triangles, measured on a brain MRI; the window's size hardly matters).
 So, as ParaView does while interacting, a moving value is extracted from a coarser
 copy of the volume (every `step`-th sample along each axis, resident beside the full
-one) whose mesh stays under `PREVIEW_TRIANGLES`, and the full mesh comes back once
-the value rests (the scene decides when, scene.py).  What each extraction makes (cells,
+one), and the full mesh comes back once the value rests.  The scene chooses the step
+(scene.py: from measured frame times, model/pacing.py; before any, the step whose mesh
+stays under `PREVIEW_TRIANGLES`) and when the full mesh comes back.  What each extraction makes (cells,
 smoothing, sharp features) is the `MeshOptions` it is given: the surface keeps no setting
 of its own, only what is on show.
 """
 from __future__ import annotations
 
 from ...gpu.cubes import Extractor
+from ...gpu.limits import GPULimitError, GpuLimits, plan_extractor
 from ...gpu.mesh import GpuMesh
 from ...gpu.sharp_features import SharpenedMesh
 from ...gpu.smooth import Smoother
@@ -30,17 +32,36 @@ step of 5-7 to stay near PREVIEW_TRIANGLES; at 4 (the old cap) its drag frames t
 90th percentile on llvmpipe (benchmarks/bench_viewer.py), now 31 and 42."""
 
 
+def coarsest_step(shape) -> int:
+    """The coarsest preview step of a volume of `shape`: MAX_PREVIEW_STEP, less where an axis would keep
+    fewer than two samples (1: too thin to subsample)."""
+    return max(1, min(MAX_PREVIEW_STEP, min(shape) - 1))
+
+
 def preview_step(full_triangles: int, shape, budget: int | None = None) -> int:
     """The sample step whose mesh should stay under `budget` (default PREVIEW_TRIANGLES): a
     surface's triangle count falls with the square of the step.  1 when the full mesh is already
-    small enough, or the volume too thin to subsample."""
+    small enough, or the volume too thin to subsample.  The first guess of a drag, before its frames
+    are measured (model/pacing.py)."""
     budget = PREVIEW_TRIANGLES if budget is None else budget
     step = 1
     while full_triangles > budget * step * step and step < MAX_PREVIEW_STEP:
         step += 1
-    while step > 1 and min(shape) <= step:  # every axis keeps at least two samples
-        step -= 1
-    return step
+    return min(step, coarsest_step(shape))
+
+
+def extractor_refusal(ctx):
+    """A function saying why a GpuSurface in `ctx` cannot hold a volume of a given shape (the extractor's GL
+    limits, gpu/limits.py: llvmpipe's 128 MiB storage blocks stop a 1024^3 volume), or None where it can."""
+    limits = GpuLimits.of(ctx)
+
+    def refusal(shape) -> str | None:
+        try:
+            plan_extractor(shape, limits)
+        except GPULimitError as exc:
+            return str(exc).split(";")[0]
+        return None
+    return refusal
 
 
 class GpuSurface:
@@ -54,6 +75,7 @@ class GpuSurface:
                                    gradient_direction=gradient_direction, ctx=ctx)
         self._previews: dict[int, Extractor] = {}  # sample step -> extractor of the subsampled volume
         self.shown_step = 1  # the step of the mesh on show: 1 is full resolution
+        self.made_preview = False  # the last extraction made its step's extractor (an upload: a slow frame)
         # The cells of the mesh on show.  Tetrahedra borrow the cubes extractor's resident volume of
         # the same step (gpu/tetra.py): no re-upload.
         self.shown_cells = "cubes"
@@ -84,13 +106,13 @@ class GpuSurface:
     def mesh(self) -> GpuMesh:
         return self.shown.mesh
 
-    def extract(self, iso: float, options: MeshOptions, preview: bool = False, budget: int | None = None,
-                wait: bool = True) -> None:
-        """Extract at `iso` as `options` say: the full mesh, or with `preview` a coarse one if the full
-        one is big (more than `budget` triangles, default PREVIEW_TRIANGLES).  Without `wait`, sharp
-        features are made on a worker thread (the plain mesh shows until `poll` brings them in)."""
-        step = preview_step(self.full_triangles, self.volume.data.shape, budget) if preview else 1
-        if step > 1 and step not in self._previews:
+    def extract(self, iso: float, options: MeshOptions, step: int = 1, wait: bool = True) -> None:
+        """Extract at `iso` as `options` say: the full mesh, or with `step` > 1 a preview from every
+        step-th sample (its extractor made and kept the first time: `made_preview`).  Without `wait`,
+        sharp features are made on a worker thread (the plain mesh shows until `poll` brings them in)."""
+        step = min(int(step), coarsest_step(self.volume.data.shape))
+        self.made_preview = step > 1 and step not in self._previews
+        if self.made_preview:
             self._previews[step] = self._make_preview(step)
         extractor = self.extractor if step == 1 else self._previews[step]
         if options.cells == "tetrahedra":

@@ -18,7 +18,7 @@ import threading
 
 import numpy as np
 
-from ...core.budget import MemoryBudget, budget_step, needed_bytes, size_text
+from ...core.budget import MAX_STEP, BudgetError, MemoryBudget, budget_step, needed_bytes, shown_shape, size_text
 from ...core.lazy_arrays import read_block
 from ...errors import IsoscopeError
 from ...volumes import Volume
@@ -27,33 +27,51 @@ from .errors import ViewerError, one_line
 EXPORT_CHUNK = 128
 
 
-def downsampled(volume: Volume, budget: MemoryBudget) -> tuple[Volume, int]:
+def downsampled(volume: Volume, budget: MemoryBudget, refusal=None) -> tuple[Volume, int]:
     """(`volume`, 1) where it fits `budget`, else a volume of fewer samples and how many of the full volume's
     samples one of its steps spans: the finest of the volume's own lower-resolution levels that fits (an
     OME-Zarr pyramid: read whole, never striding through the full level's chunks), else every step-th sample,
-    the smallest step that fits (core/budget.py; BudgetError where not even the coarsest view fits)."""
+    the smallest step that fits (core/budget.py; BudgetError where not even the coarsest view fits).
+    `refusal(shape)`: why the extractor here cannot hold a volume of `shape` (a GPU limit), or None; a shape
+    it refuses does not fit either (a 1024^3 volume fits llvmpipe's RAM but not its 128 MiB storage blocks)."""
     shape, itemsize = volume.data.shape, volume.data.dtype.itemsize
-    step = budget_step(shape, itemsize, budget, volume.name)
+    step, reason = _fitting_step(shape, itemsize, budget, volume.name, refusal)
     if step == 1:
         return volume, 1
     whole = (f"{'x'.join(map(str, shape))}, {size_text(needed_bytes(shape, itemsize) / 0.75)} to show whole")
     fix = "--memory-budget SIZE changes it, 'Export full resolution...' writes the full mesh"
+    if reason is not None:
+        fix = "'Export full resolution...' writes the full mesh"
+    reason = f"this GPU's limits ({reason})" if reason else f"the memory budget of {budget.text}"
     for level in volume.pyramid:   # finest first
         level_shape = tuple(level.data.shape)
-        if budget_step(level_shape, level.data.dtype.itemsize, budget, volume.name) == 1:
+        if _fitting_step(level_shape, level.data.dtype.itemsize, budget, volume.name, refusal)[0] == 1:
             return from_level(volume, level, f"a big volume ({whole}): shown from its level {level.name!r} "
-                                             f"({'x'.join(map(str, level_shape))}) to fit the memory budget "
-                                             f"of {budget.text}; {fix}")
+                                             f"({'x'.join(map(str, level_shape))}) to fit {reason}; {fix}")
     if volume.pyramid:   # not even the coarsest level fits: every step-th sample of it
         coarsest = from_level(volume, volume.pyramid[-1])[0]
-        level_step = budget_step(coarsest.data.shape, coarsest.data.dtype.itemsize, budget, volume.name)
+        level_step = _fitting_step(coarsest.data.shape, coarsest.data.dtype.itemsize, budget, volume.name,
+                                   refusal)[0]
         shown = every_step(coarsest, level_step, f"a big volume ({whole}): shown from its coarsest level "
                                                  f"{volume.pyramid[-1].name!r} at one sample in {level_step} to "
-                                                 f"fit the memory budget of {budget.text}; {fix}")
+                                                 f"fit {reason}; {fix}")
         return shown, max(1, round(shown.spacing[0] / volume.spacing[0]))
-    note = (f"a big volume ({whole}): shown at one sample in {step} along each axis to fit the memory budget of "
-            f"{budget.text}; {fix}")
+    note = f"a big volume ({whole}): shown at one sample in {step} along each axis to fit {reason}; {fix}"
     return every_step(volume, step, note), step
+
+
+def _fitting_step(shape, itemsize: int, budget: MemoryBudget, name: str, refusal) -> tuple[int, str | None]:
+    """The smallest step that fits `budget` and that `refusal` accepts; and, where `refusal` asked for more
+    than the budget, what it said of the shape at the budget's step."""
+    step = budget_step(shape, itemsize, budget, name)
+    said = refusal(shown_shape(shape, step)) if refusal is not None else None
+    if said is None:
+        return step, None
+    while refusal(shown_shape(shape, step)) is not None:
+        step += 1
+        if step > MAX_STEP or min(shown_shape(shape, step)) < 2:
+            raise BudgetError(f"{name} cannot be shown here even at one sample in {MAX_STEP}: {said}")
+    return step, said
 
 
 def from_level(volume: Volume, level, note: str | None = None) -> tuple[Volume, int]:

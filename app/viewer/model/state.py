@@ -54,10 +54,12 @@ class Opened(NamedTuple):
     step: int
 
 
-def read_for_viewer(opener, spec: str, open_options: dict, budget: MemoryBudget, progress=None) -> Opened:
-    """Read `spec` with `opener` (open_volume's signature) and downsample it if it is over `budget`."""
+def read_for_viewer(opener, spec: str, open_options: dict, budget: MemoryBudget, refusal=None,
+                    progress=None) -> Opened:
+    """Read `spec` with `opener` (open_volume's signature) and downsample it if it is over `budget` or (where
+    `refusal(shape)` says why) more than the extractor here can hold (big_volume.downsampled)."""
     volume = opener(spec, progress=progress, **open_options)
-    shown, step = downsampled(volume, budget)
+    shown, step = downsampled(volume, budget, refusal)
     return Opened(spec, volume, shown, step)
 
 
@@ -69,6 +71,7 @@ class ViewerState:
         default (the GPU's memory, or half the RAM on a software renderer); by default the budget of the
         enclosing core.budget.using_budget block (a command's --memory-budget, a Python call's)."""
         self.memory_budget = memory_budget if memory_budget is not None else given_budget()
+        self.refusal = None   # why the GPU side's extractor cannot hold a shape (its limits), set by it; None: any
         self.volume: Volume | None = None     # on show (downsampled, for a big one)
         self.full_volume: Volume | None = None  # a big volume shown at every `step`-th sample (big_volume.py)
         self.step = 1
@@ -107,9 +110,9 @@ class ViewerState:
         failure = f"could not open {spec[:80]}"
         if spec.strip().lower().startswith("expr:"):
             return self.jobs.submit("open", read_for_viewer, self._opener, spec, open_options, self.budget,
-                                    inline=True, failure=failure)
+                                    self.refusal, inline=True, failure=failure)
         return self.jobs.submit("open", read_for_viewer, open_volume, spec, open_options, self.budget,
-                                message=f"opening {spec}", failure=failure)
+                                self.refusal, message=f"opening {spec}", failure=failure)
 
     @property
     def budget(self) -> MemoryBudget:

@@ -82,10 +82,11 @@ def render_samples(size) -> int:
 
 
 class HeadlessViewer:
-    def __init__(self, size=(800, 600), ctx=None, memory_budget=None):
+    def __init__(self, size=(800, 600), ctx=None, memory_budget=None, previews: bool = False):
         """`memory_budget`: what a volume on show may take (a size such as "2G", or bytes; core/budget.py);
         None: the enclosing using_budget block's, else this GL's default (the GPU's memory, or half the RAM
-        on a software renderer)."""
+        on a software renderer).  `previews`: a level moved by `app.follow(dt)` frame after frame gets the
+        window's coarse previews (a render, `follow(0, wait=True)`, draws what is on show)."""
         budget = requested_budget(memory_budget)   # refused in one line before a context is made
         self.size = (int(size[0]), int(size[1]))
         # The process's one headless context (the API's too): a second standalone context would
@@ -94,7 +95,7 @@ class HeadlessViewer:
         self.ctx = ctx if ctx is not None else current_or_standalone(DRAWING_GL)
         check_render_size(self.size, self.ctx)  # "the framebuffer is not complete" is no message
         self.state = ViewerState(opener=partial(open_volume, ctx=self.ctx), memory_budget=budget)
-        self.app = ViewerApp(self.ctx, self.state, Panel(can_browse=False))
+        self.app = ViewerApp(self.ctx, self.state, Panel(can_browse=False), previews=previews)
         self.target = OffscreenTarget(self.ctx, self.size, samples=render_samples(self.size))
         self._imgui: ImguiLayer | None = None   # made on the first render with the panel
 

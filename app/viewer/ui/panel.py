@@ -19,6 +19,7 @@ from ...volumes import builtin_names
 from ..model.formats import level_format, level_text
 from ..model.hints import empty_level_hint
 from ..model.histogram import fraction_of, level_at
+from ..model.pacing import pace_text
 from ..model.settings import PanelSettings
 from ..model.state import ViewerState
 from . import gui
@@ -361,6 +362,7 @@ class Panel:
                 tooltip(f"memory budget {state.budget.text}" if state.step > 1 else "a preview while the level moves")
         if scene.preview_step > 1:
             imgui.text_colored(NOTE_COLOR, f"preview at 1/{scene.preview_step} resolution")
+            tooltip(pace_text(scene.pace))
         imgui.text(f"extraction {scene.extract_ms:.1f} ms")
         if len(state.levels) > 1:
             for i in range(len(state.levels)):

@@ -1,0 +1,172 @@
+"""Which bricks of a volume over the memory budget to show at full resolution: those in view, nearest the
+camera first, within the bytes the budget leaves beside a coarse view of the whole (issue 33, point 3).
+
+Pure logic, no GL and no reading: the volume is cut into bricks of `BRICK_CELLS` cells a side (the chunked
+extractor's boxes, big/chunked.py: neighbours share their face's samples, so their meshes meet without a
+seam); a coarse view of the whole volume stays resident (every `coarse_step`-th sample, taking at most
+`COARSE_SHARE` of the room), and the rest of the room goes to bricks at full resolution.  `plan_refinement`
+says, for a camera, which bricks to load and which to let go: the bricks in view, nearest first, until the
+next one does not fit (so no brick shown in full is farther than one shown coarse); then bricks already
+loaded but no longer wanted (out of view, or farther than the room reaches) stay while room is left, the
+nearest first, and the rest go back to coarse: far bricks coarsen only when memory is needed.
+
+Coordinates are the viewer's scene units: sample index times spacing along each axis (model/state.bounds).
+The camera is its eye there and a 4x4 clip matrix taking column vectors [x, y, z, 1] to OpenGL clip space
+(the viewer's pyrr row-vector matrices: `(view @ projection).T`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .budget import (
+    EXTRACTOR_BYTES_PER_SAMPLE,
+    MESH_SHARE,
+    BudgetError,
+    MemoryBudget,
+    needed_bytes,
+    shown_shape,
+    size_text,
+)
+
+BRICK_CELLS = 128
+"""Cells along each side of a brick (the last along an axis may have fewer)."""
+COARSE_SHARE = 0.25
+"""The share of the room the coarse view of the whole volume may take; the bricks have the rest."""
+
+
+@dataclass(frozen=True)
+class Brick:
+    """Cells `first` to `end` (exclusive) along each axis: samples `first` to `end` inclusive."""
+    index: tuple[int, int, int]
+    first: tuple[int, int, int]
+    end: tuple[int, int, int]
+
+    @property
+    def samples(self) -> int:
+        return math.prod(e - f + 1 for f, e in zip(self.first, self.end))
+
+    def box(self, spacing) -> tuple[np.ndarray, np.ndarray]:
+        """Its lower and upper corners in scene units."""
+        spacing = np.asarray(spacing, dtype=np.float64)
+        return np.asarray(self.first) * spacing, np.asarray(self.end) * spacing
+
+
+@dataclass(frozen=True)
+class RefinementPlan:
+    """What to do for one camera: `load` (nearest first) and `drop` (back to coarse, farthest first) change
+    the set of bricks at full resolution into `wanted` (in view) plus `kept` (loaded before, room left)."""
+    wanted: tuple[Brick, ...]
+    kept: tuple[Brick, ...]
+    load: tuple[Brick, ...]
+    drop: tuple[Brick, ...]
+    bytes: int   # what the bricks at full resolution take after the change
+
+
+def bricks_of(shape, cells: int = BRICK_CELLS) -> list[Brick]:
+    """The bricks of a volume of `shape` samples, in C order of their index."""
+    if cells < 1:
+        raise ValueError(f"a brick needs at least one cell a side, got {cells}")
+    starts = [range(0, max(int(n) - 1, 1), cells) for n in shape]
+    bricks = []
+    for index in np.ndindex(*(len(s) for s in starts)):
+        first = tuple(s[i] for s, i in zip(starts, index))
+        end = tuple(min(f + cells, int(n) - 1) for f, n in zip(first, shape))
+        bricks.append(Brick(tuple(int(i) for i in index), first, end))
+    return bricks
+
+
+def _corners(bricks, spacing) -> np.ndarray:
+    """(B, 8, 4) homogeneous corners of each brick's box."""
+    lower = np.array([b.first for b in bricks], dtype=np.float64) * np.asarray(spacing, dtype=np.float64)
+    upper = np.array([b.end for b in bricks], dtype=np.float64) * np.asarray(spacing, dtype=np.float64)
+    pick = np.array(np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij")).reshape(3, 8).T   # (8, 3) of 0/1
+    corners = np.where(pick[None].astype(bool), upper[:, None], lower[:, None])
+    return np.concatenate([corners, np.ones(corners.shape[:2] + (1,))], axis=2)
+
+
+def in_view(bricks, spacing, clip_matrix) -> np.ndarray:
+    """Whether each brick may be in view: False only where all eight corners of its box lie outside one
+    plane of the view frustum (conservative: a box beside a frustum's corner may count as in view)."""
+    if not len(bricks):
+        return np.zeros(0, dtype=bool)
+    clip = _corners(bricks, spacing) @ np.asarray(clip_matrix, dtype=np.float64).T   # (B, 8, 4)
+    x, y, z, w = np.moveaxis(clip, 2, 0)
+    outside = [x < -w, x > w, y < -w, y > w, z < -w, z > w]
+    return ~np.any([side.all(axis=1) for side in outside], axis=0)
+
+
+def distances(bricks, spacing, eye) -> np.ndarray:
+    """The distance from `eye` to the nearest point of each brick's box (0 inside it)."""
+    if not len(bricks):
+        return np.zeros(0)
+    spacing = np.asarray(spacing, dtype=np.float64)
+    lower = np.array([b.first for b in bricks], dtype=np.float64) * spacing
+    upper = np.array([b.end for b in bricks], dtype=np.float64) * spacing
+    eye = np.asarray(eye, dtype=np.float64)
+    return np.linalg.norm(eye - np.clip(eye, lower, upper), axis=1)
+
+
+def brick_bytes(brick: Brick, bytes_per_sample: float) -> int:
+    return int(math.ceil(brick.samples * bytes_per_sample))
+
+
+def coarse_step(shape, itemsize: int, room: float) -> int:
+    """The smallest step whose coarse view of the whole volume takes at most COARSE_SHARE of `room`."""
+    step = 1
+    while needed_bytes(shape, itemsize, step) > room * COARSE_SHARE and min(shown_shape(shape, step + 1)) >= 2:
+        step += 1
+    return step
+
+
+def brick_room(shape, itemsize: int, budget: MemoryBudget, cells: int = BRICK_CELLS,
+               bytes_per_sample: float | None = None) -> tuple[int, int]:
+    """(the coarse view's step, the bytes left for bricks at full resolution) within `budget`: what the meshes
+    take aside (MESH_SHARE), the coarse view of the whole beside.  BudgetError in one line where the budget
+    is below what one full brick needs beside the coarse view."""
+    per_sample = itemsize + EXTRACTOR_BYTES_PER_SAMPLE if bytes_per_sample is None else bytes_per_sample
+    room = budget.bytes * (1 - MESH_SHARE)
+    step = coarse_step(shape, itemsize, room)
+    left = int(room - needed_bytes(shape, itemsize, step))
+    biggest = max(brick_bytes(b, per_sample) for b in bricks_of(shape, cells))
+    if left < biggest:
+        need = biggest / (1 - COARSE_SHARE) / (1 - MESH_SHARE)   # the coarse view then fits in the rest
+        raise BudgetError(f"the memory budget {budget.text} is below what one {cells}^3 brick at full resolution "
+                          f"needs beside the coarse view ({size_text(need)} in all); give --memory-budget "
+                          f"{math.ceil(need / (1 << 20))}M or more")
+    return step, left
+
+
+def plan_refinement(bricks, refined, eye, clip_matrix, room_bytes: int, bytes_per_sample: float,
+                    spacing=(1.0, 1.0, 1.0)) -> RefinementPlan:
+    """Which `bricks` to have at full resolution for this camera (the module's docstring), given the indices
+    of those at full resolution now (`refined`) and `room_bytes` for them."""
+    bricks = list(bricks)
+    refined = set(refined)
+    near = distances(bricks, spacing, eye)
+    visible = in_view(bricks, spacing, clip_matrix)
+    order = sorted(range(len(bricks)), key=lambda i: (near[i], bricks[i].index))
+    wanted, used = [], 0
+    for i in order:
+        if not visible[i]:
+            continue
+        size = brick_bytes(bricks[i], bytes_per_sample)
+        if used + size > room_bytes:
+            break   # nearest first: a farther brick does not take the place of a nearer one
+        wanted.append(bricks[i])
+        used += size
+    chosen = {b.index for b in wanted}
+    kept = []
+    for i in order:   # loaded before, not wanted now: kept while room is left, the nearest first
+        brick = bricks[i]
+        if brick.index in refined and brick.index not in chosen:
+            size = brick_bytes(brick, bytes_per_sample)
+            if used + size <= room_bytes:
+                kept.append(brick)
+                used += size
+    stays = chosen | {b.index for b in kept}
+    load = tuple(b for b in wanted if b.index not in refined)
+    drop = tuple(bricks[i] for i in reversed(order) if bricks[i].index in refined and bricks[i].index not in stays)
+    return RefinementPlan(tuple(wanted), tuple(kept), load, drop, used)
