@@ -14,6 +14,8 @@ the keys, and so the faces, are the reference's.
 """
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 from numba import prange
 
@@ -163,6 +165,17 @@ def _own_vertex(mask, bit, masks, firsts, edges, vertex_offsets, row_owner, i, j
     values[o] = value / many
 
 
+@cache
+def _kernel_tables():
+    """The table as the kernels read it, made once per process: per key its triangle count, triangle codes
+    (int8), own-vertex count and own vertices' edge masks; per case its ambiguous faces and whether any
+    decision can change its triangles."""
+    table = trilinear_table()
+    own_masks = table.cell_vertices.astype(np.int64)
+    return (table.counts.astype(np.int64), table.triangles, (own_masks > 0).sum(axis=1).astype(np.int64), own_masks,
+            *_case_masks())
+
+
 def _case_masks():
     """Per case: its ambiguous faces (a 6-bit mask), and whether any decision can change its triangles."""
     table = trilinear_table()
@@ -187,12 +200,8 @@ class CompiledTrilinear(CompiledCubes):
 
     def __init__(self, volume, spacing, descent: bool, reuse_outputs: bool = False, value_range=None):
         super().__init__(volume, spacing, descent, reuse_outputs=reuse_outputs, value_range=value_range)
-        table = trilinear_table()
-        self._keys_counts = table.counts.astype(np.int64)
-        self._codes = table.triangles.astype(np.int64)
-        self._own = (table.cell_vertices > 0).sum(axis=1).astype(np.int64)
-        self._own_masks = table.cell_vertices.astype(np.int64)
-        self._ambiguous, self._needs = _case_masks()
+        (self._keys_counts, self._codes, self._own, self._own_masks, self._ambiguous,
+         self._needs) = _kernel_tables()
         self._own_offsets = np.empty_like(self._vertex_offsets)
         self._own_scratch = np.zeros_like(self._vertex_offsets)
 

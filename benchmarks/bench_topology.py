@@ -1,0 +1,106 @@
+#!/usr/bin/env python3
+"""topology="trilinear" (issue 38): how often each mesh has the trilinear interpolant's pieces and Euler
+characteristic, and what the mode costs.
+
+    NUMBA_NUM_THREADS=2 python benchmarks/bench_topology.py [--grids 1000] [--size 128] [--rounds 7]
+
+Agreement: random 3x3x3 grids of normal samples at level 0 (ambiguous faces and cells everywhere); the
+oracle samples the trilinear interpolant 16 and 32 times per cell edge (scipy's order-1 map_coordinates),
+meshes it with scikit-image and counts pieces and V - E + F, vertices merged by position
+(tests/support/topology.py, the suite's oracle); grids where the two refinements disagree are left out.
+Then isoscope's montani (default) and trilinear meshes and scikit-image's Lewiner (MC33) mesh are counted
+the same way.
+
+Cost: one-shot `isoscope.marching_cubes(volume, level, backend="cpu", topology=...)` and scikit-image's
+`measure.marching_cubes` (lewiner) on the MNI T1 (as nibabel gives it: Fortran uint8; needs nilearn), the
+smoothed noise and the gyroid of benchmarks/volumes.py at --size, runners in turns, medians in ms.
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent / "tests"))   # the suite's oracle, not a second copy of it
+import isoscope  # noqa: E402
+from support.topology import counts, oracle  # noqa: E402
+
+from volumes import MissingVolume, as_nibabel_gives, gyroid, noise, real_volume_path  # noqa: E402
+
+
+def agreement(grids: int, seed: int) -> None:
+    from skimage import measure
+    rng = np.random.default_rng(seed)
+    sure, hits = 0, {"montani": 0, "trilinear": 0, "scikit-image lewiner": 0}
+    started = time.perf_counter()
+    for _ in range(grids):
+        field = rng.standard_normal((3, 3, 3)).astype(np.float32)
+        truth = oracle(field, refinements=(16, 32))
+        if truth is None:
+            continue
+        sure += 1
+        for topology in ("montani", "trilinear"):
+            mesh = isoscope.marching_cubes(field, 0.0, backend="cpu", topology=topology)
+            hits[topology] += counts(mesh[0], mesh[1]) == truth
+        verts, faces, _, _ = measure.marching_cubes(field, 0.0, method="lewiner")
+        hits["scikit-image lewiner"] += counts(verts, faces) == truth
+    print(f"\n{grids} random 3x3x3 grids, seed {seed}: the oracle sure of {sure} "
+          f"({time.perf_counter() - started:.0f} s)\n")
+    print("| mesh | pieces and Euler characteristic as the interpolant's |\n|---|---:|")
+    for name, hit in hits.items():
+        print(f"| {name} | {hit} / {sure} ({100 * hit / max(sure, 1):.1f}%) |")
+
+
+def cost(size: int, rounds: int) -> None:
+    from skimage import measure
+    volumes = []
+    try:
+        data, spacing = as_nibabel_gives(real_volume_path("mni-t1"))
+        volumes.append(("MNI T1 197x233x189 uint8 (Fortran)", data, 128.0))
+    except MissingVolume as exc:
+        print(f"(no MRI: {exc})")
+    volumes += [(f"noise {size}^3", noise(size), 0.0), (f"gyroid {size}^3", gyroid(size), 0.0)]
+    runners = {
+        "montani": lambda v, lvl: isoscope.marching_cubes(v, lvl, backend="cpu"),
+        "trilinear": lambda v, lvl: isoscope.marching_cubes(v, lvl, backend="cpu", topology="trilinear"),
+        "scikit-image lewiner": lambda v, lvl: measure.marching_cubes(np.asarray(v, np.float32), lvl),
+    }
+    print("\n| volume | montani ms (triangles) | trilinear ms (triangles) | trilinear / montani | "
+          "scikit-image ms | scikit-image / trilinear |\n|---|---|---|---:|---:|---:|")
+    for name, volume, level in volumes:
+        times = {runner: [] for runner in runners}
+        sizes = {}
+        for round_ in range(rounds + 1):
+            for runner, call in runners.items():
+                started = time.perf_counter()
+                mesh = call(volume, level)
+                if round_:   # the first round warms up (numba's cache, the table)
+                    times[runner].append((time.perf_counter() - started) * 1000)
+                sizes[runner] = len(mesh[1])
+        ms = {runner: statistics.median(t) for runner, t in times.items()}
+        print(f"| {name} | {ms['montani']:.1f} ({sizes['montani']:,}) | {ms['trilinear']:.1f} "
+              f"({sizes['trilinear']:,}) | x{ms['trilinear'] / ms['montani']:.2f} | "
+              f"{ms['scikit-image lewiner']:.1f} | x{ms['scikit-image lewiner'] / ms['trilinear']:.2f} |")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--grids", type=int, default=1000)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--size", type=int, default=128)
+    parser.add_argument("--rounds", type=int, default=7)
+    args = parser.parse_args()
+    if args.grids:
+        agreement(args.grids, args.seed)
+    if args.rounds:
+        cost(args.size, args.rounds)
+
+
+if __name__ == "__main__":
+    main()
