@@ -208,6 +208,7 @@ def _add_label_names(parser: argparse.ArgumentParser) -> None:
 def _add_mesh_modes(parser: argparse.ArgumentParser, labels: str) -> None:
     """The flags that choose what surface is made: cells, smoothing, sharp features, a label map."""
     _add_tetrahedra(parser)
+    add_topology(parser)
     _add_smooth(parser)
     _add_sharp(parser)
     parser.add_argument("--labels", action="store_true",
@@ -297,7 +298,6 @@ def command_parser(command: str) -> argparse.ArgumentParser:
         _add_mesh_modes(parser, labels="one closed surface per non-zero label, neighbours sharing their "
                                        "boundary vertices, written to STEM_label<N>.EXT beside --out "
                                        "(e.g. seg.stl -> seg_label1.stl, seg_label2.stl)")
-        add_topology(parser)
         parser.add_argument("--one-file", action="store_true",
                             help="with --labels: all labels in the one --out file (.ply or .glb), each vertex "
                                  "in its label's colour")

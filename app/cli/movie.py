@@ -78,7 +78,8 @@ def run_movie(args) -> int:
     viewer = prepared_viewer(volume, isos, size=args.size, azimuth=args.azimuth, elevation=args.elevation,
                              transparent=False, opacities=[a for values in args.opacity or [] for a in values],
                              color_by=args.color_by, colormap=args.color_by_map, tetrahedra=args.tetrahedra,
-                             smooth=args.smooth, wireframe=args.wireframe, prepare=prepare)
+                             smooth=args.smooth, wireframe=args.wireframe, prepare=prepare,
+                             topology=args.topology or "montani")
     try:
         frames = _frames(viewer, volume, args, times)
         path = _write(frames, args.out, kind, args.fps, _count(args, times))

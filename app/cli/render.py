@@ -52,6 +52,8 @@ def _apply_mesh_arguments(state, args) -> None:
         check_label_options(args, "--label-names", "--force-labels")
     if args.tetrahedra:
         state.set_cells("tetrahedra")
+    if args.topology:
+        state.set_topology(args.topology)
     if args.smooth:
         state.set_smooth(args.smooth)
     if args.sharp is not None:
@@ -111,6 +113,7 @@ def run_render(args) -> int:
                       opacities=[a for values in args.opacity or [] for a in values],
                       color_by=args.color_by, colormap=args.color_by_map,
                       tetrahedra=args.tetrahedra, smooth=args.smooth, wireframe=args.wireframe,
+                      topology=args.topology or "montani",
                       prepare=lambda state: (apply_slice_arguments(state, args), setattr(state, "closed", args.closed)),
                       then=_scene_saver(args),
                       letters=args.orientation_letters)

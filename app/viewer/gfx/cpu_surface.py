@@ -164,6 +164,7 @@ class CpuSurface:
         self._make = make
         self.extractor = make(volume.checked, spacing=volume.spacing, gradient_direction=gradient_direction)
         self._previews: dict[int, object] = {}   # sample step -> extractor of the subsampled volume
+        self._trilinear: dict[int, object] = {}  # sample step -> its extractor of the trilinear topology
         self._shown = CpuMesh(ctx)
         self.shown_step = 1
         self.made_preview = False
@@ -203,6 +204,11 @@ class CpuSurface:
         if options.cells == "tetrahedra":
             with threads_for(field.size):
                 arrays = tetrahedra_function()(field, level, spacing, self._descent)
+        elif options.topology == "trilinear":
+            with threads_for(field.size):
+                trilinear = self._trilinear_extractor(extractor, step)
+                trilinear.extract(level)
+            arrays = trilinear.read_mesh()
         else:
             with threads_for(field.size):
                 extractor.extract(level)
@@ -221,6 +227,15 @@ class CpuSurface:
             if sharp:   # the plain mesh shows until the worker's step is in (poll)
                 self._start_sharp(arrays, spacing, options.sharp, level, start)
         self.full_triangles = self._shown.n_triangles * step * step
+
+    def _trilinear_extractor(self, plain, step: int):
+        """The extractor of the trilinear topology over the same samples as `plain` (made once per step)."""
+        if step not in self._trilinear:
+            from ...cpu.extractor import CpuExtractor
+            volume = self.volume.checked if step == 1 else subsampled(self.volume.checked, step)
+            self._trilinear[step] = CpuExtractor(volume, spacing=tuple(s * step for s in self.volume.spacing),
+                                                 gradient_direction=self.gradient_direction, topology="trilinear")
+        return self._trilinear[step]
 
     def _signed_field(self) -> np.ndarray:
         key = (id(self.volume.checked.data), self._descent)
@@ -280,9 +295,10 @@ class CpuSurface:
             self._worker.shutdown(wait=False, cancel_futures=True)
             self._worker = None
         self._field = None
-        for extractor in (self.extractor, *self._previews.values()):
+        for extractor in (self.extractor, *self._previews.values(), *self._trilinear.values()):
             extractor.release()
         self._previews.clear()
+        self._trilinear.clear()
         self._shown.release()
 
 

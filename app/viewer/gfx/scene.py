@@ -99,8 +99,9 @@ class GpuScene:
         state.gl_renderer = f"{ctx.info.get('GL_RENDERER', 'unknown')} ({gl_summary(ctx)})"
         if state.memory_budget is None:   # what a volume may take here: the GPU's memory (gpu/memory.py)
             state.memory_budget = default_memory_budget(ctx)
-        # Below OpenGL 4.3 (no compute shaders: macOS's 4.1) the meshes are made on the CPU (cpu_surface.py).
-        self._surface_class = GpuSurface if has_compute(ctx) else CpuSurface
+        # Below OpenGL 4.3 (no compute shaders: macOS's 4.1) the meshes are made on the CPU (cpu_surface.py), and
+        # so are those of mesh options the GPU extractor does not make (`GpuSurface.makes`).
+        self._compute = has_compute(ctx)
         # A volume the GPU extractor cannot hold whole is shown downsampled, as one over the budget.
         state.refusal = surface_module.extractor_refusal(ctx) if has_compute(ctx) else None
         self.surface: GpuSurface | CpuSurface | None = None   # the GL side of state.volume
@@ -133,7 +134,7 @@ class GpuScene:
 
     def show_opened(self, opened: Opened, level: float | None = None) -> None:
         """`show` of a volume read (and downsampled) by an "open" job."""
-        surface = self._surface_class(self.ctx, opened.shown, opened.shown.gradient_direction)
+        surface = self._new_surface(opened.shown, opened.shown.gradient_direction)
         self._release_meshes()
         if self.surface is not None:
             self.surface.release()
@@ -179,7 +180,7 @@ class GpuScene:
         while playing, as while a value is dragged)."""
         point = time_step(self.state, dt_seconds, wait)
         if point is not None:
-            surface = self._surface_class(self.ctx, point.shown, self.state.gradient_direction)
+            surface = self._new_surface(point.shown, self.state.gradient_direction)
             surface.full_triangles = self.surface.full_triangles   # sizes the preview before its first mesh
             self.surface.release()
             self.surface = surface
@@ -228,7 +229,7 @@ class GpuScene:
         failed upload puts the old side back); camera and levels stay."""
         volume = self.state.volume
         try:
-            surface = self._surface_class(self.ctx, volume, volume.gradient_direction)
+            surface = self._new_surface(volume, volume.gradient_direction)
         except BaseException:
             volume.gradient_direction = self.surface.gradient_direction
             raise
@@ -237,17 +238,34 @@ class GpuScene:
         self._extracted, self._wait = None, True
         self._refresh_copies()
 
+    def _new_surface(self, volume: Volume, gradient_direction: str):
+        """The GL side of `volume`: the GPU's extractor where it makes the state's mesh options, else the CPU's."""
+        gpu = self._compute and GpuSurface.makes(self.state.mesh_options)
+        return (GpuSurface if gpu else CpuSurface)(self.ctx, volume, gradient_direction)
+
     def _apply_mesh_options(self) -> None:
-        """Every level made again with the state's mesh options; on failure (e.g. a mesh too big to
-        smooth on this GPU) the options and meshes go back to what was shown."""
+        """Every level made again with the state's mesh options (on the CPU's surface where the GPU's does not
+        make them); on failure (e.g. a mesh too big to smooth on this GPU) the options and meshes go back to
+        what was shown."""
         before, self._options = self._options, self.state.mesh_options
         self._extracted, self._wait = None, True
         try:
+            self._surface_for_options()
             self._refresh_copies()
         except USER_ERRORS:
             self._options = self.state.mesh_options = before
+            self._surface_for_options()
             self._refresh_copies()
             raise
+
+    def _surface_for_options(self) -> None:
+        """The surface's kind (GPU or CPU extractor) swapped where the mesh options need the other."""
+        gpu = self._compute and GpuSurface.makes(self.state.mesh_options)
+        if isinstance(self.surface, GpuSurface) != gpu:
+            surface = self._new_surface(self.state.volume, self.surface.gradient_direction)
+            surface.full_triangles = self.surface.full_triangles
+            self.surface.release()
+            self.surface = surface
 
     def _refresh_copies(self) -> None:
         for level, copy in self._copies.items():
@@ -383,7 +401,8 @@ class GpuScene:
         if self.surface is None:
             raise ViewerError("no surface to save yet; open a volume first")
         if state.closed:   # capped at the border, watertight: the padded volume's mesh, as export --closed
-            verts, faces, normals, _ = closed_mesh(state.volume, state.iso, self._options.cells, self._options.smooth)
+            verts, faces, normals, _ = closed_mesh(state.volume, state.iso, self._options.cells, self._options.smooth,
+                                                   self._options.topology)
         else:
             if self.surface.shown_step != 1:  # a preview is on show: save the full mesh at its level
                 self.surface.extract(state.iso, self._options)

@@ -106,6 +106,12 @@ class GpuSurface:
     def mesh(self) -> GpuMesh:
         return self.shown.mesh
 
+    @staticmethod
+    def makes(options: MeshOptions) -> bool:
+        """Whether the GPU's extractor makes meshes with these options (the trilinear topology is the CPU's
+        so far: the scene draws those from a `CpuSurface`)."""
+        return options.topology == "montani"
+
     def extract(self, iso: float, options: MeshOptions, step: int = 1, wait: bool = True) -> None:
         """Extract at `iso` as `options` say: the full mesh, or with `step` > 1 a preview from every
         step-th sample (its extractor made and kept the first time: `made_preview`).  Without `wait`,

@@ -57,11 +57,13 @@ def slab_samples(data, ranges, far: np.float32) -> np.ndarray:
     return out
 
 
-def extractor(cells: str):
+def extractor(cells: str, topology: str = "montani"):
     """The extraction isoscope draws, exports and measures: outward-wound cubes (the public `marching_cubes`
-    is scikit-image's drop-in, wound the other way), or marching tetrahedra."""
+    is scikit-image's drop-in, wound the other way) of the `topology` asked for, or marching tetrahedra."""
+    from functools import partial
+
     from ...one_shot import cubes, tetrahedra
-    return tetrahedra if cells == "tetrahedra" else cubes
+    return tetrahedra if cells == "tetrahedra" else partial(cubes, topology=topology)
 
 
 def caps(data, level: float, spacing=(1.0, 1.0, 1.0), gradient_direction: str = "descent", value_range=None,
@@ -96,13 +98,13 @@ def _all_outside(samples, level: float, descent: bool) -> bool:
     return bool(np.all(samples < level)) if descent else bool(np.all(samples > level))
 
 
-def closed_mesh(volume, level: float, cells: str = "cubes", smooth: int = 0):
+def closed_mesh(volume, level: float, cells: str = "cubes", smooth: int = 0, topology: str = "montani"):
     """(verts, faces, normals, values) of `volume` at `level` extracted whole from the padded volume, as
     `export --closed` does: watertight at the border; index x spacing coordinates."""
     from ...core.closing import padded_for_closing, unpad
     from ...validation import as_level
     level = as_level(level, volume.value_range)
     data = padded_for_closing(volume.checked.data, volume.value_range, volume.gradient_direction == "descent")
-    verts, faces, normals, values = extractor(cells)(data, level, spacing=volume.spacing, backend="cpu",
+    verts, faces, normals, values = extractor(cells, topology)(data, level, spacing=volume.spacing, backend="cpu",
                                             gradient_direction=volume.gradient_direction, smooth=smooth)
     return unpad(verts, volume.spacing), faces, normals, values

@@ -55,6 +55,7 @@ class MeasureRequest:
     smooth: int = 0
     closed: bool = False
     step: int = 1                     # the volume on show is every `step`-th sample of the file
+    topology: str = "montani"
 
 
 def record_of(name: str, verts, faces) -> SurfaceRecord:
@@ -66,15 +67,16 @@ def record_of(name: str, verts, faces) -> SurfaceRecord:
                          m.euler, m.genus)
 
 
-def level_mesh(volume, level: float, cells: str = "cubes", smooth: int = 0, closed: bool = False):
+def level_mesh(volume, level: float, cells: str = "cubes", smooth: int = 0, closed: bool = False,
+               topology: str = "montani"):
     """(verts, faces) of `volume` at `level` in world space, extracted on the CPU as `isoscope measure`
     and `export` do (`closed`: capped where the surface leaves the volume, as export --closed)."""
     from ...io.export import in_volume_space
     from ...validation import as_level
     if closed:
-        verts, faces, normals, _ = closed_mesh(volume, level, cells, smooth)
+        verts, faces, normals, _ = closed_mesh(volume, level, cells, smooth, topology)
     else:
-        verts, faces, normals, _ = extractor(cells)(volume.checked, as_level(level, volume.value_range),
+        verts, faces, normals, _ = extractor(cells, topology)(volume.checked, as_level(level, volume.value_range),
                                                     spacing=volume.spacing, backend="cpu",
                                                     gradient_direction=volume.gradient_direction, smooth=smooth)
     verts, faces, _, _ = in_volume_space(volume, verts, faces, normals)
@@ -97,7 +99,7 @@ def measure(request: MeasureRequest, progress=None) -> list[SurfaceRecord]:
     for i, level in enumerate(request.levels):
         if progress is not None:
             progress(i / len(request.levels), f"measuring level {level:.5g}")
-        verts, faces = level_mesh(volume, level, request.cells, request.smooth, request.closed)
+        verts, faces = level_mesh(volume, level, request.cells, request.smooth, request.closed, request.topology)
         records.append(record_of(f"level {level:.5g}", verts, faces))
     return records
 
@@ -127,7 +129,8 @@ class Measurements:
         if not labels and not levels:
             raise ViewerError("no surface is visible; show a level to measure it")
         options = state.mesh_options
-        return MeasureRequest(state.volume, levels, labels, options.cells, options.smooth, state.closed, state.step)
+        return MeasureRequest(state.volume, levels, labels, options.cells, options.smooth, state.closed, state.step,
+                              options.topology)
 
     def request(self, state, inline: bool = False) -> int:
         """Measure what `state` shows, in the background (`inline`: here, for tests and scripts); the

@@ -47,7 +47,8 @@ def scene_of(state, camera, size) -> dict:
                     "opacity": level.opacity, "visible": level.visible} for level in state.levels.items],
         "selected": state.levels.selected,
         "mesh": {"cells": state.mesh_options.cells, "smooth": state.mesh_options.smooth,
-                 "sharp": state.mesh_options.sharp, "closed": state.closed},
+                 "sharp": state.mesh_options.sharp, "closed": state.closed,
+                 "topology": state.mesh_options.topology},
         "labels": state.labels.saved() if state.labels else False,   # or true (older scenes): the defaults
         "color_by": None if state.color_by is None else {"source": state.color_by.spec,
                                                          "colormap": state.color_by.colormap},
@@ -161,6 +162,7 @@ def apply_scene(scene: dict, state, camera) -> None:
         items.select(int(scene.get("selected", 0)))
         mesh = scene.get("mesh") or {}
         state.set_cells(mesh.get("cells", "cubes"))
+        state.set_topology(mesh.get("topology", "montani"))
         state.set_smooth(int(mesh.get("smooth", 0)))
         state.set_sharp(mesh.get("sharp"))
         state.closed = bool(mesh.get("closed", False))

@@ -24,7 +24,7 @@ from ...core.numbers import (
 )
 from ...core.opener import shown
 from ...errors import InputError
-from ...options import CELLS
+from ...options import CELLS, TOPOLOGIES
 from .errors import ViewerError
 from .levels import MAX_LEVELS
 from .raycast import MAX_TRANSFER_POINTS, RAYCAST_MODES
@@ -209,7 +209,7 @@ SCENE = Obj({
                       required=("value",)), 1, MAX_LEVELS),
     "selected": whole(0, MAX_LEVELS - 1, "a level's place (from 0)"),
     "mesh": Obj({"cells": Text(CELLS), "smooth": Num(SMOOTH), "sharp": Maybe(Num(FEATURE_ANGLE)),
-                 "closed": Flag()}),
+                 "closed": Flag(), "topology": Text(TOPOLOGIES)}),
     "labels": Either(Flag(), Obj({"names": Maybe(Text()),
                                   "layers": Seq(Obj({"label": whole(-MAX_INDEX, MAX_INDEX, "a label"),
                                                      "visible": Flag(), "opacity": Num(OPACITY)},

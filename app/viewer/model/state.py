@@ -219,9 +219,17 @@ class ViewerState:
     def sharp(self) -> float | None:
         return self.mesh_options.sharp
 
+    @property
+    def topology(self) -> str:
+        return self.mesh_options.topology
+
     def set_cells(self, cells: str) -> bool:
         """March "cubes" or "tetrahedra" on every level; whether the options changed."""
         return self._set_mesh_options(cells=cells)
+
+    def set_topology(self, topology: str) -> bool:
+        """Decide ambiguous cells by Montani's rule ("montani") or the trilinear interpolant ("trilinear")."""
+        return self._set_mesh_options(topology=topology)
 
     def set_smooth(self, iterations) -> bool:
         """Smooth every level's mesh `iterations` times, each projected back onto the level set."""

@@ -194,7 +194,7 @@ class HeadlessViewer:
 def prepared_viewer(volume: Volume, iso=None, size=(800, 600), azimuth=None, elevation=None,
                     transparent: bool = False, opacities=(), color_by=None, colormap=None, prepare=None,
                     tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False,
-                    raycast: str | None = None, transfer=None) -> HeadlessViewer:
+                    raycast: str | None = None, transfer=None, topology: str = "montani") -> HeadlessViewer:
     """A HeadlessViewer showing `volume` as render_png draws it (its arguments; `raycast`: a ray-casting
     mode, `transfer` its opacity over the values, model/raycast.py), ready to render (again, after moving
     its camera or level: `isoscope movie`); its caller releases it.  What fails is raised."""
@@ -204,6 +204,7 @@ def prepared_viewer(volume: Volume, iso=None, size=(800, 600), azimuth=None, ele
         viewer.state.style.transparent_background = transparent
         # Set before the levels are shown, so their first meshes are made with them.
         viewer.state.set_cells("tetrahedra" if tetrahedra else "cubes")
+        viewer.state.set_topology(topology)
         viewer.state.set_smooth(smooth)
         viewer.state.style.wireframe = wireframe
         isos = list(iso) if isinstance(iso, (list, tuple)) else [iso]
@@ -220,7 +221,7 @@ def prepared_viewer(volume: Volume, iso=None, size=(800, 600), azimuth=None, ele
 def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, elevation=None,
                panel: bool = False, transparent: bool = False, opacities=(), color_by=None, colormap=None,
                prepare=None, tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False, then=None,
-               letters: bool = False):
+               letters: bool = False, topology: str = "montani"):
     """Render one view of `volume` to the PNG file `out` (RGBA with `transparent`); returns its path.
     `then(viewer)`, if given, is called once the picture is written (render --save-scene).
 
@@ -228,11 +229,11 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
     `color_by`: "value", "gradient" or a volume spec of the same shape, through `colormap`, with a
     colour bar at the right (in the panel with `panel`); `prepare(state)`, if given, sets up the
     ViewerState once the volume is shown (slices, clip); `tetrahedra`: marching tetrahedra's
-    surfaces instead of marching cubes'; `smooth`: iterations of smoothing projected onto the level
-    set; `wireframe`: the triangles' edges drawn over; `letters`: a scan's orientation letters (R/L, A/P,
-    S/I) at the picture's edges and its 2-D view's."""
+    surfaces instead of marching cubes'; `topology`: how cubes' ambiguous cells are decided; `smooth`:
+    iterations of smoothing projected onto the level set; `wireframe`: the triangles' edges drawn over;
+    `letters`: a scan's orientation letters (R/L, A/P, S/I) at the picture's edges and its 2-D view's."""
     viewer = prepared_viewer(volume, iso, size, azimuth, elevation, transparent, opacities, color_by, colormap,
-                             prepare, tetrahedra, smooth, wireframe)
+                             prepare, tetrahedra, smooth, wireframe, topology=topology)
     try:
         path = save_png(viewer.picture(panel=panel, letters=letters), out)
         if then is not None:

@@ -2,7 +2,7 @@
 Every change goes through `ViewerState`."""
 from __future__ import annotations
 
-from ...options import CELLS
+from ...options import CELLS, TOPOLOGIES
 from ..model.state import ViewerState
 from .gui import act, choose, imgui, px, section, tooltip
 
@@ -10,7 +10,7 @@ MAX_SMOOTH_SLIDER = 10
 DEFAULT_SHARP_ANGLE = 30.0
 SHARP_ANGLES = (5.0, 90.0)   # the slider's span; the API takes any angle in (0, 180)
 COMBO_WIDTH = 150.0
-MESH_TITLE = "Mesh: cells, smoothing, sharp features"
+MESH_TITLE = "Mesh: cells, topology, smoothing, sharp features"
 SLIDER_WIDTH = 110.0
 
 
@@ -27,6 +27,12 @@ class MeshSection:
         imgui.set_next_item_width(px(COMBO_WIDTH))
         choose(state, "cells", state.cells, CELLS, state.set_cells)
         tooltip("tetrahedra: six per cube, no ambiguous cells, about 3x the triangles")
+        if state.cells == "cubes":
+            imgui.set_next_item_width(px(COMBO_WIDTH))
+            choose(state, "topology", state.topology, TOPOLOGIES, state.set_topology)
+            tooltip("how ambiguous cells are decided: montani, every ambiguous face one way (fast);\n"
+                    "trilinear, the field's own topology between the samples (MC33): pieces, cavities\n"
+                    "and handles in Measure as the data has them; made on the CPU")
         # Sliders write their value beside them, never under their grab.
         imgui.set_next_item_width(px(SLIDER_WIDTH))
         changed, smooth = imgui.slider_int("##smoothing", state.smooth, 0, MAX_SMOOTH_SLIDER, "")
