@@ -1,7 +1,7 @@
 """Direct volume rendering by ray casting (gfx/raycast.py, shaders/raycast.*), by pixel facts: MIP shows a
 bright ball hidden inside a dimmer one where the surface between them cannot; the iso mode's silhouette is
 the mesh's; MIP >= mean >= MinIP on every pixel; DVR of a uniform block follows Beer-Lambert with its
-depth; OpenGL 4.1 draws what 4.3 draws; the command, Python and scenes agree; a bad mode is one line."""
+depth; MIP straight down an axis is numpy's max along it; OpenGL 4.1 draws what 4.3 draws; the command, Python and scenes agree; a bad mode is one line."""
 from __future__ import annotations
 
 import json
@@ -16,6 +16,8 @@ from support.command import isoscope_here
 
 import isoscope
 from isoscope.viewer.gfx.raycast import DENSITY_PER_SAMPLE
+from isoscope.viewer.gfx.slices import colormap_rgba8
+from isoscope.viewer.model.colormaps import LUT_SIZE
 from isoscope.viewer.model.style import SurfaceStyle
 from isoscope.viewer.ui.headless import HeadlessViewer
 from isoscope.volumes.inputs import as_volume
@@ -241,3 +243,58 @@ def test_presets_fit_the_volumes_range_and_a_scene_keeps_the_transfer(tmp_path):
     again = isoscope_here("render", tmp_path / "s.json", "--out", tmp_path / "b.png")
     assert again.returncode == 0, again.stderr
     assert np.array_equal(np.asarray(Image.open(tmp_path / "a.png")), np.asarray(Image.open(tmp_path / "b.png")))
+
+
+def blobs(shape=(40, 48, 36)) -> np.ndarray:
+    """Three smooth bumps of different heights (0.9, 0.7, 0.5) at different places: a MIP along any axis
+    differs from the others, and within a voxel the field changes by a few grey levels at most."""
+    index = np.indices(shape, dtype=np.float64)
+    field = np.zeros(shape)
+    for height, centre, sigma in ((0.9, (12, 30, 20), 5.0), (0.7, (26, 14, 12), 6.0), (0.5, (22, 30, 26), 4.0)):
+        field += height * np.exp(-sum((i - c) ** 2 for i, c in zip(index, centre)) / (2 * sigma * sigma))
+    return field.astype(np.float32)
+
+
+def pixel_centres_on_plane(camera, size, axis, position) -> np.ndarray:
+    """(height, width, 3): where the ray through each pixel's centre crosses the plane at `position` along
+    `axis`, in model units, from the camera's own matrices (pyrr's row vectors: clip = p @ view @ projection)."""
+    width, height = size
+    inverse = np.linalg.inv(camera.view_matrix().astype(np.float64)
+                            @ camera.projection_matrix(width / height).astype(np.float64))
+    x = (np.arange(width) + 0.5) / width * 2 - 1
+    y = 1 - (np.arange(height) + 0.5) / height * 2
+    ndc = np.stack(np.broadcast_arrays(x[None, :], y[:, None]), axis=-1)
+    ends = []
+    for z in (-1.0, 1.0):
+        points = np.concatenate([ndc, np.full(ndc.shape[:2] + (1,), z), np.ones(ndc.shape[:2] + (1,))], -1) @ inverse
+        ends.append(points[..., :3] / points[..., 3:])
+    near, far = ends
+    t = (position - near[..., axis]) / (far[..., axis] - near[..., axis])
+    return near + t[..., None] * (far - near)
+
+
+@pytest.mark.parametrize("axis, view", [(0, (0.0, 0.0)), (1, (90.0, 0.0)), (2, (0.0, 90.0)), (2, (0.0, -90.0))])
+def test_mip_along_an_axis_is_numpys_max_within_a_grey_level(viewer, axis, view):
+    """A view straight down an axis through a 0.25-degree field of view from far away (the rays parallel to
+    within 1/40 of a voxel across the volume): inside the volume's footprint each pixel is the grey colour map
+    at the largest value along the axis of the volume's planes, each sampled bilinearly at the pixel centre."""
+    data = blobs()
+    viewer.camera.fov_degrees = 0.25
+    viewer.show(as_volume(data), 0.5, *view)
+    image = picture(viewer, "mip", 0.5, window=(1.0, 0.5))[..., 0]
+    spot = pixel_centres_on_plane(viewer.camera, SIZE, axis, (data.shape[axis] - 1) / 2)
+    across = [a for a in range(3) if a != axis]
+    u, v = spot[..., across[0]], spot[..., across[1]]
+    inside = (u >= 1) & (u <= data.shape[across[0]] - 2) & (v >= 1) & (v <= data.shape[across[1]] - 2)
+    assert inside.sum() > 2000
+    planes = np.moveaxis(data, axis, -1).astype(np.float64)   # (A, B, along)
+    u, v = u[inside], v[inside]
+    i, j = np.floor(u).astype(int), np.floor(v).astype(int)
+    fu, fv = (u - i)[:, None], (v - j)[:, None]
+    bilinear = ((1 - fu) * (1 - fv) * planes[i, j] + fu * (1 - fv) * planes[i + 1, j]
+                + (1 - fu) * fv * planes[i, j + 1] + fu * fv * planes[i + 1, j + 1])
+    expected = colormap_rgba8("gray")[np.minimum((np.clip(bilinear.max(axis=1), 0, 1) * LUT_SIZE).astype(int),
+                                                 LUT_SIZE - 1), 0].astype(int)
+    difference = np.abs(image[inside] - expected)
+    assert difference.max() <= 1, (difference.max(), np.count_nonzero(difference > 1))
+    assert np.ptp(expected) > 150   # the picture has something to get wrong
