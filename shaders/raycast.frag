@@ -7,7 +7,10 @@
 //   MODE_ISO    the first crossing of u_level on the trilinear interpolant (the one the mesh comes from),
 //     refined by bisection and shaded by the field's gradient as mesh.frag shades a surface;
 //   MODE_DVR    emission-absorption, front to back: extinction u_density * ramp(value) per model unit
-//     (Beer-Lambert within each step), colour from the map; stops once nearly opaque.
+//     (Beer-Lambert within each step), colour from the map lit as a surface across the field's gradient
+//     (central differences of the trilinear interpolant; left unlit where the gradient is ~0, inside a
+//     uniform region); stops once nearly opaque.
+// The light is the meshes' (lighting.glsl), two-sided.
 // Empty space is skipped a brick at a time: u_ranges holds each brick's (min, max) over its samples (the
 // cells of BRICK samples a side, their shared faces included), and a brick that cannot change the result
 // (MIP: no value above the largest so far; MinIP: none below; iso: all of it on the outside of the level;
@@ -34,11 +37,14 @@ uniform sampler2D u_transfer;  // DVR: opacity over [u_transfer_range] (TRANSFER
 uniform float u_transfer_on;
 uniform vec2 u_transfer_range;
 uniform float u_transfer_floor; // values at or below it are transparent under the transfer function
+uniform float u_gradient_floor; // DVR: a gradient no longer than this (values per model unit) is none
 uniform vec4 u_clip_plane;     // kept where dot(plane, (p, 1)) >= 0 (slices.py); (0, 0, 0, 1): no clip
 uniform mat4 u_view;
 uniform mat4 u_projection;
 
 out vec4 frag_color;
+
+#include "lighting.glsl"
 
 const int MAX_STEPS = 8192;
 
@@ -127,10 +133,15 @@ vec3 gradient_at(vec3 p) {
                 value_at(p + vec3(0, 0, h.z)) - value_at(p - vec3(0, 0, h.z))) / (2.0 * h);
 }
 
-vec3 lit(vec3 normal, vec3 p) {
+vec3 lit(vec3 albedo, vec3 normal, vec3 p) {   // two-sided: the normal turned to face the eye
     vec3 view_normal = normalize(mat3(u_view) * normal);
     vec3 to_eye = normalize(-(u_view * vec4(p, 1.0)).xyz);
-    return u_front_color * (0.15 + 0.85 * abs(dot(view_normal, to_eye)));
+    return lit_albedo(albedo, dot(view_normal, to_eye) < 0.0 ? -view_normal : view_normal, to_eye);
+}
+
+vec3 shaded(vec3 albedo, vec3 p) {   // DVR: a sample lit across the gradient, where there is one
+    vec3 gradient = gradient_at(p);
+    return length(gradient) <= u_gradient_floor ? albedo : lit(albedo, gradient / length(gradient), p);
 }
 
 void main() {
@@ -155,7 +166,7 @@ void main() {
     if (before >= 0.0) {   // the ray starts inside the object: at the box's face, or the clip's cut
         if (span.x > box.x + 1e-6 * length(u_extent)) {
             vec3 p = u_eye + dir * span.x;
-            frag_color = vec4(lit(u_clip_plane.xyz, p), 1.0);
+            frag_color = vec4(lit(u_front_color, u_clip_plane.xyz, p), 1.0);
             finish_depth(p);
             return;
         }
@@ -199,7 +210,7 @@ void main() {
                 if (u_inside * (value_at(u_eye + dir * mid) - u_level) >= 0.0) high = mid; else low = mid;
             }
             vec3 hit = u_eye + dir * high;
-            frag_color = vec4(lit(-u_inside * normalize(gradient_at(hit) + vec3(1e-30)), hit), 1.0);
+            frag_color = vec4(lit(u_front_color, normalize(gradient_at(hit) + vec3(1e-30)), hit), 1.0);
             finish_depth(hit);
             return;
         }
@@ -207,7 +218,7 @@ void main() {
 #elif defined(MODE_DVR)
         float length_step = min(u_step, span.y - t + 1e-6);
         float alpha = 1.0 - exp(-u_density * opacity_of(v) * length_step);
-        colour += transmitted * alpha * colour_of(v).rgb;
+        if (alpha > 0.0) colour += transmitted * alpha * shaded(colour_of(v).rgb, p);
         transmitted *= 1.0 - alpha;
         if (transmitted < 0.004) break;
 #endif

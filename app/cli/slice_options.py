@@ -67,7 +67,8 @@ def add_slice_arguments(parser: argparse.ArgumentParser) -> None:
                        help="draw the volume itself by ray casting instead of the meshes: mip, minip or mean "
                             "(the largest, smallest or mean value along each ray, through --colormap over "
                             "--window/--level), iso (the level's first hit, no mesh made) or dvr "
-                            "(emission-absorption, opacity ramping up over the window); on OpenGL 4.1 too")
+                            "(emission-absorption lit by the gradient, opacity ramping up over the window); "
+                            "on OpenGL 4.1 too")
     group.add_argument("--transfer", metavar="V:A,...|PRESET",
                        help="--raycast dvr: the opacity at each value, linear between the points, e.g. "
                             "200:0,500:0.5,1200:1, or a preset: ct-bone, ct-soft (Hounsfield units), mri")

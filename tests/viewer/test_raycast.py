@@ -1,7 +1,8 @@
 """Direct volume rendering by ray casting (gfx/raycast.py, shaders/raycast.*), by pixel facts: MIP shows a
 bright ball hidden inside a dimmer one where the surface between them cannot; the iso mode's silhouette is
 the mesh's; MIP >= mean >= MinIP on every pixel; DVR of a uniform block follows Beer-Lambert with its
-depth; MIP straight down an axis is numpy's max along it; OpenGL 4.1 draws what 4.3 draws; the command, Python and scenes agree; a bad mode is one line."""
+depth, and DVR is lit across the gradient; MIP straight down an axis is numpy's max along it; OpenGL 4.1
+draws what 4.3 draws; the command, Python and scenes agree; a bad mode is one line."""
 from __future__ import annotations
 
 import json
@@ -298,3 +299,21 @@ def test_mip_along_an_axis_is_numpys_max_within_a_grey_level(viewer, axis, view)
     difference = np.abs(image[inside] - expected)
     assert difference.max() <= 1, (difference.max(), np.count_nonzero(difference > 1))
     assert np.ptp(expected) > 150   # the picture has something to get wrong
+
+
+def test_dvr_is_lit_across_the_gradient_brighter_on_the_fill_lights_side(viewer):
+    """A smooth ball made nearly opaque from its rim in (a transfer function): the meshes' fill light comes
+    from the upper left (lighting.glsl), so the ball's upper-left half is brighter than its lower-right half
+    (unshaded, the two are the same to 1%: the ball is round)."""
+    x, y, z = _grid(40)
+    ball = np.exp(-(x * x + y * y + z * z) / (2 * 0.35 ** 2)).astype(np.float32)
+    viewer.show(as_volume(ball), 0.5)
+    viewer.state.set_transfer("0.01:0,0.2:1,0.99:1")
+    image = picture(viewer, "dvr", 0.5, window=(0.6, 0.3)).sum(axis=2)
+    drawn = np.abs(image - BACKGROUND.sum()) > 30
+    ys, xs = np.nonzero(drawn)
+    rows, columns = np.indices(image.shape)
+    towards_lower_right = (columns - xs.mean()) + (rows - ys.mean())
+    lit_side, far_side = (image[drawn & (side > 5)].mean() for side in (-towards_lower_right, towards_lower_right))
+    assert drawn.sum() > 2000
+    assert lit_side > 1.1 * far_side, (lit_side, far_side)

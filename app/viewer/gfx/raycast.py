@@ -21,6 +21,7 @@ BRICK = 8              # samples a side of the bricks whose (min, max) let rays 
 STEP_PER_SAMPLE = 0.5   # the ray's step: half the smallest sample spacing (no sample's peak is stepped over)
 COARSE = 2             # while the view moves: one ray per COARSE x COARSE pixels, stretched (a quarter of the work)
 DENSITY_PER_SAMPLE = 0.15   # DVR: extinction per sample spacing at the top of the ramp (a few samples' depth)
+GRADIENT_FLOOR = 1e-3   # DVR: a sample changing less than this part of the value range per spacing is unlit
 
 # dtype -> (moderngl texture dtype, what one unit of the normalised texel is worth)
 NORMALISED = {np.dtype(np.uint8): ("nu1", 255.0), np.dtype(np.uint16): ("nu2", 65535.0),
@@ -127,7 +128,8 @@ class VolumeRaycaster:
                     "u_clip_plane": tuple(request.clip_plane), "u_volume": 0, "u_colormap": 1, "u_ranges": 2,
                     "u_transfer": 4, "u_transfer_on": 0.0 if request.transfer is None else 1.0,
                     "u_transfer_range": tuple(request.value_range),
-                    "u_transfer_floor": transparent_below(request.transfer, request.value_range)}
+                    "u_transfer_floor": transparent_below(request.transfer, request.value_range),
+                    "u_gradient_floor": float(GRADIENT_FLOOR * max(np.ptp(request.value_range), 1e-30) / spacing.min())}
         if request.transfer is not None and (request.transfer, request.value_range) != self._transfer_of:
             self._transfer.write(opacity_table(request.transfer, request.value_range).tobytes())
             self._transfer_of = (request.transfer, request.value_range)
