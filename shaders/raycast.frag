@@ -16,6 +16,10 @@
 // (MIP: no value above the largest so far; MinIP: none below; iso: all of it on the outside of the level;
 // DVR: all of it below the window) is left at its far face.  The clip plane, where there is one, cuts
 // the rays: iso draws the cut through the object flat, in the surface's colour.
+// What is drawn opaque before the rays (slices, opaque surfaces: u_depth, their depth) ends them there: a
+// ray stopped so shows iso's hit in front of it (the only mode that writes depth), DVR over it (premultiplied),
+// and MIP and mean over it as opaque as their value is bright in the window (MinIP: as it is dark), so what
+// stopped the ray shows through a dark projection of what lies in front of it.
 in vec3 v_model;
 
 uniform sampler3D u_volume;    // the samples as C-ordered bytes: texture x is array axis 2 (sampled .zyx)
@@ -38,7 +42,12 @@ uniform float u_transfer_on;
 uniform vec2 u_transfer_range;
 uniform float u_transfer_floor; // values at or below it are transparent under the transfer function
 uniform float u_gradient_floor; // DVR: a gradient no longer than this (values per model unit) is none
-uniform vec4 u_clip_plane;     // kept where dot(plane, (p, 1)) >= 0 (slices.py); (0, 0, 0, 1): no clip
+uniform vec4 u_clip_plane;
+uniform sampler2D u_depth;     // what is drawn opaque (window depth), where u_depth_on: the rays end there
+uniform float u_depth_on;
+uniform vec2 u_depth_origin;   // a fragment's texel in u_depth: (gl_FragCoord.xy - origin) * scale
+uniform vec2 u_depth_scale;
+uniform mat4 u_inverse;        // (u_projection u_view)^-1: a window depth back to model space     // kept where dot(plane, (p, 1)) >= 0 (slices.py); (0, 0, 0, 1): no clip
 uniform mat4 u_view;
 uniform mat4 u_projection;
 
@@ -89,6 +98,18 @@ vec2 clipped(vec2 span, vec3 dir) {
     return along > 0.0 ? vec2(max(span.x, t), span.y) : vec2(span.x, min(span.y, t));
 }
 
+// How far along the ray (t) what is drawn opaque is, or 1e38 where nothing is.
+float scene_end(vec3 dir) {
+    if (u_depth_on < 0.5) return 1e38;
+    ivec2 texel = clamp(ivec2((gl_FragCoord.xy - u_depth_origin) * u_depth_scale), ivec2(0),
+                        textureSize(u_depth, 0) - 1);
+    float depth = texelFetch(u_depth, texel, 0).r;
+    if (depth >= 1.0) return 1e38;
+    vec4 clip = u_projection * u_view * vec4(v_model, 1.0);
+    vec4 p = u_inverse * vec4(clip.xy / clip.w, 2.0 * depth - 1.0, 1.0);
+    return dot(p.xyz / p.w - u_eye, dir);
+}
+
 // The brick the point p lies in, and where the ray leaves it (t).
 ivec3 brick_of(vec3 p) {
     return ivec3(clamp(floor(p / u_brick), vec3(0.0), u_bricks - 1.0));
@@ -121,7 +142,7 @@ bool skipped(vec2 range, float gathered) {
 #endif
 }
 
-void finish_depth(vec3 p) {   // the depth of the point the pixel shows, so later draws are hidden by it
+void finish_depth(vec3 p) {   // iso: the depth of the hit, so later draws (translucent surfaces) are hidden by it
     vec4 clip = u_projection * u_view * vec4(p, 1.0);
     gl_FragDepth = clamp(0.5 * clip.z / clip.w + 0.5, 0.0, 1.0);
 }
@@ -148,6 +169,9 @@ void main() {
     vec3 dir = normalize(v_model - u_eye);
     vec2 box = box_span(dir);
     vec2 span = clipped(box, dir);
+    float end = scene_end(dir);
+    bool stopped = end < span.y;   // by something drawn opaque
+    span.y = min(span.y, end);
     if (span.x >= span.y) discard;
     float t = span.x;
 #if defined(MODE_MINIP)
@@ -228,13 +252,16 @@ void main() {
     discard;
 #elif defined(MODE_DVR)
     frag_color = vec4(colour, 1.0 - transmitted);   // premultiplied: blended ONE, ONE_MINUS_SRC_ALPHA
-    finish_depth(u_eye + dir * span.x);
 #else
   #if defined(MODE_MEAN)
     gathered /= max(count, 1.0);
   #endif
     if (gathered < -1e37 || gathered > 1e37) discard;   // every brick skipped: nothing on the ray
-    frag_color = vec4(colour_of(gathered).rgb, 1.0);
-    finish_depth(u_eye + dir * span.x);
+  #if defined(MODE_MINIP)
+    float alpha = stopped ? 1.0 - mapped(gathered) : 1.0;
+  #else
+    float alpha = stopped ? mapped(gathered) : 1.0;
+  #endif
+    frag_color = vec4(colour_of(gathered).rgb * alpha, alpha);   // premultiplied, as DVR's
 #endif
 }

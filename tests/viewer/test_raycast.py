@@ -179,9 +179,9 @@ def test_the_clip_plane_cuts_the_rays_and_iso_draws_the_cut(viewer):
     viewer.show(as_volume(ball), 0.0)
     whole = picture(viewer, "iso", 0.0)
     viewer.state.slices.set_clip(0, 20.0)   # hide x above the middle
-    mesh_cut = picture(viewer, None, 0.0)
+    mesh_cut = picture(viewer, None, 0.0, window=(0.2, -0.1))   # its cap (the slice) white: values >= 0
     iso_cut = picture(viewer, "iso", 0.0)
-    # anything but background (the mesh's cap is the slice there, dark where the field is near 0)
+    # anything but background
     drawn = [(np.abs(image - BACKGROUND).max(axis=2) > 8) for image in (whole, mesh_cut, iso_cut)]
     assert drawn[2].sum() < drawn[0].sum()                    # half the ball is gone
     union, both = (drawn[1] | drawn[2]).sum(), (drawn[1] & drawn[2]).sum()
@@ -317,3 +317,76 @@ def test_dvr_is_lit_across_the_gradient_brighter_on_the_fill_lights_side(viewer)
     lit_side, far_side = (image[drawn & (side > 5)].mean() for side in (-towards_lower_right, towards_lower_right))
     assert drawn.sum() > 2000
     assert lit_side > 1.1 * far_side, (lit_side, far_side)
+
+
+def _inner(mask, by=2):
+    """`mask` less its rim `by` pixels wide: away from edges drawn at subpixel positions."""
+    kept = mask.copy()
+    for axis in (0, 1):
+        for shift in range(1, by + 1):
+            kept &= np.roll(mask, shift, axis) & np.roll(mask, -shift, axis)
+    return kept
+
+
+@pytest.mark.parametrize("mode", ["mip", "mean", "dvr"])
+def test_an_opaque_surface_hides_the_bright_core_behind_it(viewer, mode):
+    """With the surfaces drawn too, the dim ball's surface (level 0.2, opaque) ends the rays: the bright core
+    inside it is hidden.  In front of the surface the values are below the level, so the volume there covers
+    it by at most that much (MIP, mean: as bright as they are in the window 0..1; DVR: its opacity): inside
+    the surface's outline the picture is the surface's own to within 0.2 x 255; where no surface is, the
+    rays are as without surfaces."""
+    viewer.show(as_volume(nested()), 0.2)
+    viewer.state.style.show_box = False   # its lines cross the surface's outline
+    surface = picture(viewer, None)
+    alone = picture(viewer, mode)
+    viewer.state.set_with_surfaces(True)
+    both = picture(viewer, mode)
+    ball = surface[..., 2] - surface[..., 0] > 30   # the lit blue surface (not the grey box lines)
+    inside, outside = _inner(ball), _inner(~ball, 3)
+    assert inside.sum() > 1500 and outside.sum() > 3000
+    assert np.abs(both[inside] - surface[inside]).max() <= 0.2 * 255 + 1
+    assert np.abs(both[outside] - alone[outside]).max() <= 2
+    assert np.abs(alone[inside] - surface[inside]).max() > 100   # without the surfaces, the volume there
+    if mode == "mip":
+        assert white(alone) > 100 and white(both) == 0
+
+
+def test_a_slice_stays_drawn_and_ends_the_rays(viewer):
+    """Seen from above, a slice across the box above the balls (all zeros there): MIP and DVR end at it, so
+    the bright core behind it is hidden and the slice shows as it does without ray casting; the clip's cut
+    is no slice: with rays alone they are cut by it, not stopped."""
+    viewer.show(as_volume(nested()), 0.2, azimuth=0.0, elevation=90.0)
+    mip = picture(viewer, "mip")
+    viewer.state.slices.inset = False
+    viewer.state.slices.show(2, True, 45)
+    plain = picture(viewer, None)
+    middle = (slice(SIZE[1] // 2 - 25, SIZE[1] // 2 + 25), slice(SIZE[0] // 2 - 25, SIZE[0] // 2 + 25))
+    for mode in ("mip", "dvr"):
+        ended = picture(viewer, mode)
+        assert np.abs(ended[middle] - plain[middle]).max() <= 2, mode
+    assert white(mip) > 100 and white(picture(viewer, "mip")) == 0
+
+
+def test_translucent_surfaces_blend_over_the_volume_and_every_entry_draws_the_same(tmp_path):
+    """DVR with the core's surface (0.7) opaque and the dim ball's (0.2) at opacity 0.4 over it: the command,
+    isoscope.render and the saved scene draw the same picture; the translucent shell tints the volume (the
+    picture differs from the one with the core alone), and the surfaces change the picture of the volume."""
+    np.save(tmp_path / "nested.npy", nested())
+    options = ("--size", "200x150", "--slice", "z=8")   # the window: the default percentiles, as in Python
+    done = isoscope_here("render", tmp_path / "nested.npy", "--raycast", "dvr", "--with-surfaces", "--iso", "0.7",
+                         "--iso", "0.2", "--opacity", "1,0.4", *options, "--out", tmp_path / "cli.png",
+                         "--save-scene", tmp_path / "s.json")
+    assert done.returncode == 0, done.stderr
+    assert json.loads((tmp_path / "s.json").read_text())["with_surfaces"] is True
+    again = isoscope_here("render", tmp_path / "s.json", "--out", tmp_path / "scene.png")
+    assert again.returncode == 0, again.stderr
+    cli = np.asarray(Image.open(tmp_path / "cli.png")).astype(int)
+    assert np.array_equal(cli, np.asarray(Image.open(tmp_path / "scene.png")))
+
+    def api(levels, opacities, with_surfaces=True):
+        return isoscope.render(nested(), levels, size=(200, 150), raycast="dvr", with_surfaces=with_surfaces,
+                               opacities=opacities, slices=[("z", 8)])[..., :3].astype(int)
+    assert np.abs(api([0.7, 0.2], [1.0, 0.4]) - cli).max() <= 1
+    core_only = api([0.7], [1.0])
+    assert np.abs(core_only - cli).max() > 30
+    assert np.abs(api([0.7], [1.0], with_surfaces=False) - core_only).max() > 30

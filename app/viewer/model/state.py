@@ -93,6 +93,7 @@ class ViewerState:
         self.gl_renderer = "unknown"          # the GPU side says which
         self._opener = opener if opener is not None else open_volume
         self.raycast: str | None = None       # a ray-casting mode drawn in the meshes' place (model/raycast.py)
+        self.with_surfaces = False            # the surfaces drawn with the ray-cast volume too
         self.transfer = None                  # DVR's opacity points (value, opacity); None: the window's ramp
         self._pending_scene = None            # (request, scene, its path) while a scene's volume is read
         self.scene_to_apply: dict | None = None   # a scene whose volume is on show: the view side applies it
@@ -195,6 +196,11 @@ class ViewerState:
         """Draw the volume itself by ray casting in `mode` (model/raycast.py: mip, minip, mean, iso, dvr)
         in place of the meshes; None or "off": the meshes.  An unknown mode is one line; nothing changes."""
         self.raycast = check_raycast(mode)
+
+    def set_with_surfaces(self, on: bool) -> None:
+        """With a ray-casting mode, draw the surfaces too (gfx/renderer.py: the opaque ones and the slices
+        end the rays, the translucent ones are blended over the volume); off: the volume alone."""
+        self.with_surfaces = bool(on)
 
     def set_transfer(self, spec) -> None:
         """DVR's opacity over the values (model/raycast.py: a preset such as "ct-bone", "V:A,..." or pairs);

@@ -61,6 +61,12 @@ class SlicePanel:
         tooltip("the volume itself, ray cast in the surfaces' place: the largest (mip), smallest or mean value\n"
                 "along each ray, or emission-absorption (dvr), through the colour map and window above;\n"
                 "iso: the level's first hit on the interpolant, shaded (no mesh made)")
+        if state.raycast is not None:
+            toggled, on = imgui.checkbox("surfaces too", state.with_surfaces)
+            if toggled:
+                act(state, state.set_with_surfaces, on)
+            tooltip("the surfaces with the volume: the opaque ones (and the slices) end the rays, mip and mean\n"
+                    "cover them as much as they are bright; translucent ones are blended over the volume")
         self._clip(state)
 
     @staticmethod
