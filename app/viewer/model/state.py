@@ -35,7 +35,7 @@ from .histogram import value_histogram
 from .jobs import Jobs, Response
 from .labels import LabelMap
 from .levels import Levels
-from .raycast import check_raycast, check_transfer
+from .raycast import check_raycast, check_transfer, moved_point
 from .recent import RecentFiles
 from .scene_file import is_scene_file, read_scene, volume_spec
 from .series import TimeAxis
@@ -208,6 +208,13 @@ class ViewerState:
         if self.volume is None and spec not in (None, "off"):
             raise ViewerError("open a volume before giving a transfer function")
         self.transfer = check_transfer(spec, self.value_range if self.volume is not None else (0.0, 1.0))
+
+    def move_transfer_point(self, index: int, value: float, opacity: float) -> None:
+        """Move the transfer function's point `index` to (value, opacity), as the panel's drag does (kept in
+        the value range, between its neighbours, opacity 0..1: model/raycast.py moved_point)."""
+        if self.transfer is None:
+            raise ViewerError("choose a transfer function (a preset) before moving its points")
+        self.transfer = moved_point(self.transfer, index, value, opacity, self.value_range)
 
     # --- mesh options: one MeshOptions, replaced whole --------------------------
     @property
