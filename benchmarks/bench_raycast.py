@@ -1,6 +1,7 @@
 """Frame time of direct volume rendering (ray casting, gfx/raycast.py) against the mesh of the same view.
 
-    python benchmarks/bench_raycast.py [--size 1280x800] [--frames 8] [--volumes mri ct]
+    python benchmarks/bench_raycast.py [--size 1280x800] [--frames 8] [--volumes mri ct] [--modes mesh dvr ...]
+                                       [--with-surfaces]
 
 Each mode (mip, minip, mean, iso, dvr) and the plain mesh drawn by the headless viewer (the `render`
 path: the same shaders as the window) with the camera turning a little every frame, so no frame repeats
@@ -45,6 +46,9 @@ def main() -> None:
     parser.add_argument("--size", default="1280x800")
     parser.add_argument("--frames", type=int, default=8)
     parser.add_argument("--volumes", nargs="+", default=["mri", "ct"], choices=["mri", "ct"])
+    parser.add_argument("--modes", nargs="+", default=[mode or "mesh" for mode in MODES],
+                        choices=[mode or "mesh" for mode in MODES])
+    parser.add_argument("--with-surfaces", action="store_true", help="the level's surface drawn with the rays")
     args = parser.parse_args()
     size = tuple(int(n) for n in args.size.split("x"))
     from isoscope.viewer.ui.headless import HeadlessViewer
@@ -59,9 +63,11 @@ def main() -> None:
         viewer = HeadlessViewer(size)
         try:
             viewer.show(as_volume(data, spacing=spacing), level)
+            if args.with_surfaces:
+                viewer.state.set_with_surfaces(True)
             renderer = viewer.ctx.info["GL_RENDERER"]
             print(f"{name}: {'x'.join(map(str, data.shape))} {data.dtype}, {args.size}, {renderer}")
-            for mode in MODES:
+            for mode in (None if name == "mesh" else name for name in args.modes):
                 times = frames(viewer, mode, args.frames)
                 moving = frames(viewer, mode, args.frames, moving=True) if mode else times
                 print(f"  {mode or 'mesh':6s} at rest median {np.median(times):8.1f} ms, p90 "

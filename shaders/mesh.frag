@@ -1,5 +1,5 @@
 #version 410
-// Two-sided Blinn-Phong: a headlight plus a fill light from the upper left.
+// Two-sided Blinn-Phong: a headlight plus a fill light from the upper left (lighting.glsl).
 // Back faces get their own colour, so holes and inside-out surfaces show.
 // With OIT defined, a translucent surface's fragment goes to the weighted blended
 // accumulation targets instead (oit.py; McGuire & Bavoil 2013).
@@ -21,14 +21,7 @@ layout(location = 1) out vec4 weights;   // r: sum of w * a
 out vec4 frag_color;
 #endif
 
-const vec3 FILL_DIRECTION = normalize(vec3(-0.6, 0.7, 0.4));   // towards the light, view space
-
-vec3 blinn_phong(vec3 normal, vec3 to_light, vec3 to_eye, vec3 albedo, float strength) {
-    float diffuse = max(dot(normal, to_light), 0.0);
-    vec3 half_vector = normalize(to_light + to_eye);
-    float specular = diffuse > 0.0 ? pow(max(dot(normal, half_vector), 0.0), 48.0) : 0.0;
-    return strength * (albedo * diffuse + vec3(0.35) * specular);
-}
+#include "lighting.glsl"
 
 vec3 shade() {
     vec3 front = u_front_color;
@@ -45,9 +38,7 @@ vec3 shade() {
     vec3 normal = normalize(v_view_normal);
     if (!gl_FrontFacing) normal = -normal;
     vec3 to_eye = normalize(-v_view_position);
-    return 0.12 * albedo
-         + blinn_phong(normal, to_eye, to_eye, albedo, 0.85)           // headlight
-         + blinn_phong(normal, FILL_DIRECTION, to_eye, albedo, 0.35);  // fill
+    return lit_albedo(albedo, normal, to_eye);
 }
 
 void main() {

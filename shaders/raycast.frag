@@ -7,12 +7,19 @@
 //   MODE_ISO    the first crossing of u_level on the trilinear interpolant (the one the mesh comes from),
 //     refined by bisection and shaded by the field's gradient as mesh.frag shades a surface;
 //   MODE_DVR    emission-absorption, front to back: extinction u_density * ramp(value) per model unit
-//     (Beer-Lambert within each step), colour from the map; stops once nearly opaque.
+//     (Beer-Lambert within each step), colour from the map lit as a surface across the field's gradient
+//     (central differences of the trilinear interpolant; left unlit where the gradient is ~0, inside a
+//     uniform region); stops once nearly opaque.
+// The light is the meshes' (lighting.glsl), two-sided.
 // Empty space is skipped a brick at a time: u_ranges holds each brick's (min, max) over its samples (the
 // cells of BRICK samples a side, their shared faces included), and a brick that cannot change the result
 // (MIP: no value above the largest so far; MinIP: none below; iso: all of it on the outside of the level;
 // DVR: all of it below the window) is left at its far face.  The clip plane, where there is one, cuts
 // the rays: iso draws the cut through the object flat, in the surface's colour.
+// What is drawn opaque before the rays (slices, opaque surfaces: u_depth, their depth) ends them there: a
+// ray stopped so shows iso's hit in front of it (the only mode that writes depth), DVR over it (premultiplied),
+// and MIP and mean over it as opaque as their value is bright in the window (MinIP: as it is dark), so what
+// stopped the ray shows through a dark projection of what lies in front of it.
 in vec3 v_model;
 
 uniform sampler3D u_volume;    // the samples as C-ordered bytes: texture x is array axis 2 (sampled .zyx)
@@ -34,11 +41,19 @@ uniform sampler2D u_transfer;  // DVR: opacity over [u_transfer_range] (TRANSFER
 uniform float u_transfer_on;
 uniform vec2 u_transfer_range;
 uniform float u_transfer_floor; // values at or below it are transparent under the transfer function
-uniform vec4 u_clip_plane;     // kept where dot(plane, (p, 1)) >= 0 (slices.py); (0, 0, 0, 1): no clip
+uniform float u_gradient_floor; // DVR: a gradient no longer than this (values per model unit) is none
+uniform vec4 u_clip_plane;
+uniform sampler2D u_depth;     // what is drawn opaque (window depth), where u_depth_on: the rays end there
+uniform float u_depth_on;
+uniform vec2 u_depth_origin;   // a fragment's texel in u_depth: (gl_FragCoord.xy - origin) * scale
+uniform vec2 u_depth_scale;
+uniform mat4 u_inverse;        // (u_projection u_view)^-1: a window depth back to model space     // kept where dot(plane, (p, 1)) >= 0 (slices.py); (0, 0, 0, 1): no clip
 uniform mat4 u_view;
 uniform mat4 u_projection;
 
 out vec4 frag_color;
+
+#include "lighting.glsl"
 
 const int MAX_STEPS = 8192;
 
@@ -83,6 +98,18 @@ vec2 clipped(vec2 span, vec3 dir) {
     return along > 0.0 ? vec2(max(span.x, t), span.y) : vec2(span.x, min(span.y, t));
 }
 
+// How far along the ray (t) what is drawn opaque is, or 1e38 where nothing is.
+float scene_end(vec3 dir) {
+    if (u_depth_on < 0.5) return 1e38;
+    ivec2 texel = clamp(ivec2((gl_FragCoord.xy - u_depth_origin) * u_depth_scale), ivec2(0),
+                        textureSize(u_depth, 0) - 1);
+    float depth = texelFetch(u_depth, texel, 0).r;
+    if (depth >= 1.0) return 1e38;
+    vec4 clip = u_projection * u_view * vec4(v_model, 1.0);
+    vec4 p = u_inverse * vec4(clip.xy / clip.w, 2.0 * depth - 1.0, 1.0);
+    return dot(p.xyz / p.w - u_eye, dir);
+}
+
 // The brick the point p lies in, and where the ray leaves it (t).
 ivec3 brick_of(vec3 p) {
     return ivec3(clamp(floor(p / u_brick), vec3(0.0), u_bricks - 1.0));
@@ -115,7 +142,7 @@ bool skipped(vec2 range, float gathered) {
 #endif
 }
 
-void finish_depth(vec3 p) {   // the depth of the point the pixel shows, so later draws are hidden by it
+void finish_depth(vec3 p) {   // iso: the depth of the hit, so later draws (translucent surfaces) are hidden by it
     vec4 clip = u_projection * u_view * vec4(p, 1.0);
     gl_FragDepth = clamp(0.5 * clip.z / clip.w + 0.5, 0.0, 1.0);
 }
@@ -127,16 +154,24 @@ vec3 gradient_at(vec3 p) {
                 value_at(p + vec3(0, 0, h.z)) - value_at(p - vec3(0, 0, h.z))) / (2.0 * h);
 }
 
-vec3 lit(vec3 normal, vec3 p) {
+vec3 lit(vec3 albedo, vec3 normal, vec3 p) {   // two-sided: the normal turned to face the eye
     vec3 view_normal = normalize(mat3(u_view) * normal);
     vec3 to_eye = normalize(-(u_view * vec4(p, 1.0)).xyz);
-    return u_front_color * (0.15 + 0.85 * abs(dot(view_normal, to_eye)));
+    return lit_albedo(albedo, dot(view_normal, to_eye) < 0.0 ? -view_normal : view_normal, to_eye);
+}
+
+vec3 shaded(vec3 albedo, vec3 p) {   // DVR: a sample lit across the gradient, where there is one
+    vec3 gradient = gradient_at(p);
+    return length(gradient) <= u_gradient_floor ? albedo : lit(albedo, gradient / length(gradient), p);
 }
 
 void main() {
     vec3 dir = normalize(v_model - u_eye);
     vec2 box = box_span(dir);
     vec2 span = clipped(box, dir);
+    float end = scene_end(dir);
+    bool stopped = end < span.y;   // by something drawn opaque
+    span.y = min(span.y, end);
     if (span.x >= span.y) discard;
     float t = span.x;
 #if defined(MODE_MINIP)
@@ -155,7 +190,7 @@ void main() {
     if (before >= 0.0) {   // the ray starts inside the object: at the box's face, or the clip's cut
         if (span.x > box.x + 1e-6 * length(u_extent)) {
             vec3 p = u_eye + dir * span.x;
-            frag_color = vec4(lit(u_clip_plane.xyz, p), 1.0);
+            frag_color = vec4(lit(u_front_color, u_clip_plane.xyz, p), 1.0);
             finish_depth(p);
             return;
         }
@@ -199,7 +234,7 @@ void main() {
                 if (u_inside * (value_at(u_eye + dir * mid) - u_level) >= 0.0) high = mid; else low = mid;
             }
             vec3 hit = u_eye + dir * high;
-            frag_color = vec4(lit(-u_inside * normalize(gradient_at(hit) + vec3(1e-30)), hit), 1.0);
+            frag_color = vec4(lit(u_front_color, normalize(gradient_at(hit) + vec3(1e-30)), hit), 1.0);
             finish_depth(hit);
             return;
         }
@@ -207,7 +242,7 @@ void main() {
 #elif defined(MODE_DVR)
         float length_step = min(u_step, span.y - t + 1e-6);
         float alpha = 1.0 - exp(-u_density * opacity_of(v) * length_step);
-        colour += transmitted * alpha * colour_of(v).rgb;
+        if (alpha > 0.0) colour += transmitted * alpha * shaded(colour_of(v).rgb, p);
         transmitted *= 1.0 - alpha;
         if (transmitted < 0.004) break;
 #endif
@@ -217,13 +252,16 @@ void main() {
     discard;
 #elif defined(MODE_DVR)
     frag_color = vec4(colour, 1.0 - transmitted);   // premultiplied: blended ONE, ONE_MINUS_SRC_ALPHA
-    finish_depth(u_eye + dir * span.x);
 #else
   #if defined(MODE_MEAN)
     gathered /= max(count, 1.0);
   #endif
     if (gathered < -1e37 || gathered > 1e37) discard;   // every brick skipped: nothing on the ray
-    frag_color = vec4(colour_of(gathered).rgb, 1.0);
-    finish_depth(u_eye + dir * span.x);
+  #if defined(MODE_MINIP)
+    float alpha = stopped ? 1.0 - mapped(gathered) : 1.0;
+  #else
+    float alpha = stopped ? mapped(gathered) : 1.0;
+  #endif
+    frag_color = vec4(colour_of(gathered).rgb * alpha, alpha);   // premultiplied, as DVR's
 #endif
 }

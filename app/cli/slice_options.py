@@ -64,10 +64,17 @@ def add_slice_arguments(parser: argparse.ArgumentParser) -> None:
                        help="slices: a colour map of the cmap library, e.g. gray (default), bone, viridis, magma")
     group.add_argument("--no-inset", action="store_true", help="no 2-D view of the slice at the bottom right")
     group.add_argument("--raycast", choices=RAYCAST_MODES, metavar="MODE",
-                       help="draw the volume itself by ray casting instead of the meshes: mip, minip or mean "
+                       help="draw the volume itself by ray casting instead of the meshes (with them: "
+                            "--with-surfaces): mip, minip or mean "
                             "(the largest, smallest or mean value along each ray, through --colormap over "
                             "--window/--level), iso (the level's first hit, no mesh made) or dvr "
-                            "(emission-absorption, opacity ramping up over the window); on OpenGL 4.1 too")
+                            "(emission-absorption lit by the gradient, opacity ramping up over the window); "
+                            "on OpenGL 4.1 too")
+    group.add_argument("--with-surfaces", action="store_true",
+                       help="--raycast: draw the surfaces too; the opaque ones (and the slices) are drawn first "
+                            "and end the rays (hiding what lies behind them; mip and mean cover them as much as "
+                            "they are bright, minip as it is dark), the translucent ones are blended over the "
+                            "volume after it")
     group.add_argument("--transfer", metavar="V:A,...|PRESET",
                        help="--raycast dvr: the opacity at each value, linear between the points, e.g. "
                             "200:0,500:0.5,1200:1, or a preset: ct-bone, ct-soft (Hounsfield units), mri")
@@ -88,5 +95,7 @@ def apply_slice_arguments(state, args: argparse.Namespace) -> None:
     slices.inset = not args.no_inset
     if getattr(args, "raycast", None) is not None:
         state.set_raycast(args.raycast)
+    if getattr(args, "with_surfaces", False):
+        state.set_with_surfaces(True)
     if getattr(args, "transfer", None) is not None:
         state.set_transfer(args.transfer)

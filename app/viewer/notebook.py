@@ -11,7 +11,8 @@ def widget(volume, level=None, *, size=(640, 480), spacing=None, affine=None, gr
     """An ipywidgets box showing `volume`'s surface: ``.canvas`` (a jupyter_rfb RemoteFrameBuffer whose
     ``get_frame()`` is the current picture), ``.slider`` (the iso value) and ``.viewer`` (the headless
     viewer drawing it).  `options` are `isoscope.render`'s mesh and look options (opacities, color_by,
-    colormap, tetrahedra, smooth, wireframe, raycast: the volume itself, ray cast); `memory_budget` as
+    colormap, tetrahedra, smooth, wireframe, raycast: the volume itself, ray cast, with_surfaces: the
+    surfaces with it, transfer); `memory_budget` as
     `isoscope.view`'s.  Call ``.close_viewer()`` to free its GL resources."""
     ipywidgets = _needed("ipywidgets")
     RemoteFrameBuffer = _needed("jupyter_rfb").RemoteFrameBuffer

@@ -107,7 +107,8 @@ def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="d
 def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None, spacing=None, affine=None,
            gradient_direction="descent", opacities=(), color_by=None, colormap=None, labels=False,
            label_names=None, slices=(), clip=None, tetrahedra=False, smooth=0, wireframe=False, panel=False,
-           transparent=False, letters=False, memory_budget=None, raycast=None, transfer=None) -> np.ndarray:
+           transparent=False, letters=False, memory_budget=None, raycast=None, transfer=None,
+           with_surfaces=False) -> np.ndarray:
     """Render `volume`'s surface(s) offscreen, as ``isoscope render`` does, and return the pixels.
 
     Parameters
@@ -155,6 +156,10 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     transfer : str or sequence of (value, opacity), optional
         With ``raycast="dvr"``: the opacity at each value, linear between the points (in increasing value,
         inside the volume's range), or a preset: "ct-bone", "ct-soft" (Hounsfield units), "mri".
+    with_surfaces : bool, optional
+        With `raycast`: draw the surfaces too, as ``--with-surfaces``: the opaque ones and the slices first,
+        ending the rays (MIP and mean cover them as much as they are bright, MinIP as it is dark, DVR by its
+        opacity), the translucent ones blended over the volume after it.
 
     Returns
     -------
@@ -196,7 +201,7 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     with using_budget(budget):
         viewer = prepared_viewer(shown, level, size, azimuth, elevation, transparent, opacities, color_by,
                                  colormap, prepare, tetrahedra, smooth, wireframe, raycast=raycast,
-                                 transfer=transfer)
+                                 transfer=transfer, with_surfaces=with_surfaces)
     try:
         pixels = viewer.picture(panel=panel, letters=letters)
     finally:

@@ -50,3 +50,19 @@ def test_the_widget_shows_the_volume_itself_as_render_does():
         assert box.viewer.state.raycast == "mip"
     finally:
         box.close_viewer()
+
+
+def test_the_widget_draws_the_surfaces_with_the_rays_as_render_does():
+    """with_surfaces=True: the level-0.5 surface ends the rays, the same picture as isoscope.render's, and
+    not the picture without it."""
+    axis = np.linspace(-1, 1, 32, dtype=np.float32)
+    x, y, z = np.meshgrid(axis, axis, axis, indexing="ij")
+    field = np.exp(-4 * (x * x + y * y + z * z)).astype(np.float32)
+    box = isoscope.widget(field, 0.5, size=(160, 120), raycast="mip", with_surfaces=True)
+    try:
+        frame = box.canvas.get_frame()
+        options = dict(size=(160, 120), raycast="mip")
+        assert np.array_equal(frame, isoscope.render(field, 0.5, with_surfaces=True, **options)[..., :3])
+        assert np.abs(frame.astype(int) - isoscope.render(field, 0.5, **options)[..., :3]).max() > 50
+    finally:
+        box.close_viewer()

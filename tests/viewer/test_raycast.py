@@ -1,7 +1,8 @@
 """Direct volume rendering by ray casting (gfx/raycast.py, shaders/raycast.*), by pixel facts: MIP shows a
 bright ball hidden inside a dimmer one where the surface between them cannot; the iso mode's silhouette is
 the mesh's; MIP >= mean >= MinIP on every pixel; DVR of a uniform block follows Beer-Lambert with its
-depth; OpenGL 4.1 draws what 4.3 draws; the command, Python and scenes agree; a bad mode is one line."""
+depth, and DVR is lit across the gradient; MIP straight down an axis is numpy's max along it; OpenGL 4.1
+draws what 4.3 draws; the command, Python and scenes agree; a bad mode is one line."""
 from __future__ import annotations
 
 import json
@@ -16,6 +17,8 @@ from support.command import isoscope_here
 
 import isoscope
 from isoscope.viewer.gfx.raycast import DENSITY_PER_SAMPLE
+from isoscope.viewer.gfx.slices import colormap_rgba8
+from isoscope.viewer.model.colormaps import LUT_SIZE
 from isoscope.viewer.model.style import SurfaceStyle
 from isoscope.viewer.ui.headless import HeadlessViewer
 from isoscope.volumes.inputs import as_volume
@@ -176,9 +179,9 @@ def test_the_clip_plane_cuts_the_rays_and_iso_draws_the_cut(viewer):
     viewer.show(as_volume(ball), 0.0)
     whole = picture(viewer, "iso", 0.0)
     viewer.state.slices.set_clip(0, 20.0)   # hide x above the middle
-    mesh_cut = picture(viewer, None, 0.0)
+    mesh_cut = picture(viewer, None, 0.0, window=(0.2, -0.1))   # its cap (the slice) white: values >= 0
     iso_cut = picture(viewer, "iso", 0.0)
-    # anything but background (the mesh's cap is the slice there, dark where the field is near 0)
+    # anything but background
     drawn = [(np.abs(image - BACKGROUND).max(axis=2) > 8) for image in (whole, mesh_cut, iso_cut)]
     assert drawn[2].sum() < drawn[0].sum()                    # half the ball is gone
     union, both = (drawn[1] | drawn[2]).sum(), (drawn[1] & drawn[2]).sum()
@@ -241,3 +244,149 @@ def test_presets_fit_the_volumes_range_and_a_scene_keeps_the_transfer(tmp_path):
     again = isoscope_here("render", tmp_path / "s.json", "--out", tmp_path / "b.png")
     assert again.returncode == 0, again.stderr
     assert np.array_equal(np.asarray(Image.open(tmp_path / "a.png")), np.asarray(Image.open(tmp_path / "b.png")))
+
+
+def blobs(shape=(40, 48, 36)) -> np.ndarray:
+    """Three smooth bumps of different heights (0.9, 0.7, 0.5) at different places: a MIP along any axis
+    differs from the others, and within a voxel the field changes by a few grey levels at most."""
+    index = np.indices(shape, dtype=np.float64)
+    field = np.zeros(shape)
+    for height, centre, sigma in ((0.9, (12, 30, 20), 5.0), (0.7, (26, 14, 12), 6.0), (0.5, (22, 30, 26), 4.0)):
+        field += height * np.exp(-sum((i - c) ** 2 for i, c in zip(index, centre)) / (2 * sigma * sigma))
+    return field.astype(np.float32)
+
+
+def pixel_centres_on_plane(camera, size, axis, position) -> np.ndarray:
+    """(height, width, 3): where the ray through each pixel's centre crosses the plane at `position` along
+    `axis`, in model units, from the camera's own matrices (pyrr's row vectors: clip = p @ view @ projection)."""
+    width, height = size
+    inverse = np.linalg.inv(camera.view_matrix().astype(np.float64)
+                            @ camera.projection_matrix(width / height).astype(np.float64))
+    x = (np.arange(width) + 0.5) / width * 2 - 1
+    y = 1 - (np.arange(height) + 0.5) / height * 2
+    ndc = np.stack(np.broadcast_arrays(x[None, :], y[:, None]), axis=-1)
+    ends = []
+    for z in (-1.0, 1.0):
+        points = np.concatenate([ndc, np.full(ndc.shape[:2] + (1,), z), np.ones(ndc.shape[:2] + (1,))], -1) @ inverse
+        ends.append(points[..., :3] / points[..., 3:])
+    near, far = ends
+    t = (position - near[..., axis]) / (far[..., axis] - near[..., axis])
+    return near + t[..., None] * (far - near)
+
+
+@pytest.mark.parametrize("axis, view", [(0, (0.0, 0.0)), (1, (90.0, 0.0)), (2, (0.0, 90.0)), (2, (0.0, -90.0))])
+def test_mip_along_an_axis_is_numpys_max_within_a_grey_level(viewer, axis, view):
+    """A view straight down an axis through a 0.25-degree field of view from far away (the rays parallel to
+    within 1/40 of a voxel across the volume): inside the volume's footprint each pixel is the grey colour map
+    at the largest value along the axis of the volume's planes, each sampled bilinearly at the pixel centre."""
+    data = blobs()
+    viewer.camera.fov_degrees = 0.25
+    viewer.show(as_volume(data), 0.5, *view)
+    image = picture(viewer, "mip", 0.5, window=(1.0, 0.5))[..., 0]
+    spot = pixel_centres_on_plane(viewer.camera, SIZE, axis, (data.shape[axis] - 1) / 2)
+    across = [a for a in range(3) if a != axis]
+    u, v = spot[..., across[0]], spot[..., across[1]]
+    inside = (u >= 1) & (u <= data.shape[across[0]] - 2) & (v >= 1) & (v <= data.shape[across[1]] - 2)
+    assert inside.sum() > 2000
+    planes = np.moveaxis(data, axis, -1).astype(np.float64)   # (A, B, along)
+    u, v = u[inside], v[inside]
+    i, j = np.floor(u).astype(int), np.floor(v).astype(int)
+    fu, fv = (u - i)[:, None], (v - j)[:, None]
+    bilinear = ((1 - fu) * (1 - fv) * planes[i, j] + fu * (1 - fv) * planes[i + 1, j]
+                + (1 - fu) * fv * planes[i, j + 1] + fu * fv * planes[i + 1, j + 1])
+    expected = colormap_rgba8("gray")[np.minimum((np.clip(bilinear.max(axis=1), 0, 1) * LUT_SIZE).astype(int),
+                                                 LUT_SIZE - 1), 0].astype(int)
+    difference = np.abs(image[inside] - expected)
+    assert difference.max() <= 1, (difference.max(), np.count_nonzero(difference > 1))
+    assert np.ptp(expected) > 150   # the picture has something to get wrong
+
+
+def test_dvr_is_lit_across_the_gradient_brighter_on_the_fill_lights_side(viewer):
+    """A smooth ball made nearly opaque from its rim in (a transfer function): the meshes' fill light comes
+    from the upper left (lighting.glsl), so the ball's upper-left half is brighter than its lower-right half
+    (unshaded, the two are the same to 1%: the ball is round)."""
+    x, y, z = _grid(40)
+    ball = np.exp(-(x * x + y * y + z * z) / (2 * 0.35 ** 2)).astype(np.float32)
+    viewer.show(as_volume(ball), 0.5)
+    viewer.state.set_transfer("0.01:0,0.2:1,0.99:1")
+    image = picture(viewer, "dvr", 0.5, window=(0.6, 0.3)).sum(axis=2)
+    drawn = np.abs(image - BACKGROUND.sum()) > 30
+    ys, xs = np.nonzero(drawn)
+    rows, columns = np.indices(image.shape)
+    towards_lower_right = (columns - xs.mean()) + (rows - ys.mean())
+    lit_side, far_side = (image[drawn & (side > 5)].mean() for side in (-towards_lower_right, towards_lower_right))
+    assert drawn.sum() > 2000
+    assert lit_side > 1.1 * far_side, (lit_side, far_side)
+
+
+def _inner(mask, by=2):
+    """`mask` less its rim `by` pixels wide: away from edges drawn at subpixel positions."""
+    kept = mask.copy()
+    for axis in (0, 1):
+        for shift in range(1, by + 1):
+            kept &= np.roll(mask, shift, axis) & np.roll(mask, -shift, axis)
+    return kept
+
+
+@pytest.mark.parametrize("mode", ["mip", "mean", "dvr"])
+def test_an_opaque_surface_hides_the_bright_core_behind_it(viewer, mode):
+    """With the surfaces drawn too, the dim ball's surface (level 0.2, opaque) ends the rays: the bright core
+    inside it is hidden.  In front of the surface the values are below the level, so the volume there covers
+    it by at most that much (MIP, mean: as bright as they are in the window 0..1; DVR: its opacity): inside
+    the surface's outline the picture is the surface's own to within 0.2 x 255; where no surface is, the
+    rays are as without surfaces."""
+    viewer.show(as_volume(nested()), 0.2)
+    viewer.state.style.show_box = False   # its lines cross the surface's outline
+    surface = picture(viewer, None)
+    alone = picture(viewer, mode)
+    viewer.state.set_with_surfaces(True)
+    both = picture(viewer, mode)
+    ball = surface[..., 2] - surface[..., 0] > 30   # the lit blue surface (not the grey box lines)
+    inside, outside = _inner(ball), _inner(~ball, 3)
+    assert inside.sum() > 1500 and outside.sum() > 3000
+    assert np.abs(both[inside] - surface[inside]).max() <= 0.2 * 255 + 1
+    assert np.abs(both[outside] - alone[outside]).max() <= 2
+    assert np.abs(alone[inside] - surface[inside]).max() > 100   # without the surfaces, the volume there
+    if mode == "mip":
+        assert white(alone) > 100 and white(both) == 0
+
+
+def test_a_slice_stays_drawn_and_ends_the_rays(viewer):
+    """Seen from above, a slice across the box above the balls (all zeros there): MIP and DVR end at it, so
+    the bright core behind it is hidden and the slice shows as it does without ray casting; the clip's cut
+    is no slice: with rays alone they are cut by it, not stopped."""
+    viewer.show(as_volume(nested()), 0.2, azimuth=0.0, elevation=90.0)
+    mip = picture(viewer, "mip")
+    viewer.state.slices.inset = False
+    viewer.state.slices.show(2, True, 45)
+    plain = picture(viewer, None)
+    middle = (slice(SIZE[1] // 2 - 25, SIZE[1] // 2 + 25), slice(SIZE[0] // 2 - 25, SIZE[0] // 2 + 25))
+    for mode in ("mip", "dvr"):
+        ended = picture(viewer, mode)
+        assert np.abs(ended[middle] - plain[middle]).max() <= 2, mode
+    assert white(mip) > 100 and white(picture(viewer, "mip")) == 0
+
+
+def test_translucent_surfaces_blend_over_the_volume_and_every_entry_draws_the_same(tmp_path):
+    """DVR with the core's surface (0.7) opaque and the dim ball's (0.2) at opacity 0.4 over it: the command,
+    isoscope.render and the saved scene draw the same picture; the translucent shell tints the volume (the
+    picture differs from the one with the core alone), and the surfaces change the picture of the volume."""
+    np.save(tmp_path / "nested.npy", nested())
+    options = ("--size", "200x150", "--slice", "z=8")   # the window: the default percentiles, as in Python
+    done = isoscope_here("render", tmp_path / "nested.npy", "--raycast", "dvr", "--with-surfaces", "--iso", "0.7",
+                         "--iso", "0.2", "--opacity", "1,0.4", *options, "--out", tmp_path / "cli.png",
+                         "--save-scene", tmp_path / "s.json")
+    assert done.returncode == 0, done.stderr
+    assert json.loads((tmp_path / "s.json").read_text())["with_surfaces"] is True
+    again = isoscope_here("render", tmp_path / "s.json", "--out", tmp_path / "scene.png")
+    assert again.returncode == 0, again.stderr
+    cli = np.asarray(Image.open(tmp_path / "cli.png")).astype(int)
+    assert np.array_equal(cli, np.asarray(Image.open(tmp_path / "scene.png")))
+
+    def api(levels, opacities, with_surfaces=True):
+        return isoscope.render(nested(), levels, size=(200, 150), raycast="dvr", with_surfaces=with_surfaces,
+                               opacities=opacities, slices=[("z", 8)])[..., :3].astype(int)
+    assert np.abs(api([0.7, 0.2], [1.0, 0.4]) - cli).max() <= 1
+    core_only = api([0.7], [1.0])
+    assert np.abs(core_only - cli).max() > 30
+    assert np.abs(api([0.7], [1.0], with_surfaces=False) - core_only).max() > 30

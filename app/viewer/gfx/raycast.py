@@ -21,6 +21,7 @@ BRICK = 8              # samples a side of the bricks whose (min, max) let rays 
 STEP_PER_SAMPLE = 0.5   # the ray's step: half the smallest sample spacing (no sample's peak is stepped over)
 COARSE = 2             # while the view moves: one ray per COARSE x COARSE pixels, stretched (a quarter of the work)
 DENSITY_PER_SAMPLE = 0.15   # DVR: extinction per sample spacing at the top of the ramp (a few samples' depth)
+GRADIENT_FLOOR = 1e-3   # DVR: a sample changing less than this part of the value range per spacing is unlit
 
 # dtype -> (moderngl texture dtype, what one unit of the normalised texel is worth)
 NORMALISED = {np.dtype(np.uint8): ("nu1", 255.0), np.dtype(np.uint16): ("nu2", 65535.0),
@@ -56,6 +57,16 @@ class RaycastRequest:
     clip_plane: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)   # kept where >= 0 (slices.py)
     transfer: tuple | None = None        # DVR: (value, opacity) points (model/raycast.py); None: the ramp
     value_range: tuple[float, float] = (0.0, 1.0)
+    with_surfaces: bool = False          # the surfaces drawn too (opaque ones end the rays; renderer.py)
+
+
+@dataclass(frozen=True)
+class SceneDepth:
+    """What is drawn opaque before the rays, as a depth texture of the viewport's pixels: a ray ends there.
+    A fragment's texel is (gl_FragCoord.xy - origin) * scale (the coarse pass's pixels are larger)."""
+    texture: object
+    origin: tuple[float, float] = (0.0, 0.0)
+    scale: tuple[float, float] = (1.0, 1.0)
 
 
 class VolumeRaycaster:
@@ -106,9 +117,10 @@ class VolumeRaycaster:
         self._texture.repeat_x = self._texture.repeat_y = self._texture.repeat_z = False
         self._texture_of, self._value_map = data, ((unit, 0.0) if unit is not None else (1.0, 0.0))
 
-    def draw(self, request, view: bytes, projection: bytes, eye) -> None:
+    def draw(self, request, view: bytes, projection: bytes, eye, depth: SceneDepth | None = None) -> None:
         """Draw `request` (a RaycastRequest; its mode checked by the state, model/raycast.py) into the bound
-        framebuffer under the camera's matrices."""
+        framebuffer under the camera's matrices, blended over what is there (premultiplied); `depth`: where
+        what is drawn opaque ends the rays.  Only iso writes depth (its hit), tested against what is drawn."""
         ctx = self.ctx
         self._upload(request.data)
         if request.colormap != self._lut_name:
@@ -127,7 +139,11 @@ class VolumeRaycaster:
                     "u_clip_plane": tuple(request.clip_plane), "u_volume": 0, "u_colormap": 1, "u_ranges": 2,
                     "u_transfer": 4, "u_transfer_on": 0.0 if request.transfer is None else 1.0,
                     "u_transfer_range": tuple(request.value_range),
-                    "u_transfer_floor": transparent_below(request.transfer, request.value_range)}
+                    "u_transfer_floor": transparent_below(request.transfer, request.value_range),
+                    "u_gradient_floor": float(GRADIENT_FLOOR * max(np.ptp(request.value_range), 1e-30) / spacing.min()),
+                    "u_depth": 5, "u_depth_on": 0.0 if depth is None else 1.0,
+                    "u_depth_origin": (0.0, 0.0) if depth is None else tuple(depth.origin),
+                    "u_depth_scale": (1.0, 1.0) if depth is None else tuple(depth.scale)}
         if request.transfer is not None and (request.transfer, request.value_range) != self._transfer_of:
             self._transfer.write(opacity_table(request.transfer, request.value_range).tobytes())
             self._transfer_of = (request.transfer, request.value_range)
@@ -136,6 +152,11 @@ class VolumeRaycaster:
                 program[name].value = value
         program["u_view"].write(view)
         program["u_projection"].write(projection)
+        if "u_inverse" in program:   # pyrr's row vectors: GL reads these bytes as (P V)^-1
+            matrices = [np.frombuffer(m, np.float32).reshape(4, 4).astype(np.float64) for m in (view, projection)]
+            program["u_inverse"].write(np.linalg.inv(matrices[0] @ matrices[1]).astype(np.float32).tobytes())
+        if depth is not None:
+            depth.texture.use(5)
         self._texture.use(0)
         self._lut.use(1)
         self._ranges.use(2)
@@ -143,14 +164,17 @@ class VolumeRaycaster:
         # The box's back faces: a ray for every pixel the box covers, the eye inside the box too.
         ctx.enable(ctx.CULL_FACE)
         ctx.cull_face = "front"   # outward faces are front faces, mirrored views too (front_face follows)
-        if request.mode == "dvr":
-            ctx.enable(ctx.BLEND)
-            ctx.blend_func = ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA   # premultiplied over what is drawn
+        ctx.enable(ctx.BLEND)
+        ctx.blend_func = ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA   # premultiplied over what is drawn
+        if request.mode != "iso":   # the box's back faces are behind what ends the rays: no depth test
+            ctx.disable(ctx.DEPTH_TEST)
         self._vaos[request.mode].render(mode=ctx.TRIANGLES)
         ctx.disable(ctx.CULL_FACE | ctx.BLEND)
+        ctx.enable(ctx.DEPTH_TEST)
         ctx.cull_face = "back"
 
-    def draw_coarse(self, request, view: bytes, projection: bytes, eye, viewport) -> None:
+    def draw_coarse(self, request, view: bytes, projection: bytes, eye, viewport,
+                    depth: SceneDepth | None = None) -> None:
         """`draw` with one ray per COARSE x COARSE pixels of `viewport`, into a small target stretched over it
         (linear), for the frames while the view or the level moves: about a quarter of the time."""
         ctx = self.ctx
@@ -160,8 +184,9 @@ class VolumeRaycaster:
             colour = ctx.texture(size, 4)
             colour.filter = (ctx.LINEAR, ctx.LINEAR)
             colour.repeat_x = colour.repeat_y = False
-            depth = ctx.depth_renderbuffer(size)
-            self._coarse = (ctx.framebuffer(color_attachments=[colour], depth_attachment=depth), colour, depth)
+            depth_buffer = ctx.depth_renderbuffer(size)
+            self._coarse = (ctx.framebuffer(color_attachments=[colour], depth_attachment=depth_buffer), colour,
+                            depth_buffer)
         if self._upscale is None:
             program = ctx.program(vertex_shader=shader_source("oit_composite.vert"),
                                   fragment_shader=shader_source("raycast_upscale.frag"))
@@ -171,7 +196,9 @@ class VolumeRaycaster:
         framebuffer.use()
         ctx.viewport = (0, 0, *size)
         framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        self.draw(request, view, projection, eye)
+        if depth is not None:
+            depth = SceneDepth(depth.texture, (0.0, 0.0), (viewport[2] / size[0], viewport[3] / size[1]))
+        self.draw(request, view, projection, eye, depth)
         destination.use()
         ctx.viewport = viewport
         program, vao = self._upscale
@@ -264,4 +291,4 @@ def raycast_request(state) -> RaycastRequest | None:
     return RaycastRequest(state.volume.data, tuple(state.volume.spacing), state.raycast, float(state.iso),
                           (settings.centre - half, settings.centre + half), settings.colormap,
                           state.gradient_direction == "descent", tuple(color), tuple(clip), state.transfer,
-                          tuple(float(v) for v in state.value_range))
+                          tuple(float(v) for v in state.value_range), state.with_surfaces)

@@ -23,7 +23,7 @@ from ..model.slices import SliceScene
 from ..model.style import SurfaceStyle
 from .colorby import GpuColorBy
 from .oit import OitTargets
-from .raycast import RaycastRequest, VolumeRaycaster, raycast_request
+from .raycast import RaycastRequest, SceneDepth, VolumeRaycaster, raycast_request
 from .slices import GL_CLIP_DISTANCE0, SliceRenderer
 
 WIRE_COLOR = (0.02, 0.02, 0.05)
@@ -55,6 +55,7 @@ class SceneRenderer:
             program["u_scalar"].value = SCALAR_UNIT
         self.oit = OitTargets(ctx)
         self._raycaster: VolumeRaycaster | None = None   # made the first time the volume is ray-cast
+        self._depth = None   # (framebuffer, depth texture): what is drawn opaque, where the rays end
         self.box_program = ctx.program(vertex_shader=shader_source("box.vert"),
                                        fragment_shader=shader_source("flat.frag"))
         self.box_buffer = ctx.buffer(reserve=len(_BOX_EDGES) * 2 * 3 * 4)
@@ -98,13 +99,17 @@ class SceneRenderer:
         `covered_left`: pixels at the left hidden by the panel; the scene centres in the rest.
         `looks`: each mesh's colour, opacity and colour map (default: opaque, the style's colour).
         `slices`: ViewerState.slice_scene; its clip plane hides the meshes on one side.
-        `raycast`: the volume itself drawn by ray casting (gfx/raycast.py) in the meshes' place; `coarse`:
-        with a ray per 2x2 pixels (the window's frames while the view moves).
+        `raycast`: the volume itself drawn by ray casting (gfx/raycast.py), in the meshes' place unless it
+        asks for them too (`with_surfaces`): then the opaque surfaces and the slices are drawn first and end
+        the rays (their depth), the rays are blended over them, and the translucent surfaces over both
+        (OIT); `coarse`: with a ray per 2x2 pixels (the window's frames while the view moves).
         """
         ctx = self.ctx
         if looks is None:
             looks = [SurfaceLook(style.front_color, 1.0)] * len(meshes)
-        drawn = [(mesh, look) for mesh, look in zip(meshes, looks) if mesh.n_triangles and look.opacity > 0]
+        surfaces = raycast is None or raycast.with_surfaces
+        drawn = [(mesh, look) for mesh, look in zip(meshes, looks) if mesh.n_triangles and look.opacity > 0
+                 and surfaces]
         translucent = [(mesh, look) for mesh, look in drawn if look.opacity < 1]
         destination = ctx.fbo
         if translucent:   # the opaque scene goes to the OIT targets first (oit.py)
@@ -137,20 +142,22 @@ class SceneRenderer:
             self.box_program["u_color"].value = style.box_color
             self.box_program["u_opacity"].value = 1.0
             self.box_vao.render(moderngl.LINES)
-        self.slices.draw(slices, view, projection)   # opaque: with translucent meshes, into the OIT scene
-        if raycast is not None:
-            if self._raycaster is None:
-                self._raycaster = VolumeRaycaster(ctx)
-            if coarse:
-                self._raycaster.draw_coarse(raycast, view, projection, camera.eye(), viewport)
-            else:
-                self._raycaster.draw(raycast, view, projection, camera.eye())
-            self._release_vaos(keep=set())
-            return
-
+        # Opaque: with translucent meshes, into the OIT scene.  The clip's cut caps the surfaces: not drawn
+        # for rays alone (the clip cuts them; iso draws its own cut).
+        self.slices.draw(slices, view, projection, caps=surfaces)
         self._release_vaos(keep={(m.vertex_buffer, m.index_buffer) for m, _ in drawn})
-        if not drawn:
-            return
+        if drawn:
+            self._draw_opaque(drawn, slices, style)
+        if raycast is not None:
+            self._draw_rays(raycast, slices, [mesh for mesh, look in drawn if look.opacity >= 1], view,
+                            projection, camera, viewport, coarse)
+        if translucent:
+            self._draw_translucent(translucent, viewport, destination)
+        ctx.disable_direct(GL_CLIP_DISTANCE0)   # imgui's shaders write no clip distance
+
+    def _draw_opaque(self, drawn, slices: SliceScene | None, style: SurfaceStyle) -> None:
+        """The opaque meshes of `drawn` (with their wireframe over all of them), the clip plane set."""
+        ctx = self.ctx
         for program in (self.mesh_program, self.oit_program):
             program["u_lighting"].value = style.lighting
         # mesh.vert's gl_ClipDistance[0] >= 0 is kept.  Set even with no clip: llvmpipe was seen to
@@ -180,9 +187,50 @@ class SceneRenderer:
                 self._vaos_for(mesh)[1].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
             ctx.disable(moderngl.BLEND)
             ctx.wireframe = False
-        if translucent:
-            self._draw_translucent(translucent, viewport, destination)
-        ctx.disable_direct(GL_CLIP_DISTANCE0)   # imgui's shaders write no clip distance
+
+    def _draw_rays(self, raycast: RaycastRequest, slices, opaque, view, projection, camera, viewport,
+                   coarse: bool) -> None:
+        """The volume ray cast over what is drawn; the slices and `opaque` meshes drawn again into a depth
+        texture first (only where there are any), where the rays end."""
+        ctx = self.ctx
+        if self._raycaster is None:
+            self._raycaster = VolumeRaycaster(ctx)
+        depth = None
+        if opaque or (slices is not None and slices.settings.planes(caps=raycast.with_surfaces)):
+            depth = SceneDepth(self._opaque_depth(slices, opaque, view, projection, viewport, raycast.with_surfaces),
+                               (float(viewport[0]), float(viewport[1])))
+        if coarse:
+            self._raycaster.draw_coarse(raycast, view, projection, camera.eye(), viewport, depth)
+        else:
+            self._raycaster.draw(raycast, view, projection, camera.eye(), depth)
+
+    def _opaque_depth(self, slices, opaque, view, projection, viewport, caps: bool):
+        """A depth texture of `viewport`'s size holding the slices' and the `opaque` meshes' depth (drawn
+        again, no colour), the framebuffer bound before bound again."""
+        ctx = self.ctx
+        size = (viewport[2], viewport[3])
+        if self._depth is None or self._depth[1].size != size:
+            self._release_depth()
+            texture = ctx.depth_texture(size)
+            texture.compare_func = ""   # its values read as they are (texelFetch), not compared
+            self._depth = (ctx.framebuffer(depth_attachment=texture), texture)
+        target, framebuffer = ctx.fbo, self._depth[0]
+        framebuffer.use()
+        ctx.viewport = (0, 0, *size)
+        framebuffer.clear(depth=1.0)
+        ctx.polygon_offset = (0.0, 0.0)
+        self.slices.draw(slices, view, projection, caps=caps)
+        for mesh in opaque:
+            self._vaos_for(mesh)[0].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
+        target.use()
+        ctx.viewport = viewport
+        return self._depth[1]
+
+    def _release_depth(self) -> None:
+        if self._depth is not None:
+            for obj in self._depth:
+                obj.release()
+            self._depth = None
 
     def draw_scene(self, scene, camera, viewport: tuple[int, int, int, int], covered_left: int = 0,
                    coarse: bool = False) -> None:
@@ -227,6 +275,7 @@ class SceneRenderer:
 
     def release(self) -> None:
         self._release_vaos()
+        self._release_depth()
         if self._raycaster is not None:
             self._raycaster.release()
         self.oit.release()

@@ -121,9 +121,9 @@ class SliceRenderer:
         program["u_inside_above"].value = scene.gradient_direction == "descent"   # the shader's encoding
         program["u_curve_color"].value = tuple(scene.curve_color)
 
-    def draw(self, scene: SliceScene | None, view: bytes, projection: bytes) -> None:
-        """The shown slices and the clip's cut, in the 3-D view (depth-tested, opaque)."""
-        planes = scene.settings.planes() if scene is not None else []
+    def draw(self, scene: SliceScene | None, view: bytes, projection: bytes, caps: bool = True) -> None:
+        """The shown slices and the clip's cut (with `caps`), in the 3-D view (depth-tested, opaque)."""
+        planes = scene.settings.planes(caps) if scene is not None else []
         inset = scene.settings.inset_axis() if scene is not None else None
         keep = {(id(scene.data), axis, position) for axis, position, _ in planes} if scene is not None else set()
         if inset is not None:

@@ -56,6 +56,25 @@ def check_transfer(spec, value_range) -> tuple[tuple[float, float], ...] | None:
     return tuple(points)
 
 
+def moved_point(points, index: int, value: float, opacity: float, value_range) -> tuple[tuple[float, float], ...]:
+    """`points` with point `index` moved to (value, opacity) as a drag puts it: its value kept inside the
+    volume's range and strictly between its neighbours' (the order stays), its opacity 0..1."""
+    if not 0 <= index < len(points):
+        raise ViewerError(f"transfer point {index} is not one of the {len(points)} points (0 .. {len(points) - 1})")
+    low, high = (float(v) for v in value_range)
+    gap = (high - low) * 1e-4
+    below = points[index - 1][0] + gap if index > 0 else low
+    above = points[index + 1][0] - gap if index + 1 < len(points) else high
+    moved = (min(max(float(value), below), above), min(max(float(opacity), 0.0), 1.0))
+    return tuple(moved if i == index else tuple(point) for i, point in enumerate(points))
+
+
+def preset_of(points, value_range) -> str | None:
+    """The preset's name whose points (fitted to `value_range`) `points` are, or None."""
+    return next((name for name in PRESETS if points is not None and check_transfer(name, value_range) == points),
+                None)
+
+
 def _parsed_points(spec) -> list[tuple[float, float]]:
     import math
     try:

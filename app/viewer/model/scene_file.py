@@ -63,6 +63,7 @@ def scene_of(state, camera, size) -> dict:
                                                              "hide_above": slices.clip.hide_above}},
         "style": _plain(asdict(state.style)),
         "raycast": state.raycast,
+        "with_surfaces": state.with_surfaces,
         "transfer": None if state.transfer is None else [list(point) for point in state.transfer],
     }
 
@@ -176,6 +177,7 @@ def apply_scene(scene: dict, state, camera) -> None:
             state.set_color_by(color_by["source"], color_by.get("colormap"))
         _apply_slices(scene.get("slices") or {}, state.slices)
         state.set_raycast(scene.get("raycast"))
+        state.set_with_surfaces(bool(scene.get("with_surfaces")))
         state.set_transfer(scene.get("transfer"))
         style = scene.get("style") or {}
         known = {f.name for f in fields(SurfaceStyle)}

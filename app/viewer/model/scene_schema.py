@@ -228,6 +228,7 @@ SCENE = Obj({
     "style": Obj({item.name: COLOR if isinstance(item.default, tuple) else Flag()   # SurfaceStyle's own fields
                   for item in fields(SurfaceStyle)}),
     "raycast": Maybe(Text(RAYCAST_MODES)),
+    "with_surfaces": Flag(),
     "transfer": Maybe(Seq(Seq(Real(), 2, 2), 2, MAX_TRANSFER_POINTS)),
 }, required=("format", "version", "volume", "levels", "camera"))
 

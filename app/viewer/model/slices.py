@@ -105,11 +105,11 @@ class SliceSettings:
         check_colormap(name)
         self.colormap = name
 
-    def planes(self) -> list[tuple[int, float, bool]]:
+    def planes(self, caps: bool = True) -> list[tuple[int, float, bool]]:
         """(axis, index, cap) of every plane to draw: the shown slices, then the clip's cut (a cap:
-        drawn only inside the object)."""
+        drawn only inside the object; not with `caps` False, for the volume ray cast alone)."""
         planes = [(axis, float(self.index[axis]), False) for axis in range(3) if self.shown[axis]]
-        if self.clip is not None:
+        if self.clip is not None and caps:
             planes.append((self.clip.axis, self.clip.position, True))
         return planes
 

@@ -35,7 +35,7 @@ from .histogram import value_histogram
 from .jobs import Jobs, Response
 from .labels import LabelMap
 from .levels import Levels
-from .raycast import check_raycast, check_transfer
+from .raycast import check_raycast, check_transfer, moved_point
 from .recent import RecentFiles
 from .scene_file import is_scene_file, read_scene, volume_spec
 from .series import TimeAxis
@@ -96,6 +96,7 @@ class ViewerState:
         self.gl_renderer = "unknown"          # the GPU side says which
         self._opener = opener if opener is not None else open_volume
         self.raycast: str | None = None       # a ray-casting mode drawn in the meshes' place (model/raycast.py)
+        self.with_surfaces = False            # the surfaces drawn with the ray-cast volume too
         self.transfer = None                  # DVR's opacity points (value, opacity); None: the window's ramp
         self._pending_scene = None            # (request, scene, its path) while a scene's volume is read
         self.scene_to_apply: dict | None = None   # a scene whose volume is on show: the view side applies it
@@ -199,12 +200,24 @@ class ViewerState:
         in place of the meshes; None or "off": the meshes.  An unknown mode is one line; nothing changes."""
         self.raycast = check_raycast(mode)
 
+    def set_with_surfaces(self, on: bool) -> None:
+        """With a ray-casting mode, draw the surfaces too (gfx/renderer.py: the opaque ones and the slices
+        end the rays, the translucent ones are blended over the volume); off: the volume alone."""
+        self.with_surfaces = bool(on)
+
     def set_transfer(self, spec) -> None:
         """DVR's opacity over the values (model/raycast.py: a preset such as "ct-bone", "V:A,..." or pairs);
         None or "off": the window's linear ramp.  A bad one is one line; nothing changes."""
         if self.volume is None and spec not in (None, "off"):
             raise ViewerError("open a volume before giving a transfer function")
         self.transfer = check_transfer(spec, self.value_range if self.volume is not None else (0.0, 1.0))
+
+    def move_transfer_point(self, index: int, value: float, opacity: float) -> None:
+        """Move the transfer function's point `index` to (value, opacity), as the panel's drag does (kept in
+        the value range, between its neighbours, opacity 0..1: model/raycast.py moved_point)."""
+        if self.transfer is None:
+            raise ViewerError("choose a transfer function (a preset) before moving its points")
+        self.transfer = moved_point(self.transfer, index, value, opacity, self.value_range)
 
     # --- mesh options: one MeshOptions, replaced whole --------------------------
     @property

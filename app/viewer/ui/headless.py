@@ -194,13 +194,16 @@ class HeadlessViewer:
 def prepared_viewer(volume: Volume, iso=None, size=(800, 600), azimuth=None, elevation=None,
                     transparent: bool = False, opacities=(), color_by=None, colormap=None, prepare=None,
                     tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False,
-                    raycast: str | None = None, transfer=None, topology: str = "montani") -> HeadlessViewer:
+                    raycast: str | None = None, transfer=None, with_surfaces: bool = False,
+                    topology: str = "montani") -> HeadlessViewer:
     """A HeadlessViewer showing `volume` as render_png draws it (its arguments; `raycast`: a ray-casting
-    mode, `transfer` its opacity over the values, model/raycast.py), ready to render (again, after moving
+    mode, `transfer` its opacity over the values, model/raycast.py; `with_surfaces`: the surfaces drawn
+    with it, gfx/renderer.py), ready to render (again, after moving
     its camera or level: `isoscope movie`); its caller releases it.  What fails is raised."""
     viewer = HeadlessViewer(size)
     try:
         viewer.state.set_raycast(raycast)
+        viewer.state.set_with_surfaces(with_surfaces)
         viewer.state.style.transparent_background = transparent
         # Set before the levels are shown, so their first meshes are made with them.
         viewer.state.set_cells("tetrahedra" if tetrahedra else "cubes")

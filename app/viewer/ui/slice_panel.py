@@ -9,6 +9,7 @@ from ..model.raycast import RAYCAST_MODES
 from ..model.slices import AXES, default_window
 from ..model.state import ViewerState
 from .gui import act, choose, imgui, px, section, tooltip
+from .transfer_panel import TransferEditor
 
 CLIP_SIDES = ("hide above", "hide below")
 AXIS_WIDTH = 50.0
@@ -17,9 +18,11 @@ AXIS_WIDTH = 50.0
 class SlicePanel:
     def __init__(self):
         self.checkbox_boxes: dict[int, tuple[tuple[float, float], tuple[float, float]]] = {}  # axis -> rect
+        self.transfer = TransferEditor()   # DVR's transfer function over the histogram (transfer_panel.py)
 
     def draw(self, state: ViewerState) -> None:
         self.checkbox_boxes = {}
+        self.transfer.box = None
         if not section("Slices") or state.volume is None:
             return
         settings = state.slices
@@ -61,6 +64,14 @@ class SlicePanel:
         tooltip("the volume itself, ray cast in the surfaces' place: the largest (mip), smallest or mean value\n"
                 "along each ray, or emission-absorption (dvr), through the colour map and window above;\n"
                 "iso: the level's first hit on the interpolant, shaded (no mesh made)")
+        if state.raycast is not None:
+            toggled, on = imgui.checkbox("surfaces too", state.with_surfaces)
+            if toggled:
+                act(state, state.set_with_surfaces, on)
+            tooltip("the surfaces with the volume: the opaque ones (and the slices) end the rays, mip and mean\n"
+                    "cover them as much as they are bright; translucent ones are blended over the volume")
+        if state.raycast == "dvr":
+            self.transfer.draw(state)
         self._clip(state)
 
     @staticmethod
