@@ -9,11 +9,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .core.trilinear_table import TOPOLOGIES as TOPOLOGIES  # the choices, for the flags, panel and scenes
+from .core.trilinear_table import topology_problem
 from .errors import IsoscopeError
 
 CELLS = ("cubes", "tetrahedra")
-TOPOLOGIES = ("montani", "trilinear")
-"""montani: every ambiguous face decided one way (fast, watertight); trilinear: the field's own topology."""
 
 
 class MeshOptionsError(IsoscopeError, ValueError):
@@ -33,8 +33,8 @@ class MeshOptions:
         """What is wrong with this combination, in the rule's one wording, or None."""
         if self.cells not in CELLS:
             return f"unknown cells {self.cells!r}; use one of {', '.join(CELLS)}"
-        if self.topology not in TOPOLOGIES:
-            return f"unknown topology {self.topology!r}; use one of {', '.join(TOPOLOGIES)}"
+        if topology_problem(self.topology):
+            return topology_problem(self.topology)
         if self.topology == "trilinear" and (self.cells != "cubes" or self.sharp is not None or self.masked
                                              or self.chunked):
             return ("the trilinear topology decides the ambiguous cells of plain marching cubes: not with "

@@ -44,6 +44,17 @@ from .case_table import (
     smallest_angle,
 )
 
+TOPOLOGIES = ("montani", "trilinear")
+"""montani: every ambiguous face decided one way (case_table: fast, watertight); trilinear: the field's own."""
+
+
+def topology_problem(topology) -> str | None:
+    """What is wrong with a topology's name, in the one wording every door uses, or None."""
+    if topology not in TOPOLOGIES:
+        return f"unknown topology {topology!r}; use one of {', '.join(TOPOLOGIES)}"
+    return None
+
+
 TUNNEL_KEYS = 5
 """0: none; 1, 2: a section joins the inside ends of vertical edges (0, 3), (1, 2); 3, 4: the outside ones."""
 VERTICAL_PAIRS = ((0, 3), (1, 2))

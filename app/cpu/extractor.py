@@ -13,8 +13,8 @@ import numpy as np
 
 from .. import validation
 from ..core.case_table import CaseTable, montani_table
+from ..core.trilinear_table import topology_problem
 from ..errors import InputError, ReleasedError
-from ..options import MeshOptions
 from .cubes import marching_cubes_reference
 
 __all__ = ["CpuExtractor"]
@@ -57,7 +57,8 @@ class CpuExtractor:
                  table: CaseTable | None = None, topology: str = "montani"):
         if backend not in ("cpu", "numpy"):
             raise InputError(f"backend {backend!r} is not one of ('cpu', 'numpy')")
-        MeshOptions(topology=topology).check()
+        if topology_problem(topology):
+            raise InputError(topology_problem(topology))
         if topology == "trilinear" and table is not None:
             raise InputError("topology='trilinear' has its own table: give no table with it")
         self.topology = topology

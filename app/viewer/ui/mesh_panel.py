@@ -27,10 +27,9 @@ class MeshSection:
         imgui.set_next_item_width(px(COMBO_WIDTH))
         choose(state, "cells", state.cells, CELLS, state.set_cells)
         tooltip("tetrahedra: six per cube, no ambiguous cells, about 3x the triangles")
-        if state.cells == "cubes":
-            imgui.set_next_item_width(px(COMBO_WIDTH))
-            choose(state, "topology", state.topology, TOPOLOGIES, state.set_topology)
-            tooltip("how ambiguous cells are decided: montani, every ambiguous face one way (fast);\n"
+        imgui.set_next_item_width(px(COMBO_WIDTH))   # always drawn: the section never moves under the pointer
+        choose(state, "topology", state.topology, TOPOLOGIES, state.set_topology)
+        tooltip("how ambiguous cells are decided: montani, every ambiguous face one way (fast);\n"
                     "trilinear, the field's own topology between the samples (MC33): pieces, cavities\n"
                     "and handles in Measure as the data has them; made on the CPU")
         # Sliders write their value beside them, never under their grab.
