@@ -177,37 +177,41 @@ def _disk(loop: tuple[int, ...]):
     return tuple(_fan(loop, FIRST_CELL_VERTEX)), (tuple(sorted(loop)),)
 
 
-def _one_run(steps, total: int) -> bool:
-    """Whether the steps along one loop come all together (cyclically) among `total` steps."""
-    runs = sum(1 for s in steps if (s - 1) % total not in steps)
-    return runs == 1
+@cache
+def _step_patterns(n: int, m: int) -> tuple[frozenset, ...]:
+    """Which of a zipper's n + m steps walk loop `a` (n of them), leaving out those where they come all
+    together (cyclically): one vertex of `b` fanned over the whole of `a`, where the tube would pinch."""
+    patterns = []
+    for steps in itertools.combinations(range(n + m), n):
+        chosen = frozenset(steps)
+        if sum(1 for s in chosen if (s - 1) % (n + m) not in chosen) > 1:
+            patterns.append(chosen)
+    return tuple(patterns)
 
 
 def _zippers(a: tuple[int, ...], b: tuple[int, ...], prune: bool):
     """Every tube between loops `a` and `b` on their own vertices: triangles (a[i-1], a[i], b[j]) and
     (b[j], b[j+1], a[i]), walking `a` backwards and `b` forwards.  Yields (triangles, connecting edges
-    (a vertex, b vertex) after each triangle); with `prune`, only those with no connecting edge in a face."""
+    (a vertex, b vertex) after each triangle); with `prune`, only those with no connecting edge in a face.
+    Every zipper passes a[0]: started there, each tube is made once per way round (not once per vertex of a)."""
     n, m = len(a), len(b)
-    for start_a in range(n):
-        for start_b in range(m):
-            if prune and _in_a_face(a[start_a], b[start_b]):
-                continue
-            for steps in itertools.combinations(range(n + m), n):
-                if _one_run(steps, n + m):
-                    continue  # one vertex fanned over a whole loop: the tube would pinch there
-                i, j, tris, links = start_a, start_b, [], []
-                for s in range(n + m):
-                    if s in steps:
-                        tris.append((a[(i - 1) % n], a[i % n], b[j % m]))
-                        i -= 1
-                    else:
-                        tris.append((b[j % m], b[(j + 1) % m], a[i % n]))
-                        j += 1
-                    links.append((a[i % n], b[j % m]))
-                    if prune and _in_a_face(*links[-1]):
-                        break
+    for start_b in range(m):
+        if prune and _in_a_face(a[0], b[start_b]):
+            continue
+        for steps in _step_patterns(n, m):
+            i, j, tris, links = 0, start_b, [], []
+            for s in range(n + m):
+                if s in steps:
+                    tris.append((a[(i - 1) % n], a[i % n], b[j % m]))
+                    i -= 1
                 else:
-                    yield tris, links
+                    tris.append((b[j % m], b[(j + 1) % m], a[i % n]))
+                    j += 1
+                links.append((a[i % n], b[j % m]))
+                if prune and _in_a_face(*links[-1]):
+                    break
+            else:
+                yield tris, links
 
 
 def _mended(tris, links):
