@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from support.topology import counts, oracle
+from support.topology import configuration, counts, oracle, single_cells
 
 from isoscope.cpu.cubes import marching_cubes_reference
 from isoscope.cpu.trilinear import marching_cubes_trilinear, trilinear_keys
@@ -159,34 +159,6 @@ def test_every_door_takes_the_topology_and_refuses_what_it_cannot_do():
         assert "\n" not in str(caught.value)
     with pytest.raises(IsoscopeError):
         isoscope.Extractor(field, backend="gpu", topology="trilinear")
-
-
-def single_cells(per_case: int = 200, seed: int = 0) -> dict[int, np.ndarray]:
-    """A 2x2x2 grid for each table key random cells reach: per case, corner magnitudes drawn at random with
-    the case's signs; the first cell of each key kept."""
-    from isoscope.core.case_table import CORNER_OFFSETS
-    rng = np.random.default_rng(seed)
-    cells = {}
-    for case in range(256):
-        signs = np.array([1 if case >> c & 1 else -1 for c in range(8)], np.float32)
-        values = rng.uniform(0.02, 1.0, (per_case, 8)).astype(np.float32) * signs
-        field = np.zeros((2, 2, 2 * per_case), np.float32)   # the cells side by side; every other cell is one
-        for corner, (i, j, k) in enumerate(CORNER_OFFSETS):
-            field[i, j, k::2] = values[:, corner]
-        keys = trilinear_keys(field, np.float32(0), field >= 0)[0, 0, ::2]
-        for m, key in enumerate(keys.tolist()):
-            cells.setdefault(key, field[:, :, 2 * m: 2 * m + 2].copy())
-    return cells
-
-
-def configuration(key: int):
-    """A key's configuration, MC33's families up to rotation and inside/outside: its loops' lengths, whether
-    a tube joins two of them, how many vertices of its own the cell has."""
-    from isoscope.core.trilinear_table import cell_triangles, loops, surface_regions, tunnel_corners
-    case, faces, tunnel = key & 255, key >> 8 & 63, key >> 14
-    corners, regions = tunnel_corners(case, tunnel), surface_regions(case, faces)
-    tube = corners is not None and regions[corners[0]] != regions[corners[1]]
-    return (tuple(sorted(len(loop) for loop in loops(case, faces))), tube, len(cell_triangles(case, faces, tunnel)[1]))
 
 
 def test_every_configuration_of_one_cell_is_the_interpolants():
