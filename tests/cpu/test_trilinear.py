@@ -16,12 +16,14 @@ def random_grids(seed: int, shape, count: int):
     return [rng.standard_normal(shape).astype(np.float32) for _ in range(count)]
 
 
-@pytest.mark.parametrize("shape, seed", [((2, 2, 2), 1), ((3, 3, 3), 2), ((3, 3, 3), 3), ((4, 3, 3), 4)])
+@pytest.mark.parametrize("shape, seed", [((2, 2, 2), 1), ((3, 3, 3), 2), ((3, 3, 3), 3), ((4, 3, 3), 4),
+                                         ((3, 3, 3), 5), ((3, 3, 3), 6), ((3, 4, 3), 7), ((3, 3, 3), 8)])
 def test_pieces_and_euler_characteristic_are_the_interpolants(shape, seed):
-    """Every random grid where the oracle is sure: the same pieces and Euler characteristic.  Today's mesh
-    (Montani's faces, no tunnels) misses on most of the same grids: the test tells the two apart."""
+    """Every random grid where the oracle is sure (1,000 grids in all, 125 a seed): the same pieces and Euler
+    characteristic.  Today's mesh (Montani's faces, no tunnels) misses on most of the same grids: the test
+    tells the two apart."""
     sure = agree = today = 0
-    for field in random_grids(seed, shape, 60):
+    for field in random_grids(seed, shape, 125):
         truth = oracle(field)
         if truth is None:
             continue
@@ -32,7 +34,7 @@ def test_pieces_and_euler_characteristic_are_the_interpolants(shape, seed):
         assert got == truth, field.tolist()
         agree += 1
         today += counts(*marching_cubes_reference(field, 0.0)[:2]) == truth
-    assert sure >= 50
+    assert sure >= 110
     if shape != (2, 2, 2):
         assert today < 0.7 * agree
 
