@@ -218,8 +218,7 @@ def test_window_on_41_opens_re_extracts_and_drags(x_display, tmp_path):
 def drive_window_on_41(x_display, tmp_path):
     """In the spawned process: the override set before its first context, a real window under Xvfb."""
     os.environ.update(GL41, DISPLAY=x_display)
-    from support.x_window import frames_until, press_key
-    from test_window_input import Pointer, camera_pose
+    from support.x_window import Pointer, camera_pose, frames_until, press_key
 
     from isoscope.viewer.gfx.cpu_surface import CpuSurface
     from isoscope.viewer.model.recent import RecentFiles
