@@ -24,7 +24,7 @@ import pytest
 from PIL import Image
 from support.command import NO_GL, isoscope_batch, isoscope_here
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 GL41 = {"MESA_GL_VERSION_OVERRIDE": "4.1", "MESA_GLSL_VERSION_OVERRIDE": "410"}
 SIZE = "320x240"
 CLOSE = 8              # a channel this near counts as the same pixel
