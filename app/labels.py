@@ -117,6 +117,13 @@ def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), backend="auto", max_label
     TooManyLabels
         More labels than `max_labels` (a ValueError too).
 
+    See Also
+    --------
+    isoscope.marching_cubes
+        The surface of one level of a scalar field.
+    isoscope.isosurface
+        These surfaces as one ``trimesh.Trimesh`` (``labels=True``).
+
     Notes
     -----
     Each surface is closed and 2-manifold, wound counter-clockwise seen from

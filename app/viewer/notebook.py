@@ -13,7 +13,15 @@ def widget(volume, level=None, *, size=(640, 480), spacing=None, affine=None, gr
     viewer drawing it).  `options` are `isoscope.render`'s mesh and look options (opacities, color_by,
     colormap, tetrahedra, smooth, wireframe, raycast: the volume itself, ray cast, with_surfaces: the
     surfaces with it, transfer); `memory_budget` as
-    `isoscope.view`'s.  Call ``.close_viewer()`` to free its GL resources."""
+    `isoscope.view`'s.  Call ``.close_viewer()`` to free its GL resources.
+
+    See Also
+    --------
+    isoscope.render
+        One picture with the same options.
+    isoscope.view
+        The desktop window.
+    """
     ipywidgets = _needed("ipywidgets")
     RemoteFrameBuffer = _needed("jupyter_rfb").RemoteFrameBuffer
     from ..core.budget import requested_budget, using_budget
