@@ -19,6 +19,7 @@ MAX_FRAMES = FRAMES.high
 
 
 def movie_parser() -> argparse.ArgumentParser:
+    """The parser of ``isoscope movie``."""
     parser = OneLineParser(prog="isoscope movie",
                           description="Render a movie offscreen: a turntable around the vertical axis, an iso sweep "
                                       "or a series' time points, to .mp4 (H.264), .gif or a folder of PNGs.")
@@ -47,6 +48,8 @@ def _sweep(text: str) -> tuple[float, float]:
 
 
 def run_movie(args) -> int:
+    """``isoscope movie``: render a turntable, an iso sweep or a series' time points to a movie file or a folder of
+    PNGs, after refusing flags that do not go with the motion; the exit status."""
     kind = movie_kind(str(args.out))
     args.size = args.size or (800, 600)
     several_times = isinstance(args.time, TimeRange)
