@@ -25,10 +25,12 @@ def _data_dir(checkout_name: str) -> Path:
 
 
 def shaders_dir() -> Path:
+    """The folder of the GLSL files: shaders/ in a checkout, isoscope/_shaders when installed."""
     return _data_dir("shaders")
 
 
 def volumes_dir() -> Path:
+    """The folder of the bundled volumes: volumes/ in a checkout, isoscope/_volumes when installed."""
     return _data_dir("volumes")
 
 
