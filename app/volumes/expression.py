@@ -57,22 +57,26 @@ _TOKEN = re.compile(r"""
 
 @dataclass(frozen=True)
 class Number:
+    """A number in a parsed formula."""
     value: float
 
 
 @dataclass(frozen=True)
 class Variable:
+    """A coordinate in a parsed formula: x, y or z."""
     name: str  # "x", "y" or "z"
 
 
 @dataclass(frozen=True, eq=False, repr=False)  # no recursive ==, hash or repr on deep trees
 class Unary:
+    """A negated operand in a parsed formula."""
     op: str  # "-" (a unary "+" is dropped by the parser)
     operand: object
 
 
 @dataclass(frozen=True, eq=False, repr=False)  # no recursive ==, hash or repr on deep trees
 class Binary:
+    """An arithmetic operation of two operands in a parsed formula: + - * / or ^."""
     op: str  # + - * / ^
     left: object
     right: object
@@ -80,12 +84,14 @@ class Binary:
 
 @dataclass(frozen=True, eq=False, repr=False)  # no recursive ==, hash or repr on deep trees
 class Call:
+    """A call of one of the language's functions in a parsed formula."""
     function: str
     args: tuple
 
 
 @dataclass(frozen=True)
 class Token:
+    """One token of a formula: its kind (number, name, op or end), its text and its column (1-based, for messages)."""
     kind: str  # number, name, op, end
     text: str
     column: int  # 1-based, for messages
@@ -99,6 +105,8 @@ def _error(text: str, column: int, problem: str, fix: str) -> VolumeError:
 
 
 def tokenize(text: str) -> list[Token]:
+    """The formula's tokens, ending with an "end" token; a character the language does not have is a refusal naming its
+    column."""
     tokens, position = [], 0
     while position < len(text):
         match = _TOKEN.match(text, position)

@@ -97,6 +97,9 @@ def _check_samples_distinct(box: Box, shape) -> None:
 
 def open_expression(spec: str, *, resolution=None, progress: Progress | None = None,
                     backend: str = "auto", ctx=None) -> Volume:
+    """The volume of an ``expr:`` spec: the formula parsed first (a typo costs no GL work), then sampled on an N^3 grid
+    over its box on the GPU or with numpy; a formula that gives no finite value somewhere is refused, naming the place.
+    """
     formula, box, spec_resolution = split_expression_spec(spec)
     tree = parse(formula)  # before any GL work: a typo costs nothing
     n = pick_resolution(spec_resolution, resolution, DEFAULT_RESOLUTION, "expr")
