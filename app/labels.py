@@ -315,6 +315,8 @@ def _extractor(backend: str):
     ctx = current_or_standalone()
 
     def extract(indicator):
+        """The mesh (verts, faces, normals) of one label's 0/1 indicator at 0.5, by the GPU extractor in the shared
+        context."""
         with Extractor(indicator, ctx=ctx, table=table) as extractor:
             extractor.extract(0.5)
             return extractor.read_mesh()[:3]

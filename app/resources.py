@@ -43,6 +43,8 @@ def shader_source(name: str, defines: dict[str, object] | None = None) -> str:
     seen: set[str] = set()
 
     def expand(file_name: str) -> str:
+        """`file_name`'s text with its includes expanded, each file pasted in once (a second include of it adds
+        nothing)."""
         if file_name in seen:
             return ""
         seen.add(file_name)

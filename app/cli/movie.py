@@ -75,6 +75,7 @@ def run_movie(args) -> int:
     isos = None if args.labels else checked_levels(volume, args.iso, args.opacity)
 
     def prepare(state) -> None:
+        """Put the slices, clip and labels asked for on the viewer's state before the first frame."""
         apply_slice_arguments(state, args)
         if args.labels:
             state.show_labels(names=args.label_names, force=args.force_labels)
@@ -104,6 +105,7 @@ def _frames(viewer, volume, args, times):
     """The movie's frames, one (H, W, 3) uint8 array at a time, each as `render` draws it."""
 
     def shot():
+        """One frame, as `render` draws it (with the panel and letters if asked)."""
         return viewer.picture(panel=args.panel, letters=args.orientation_letters)
     if times is not None:   # the viewer's time axis: levels, slices and clip stay as time moves
         for time in times:

@@ -140,6 +140,7 @@ def _scene_saver(args):
     picture otherwise says nothing of why), and with --save-scene PATH the scene of the picture, as
     `isoscope render PATH` redraws it."""
     def then(viewer) -> None:
+        """After the picture: a note for each level that drew nothing, and the scene written where --save-scene asks."""
         from ..viewer.ui.headless import empty_level_hints
         for hint in empty_level_hints(viewer):
             print(f"note: {hint}", file=sys.stderr)

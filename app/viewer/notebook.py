@@ -45,9 +45,11 @@ def widget(volume, level=None, *, size=(640, 480), spacing=None, affine=None, gr
             self._button = 0
 
         def get_frame(self) -> np.ndarray:
+            """The current picture, RGB."""
             return np.ascontiguousarray(viewer.render()[..., :3])
 
         def handle_event(self, event: dict) -> None:
+            """Orbit on a left drag, pan on another drag, zoom on the wheel, as in the window; then draw again."""
             kind = event.get("type") or event.get("event_type")
             if kind == "pointer_down":
                 self._last, self._button = (event["x"], event["y"]), int(event.get("button", 1))
@@ -71,6 +73,7 @@ def widget(volume, level=None, *, size=(640, 480), spacing=None, affine=None, gr
                                     description="level", continuous_update=True, readout_format=".4g")
 
     def on_level(change) -> None:
+        """The slider moved: put its value on the selected level and draw again."""
         viewer.state.iso = change["new"]
         canvas.request_draw()
     slider.observe(on_level, names="value")

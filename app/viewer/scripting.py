@@ -207,6 +207,7 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     level = None if labels else checked_levels(shown, level)
 
     def prepare(state) -> None:   # as the command's apply_slice_arguments and --labels
+        """Put the slices, clip and labels asked for on the viewer's state before the picture is drawn."""
         for axis, index in slices:
             state.slices.show(_axis(axis), True, index)
         if clip is not None:

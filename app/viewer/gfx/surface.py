@@ -56,6 +56,7 @@ def extractor_refusal(ctx):
     limits = GpuLimits.of(ctx)
 
     def refusal(shape) -> str | None:
+        """Why the GPU extractor cannot hold a volume of `shape` (the first clause of its GPULimitError), or None."""
         try:
             plan_extractor(shape, limits)
         except GPULimitError as exc:
