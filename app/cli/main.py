@@ -39,8 +39,9 @@ def _error(text: str) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command `argv` (default: the command line) and return its exit status: 0, or the status of a refusal (bad
-    input, no OpenGL, a broken pipe, a failed cluster, 130 on Ctrl-C) after its one line on stderr."""
+    """Run the command `argv` (default: the command line) and return its exit status: 0; a refusal's status
+    after its one line on stderr (bad input, no OpenGL, a failed cluster or a full disk); quietly on a broken
+    pipe; 130 on Ctrl-C."""
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv and argv[0] == "measure":
         from .measure import measure_parser, run_measure

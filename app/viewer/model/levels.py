@@ -83,7 +83,7 @@ class Levels:
         self.current.value = self.clamp(value)
 
     def nudge(self, fraction_of_range: float) -> None:
-        """Move the selected level by `fraction_of_range` of the value range (the arrow keys' step), clamped."""
+        """Move the selected level by `fraction_of_range` of the value range (the = - + keys' steps), clamped."""
         low, high = self.value_range
         self.set_value(self.value + fraction_of_range * (high - low))
 
