@@ -107,6 +107,21 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         together (`isoscope.options.MeshOptionsError`, e.g. `smooth` with
         `sharp_features`) name the rule.
 
+    See Also
+    --------
+    isoscope.marching_tetrahedra
+        The same level set from the cells split into tetrahedra: no ambiguous cases.
+    isoscope.smooth_mesh
+        Smooths this mesh and projects it back onto the level.
+    isoscope.Extractor
+        Keeps the volume resident to extract many levels of it.
+    isoscope.isosurface
+        This mesh as a ``trimesh.Trimesh`` in world coordinates.
+    isoscope.label_surfaces
+        One surface per label of a label map.
+    isoscope.find_contours
+        The 2-D counterpart: contour lines of an image.
+
     Notes
     -----
     A sample is inside when it lies on the object's side of the level or on it:
@@ -237,6 +252,15 @@ def marching_tetrahedra(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient
     ValueError
         As `marching_cubes`.
 
+    See Also
+    --------
+    isoscope.marching_cubes
+        The same level set from the cubes' case table.
+    isoscope.smooth_mesh
+        Smooths a mesh and projects it back onto the level.
+    isoscope.isosurface
+        A mesh as a ``trimesh.Trimesh`` (``tetrahedra=True``).
+
     Notes
     -----
     The conventions are `outward_marching_cubes`'s: ties count as inside, normals point
@@ -321,6 +345,13 @@ def smooth_mesh(volume, verts, faces, level, iterations=5, *, spacing=(1.0, 1.0,
     ValueError
         A volume, level or iteration count the call cannot take, or faces that
         index past `verts`.
+
+    See Also
+    --------
+    isoscope.marching_cubes
+        The mesh to smooth (or ``smooth=True`` there).
+    isoscope.marching_tetrahedra
+        The other mesh it takes.
 
     Notes
     -----
@@ -438,6 +469,13 @@ class Extractor(metaclass=_ExtractorKind):
         messages on every backend), or `ctx` / `limits` with a CPU backend.
     GPULimitError
         On the GPU, a volume or mesh beyond the GL implementation's limits.
+
+    See Also
+    --------
+    isoscope.marching_cubes
+        One extraction from one call.
+    isoscope.release_gpu_memory
+        Frees the GPU extractor that one-shot calls keep for the next call.
 
     Notes
     -----

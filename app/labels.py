@@ -117,6 +117,13 @@ def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), backend="auto", max_label
     TooManyLabels
         More labels than `max_labels` (a ValueError too).
 
+    See Also
+    --------
+    isoscope.marching_cubes
+        The surface of one level of a scalar field.
+    isoscope.isosurface
+        These surfaces as one ``trimesh.Trimesh`` (``labels=True``).
+
     Notes
     -----
     Each surface is closed and 2-manifold, wound counter-clockwise seen from
@@ -308,6 +315,8 @@ def _extractor(backend: str):
     ctx = current_or_standalone()
 
     def extract(indicator):
+        """The mesh (verts, faces, normals) of one label's 0/1 indicator at 0.5, by the GPU extractor in the shared
+        context."""
         with Extractor(indicator, ctx=ctx, table=table) as extractor:
             extractor.extract(0.5)
             return extractor.read_mesh()[:3]

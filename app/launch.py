@@ -8,6 +8,8 @@ import threading
 
 
 def main() -> int:
+    """The command's entry point: import and run `cli.main` with Ctrl-C held off during the imports; exit status 130 on
+    Ctrl-C, with no traceback."""
     sys.unraisablehook = _interrupt_again
     try:
         from .io.atomic import signals_deferred

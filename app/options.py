@@ -22,6 +22,8 @@ class MeshOptionsError(IsoscopeError, ValueError):
 
 @dataclass(frozen=True)
 class MeshOptions:
+    """A combination of mesh modes (cells, smoothing, sharp features, mask, chunks, topology); `problem` and `check` say
+    whether the modes go together."""
     cells: str = "cubes"
     smooth: int = 0
     sharp: float | None = None

@@ -25,10 +25,12 @@ def _data_dir(checkout_name: str) -> Path:
 
 
 def shaders_dir() -> Path:
+    """The folder of the GLSL files: shaders/ in a checkout, isoscope/_shaders when installed."""
     return _data_dir("shaders")
 
 
 def volumes_dir() -> Path:
+    """The folder of the bundled volumes: volumes/ in a checkout, isoscope/_volumes when installed."""
     return _data_dir("volumes")
 
 
@@ -41,6 +43,8 @@ def shader_source(name: str, defines: dict[str, object] | None = None) -> str:
     seen: set[str] = set()
 
     def expand(file_name: str) -> str:
+        """`file_name`'s text with its includes expanded, each file pasted in once (a second include of it adds
+        nothing)."""
         if file_name in seen:
             return ""
         seen.add(file_name)

@@ -38,6 +38,17 @@ def isosurface(volume, level=None, *, spacing=None, affine=None, gradient_direct
         Outward-facing triangles (counter-clockwise seen from outside, whatever the affine's handedness)
         and vertex normals; ``pyvista.wrap(mesh)`` turns it into a PyVista PolyData.
 
+    See Also
+    --------
+    isoscope.marching_cubes
+        The arrays behind this mesh.
+    isoscope.label_surfaces
+        One surface per label (``labels=True`` here).
+    isoscope.render
+        A picture of the surface.
+    isoscope.view
+        The surface in the desktop window.
+
     Notes
     -----
     The vertices and faces are those `isoscope.api.outward_marching_cubes` returns (marching_cubes' vertices,

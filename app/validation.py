@@ -70,6 +70,7 @@ def subsampled(checked: CheckedVolume, step: int) -> CheckedVolume:
 
 
 def as_step_size(step_size) -> int:
+    """`step_size` as an int, if it is a whole number of voxels, 1 or more; else an InputError."""
     if isinstance(step_size, bool) or not isinstance(step_size, (int, np.integer)) or step_size < 1:
         raise InputError(f"step_size must be a whole number of voxels, 1 or more; got {step_size!r}")
     return int(step_size)

@@ -183,6 +183,7 @@ def _start_workers_deaf_to_sigint(cluster, workers: int) -> None:
         return
 
     def spawned() -> int:
+        """How many worker processes this process has started and that are still running."""
         return sum(child.name.startswith(WORKER_PROCESS) for child in multiprocessing.active_children())
 
     handler = signal.signal(signal.SIGINT, signal.SIG_IGN)

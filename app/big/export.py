@@ -32,6 +32,7 @@ def write_full_resolution(volume, level: float, out, *, gradient_direction: str 
     chunks = as_chunks(chunk, volume.data.shape)
 
     def report(fraction: float, message: str) -> None:
+        """Hand a chunk's progress on; a set `stop` raises Stopped here, between chunks, before anything is written."""
         if stop is not None and stop.is_set():
             raise Stopped("the export was stopped; nothing was written")
         if progress is not None:

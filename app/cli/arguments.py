@@ -56,10 +56,14 @@ class OneLineParser(argparse.ArgumentParser):
     _given: list[str] = []
 
     def parse_args(self, args=None, namespace=None):
+        """Parse `args` (default: the command line) with a VOLUME after ``--`` put back in its place; a usage error
+        exits through `error`."""
         self._given = list(sys.argv[1:] if args is None else args)
         return super().parse_args(volume_after_dashes(self._given), namespace)
 
     def error(self, message: str):
+        """Exit with status 2 and one escaped line, "isoscope: error: ... (see PROG --help)"; a stray option that stood
+        where VOLUME goes is named, with the ``--`` that takes it as a path."""
         stray = self._stray_option() if "VOLUME" in message else None
         if stray is not None:
             message += (f"; {stray!r} is not an option: a path that starts with '-' goes after '--', e.g. "
@@ -99,6 +103,7 @@ def volume_after_dashes(args: list[str]) -> list[str]:
 
 
 def window_size(text: str) -> tuple[int, int]:
+    """The --size flag's WxH as (width, height), or argparse's error with the range it takes."""
     from ..core.numbers import image_size
     try:
         return image_size(text, "--size")
@@ -153,6 +158,7 @@ smooth_iterations = SMOOTH.argument()
 
 
 def feature_angle(text: str) -> float:
+    """The --sharp flag's feature angle in degrees (between 0 and 180), or argparse's error saying so."""
     from ..cpu.sharp.features import check_feature_angle
     try:
         return check_feature_angle(float(text))
@@ -162,6 +168,7 @@ def feature_angle(text: str) -> float:
 
 
 def memory_budget(text: str) -> int:
+    """The --memory-budget flag's size ("2G", "512M", bytes) in bytes, or argparse's error in the API's words."""
     from ..core.budget import BudgetError, parse_size  # the API's rule, in the flag's words
     try:
         return parse_size(text, "--memory-budget")
@@ -186,6 +193,7 @@ def _add_sharp(parser: argparse.ArgumentParser) -> None:
 
 
 def add_topology(parser: argparse.ArgumentParser) -> None:
+    """Add --topology (montani or trilinear) to `parser`."""
     from ..options import TOPOLOGIES
     parser.add_argument("--topology", choices=TOPOLOGIES,
                         help="how ambiguous cells are decided: montani (default: every ambiguous face one way, "
@@ -217,6 +225,7 @@ def _add_mesh_modes(parser: argparse.ArgumentParser, labels: str) -> None:
 
 
 def add_force_labels(parser) -> None:
+    """Add --force-labels (take VOLUME as a label map even where it looks like a scan) to `parser`."""
     parser.add_argument("--force-labels", action="store_true",
                         help="with --labels: take VOLUME as a label map even where it looks like a scan (its "
                              "neighbouring voxels mostly differ, where a segmentation's labels fill flat regions)")
@@ -237,6 +246,7 @@ class VersionAction(argparse.Action):
 
 
 def viewer_parser() -> argparse.ArgumentParser:
+    """The parser of plain ``isoscope [VOLUME]``, which opens the viewer (the built-in default volume without one)."""
     parser = OneLineParser(
         prog="isoscope",
         description="Live GPU isosurfaces of 3-D scalar fields. With no VOLUME, opens the viewer on "
@@ -268,6 +278,7 @@ def viewer_parser() -> argparse.ArgumentParser:
 
 
 def command_parser(command: str) -> argparse.ArgumentParser:
+    """The parser of subcommand `command`: volumes, render or export."""
     if command == "volumes":
         return OneLineParser(prog="isoscope volumes", description="List the built-in volumes.")
     if command == "render":
@@ -346,6 +357,7 @@ def add_render_options(parser: argparse.ArgumentParser, out_help: str, out_metav
 
 
 def add_big_volume_arguments(parser) -> None:
+    """Add export's big-volume flags to `parser`: --chunk, and --workers or --scheduler for a dask cluster."""
     parser.add_argument("--chunk", type=int, metavar="N",
                         help="extract N^3-cell chunks one at a time and stitch them (the same mesh, in memory "
                              "bounded by the chunk); the default for Zarr volumes (128)")

@@ -15,6 +15,8 @@ EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE: the reader of stdout went away (`| head
 
 
 def progress(fraction: float, message: str) -> None:
+    """Report a slow step: one line overwritten on a terminal, one line per report where ISOSCOPE_PROGRESS is set (the
+    viewer's background export reads them), nothing otherwise."""
     # Slow loads report progress; overwrite one line on a terminal, stay quiet in logs.  With
     # ISOSCOPE_PROGRESS set (the viewer's background export reads them), one line per report.
     if sys.stderr.isatty():
@@ -25,6 +27,8 @@ def progress(fraction: float, message: str) -> None:
 
 
 def checked_iso(volume, iso: float | None) -> float | None:
+    """The --iso value, or the volume's default level when none was given; a VolumeError when it lies outside the
+    volume's value range."""
     if iso is None:
         return volume.default_level
     low, high = volume.value_range

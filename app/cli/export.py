@@ -98,6 +98,8 @@ def _export_open_options(args) -> dict:
 
 
 def run_export(args) -> int:
+    """``isoscope export``: check the options (the format by --out's extension first), then write the mesh of each level
+    (one file per level, per time point with --time all or A:B), or each label's with --labels; the exit status."""
     if args.labels:
         return _export_labels(args)
     check_label_options(args, "--one-file", "--max-labels", "--label-names", "--force-labels")

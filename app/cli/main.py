@@ -17,6 +17,7 @@ from .render import run_render, run_viewer
 
 
 def run_volumes(args) -> int:
+    """``isoscope volumes``: print the built-in volumes, one a line, marking the default; exit status 0."""
     from ..volumes import describe_builtins
     rows = describe_builtins()
     width = max(len(name) for name, _ in rows)
@@ -38,6 +39,9 @@ def _error(text: str) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command `argv` (default: the command line) and return its exit status: 0; a refusal's status
+    after its one line on stderr (bad input, no OpenGL, a failed cluster or a full disk); quietly on a broken
+    pipe; 130 on Ctrl-C."""
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv and argv[0] == "measure":
         from .measure import measure_parser, run_measure

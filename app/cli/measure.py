@@ -19,6 +19,7 @@ ML_PER_MM3 = 1e-3
 
 
 def measure_parser() -> argparse.ArgumentParser:
+    """The parser of ``isoscope measure``."""
     parser = OneLineParser(prog="isoscope measure",
                            description="Measure each surface: area (mm^2), enclosed volume (mL), connected "
                                        "pieces and bounding box, in the scan's world coordinates.")
@@ -44,6 +45,8 @@ def measure_parser() -> argparse.ArgumentParser:
 
 
 def run_measure(args) -> int:
+    """``isoscope measure``: each surface's measures (each level's, or each label's with --labels; per time point with
+    --time all or A:B), as a table or as JSON; the exit status."""
     if args.labels:
         check_label_options(args, "--iso", "--closed", "--topology")   # a label's surface is closed already
     else:

@@ -19,6 +19,7 @@ MAX_FRAMES = FRAMES.high
 
 
 def movie_parser() -> argparse.ArgumentParser:
+    """The parser of ``isoscope movie``."""
     parser = OneLineParser(prog="isoscope movie",
                           description="Render a movie offscreen: a turntable around the vertical axis, an iso sweep "
                                       "or a series' time points, to .mp4 (H.264), .gif or a folder of PNGs.")
@@ -47,6 +48,8 @@ def _sweep(text: str) -> tuple[float, float]:
 
 
 def run_movie(args) -> int:
+    """``isoscope movie``: render a turntable, an iso sweep or a series' time points to a movie file or a folder of
+    PNGs, after refusing flags that do not go with the motion; the exit status."""
     kind = movie_kind(str(args.out))
     args.size = args.size or (800, 600)
     several_times = isinstance(args.time, TimeRange)
@@ -72,6 +75,7 @@ def run_movie(args) -> int:
     isos = None if args.labels else checked_levels(volume, args.iso, args.opacity)
 
     def prepare(state) -> None:
+        """Put the slices, clip and labels asked for on the viewer's state before the first frame."""
         apply_slice_arguments(state, args)
         if args.labels:
             state.show_labels(names=args.label_names, force=args.force_labels)
@@ -101,6 +105,7 @@ def _frames(viewer, volume, args, times):
     """The movie's frames, one (H, W, 3) uint8 array at a time, each as `render` draws it."""
 
     def shot():
+        """One frame, as `render` draws it (with the panel and letters if asked)."""
         return viewer.picture(panel=args.panel, letters=args.orientation_letters)
     if times is not None:   # the viewer's time axis: levels, slices and clip stay as time moves
         for time in times:

@@ -12,6 +12,8 @@ DEFAULT_RENDER_SIZE = (800, 600)
 
 
 def run_viewer(args) -> int:
+    """Plain ``isoscope [VOLUME]``: open the viewer's window on the volume (or a scene file) and run it until it is
+    closed; the exit status."""
     # Sample expr: volumes with numpy here: a GPU sampler would make an EGL context current,
     # and GLX then refuses the window's context in this process (X_GLXMakeCurrent BadAccess).
     # Inside the window the panel samples on the GPU, in the window's own context.
@@ -62,6 +64,8 @@ def _apply_mesh_arguments(state, args) -> None:
 
 
 def run_render(args) -> int:
+    """``isoscope render``: draw one volume or one scene offscreen to a PNG (sizes checked before a GL context is made
+    and again against the driver's limits); the exit status."""
     from ..viewer.model.scene_file import is_scene_file, read_scene, scene_size
     from ..viewer.ui.headless import check_render_size
     if (args.scene is None) == (args.volume is None):
@@ -136,6 +140,7 @@ def _scene_saver(args):
     picture otherwise says nothing of why), and with --save-scene PATH the scene of the picture, as
     `isoscope render PATH` redraws it."""
     def then(viewer) -> None:
+        """After the picture: a note for each level that drew nothing, and the scene written where --save-scene asks."""
         from ..viewer.ui.headless import empty_level_hints
         for hint in empty_level_hints(viewer):
             print(f"note: {hint}", file=sys.stderr)

@@ -40,6 +40,7 @@ def clip_spec(text: str) -> tuple[int, float, bool]:
 
 
 def colormap_name(text: str) -> str:
+    """The --colormap flag's name if isoscope has that colour map, else argparse's error naming the choices."""
     from ..viewer.model.colormaps import check_colormap
     try:
         check_colormap(text)
@@ -49,6 +50,7 @@ def colormap_name(text: str) -> str:
 
 
 def add_slice_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the slices' and clip's flags to `parser`: --slice, --clip, --window, --level, --colormap, --no-inset."""
     group = parser.add_argument_group("slices and clip")
     group.add_argument("--slice", action="append", type=slice_spec, metavar="AXIS=INDEX",
                        help="show the slice at sample INDEX across AXIS (x, y, z = array axes 0, 1, 2), with the "

@@ -42,6 +42,8 @@ def time_spec(text: str) -> int | TimeRange:
 
 
 def add_volume_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the flags that say how to read VOLUME to `parser`: raw files' layout, spacing, time point, DICOM series,
+    built-ins' resolution."""
     group = parser.add_argument_group("volume options")
     group.add_argument("--dims", nargs=3, type=int, metavar=("X", "Y", "Z"),
                        help="raw files: samples along x, y, z (x varies fastest)")

@@ -46,6 +46,7 @@ class Brick:
 
     @property
     def samples(self) -> int:
+        """The samples the brick reads (its cells plus one along each axis)."""
         return math.prod(e - f + 1 for f, e in zip(self.first, self.end))
 
     def box(self, spacing) -> tuple[np.ndarray, np.ndarray]:
@@ -110,6 +111,7 @@ def distances(bricks, spacing, eye) -> np.ndarray:
 
 
 def brick_bytes(brick: Brick, bytes_per_sample: float) -> int:
+    """The bytes `brick`'s samples take at `bytes_per_sample`, rounded up."""
     return int(math.ceil(brick.samples * bytes_per_sample))
 
 

@@ -51,6 +51,7 @@ class MemoryBudget:
 
     @property
     def text(self) -> str:
+        """The budget in words: its size and where it came from, e.g. "2.0 GiB (--memory-budget)"."""
         return f"{size_text(self.bytes)} ({self.source})"
 
 
@@ -76,6 +77,7 @@ def parse_size(text, what: str = "--memory-budget") -> int:
 
 
 def size_text(n_bytes: float) -> str:
+    """`n_bytes` in binary units with one decimal ("1.5 GiB"); plain bytes below 1 KiB."""
     units = ("B", "KiB", "MiB", "GiB", "TiB", "PiB")
     step = 0
     while n_bytes >= 1024 and step < len(units) - 1:

@@ -250,6 +250,7 @@ class CaseTable:
 
     @property
     def max_triangles(self) -> int:
+        """The most triangles any case makes (the table's padded width)."""
         return self.triangles.shape[1]
 
     def packed_for_gpu(self) -> np.ndarray:

@@ -104,6 +104,11 @@ def find_contours(image, level=None, fully_connected="low", positive_orientation
         An image that is not 2-D or has an axis shorter than 2, an unknown
         option, or a mask of another shape or type.
 
+    See Also
+    --------
+    isoscope.marching_cubes
+        The 3-D counterpart: the isosurface of a volume.
+
     Notes
     -----
     Ties follow the 3-D extractor's rule, not scikit-image's: a sample equal to

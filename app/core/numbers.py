@@ -60,6 +60,7 @@ class Number:
         return parse
 
     def range_words(self) -> str:
+        """What the number must be, in the words of its refusals: "a whole number of pixels, 16 to 16,384"."""
         named = self.what.startswith(("a ", "an "))   # "an axis": already says what it is
         kind = "a whole number of " + self.what if self.whole and not named else self.what
         low = f"{self.low:,}" if self.whole else f"{self.low:g}"

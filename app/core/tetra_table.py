@@ -62,5 +62,7 @@ class TetraTable(CaseTable):
 
 @cache
 def tetra_table() -> TetraTable:
+    """The marching tetrahedra table: for each of the cube's 256 corner cases, the triangles of its six tetrahedra,
+    padded to one width."""
     per_case = [[t for corners in TETRAHEDRA for t in tetrahedron_triangles(corners, case)] for case in range(256)]
     return TetraTable(*padded_cases(per_case))

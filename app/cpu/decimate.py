@@ -34,6 +34,7 @@ def vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 def check_fraction(fraction: float) -> float:
+    """`fraction` (of the triangles to keep) as a float, if it lies in (0, 1]; else an InputError naming --decimate."""
     if not 0 < fraction <= 1:
         raise InputError(f"--decimate {fraction:g} must be a fraction of the triangles to keep, in (0, 1]")
     return float(fraction)

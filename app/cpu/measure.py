@@ -17,6 +17,8 @@ import numpy as np
 
 @dataclass(frozen=True)
 class SurfaceMeasure:
+    """A mesh's measures in its world units: area, enclosed volume, connected pieces and their volumes, bounding box,
+    open edges, Euler characteristic and genus."""
     area: float                      # world units^2 (mm^2)
     volume: float                    # world units^3 (mm^3) enclosed by the triangles (the object's, if closed)
     components: int                  # connected pieces
@@ -87,6 +89,7 @@ def _edge_counts(faces: np.ndarray) -> np.ndarray:
 
 
 def open_edge_count(faces: np.ndarray) -> int:
+    """How many edges of `faces` only one triangle uses: 0 for a closed surface."""
     return int((_edge_counts(faces) == 1).sum())
 
 

@@ -33,6 +33,8 @@ ORDER_C, ORDER_F, ORDER_STRIDED = 0, 1, 2
 
 
 class SampleView(NamedTuple):
+    """A volume's samples as the compiled kernels read them, where they lie: a flat view, whether to swap bytes, the
+    grid's offset, strides and shape, and the order to loop in."""
     flat: np.ndarray   # 1-D, read-only, the samples' type in native byte order (the bytes as stored)
     swap: bool         # the stored bytes are in the other byte order: swap them on every read
     grid: np.ndarray   # int64 (offset, stride 0, stride 1, stride 2, n0, n1, n2): strides in elements
@@ -40,6 +42,7 @@ class SampleView(NamedTuple):
 
     @property
     def shape(self) -> tuple[int, int, int]:
+        """The volume's (n0, n1, n2)."""
         return tuple(int(n) for n in self.grid[4:])
 
 

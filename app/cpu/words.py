@@ -203,6 +203,8 @@ word per cache line; the rows of a block lie one after another in the volume's m
 
 
 def rows_per_block(shape) -> int:
+    """How many rows of axis 1 are packed into words at once: up to 32, as many as keep a block's words within
+    `BLOCK_BYTES` (a core's L2 cache)."""
     n0, _, n2 = shape
     return int(max(1, min(32, BLOCK_BYTES // (4 * n0 * -(-n2 // WORD_BITS)))))
 

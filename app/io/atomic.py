@@ -61,6 +61,8 @@ class _Signals:
         self.previous: dict[int, object] = {}
 
     def install(self) -> None:
+        """Note SIGINT and SIGTERM from here on (signals ignored, or not set from Python, are left alone), keeping the
+        handlers there were."""
         with _held():
             for signum in STOP_SIGNALS:
                 before = signal.getsignal(signum)
@@ -70,6 +72,7 @@ class _Signals:
                 signal.signal(signum, self._handler)
 
     def restore(self) -> None:
+        """Put back the handlers there were before `install`."""
         with _held():
             for signum, before in self.previous.items():
                 signal.signal(signum, before)

@@ -74,6 +74,8 @@ class MovieWriter:
         self._writer.send(None)
 
     def append(self, frame: np.ndarray) -> None:
+        """Add `frame` (RGB or RGBA uint8) to the movie; the first frame sets the size, and a frame of another size is
+        an InputError."""
         frame = np.ascontiguousarray(frame[..., :3], dtype=np.uint8)
         size = (frame.shape[1], frame.shape[0])
         if self.size is None:

@@ -13,7 +13,15 @@ def widget(volume, level=None, *, size=(640, 480), spacing=None, affine=None, gr
     viewer drawing it).  `options` are `isoscope.render`'s mesh and look options (opacities, color_by,
     colormap, tetrahedra, smooth, wireframe, raycast: the volume itself, ray cast, with_surfaces: the
     surfaces with it, transfer); `memory_budget` as
-    `isoscope.view`'s.  Call ``.close_viewer()`` to free its GL resources."""
+    `isoscope.view`'s.  Call ``.close_viewer()`` to free its GL resources.
+
+    See Also
+    --------
+    isoscope.render
+        One picture with the same options.
+    isoscope.view
+        The desktop window.
+    """
     ipywidgets = _needed("ipywidgets")
     RemoteFrameBuffer = _needed("jupyter_rfb").RemoteFrameBuffer
     from ..core.budget import requested_budget, using_budget
@@ -37,9 +45,11 @@ def widget(volume, level=None, *, size=(640, 480), spacing=None, affine=None, gr
             self._button = 0
 
         def get_frame(self) -> np.ndarray:
+            """The current picture, RGB."""
             return np.ascontiguousarray(viewer.render()[..., :3])
 
         def handle_event(self, event: dict) -> None:
+            """Orbit on a left drag, pan on another drag, zoom on the wheel, as in the window; then draw again."""
             kind = event.get("type") or event.get("event_type")
             if kind == "pointer_down":
                 self._last, self._button = (event["x"], event["y"]), int(event.get("button", 1))
@@ -63,6 +73,7 @@ def widget(volume, level=None, *, size=(640, 480), spacing=None, affine=None, gr
                                     description="level", continuous_update=True, readout_format=".4g")
 
     def on_level(change) -> None:
+        """The slider moved: put its value on the selected level and draw again."""
         viewer.state.iso = change["new"]
         canvas.request_draw()
     slider.observe(on_level, names="value")

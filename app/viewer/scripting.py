@@ -75,6 +75,13 @@ def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="d
     isoscope.IsoscopeError
         No display or no OpenGL to open a window with (one line saying so), or a bad volume.
 
+    See Also
+    --------
+    isoscope.render
+        The same picture offscreen, as pixels.
+    isoscope.widget
+        The viewer in a Jupyter notebook.
+
     Examples
     --------
     Needs a display and a person, so not run as a doctest:
@@ -166,6 +173,15 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     (height, width, 4) uint8 array
         RGBA pixels, top row first (alpha 255 everywhere unless `transparent`).
 
+    See Also
+    --------
+    isoscope.view
+        The desktop window on the same volume.
+    isoscope.widget
+        The viewer in a Jupyter notebook.
+    isoscope.isosurface
+        The mesh itself, as a ``trimesh.Trimesh``.
+
     Examples
     --------
     >>> import numpy as np
@@ -191,6 +207,7 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     level = None if labels else checked_levels(shown, level)
 
     def prepare(state) -> None:   # as the command's apply_slice_arguments and --labels
+        """Put the slices, clip and labels asked for on the viewer's state before the picture is drawn."""
         for axis, index in slices:
             state.slices.show(_axis(axis), True, index)
         if clip is not None:

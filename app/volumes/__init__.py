@@ -58,10 +58,12 @@ DEFAULT_VOLUME = "metaballs"
 
 
 def builtin_names() -> list[str]:
+    """The built-in volumes' names, in the listing's order."""
     return list(BUILTINS)
 
 
 def describe_builtins() -> list[tuple[str, str]]:
+    """(name, one-line summary) of each built-in volume, for ``isoscope volumes``."""
     return [(builtin.name, builtin.summary) for builtin in BUILTINS.values()]
 
 

@@ -21,6 +21,8 @@ UNIT_BOX = Box.cube(-1.0, 1.0)
 
 @dataclass(frozen=True)
 class Builtin:
+    """A built-in volume: its name and description, how to make it at a resolution, its object side and first level (and
+    a fixed shape for one whose resolution cannot change)."""
     name: str
     description: str
     default_resolution: int
@@ -200,6 +202,9 @@ def split_builtin_spec(spec: str) -> tuple[Builtin, str | None] | None:
 
 
 def open_builtin(spec: str, resolution=None, progress: Progress | None = None) -> Volume:
+    """The built-in volume `spec` (``name`` or ``name:N``, a name `split_builtin_spec` knows) made at its resolution
+    (`resolution`, the spec's, else its default); a resolution that is no whole number, out of range or given twice
+    is a VolumeError."""
     builtin, spec_resolution = split_builtin_spec(spec)
     n = pick_resolution(spec_resolution, resolution, builtin.default_resolution, builtin.name)
     data, spacing, notes = builtin.make(n, progress)

@@ -57,22 +57,26 @@ _TOKEN = re.compile(r"""
 
 @dataclass(frozen=True)
 class Number:
+    """A number in a parsed formula."""
     value: float
 
 
 @dataclass(frozen=True)
 class Variable:
+    """A coordinate in a parsed formula: x, y or z."""
     name: str  # "x", "y" or "z"
 
 
 @dataclass(frozen=True, eq=False, repr=False)  # no recursive ==, hash or repr on deep trees
 class Unary:
+    """A negated operand in a parsed formula."""
     op: str  # "-" (a unary "+" is dropped by the parser)
     operand: object
 
 
 @dataclass(frozen=True, eq=False, repr=False)  # no recursive ==, hash or repr on deep trees
 class Binary:
+    """An arithmetic operation of two operands in a parsed formula: + - * / or ^."""
     op: str  # + - * / ^
     left: object
     right: object
@@ -80,12 +84,14 @@ class Binary:
 
 @dataclass(frozen=True, eq=False, repr=False)  # no recursive ==, hash or repr on deep trees
 class Call:
+    """A call of one of the language's functions in a parsed formula."""
     function: str
     args: tuple
 
 
 @dataclass(frozen=True)
 class Token:
+    """One token of a formula: its kind (number, name, op or end), its text and its column (1-based, for messages)."""
     kind: str  # number, name, op, end
     text: str
     column: int  # 1-based, for messages
@@ -99,6 +105,8 @@ def _error(text: str, column: int, problem: str, fix: str) -> VolumeError:
 
 
 def tokenize(text: str) -> list[Token]:
+    """The formula's tokens, ending with an "end" token; a character the language does not have is a refusal naming its
+    column."""
     tokens, position = [], 0
     while position < len(text):
         match = _TOKEN.match(text, position)
@@ -121,23 +129,29 @@ class _Parser:
 
     @property
     def token(self) -> Token:
+        """The token being read."""
         return self.tokens[self.index]
 
     def take(self) -> Token:
+        """The token being read, moving past it."""
         token = self.token
         self.index += 1
         return token
 
     def fail(self, token: Token, problem: str, fix: str):
+        """Raise the formula's refusal at `token`'s column: `problem`, then `fix`."""
         raise _error(self.text, token.column, problem, fix)
 
     def expect(self, op: str) -> None:
+        """Move past the operator `op`; a refusal naming what stands there instead."""
         if self.token.text != op or self.token.kind != "op":
             found = "the end" if self.token.kind == "end" else f"{self.token.text!r}"
             self.fail(self.token, f"expected {op!r} but found {found}", f"add the missing {op!r}")
         self.take()
 
     def parse(self):
+        """The whole formula's tree; an empty formula, or anything left after it (a missing operator, a stray ')'), is
+        refused."""
         if self.token.kind == "end":
             self.fail(self.token, "the expression is empty", "type a formula such as x^2 + y^2 + z^2 - 1")
         tree = self.expr()
@@ -150,12 +164,15 @@ class _Parser:
         return tree
 
     def expr(self):
+        """expr := term (("+" | "-") term)*"""
         return self.left_associative(("+", "-"), self.term)
 
     def term(self):
+        """term := unary (("*" | "/") unary)*"""
         return self.left_associative(("*", "/"), self.unary)
 
     def left_associative(self, ops: tuple[str, ...], operand):
+        """`operand`s joined by any of `ops`, grouped from the left: a - b - c is (a - b) - c."""
         node = operand()
         while self.token.kind == "op" and self.token.text in ops:
             op = self.take().text
@@ -163,6 +180,7 @@ class _Parser:
         return node
 
     def unary(self):
+        """unary := ("-" | "+")* power"""
         # A run of signs is read in a loop: "----x" is x, at any length (-(-v) is v bit for bit).
         negative = False
         while self.token.kind == "op" and self.token.text in ("-", "+"):
@@ -171,6 +189,7 @@ class _Parser:
         return Unary("-", operand) if negative else operand
 
     def power(self):
+        """power := atom ("^" unary)?, right-associative through the unary: 2^-x and 2^3^2 = 2^(3^2)."""
         base = self.atom()
         if self.token.kind == "op" and self.token.text == "^":
             self.take()
@@ -178,6 +197,7 @@ class _Parser:
         return base
 
     def nested(self, rule):
+        """`rule` one level deeper; past `MAX_DEPTH` levels a refusal, never a RecursionError."""
         # Recursion depth is bounded so "((((..." gives a message, not a RecursionError.
         self.depth += 1
         if self.depth > MAX_DEPTH:
@@ -189,6 +209,7 @@ class _Parser:
             self.depth -= 1
 
     def atom(self):
+        """atom := number | name | "(" expr ")"; a number past float32's range, or anything else here, is refused."""
         token = self.take()
         if token.kind == "number":
             value = float(token.text)
@@ -206,6 +227,8 @@ class _Parser:
                   "complete the formula")
 
     def name(self, token: Token):
+        """A variable, a constant or a function call for the name `token`; an unknown name is refused with the names
+        there are."""
         name = token.text
         if name in VARIABLES:
             return Variable(name)

@@ -97,6 +97,9 @@ def _check_samples_distinct(box: Box, shape) -> None:
 
 def open_expression(spec: str, *, resolution=None, progress: Progress | None = None,
                     backend: str = "auto", ctx=None) -> Volume:
+    """The volume of an ``expr:`` spec: the formula parsed first (a typo costs no GL work), then sampled on an N^3 grid
+    over its box on the GPU or with numpy; a formula that gives no finite value somewhere is refused, naming the place.
+    """
     formula, box, spec_resolution = split_expression_spec(spec)
     tree = parse(formula)  # before any GL work: a typo costs nothing
     n = pick_resolution(spec_resolution, resolution, DEFAULT_RESOLUTION, "expr")
@@ -107,6 +110,8 @@ def open_expression(spec: str, *, resolution=None, progress: Progress | None = N
     spacing = box.spacing(shape)
 
     def where(index) -> str:
+        """The world point of sample `index`, and what to do, for the refusal of a formula with no finite value there.
+        """
         x, y, z = (box.lo[a] + index[a] * spacing[a] for a in range(3))
         return (f"at x={x:.4g}, y={y:.4g}, z={z:.4g} (e.g. log or sqrt of a negative number, "
                 f"division by zero, overflow); change the formula or the box")
@@ -168,6 +173,8 @@ def _evaluator(tree, shape):
     planes = max(1, _EVALUATION_BYTES // (plane_bytes * (peak_intermediates(tree) + 2)))
 
     def fn(x, y, z):
+        """The formula on the grid (x, y, z), evaluated a few planes of x at a time so that its intermediates stay
+        within memory."""
         if len(x) <= planes:
             return evaluate(tree, x, y, z)
         return np.concatenate([np.broadcast_to(evaluate(tree, x[i:i + planes], y, z),

@@ -21,14 +21,17 @@ _SLAB_VOXELS = 1 << 22  # bounds the float64 temporaries numpy makes per slab
 
 @dataclass(frozen=True)
 class Box:
+    """The box an implicit function is sampled over: its lower and upper corners."""
     lo: tuple[float, float, float]
     hi: tuple[float, float, float]
 
     @classmethod
     def cube(cls, lo: float, hi: float) -> Box:
+        """The cube from (`lo`, `lo`, `lo`) to (`hi`, `hi`, `hi`)."""
         return cls((lo, lo, lo), (hi, hi, hi))
 
     def spacing(self, shape) -> tuple[float, float, float]:
+        """The sample spacing along each axis when `shape` samples span the box, its corners included."""
         return tuple((high - low) / (n - 1) for low, high, n in zip(self.lo, self.hi, shape))
 
     def axis(self, axis: int, n: int) -> np.ndarray:

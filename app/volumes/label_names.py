@@ -41,6 +41,7 @@ VOLUME_SUFFIXES = (".nii.gz", ".nii", ".nrrd", ".nhdr", ".mha", ".mhd", ".npy", 
 
 @dataclass(frozen=True)
 class LabelName:
+    """A label's look from a label file: its name, RGB colour 0..1, opacity and whether it is shown."""
     name: str
     color: tuple[float, float, float]   # RGB 0..1
     opacity: float = 1.0

@@ -76,6 +76,8 @@ def _format_of(path: Path, has_raw_flags: bool) -> str:
 
 def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, time=None,
               series=None, progress: Progress | None = None, map_files: bool = False) -> Volume:
+    """The volume in the file or folder `spec` (by its format: NIfTI, NRRD, DICOM, Zarr, numpy, raw, ...), with flags
+    that do not apply to its format refused in one line."""
     path, array_name = resolve_path(spec)
     if not path.is_dir():
         refuse_unless_regular(path)  # a named pipe would block the read for good

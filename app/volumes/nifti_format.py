@@ -46,6 +46,8 @@ def _nibabel_errors() -> tuple[type[Exception], ...]:
 
 
 def load_nifti(path: Path, time: int | None, progress: Progress | None = None) -> Loaded:
+    """(data, spacing, notes) of a NIfTI file's time point `time` (a 3-D file takes none); nibabel's messages become
+    notes."""
     import nibabel  # noqa: F401  (first: its loggers must exist for library_messages to take them)
     notes: list[str] = []
     with library_messages(notes, "nibabel"):
@@ -88,6 +90,7 @@ class HeldSeries:
 
     @staticmethod
     def key(path: Path):
+        """What identifies the file's bytes: its resolved path, size and modification time."""
         stat = path.stat()
         return str(path.resolve()), stat.st_size, stat.st_mtime_ns
 
@@ -101,11 +104,13 @@ class HeldSeries:
             return self._bytes if key == self._key else None
 
     def hold(self, path: Path, key, inflated: bytes) -> None:
+        """Keep `inflated`, the bytes of the series at `path` read under `key`, in place of those held before."""
         with self._lock:
             self._key, self._bytes = key, inflated
             self.inflations += 1
 
     def release(self) -> None:
+        """Drop the bytes held."""
         with self._lock:
             self._key = self._bytes = None
 

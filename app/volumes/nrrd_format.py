@@ -137,6 +137,8 @@ def _read_data(path: Path, header: dict) -> np.ndarray:
 
 
 def load_nrrd(path: Path, time: int | None, progress: Progress | None = None) -> Loaded:
+    """(data, spacing, notes) of an NRRD file's time point `time`; a header that is missing, damaged or of a type the
+    format does not have is a VolumeError naming it."""
     import nrrd
     try:
         header = nrrd.read_header(str(path))

@@ -27,6 +27,7 @@ MAX_DIM = (1 << 31) - 1  # samples per axis: more is no file anyone has (and wra
 
 @dataclass
 class RawLayout:
+    """How a raw file's bytes are laid out: its dimensions, sample type, spacing (None: not given) and notes."""
     dims: tuple[int, int, int]
     dtype: np.dtype
     spacing: tuple[float, float, float] | None
@@ -34,6 +35,7 @@ class RawLayout:
 
 
 def sidecar_path(path: Path) -> Path | None:
+    """The JSON sidecar beside a raw file (NAME.raw.json, else NAME.json), or None."""
     for candidate in (path.with_name(path.name + ".json"), path.with_suffix(".json")):
         if candidate.is_file() and candidate != path:
             return candidate

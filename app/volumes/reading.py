@@ -62,17 +62,21 @@ def read_or_explain(path: Path, read, errors: tuple[type[BaseException], ...] = 
 
 
 def raise_if_corrupt_compression(exc: Exception, path: Path) -> None:
+    """Raise a VolumeError naming `path` if `exc` comes from a corrupt compressed stream (zlib, bz2, gzip); otherwise
+    return."""
     # zlib.error is not an OSError; it is what a corrupt deflate stream raises.
     if type(exc).__module__ in ("zlib", "_bz2", "bz2", "gzip"):
         raise VolumeError(f"{path.name}: its compressed data is corrupt ({exc}); export it again") from None
 
 
 def reason(exc: Exception) -> str:
+    """`exc` in a few words for a message: its text (or its type's name), cut at 160 characters."""
     text = str(exc).strip() or type(exc).__name__
     return text if len(text) < 160 else text[:157] + "..."
 
 
 def damaged(path: Path, exc: Exception, fix: str = "export it again") -> VolumeError:
+    """The VolumeError of a damaged or truncated file: its name, the reason and `fix`."""
     return VolumeError(f"{path.name} is damaged or truncated ({reason(exc)}); {fix}")
 
 

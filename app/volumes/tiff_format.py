@@ -52,6 +52,8 @@ def load_tiff(path: Path, time: int | None, progress: Progress | None = None):
     report(progress, 0.0, f"reading {path.name}")
 
     def read():
+        """The first series' samples, its axes' letters and its spacing; a file with no image, or one whose tags claim
+        more than memory allows, is refused before it is read."""
         with tifffile.TiffFile(path) as tif:
             if not tif.series:
                 raise InputError("no image in it")

@@ -15,6 +15,7 @@ class TimeNote(str):
 
 
 def time_note(index: int, count: int, text: str | None = None) -> TimeNote:
+    """The note of a 4-D file on show: `text` or "showing time point i of n", holding the count."""
     note = TimeNote(text or f"4-D file: showing time point {index} of {count} (use --time N)")
     note.count = int(count)
     return note
@@ -26,6 +27,7 @@ def time_points_of(notes) -> int:
 
 
 def time_index(time: int | None, count: int, what: str) -> int:
+    """The time point to read (`time`, default 0); a VolumeError when it is past the `count` points of `what`."""
     index = 0 if time is None else int(time)
     if not 0 <= index < count:
         raise VolumeError(f"--time {time} is past the end: {what} has {count} time points "
@@ -34,6 +36,7 @@ def time_index(time: int | None, count: int, what: str) -> int:
 
 
 def refuse_time(time: int | None, what: str, ndim: int) -> None:
+    """A VolumeError when --time is given for a 3-D volume (`ndim` 3)."""
     if time is not None and ndim == 3:
         raise VolumeError(f"--time {time} given but {what} is 3-D (one time point); drop --time")
 

@@ -31,6 +31,8 @@ class PyramidLevel(NamedTuple):
 
 @dataclass
 class Volume:
+    """A 3-D scalar field ready to show: its samples, spacing, name, source, object side, first level, value range and
+    notes, and, where the file gives them, its voxel-to-world transform and time points."""
     data: np.ndarray  # 3-D, native byte order, any memory order (a NIfTI's is Fortran); axis 0 is drawn as x;
     # real values (ints keep their range)
     spacing: tuple[float, float, float]  # voxel size along axes 0, 1, 2
@@ -70,11 +72,13 @@ class Volume:
 
 
 def report(progress: Progress | None, fraction: float, message: str) -> None:
+    """Tell `progress` (if any) the `fraction` done, clamped to 0..1, and what is being done."""
     if progress is not None:
         progress(min(max(float(fraction), 0.0), 1.0), message)
 
 
 def shape_text(shape) -> str:
+    """A shape as "256x256x128"."""
     return "x".join(str(int(n)) for n in shape)
 
 

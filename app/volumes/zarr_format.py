@@ -48,6 +48,7 @@ class CheckedReads:
 
 
 def is_zarr(path: Path) -> bool:
+    """Whether `path` is a Zarr store: a folder named .zarr, or one holding Zarr's metadata files."""
     return path.is_dir() and (path.name.lower().endswith(".zarr") or any((path / m).is_file() for m in MARKERS))
 
 

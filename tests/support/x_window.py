@@ -1,4 +1,5 @@
-"""Helpers for the real window under Xvfb: X key events, bounded frame loops, one spawned process for the windows.
+"""Helpers for the real window under Xvfb: X key events, the XTest pointer, bounded frame loops, one spawned
+process for the windows.
 
 Keys go through the X server (XSendEvent from libX11, which GLFW itself needs),
 so they take the same path as a user's: X -> GLFW -> imgui's backend -> our callbacks.
@@ -9,8 +10,13 @@ import atexit
 import ctypes
 import ctypes.util
 import multiprocessing
+import time
+
+import numpy as np
 
 MAX_FRAMES_PER_STEP = 20   # X events arrive within a frame or two; bounded, not timed
+LEFT, WHEEL_UP = 1, 4   # X button numbers
+SETTLE_S = 0.05         # XTest input reaches the client on the server's next dispatch, after the sync reply
 
 
 class XKeyEvent(ctypes.Structure):
@@ -84,3 +90,51 @@ def run_spawned(target, *args, fresh: bool = False) -> None:
         _window_process.terminate()
         _window_process = None
         raise
+
+
+class Pointer:
+    """The X pointer, driven through XTest in the window's coordinates (screen units)."""
+
+    def __init__(self, viewer_window):
+        import glfw
+        self.glfw, self.window = glfw, viewer_window.window
+        self.display = glfw.get_x11_display()
+        self.xtst = ctypes.CDLL(ctypes.util.find_library("Xtst"))
+        self.xtst.XTestFakeMotionEvent.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int,
+                                                   ctypes.c_ulong]
+        self.xtst.XTestFakeButtonEvent.argtypes = [ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_ulong]
+        self.xlib = ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
+        self.xlib.XSync.argtypes = [ctypes.c_void_p, ctypes.c_int]
+
+    def send(self, *events) -> None:
+        """('move', x, y), ('press', button), ('release', button), ...: all queued for the next frame."""
+        left, top = self.glfw.get_window_pos(self.window)
+        for kind, *args in events:
+            if kind == "move":
+                self.xtst.XTestFakeMotionEvent(self.display, -1, round(left + args[0]), round(top + args[1]), 0)
+            else:
+                self.xtst.XTestFakeButtonEvent(self.display, args[0], kind == "press", 0)
+        self.xlib.XSync(self.display, 0)
+        time.sleep(SETTLE_S)
+        self.xlib.XSync(self.display, 0)
+
+    def drag(self, viewer_window, start, end, steps: int = 4) -> None:
+        """Press at `start` in the same frame as the pointer arrives there, move to `end` a frame per step, release."""
+        self.send(("move", *start), ("press", LEFT))
+        viewer_window.draw_frame()
+        for t in np.linspace(0, 1, steps + 1)[1:]:
+            self.send(("move", *(np.add(start, t * np.subtract(end, start)))))
+            viewer_window.draw_frame()
+        self.send(("release", LEFT))
+        viewer_window.draw_frame()
+
+    def hover(self, viewer_window, point) -> None:
+        """Rest the pointer at `point` for a couple of frames, so imgui knows where it is."""
+        self.send(("move", *point))
+        for _ in range(2):
+            viewer_window.draw_frame()
+
+
+def camera_pose(camera):
+    """The camera's pose as one tuple, to compare before and after a press."""
+    return (camera.azimuth, camera.elevation, camera.distance, *camera.target)

@@ -11,6 +11,9 @@ from .renderer import SurfaceLook
 
 
 class CapMeshes:
+    """The caps of "closed at the border" of each visible level, uploaded and kept until what they were made of changes.
+    """
+
     def __init__(self, ctx):
         self.ctx = ctx
         self._meshes: dict = {}   # Level -> (what its caps were made of, CpuMesh)
@@ -46,6 +49,7 @@ class CapMeshes:
         return mesh
 
     def release(self) -> None:
+        """Free every level's caps on the GPU."""
         for _, mesh in self._meshes.values():
             mesh.release()
         self._meshes.clear()

@@ -34,6 +34,7 @@ class GpuColorBy:
             self.scalar_texture.repeat_x = self.scalar_texture.repeat_y = self.scalar_texture.repeat_z = False
 
     def release(self) -> None:
+        """Free the colour map's and the second volume's textures."""
         for texture in (self.lut_texture, self.scalar_texture):
             if texture is not None:
                 texture.release()

@@ -88,9 +88,11 @@ class NumpyExtractor:
 
     @property
     def field(self) -> np.ndarray:
+        """The volume being extracted, as kept."""
         return self._field
 
     def extract(self, level: float) -> tuple[int, int]:
+        """Extract the surface at `level` (checked against the value range); (vertices, triangles) of the new mesh."""
         from ...cpu.cubes import marching_cubes_reference
         level = as_level(level, self.value_range)
         self._mesh = marching_cubes_reference(self._field, level, self.spacing, self.descent)
@@ -98,9 +100,11 @@ class NumpyExtractor:
         return len(self._mesh[0]), len(self._mesh[1])
 
     def read_mesh(self):
+        """Copies of the last mesh's (verts, faces, normals, values)."""
         return tuple(part.copy() for part in self._mesh)
 
     def release(self) -> None:
+        """Drop the volume and the mesh."""
         self._field = self._mesh = None
 
 
@@ -141,6 +145,7 @@ class CpuMesh:
 
     @property
     def mesh(self) -> GpuMesh:
+        """The uploaded mesh as the renderer draws it."""
         return GpuMesh(self._vertices.buffer, self._indices.buffer, self.n_vertices, self.n_triangles)
 
     def read_mesh(self):
@@ -148,6 +153,7 @@ class CpuMesh:
         return tuple(np.array(part, copy=True) for part in self._arrays)
 
     def release(self) -> None:
+        """Free the mesh's vertex and index buffers."""
         self._vertices.release()
         self._indices.release()
 
@@ -177,14 +183,17 @@ class CpuSurface:
 
     @property
     def value_range(self) -> tuple[float, float]:
+        """The volume's smallest and largest values."""
         return self.extractor.value_range
 
     @property
     def shown(self) -> CpuMesh:
+        """The mesh on show (`GpuSurface.shown`'s counterpart)."""
         return self._shown
 
     @property
     def mesh(self) -> GpuMesh:
+        """The mesh on show as the renderer draws it."""
         return self._shown.mesh
 
     def extract(self, iso: float, options: MeshOptions, step: int = 1, wait: bool = True) -> None:
@@ -290,6 +299,7 @@ class CpuSurface:
             self.poll()
 
     def release(self) -> None:
+        """Stop the worker (dropping what it was making), release the extractors and free the mesh on show."""
         self.drop_pending()
         if self._worker is not None:
             self._worker.shutdown(wait=False, cancel_futures=True)

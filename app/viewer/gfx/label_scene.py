@@ -42,6 +42,7 @@ def label_scene(ctx, surfaces: dict) -> list[tuple[int, GpuMesh, tuple[float, fl
 
 
 def release_scene(scene) -> None:
+    """Free the GPU buffers of a `label_scene` result."""
     for _, mesh, _ in scene:
         mesh.release()
 
@@ -94,6 +95,7 @@ class LabelMeshes:
                 if layer.label in self.meshes]
 
     def triangles(self, label: int) -> int:
+        """The triangles of label `label`'s full surface (0 where it has none yet)."""
         mesh = self.meshes.get(label)
         return mesh.n_triangles if mesh is not None else 0
 
@@ -103,6 +105,7 @@ class LabelMeshes:
         return len(shown), sum(m.n_vertices for m in shown), sum(m.n_triangles for m in shown)
 
     def release(self) -> None:
+        """Free every label's meshes, full and coarse, and forget which label map they were made for."""
         for mesh in [*self.meshes.values(), *self.coarse.values()]:
             mesh.release()
         self.meshes, self.coarse, self.preview_step, self.serial = {}, {}, 1, None
@@ -146,6 +149,8 @@ class LabelCaps:
         self._table: tuple[bytes, moderngl.Texture] | None = None
 
     def draw(self, scene: SliceScene, axis: int, position: float, view: bytes, projection: bytes) -> None:
+        """Draw the clip plane's cut across `axis` at `position` in each label's colour and opacity
+        (`scene.label_caps`), with the given view and projection matrices."""
         labels, rgba = scene.label_caps
         self._plane_texture(scene.data, labels, axis, position).use(PLANE_UNIT)
         self._table_texture(rgba).use(TABLE_UNIT)
@@ -187,6 +192,7 @@ class LabelCaps:
             self._plane = None
 
     def release(self) -> None:
+        """Free the plane's and the colour table's textures, the quad and the program."""
         self._release_plane()
         if self._table is not None:
             self._table[1].release()

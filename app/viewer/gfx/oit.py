@@ -28,6 +28,9 @@ ACCUM_BLEND = (moderngl.ONE, moderngl.ONE, moderngl.ZERO, moderngl.ONE_MINUS_SRC
 
 
 class OitTargets:
+    """The two float targets of weighted blended OIT and the program that composites them over the opaque scene, sized
+    to the framebuffer being drawn."""
+
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
         self.programs = {samples > 0: ctx.program(
@@ -83,6 +86,7 @@ class OitTargets:
         self._objects, self._key = [], None
 
     def release(self) -> None:
+        """Free the targets and the composite programs."""
         self._release_targets()
         for obj in (*self.vaos.values(), *self.programs.values()):
             obj.release()

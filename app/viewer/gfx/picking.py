@@ -35,6 +35,8 @@ class Probe:
     on: str                                # "surface" or "slice x|y|z"
 
     def line(self) -> str:
+        """The probe in one line for the panel: what it lies on, world coordinates and their space, the voxel and its
+        value."""
         x, y, z = self.world
         i, j, k = self.voxel
         return f"{self.on}: ({x:.4g}, {y:.4g}, {z:.4g}) {self.space}, voxel [{i}, {j}, {k}], value {self.value:.6g}"
@@ -195,6 +197,7 @@ class Picker:
             self._framebuffer, self._size = None, None
 
     def release(self) -> None:
+        """Free the picking framebuffer, the meshes' vertex arrays and the program."""
         self._keep(set())
         self._release_framebuffer()
         self.program.release()

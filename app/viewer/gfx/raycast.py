@@ -70,6 +70,9 @@ class SceneDepth:
 
 
 class VolumeRaycaster:
+    """Draws the volume on show by ray casting (MIP, mean, MinIP or DVR), its texture made again only for another
+    volume."""
+
     def __init__(self, ctx):
         self.ctx = ctx
         self._programs: dict[str, object] = {}
@@ -219,6 +222,7 @@ class VolumeRaycaster:
             self._coarse = None
 
     def release(self) -> None:
+        """Free the textures, programs, vertex arrays and buffers."""
         self._release_coarse()
         if self._upscale is not None:
             for obj in self._upscale[::-1]:

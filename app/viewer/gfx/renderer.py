@@ -43,6 +43,9 @@ class SurfaceLook:
 
 
 class SceneRenderer:
+    """Draws a frame of the scene into the framebuffer in use: the meshes in their looks (translucent ones through OIT),
+    wireframes, slices, the ray-cast volume and the box."""
+
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
         mesh_vert = shader_source("mesh.vert")
@@ -274,6 +277,8 @@ class SceneRenderer:
                 program["u_dims"].value = color_by.shape
 
     def release(self) -> None:
+        """Free the renderer's GL objects: programs, vertex arrays, depth targets, the OIT targets, the slices and the
+        ray caster."""
         self._release_vaos()
         self._release_depth()
         if self._raycaster is not None:
@@ -306,12 +311,15 @@ class OffscreenTarget:
 
     @property
     def viewport(self) -> tuple[int, int, int, int]:
+        """(x, y, width, height) of the whole target."""
         return (0, 0, *self.size)
 
     def use(self) -> None:
+        """Draw into the multisampled framebuffer from here on."""
         self.multisampled.use()
 
     def read_rgb(self) -> np.ndarray:
+        """Resolve the samples and read the pixels: (height, width, 3) uint8, top row first."""
         self.ctx.copy_framebuffer(self.resolved, self.multisampled)
         return read_rgb(self.resolved, self.size)
 
@@ -324,6 +332,7 @@ class OffscreenTarget:
         return np.clip(np.round(rgba), 0, 255).astype(np.uint8)
 
     def release(self) -> None:
+        """Free both framebuffers and their attachments."""
         for framebuffer in (self.multisampled, self.resolved):
             for attachment in (*framebuffer.color_attachments, framebuffer.depth_attachment):
                 if attachment is not None:

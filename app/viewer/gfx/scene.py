@@ -75,6 +75,8 @@ class MeshCopy:
         self.extract_ms = 0.0       # of the extraction it was copied from
 
     def take(self, mesh: GpuMesh, extract_ms: float) -> None:
+        """Copy `mesh`'s vertices and triangles into these buffers (grown where needed) and keep its counts and
+        extraction time."""
         vertex_bytes, index_bytes = mesh.n_vertices * VERTEX_BYTES, mesh.n_triangles * INDEX_BYTES
         vertices, indices = self._vertices.ensure(vertex_bytes), self._indices.ensure(index_bytes)
         if mesh.n_triangles:
@@ -84,14 +86,19 @@ class MeshCopy:
 
     @property
     def mesh(self) -> GpuMesh:
+        """The copy as the renderer draws it."""
         return GpuMesh(self._vertices.buffer, self._indices.buffer, self.n_vertices, self.n_triangles)
 
     def release(self) -> None:
+        """Free the copy's buffers."""
         self._vertices.release()
         self._indices.release()
 
 
 class GpuScene:
+    """The GPU side of a `ViewerState`: brought in line with it once a frame by `update`; `drawn` gives the renderer
+    each visible mesh with its look."""
+
     def __init__(self, ctx: moderngl.Context, state: ViewerState, previews: bool = False):
         self.ctx, self.state = ctx, state
         self.previews = previews   # coarse meshes while the value moves (the window)
@@ -458,6 +465,7 @@ class GpuScene:
 
     @property
     def looks(self) -> list[SurfaceLook]:
+        """The looks of what is drawn, in drawing order."""
         return [look for _, look in self.drawn()]
 
     @property
@@ -480,14 +488,17 @@ class GpuScene:
 
     @property
     def n_vertices(self) -> int:
+        """The selected level's vertices on show (0 with no surface)."""
         return self.surface.shown.n_vertices if self.surface is not None else 0
 
     @property
     def n_triangles(self) -> int:
+        """The selected level's triangles on show (0 with no surface)."""
         return self.surface.shown.n_triangles if self.surface is not None else 0
 
     @property
     def extract_ms(self) -> float:
+        """How long the selected level's last extraction took, in milliseconds."""
         return self.surface.shown.last_extract_ms if self.surface is not None else 0.0
 
     def level_stats(self, index: int) -> tuple[int, float]:
@@ -499,6 +510,7 @@ class GpuScene:
         return (copy.n_triangles, copy.extract_ms) if copy is not None else (0, 0.0)
 
     def label_triangles(self, label: int) -> int:
+        """The triangles of label `label`'s surface."""
         return self.labels.triangles(label)
 
     def label_counts(self) -> tuple[int, int, int]:
@@ -516,6 +528,7 @@ class GpuScene:
             self.color_by = None
 
     def release(self) -> None:
+        """Free the scene's GL objects: the levels' meshes, the caps, the surface and its extractors."""
         self._release_meshes()
         self.caps.release()
         if self.surface is not None:

@@ -162,6 +162,7 @@ class SliceRenderer:
         ctx.enable(moderngl.DEPTH_TEST)
 
     def release(self) -> None:
+        """Free the slices' textures, the label caps, the quad, the colour map and the program."""
         self._release_planes()
         if self.label_caps is not None:
             self.label_caps.release()

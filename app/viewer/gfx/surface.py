@@ -56,6 +56,7 @@ def extractor_refusal(ctx):
     limits = GpuLimits.of(ctx)
 
     def refusal(shape) -> str | None:
+        """Why the GPU extractor cannot hold a volume of `shape` (the first clause of its GPULimitError), or None."""
         try:
             plan_extractor(shape, limits)
         except GPULimitError as exc:
@@ -91,6 +92,7 @@ class GpuSurface:
 
     @property
     def value_range(self) -> tuple[float, float]:
+        """The volume's smallest and largest values."""
         return self.extractor.value_range
 
     @property
@@ -104,6 +106,7 @@ class GpuSurface:
 
     @property
     def mesh(self) -> GpuMesh:
+        """The mesh on show as the renderer draws it."""
         return self.shown.mesh
 
     @staticmethod
@@ -163,6 +166,7 @@ class GpuSurface:
                          gradient_direction=self.gradient_direction, ctx=self.ctx)
 
     def release(self) -> None:
+        """Free the extractors (the smoothers' and tetrahedra's first: they borrow the volume) and their meshes."""
         # Smoothers and tetrahedra borrow their extractor's volume: released first.
         for gl_owner in (self._sharpened, *self._smoothers.values(), *self._tetrahedra.values(), self.extractor,
                          *self._previews.values()):

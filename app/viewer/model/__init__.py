@@ -1,1 +1,1 @@
-"""The viewer's state without GL: nothing here imports moderngl (tests/viewer/test_model.py checks)."""
+"""The viewer's state without GL: nothing here imports moderngl (tests/viewer/model/test_model.py checks)."""

@@ -131,4 +131,6 @@ class FullResolutionExport:
         return f"wrote {path}: {vertices:,} vertices, {triangles:,} triangles"
 
     def cancel(self) -> None:
+        """Ask the export to stop; `wait` then raises and the file is not written (it is written whole or not at all).
+        """
         self._stop.set()

@@ -65,6 +65,10 @@ ZOOM_PER_STEP = 0.9      # distance factor per scroll notch
 
 
 class OrbitCamera:
+    """The view of the 3-D scene: azimuth, elevation and distance about a target point, in the scene's own frame or a
+    scan's patient frame; `fit` frames a box, `orbit`, `pan` and `zoom` follow the pointer, and `view_matrix` /
+    `projection_matrix` hand the result to GL."""
+
     def __init__(self, fov_degrees: float = 35.0):
         self.fov_degrees = fov_degrees
         self.frame: np.ndarray | None = None   # scene -> display frame (3x3 orthogonal); None: the scene's own
@@ -108,6 +112,8 @@ class OrbitCamera:
 
     # --- mouse -------------------------------------------------------------
     def orbit(self, dx_pixels: float, dy_pixels: float) -> None:
+        """Turn about the target by a pointer drag of (`dx_pixels`, `dy_pixels`); the elevation stops short of the poles
+        (or stays on one it started from), where a fixed up vector would flip the view."""
         self.azimuth = (self.azimuth - dx_pixels * ORBIT_DEGREES_PER_PIXEL) % 360.0
         # Stop short of the poles, where look-at with a fixed up vector flips (a view from above or
         # below, on a pole, stays there rather than jumping a degree).
@@ -161,10 +167,14 @@ class OrbitCamera:
         return right, np.cross(self._direction(), right)
 
     def eye(self) -> np.ndarray:
+        """The camera's position in scene units: `distance` from the target along the current direction, turned into the
+        scene from the display frame."""
         direction = self._direction()
         return self.target + self.distance * (direction if self.frame is None else self.frame.T @ direction)
 
     def view_matrix(self) -> np.ndarray:
+        """The 4x4 world -> eye matrix (float32, pyrr's row-vector layout) looking at the target; with a patient frame
+        the scene is turned into it first (a mirrored frame makes the whole view a mirror)."""
         if self._plain():
             return matrix44.create_look_at(self.eye(), self.target, WORLD_UP, dtype="f4")
         # Look at the target in the display frame, after taking the scene there: p -> frame @ p, which

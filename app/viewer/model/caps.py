@@ -21,6 +21,8 @@ EMPTY = (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int64), np.zeros((0, 
 
 
 def far_value(value_range, descent: bool) -> np.float32:
+    """The value of the padding around the volume: further outside the object than any sample (below the range for
+    `descent`, above it for ascent), so every level crosses between the volume and it."""
     from ...core.closing import FAR
     lo, hi = (float(v) for v in value_range)
     far = FAR * (hi - lo + 1.0)

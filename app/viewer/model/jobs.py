@@ -57,9 +57,13 @@ class Job:
             self.response = Response(self.request_id, self.kind, value=value)
 
     def report(self, fraction: float, message: str) -> None:
+        """Record the job's progress (0..1) and what it is doing; the worker's `progress` callback, read by the frame
+        loop."""
         self.fraction, self.message = float(fraction), message
 
     def done(self, wait_s: float = 0.0) -> bool:
+        """Whether the work has finished, after waiting up to `wait_s` seconds for it; a job run inline is always done.
+        """
         if self._thread is None:   # run inline (the work is done)
             return True
         self._thread.join(wait_s)
@@ -93,6 +97,7 @@ class Jobs:
         return None
 
     def is_current(self, response: Response) -> bool:
+        """Whether `response` answers the latest request of its kind (an older one is stale and is dropped)."""
         return self._latest.get(response.kind) == response.request_id
 
     def poll(self, wait_s: float = 0.0) -> list[Response]:

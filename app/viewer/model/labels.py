@@ -22,6 +22,8 @@ from .errors import ViewerError
 
 @dataclass
 class LabelLayer:
+    """One label of a label map on show: its value, colour, whether it is drawn, its opacity and its name from the label
+    file (empty when it has none)."""
     label: int
     color: tuple[float, float, float]
     visible: bool = True
@@ -66,12 +68,14 @@ class LabelMap:
         self.layers = []
 
     def layer(self, label: int) -> LabelLayer:
+        """The layer of label value `label`; ViewerError if that label is not on show."""
         for layer in self.layers:
             if layer.label == label:
                 return layer
         raise ViewerError(f"no label {label} on show")
 
     def set_visible(self, label: int, visible: bool) -> None:
+        """Show or hide label `label` (nothing is extracted again: the scene keeps every label's surface)."""
         self.layer(label).visible = bool(visible)
 
     def set_opacity(self, label: int, opacity: float) -> None:
@@ -82,6 +86,7 @@ class LabelMap:
         self.layer(label).opacity = opacity
 
     def visible(self) -> list[LabelLayer]:
+        """The layers being drawn, in the map's order."""
         return [layer for layer in self.layers if layer.visible]
 
     def cap_table(self) -> tuple[np.ndarray, np.ndarray]:

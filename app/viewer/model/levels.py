@@ -22,6 +22,7 @@ ANIMATION_SPAN = (0.02, 0.98)     # fractions of the range; the very ends give e
 
 @dataclass(eq=False)   # compared by identity: the GPU side keys each level's mesh by the level itself
 class Level:
+    """One iso level: its value, its colour (None: the style's front colour), opacity 0..1 and whether it is drawn."""
     value: float
     color: tuple[float, float, float] | None = None   # None: the style's front colour
     opacity: float = 1.0
@@ -63,13 +64,16 @@ class Levels:
         return self.current.value
 
     def values(self) -> list[float]:
+        """Every level's value, in order."""
         return [level.value for level in self.items]
 
     def clamp(self, value: float) -> float:
+        """`value` moved into the value range."""
         low, high = self.value_range
         return min(max(float(value), low), high)
 
     def color(self, index: int, default: tuple[float, float, float]) -> tuple[float, float, float]:
+        """Level `index`'s colour, or `default` (the style's front colour) where it has none of its own."""
         color = self[index].color
         return default if color is None else color
 
@@ -79,6 +83,7 @@ class Levels:
         self.current.value = self.clamp(value)
 
     def nudge(self, fraction_of_range: float) -> None:
+        """Move the selected level by `fraction_of_range` of the value range (the = - + keys' steps), clamped."""
         low, high = self.value_range
         self.set_value(self.value + fraction_of_range * (high - low))
 
@@ -94,6 +99,8 @@ class Levels:
         self._select(len(self.items) - 1)
 
     def remove(self, index: int) -> None:
+        """Remove level `index`; the one after it (or the new last one) takes the slider if it was selected. The last
+        level cannot be removed (ViewerError: hide it instead)."""
         self._check(index)
         if len(self.items) == 1:
             raise ViewerError("the last surface cannot be removed; hide it instead")
@@ -130,6 +137,8 @@ class Levels:
         self.animation.running = False
 
     def set_color(self, index: int, color) -> None:
+        """Give level `index` its own RGB colour, three values 0..1; anything else is a ViewerError and the colour
+        stays."""
         self._check(index)
         color = tuple(float(c) for c in color)
         if len(color) != 3 or not all(0.0 <= c <= 1.0 for c in color):
@@ -137,12 +146,14 @@ class Levels:
         self.items[index].color = color
 
     def set_opacity(self, index: int, opacity: float) -> None:
+        """Set level `index`'s opacity (1 opaque, 0 invisible); a value outside 0..1 is a ViewerError."""
         self._check(index)
         if not 0.0 <= float(opacity) <= 1.0:
             raise ViewerError(f"opacity {opacity:g} is outside 0..1; 1 is opaque, 0 invisible")
         self.items[index].opacity = float(opacity)
 
     def set_visible(self, index: int, visible: bool) -> None:
+        """Draw level `index` or not; a hidden level keeps its value and looks."""
         self._check(index)
         self.items[index].visible = bool(visible)
 
@@ -159,6 +170,7 @@ class IsoAnimation:
         self._phase = 0.0
 
     def start(self, value: float, value_range: tuple[float, float]) -> None:
+        """Start the sweep at `value`'s place in `value_range`, so the surface does not jump when it begins."""
         # Start the sweep from the current value so the surface does not jump.
         low, high = value_range
         start, end = ANIMATION_SPAN

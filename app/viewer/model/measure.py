@@ -40,6 +40,7 @@ class SurfaceRecord:
 
     @property
     def size(self) -> tuple[float, float, float] | None:
+        """The bounding box's extent along each axis (world units), or None for a surface with no finite vertex."""
         if self.bbox_min is None:
             return None
         return tuple(hi - lo for lo, hi in zip(self.bbox_min, self.bbox_max))
@@ -59,6 +60,8 @@ class MeasureRequest:
 
 
 def record_of(name: str, verts, faces) -> SurfaceRecord:
+    """The Measure section's row for one surface (`name`) from its mesh: area, enclosed volume and the largest part's in
+    millilitres (from cubic millimetres), components, bounding box, open edges, Euler characteristic and genus."""
     from ...cpu.measure import measure_surface
     m = measure_surface(verts, faces)
     finite = all(math.isfinite(v) for v in m.bbox_min)
@@ -120,6 +123,8 @@ class Measurements:
         self.probe = None                   # the last probe (picking.Probe), for the panel
 
     def request_of(self, state) -> MeasureRequest:
+        """What to measure in `state` now: its visible labels, else its visible levels, with the mesh options and step
+        on show. ViewerError when no volume is open or nothing is visible."""
         if state.volume is None:
             raise ViewerError("open a volume before measuring")
         labels = tuple(layer.label for layer in state.labels.visible()) if state.labels else ()
@@ -168,6 +173,7 @@ class Measurements:
         self.points.append(None if point is None else np.asarray(point, np.float64).reshape(3))
 
     def clear_picks(self) -> None:
+        """Forget the cursor probe's picks and their points (the distance goes with them)."""
         self.picks, self.points = [], []
 
     @property

@@ -86,6 +86,8 @@ class FramePace:
 
     @property
     def floor_ms(self) -> float:
+        """The median time of recent frames that extracted nothing (what a frame costs besides extraction); 0 before one
+        is recorded."""
         return median(self._floor) if self._floor else 0.0
 
     def step(self, first_guess: int, max_step: int) -> int:

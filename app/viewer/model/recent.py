@@ -23,10 +23,13 @@ class RecentFiles:
 
     @staticmethod
     def default_path() -> Path:
+        """Where the list lives: isoscope/recent.json in $XDG_CONFIG_HOME (default ~/.config)."""
         config = os.environ.get("XDG_CONFIG_HOME") or os.path.join(os.path.expanduser("~"), ".config")
         return Path(config) / "isoscope" / "recent.json"
 
     def add(self, path: str) -> None:
+        """Put `path` (made absolute) first in the list, without repeats, keeping the most recent `MAX_RECENT`, and
+        write the list; a file that cannot be written is skipped (a read-only home does not stop the viewer)."""
         path = str(Path(path).resolve())
         self.paths = [path] + [p for p in self.paths if p != path][:MAX_RECENT - 1]
         if self.path is not None:

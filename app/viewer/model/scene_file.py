@@ -69,6 +69,7 @@ def scene_of(state, camera, size) -> dict:
 
 
 def write_scene(path, scene: dict) -> Path:
+    """Write `scene` to `path` as indented JSON (no NaN or infinity), whole or not at all; returns the path written."""
     from ...io.atomic import write_atomically
     text = json.dumps(scene, indent=2, allow_nan=False) + "\n"
     return write_atomically(path, lambda out: out.write(text.encode()))

@@ -44,28 +44,39 @@ class _Bad(InputError):
 
 
 class Field:
+    """One field's type in the schema: `check` takes a value from the JSON and returns it checked, and `words` says what
+    it must be."""
+
     def check(self, value, where: str):
+        """`value` checked (and converted where the scene needs another type), or a refusal naming `where`, the field's
+        place in the scene (`camera.distance`)."""
         raise NotImplementedError
 
     def words(self) -> str:
+        """What a value must be, as the refusal says it ("true or false")."""
         raise NotImplementedError
 
 
 class Num(Field):
+    """A number with a range, through its `core.numbers` spec: the same range and words as the command line's flag."""
+
     def __init__(self, spec: Number):
         self.spec = spec
 
     def check(self, value, where):
+        """`value` as its spec checks it; the spec's refusal, naming `where`."""
         try:
             return self.spec.check(value, where)
         except InputError as exc:
             raise _Bad(str(exc)) from None
 
     def words(self):
+        """The spec's range in words."""
         return self.spec.range_words()
 
 
 def whole(low: int, high: int, what: str) -> Num:
+    """A whole number from `low` to `high`, called `what` in its refusals."""
     return Num(Number(what, what, True, low, high, str(low)))
 
 
@@ -73,29 +84,38 @@ class Real(Field):
     """Any finite number (a level: the volume decides its range)."""
 
     def check(self, value, where):
+        """`value` as a float, if it is a finite number (not a bool)."""
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise _Bad(f"{where} {_brief(value)} must be a finite number")
         return float(value)
 
     def words(self):
+        """Its words: "a finite number"."""
         return "a finite number"
 
 
 class Flag(Field):
+    """A JSON true or false."""
+
     def check(self, value, where):
+        """`value`, if it is a bool."""
         if not isinstance(value, bool):
             raise _Bad(f"{where} {_brief(value)} must be true or false")
         return value
 
     def words(self):
+        """Its words: "true or false"."""
         return "true or false"
 
 
 class Text(Field):
+    """A non-empty string of at most `MAX_TEXT` characters, one of `choices` where there are some."""
+
     def __init__(self, choices: tuple[str, ...] | None = None):
         self.choices = choices
 
     def check(self, value, where):
+        """`value`, if it is such a string (and one of the choices)."""
         if not isinstance(value, str) or not value or len(value) > MAX_TEXT:
             raise _Bad(f"{where} {_brief(value)} must be {self.words()}")
         if self.choices is not None and value not in self.choices:
@@ -103,25 +123,33 @@ class Text(Field):
         return value
 
     def words(self):
+        """The choices, or "a non-empty string"."""
         return "one of " + ", ".join(repr(c) for c in self.choices) if self.choices else "a non-empty string"
 
 
 class Maybe(Field):
+    """null, or the `inner` field."""
+
     def __init__(self, inner: Field):
         self.inner = inner
 
     def check(self, value, where):
+        """None for null, else `value` as the inner field checks it."""
         return None if value is None else self.inner.check(value, where)
 
     def words(self):
+        """Its words: "null or " and the inner field's."""
         return f"null or {self.inner.words()}"
 
 
 class Either(Field):
+    """The first of several fields that takes the value."""
+
     def __init__(self, *choices: Field):
         self.choices = choices
 
     def check(self, value, where):
+        """`value` as the first choice that takes it checks it; a refusal naming every choice when none does."""
         for choice in self.choices:
             try:
                 return choice.check(value, where)
@@ -130,6 +158,7 @@ class Either(Field):
         raise _Bad(f"{where} {_brief(value)} must be " + " or ".join(c.words() for c in self.choices))
 
     def words(self):
+        """The choices' words, joined by "or"."""
         return " or ".join(c.words() for c in self.choices)
 
 
@@ -140,11 +169,14 @@ class Seq(Field):
         self.item, self.low, self.high = item, low, high
 
     def check(self, value, where):
+        """`value` as a list of checked items, if it is a list of the allowed length; an item's refusal names its index.
+        """
         if not isinstance(value, list) or not self.low <= len(value) <= self.high:
             raise _Bad(f"{where} {_brief(value)} must be {self.words()}")
         return [self.item.check(item, f"{where}[{i}]") for i, item in enumerate(value)]
 
     def words(self):
+        """Its words: "a list of N (...)", its length and its items' words."""
         count = f"{self.low}" if self.low == self.high else f"{self.low} to {self.high:,}"
         return f"a list of {count} ({self.item.words()})"
 
@@ -156,6 +188,8 @@ class Obj(Field):
         self.keys, self.required = keys, required
 
     def check(self, value, where):
+        """`value` as a dict of checked fields, if it is an object with no unknown key and every required one; a refusal
+        names the first unknown or missing key."""
         if not isinstance(value, dict):
             raise _Bad(f"{where or 'the scene'} {_brief(value)} must be an object {{...}}")
         unknown = [key for key in value if key not in self.keys]
@@ -168,6 +202,7 @@ class Obj(Field):
         return {key: self.keys[key].check(item, _join(where, key)) for key, item in value.items()}
 
     def words(self):
+        """Its words: "an object {...}"."""
         return "an object {...}"
 
 

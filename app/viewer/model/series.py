@@ -176,17 +176,23 @@ class TimeAxis:
         self.go_to((self.index + int(delta)) % self.count)
 
     def toggle_play(self) -> None:
+        """Start or stop playback; starting reads the next time point ahead. ViewerError on a volume without a time
+        axis."""
         self._check_series()
         self.playing, self._clock = not self.playing, 0.0
         if self.playing and self.index == self.shown:
             self._prefetch()
 
     def set_fps(self, fps: float) -> None:
+        """Set playback's frames a second; a value that is not finite, not above 0 or over `MAX_FPS` is a ViewerError.
+        """
         if not (math.isfinite(float(fps)) and 0 < float(fps) <= MAX_FPS):
             raise ViewerError(f"{float(fps):g} frames a second: give more than 0 and at most {MAX_FPS:g}")
         self.fps = float(fps)
 
     def set_mode(self, mode: str) -> None:
+        """Set how playback goes on at the last time point (one of `PLAY_MODES`), starting forwards; another name is a
+        ViewerError."""
         if mode not in PLAY_MODES:
             raise ViewerError(f"play mode {mode!r} is not one of {', '.join(PLAY_MODES)}")
         self.mode = mode

@@ -12,6 +12,8 @@ SETTINGS_NAME = "panel.json"
 
 
 class PanelSettings:
+    """Which of the panel's sections are open, remembered in a JSON file across runs (or for this run only)."""
+
     def __init__(self, path: Path | None):
         """`path`: the JSON file (None: remembered for this run only).  A missing or unreadable file, or
         one of another version, starts afresh."""
@@ -34,15 +36,19 @@ class PanelSettings:
         return PanelSettings(Path(recent.path).parent / SETTINGS_NAME if recent.path is not None else None)
 
     def is_open(self, section: str, default: bool) -> bool:
+        """Whether `section` is open: as the user left it, else `default`."""
         return self.sections.get(section, default)
 
     def set_open(self, section: str, is_open: bool) -> None:
+        """Remember `section` open or folded, writing the file when that changes."""
         if self.sections.get(section) == is_open:
             return
         self.sections[section] = bool(is_open)
         self.save()
 
     def save(self) -> None:
+        """Write the file (nothing without one); a file that cannot be written is skipped, as a read-only home must not
+        stop the viewer."""
         if self.path is None:
             return
         try:

@@ -36,6 +36,8 @@ def default_window(data: np.ndarray, value_range: tuple[float, float]) -> tuple[
 
 @dataclass
 class Clip:
+    """The clip plane: the surface is hidden on one side of the index `position` along `axis` (above it, with
+    `hide_above`)."""
     axis: int = 2
     position: float = 0.0      # array index along `axis`; may be fractional
     hide_above: bool = True    # hide the surface where the index is above `position` (else below)
@@ -72,6 +74,8 @@ class SliceSettings:
         self.window, self.centre = default_window(data, value_range)
 
     def show(self, axis: int, shown: bool = True, index: int | None = None) -> None:
+        """Show or hide the slice across `axis`, at array index `index` if given, and make it the active one; an index
+        outside the volume is an InputError naming the axis's range."""
         if index is not None:
             n = self.shape[axis]
             if not (float(index).is_integer() and 0 <= index < n):
@@ -102,6 +106,7 @@ class SliceSettings:
         self.window, self.centre = window, centre
 
     def set_colormap(self, name: str) -> None:
+        """Use colour map `name` for the slices; a name isoscope does not have is refused (`check_colormap`)."""
         check_colormap(name)
         self.colormap = name
 

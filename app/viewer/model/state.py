@@ -64,6 +64,10 @@ def read_for_viewer(opener, spec: str, open_options: dict, budget: MemoryBudget,
 
 
 class ViewerState:
+    """What the viewer shows, without GL: the volume on show and its levels, labels, slices, mesh options, look, time
+    axis and measures, changed only through methods that refuse a bad value and keep the rest; the GPU side follows it
+    once a frame."""
+
     def __init__(self, recent: RecentFiles | None = None, opener=None, memory_budget: MemoryBudget | None = None):
         """`opener`: reads expr: volumes in the caller's thread (the window passes open_volume with
         its GL context, to sample them on its GPU); other volumes are read on a worker thread.
@@ -192,6 +196,7 @@ class ViewerState:
 
     @iso.setter
     def iso(self, value: float) -> None:
+        """Set the selected level's value, clamped to the value range."""
         self.levels.set_value(value)   # clamped to the value range
 
     # --- direct volume rendering ------------------------------------------------
@@ -222,18 +227,22 @@ class ViewerState:
     # --- mesh options: one MeshOptions, replaced whole --------------------------
     @property
     def cells(self) -> str:
+        """The mesh's cells: "cubes" or "tetrahedra"."""
         return self.mesh_options.cells
 
     @property
     def smooth(self) -> int:
+        """The smoothing iterations applied to the mesh (0: none)."""
         return self.mesh_options.smooth
 
     @property
     def sharp(self) -> float | None:
+        """The sharp-feature angle in degrees, or None when sharp features are off."""
         return self.mesh_options.sharp
 
     @property
     def topology(self) -> str:
+        """The cubes' topology: "montani" or "trilinear"."""
         return self.mesh_options.topology
 
     def set_cells(self, cells: str) -> bool:
@@ -338,6 +347,7 @@ class ViewerState:
                           self.labels.cap_table() if self.labels else None)
 
     def release(self) -> None:
+        """Let go of what the state runs outside itself: a full-resolution export still running is stopped."""
         if self._export is not None:   # the window closes: stop the child (its file is written whole or not at all)
             self._export.cancel()
 

@@ -23,6 +23,9 @@ from .panel import Panel
 
 
 class ViewerApp:
+    """The state, the GPU scene that follows it, the camera, the renderer and the panel, and the frame order (`follow`,
+    then `draw`) that the window and the headless viewer share."""
+
     def __init__(self, ctx, state: ViewerState, panel: Panel, previews: bool = False):
         """`previews`: coarse meshes while a level moves (the window; a render shows finished meshes)."""
         self.ctx, self.state, self.panel = ctx, state, panel

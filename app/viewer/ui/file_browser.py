@@ -57,6 +57,7 @@ def is_dicom_folder(folder: Path) -> bool:
 
 @dataclass(frozen=True)
 class Entry:
+    """One row of the browser: a file or folder name, and whether a folder holds a DICOM series."""
     name: str
     is_folder: bool
     dicom: bool = False
@@ -108,6 +109,7 @@ class FileBrowser:
             self.enter(Path.cwd())
 
     def cancel(self) -> None:
+        """Close the browser without choosing."""
         self.is_open = False
 
     # --- choosing (what the clicks do) -------------------------------------------------
@@ -127,9 +129,11 @@ class FileBrowser:
         return True
 
     def up(self) -> None:
+        """List the parent folder."""
         self.enter(self.folder.parent)
 
     def entries(self) -> list[Entry]:
+        """The rows of the folder on show (listed on first use); empty where it cannot be read."""
         if self._entries is None:
             self.enter(self.folder)
         return self._entries or []
@@ -292,4 +296,5 @@ class FileBrowser:
 
 
 def default_recent_folders() -> RecentFiles:
+    """The browser's recent folders, kept beside the recent files' list."""
     return RecentFiles(RecentFiles.default_path().with_name("recent_folders.json"))

@@ -82,6 +82,9 @@ def render_samples(size) -> int:
 
 
 class HeadlessViewer:
+    """The viewer without a window: the window's state, scene, renderer and panel drawn into an offscreen target of an
+    EGL context, for `isoscope render`, the Python calls and the tests; failures are raised, not shown."""
+
     def __init__(self, size=(800, 600), ctx=None, memory_budget=None, previews: bool = False):
         """`memory_budget`: what a volume on show may take (a size such as "2G", or bytes; core/budget.py);
         None: the enclosing using_budget block's, else this GL's default (the GPU's memory, or half the RAM
@@ -185,6 +188,7 @@ class HeadlessViewer:
         self._panel.draw(self.state, self.scene, self.camera)
 
     def release(self) -> None:
+        """Free imgui's objects, the app's GL objects and the offscreen target."""
         if self._imgui is not None:
             self._imgui.shutdown()
         self.app.release()

@@ -10,6 +10,8 @@ OPACITY_WIDTH = 120   # pixels: the grab at 1.00 leaves "opacity 1.00" readable
 
 
 class LabelsSection:
+    """The panel's Labels section: a row per label of the label map on show, to show, hide or fade it."""
+
     def __init__(self):
         # label -> {"visible": box, "opacity": box} as last drawn, each ((left, top), (right, bottom)) in
         # imgui units: where a pointer finds a row's controls (tests drive them through X)

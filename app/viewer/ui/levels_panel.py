@@ -23,6 +23,9 @@ FLAG_COLOR = imgui.ImVec4(0.95, 0.75, 0.35, 1.0)
 
 
 class LevelsSection:
+    """The panel's Levels section: a row per iso level (value, colour, opacity, shown), the colour-by volume, and flags
+    for levels whose mesh is empty or hidden inside another."""
+
     def __init__(self):
         self.volume_text = ""   # the second volume to colour by
         self.flags: dict[int, str] = {}   # the rows flagged last frame: level index -> "empty" or "hidden"

@@ -24,6 +24,9 @@ MARK_RADIUS = 5.0
 
 
 class MeasureSection:
+    """The panel's Measure section: the surfaces' measures made in the background, the cursor probe, the two-click
+    distance and Save scene."""
+
     def __init__(self, can_browse: bool = True):
         self.measurements = Measurements()
         self.probing = False              # probe under the cursor as it moves (else on ctrl+click only)
@@ -164,6 +167,7 @@ class MeasureSection:
         return probe
 
     def release(self) -> None:
+        """Free the picker's GL objects, if a pick made one."""
         if self.picker is not None:
             self.picker.release()
             self.picker = None

@@ -15,11 +15,15 @@ SLIDER_WIDTH = 110.0
 
 
 class MeshSection:
+    """The panel's Mesh section: cells, topology, smoothing and sharp features."""
+
     def __init__(self):
         self.sharp_angle = DEFAULT_SHARP_ANGLE   # kept while sharp features are off
         self.sharp_box = None   # the sharp features checkbox's ((left, top), (right, bottom)) while it shows
 
     def draw(self, state: ViewerState) -> None:
+        """Lay out the section (folded until opened) and change `state` through its setters, each refusal shown beside
+        its control."""
         # Folded until opened: the panel must stay short enough for the slices below it.
         self.sharp_box = None
         if not section(MESH_TITLE, default_open=False):

@@ -72,6 +72,9 @@ def shown_notes(state: ViewerState) -> list[str]:
 
 
 class ImguiLayer:
+    """imgui's context and its OpenGL backend, with the GLFW input backend in a window or a given display size headless.
+    """
+
     def __init__(self, glfw_window_address: int | None = None):
         """With a GLFW window's address, imgui reads that window's input; without, it is headless (and
         scaled by its first frame's height, `render_scale`)."""
@@ -85,6 +88,8 @@ class ImguiLayer:
         imgui.backends.opengl3_init("#version 410")  # 4.1 core (macOS) and newer
 
     def new_frame(self, display_size: tuple[int, int] | None = None, dt_seconds: float = 1 / 60) -> None:
+        """Start an imgui frame: the window's input and size, or headless `display_size` and `dt_seconds` (the scale set
+        from the first frame's height)."""
         imgui.set_current_context(self.context)
         imgui.backends.opengl3_new_frame()
         if self._has_window:
@@ -113,6 +118,7 @@ class ImguiLayer:
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
 
     def shutdown(self) -> None:
+        """Free imgui's backends and destroy its context."""
         imgui.set_current_context(self.context)
         imgui.backends.opengl3_shutdown()
         if self._has_window:
@@ -121,6 +127,9 @@ class ImguiLayer:
 
 
 class Panel:
+    """The imgui side panel: its sections lay out the controls and change the viewer only through `ViewerState`;
+    refusals are shown beside the control that asked, other messages in the status line."""
+
     def __init__(self, can_browse: bool = True, settings: PanelSettings | None = None):
         """`settings`: which sections are open, kept across runs (the window's, beside its recent files);
         None: every section as it starts, for this panel only (a render's)."""

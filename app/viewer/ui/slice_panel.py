@@ -16,11 +16,15 @@ AXIS_WIDTH = 50.0
 
 
 class SlicePanel:
+    """The panel's Slices section: the three slices, their window and colour map, the clip plane, ray casting and its
+    transfer function."""
+
     def __init__(self):
         self.checkbox_boxes: dict[int, tuple[tuple[float, float], tuple[float, float]]] = {}  # axis -> rect
         self.transfer = TransferEditor()   # DVR's transfer function over the histogram (transfer_panel.py)
 
     def draw(self, state: ViewerState) -> None:
+        """Lay out the section (nothing with no volume) and change `state` through its setters."""
         self.checkbox_boxes = {}
         self.transfer.box = None
         if not section("Slices") or state.volume is None:

@@ -55,6 +55,7 @@ class Recorder:
 
     @property
     def recording(self) -> bool:
+        """Whether a movie is being recorded."""
         return self._writer is not None
 
     def set_fps(self, fps: float) -> None:
@@ -134,6 +135,7 @@ class Recorder:
 
     @property
     def progress_line(self) -> str:
+        """The status line while recording: the movie's length so far, its frames and its file."""
         seconds = self.frames / self._rate
         return f"recording {seconds:.1f} s, {self.frames} frames -> {self.path.name}"
 
@@ -147,6 +149,8 @@ def time_text(series) -> str:
 
 
 class TimeSection:
+    """The panel's Time section: the time slider and playback for a series, and Record for any volume."""
+
     def __init__(self):
         self.recorder = Recorder()
         self.record_dir = Path(".")   # the window sets its screenshot folder

@@ -15,6 +15,8 @@ LINE_COLOUR = (0.45, 0.85, 1.0, 1.0)   # apart from the histogram's orange
 
 
 class TransferEditor:
+    """DVR's transfer function over the value histogram: a preset chosen, its points dragged with the mouse."""
+
     def __init__(self):
         self.box = None        # the editor's ((left, top), (right, bottom)) this frame, for tests and hints
         self.dragged: int | None = None   # the point under the mouse while the button is held
@@ -38,6 +40,8 @@ class TransferEditor:
         return level_at((x - left) / width, state.value_range), 1.0 - (y - top) / height
 
     def draw(self, state: ViewerState) -> None:
+        """Lay out the preset choice and, with a transfer function and a histogram, its points; a drag moves the point
+        under the mouse through `state`."""
         self.box = None
         current = "ramp" if state.transfer is None else preset_of(state.transfer, state.value_range) or "edited"
         choose(state, "transfer", current, ("ramp", *PRESETS),

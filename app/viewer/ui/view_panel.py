@@ -24,6 +24,8 @@ def view_names(volume) -> list[tuple[str, str]]:
 
 
 class ViewSection:
+    """The panel's View section: six buttons that look from the standard directions."""
+
     def __init__(self):
         self.button_boxes: dict[str, tuple[tuple[float, float], tuple[float, float]]] = {}   # key -> rect
 

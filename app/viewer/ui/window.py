@@ -101,6 +101,9 @@ def _without_a_window() -> str:
 
 
 class ViewerWindow:
+    """The desktop window: a GLFW window with its GL context, the viewer's app drawn in it, mouse and key input,
+    screenshots and the frame loop."""
+
     def __init__(self, volume: Volume | None = None, iso: float | None = None, size=(1280, 800),
                  screenshot_dir=".", recent: RecentFiles | None = None, title="isoscope",
                  msaa: int | None = None, screenshot_scale: int = 1):
@@ -141,6 +144,7 @@ class ViewerWindow:
 
     # --- loop --------------------------------------------------------------
     def run(self, max_frames: int | None = None) -> None:
+        """Draw frames until the window is closed (or `max_frames` are drawn), then close it."""
         frames = 0
         try:
             while self.draw_frame() and (max_frames is None or frames < max_frames):
@@ -225,6 +229,8 @@ class ViewerWindow:
         self.imgui.set_scale(max(1.0, *glfw.get_window_content_scale(self.window)))
 
     def close(self) -> None:
+        """Finish a recording under way, free the app's and imgui's objects and destroy the window; closing twice does
+        nothing."""
         if self.window is None:
             return
         self.panel.time_section.recorder.stop()   # a recording under way is written whole
@@ -275,6 +281,7 @@ class ViewerWindow:
         self.panel.go_home()
 
     def request_screenshot(self) -> None:
+        """Save a screenshot after the next frame is drawn (key `s`)."""
         self._screenshot_requested = True
 
     def _on_key(self, window, key, scancode, action, mods) -> None:

@@ -19,7 +19,7 @@ from support.x_window import MAX_FRAMES_PER_STEP, frames_until, press_key, run_s
 
 pytestmark = pytest.mark.skipif(shutil.which("Xvfb") is None, reason="Xvfb is not installed (CI installs it)")
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 
 
 def test_window_draws_takes_keys_and_saves_a_screenshot(x_display, tmp_path):

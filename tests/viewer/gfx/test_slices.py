@@ -218,8 +218,7 @@ def test_a_click_on_the_panel_shows_a_slice_in_the_window(x_display, tmp_path):
 
 def click_slice_checkbox(x_display, tmp_path):
     os.environ["DISPLAY"] = x_display
-    from support.x_window import frames_until
-    from test_window_input import Pointer
+    from support.x_window import Pointer, frames_until
 
     from isoscope.viewer.model.recent import RecentFiles
     from isoscope.viewer.ui.window import ViewerWindow

@@ -1,7 +1,7 @@
 """The panel in the real window under Xvfb (issue 26, points 5 and 6): it follows the window's height,
 its folded sections are there again in the next run (panel.json beside recent.json), and a drag orbits
 as far across a window whatever its size (a 300x100 drag in a 1280x800 window no longer turns the view
-straight down).  Pointer input through XTest, as in test_window_input.py."""
+straight down).  Pointer input through XTest (support/x_window.py)."""
 from __future__ import annotations
 
 import ctypes.util
@@ -40,7 +40,7 @@ def bottom(window) -> float:
 
 def follow_and_remember(x_display, tmp_path):
     import glfw
-    from test_window_input import Pointer
+    from support.x_window import Pointer
     window = open_window(x_display, tmp_path, (960, 420))
     try:
         status = window.panel.status_height()
@@ -78,7 +78,7 @@ def test_a_drag_across_the_same_share_of_any_window_orbits_as_far(x_display, tmp
 
 
 def drag_in_two_windows(x_display, tmp_path):
-    from test_window_input import Pointer
+    from support.x_window import Pointer
     turns = []
     # 300x100 px in a 1280x800 window, at three quarters and half its size (the test screen is 1024x768).
     for scale in (0.75, 0.5):

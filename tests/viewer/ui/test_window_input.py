@@ -11,64 +11,11 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import os
-import time
 
-import numpy as np
 import pytest
-from support.x_window import MAX_FRAMES_PER_STEP, frames_until, press_key, run_spawned
+from support.x_window import MAX_FRAMES_PER_STEP, WHEEL_UP, Pointer, camera_pose, frames_until, press_key, run_spawned
 
 pytestmark = pytest.mark.skipif(ctypes.util.find_library("Xtst") is None, reason="libXtst is not installed")
-
-LEFT, WHEEL_UP = 1, 4   # X button numbers
-SETTLE_S = 0.05         # XTest input reaches the client on the server's next dispatch, after the sync reply
-
-
-class Pointer:
-    """The X pointer, driven through XTest in the window's coordinates (screen units)."""
-
-    def __init__(self, viewer_window):
-        import glfw
-        self.glfw, self.window = glfw, viewer_window.window
-        self.display = glfw.get_x11_display()
-        self.xtst = ctypes.CDLL(ctypes.util.find_library("Xtst"))
-        self.xtst.XTestFakeMotionEvent.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int,
-                                                   ctypes.c_ulong]
-        self.xtst.XTestFakeButtonEvent.argtypes = [ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_ulong]
-        self.xlib = ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
-        self.xlib.XSync.argtypes = [ctypes.c_void_p, ctypes.c_int]
-
-    def send(self, *events) -> None:
-        """('move', x, y), ('press', button), ('release', button), ...: all queued for the next frame."""
-        left, top = self.glfw.get_window_pos(self.window)
-        for kind, *args in events:
-            if kind == "move":
-                self.xtst.XTestFakeMotionEvent(self.display, -1, round(left + args[0]), round(top + args[1]), 0)
-            else:
-                self.xtst.XTestFakeButtonEvent(self.display, args[0], kind == "press", 0)
-        self.xlib.XSync(self.display, 0)
-        time.sleep(SETTLE_S)
-        self.xlib.XSync(self.display, 0)
-
-    def drag(self, viewer_window, start, end, steps: int = 4) -> None:
-        """Press at `start` in the same frame as the pointer arrives there, move to `end` a frame per step, release."""
-        self.send(("move", *start), ("press", LEFT))
-        viewer_window.draw_frame()
-        for t in np.linspace(0, 1, steps + 1)[1:]:
-            self.send(("move", *(np.add(start, t * np.subtract(end, start)))))
-            viewer_window.draw_frame()
-        self.send(("release", LEFT))
-        viewer_window.draw_frame()
-
-    def hover(self, viewer_window, point) -> None:
-        """Rest the pointer at `point` for a couple of frames, so imgui knows where it is."""
-        self.send(("move", *point))
-        for _ in range(2):
-            viewer_window.draw_frame()
-
-
-def camera_pose(camera):
-    return (camera.azimuth, camera.elevation, camera.distance, *camera.target)
-
 
 def open_window_and_run(x_display, body):
     os.environ["DISPLAY"] = x_display

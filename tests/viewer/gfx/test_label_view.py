@@ -129,7 +129,7 @@ def test_render_caps_the_labels_in_their_colours(viewer, segmentation, tmp_path,
     out = tmp_path / "cut.png"
     args = ("render", segmentation, "--labels", "--clip", "z=12", "--azimuth", CAP_VIEW["azimuth"],
             "--elevation", CAP_VIEW["elevation"], "--size", f"{SIZE[0]}x{SIZE[1]}", "--out", out)
-    if gl41:   # Mesa offers a 4.1 core context and no more, as a Mac does (as tests/viewer/test_gl41.py): a process
+    if gl41:   # Mesa offers a 4.1 core context and no more, as a Mac does (as tests/viewer/gfx/test_gl41.py): a process
         result = isoscope(*args, env_drop=[k for k in os.environ if k.startswith("MESA_GL")],
                           env_add={"MESA_GL_VERSION_OVERRIDE": "4.1", "MESA_GLSL_VERSION_OVERRIDE": "410"})
     else:      # on 4.3 the command runs in this process, on the tests' context

@@ -24,7 +24,7 @@ import pytest
 from PIL import Image
 from support.command import NO_GL, isoscope_batch, isoscope_here
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 GL41 = {"MESA_GL_VERSION_OVERRIDE": "4.1", "MESA_GLSL_VERSION_OVERRIDE": "410"}
 SIZE = "320x240"
 CLOSE = 8              # a channel this near counts as the same pixel
@@ -218,8 +218,7 @@ def test_window_on_41_opens_re_extracts_and_drags(x_display, tmp_path):
 def drive_window_on_41(x_display, tmp_path):
     """In the spawned process: the override set before its first context, a real window under Xvfb."""
     os.environ.update(GL41, DISPLAY=x_display)
-    from support.x_window import frames_until, press_key
-    from test_window_input import Pointer, camera_pose
+    from support.x_window import Pointer, camera_pose, frames_until, press_key
 
     from isoscope.viewer.gfx.cpu_surface import CpuSurface
     from isoscope.viewer.model.recent import RecentFiles

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from PIL import Image
 from support.command import assert_one_line_error, isoscope_here
+from support.panel import assert_marker_at, click_histogram
 from support.x_window import frames_until, run_spawned
 
 from isoscope.viewer.ui.headless import HeadlessViewer
@@ -213,7 +214,6 @@ def test_a_drag_previews_the_moving_level_within_what_the_other_levels_leave_of_
 
 
 def test_the_histogram_marks_every_level_and_a_click_sets_only_the_selected_one(gl_ctx):
-    from test_viewer import assert_marker_at, click_histogram
     viewer = HeadlessViewer((900, 760), ctx=gl_ctx)
     try:
         viewer.show_levels(open_volume("bucky"), [64.0, 190.0])

@@ -23,7 +23,7 @@ from isoscope.viewer.model.levels import MAX_LEVELS
 from isoscope.viewer.model.state import ViewerState
 from isoscope.volumes.volume import finish_volume
 
-MODEL = Path(__file__).resolve().parents[2] / "app" / "viewer" / "model"
+MODEL = Path(__file__).resolve().parents[3] / "app" / "viewer" / "model"
 
 
 def ramp(shape=(12, 10, 8), direction="descent"):
