@@ -19,7 +19,7 @@ from numba import prange
 
 from ..core.case_table import FACE_CORNERS
 from ..core.layout import WORD_BITS
-from ..core.trilinear_table import FIRST_CELL_VERTEX, ambiguous_faces, table_key, trilinear_table
+from ..core.trilinear_table import FIRST_CELL_VERTEX, case_masks, trilinear_table
 from .compiled import EDGE_ROW, CompiledCubes, _cube_rows, _edge_vertex, _write_cubes
 from .jit import _cached_njit, _case, _cut_cells, _low_bits, _lowest_bit
 from .samples import sample
@@ -163,25 +163,6 @@ def _own_vertex(mask, bit, masks, firsts, edges, vertex_offsets, row_owner, i, j
     values[o] = value / many
 
 
-def _case_masks():
-    """Per case: its ambiguous faces (a 6-bit mask), and whether any decision can change its triangles."""
-    table = trilinear_table()
-    ambiguous = np.zeros(256, np.int64)
-    needs = np.zeros(256, np.bool_)
-    for case in range(256):
-        faces = ambiguous_faces(case)
-        ambiguous[case] = sum(1 << f for f in faces)
-        plain = table_key(case, 0, 0)
-        for bits in range(1 << len(faces)):
-            face_key = sum(1 << f for n, f in enumerate(faces) if bits >> n & 1)
-            for tunnel in range(5):
-                key = table_key(case, face_key, tunnel)
-                if (table.counts[key] != table.counts[plain] or (table.triangles[key] != table.triangles[plain]).any()
-                        or (table.cell_vertices[key] != table.cell_vertices[plain]).any()):
-                    needs[case] = True
-    return ambiguous, needs
-
-
 class CompiledTrilinear(CompiledCubes):
     """`CompiledCubes` whose triangles have the trilinear interpolant's topology (`trilinear.py`)."""
 
@@ -192,7 +173,7 @@ class CompiledTrilinear(CompiledCubes):
         self._codes = table.triangles.astype(np.int64)
         self._own = (table.cell_vertices > 0).sum(axis=1).astype(np.int64)
         self._own_masks = table.cell_vertices.astype(np.int64)
-        self._ambiguous, self._needs = _case_masks()
+        self._ambiguous, self._needs = case_masks()
         self._own_offsets = np.empty_like(self._vertex_offsets)
         self._own_scratch = np.zeros_like(self._vertex_offsets)
 
