@@ -30,15 +30,16 @@ uvec4 word_counts(CellRows rows, ivec3 word, uint work, uint place) {
                  | (uint(bitCount(crossing.z)) << 12) | (place << 26), work, 0u, 0u);
 }
 
-// What a cell adds to its word's counts.y: its key's triangles and own vertices.
-uint cell_work(uint key) { return triangle_count(key) | (own_count(key) << 16); }
+// What a cell adds to its word's counts.y: its key's triangles and own vertices (`header`: cell_entry()).
+uint cell_work(uint header) { return triangle_count(header) | (own_count(header) << 16); }
 
-// The cell's table key: isoscope.cpu.compiled_trilinear._cell_key, its float64 arithmetic in its order.
-// `precise`: no multiply-add may be fused, nor anything reordered, in what decides the key.
+// The header of the cell's table key (mc3_key_table.glsl), the key as isoscope.cpu.compiled_trilinear._cell_key
+// decides it: its float64 arithmetic in its order.  `precise`: no multiply-add may be fused, nor anything
+// reordered, in what decides the key.
 uint cell_entry(CellRows rows, ivec3 word, uint k) {
     uint cube_case = cell_case(rows, k);
     uint info = case_info(cube_case);
-    if ((info & NEEDS_SAMPLES) == 0u) return cube_case;
+    if ((info & NEEDS_SAMPLES) == 0u) return plain_header(info);
     ivec3 p = ivec3(word.xy, word.z * WORD_BITS + int(k));
     double level = double(u_level);
     precise double d0 = double(field_at(p)) - level;
@@ -71,5 +72,5 @@ uint cell_entry(CellRows rows, ivec3 word, uint k) {
         if (in0 && in3 && !in1 && !in2) tunnel = saddle >= 0.0LF ? 1u : 4u;
         else if (in1 && in2 && !in0 && !in3) tunnel = saddle <= 0.0LF ? 2u : 3u;
     }
-    return cube_case | (faces << 8) | (tunnel << 14);
+    return key_header(cube_case | (faces << 8) | (tunnel << 14));
 }

@@ -22,14 +22,14 @@ WordEdges word_edges(CellRows rows, ivec3 word, uint cells) {
     return WordEdges(cube_edges(rows, word, cells), first.z, first.z, writes_jobs(first.y));
 }
 
-void enter_cell(inout WordEdges edges, uint k, uint key) {
+void enter_cell(inout WordEdges edges, uint k, uint header) {
     cube_enter_cell(edges.cube, k);
-    uint own = own_count(key);
+    uint own = own_count(header);
     edges.own_first = edges.own_next;
     edges.own_next += own;
     if (!edges.jobs) return;
     for (uint n = 0u; n < own; ++n) {
-        uint mask = own_mask(key, n);
+        uint mask = own_mask(header, n);
         uint slot = (edges.own_first + n - u_own_base) * OWN_EDGES;
         uint written = 0u;
         for (uint e = 0u; e < 12u; ++e) {

@@ -347,10 +347,11 @@ class TrilinearTable:
         return self.triangles.shape[1]
 
     def packed_for_gpu(self) -> np.ndarray:
-        """uint32 words for the GPU's key table (shaders/mc3_key_table.glsl): per case (0..255) its ambiguous
-        faces | whether any decision changes its cell (bit 6), `case_masks`; per key (256 + key) a header,
+        """uint32 words for the GPU's key table (shaders/mc3_key_table.glsl): per key (256 + key) a header,
         where its list starts | its triangle count << 17 | its own vertex count << 21 (0 for a key with no
-        triangles); then the lists: per key its own vertices' edge masks, then its triangles, codes
+        triangles); per case (0..255) its ambiguous faces | whether any decision changes its cell (bit 6,
+        `case_masks`) | the header of the key that is the case itself << 7 (so a cell no decision changes
+        costs one load); then the lists: per key its own vertices' edge masks, then its triangles, codes
         c0 | c1 << 4 | c2 << 8 (code_bits apart)."""
         ambiguous, needs = case_masks()
         counts = self.counts.astype(np.int64)
@@ -362,9 +363,10 @@ class TrilinearTable:
         starts = 256 + KEYS + np.concatenate([[0], np.cumsum([len(row) for row in lists])[:-1]])
         headers = np.zeros(KEYS, np.int64)
         headers[keys] = starts | counts[keys] << 17 | own[keys] << 21
-        if starts[-1] + len(lists[-1]) >= 1 << 17:
+        if starts[-1] + len(lists[-1]) >= 1 << 17 or own.max() >= 4:  # a header must fit 23 bits
             raise AssertionError("the packed trilinear table outgrew its 17-bit list offsets")
-        return np.concatenate([ambiguous | needs.astype(np.int64) << 6, headers, *lists]).astype(np.uint32)
+        cases = ambiguous | needs.astype(np.int64) << 6 | headers[:256] << 7
+        return np.concatenate([cases, headers, *lists]).astype(np.uint32)
 
 
 @cache
