@@ -83,8 +83,9 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         sections' saddle value, tunnels as tubes (`isoscope.core.trilinear_table`),
         so pieces, cavities and handles (`isoscope.measure`) are the field's.
         The same vertices on the same edges, plus a vertex inside the few cells
-        whose tube needs one.  On the CPU backends ("auto" picks "cpu"); plain
-        cubes only (no sharp features, mask or chunks).
+        whose tube needs one.  Every backend makes the same mesh (the GPU's
+        normals, as ever, within an ulp or so); plain cubes only (no sharp
+        features, mask or chunks).
 
     Returns
     -------
@@ -451,7 +452,7 @@ class Extractor(metaclass=_ExtractorKind):
         "gpu", "cpu" (compiled kernels), "numpy" (the numpy reference, for checking), or "auto": the
         GPU where an OpenGL 4.3 context can be had (or `ctx` is given), else the CPU.
     topology : {"montani", "trilinear"}, default "montani"
-        As for `marching_cubes`; "trilinear" on the CPU backends ("auto" picks "cpu").
+        As for `marching_cubes`; on every backend (`isoscope.gpu.trilinear` on the GPU).
 
     Attributes
     ----------
@@ -504,17 +505,15 @@ class Extractor(metaclass=_ExtractorKind):
                 limits=None, *, backend="auto", topology="montani"):
         from .options import MeshOptions
         MeshOptions(topology=topology).check()
-        if backend == "auto" and topology == "trilinear":
-            backend = "cpu"
-        elif backend == "auto":   # resident: the GPU wherever a 4.3 context can be had, llvmpipe included
+        if backend == "auto":   # resident: the GPU wherever a 4.3 context can be had, llvmpipe included
             from .gpu.context import gl_available
             backend = "gpu" if ctx is not None or gl_available() else "cpu"
         backend = one_shot.backend_of(backend)
-        if topology == "trilinear":
-            backend = one_shot.topology_backend(backend, backend)
         if backend == "gpu":
             from .gpu.cubes import Extractor as GpuExtractor
-            return GpuExtractor(volume, spacing, gradient_direction, ctx=ctx, table=table, limits=limits)
+            from .gpu.trilinear import TrilinearExtractor
+            kind = TrilinearExtractor if topology == "trilinear" else GpuExtractor
+            return kind(volume, spacing, gradient_direction, ctx=ctx, table=table, limits=limits)
         if ctx is not None or limits is not None:
             raise InputError(f"ctx and limits are the GPU extractor's; backend {backend!r} takes neither")
         from .cpu.extractor import CpuExtractor

@@ -36,7 +36,7 @@ def cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="de
     MeshOptions(smooth=iterations, sharp=angle, masked=mask is not None, chunked=chunks is not None,
                 topology=topology).check()
     trilinear = topology == "trilinear"
-    backend = topology_backend(backend_of(backend), backend) if trilinear else backend_of(backend)
+    backend = backend_of(backend)
     if chunks is not None:
         return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks, skimage)
     # The plain GPU mesh of every sample leaves the value scan to the upload; the compiled CPU extractor
@@ -65,7 +65,8 @@ def cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="de
         from .gpu.sharp_features import marching_cubes_sharp_gpu
         mesh = marching_cubes_sharp_gpu(checked, level, spacing, gradient_direction, angle)
     else:
-        mesh = _on_gpu(checked, level, spacing, gradient_direction, iterations, False, plain_values)
+        mesh = _on_gpu(checked, level, spacing, gradient_direction, iterations, False, plain_values,
+                       trilinear=trilinear)
     if mask is not None:
         return keep_masked_cells(mesh, mask, spacing, step)
     if angle is None:
@@ -103,17 +104,6 @@ def _checked(volume, backend: str, level, gpu_scans: bool) -> validation.Checked
     if backend == "cpu":
         return validation.check_volume(volume, scan_values=False, deferred=validation.CPU_SCANNED_DTYPES)
     return validation.check_volume(volume, scan_values=False)
-
-
-def topology_backend(chosen: str, asked: str) -> str:
-    """The backend of a trilinear-topology mesh: the CPU's ("auto" on graphics hardware too), which make the
-    same mesh; its GPU passes are not written yet, so "gpu" is refused in one line."""
-    if chosen != "gpu":
-        return chosen
-    if asked == "auto":
-        return "cpu"
-    raise InputError("topology='trilinear' runs on the CPU so far (backend 'cpu', compiled, or 'numpy'); "
-                     "use backend='cpu' or 'auto' for the same mesh")
 
 
 def _on_cpu(backend, tetrahedra, checked, level, spacing, descent, iterations, values_of=None, fused_values=False,
@@ -155,8 +145,9 @@ def _on_cpu(backend, tetrahedra, checked, level, spacing, descent, iterations, v
     return verts, faces, normals, values
 
 
-def _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra, values_of=None):
-    """Upload, extract (cubes, or tetrahedra from the same resident volume), smooth, read back."""
+def _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra, values_of=None, trilinear=False):
+    """Upload, extract (cubes, tetrahedra or the trilinear topology's cubes from the same resident volume),
+    smooth, read back."""
     from .gpu.pool import pooled_extractor
     bad_level = None
     with pooled_extractor(checked, spacing, gradient_direction) as cubes:
@@ -166,16 +157,18 @@ def _on_gpu(checked, level, spacing, gradient_direction, iterations, tetrahedra,
             except ValueError as exc:
                 bad_level = exc  # raised once the extractor is back in the pool, intact
         if bad_level is None:
-            return _extract_and_read(cubes, level, iterations, tetrahedra, values_of)
+            return _extract_and_read(cubes, level, iterations, tetrahedra, values_of, trilinear)
     raise bad_level
 
 
-def _extract_and_read(cubes, level, iterations, tetrahedra, values_of=None):
-    """Extract at `level` from the resident volume of `cubes` (or from a TetraExtractor on it), smooth, read back;
-    `values_of` as for `_on_cpu`."""
+def _extract_and_read(cubes, level, iterations, tetrahedra, values_of=None, trilinear=False):
+    """Extract at `level` from the resident volume of `cubes` (or from a TetraExtractor or trilinear-topology
+    extractor on it), smooth, read back; `values_of` as for `_on_cpu`."""
     from .gpu.smooth import Smoother
     from .gpu.tetra import TetraExtractor
-    extractor = TetraExtractor(cubes) if tetrahedra else cubes
+    from .gpu.trilinear import trilinear_on
+    extractor = TetraExtractor(cubes) if tetrahedra else trilinear_on(cubes) if trilinear else cubes
+    borrowed = extractor is not cubes
     smoother = None
     try:
         extractor.extract(level)
@@ -190,7 +183,7 @@ def _extract_and_read(cubes, level, iterations, tetrahedra, values_of=None):
     finally:
         if smoother is not None:
             smoother.release()
-        if tetrahedra:
+        if borrowed:
             extractor.release()
 
 

@@ -9,7 +9,9 @@ call is timed (it returns when the GPU is done).  Modes:
 
 - cubes: `Extractor.extract`, plain marching cubes;
 - tetrahedra: `TetraExtractor(extractor).extract`, marching tetrahedra on the same
-  resident volume (no upload of its own).
+  resident volume (no upload of its own);
+- trilinear: `trilinear_on(extractor).extract`, cubes with the trilinear interpolant's
+  topology (issue 38) on the same resident volume.
 
 It prints a markdown table: per volume, each mode's median ms, its triangles and its
 time as a multiple of cubes' (the target for tetrahedra: <= 2.5x).  Ratios, not absolute
@@ -34,12 +36,14 @@ from bench_extract import LEVEL_STEP, fmt_ms, log, summary, timed  # noqa: E402
 
 from isoscope.gpu.cubes import Extractor  # noqa: E402
 from isoscope.gpu.tetra import TetraExtractor  # noqa: E402
+from isoscope.gpu.trilinear import trilinear_on  # noqa: E402
 
 from volumes import VOLUMES  # noqa: E402
 
 MODES = {  # name: make(extractor) -> an object with extract(level) and release(), sharing its volume
     "cubes": lambda cubes: cubes,
     "tetrahedra": TetraExtractor,
+    "trilinear": trilinear_on,
 }
 TARGETS = {"tetrahedra": 2.5}  # at most this many times cubes' iso change
 

@@ -11,15 +11,15 @@ void main() {
     if (!active_word(brick, word)) return;
 
     CellRows rows = border_rows(word.x, word.y, word.z);
-    uint triangles = 0u;
+    uint work = 0u;  // the triangles (with the trilinear kind's own vertices: mc3_cells.glsl)
     if (has_cells(word.x, word.y)) {  // not the grid's last row along axis 0 or 1
         uint cells = mixed_cells(rows, word.z);
         while (cells != 0u) {
             uint k = uint(findLSB(cells));
             cells &= cells - 1u;
-            triangles += triangle_count(cell_case(rows, k));
+            work += cell_work(cell_entry(rows, word, k));
         }
     }
     imageStore(u_word_counts, word_texel(word_id_of(word.x, word.y, word.z)),
-               word_counts(rows, word, triangles, gl_LocalInvocationIndex));
+               word_counts(rows, word, work, gl_LocalInvocationIndex));
 }

@@ -10,18 +10,16 @@
 #include "mc_active_bricks.glsl"
 #include "triangle_runs.glsl"
 
-layout(WORD_COUNTS_FORMAT, binding = UNIT_WORD_COUNTS) readonly uniform uimage2D u_word_counts;
-layout(rg32ui, binding = UNIT_WORD_OFFSETS) readonly uniform uimage2D u_word_offsets;  // (first vertex, first triangle)
-layout(std430, binding = BLOCK_MESH_INDICES) writeonly buffer Indices { uint indices[]; };
-layout(std430, binding = BLOCK_VERTEX_JOBS) writeonly buffer VertexJobs { VERTEX_JOB vertex_jobs[]; };
+#include "cells_triangle_bindings.glsl"
 
 // The jobs of the `count` vertices that word `word` (grid id `id`, the rows' corner 0) owns, into
 // vertex_jobs[next - u_job_first ...].
 void write_vertex_jobs(ivec3 word, uint id, uint next, uint count, CellRows rows);
-// What names the vertices of the word's cut `cells`; then, per cell k, enter_cell(k) before
-// vertex_index(code) names the vertex of each of its triangles' vertex codes (TABLE_CODE_BITS each).
+// What names the vertices of the word's cut `cells`; then, per cell k, enter_cell(k, its table entry:
+// cell_entry()) before vertex_index(code) names the vertex of each of its triangles' vertex codes
+// (TABLE_CODE_BITS each).
 WordEdges word_edges(CellRows rows, ivec3 word, uint cells);
-void enter_cell(inout WordEdges edges, uint k);
+void enter_cell(inout WordEdges edges, uint k, uint entry);
 uint vertex_index(WordEdges edges, uint code);
 
 void main() {
@@ -53,10 +51,10 @@ void main() {
         if (slot == cell_triangles) {
             k = uint(findLSB(cells));
             cells &= cells - 1u;
-            c = cell_case(rows, k);
+            c = cell_entry(rows, word, k);
             cell_triangles = triangle_count(c);
             slot = 0u;
-            enter_cell(edges, k);
+            enter_cell(edges, k, c);
         }
         uint codes = triangle_codes(c, slot++);
         uint at = at_triangle - u_triangle_window.x;

@@ -12,7 +12,11 @@
 layout(std430, binding = BLOCK_BRICK_VERTICES) readonly buffer BrickVertexOffsets { uint brick_vertex_offsets[]; };
 layout(std430, binding = BLOCK_BRICK_TRIANGLES) readonly buffer BrickTriangleOffsets { uint brick_triangle_offsets[]; };
 layout(WORD_COUNTS_FORMAT, binding = UNIT_WORD_COUNTS) uniform uimage2D u_word_counts;  // this pass sets the taken words
-layout(rg32ui, binding = UNIT_WORD_OFFSETS) writeonly uniform uimage2D u_word_offsets;  // (first vertex, first triangle)
+// (first vertex, first triangle[, first own vertex: OWN_VERTICES, after every edge vertex])
+layout(WORD_OFFSETS_FORMAT, binding = UNIT_WORD_OFFSETS) writeonly uniform uimage2D u_word_offsets;
+#ifdef OWN_VERTICES
+layout(std430, binding = BLOCK_BRICK_OWN_VERTICES) readonly buffer BrickOwnOffsets { uint brick_own_offsets[]; };
+#endif
 
 const uint SORT_BUCKETS = 16u;  // four uints of byte counters (a brick's 64 words fit a byte)
 
@@ -34,13 +38,20 @@ void main() {
     uint brick;
     if (!active_brick_of_invocation(brick)) return;
     uvec2 next = uvec2(brick_vertex_offsets[brick], brick_triangle_offsets[brick]);
+    uint own = 0u;
+#ifdef OWN_VERTICES
+    own = brick_vertex_offsets[u_brick_count] + brick_own_offsets[brick];  // the edge vertices' total first
+#endif
     uint most = 0u;
     bool whole = true;
     for (uint local = 0u; local < WORDS_PER_BRICK; ++local) {
         uint id;
         if (word_of_brick(brick, local, id)) {
-            imageStore(u_word_offsets, word_texel(id), uvec4(next, 0u, 0u));
+            imageStore(u_word_offsets, word_texel(id), uvec4(next, own, 0u));
             uvec4 counts = imageLoad(u_word_counts, word_texel(id));
+#ifdef OWN_VERTICES
+            own += counts_own(counts);
+#endif
             next += uvec2(counts_vertices(counts), counts_triangles(counts));
             most = max(most, work_of(counts));
         } else {

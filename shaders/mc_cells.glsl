@@ -25,3 +25,8 @@ uvec4 word_counts(CellRows rows, ivec3 word, uint triangles, uint place) {
     return uvec4(uint(bitCount(crossing.x)) | (uint(bitCount(crossing.y)) << 6)
                  | (uint(bitCount(crossing.z)) << 12) | (triangles << 18) | (place << 26));
 }
+
+// The table entry of cell k of word `word` (its case: the cubes' table is by case), and what it adds to
+// the word's triangle count (cells_classify.glsl).
+uint cell_entry(CellRows rows, ivec3 word, uint k) { return cell_case(rows, k); }
+uint cell_work(uint cube_case) { return triangle_count(cube_case); }

@@ -45,7 +45,7 @@ WordEdges word_edges(CellRows rows, ivec3 word, uint cells) {
     return WordEdges(rows, owners_at(word, word.z), next, 0u);
 }
 
-void enter_cell(inout WordEdges edges, uint k) { edges.k = k; }
+void enter_cell(inout WordEdges edges, uint k, uint cell_case) { edges.k = k; }
 
 // Index of the vertex on the tetrahedron edge `code` (corner | kind << 3) of cell k of the word.
 // Selects, not branches: llvmpipe runs both sides of a branch whenever one lane takes it.

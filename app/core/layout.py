@@ -173,6 +173,8 @@ class StorageBlock:
     ACTIVE_BRICKS = 7
     BRICK_RANGES = 8
     DISPATCH_ARGS = 9
+    BRICK_OWN_VERTICES = 5  # the trilinear topology's: per brick, its cells' own vertices, scanned
+    OWN_JOBS = 3  # the trilinear topology's own-vertex jobs (mc3_triangles.comp -> mc3_own_vertices.comp)
     # the resident volume's range pass (mc_row_range, mc_brick_range)
     NON_FINITE = 7
     ROW_RANGES = 9

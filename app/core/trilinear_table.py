@@ -355,9 +355,33 @@ class TrilinearTable:
     counts: np.ndarray       # (KEYS,) uint8
     cell_vertices: np.ndarray  # (KEYS, most own vertices) uint16 edge masks
 
+    code_bits = 4  # bits per triangle code in packed_for_gpu (a class constant, not a field)
+
     @property
     def max_triangles(self) -> int:
         return self.triangles.shape[1]
+
+    def packed_for_gpu(self) -> np.ndarray:
+        """uint32 words for the GPU's key table (shaders/mc3_key_table.glsl): per key (256 + key) a header,
+        where its list starts | its triangle count << 17 | its own vertex count << 21 (0 for a key with no
+        triangles); per case (0..255) its ambiguous faces | whether any decision changes its cell (bit 6,
+        `case_masks`) | the header of the key that is the case itself << 7 (so a cell no decision changes
+        costs one load); then the lists: per key its own vertices' edge masks, then its triangles, codes
+        c0 | c1 << 4 | c2 << 8 (code_bits apart)."""
+        ambiguous, needs = case_masks()
+        counts = self.counts.astype(np.int64)
+        own = (self.cell_vertices > 0).sum(axis=1).astype(np.int64)
+        keys = np.flatnonzero(counts)
+        t, bits = self.triangles.astype(np.int64), self.code_bits
+        codes = t[..., 0] | t[..., 1] << bits | t[..., 2] << 2 * bits
+        lists = [np.concatenate([self.cell_vertices[key, :own[key]], codes[key, :counts[key]]]) for key in keys]
+        starts = 256 + KEYS + np.concatenate([[0], np.cumsum([len(row) for row in lists])[:-1]])
+        headers = np.zeros(KEYS, np.int64)
+        headers[keys] = starts | counts[keys] << 17 | own[keys] << 21
+        if starts[-1] + len(lists[-1]) >= 1 << 17 or own.max() >= 4:  # a header must fit 23 bits
+            raise AssertionError("the packed trilinear table outgrew its 17-bit list offsets")
+        cases = ambiguous | needs.astype(np.int64) << 6 | headers[:256] << 7
+        return np.concatenate([cases, headers, *lists]).astype(np.uint32)
 
 
 @cache
@@ -382,3 +406,25 @@ def trilinear_table() -> TrilinearTable:
         for k, edges in enumerate(extras):
             cell_vertices[key, k] = sum(1 << e for e in edges)
     return TrilinearTable(triangles, counts, cell_vertices)
+
+
+@cache
+@cache
+def case_masks() -> tuple[np.ndarray, np.ndarray]:
+    """Per case: its ambiguous faces (a 6-bit mask, int64), and whether any decision of its faces or tunnel
+    changes its triangles (bool): where not, its key is the case itself and no sample need be read."""
+    table = trilinear_table()
+    ambiguous = np.zeros(256, np.int64)
+    needs = np.zeros(256, np.bool_)
+    for case in range(256):
+        faces = ambiguous_faces(case)
+        ambiguous[case] = sum(1 << f for f in faces)
+        plain = table_key(case, 0, 0)
+        for bits in range(1 << len(faces)):
+            face_key = sum(1 << f for n, f in enumerate(faces) if bits >> n & 1)
+            for tunnel in range(TUNNEL_KEYS):
+                key = table_key(case, face_key, tunnel)
+                if (table.counts[key] != table.counts[plain] or (table.triangles[key] != table.triangles[plain]).any()
+                        or (table.cell_vertices[key] != table.cell_vertices[plain]).any()):
+                    needs[case] = True
+    return ambiguous, needs

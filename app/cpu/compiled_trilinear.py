@@ -21,7 +21,7 @@ from numba import prange
 
 from ..core.case_table import FACE_CORNERS
 from ..core.layout import WORD_BITS
-from ..core.trilinear_table import FIRST_CELL_VERTEX, ambiguous_faces, table_key, trilinear_table
+from ..core.trilinear_table import FIRST_CELL_VERTEX, case_masks, trilinear_table
 from .compiled import EDGE_ROW, CompiledCubes, _cube_rows, _edge_vertex, _write_cubes
 from .jit import _cached_njit, _case, _cut_cells, _low_bits, _lowest_bit
 from .samples import sample
@@ -169,30 +169,11 @@ def _own_vertex(mask, bit, masks, firsts, edges, vertex_offsets, row_owner, i, j
 def _kernel_tables():
     """The table as the kernels read it, made once per process: per key its triangle count, triangle codes
     (int8), own-vertex count and own vertices' edge masks; per case its ambiguous faces and whether any
-    decision can change its triangles."""
+    decision can change its triangles (`case_masks`)."""
     table = trilinear_table()
     own_masks = table.cell_vertices.astype(np.int64)
     return (table.counts.astype(np.int64), table.triangles, (own_masks > 0).sum(axis=1).astype(np.int64), own_masks,
-            *_case_masks())
-
-
-def _case_masks():
-    """Per case: its ambiguous faces (a 6-bit mask), and whether any decision can change its triangles."""
-    table = trilinear_table()
-    ambiguous = np.zeros(256, np.int64)
-    needs = np.zeros(256, np.bool_)
-    for case in range(256):
-        faces = ambiguous_faces(case)
-        ambiguous[case] = sum(1 << f for f in faces)
-        plain = table_key(case, 0, 0)
-        for bits in range(1 << len(faces)):
-            face_key = sum(1 << f for n, f in enumerate(faces) if bits >> n & 1)
-            for tunnel in range(5):
-                key = table_key(case, face_key, tunnel)
-                if (table.counts[key] != table.counts[plain] or (table.triangles[key] != table.triangles[plain]).any()
-                        or (table.cell_vertices[key] != table.cell_vertices[plain]).any()):
-                    needs[case] = True
-    return ambiguous, needs
+            *case_masks())
 
 
 class CompiledTrilinear(CompiledCubes):

@@ -93,6 +93,36 @@ def trilinear_keys(field: np.ndarray, level, inside: np.ndarray) -> np.ndarray:
 def marching_cubes_trilinear(volume: np.ndarray, level: float, spacing=(1.0, 1.0, 1.0), descent: bool = True):
     """verts (N,3) float32, faces (M,3) int32, normals (N,3) float32, values (N,) float32: the mesh with the
     trilinear interpolant's topology.  `volume` as `cubes.marching_cubes_reference` takes it."""
+    verts, faces, normals, values, members = trilinear_parts(volume, level, spacing, descent)
+    extra_verts, extra_normals, extra_values = cell_vertex_means(verts, normals, values, members)
+    return (np.concatenate([verts, extra_verts]), faces, np.concatenate([normals, extra_normals]),
+            np.concatenate([values, extra_values]))
+
+
+def cell_vertex_means(verts, normals, values, members):
+    """The cells' own vertices from the edge vertices (verts, normals, values): per list of `members` (edge
+    vertex indices in edge order), their positions' and values' means and their normals' normalised sum, in
+    float32 one number at a time (the compiled and GPU extractors' arithmetic)."""
+    extra_verts, extra_normals, extra_values = [], [], []
+    for which in members:
+        p, n, value = [np.float32(0)] * 3, [np.float32(0)] * 3, np.float32(0)
+        for v in which:
+            p = [p[a] + verts[v, a] for a in range(3)]
+            n = [n[a] + normals[v, a] for a in range(3)]
+            value = value + values[v]
+        count = np.float32(len(which))
+        length = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+        extra_verts.append([p[a] / count for a in range(3)])
+        extra_normals.append([n[a] / length for a in range(3)] if length > 0 else n)
+        extra_values.append(value / count)
+    return (np.array(extra_verts, np.float32).reshape(-1, 3), np.array(extra_normals, np.float32).reshape(-1, 3),
+            np.array(extra_values, np.float32))
+
+
+def trilinear_parts(volume: np.ndarray, level: float, spacing=(1.0, 1.0, 1.0), descent: bool = True):
+    """`marching_cubes_trilinear`'s mesh before its cells' own vertices: the edge vertices' verts, the faces
+    (all of them), the edge vertices' normals and values, and per own vertex its `members` (the indices of
+    the edge vertices it is the mean of, in edge order), for `cell_vertex_means`."""
     table = trilinear_table()
     field, lvl = signed(volume, level, descent)
     spacing = np.asarray(spacing, dtype=np.float64)
@@ -110,24 +140,12 @@ def marching_cubes_trilinear(volume: np.ndarray, level: float, spacing=(1.0, 1.0
     masks = table.cell_vertices[cell_keys].astype(np.int64)            # (C, most)
     own = masks > 0
     first_own = len(verts) + np.cumsum(own.ravel()).reshape(own.shape) - 1
-    cell_of_own, slot_of_own = np.nonzero(own)
-    extra_verts, extra_normals, extra_values = [], [], []
-    for cell, slot in zip(cell_of_own, slot_of_own):
+    members = []
+    for cell, slot in zip(*np.nonzero(own)):
         edges = [e for e in range(12) if masks[cell, slot] >> e & 1]
         owner = cells[cell] + EDGE_ORIGIN[edges]
         wanted = np.ravel_multi_index(owner.T, field.shape) * 3 + EDGE_AXIS[edges]
-        which = vertex_of_edges(edge_ids, wanted, "trilinear table")
-        # float32 sums in edge order, one number at a time (the compiled and GPU extractors' arithmetic)
-        p, n, value = [np.float32(0)] * 3, [np.float32(0)] * 3, np.float32(0)
-        for v in which:
-            p = [p[a] + verts[v, a] for a in range(3)]
-            n = [n[a] + normals[v, a] for a in range(3)]
-            value = value + values[v]
-        count = np.float32(len(which))
-        length = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
-        extra_verts.append([p[a] / count for a in range(3)])
-        extra_normals.append([n[a] / length for a in range(3)] if length > 0 else n)
-        extra_values.append(value / count)
+        members.append(vertex_of_edges(edge_ids, wanted, "trilinear table"))
 
     n_tri = table.counts[cell_keys].astype(np.int64)
     cell_of_tri = np.repeat(np.arange(len(cells)), n_tri)
@@ -141,9 +159,4 @@ def marching_cubes_trilinear(volume: np.ndarray, level: float, spacing=(1.0, 1.0
     faces[on_edge] = vertex_of_edges(edge_ids, wanted, "trilinear table").reshape(-1)
     tri_cells = np.broadcast_to(cell_of_tri[:, None], codes.shape)[~on_edge]
     faces[~on_edge] = first_own[tri_cells, codes[~on_edge] - FIRST_CELL_VERTEX]
-
-    if extra_verts:
-        verts = np.concatenate([verts, np.array(extra_verts, np.float32)])
-        normals = np.concatenate([normals, np.array(extra_normals, np.float32)])
-        values = np.concatenate([values, np.array(extra_values, np.float32)])
-    return verts, faces.astype(np.int32), normals, values
+    return verts, faces.astype(np.int32), normals, values, members

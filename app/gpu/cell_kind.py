@@ -19,6 +19,9 @@ CASE_TABLE_SHIFT = 10
 SHARED_PASSES = {"bricks": "mc_bricks", "dispatch_args": "mc_dispatch_args", "signs": "mc_signs"}
 """The passes every kind of cell runs as they are (by role)."""
 
+OWN_EDGES = 12
+"""Slots of an own vertex's job: the most edge vertices one is the mean of (a cell has 12 edges)."""
+
 _UINT_IMAGE_FORMATS = {1: "r32ui", 2: "rg32ui", 4: "rgba32ui"}
 _UINT_TYPES = {1: "uint", 2: "uvec2", 3: "uvec3", 4: "uvec4"}
 
@@ -41,6 +44,14 @@ class CellKind:
     """The case table it marches by default."""
     job_coordinates: bool = False
     """Whether its vertex jobs hold their sample's coordinates where the grid allows (JOB_COORDINATES)."""
+    own_vertices: str | None = None
+    """The shader of pass 9, where cells add vertices of their own after every edge vertex (OWN_VERTICES:
+    the trilinear topology's, trilinear.py); their counts are summed and scanned on their own."""
+
+    @property
+    def offset_components(self) -> int:
+        """Components of the per-word offsets image: first vertex and triangle, and first own vertex."""
+        return 4 if self.own_vertices else 2
 
     @property
     def job_record_bytes(self) -> int:
@@ -50,10 +61,15 @@ class CellKind:
     def defines(self) -> dict[str, str]:
         """What its passes are compiled with, from the sizes above (the shared pass bodies, shaders/cells_*.glsl,
         declare the counts image and the job buffer by these): the counts image's format and a job's type."""
-        return {"WORD_COUNTS_FORMAT": _UINT_IMAGE_FORMATS[self.count_components],
-                "VERTEX_JOB": _UINT_TYPES[self.job_components]}
+        defines = {"WORD_COUNTS_FORMAT": _UINT_IMAGE_FORMATS[self.count_components],
+                   "WORD_OFFSETS_FORMAT": _UINT_IMAGE_FORMATS[self.offset_components],
+                   "VERTEX_JOB": _UINT_TYPES[self.job_components]}
+        if self.own_vertices:
+            defines.update(OWN_VERTICES=1, OWN_EDGES=f"{OWN_EDGES}u")
+        return defines
 
     def passes(self) -> dict[str, str]:
         """Every pass's shader, by role."""
-        return {**SHARED_PASSES, "classify": self.classify, "brick_sums": self.brick_sums,
-                "word_offsets": self.word_offsets, "triangles": self.triangles, "vertices": self.vertices}
+        passes = {**SHARED_PASSES, "classify": self.classify, "brick_sums": self.brick_sums,
+                  "word_offsets": self.word_offsets, "triangles": self.triangles, "vertices": self.vertices}
+        return {**passes, "own_vertices": self.own_vertices} if self.own_vertices else passes

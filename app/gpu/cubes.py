@@ -97,16 +97,21 @@ class Extractor(SurfaceExtractor):
     True
     """
 
+    KIND = CUBES
+    """The cells it marches (trilinear.py's subclass marches the trilinear topology's)."""
+    WORD_TRIANGLES = 255
+    """The most triangles a word's counts hold (8 bits: mc_cells.glsl)."""
+
     def __init__(self, volume, spacing=(1.0, 1.0, 1.0), gradient_direction="descent",
                  ctx: moderngl.Context | None = None, table: CaseTable | None = None,
                  limits: GpuLimits | None = None):
-        table = table or montani_table()
-        if WORD_BITS * table.max_triangles > 255:  # a word's triangle count has 8 bits (mc_cells.glsl)
+        table = table or self.KIND.table()
+        if WORD_BITS * table.max_triangles > self.WORD_TRIANGLES:  # the bits of a word's triangle count
             raise InputError(f"a case table with up to {table.max_triangles} triangles per cell does not fit "
-                             f"the per-word counts; at most {255 // WORD_BITS} can")
+                             f"the per-word counts; at most {self.WORD_TRIANGLES // WORD_BITS} can")
         resident = ResidentVolume(volume, spacing, gradient_direction, ctx=ctx, limits=limits)
         try:
-            super().__init__(resident, CUBES, table)
+            super().__init__(resident, self.KIND, table)
         except BaseException:
             resident.release()
             raise

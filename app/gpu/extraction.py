@@ -16,6 +16,8 @@ the same orchestration, one compute shader a pass:
                         vertex the edge it lies on (a job for pass 8, in a buffer of its own:
                         shaders/vertex_jobs.glsl)
 8. vertices             one invocation per vertex: position, value and outward normal
+9. own vertices         only where the kind's cells add vertices of their own (the trilinear topology,
+                        trilinear.py): one invocation per such vertex, the mean of edge vertices
 
 Passes 1-2 are the same for every kind; the kind names the shaders of 3, 4 and 6-8 (cell_kind.py).  Between
 passes 1 and 2, ``mc_dispatch_args`` turns the active count into the indirect dispatch sizes of passes
@@ -42,7 +44,7 @@ import numpy as np
 from .. import validation
 from ..core.case_table import CaseTable
 from ..errors import ReleasedError
-from .cell_kind import CellKind
+from .cell_kind import OWN_EDGES, CellKind
 from .limits import GPULimitError
 from .mesh import GpuMesh
 from .outputs import MeshOutputs
@@ -80,8 +82,9 @@ class SurfaceExtractor:
         self.scratch: ExtractionScratch | None = None
         self.outputs: MeshOutputs | None = None
         try:
-            self.scratch = ExtractionScratch(self.ctx, self.plan, kind.count_components, self.table)
-            self.outputs = MeshOutputs(self.ctx, kind.job_record_bytes)
+            self.scratch = ExtractionScratch(self.ctx, self.plan, kind.count_components, self.table,
+                                             kind.offset_components, own_vertices=bool(kind.own_vertices))
+            self.outputs = MeshOutputs(self.ctx, kind.job_record_bytes, 4 * OWN_EDGES if kind.own_vertices else 0)
         except BaseException:
             self.release()
             raise
@@ -132,7 +135,7 @@ class SurfaceExtractor:
         runs = self.plan.triangle_runs(n_triangles)
         dispatches = self.passes.dispatches(self.scratch, runs, n_vertices)
         try:
-            self.outputs.ensure(n_vertices, n_triangles)
+            self.outputs.ensure(n_vertices, n_triangles, self.scratch.own_vertices)
         except GPULimitError:
             self.n_vertices = self.n_triangles = 0  # an empty mesh, in a small buffer where one can be had
             self.level = None

@@ -15,11 +15,14 @@ from .limits import GPULimitError
 class MeshOutputs:
     """An extractor's vertex, index and vertex-job buffers, `job_record_bytes` a job."""
 
-    def __init__(self, ctx: moderngl.Context, job_record_bytes: int):
+    def __init__(self, ctx: moderngl.Context, job_record_bytes: int, own_job_bytes: int = 0):
         self.job_record_bytes = job_record_bytes
+        self.own_job_bytes = own_job_bytes  # per own vertex of a cell (CellKind.own_vertices), if any
         self.buffers: dict[str, GrowableBuffer] = {}
-        for name, minimum in (("vertices", VERTEX_BYTES), ("indices", INDEX_BYTES), ("jobs", job_record_bytes)):
-            self.buffers[name] = GrowableBuffer(ctx, minimum)
+        for name, minimum in (("vertices", VERTEX_BYTES), ("indices", INDEX_BYTES), ("jobs", job_record_bytes),
+                              ("own jobs", own_job_bytes)):
+            if minimum:
+                self.buffers[name] = GrowableBuffer(ctx, minimum)
 
     # None only after release, or where a failed allocation left none.
     @property
@@ -34,11 +37,17 @@ class MeshOutputs:
     def jobs(self) -> moderngl.Buffer | None:
         return self.buffers["jobs"].buffer if self.buffers else None
 
-    def ensure(self, n_vertices: int, n_triangles: int) -> None:
-        """Grow the buffers to fit a mesh of this size.  A failed allocation raises GPULimitError and
-        leaves small buffers where they can be had."""
+    @property
+    def own_jobs(self) -> moderngl.Buffer | None:
+        return self.buffers["own jobs"].buffer if "own jobs" in self.buffers else None
+
+    def ensure(self, n_vertices: int, n_triangles: int, n_own: int = 0) -> None:
+        """Grow the buffers to fit a mesh of this size (`n_own` of its vertices cells' own).  A failed
+        allocation raises GPULimitError and leaves small buffers where they can be had."""
         for name, needed in (("vertices", n_vertices * VERTEX_BYTES), ("indices", n_triangles * INDEX_BYTES),
-                             ("jobs", n_vertices * self.job_record_bytes)):
+                             ("jobs", n_vertices * self.job_record_bytes), ("own jobs", n_own * self.own_job_bytes)):
+            if name not in self.buffers:
+                continue
             try:
                 self.buffers[name].ensure(needed)
             except moderngl.Error as exc:
@@ -54,8 +63,9 @@ class MeshOutputs:
         buffer.bind_to_storage_buffer(binding, offset=first * record_bytes, size=max(count, 1) * record_bytes)
 
     def job_bytes(self) -> int:
-        """The vertex-job buffer's size: job_record_bytes per vertex, grown with the mesh."""
-        return self.buffers["jobs"].size if self.buffers else 0
+        """The vertex-job buffers' sizes: job_record_bytes per vertex (and own_job_bytes per own vertex), grown
+        with the mesh."""
+        return sum(self.buffers[name].size for name in ("jobs", "own jobs") if name in self.buffers)
 
     def mesh_bytes(self) -> int:
         """The vertex and index buffers' sizes."""

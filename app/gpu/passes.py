@@ -12,7 +12,7 @@ import numpy as np
 
 from ..core.case_table import CaseTable
 from ..core.layout import GROUP_SIZE, INDEX_BYTES, STORAGE_OFFSET_ALIGNMENT, VERTEX_BYTES, StorageBlock
-from .cell_kind import CASE_TABLE_SHIFT, CellKind
+from .cell_kind import CASE_TABLE_SHIFT, OWN_EDGES, CellKind
 from .limits import ExtractorPlan, GPULimitError
 from .outputs import MeshOutputs
 from .programs import compute_program, dispatch_groups, set_uniforms
@@ -93,16 +93,28 @@ class PassRunner:
         bricks' offsets, read back (8 bytes a brick)."""
         block = scratch.plan.limits.max_storage_block_bytes
         job_bytes = self.kind.job_record_bytes
+        windows = scratch.plan.windows(n_vertices, VERTEX_BYTES, job_bytes)
+        own_jobs = scratch.own_vertices * 4 * OWN_EDGES
+        if self.kind.own_vertices and (len(runs) > 1 or len(windows) > 1 or own_jobs > block):
+            # Pass 9 reads edge vertices anywhere in the vertex buffer: one storage block must hold them all.
+            raise GPULimitError(f"the {self.kind.name} mesh at this level ({n_vertices:,} vertices) is larger than "
+                                f"one storage block of {block:,} bytes, which the GPU passes of its cells' own "
+                                "vertices need; pick another level, or use backend='cpu' for the same mesh")
         if len(runs) == 1 and n_vertices <= block // job_bytes:
             return [[(None, (0, n_vertices))]]
         return run_dispatches(runs, *scratch.brick_offsets(), block, job_bytes)
 
     def generate(self, scratch: ExtractionScratch, outputs: MeshOutputs, plan: ExtractorPlan, n_vertices: int,
                  runs, dispatches) -> None:
-        """Passes 6-8: offsets per word, triangles and vertex jobs, vertices, into the mesh buffers."""
+        """Passes 6-8 (and 9): offsets per word, triangles and vertex jobs, vertices (and the cells' own
+        vertices after them), into the mesh buffers."""
         scratch.bind_brick_offsets()  # the scan used its own slots; bind the passes' buffers again
         self._over_active_bricks("word_offsets", scratch, per_brick=True)
         triangles, vertices = self._programs["triangles"], self._programs["vertices"]
+        n_edge, n_own = n_vertices - scratch.own_vertices, scratch.own_vertices
+        if self.kind.own_vertices:  # one window of everything (dispatches): the own jobs are bound once
+            outputs.own_jobs.bind_to_storage_buffer(StorageBlock.OWN_JOBS)
+            set_uniforms(triangles, u_own_base=n_edge)
         jobs, job_bytes = outputs.jobs, self.kind.job_record_bytes
         for (window, job_slots), run_dispatch_list in zip(runs, dispatches):
             # Each run writes the triangles in its window of the index buffer (usually the only one)
@@ -118,9 +130,16 @@ class PassRunner:
                 scratch.bind_run_list(bricks)
                 dispatch_groups(triangles, len(bricks))
                 self.ctx.memory_barrier()
-        for window in plan.windows(n_vertices, VERTEX_BYTES, job_bytes):
+        for window in plan.windows(n_edge, VERTEX_BYTES, job_bytes):
             outputs.bind_window(StorageBlock.MESH_VERTICES, outputs.vertex_buffer, window, VERTEX_BYTES)
             outputs.bind_window(StorageBlock.VERTEX_JOBS, jobs, window, job_bytes)
             set_uniforms(vertices, u_vertex_count=window[1])
             dispatch_groups(vertices, -(-window[1] // GROUP_SIZE))
         self.ctx.memory_barrier()
+        if n_own:
+            own = self._programs["own_vertices"]
+            outputs.bind_window(StorageBlock.MESH_VERTICES, outputs.vertex_buffer, (0, n_vertices), VERTEX_BYTES)
+            outputs.own_jobs.bind_to_storage_buffer(StorageBlock.OWN_JOBS)
+            set_uniforms(own, u_own_base=n_edge, u_own_count=n_own)
+            dispatch_groups(own, -(-n_own // GROUP_SIZE))
+            self.ctx.memory_barrier()

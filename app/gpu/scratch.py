@@ -30,18 +30,24 @@ class ExtractionScratch:
     """The work images and buffers of one extractor, sized by `plan`; all or nothing (a failed
     allocation releases what was made and raises)."""
 
-    def __init__(self, ctx: moderngl.Context, plan: ExtractorPlan, count_components: int, table: CaseTable):
+    def __init__(self, ctx: moderngl.Context, plan: ExtractorPlan, count_components: int, table: CaseTable,
+                 offset_components: int = 2, own_vertices: bool = False):
         self.ctx, self.plan = ctx, plan
         self._owned: list = []  # every fixed-size GL object allocated here, released together
         self.scan: ExclusiveScan | None = None
         self.run_list: moderngl.Buffer | None = None  # a large mesh's per-run brick list, made when needed
+        self.brick_own_offsets: moderngl.Buffer | None = None  # cells' own vertices per brick (own_vertices)
+        self.edge_vertices = self.own_vertices = 0  # the last scan's totals of each
         try:
             self.sign_words = self._own(ctx.texture(plan.word_image_size, 1, dtype="u4"))
             self.word_counts = self._own(ctx.texture(plan.word_image_size, count_components, dtype="u4"))
-            self.word_offsets = self._own(ctx.texture(plan.word_image_size, 2, dtype="u4"))  # (first vertex, triangle)
+            # (first vertex, triangle[, own vertex])
+            self.word_offsets = self._own(ctx.texture(plan.word_image_size, offset_components, dtype="u4"))
             sizes = plan.storage_elements()
             self.brick_vertex_offsets = self._storage(sizes["brick vertex offsets"])
             self.brick_triangle_offsets = self._storage(sizes["brick triangle offsets"])
+            if own_vertices:
+                self.brick_own_offsets = self._storage(sizes["brick vertex offsets"])
             self.active_bricks = self._storage(sizes["active bricks"])
             self.brick_states = self._storage(sizes["brick states"])  # of its own sign words
             self.brick_states.clear()  # 0: the sign words hold nothing known (mc_bricks.comp)
@@ -77,6 +83,8 @@ class ExtractionScratch:
         """The per-brick vertex and triangle counts (offsets once scanned) at their blocks."""
         self.brick_vertex_offsets.bind_to_storage_buffer(StorageBlock.BRICK_VERTICES)
         self.brick_triangle_offsets.bind_to_storage_buffer(StorageBlock.BRICK_TRIANGLES)
+        if self.brick_own_offsets is not None:
+            self.brick_own_offsets.bind_to_storage_buffer(StorageBlock.BRICK_OWN_VERTICES)
 
     def bind_counting(self, brick_ranges: moderngl.Buffer) -> None:
         """Every block passes 1-4 use, `brick_ranges` (the resident volume's) among them."""
@@ -98,19 +106,24 @@ class ExtractionScratch:
 
     def clear_active_count(self) -> None:
         self.active_bricks.write(b"\0\0\0\0")  # the active count, appended to by mc_bricks
+        if self.brick_own_offsets is not None:
+            self.brick_own_offsets.clear()  # pass 4 counts only the active bricks' own vertices
 
     def active_count(self) -> int:
         return int(np.frombuffer(self.active_bricks.read(4), np.uint32)[0])
 
     def scan_brick_counts(self) -> tuple[int, int]:
-        """Pass 5: the per-brick counts become offsets; returns the totals (vertices, triangles)."""
+        """Pass 5: the per-brick counts become offsets; returns the totals (vertices, triangles), the
+        cells' own vertices among the vertices (kept apart in edge_vertices, own_vertices)."""
         count = self.plan.brick_count + 1
-        self.scan(self.brick_vertex_offsets, count)
-        self.scan(self.brick_triangle_offsets, count)
         total_at = self.plan.brick_count * 4
-        n_vertices = int(np.frombuffer(self.brick_vertex_offsets.read(4, total_at), np.uint32)[0])
-        n_triangles = int(np.frombuffer(self.brick_triangle_offsets.read(4, total_at), np.uint32)[0])
-        return n_vertices, n_triangles
+        totals = []
+        for buffer in (self.brick_vertex_offsets, self.brick_triangle_offsets, self.brick_own_offsets):
+            if buffer is not None:
+                self.scan(buffer, count)
+                totals.append(int(np.frombuffer(buffer.read(4, total_at), np.uint32)[0]))
+        self.edge_vertices, n_triangles, self.own_vertices = (*totals, 0)[:3]
+        return self.edge_vertices + self.own_vertices, n_triangles
 
     def brick_offsets(self) -> tuple[np.ndarray, np.ndarray]:
         """Each brick's first triangle and first vertex (int64, the totals last), once scanned."""
@@ -125,7 +138,7 @@ class ExtractionScratch:
             return 0
         images = (self.sign_words, self.word_counts, self.word_offsets, self.case_table)
         buffers = (self.brick_vertex_offsets, self.brick_triangle_offsets, self.active_bricks, self.brick_states,
-                   self.dispatch_args)
+                   self.dispatch_args, *([self.brick_own_offsets] if self.brick_own_offsets else []))
         return (sum(t.width * t.height * t.components * 4 for t in images) + sum(b.size for b in buffers)
                 + self.scan.scratch_bytes())
 
@@ -134,6 +147,6 @@ class ExtractionScratch:
         for obj in self._owned:
             obj.release()
         self._owned.clear()
-        self.run_list = None
+        self.run_list = self.brick_own_offsets = None
         if self.scan is not None:
             self.scan.release()

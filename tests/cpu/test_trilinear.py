@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from support.topology import configuration, counts, oracle, single_cells
+from support.trilinear_cases import bit_for_bit_cases, closed_noise
 
 from isoscope.cpu.cubes import marching_cubes_reference
 from isoscope.cpu.trilinear import marching_cubes_trilinear, trilinear_keys
@@ -55,13 +56,6 @@ def test_a_tunnel_through_one_cell(joined):
     assert (tunnel == 1) == joined   # key 1: the section at the saddle's extremum joins corners 0 and 7
 
 
-def closed_noise(seed: int, n: int = 14):
-    rng = np.random.default_rng(seed)
-    field = np.full((n, n, n), -1.0, dtype=np.float32)
-    field[1:-1, 1:-1, 1:-1] = rng.standard_normal((n - 2,) * 3)
-    return field
-
-
 def edges_of(faces):
     return np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
 
@@ -107,22 +101,7 @@ def test_vertices_on_todays_edges_and_todays_mesh_where_nothing_is_ambiguous():
     assert len(ours[0]) >= n and not np.array_equal(ours[1], today[1])
 
 
-def gyroid(n=40):
-    x, y, z = np.mgrid[0:2 * np.pi:n * 1j, 0:2 * np.pi:n * 1j, 0:2 * np.pi:n * 1j]
-    return (np.sin(2 * x) * np.cos(2 * y) + np.sin(2 * y) * np.cos(2 * z) + np.sin(2 * z) * np.cos(2 * x)
-            ).astype(np.float32)
-
-
-def compiled_cases():
-    rng = np.random.default_rng(11)
-    noise = rng.standard_normal((33, 20, 45)).astype(np.float32)
-    scan = np.asfortranarray((rng.standard_normal((30, 31, 40)) * 300).astype(np.int16))  # nibabel's layout
-    return [("noise", noise, 0.1, "descent"), ("noise ascent", noise, -0.2, "ascent"),
-            ("int16 Fortran", scan, 7.5, "descent"), ("gyroid", gyroid(), 0.3, "descent"),
-            ("closed", closed_noise(7, 20), 0.0, "descent")]
-
-
-@pytest.mark.parametrize("name, volume, level, direction", compiled_cases(), ids=lambda v: v if isinstance(v, str)
+@pytest.mark.parametrize("name, volume, level, direction", bit_for_bit_cases(11), ids=lambda v: v if isinstance(v, str)
                          else None)
 def test_the_compiled_extractor_gives_the_references_mesh_bit_for_bit(name, volume, level, direction):
     import isoscope
@@ -145,7 +124,7 @@ def test_every_door_takes_the_topology_and_refuses_what_it_cannot_do():
         assert len(faces) == 6 and np.isfinite(values).all()
     field = closed_noise(3, 12)
     one_shot = isoscope.api.outward_marching_cubes(field, 0.0, backend="cpu", topology="trilinear")
-    with isoscope.Extractor(field, topology="trilinear") as extractor:   # "auto": the CPU's
+    with isoscope.Extractor(field, backend="cpu", topology="trilinear") as extractor:
         extractor.extract(0.5)
         extractor.extract(0.0)
         resident = extractor.read_mesh()
@@ -153,14 +132,14 @@ def test_every_door_takes_the_topology_and_refuses_what_it_cannot_do():
         np.testing.assert_array_equal(a, b)
     mesh = isoscope.isosurface(field, 0.0, topology="trilinear")
     assert len(mesh.faces) == len(one_shot[1])
-    refusals = [dict(backend="gpu", topology="trilinear"), dict(topology="mc33"),
+    refusals = [dict(topology="mc33"),
                 dict(topology="trilinear", sharp_features=30), dict(topology="trilinear", chunks=8)]
     for options in refusals:
         with pytest.raises(IsoscopeError) as caught:
             isoscope.marching_cubes(field, 0.0, **options)
         assert "\n" not in str(caught.value)
     with pytest.raises(IsoscopeError):
-        isoscope.Extractor(field, backend="gpu", topology="trilinear")
+        isoscope.Extractor(field, backend="cpu", topology="mc33")
 
 
 def test_every_configuration_of_one_cell_is_the_interpolants():

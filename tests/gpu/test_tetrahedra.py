@@ -273,13 +273,15 @@ def test_cli_exports_and_renders_tetrahedra(tmp_path):
 
 
 @pytest.mark.gl
-def test_bench_modes_reports_tetrahedra_against_cubes():
+def test_bench_modes_reports_tetrahedra_and_the_trilinear_topology_against_cubes():
     script = REPO / "benchmarks" / "bench_modes.py"
     result = subprocess.run([sys.executable, str(script), "--sizes", "16", "--repeats", "1", "--warmup", "0"],
                             capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     rows = [line.split("|")[1:-1] for line in result.stdout.splitlines() if line.startswith("| 16^3")]
     assert [(r[1].strip(), r[2].strip()) for r in rows] == [
-        (v, m) for v in ("sphere", "gyroid", "noise") for m in ("cubes", "tetrahedra")]
-    for cubes, tetra in zip(rows[::2], rows[1::2]):  # tetrahedra: more triangles than cubes on every volume
-        assert int(tetra[5].replace(",", "")) > int(cubes[5].replace(",", "")) > 0
+        (v, m) for v in ("sphere", "gyroid", "noise") for m in ("cubes", "tetrahedra", "trilinear")]
+    triangles = [int(row[5].replace(",", "")) for row in rows]
+    for cubes, tetra, trilinear in zip(triangles[::3], triangles[1::3], triangles[2::3]):
+        assert tetra > cubes > 0 and trilinear > 0  # tetrahedra: more triangles than cubes on every volume
+    assert triangles[2] == triangles[0]  # the sphere has no ambiguous cell: the topologies agree

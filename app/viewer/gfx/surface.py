@@ -111,8 +111,10 @@ class GpuSurface:
 
     @staticmethod
     def makes(options: MeshOptions) -> bool:
-        """Whether the GPU's extractor makes meshes with these options (the trilinear topology is the CPU's
-        so far: the scene draws those from a `CpuSurface`)."""
+        """Whether this surface makes meshes with these options.  The trilinear topology's meshes are drawn
+        from a `CpuSurface` (the compiled extractor, the same mesh): its GPU passes (`isoscope.gpu.trilinear`)
+        serve the API, but hold a mesh in one storage block and are not yet composed with this surface's
+        previews, smoothing and sharp features."""
         return options.topology == "montani"
 
     def extract(self, iso: float, options: MeshOptions, step: int = 1, wait: bool = True) -> None:

@@ -34,8 +34,8 @@ class MeshSection:
         imgui.set_next_item_width(px(COMBO_WIDTH))   # always drawn: the section never moves under the pointer
         choose(state, "topology", state.topology, TOPOLOGIES, state.set_topology)
         tooltip("how ambiguous cells are decided: montani, every ambiguous face one way (fast);\n"
-                    "trilinear, the field's own topology between the samples (MC33): pieces, cavities\n"
-                    "and handles in Measure as the data has them; made on the CPU")
+                "trilinear, the field's own topology between the samples (MC33): pieces, cavities\n"
+                "and handles in Measure as the data has them; cubes only, made on the CPU here")
         # Sliders write their value beside them, never under their grab.
         imgui.set_next_item_width(px(SLIDER_WIDTH))
         changed, smooth = imgui.slider_int("##smoothing", state.smooth, 0, MAX_SMOOTH_SLIDER, "")

@@ -1,6 +1,6 @@
 """The trilinear topology in the viewer: chosen through ViewerState (the panel's Mesh section, --topology on
 render and movie, scenes), drawn, saved and measured as the API makes it, on a context with compute shaders
-(its meshes made by the CPU's extractor until the GPU has the passes) and back."""
+(its meshes made by the CPU's extractor there too) and back."""
 from __future__ import annotations
 
 import json
@@ -52,7 +52,7 @@ def test_the_topology_is_drawn_saved_and_measured_as_the_api_makes_it(viewer, tm
     for a, b in zip(ours, expected):
         np.testing.assert_array_equal(a, b)
     assert not np.array_equal(ours[1], montani[1])
-    assert isinstance(viewer.scene.surface, CpuSurface)   # the GPU extractor has no trilinear passes yet
+    assert isinstance(viewer.scene.surface, CpuSurface)   # the viewer makes these meshes on the CPU (surface.py)
     viewer.scene.save_mesh(tmp_path / "saved.ply")
     saved = trimesh.load(tmp_path / "saved.ply", process=False)
     np.testing.assert_array_equal(saved.faces, expected[1])
