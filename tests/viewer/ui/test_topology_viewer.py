@@ -75,6 +75,7 @@ def test_the_topology_is_drawn_saved_and_measured_as_the_api_makes_it(viewer, tm
     assert state.topology == "montani"
 
 
+@pytest.mark.gl   # render draws through OpenGL
 def test_render_and_scenes_take_the_topology(tmp_path):
     np.save(tmp_path / "noise.npy", closed_noise())
     pictures = {}
@@ -96,6 +97,7 @@ def test_render_and_scenes_take_the_topology(tmp_path):
     assert a.shape == b.shape and np.abs(a - b).max() <= 2
 
 
+@pytest.mark.gl
 def test_a_scene_with_an_unknown_topology_is_one_line(tmp_path):
     np.save(tmp_path / "noise.npy", closed_noise())
     done = isoscope_here("render", tmp_path / "noise.npy", "--iso", "0", "--out", tmp_path / "x.png", "--size",
