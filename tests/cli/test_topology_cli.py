@@ -9,19 +9,13 @@ import pytest
 import trimesh
 from support.command import assert_one_line_error, isoscope_here
 from support.topology import oracle
+from support.trilinear_cases import closed_noise
 
 import isoscope
 
 
-def closed_noise(seed: int = 4, n: int = 9):
-    rng = np.random.default_rng(seed)
-    field = np.full((n, n, n), -1.0, dtype=np.float32)
-    field[1:-1, 1:-1, 1:-1] = rng.standard_normal((n - 2,) * 3)
-    return field
-
-
 def test_export_writes_the_trilinear_mesh(tmp_path):
-    field = closed_noise()
+    field = closed_noise(4, 9)
     np.save(tmp_path / "noise.npy", field)
     done = isoscope_here("export", tmp_path / "noise.npy", "--iso", "0", "--topology", "trilinear",
                          "--out", tmp_path / "noise.ply")
@@ -36,7 +30,7 @@ def test_export_writes_the_trilinear_mesh(tmp_path):
 def test_measure_counts_what_the_interpolant_has(tmp_path):
     """The oracle (the interpolant refined, meshed by scikit-image) and measure --topology trilinear agree on
     pieces and Euler characteristic; today's default does not, on this field."""
-    field = closed_noise()
+    field = closed_noise(4, 9)
     truth = oracle(field, refinements=(8, 16))
     assert truth is not None
     np.save(tmp_path / "noise.npy", field)
@@ -57,7 +51,7 @@ def test_measure_counts_what_the_interpolant_has(tmp_path):
     (["--topology", "mc33"], "invalid choice"),
 ])
 def test_export_refuses_what_the_topology_does_not_take(tmp_path, args, words):
-    np.save(tmp_path / "noise.npy", closed_noise())
+    np.save(tmp_path / "noise.npy", closed_noise(4, 9))
     assert_one_line_error(isoscope_here("export", tmp_path / "noise.npy", "--iso", "0", *args,
                                         "--out", tmp_path / "x.ply"), words)
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import trimesh
 from support.command import isoscope_here
+from support.trilinear_cases import closed_noise
 
 import isoscope
 from isoscope.cpu.measure import measure_surface
@@ -19,30 +20,27 @@ from isoscope.viewer.ui.headless import HeadlessViewer
 from isoscope.volumes import open_volume
 
 
-def closed_noise(seed: int = 4, n: int = 12):
-    rng = np.random.default_rng(seed)
-    field = np.full((n, n, n), -1.0, dtype=np.float32)
-    field[1:-1, 1:-1, 1:-1] = rng.standard_normal((n - 2,) * 3)
-    return field
-
-
 @pytest.fixture
-def viewer(gl_ctx):
+def noise_on_show(gl_ctx, tmp_path):
+    """A headless viewer showing closed noise at level 0, and the field."""
+    field = closed_noise(4, 12)
+    np.save(tmp_path / "noise.npy", field)
     viewer = HeadlessViewer((320, 240), ctx=gl_ctx)
-    yield viewer
-    viewer.release()
+    try:
+        viewer.show_levels(open_volume(str(tmp_path / "noise.npy")), [0.0])
+        yield viewer, field
+    finally:
+        viewer.release()
 
 
 def drawn(viewer):
+    """The mesh the scene draws, after the frame in which it follows the state."""
     viewer.update()
     return viewer.scene.surface.shown.read_mesh()
 
 
-def test_the_topology_is_drawn_saved_and_measured_as_the_api_makes_it(viewer, tmp_path):
-    field = closed_noise()
-    np.save(tmp_path / "noise.npy", field)
-    volume = open_volume(str(tmp_path / "noise.npy"))
-    viewer.show_levels(volume, [0.0])
+def test_the_topology_is_drawn_saved_and_measured_as_the_api_makes_it(noise_on_show, tmp_path):
+    viewer, field = noise_on_show
     state = viewer.state
     montani = drawn(viewer)
     first_kind = type(viewer.scene.surface)
@@ -77,7 +75,7 @@ def test_the_topology_is_drawn_saved_and_measured_as_the_api_makes_it(viewer, tm
 
 @pytest.mark.gl   # render draws through OpenGL
 def test_render_and_scenes_take_the_topology(tmp_path):
-    np.save(tmp_path / "noise.npy", closed_noise())
+    np.save(tmp_path / "noise.npy", closed_noise(4, 12))
     pictures = {}
     for topology in ("montani", "trilinear"):
         out = tmp_path / f"{topology}.png"
@@ -99,7 +97,7 @@ def test_render_and_scenes_take_the_topology(tmp_path):
 
 @pytest.mark.gl
 def test_a_scene_with_an_unknown_topology_is_one_line(tmp_path):
-    np.save(tmp_path / "noise.npy", closed_noise())
+    np.save(tmp_path / "noise.npy", closed_noise(4, 12))
     done = isoscope_here("render", tmp_path / "noise.npy", "--iso", "0", "--out", tmp_path / "x.png", "--size",
                          "100x80", "--save-scene", tmp_path / "good.json")
     assert done.returncode == 0, done.stderr
