@@ -106,3 +106,19 @@ def test_a_scene_with_an_unknown_topology_is_one_line(tmp_path):
     (tmp_path / "bad.json").write_text(json.dumps(scene))
     done = isoscope_here("render", "--scene", tmp_path / "bad.json", "--out", tmp_path / "x.png")
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and "topology" in done.stderr
+
+
+@pytest.mark.gl
+def test_a_movie_draws_the_topology_as_render_does(tmp_path):
+    np.save(tmp_path / "noise.npy", closed_noise(4, 12))
+    size = ("--size", "160x120", "--iso", "0", "--topology", "trilinear")
+    done = isoscope_here("movie", tmp_path / "noise.npy", *size, "--turntable", "2", "--out", f"{tmp_path / 'turn'}/")
+    assert done.returncode == 0, done.stderr
+    for topology in ("trilinear", "montani"):
+        options = [*size[:-1], topology]
+        assert isoscope_here("render", tmp_path / "noise.npy", *options, "--out", tmp_path / f"{topology}.png"
+                             ).returncode == 0
+    from PIL import Image
+    frame = np.asarray(Image.open(tmp_path / "turn" / "frame_0000.png"))
+    assert np.array_equal(frame, np.asarray(Image.open(tmp_path / "trilinear.png")))
+    assert not np.array_equal(frame, np.asarray(Image.open(tmp_path / "montani.png")))
