@@ -8,6 +8,7 @@ import numpy as np
 
 from ..core.numbers import AZIMUTH, ELEVATION, SMOOTH, image_size
 from ..errors import InputError
+from ..options import MeshOptions
 
 
 @dataclass(frozen=True)
@@ -115,7 +116,7 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
            gradient_direction="descent", opacities=(), color_by=None, colormap=None, labels=False,
            label_names=None, slices=(), clip=None, tetrahedra=False, smooth=0, wireframe=False, panel=False,
            transparent=False, letters=False, memory_budget=None, raycast=None, transfer=None,
-           with_surfaces=False) -> np.ndarray:
+           with_surfaces=False, topology="montani") -> np.ndarray:
     """Render `volume`'s surface(s) offscreen, as ``isoscope render`` does, and return the pixels.
 
     Parameters
@@ -147,7 +148,8 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     clip : (axis, position) or (axis, position, hide_above), optional
         Hide the surface where the axis index is above `position` (below it with ``hide_above=False``),
         as ``--clip AXIS=POS[:+|-]``; the cut is capped.
-    tetrahedra, smooth, wireframe : mesh modes, as the command's flags.
+    tetrahedra, smooth, wireframe, topology : mesh modes, as the command's flags (``topology="trilinear"``:
+        the field's own topology between the samples, as `isoscope.marching_cubes` takes it).
     panel : bool
         Draw the viewer's panel over the scene.
     transparent : bool
@@ -199,6 +201,7 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     azimuth = None if azimuth is None else AZIMUTH.check(azimuth, "azimuth")
     elevation = None if elevation is None else ELEVATION.check(elevation, "elevation")
     smooth = SMOOTH.check(smooth, "smooth")   # before a GL context is made: the refusal needs none
+    MeshOptions(cells="tetrahedra" if tetrahedra else "cubes", smooth=smooth, topology=topology).check()
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
     if labels and level is not None:
         raise InputError("labels=True draws every label's surface; leave out the level")
@@ -218,7 +221,7 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     with using_budget(budget):
         viewer = prepared_viewer(shown, level, size, azimuth, elevation, transparent, opacities, color_by,
                                  colormap, prepare, tetrahedra, smooth, wireframe, raycast=raycast,
-                                 transfer=transfer, with_surfaces=with_surfaces)
+                                 transfer=transfer, with_surfaces=with_surfaces, topology=topology)
     try:
         pixels = viewer.picture(panel=panel, letters=letters)
     finally:

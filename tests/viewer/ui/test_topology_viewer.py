@@ -86,6 +86,10 @@ def test_render_and_scenes_take_the_topology(tmp_path):
         scene = json.loads((tmp_path / f"{topology}.json").read_text())
         assert scene["mesh"]["topology"] == topology
     assert pictures["montani"] != pictures["trilinear"]
+    from PIL import Image
+    ours = isoscope.render(closed_noise(4, 12), 0.0, size=(200, 160), topology="trilinear")
+    command = np.asarray(Image.open(tmp_path / "trilinear.png").convert("RGBA"))
+    assert np.array_equal(ours, command)   # Python's door draws the command's picture
     again = tmp_path / "again.png"
     done = isoscope_here("render", "--scene", tmp_path / "trilinear.json", "--out", again)
     assert done.returncode == 0, done.stderr
