@@ -35,8 +35,9 @@ class MeshOptions:
         """What is wrong with this combination, in the rule's one wording, or None."""
         if self.cells not in CELLS:
             return f"unknown cells {self.cells!r}; use one of {', '.join(CELLS)}"
-        if topology_problem(self.topology):
-            return topology_problem(self.topology)
+        topology = topology_problem(self.topology)
+        if topology is not None:
+            return topology
         if self.topology == "trilinear" and (self.cells != "cubes" or self.sharp is not None or self.masked
                                              or self.chunked):
             return ("the trilinear topology decides the ambiguous cells of plain marching cubes: not with "

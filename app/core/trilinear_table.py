@@ -8,12 +8,12 @@ of this table:
 2. **The faces**: on a face whose corners alternate (the checkerboard), the bilinear interpolant's saddle
    joins either the two inside corners or the two outside ones (the asymptotic decider, Nielsen and
    Hamann 1991).  Bit ``f`` of the face key is set when face ``f`` joins its inside corners.  Two cells
-   that share a face read the same four samples and take the same decision (`face_joins_inside`), so the
-   mesh has no cracks.
+   that share a face read the same four samples and take the same decision (`isoscope.cpu.trilinear`
+   decides it), so the mesh has no cracks.
 3. **The tunnel**: sweeping a plane along axis 2 through the cell, each section is bilinear; the inside of
    the cell is connected beyond what its faces show only through a section's saddle, and the sections'
    saddle value is a quadratic in the plane's height with one interior extremum.  The section there
-   (`interior_tunnel`) joins at most one pair of corners that the faces keep apart: then the surface is a
+   joins at most one pair of corners that the faces keep apart: then the surface is a
    tube (an annulus) between two loops instead of two disks (MC33's 4.1.2, 6.1.2, 7.4.2, 10.1.2, 12.1.2,
    13.5.2 and their kin; Chernyaev 1995, Lopes and Brodlie 2003).  The tunnel key names the section's
    joined diagonal: 0 none, 1 inside corners of vertical edges 0 and 3, 2 inside 1 and 2, 3 outside 0 and
@@ -21,8 +21,9 @@ of this table:
 
 Everything else is `case_table`'s: loops of oriented face segments, each disk triangulated with no
 diagonal in a cube face, the largest smallest angle at edge midpoints; a tube is a zipper of triangles
-between its two loops under the same rules.  Vertices stay on cell edges, so the extractors' vertex
-passes are unchanged.
+between its two loops under the same rules.  Vertices stay on cell edges (the extractors' edge vertices
+are today's), but for the few cells where no triangulation on them keeps every new edge off the faces:
+those take vertices of their own, each the mean of listed edge vertices (`FIRST_CELL_VERTEX`).
 """
 from __future__ import annotations
 
@@ -68,6 +69,13 @@ def ambiguous_faces(case: int) -> tuple[int, ...]:
         if inside in ([1, 0, 1, 0], [0, 1, 0, 1]):
             out.append(face)
     return tuple(out)
+
+
+def face_keys_of(case: int):
+    """Every face key of `case`: each subset of its ambiguous faces joining their inside corners."""
+    faces = ambiguous_faces(case)
+    for bits in range(1 << len(faces)):
+        yield sum(1 << f for i, f in enumerate(faces) if bits >> i & 1)
 
 
 def loops(case: int, face_key: int) -> tuple[tuple[int, ...], ...]:
@@ -386,12 +394,10 @@ class TrilinearTable:
 
 @cache
 def trilinear_table() -> TrilinearTable:
-    """The whole table (about 2.5 s to derive: made once per process that asks for the topology)."""
+    """The whole table (about a second to derive: made once per process that asks for the topology)."""
     per_key: dict[int, tuple] = {}
     for case in range(256):
-        faces = ambiguous_faces(case)
-        for bits in range(1 << len(faces)):
-            face_key = sum(1 << f for i, f in enumerate(faces) if bits >> i & 1)
+        for face_key in face_keys_of(case):
             for tunnel in range(TUNNEL_KEYS):
                 per_key[table_key(case, face_key, tunnel)] = cell_triangles(case, face_key, tunnel)
     width = max(len(t) for t, _ in per_key.values())
@@ -409,7 +415,6 @@ def trilinear_table() -> TrilinearTable:
 
 
 @cache
-@cache
 def case_masks() -> tuple[np.ndarray, np.ndarray]:
     """Per case: its ambiguous faces (a 6-bit mask, int64), and whether any decision of its faces or tunnel
     changes its triangles (bool): where not, its key is the case itself and no sample need be read."""
@@ -417,11 +422,9 @@ def case_masks() -> tuple[np.ndarray, np.ndarray]:
     ambiguous = np.zeros(256, np.int64)
     needs = np.zeros(256, np.bool_)
     for case in range(256):
-        faces = ambiguous_faces(case)
-        ambiguous[case] = sum(1 << f for f in faces)
+        ambiguous[case] = sum(1 << f for f in ambiguous_faces(case))
         plain = table_key(case, 0, 0)
-        for bits in range(1 << len(faces)):
-            face_key = sum(1 << f for n, f in enumerate(faces) if bits >> n & 1)
+        for face_key in face_keys_of(case):
             for tunnel in range(TUNNEL_KEYS):
                 key = table_key(case, face_key, tunnel)
                 if (table.counts[key] != table.counts[plain] or (table.triangles[key] != table.triangles[plain]).any()

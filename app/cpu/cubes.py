@@ -143,6 +143,13 @@ def ordered_edges(masks: list[np.ndarray], shape) -> tuple[np.ndarray, np.ndarra
     return points[order], kinds[order]
 
 
+def cell_edge_ids(cells: np.ndarray, edges: np.ndarray, shape) -> np.ndarray:
+    """The id (owner point's flat index * 3 + axis) of cell edge `edges` of each cell in `cells` (points,
+    broadcast against `edges`): the ids `vertex_of_edges` looks up."""
+    owner = cells + EDGE_ORIGIN[edges]
+    return np.ravel_multi_index(np.moveaxis(owner, -1, 0), shape) * 3 + EDGE_AXIS[edges]
+
+
 def vertex_of_edges(edge_ids: np.ndarray, wanted: np.ndarray, table_name: str) -> np.ndarray:
     """The vertex of each `wanted` edge id (M, 3), the vertices being numbered in `edge_ids` order; found
     through the sorted ids: memory in proportion to the mesh, not the volume (a dense map is 24 bytes a
@@ -186,7 +193,6 @@ def marching_cubes_reference(volume: np.ndarray, level: float, spacing=(1.0, 1.0
     cells, cell_of_tri, edges = ordered_triangles(table, cube_cases(inside), field.shape)
 
     # (owner point, axis) -> vertex index.
-    owner = cells[cell_of_tri][:, None, :] + EDGE_ORIGIN[edges]  # (M, 3 corners, 3 coords)
-    wanted = np.ravel_multi_index(np.moveaxis(owner, -1, 0), field.shape) * 3 + EDGE_AXIS[edges]
+    wanted = cell_edge_ids(cells[cell_of_tri][:, None, :], edges, field.shape)   # (M, 3 corners)
     faces = vertex_of_edges(np.ravel_multi_index(points.T, field.shape) * 3 + axes, wanted, "case table")
     return verts, faces.astype(np.int32), normals, values

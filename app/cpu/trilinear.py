@@ -25,10 +25,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.case_table import EDGE_AXIS, EDGE_ORIGIN, FACE_CORNERS
-from ..core.trilinear_table import FIRST_CELL_VERTEX, ambiguous_faces, table_key, trilinear_table
+from ..core.case_table import FACE_CORNERS
+from ..core.trilinear_table import FIRST_CELL_VERTEX, case_masks, table_key, trilinear_table
 from .cubes import (
     brick_order_key,
+    cell_edge_ids,
     crossing_edges,
     cube_cases,
     inside_mask,
@@ -37,10 +38,6 @@ from .cubes import (
     signed,
     vertex_of_edges,
 )
-
-_AMBIGUOUS = np.zeros((256, 6), dtype=bool)
-for _case in range(256):
-    _AMBIGUOUS[_case, list(ambiguous_faces(_case))] = True
 
 
 def corner_differences(field: np.ndarray, level) -> list[np.ndarray]:
@@ -53,14 +50,15 @@ def corner_differences(field: np.ndarray, level) -> list[np.ndarray]:
 
 def face_keys(d: list[np.ndarray], cases: np.ndarray) -> np.ndarray:
     """Bit f set where face f of the cell is ambiguous and joins its inside corners."""
+    ambiguous = case_masks()[0][cases]   # a 6-bit mask of the case's ambiguous faces
     keys = np.zeros(cases.shape, dtype=np.int64)
     for face in range(6):
         c0, c1, c2, c3 = FACE_CORNERS[face]
-        first = d[c0] * d[c2]   # one diagonal's product, the other's: exact in float64
+        first = d[c0] * d[c2]   # one diagonal's product, the other's: the same numbers in both cells
         second = d[c1] * d[c3]
         first_inside = d[c0] >= 0
         joins = np.where(first_inside, first >= second, second >= first)
-        keys |= (_AMBIGUOUS[cases, face] & joins).astype(np.int64) << face
+        keys |= ambiguous & joins.astype(np.int64) << face
     return keys
 
 
@@ -142,10 +140,8 @@ def trilinear_parts(volume: np.ndarray, level: float, spacing=(1.0, 1.0, 1.0), d
     first_own = len(verts) + np.cumsum(own.ravel()).reshape(own.shape) - 1
     members = []
     for cell, slot in zip(*np.nonzero(own)):
-        edges = [e for e in range(12) if masks[cell, slot] >> e & 1]
-        owner = cells[cell] + EDGE_ORIGIN[edges]
-        wanted = np.ravel_multi_index(owner.T, field.shape) * 3 + EDGE_AXIS[edges]
-        members.append(vertex_of_edges(edge_ids, wanted, "trilinear table"))
+        edges = np.array([e for e in range(12) if masks[cell, slot] >> e & 1])
+        members.append(vertex_of_edges(edge_ids, cell_edge_ids(cells[cell], edges, field.shape), "trilinear table"))
 
     n_tri = table.counts[cell_keys].astype(np.int64)
     cell_of_tri = np.repeat(np.arange(len(cells)), n_tri)
@@ -153,9 +149,8 @@ def trilinear_parts(volume: np.ndarray, level: float, spacing=(1.0, 1.0, 1.0), d
     codes = table.triangles[cell_keys[cell_of_tri], slot].astype(np.int64)     # (M, 3)
     faces = np.empty(codes.shape, dtype=np.int64)
     on_edge = codes < FIRST_CELL_VERTEX
-    edge_codes = codes[on_edge]
-    owner = cells[np.broadcast_to(cell_of_tri[:, None], codes.shape)[on_edge]] + EDGE_ORIGIN[edge_codes]
-    wanted = np.ravel_multi_index(owner.T, field.shape) * 3 + EDGE_AXIS[edge_codes]
+    wanted = cell_edge_ids(cells[np.broadcast_to(cell_of_tri[:, None], codes.shape)[on_edge]], codes[on_edge],
+                           field.shape)
     faces[on_edge] = vertex_of_edges(edge_ids, wanted, "trilinear table").reshape(-1)
     tri_cells = np.broadcast_to(cell_of_tri[:, None], codes.shape)[~on_edge]
     faces[~on_edge] = first_own[tri_cells, codes[~on_edge] - FIRST_CELL_VERTEX]

@@ -13,6 +13,7 @@ from isoscope.core.trilinear_table import (
     TUNNEL_KEYS,
     ambiguous_faces,
     cell_triangles,
+    face_keys_of,
     loops,
     surface_regions,
     table_key,
@@ -23,9 +24,7 @@ from isoscope.core.trilinear_table import (
 
 def every_key():
     for case in range(256):
-        faces = ambiguous_faces(case)
-        for bits in range(1 << len(faces)):
-            face_key = sum(1 << f for i, f in enumerate(faces) if bits >> i & 1)
+        for face_key in face_keys_of(case):
             for tunnel in range(TUNNEL_KEYS):
                 yield case, face_key, tunnel
 

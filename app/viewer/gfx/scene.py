@@ -110,7 +110,7 @@ class GpuScene:
         # so are those of mesh options the GPU extractor does not make (`GpuSurface.makes`).
         self._compute = has_compute(ctx)
         # A volume the GPU extractor cannot hold whole is shown downsampled, as one over the budget.
-        state.refusal = surface_module.extractor_refusal(ctx) if has_compute(ctx) else None
+        state.refusal = surface_module.extractor_refusal(ctx) if self._compute else None
         self.surface: GpuSurface | CpuSurface | None = None   # the GL side of state.volume
         self.color_by: GpuColorBy | None = None  # the textures of state.color_by
         self.caps = CapMeshes(ctx)                # the levels' caps while state.closed (caps.py)
@@ -187,10 +187,7 @@ class GpuScene:
         while playing, as while a value is dragged)."""
         point = time_step(self.state, dt_seconds, wait)
         if point is not None:
-            surface = self._new_surface(point.shown, self.state.gradient_direction)
-            surface.full_triangles = self.surface.full_triangles   # sizes the preview before its first mesh
-            self.surface.release()
-            self.surface = surface
+            self._replace_surface(point.shown, self.state.gradient_direction)
             take_time_point(self.state, point)
             self._moved_last_frame = self.state.series.playing
             self._refresh_copies()
@@ -245,10 +242,21 @@ class GpuScene:
         self._extracted, self._wait = None, True
         self._refresh_copies()
 
+    def _surface_kind(self):
+        """GpuSurface where it makes the state's mesh options (and compute shaders run), else CpuSurface."""
+        return GpuSurface if self._compute and GpuSurface.makes(self.state.mesh_options) else CpuSurface
+
     def _new_surface(self, volume: Volume, gradient_direction: str):
-        """The GL side of `volume`: the GPU's extractor where it makes the state's mesh options, else the CPU's."""
-        gpu = self._compute and GpuSurface.makes(self.state.mesh_options)
-        return (GpuSurface if gpu else CpuSurface)(self.ctx, volume, gradient_direction)
+        """The GL side of `volume`, of `_surface_kind`."""
+        return self._surface_kind()(self.ctx, volume, gradient_direction)
+
+    def _replace_surface(self, volume: Volume, gradient_direction: str) -> None:
+        """A new surface for `volume` in place of the one on show (its size kept: it sizes the preview before
+        the first mesh)."""
+        surface = self._new_surface(volume, gradient_direction)
+        surface.full_triangles = self.surface.full_triangles
+        self.surface.release()
+        self.surface = surface
 
     def _apply_mesh_options(self) -> None:
         """Every level made again with the state's mesh options (on the CPU's surface where the GPU's does not
@@ -267,12 +275,8 @@ class GpuScene:
 
     def _surface_for_options(self) -> None:
         """The surface's kind (GPU or CPU extractor) swapped where the mesh options need the other."""
-        gpu = self._compute and GpuSurface.makes(self.state.mesh_options)
-        if isinstance(self.surface, GpuSurface) != gpu:
-            surface = self._new_surface(self.state.volume, self.surface.gradient_direction)
-            surface.full_triangles = self.surface.full_triangles
-            self.surface.release()
-            self.surface = surface
+        if type(self.surface) is not self._surface_kind():
+            self._replace_surface(self.state.volume, self.surface.gradient_direction)
 
     def _refresh_copies(self) -> None:
         for level, copy in self._copies.items():
