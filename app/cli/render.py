@@ -155,7 +155,7 @@ def _render_scene(scene, args) -> int:
     options are the scene's, so giving them is refused."""
     for option in ("iso", "opacity", "color_by", "slice", "clip", "window", "level", "colormap", "azimuth",
                    "elevation", "tetrahedra", "smooth", "sharp", "labels", "label_names", "save_scene", "closed",
-                   "raycast", "transfer", "with_surfaces"):
+                   "raycast", "transfer", "with_surfaces", "topology"):
         if getattr(args, option, None) not in (None, False, 0, []):
             raise InputError(f"a scene holds the view; --{option.replace('_', '-')} does not go with {args.volume} "
                              "(open it in the window to change it, then save it again)")

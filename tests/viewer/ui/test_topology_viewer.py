@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 import trimesh
-from support.command import isoscope_here
+from support.command import assert_one_line_error, isoscope_here
 from support.trilinear_cases import closed_noise
 
 import isoscope
@@ -97,6 +97,9 @@ def test_render_and_scenes_take_the_topology(tmp_path):
     a = np.asarray(Image.open(again).convert("RGB"), np.int16)
     b = np.asarray(Image.open(tmp_path / "trilinear.png").convert("RGB"), np.int16)
     assert a.shape == b.shape and np.abs(a - b).max() <= 2
+    # The scene holds the topology: a flag beside it would be ignored, so it is refused, as --tetrahedra is.
+    assert_one_line_error(isoscope_here("render", tmp_path / "trilinear.json", "--topology", "montani", "--out",
+                                        tmp_path / "x.png"), "a scene holds the view; --topology")
 
 
 @pytest.mark.gl
