@@ -11,7 +11,7 @@ meshes it with scikit-image and counts pieces and V - E + F, vertices merged by 
 Then isoscope's montani (default) and trilinear meshes and scikit-image's Lewiner (MC33) mesh are counted
 the same way.
 
-Cost: one-shot `isoscope.marching_cubes(volume, level, backend="cpu", topology=...)` and scikit-image's
+Cost: one-shot `isoscope.marching_cubes(volume, level, topology=...)` with the default backend and scikit-image's
 `measure.marching_cubes` (lewiner) on the MNI T1 (as nibabel gives it: Fortran uint8; needs nilearn), the
 smoothed noise and the gyroid of benchmarks/volumes.py at --size, runners in turns, medians in ms.
 """
@@ -96,8 +96,8 @@ def cost(size: int, rounds: int) -> None:
         print(f"(no MRI: {exc})")
     volumes += [(f"noise {size}^3", noise(size), 0.0), (f"gyroid {size}^3", gyroid(size), 0.0)]
     runners = {
-        "montani": lambda v, lvl: isoscope.marching_cubes(v, lvl, backend="cpu"),
-        "trilinear": lambda v, lvl: isoscope.marching_cubes(v, lvl, backend="cpu", topology="trilinear"),
+        "montani": lambda v, lvl: isoscope.marching_cubes(v, lvl),   # the default backend, as a user calls it
+        "trilinear": lambda v, lvl: isoscope.marching_cubes(v, lvl, topology="trilinear"),
         "scikit-image lewiner": lambda v, lvl: measure.marching_cubes(np.asarray(v, np.float32), lvl),
     }
     print("\n| volume | montani ms (triangles) | trilinear ms (triangles) | trilinear / montani | "
