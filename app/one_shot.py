@@ -36,6 +36,7 @@ def cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="de
     MeshOptions(smooth=iterations, sharp=angle, masked=mask is not None, chunked=chunks is not None,
                 topology=topology).check()
     trilinear = topology == "trilinear"
+    chosen = backend == "auto"
     backend = backend_of(backend)
     if chunks is not None:
         return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks, skimage)
@@ -58,15 +59,27 @@ def cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="de
         return skimage_values(checked.samples, verts, level, spacing, mask, step)
 
     plain_values = values_of if skimage and angle is None else None
-    if on_cpu:
-        mesh = _on_cpu(backend, False, checked, level, spacing, descent, iterations, plain_values,
+
+    def on_cpu_with(backend):
+        return _on_cpu(backend, False, checked, level, spacing, descent, iterations, plain_values,
                        fused_values=plain_values is not None and mask is None and not trilinear, trilinear=trilinear)
+
+    if on_cpu:
+        mesh = on_cpu_with(backend)
     elif angle is not None:
         from .gpu.sharp_features import marching_cubes_sharp_gpu
         mesh = marching_cubes_sharp_gpu(checked, level, spacing, gradient_direction, angle)
     else:
-        mesh = _on_gpu(checked, level, spacing, gradient_direction, iterations, False, plain_values,
-                       trilinear=trilinear)
+        from .gpu.limits import GPULimitError
+        try:
+            mesh = _on_gpu(checked, level, spacing, gradient_direction, iterations, False, plain_values,
+                           trilinear=trilinear)
+        except GPULimitError:
+            if not chosen:
+                raise
+            # "auto" chose the GPU, whose passes cannot hold this mesh (the trilinear topology's own vertices
+            # need one storage block): the compiled CPU extractor makes the same mesh.
+            mesh = on_cpu_with("cpu")
     if mask is not None:
         return keep_masked_cells(mesh, mask, spacing, step)
     if angle is None:

@@ -95,3 +95,22 @@ def test_a_mesh_past_one_storage_block_is_refused_in_one_line_and_the_last_mesh_
             extractor.extract(0.0)
         assert "\n" not in str(caught.value) and "backend='cpu'" in str(caught.value)
         assert_the_references_mesh(kept, volume, 3.0, "descent", (1.0, 1.0, 1.0))
+
+
+def test_auto_on_a_gpu_whose_storage_blocks_cannot_hold_the_mesh_makes_it_on_the_cpu(gl_ctx, monkeypatch):
+    """Where backend="auto" takes the GPU (graphics hardware) and the trilinear mesh outgrows one storage block,
+    a one-shot call gives the compiled CPU extractor's mesh (the same mesh), not a refusal; backend="gpu",
+    named, still refuses.  The small block imitates such a GPU (GpuLimits.of is what a context reports)."""
+    import isoscope.gpu.context as context
+    volume = np.random.default_rng(2).standard_normal((24, 24, 40)).astype(np.float32)
+    real = GpuLimits.of(gl_ctx)
+    monkeypatch.setattr(GpuLimits, "of", classmethod(lambda cls, ctx: cls(real.max_3d_texture_size,
+                                                                           real.max_texture_size, 64 << 10)))
+    monkeypatch.setattr(context, "_one_shot", "gpu")
+    with pytest.raises(IsoscopeError, match="backend='cpu'"):
+        isoscope.marching_cubes(volume, 0.0, backend="gpu", topology="trilinear")
+    mesh = isoscope.marching_cubes(volume, 0.0, topology="trilinear")
+    cpu = isoscope.marching_cubes(volume, 0.0, topology="trilinear", backend="cpu")
+    for a, b in zip(mesh, cpu):
+        np.testing.assert_array_equal(a, b)
+    assert len(mesh[1]) > 1000
