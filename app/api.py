@@ -450,7 +450,9 @@ class Extractor(metaclass=_ExtractorKind):
         The GPU extractor's limits, as `isoscope.gpu.cubes.Extractor` takes them.
     backend : {"auto", "gpu", "cpu", "numpy"}, default "auto"
         "gpu", "cpu" (compiled kernels), "numpy" (the numpy reference, for checking), or "auto": the
-        GPU where an OpenGL 4.3 context can be had (or `ctx` is given), else the CPU.
+        GPU where `ctx` is given, a window's context is current, or OpenGL 4.3 runs on graphics
+        hardware; else the compiled CPU extractor (without GL, and on a software renderer such as
+        llvmpipe, whose compute passes run slower on the same CPU cores).
     topology : {"montani", "trilinear"}, default "montani"
         As for `marching_cubes`; on every backend (`isoscope.gpu.trilinear` on the GPU).
 
@@ -505,9 +507,9 @@ class Extractor(metaclass=_ExtractorKind):
                 limits=None, *, backend="auto", topology="montani"):
         from .options import MeshOptions
         MeshOptions(topology=topology).check()
-        if backend == "auto":   # resident: the GPU wherever a 4.3 context can be had, llvmpipe included
-            from .gpu.context import gl_available
-            backend = "gpu" if ctx is not None or gl_available() else "cpu"
+        if backend == "auto":
+            from .gpu.context import resident_backend
+            backend = resident_backend(ctx)
         backend = one_shot.backend_of(backend)
         if backend == "gpu":
             from .gpu.cubes import Extractor as GpuExtractor

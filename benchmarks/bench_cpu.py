@@ -166,7 +166,8 @@ def run_arrays(rounds: int, cache: Path) -> None:
         print("| resident iso change, 128 <-> 129 | ours ms | FE 2T ms | FE 2T / ours |")
         print("|---|---:|---:|---:|")
         fe_state = fe[0](volume)
-        for backend in ("auto", "cpu"):
+        from isoscope.gpu.context import gl_available
+        for backend in ("auto", "cpu") + (("gpu",) if gl_available() else ()):
             extractor = isoscope.Extractor(volume, spacing, backend=backend)
             samples = {"ours": [], "fe": []}
             for n in range(2 * rounds + 2):

@@ -57,7 +57,7 @@ def main(argv=None):
         for name in args.volumes.split(","):
             make, gd = VOLUMES[name]
             volume = make(size)
-            with Extractor(volume, gradient_direction=gd) as ex:
+            with Extractor(volume, gradient_direction=gd, backend="gpu") as ex:
                 levels = (0.0, 0.01)
                 plain, (_, triangles) = median_ms(ex.extract, levels, args.repeats)
                 field, shown = signed_field(volume, ex.descent), SharpenedMesh(ex.ctx)

@@ -70,11 +70,12 @@ def test_auto_backend_is_the_gpu_on_hardware_and_the_cpu_on_a_software_renderer(
     runs_on_gpu = backend == "gpu" or (backend == "auto" and not is_software_renderer(gl_ctx))
     assert levels == ([0.0] if runs_on_gpu else [])
     assert len(faces) > 0
-    resident = isoscope.Extractor(sphere(20))   # resident: the GPU wherever a 4.3 context can be had
-    try:
+    # Resident "auto" chooses as one-shot calls do (no window's context is current here); given a context, the GPU.
+    from isoscope.cpu.extractor import CpuExtractor
+    with isoscope.Extractor(sphere(20)) as resident:
+        assert isinstance(resident, CpuExtractor if is_software_renderer(gl_ctx) else Extractor)
+    with isoscope.Extractor(sphere(20), ctx=gl_ctx) as resident:
         assert isinstance(resident, Extractor)
-    finally:
-        resident.release()
 
 
 @pytest.mark.gl
@@ -194,7 +195,11 @@ def test_extractor_of_every_backend_gives_one_mesh(backend):
 def test_extractor_backend_choice_and_errors(monkeypatch):
     from isoscope.cpu.extractor import CpuExtractor
     from isoscope.gpu import context
-    monkeypatch.setattr(context, "gl_available", lambda: False)  # what a machine with no GL answers
+    # What a machine with no GL answers: no window's context, no standalone one, and so the CPU one-shot.
+    monkeypatch.setattr(context, "_window_context_current", lambda: False)
+    monkeypatch.setattr(context, "_one_shot", None)
+    monkeypatch.setattr(context, "_standalone", None)
+    monkeypatch.setattr(context, "_no_standalone", context.GLUnavailable("no OpenGL 4.3 context here"))
     with isoscope.Extractor(sphere(12)) as ex:
         assert type(ex) is CpuExtractor and ex.backend == "cpu"
     assert not isinstance(np.zeros(3), isoscope.Extractor)
