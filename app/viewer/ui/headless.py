@@ -258,7 +258,7 @@ def empty_level_hints(viewer) -> list[str]:
     if state.volume is None or state.labels or scene is None or scene.surface is None:
         return []
     return [empty_level_hint(level.value, state.value_range, state.histogram)
-            for i, level in enumerate(state.levels.items) if level.visible and scene.level_stats(i)[0] == 0]
+            for i, level in enumerate(state.levels.items) if level.visible and scene.stats.level_stats(i)[0] == 0]
 
 
 def scene_pixels(scene: dict, size=None, panel: bool = False, letters: bool = False) -> np.ndarray:

@@ -348,7 +348,7 @@ class Panel:
         if not section("Stats"):
             return
         if state.labels:   # what is drawn: the visible labels, not the (hidden) level's mesh
-            shown, vertices, triangles = scene.label_counts()
+            shown, vertices, triangles = scene.stats.label_counts()
             imgui.text(f"labels     {shown} of {len(state.labels.layers)} shown")
             imgui.text(f"vertices   {vertices:,}")
             imgui.text(f"triangles  {triangles:,}")
@@ -359,23 +359,23 @@ class Panel:
 
     @staticmethod
     def _level_stats(state: ViewerState, scene) -> None:
-        imgui.text(f"vertices   {scene.n_vertices:,}")
-        imgui.text(f"triangles  {scene.n_triangles:,}")
-        if scene.shown_shape is not None:
+        imgui.text(f"vertices   {scene.stats.n_vertices:,}")
+        imgui.text(f"triangles  {scene.stats.n_triangles:,}")
+        if scene.stats.shown_shape is not None:
             full = state.full_volume.data.shape if state.full_volume is not None else state.volume.data.shape
-            shown = "x".join(map(str, scene.shown_shape))
-            if tuple(scene.shown_shape) == tuple(full):
+            shown = "x".join(map(str, scene.stats.shown_shape))
+            if tuple(scene.stats.shown_shape) == tuple(full):
                 imgui.text(f"shown      {shown}, full resolution")
             else:
                 imgui.text_colored(NOTE_COLOR, f"shown      {shown} of {'x'.join(map(str, full))}")
                 tooltip(f"memory budget {state.budget.text}" if state.step > 1 else "a preview while the level moves")
-        if scene.preview_step > 1:
-            imgui.text_colored(NOTE_COLOR, f"preview at 1/{scene.preview_step} resolution")
-            tooltip(pace_text(scene.pace))
-        imgui.text(f"extraction {scene.extract_ms:.1f} ms")
+        if scene.stats.preview_step > 1:
+            imgui.text_colored(NOTE_COLOR, f"preview at 1/{scene.stats.preview_step} resolution")
+            tooltip(pace_text(scene.pacing.pace))
+        imgui.text(f"extraction {scene.stats.extract_ms:.1f} ms")
         if len(state.levels) > 1:
             for i in range(len(state.levels)):
-                triangles, ms = scene.level_stats(i)
+                triangles, ms = scene.stats.level_stats(i)
                 imgui.text(f"surface {i + 1}  {triangles:,} triangles, {ms:.1f} ms")
 
     # --- beside the panel: messages and refusals, moving no control -------------------
@@ -391,7 +391,7 @@ class Panel:
         if state.error and (refusal(state, PANEL_TITLE) is None or self.box is None):
             return state.error, ERROR_COLOR
         if state.volume is not None and not state.labels and scene is not None and scene.surface is not None \
-                and scene.preview_step == 1 and scene.n_triangles == 0:
+                and scene.stats.preview_step == 1 and scene.stats.n_triangles == 0:
             return empty_level_hint(state.iso, state.value_range, state.histogram), HINT_COLOR
         hidden = self.levels_section.hidden_in if not state.labels else {}
         if state.levels.selected in hidden:

@@ -11,6 +11,7 @@ from PIL import Image
 from support.command import assert_one_line_error, isoscope_here
 
 from isoscope.cpu.measure import measure_surface, open_edge_count
+from isoscope.viewer.gfx.saving import save_mesh
 from isoscope.viewer.model.caps import caps, closed_mesh, extractor
 from isoscope.volumes.volume import finish_volume
 
@@ -109,10 +110,10 @@ def test_save_mesh_closed_at_the_border_is_watertight(gl_ctx, ball_file, tmp_pat
         viewer.update()
         viewer.state.closed = True   # the panel's 'closed at the border'
         assert len(viewer.scene.drawn()) == 2   # the level and its caps
-        viewer.scene.save_mesh(tmp_path / "ball.ply")
+        save_mesh(viewer.scene, tmp_path / "ball.ply")
         viewer.state.closed = False
         assert len(viewer.scene.drawn()) == 1
-        viewer.scene.save_mesh(tmp_path / "open.ply")
+        save_mesh(viewer.scene, tmp_path / "open.ply")
     finally:
         viewer.release()
     closed = trimesh.load(tmp_path / "ball.ply", process=True)

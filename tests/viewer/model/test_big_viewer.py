@@ -54,7 +54,7 @@ def test_a_big_volume_is_shown_downsampled_with_a_note(viewer, big_npy):
     assert state.bounds() == ((0, 0, 0), (60.0, 60.0, 60.0))     # the full volume's box
     note = [note for note in state.volume.notes if "one sample in 2" in note]
     assert note and "memory budget of 1.0 MiB (--memory-budget)" in note[0]
-    assert viewer.scene.n_triangles > 0
+    assert viewer.scene.stats.n_triangles > 0
 
 
 @pytest.mark.parametrize("direction", ["descent", "ascent"])

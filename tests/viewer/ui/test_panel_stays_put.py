@@ -197,7 +197,7 @@ def test_an_empty_level_says_where_the_values_are(gl_ctx):
         low, high = state.value_range
         state.levels.set_value(low)   # every voxel inside (ties count as inside): no surface
         image = frame(viewer, 3)
-        assert viewer.scene.n_triangles == 0
+        assert viewer.scene.stats.n_triangles == 0
         text, _ = viewer._panel.status(state, viewer.scene)
         assert text.startswith(f"no surface at {level_text(low, (low, high))}: the values lie in ")
         assert "most between" in text
@@ -205,7 +205,7 @@ def test_an_empty_level_says_where_the_values_are(gl_ctx):
         assert viewer._panel.levels_section.flags == {0: "empty"}
         state.levels.set_value((low + high) / 2)
         frame(viewer, 3)
-        assert viewer.scene.n_triangles > 0 and viewer._panel.status(state, viewer.scene) is None
+        assert viewer.scene.stats.n_triangles > 0 and viewer._panel.status(state, viewer.scene) is None
         assert viewer._panel.levels_section.flags == {}
     finally:
         viewer.release()
