@@ -34,8 +34,9 @@ from ...volumes import Volume
 from ..model.big_volume import downsampled
 from ..model.errors import USER_ERRORS as STATE_ERRORS
 from ..model.errors import one_line
+from ..model.opening import Opened
 from ..model.series import take_time_point, time_step
-from ..model.state import Opened, ViewerState
+from ..model.state import ViewerState
 from . import surface as surface_module
 from .caps import CapMeshes
 from .colorby import GpuColorBy
@@ -115,12 +116,12 @@ class GpuScene:
         they are in) unless `wait`, or after a change of the mesh options."""
         state = self.state
         for response in state.jobs.poll():
-            self._attempt(self._answer_open if response.kind == "open" else state.exported, response)
+            self._attempt(self._answer_open if response.kind == "open" else state.saving.exported, response)
         self._attempt(self._follow_time, dt_seconds, wait)
         self._attempt(self._follow)
         self.labels.follow_look(state.labels, dt_seconds, wait)
-        if state.save_request is not None:
-            path, state.save_request = state.save_request, None
+        if state.saving.save_request is not None:
+            path, state.saving.save_request = state.saving.save_request, None
             self._attempt(save_mesh, self, path)
         try:
             return self._extract_selected(dt_seconds, wait)
@@ -130,7 +131,7 @@ class GpuScene:
             return True
 
     def _answer_open(self, response) -> None:
-        self.show_opened(self.state.opened(response))
+        self.show_opened(self.state.opening.opened(response))
 
     def _attempt(self, step, *args) -> None:
         try:

@@ -117,12 +117,12 @@ class HeadlessViewer:
         self.app.frame(azimuth, elevation)
 
     def open(self, spec: str, wait_s: float = 60.0, **open_options) -> None:
-        """`ViewerState.open`, its answer waited for and shown (as a frame of the window would); what
+        """`state.opening.open`, its answer waited for and shown (as a frame of the window would); what
         fails is raised, the old volume staying on show."""
-        request = self.state.open(spec, **open_options)
+        request = self.state.opening.open(spec, **open_options)
         for response in self.state.jobs.poll(wait_s):
             if response.request_id == request:
-                self.scene.show_opened(self.state.opened(response))
+                self.scene.show_opened(self.state.opening.opened(response))
                 self.app.follow(0.0, wait=True, raise_errors=True)   # framed, and a scene put on it
                 return
         raise ViewerError(f"{spec[:80]} was not read within {wait_s:g} s")

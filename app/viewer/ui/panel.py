@@ -236,8 +236,8 @@ class Panel:
     def _volume_section(self, state: ViewerState) -> None:
         if not section("Volume"):
             return
-        if state.loading is not None:
-            imgui.progress_bar(state.loading.fraction, imgui.ImVec2(-1, 0), state.loading.message)
+        if state.opening.loading is not None:
+            imgui.progress_bar(state.opening.loading.fraction, imgui.ImVec2(-1, 0), state.opening.loading.message)
         if state.volume is not None:
             volume = state.volume
             shape = "x".join(str(n) for n in volume.data.shape)
@@ -252,11 +252,11 @@ class Panel:
             if toggled:
                 act(state, state.set_gradient_direction, "ascent" if below else "descent")
         current = state.volume.name if state.volume is not None else ""
-        choose(state, "built-in", current if current in builtin_names() else "", builtin_names(), state.open)
+        choose(state, "built-in", current if current in builtin_names() else "", builtin_names(), state.opening.open)
         if state.recent.paths and imgui.begin_combo("recent", ""):
             for path in state.recent.paths:
                 if imgui.selectable(Path(path).name + "##" + path, False)[0]:
-                    act(state, state.open, path)
+                    act(state, state.opening.open, path)
                 tooltip(path)
             imgui.end_combo()
         if self.can_browse and imgui.button("Open file...") and self._file_dialog is None:
@@ -265,8 +265,8 @@ class Panel:
             imgui.same_line()
             if imgui.button("Save mesh...") and self._save_dialog is None:
                 self._open_save_dialog(state)
-        if state.exporting is not None:
-            imgui.progress_bar(state.exporting.fraction, imgui.ImVec2(-1, 0), state.exporting.message)
+        if state.saving.exporting is not None:
+            imgui.progress_bar(state.saving.exporting.fraction, imgui.ImVec2(-1, 0), state.saving.exporting.message)
         elif self.can_browse and state.full_volume is not None:
             if imgui.button("Export full resolution...") and self._save_dialog is None:
                 self._open_save_dialog(state, full_resolution=True)
@@ -274,7 +274,7 @@ class Panel:
         entered, self.expr_text = imgui.input_text_with_hint(
             "expr", EXPR_HINT, self.expr_text, imgui.InputTextFlags_.enter_returns_true)
         if (entered or imgui.button("Show expr")) and self.expr_text.strip():
-            act(state, state.open, "expr:" + self.expr_text.strip())
+            act(state, state.opening.open, "expr:" + self.expr_text.strip())
 
     def _iso_section(self, state: ViewerState) -> None:
         self.iso_slider_box = self.histogram_box = None
@@ -480,16 +480,18 @@ class Panel:
             paths = self._file_dialog.result()
             self._file_dialog = None
             if paths:
-                act(state, state.open, paths[0])
+                act(state, state.opening.open, paths[0])
         if self._save_dialog is not None and self._save_dialog.ready(0):
             path = self._save_dialog.result()
             self._save_dialog = None
             if path:
-                act(state, state.export_full_resolution if self._save_full_resolution else state.request_save, path)
+                saving = state.saving
+                act(state, saving.export_full_resolution if self._save_full_resolution else saving.request_save, path)
         browser = self._browser(state)
         chosen = browser.draw()   # the browser inside the window, where there is no native dialog
         if chosen and browser.purpose == "open":
-            act(state, state.open, chosen)
+            act(state, state.opening.open, chosen)
         elif chosen:
-            act(state, state.export_full_resolution if browser.purpose == "full resolution" else state.request_save,
+            saving = state.saving
+            act(state, saving.export_full_resolution if browser.purpose == "full resolution" else saving.request_save,
                 chosen)

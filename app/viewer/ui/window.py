@@ -346,4 +346,4 @@ class ViewerWindow:
 
     def _on_drop(self, window, paths) -> None:
         if paths:
-            self.state.open(paths[0])
+            self.state.opening.open(paths[0])

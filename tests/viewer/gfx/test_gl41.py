@@ -260,7 +260,7 @@ def drive_window_on_41(x_display, tmp_path):
         assert (np.abs(shot[100:300, 380:600] - background).max(axis=2) > 30).mean() > 0.05   # the surface
 
         # An expr: volume typed in the panel: sampled with numpy (the window's 4.1 context has no compute).
-        state.open("expr:x^2 + y^2 + z^2 - 0.3; res=24")
+        state.opening.open("expr:x^2 + y^2 + z^2 - 0.3; res=24")
         assert frames_until(window, lambda: state.volume.name.startswith("x^2"))
         assert state.error is None, state.error
         assert any("sampled with numpy" in note for note in state.volume.notes), state.volume.notes

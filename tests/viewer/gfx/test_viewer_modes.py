@@ -46,7 +46,7 @@ def test_tetrahedra_apply_to_every_level_without_a_new_upload(viewer):
     assert state.set_cells("cubes") and drawn_triangles(viewer) == cubes
     with pytest.raises(MeshOptionsError, match="cubes"):
         state.set_cells("hexahedra")
-    assert state.cells == "cubes" and drawn_triangles(viewer) == cubes
+    assert state.mesh_options.cells == "cubes" and drawn_triangles(viewer) == cubes
     # One source for the options: the GPU surface keeps none of its own.
     assert not {"cells", "smooth", "sharp"} & set(vars(viewer.scene.surface))
 
@@ -70,7 +70,7 @@ def test_smoothing_moves_every_level_onto_its_own_level_set(viewer, tmp_path):
     assert len(saved.faces) == len(expected[1])
     with pytest.raises(ValueError, match="smooth"):
         state.set_smooth(-1)
-    assert state.smooth == 3
+    assert state.mesh_options.smooth == 3
 
 
 def test_sharp_features_are_drawn_and_saved_as_the_api_makes_them(viewer, tmp_path):
@@ -91,7 +91,7 @@ def test_sharp_features_are_drawn_and_saved_as_the_api_makes_them(viewer, tmp_pa
         state.set_smooth(2)
     with pytest.raises(MeshOptionsError, match="not with tetrahedra"):
         state.set_cells("tetrahedra")
-    assert (state.smooth, state.cells) == (0, "cubes")
+    assert (state.mesh_options.smooth, state.mesh_options.cells) == (0, "cubes")
     viewer.update()
     assert scene.stats.n_triangles == len(faces)
     assert state.set_sharp(None)

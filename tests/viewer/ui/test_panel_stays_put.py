@@ -121,7 +121,7 @@ def test_a_refusal_shows_beside_its_control_and_moves_nothing(viewer):
     assert sharp is not None, "the Mesh section did not open"
 
     click(viewer, centre(sharp))   # sharp features with tetrahedra: refused
-    assert state.sharp is None and "tetrahedra" in state.error
+    assert state.mesh_options.sharp is None and "tetrahedra" in state.error
     move_pointer(*OUTSIDE)
     after_image = frame(viewer)
     assert layout(viewer) == before
@@ -137,7 +137,7 @@ def test_a_refusal_shows_beside_its_control_and_moves_nothing(viewer):
     click(viewer, centre(sharp))
     state.set_cells("cubes")
     click(viewer, centre(sharp))
-    assert state.sharp is not None and state.error is None
+    assert state.mesh_options.sharp is not None and state.error is None
     frame(viewer)
     assert viewer._panel.refusal_box is None
 
@@ -273,7 +273,7 @@ def test_a_refusal_from_a_combo_shows_beside_the_combo(viewer):
     click(viewer, (popup.pos.x + 30, popup.pos.y + popup.size.y * 0.75))   # its second choice: tetrahedra
     move_pointer(*OUTSIDE)
     frame(viewer)
-    assert state.cells == "cubes" and "tetrahedra" in state.error
+    assert state.mesh_options.cells == "cubes" and "tetrahedra" in state.error
     x, y, width, height = viewer._panel.refusal_box
     assert x >= sum(viewer._panel.box[0::2]) and abs(y - (row - imgui.get_frame_height() / 2)) <= 4
 

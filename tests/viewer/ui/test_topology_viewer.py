@@ -71,7 +71,7 @@ def test_the_topology_is_drawn_saved_and_measured_as_the_api_makes_it(noise_on_s
     state.set_cells("tetrahedra")
     with pytest.raises(MeshOptionsError, match="not with tetrahedra"):
         state.set_topology("trilinear")
-    assert state.topology == "montani"
+    assert state.mesh_options.topology == "montani"
 
 
 @pytest.mark.gl   # render draws through OpenGL

@@ -167,8 +167,8 @@ def test_bad_file_shows_its_error_in_the_panel_and_keeps_the_volume(viewer, tmp_
     broken.write_bytes(b"this is not a numpy file")
     with pytest.raises(ValueError, match="broken.npy"):
         viewer.open(str(broken))
-    state.open(str(broken))       # as the panel asks: the answer comes in a frame, shown in the panel
-    assert state.loading.done(wait_s=60)
+    state.opening.open(str(broken))       # as the panel asks: the answer comes in a frame, shown in the panel
+    assert state.opening.loading.done(wait_s=60)
     viewer.render(panel=True)              # the frame that takes the answer: after its panel's layout
     shown = viewer.render(panel=True)      # the next frame's panel shows it
     assert state.error and "\n" not in state.error and "broken.npy" in state.error
@@ -209,7 +209,7 @@ def test_a_hostile_expression_typed_in_the_panel_keeps_the_window(viewer, formul
     refused in one line with the last good volume still on show."""
     state = viewer.state
     volume = state.volume
-    state.open(f"expr:{formula}; res=8")   # as the panel's expr box asks
+    state.opening.open(f"expr:{formula}; res=8")   # as the panel's expr box asks
     viewer.render()
     if state.error is None:
         assert state.volume.data.shape == (8, 8, 8)
@@ -239,14 +239,14 @@ def test_a_volume_read_in_the_background_reports_progress_then_shows(viewer, tmp
     path = tmp_path / "ramp.npy"
     np.save(path, np.broadcast_to(np.arange(192, dtype=np.float32), (256, 256, 192)))  # 48 MiB: read in slabs
     state = viewer.state
-    request = state.open(str(path))
-    pending = state.loading
+    request = state.opening.open(str(path))
+    pending = state.opening.loading
     assert pending.request_id == request and pending.done(wait_s=60)
     assert pending.message != f"opening {path}" and 0 < pending.fraction <= 1  # the loader reported
     assert pending.response.request_id == request          # the answer carries the request's id
     assert state.volume.name != "ramp"                  # not shown until the main thread takes it
     viewer.render()                                      # a frame: the scene uploads and extracts it
-    assert state.loading is None and state.error is None
+    assert state.opening.loading is None and state.error is None
     assert state.volume.data.shape == (256, 256, 192) and viewer.scene.stats.n_triangles > 0
     assert str(path.resolve()) in state.recent.paths
 
@@ -256,8 +256,8 @@ def test_a_bad_file_read_in_the_background_keeps_the_volume(viewer, tmp_path):
     before = state.volume
     bad = tmp_path / "broken.npy"
     bad.write_bytes(b"\x93NUMPY garbage")
-    state.open(str(bad))
-    assert state.loading.done(wait_s=60)
+    state.opening.open(str(bad))
+    assert state.opening.loading.done(wait_s=60)
     viewer.render()
     assert state.volume is before and viewer.scene.extractor is not None
     assert state.error and "broken.npy" in state.error and "\n" not in state.error
@@ -268,16 +268,16 @@ def test_a_newer_open_request_wins_over_an_older_slower_one(viewer):
     newer one's is stale, and dropped: the volume asked for last stays on show."""
     import threading
 
-    from isoscope.viewer.model.state import read_for_viewer
+    from isoscope.viewer.model.opening import read_for_viewer
     state, release = viewer.state, threading.Event()
 
     def slow(spec, progress=None):
         release.wait(60)
         return read_for_viewer(open_volume, spec, {"resolution": 16}, state.budget, progress=progress)
     old = state.jobs.submit("open", slow, "gyroid")
-    new = state.open("torus", resolution=16)
-    assert new > old and state.loading.request_id == new
-    assert state.loading.done(wait_s=60)
+    new = state.opening.open("torus", resolution=16)
+    assert new > old and state.opening.loading.request_id == new
+    assert state.opening.loading.done(wait_s=60)
     viewer.render()
     assert state.volume.name == "torus:16"
     release.set()
@@ -302,7 +302,7 @@ def test_progress_bar_is_drawn_while_loading(viewer, tmp_path):
     state.jobs.submit("open", stalled, "ramp")
     loading = viewer.render(panel=True)
     release.set()
-    state.loading.done(wait_s=60)
+    state.opening.loading.done(wait_s=60)
     viewer.render()
     assert np.abs(loading.astype(int) - idle.astype(int)).max(axis=2)[:, :300].sum() > 0
 
@@ -396,7 +396,7 @@ def test_histogram_marks_the_level_and_a_click_on_it_sets_the_level(gl_ctx):
 def test_save_mesh_writes_the_surface_on_show_in_the_format_of_its_name(viewer, tmp_path):
     from support.mesh_checks import assert_closed_manifold, read_ply
     state, scene = viewer.state, viewer.scene
-    state.request_save(tmp_path / "shown.ply")   # as the panel's save dialog asks: written in the frame
+    state.saving.request_save(tmp_path / "shown.ply")   # as the panel's save dialog asks: written in the frame
     viewer.render()
     verts, normals, _, faces = read_ply(tmp_path / "shown.ply")
     assert len(faces) == scene.stats.n_triangles > 100 and len(verts) == scene.stats.n_vertices
@@ -406,7 +406,7 @@ def test_save_mesh_writes_the_surface_on_show_in_the_format_of_its_name(viewer, 
     # A bad name: one line (raised, or in the panel), nothing written, the viewer as it was.
     with pytest.raises(ValueError, match=r"\.ply, \.obj, \.stl, \.glb, \.off"):
         save_mesh(scene, tmp_path / "shown.vtk")
-    state.request_save(tmp_path / "shown.vtk")
+    state.saving.request_save(tmp_path / "shown.vtk")
     viewer.render()
     assert ".ply, .obj, .stl, .glb, .off" in state.error and "\n" not in state.error
     assert not (tmp_path / "shown.vtk").exists()
