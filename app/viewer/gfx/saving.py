@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ...labels import check_label_output, write_labelled
-from ..model.caps import closed_mesh
+from ...one_shot import closed_mesh
 from ..model.errors import ViewerError
 
 

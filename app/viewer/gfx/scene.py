@@ -38,7 +38,7 @@ from ..model.opening import Opened
 from ..model.series import take_time_point, time_step
 from ..model.state import ViewerState
 from . import surface as surface_module
-from .caps import CapMeshes
+from .cap_meshes import CapMeshes
 from .colorby import GpuColorBy
 from .cpu_surface import CpuSurface
 from .label_scene import LabelMeshes
@@ -75,7 +75,7 @@ class GpuScene:
         state.refusal = surface_module.extractor_refusal(ctx) if self._compute else None
         self.surface: GpuSurface | CpuSurface | None = None   # the GL side of state.volume
         self.color_by: GpuColorBy | None = None  # the textures of state.color_by
-        self.caps = CapMeshes(ctx)                # the levels' caps while state.closed (caps.py)
+        self.caps = CapMeshes(ctx)                # the levels' caps while state.closed (cap_meshes.py)
         self.options = state.mesh_options         # what the meshes on the GPU were made with
         self.level_meshes = LevelMeshes(ctx)      # which level the extractor holds, the other levels' copies
         self._extracted: float | None = None      # the value it was extracted at (None: extract it again)

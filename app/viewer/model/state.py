@@ -10,7 +10,7 @@ ValueError), leaving everything as it was; the panel shows the exception's one l
 - `series`: a series' time axis: the time point, playback, its reads on a worker (model/series.py);
 - `jobs`: volumes read and full-resolution exports in the background, a request id in and a response
   out (model/jobs.py); `opening`: the requests for volumes and their answers (model/opening.py);
-  `saving`: "Save mesh..." and "Export full resolution" asked for (model/saving.py);
+  `saving`: "Save mesh..." and "Export full resolution" asked for (model/save_requests.py);
 - `style`, `recent`, and the panel's messages (`error`, `message`).
 
 The GPU side (gfx/scene.py) follows the state once a frame, after the panel's layout: it answers the
@@ -37,7 +37,7 @@ from .levels import Levels
 from .opening import VolumeOpening
 from .raycast import check_raycast, check_transfer, moved_point
 from .recent import RecentFiles
-from .saving import SaveRequests
+from .save_requests import SaveRequests
 from .series import TimeAxis
 from .slices import SliceScene, SliceSettings
 from .style import SurfaceStyle
@@ -74,7 +74,7 @@ class ViewerState:
         self.jobs = Jobs()
         self.opening = VolumeOpening(self, opener)   # volumes asked for, read in the background (opening.py)
         self.saving = SaveRequests(self)      # the mesh on show to save, a big volume's full resolution to export
-        self.closed = False                   # surfaces capped where they leave the volume (gfx/caps.py)
+        self.closed = False                   # surfaces capped where they leave the volume (gfx/cap_meshes.py)
         self.error: str | None = None         # shown in the panel until the next successful action
         self.message: str | None = None       # e.g. where the last screenshot went
         self.recent = recent if recent is not None else RecentFiles(None)
@@ -237,4 +237,4 @@ class ViewerState:
 
     def release(self) -> None:
         """Let go of what the state runs outside itself: a full-resolution export still running is stopped."""
-        self.saving.stop()   # the window closes: stop the child (its file is written whole or not at all)
+        self.saving.stop()   # the window closes: stop the export (its file is written whole or not at all)

@@ -1,6 +1,6 @@
 """Asking the viewer to write what it shows: "Save mesh..." (the mesh on show, written by the GPU side on its next
 frame: gfx/saving.py) and "Export full resolution" (a downsampled big volume's full mesh, written a chunk at a time
-in a child process: big_volume.py, a background job).  No GL here."""
+on a worker thread: big_volume.py, a background job).  No GL here."""
 from __future__ import annotations
 
 from .big_volume import FullResolutionExport
@@ -24,7 +24,7 @@ class SaveRequests:
 
     def export_full_resolution(self, path) -> int:
         """Write the full-resolution mesh of a downsampled big volume at the selected level to `path`,
-        a chunk at a time in a child process, a background job; its answer (`exported`) says when it is
+        a chunk at a time on a worker thread, a background job; its answer (`exported`) says when it is
         written, or why not.  The request's id."""
         state = self._state
         if state.full_volume is None:
