@@ -228,3 +228,55 @@ def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chu
         return mesh
     from .cpu.skimage_values import skimage_values
     return (*mesh[:3], skimage_values(source, mesh[0], level, spacing))
+
+
+def extraction_of(cells: str, topology: str = "montani"):
+    """The extraction isoscope draws, exports and measures: outward-wound cubes (the public `marching_cubes`
+    is scikit-image's drop-in, wound the other way) of the `topology` asked for, or marching tetrahedra."""
+    from functools import partial
+    return tetrahedra if cells == "tetrahedra" else partial(cubes, topology=topology)
+
+
+def closed_mesh(volume, level: float, cells: str = "cubes", smooth: int = 0, topology: str = "montani"):
+    """(verts, faces, normals, values) of `volume` (a Volume) at `level` extracted whole from the volume padded on the
+    outside of the level (core/closing.py), as `export --closed` does: watertight at the border; index x spacing
+    coordinates."""
+    from .core.closing import padded_for_closing, unpad
+    level = validation.as_level(level, volume.value_range)
+    data = padded_for_closing(volume.checked.data, volume.value_range, volume.gradient_direction == "descent")
+    verts, faces, normals, values = extraction_of(cells, topology)(
+        data, level, spacing=volume.spacing, backend="cpu", gradient_direction=volume.gradient_direction, smooth=smooth)
+    return unpad(verts, volume.spacing), faces, normals, values
+
+
+EMPTY_MESH = (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int64), np.zeros((0, 3), np.float32),
+              np.zeros(0, np.float32))
+
+
+def border_caps(data, level: float, spacing=(1.0, 1.0, 1.0), gradient_direction: str = "descent", value_range=None,
+                cells: str = "cubes"):
+    """(verts, faces, normals, values) of the caps closing the surface `data == level` at the volume's border (what
+    `closed_mesh` adds to the open surface, from the padding's slabs alone: core/closing.py), in index x spacing
+    coordinates (the extractor's); empty where the surface stays inside."""
+    from .core.closing import all_outside, far_value, slab_samples, slabs
+    descent = gradient_direction == "descent"
+    if value_range is None:
+        value_range = (float(np.min(data)), float(np.max(data)))
+    far = far_value(value_range, descent)
+    spacing = np.asarray(spacing, np.float64)
+    extract = extraction_of(cells)
+    parts, count = [], 0
+    for ranges in slabs(np.shape(data)):
+        samples = slab_samples(data, ranges, far)
+        if min(samples.shape) < 2 or all_outside(samples, level, descent):
+            continue
+        verts, faces, normals, values = extract(samples, level, spacing=tuple(spacing), backend="cpu",
+                                                gradient_direction=gradient_direction)
+        if not len(faces):
+            continue
+        offset = (np.array([lo for lo, _ in ranges], np.float64) - 1.0) * spacing
+        parts.append(((verts + offset).astype(np.float32), faces.astype(np.int64) + count, normals, values))
+        count += len(verts)
+    if not parts:
+        return EMPTY_MESH
+    return tuple(np.concatenate([part[i] for part in parts]) for i in range(4))

@@ -141,7 +141,7 @@ def toggle_row(name: str, labels: np.ndarray, size: tuple[int, int], repeats: in
         toggle_ms = median_ms(lambda _: toggle(), None, 2 * repeats + 1)[0]
         fade_ms = median_ms(lambda _: fade(), None, 2 * repeats + 1)[0]
         made = viewer.scene.labels.extractions - extractions
-        _, vertices, triangles = viewer.scene.label_counts()
+        _, vertices, triangles = viewer.scene.stats.label_counts()
         return (f"| {name} {'x'.join(map(str, labels.shape))} | {len(state.labels.layers)} | {triangles:,} | "
                 f"{show_ms:.0f} | {frame_ms:.0f} | {work_ms:.2f} | {toggle_ms:.0f} | {fade_ms:.0f} | {made} |")
     finally:

@@ -97,7 +97,7 @@ def main(argv=None) -> int:
                     shown = series.shown
                     changes.append(now - last)
                     last = now
-                    triangles.append(sum(mesh.n_triangles for mesh in scene.meshes))
+                    triangles.append(sum(mesh.n_triangles for mesh in scene.stats.meshes))
                 if state.error:
                     sys.exit(f"bench_series: {state.error}")
             elapsed = time.perf_counter() - start

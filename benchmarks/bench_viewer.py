@@ -111,13 +111,13 @@ def main(argv=None) -> int:
                 start = time.perf_counter()
                 window.draw_frame()
                 frame_ms.append((time.perf_counter() - start) * 1000)
-                extract_ms.append(scene.extract_ms)
-                triangles.append(sum(mesh.n_triangles for mesh in scene.meshes))
-                steps.append(scene.preview_step)
+                extract_ms.append(scene.stats.extract_ms)
+                triangles.append(sum(mesh.n_triangles for mesh in scene.stats.meshes))
+                steps.append(scene.stats.preview_step)
             # The value rests: frames go on until the full-resolution mesh is back on show.
             released = time.perf_counter()
             rest_ms = []   # each frame after the last move, until the full mesh has been drawn once
-            while scene.preview_step > 1 and time.perf_counter() - released < 30.0:
+            while scene.stats.preview_step > 1 and time.perf_counter() - released < 30.0:
                 start = time.perf_counter()
                 window.draw_frame()
                 rest_ms.append((time.perf_counter() - start) * 1000)
@@ -139,11 +139,11 @@ def main(argv=None) -> int:
             print(f"  preview     {len(previews)} of {args.frames} frames drew a coarse preview"
                   + (f" (sample step {min(previews)}..{max(previews)})" if previews else "")
                   + f"; full mesh back {full_after_ms:.0f} ms after the last move (frames "
-                  + " ".join(f"{ms:.0f}" for ms in rest_ms) + f"; its extraction {scene.extract_ms:.0f} ms), "
+                  + " ".join(f"{ms:.0f}" for ms in rest_ms) + f"; its extraction {scene.stats.extract_ms:.0f} ms), "
                   f"a frame of it at rest {full_frame_ms:.0f} ms")
             import resource
             peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-            print(f"  shown       {'x'.join(map(str, scene.shown_shape))} of {shape} at rest (memory budget "
+            print(f"  shown       {'x'.join(map(str, scene.stats.shown_shape))} of {shape} at rest (memory budget "
                   f"{state.budget.text}), {volume.data.dtype}; window open with the first mesh in {open_s:.1f} s; "
                   f"peak RSS {peak:.0f} MiB")
         finally:

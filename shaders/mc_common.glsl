@@ -32,7 +32,7 @@ uniform uvec3 u_div_words;
 uniform uvec3 u_div_rows;
 uniform uvec3 u_div_bricks_j;
 // VOLUME_FORMAT/VOLUME_IMAGE: rgba32f image3D, or for 8- and 16-bit scans their integer formats
-// (gpu_layout.VOLUME_TEXEL_FORMATS), read as exact floats.
+// (core/layout.py VOLUME_TEXEL_FORMATS), read as exact floats.
 layout(VOLUME_FORMAT, binding = UNIT_VOLUME) readonly uniform VOLUME_IMAGE u_volume;
 
 const uint WORDS_PER_BRICK = uint(BRICK_WORDS);  // BRICK_I * BRICK_J, injected as a literal for local_size_x
@@ -42,7 +42,7 @@ uint linear_group() {  // dispatches fold into 2-D past 65535 groups
     return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
 }
 
-// n / d for the divisor d whose constants `magic` gpu_layout.divisor_magic() made: exact for every
+// n / d for the divisor d whose constants `magic` core/layout.py divisor_magic() made: exact for every
 // 32-bit n (Granlund and Montgomery 1994, fig. 4.1).  llvmpipe divides integers lane by lane; these
 // divisions, one set per vertex, once took a fifth of the whole extraction.
 uint divide(uint n, uvec3 magic) {

@@ -106,18 +106,13 @@ def run_render(args) -> int:
                 raise InputError(f"render --sharp draws the one sharp-featured surface; leave out {option}")
         if len(isos) > 1:
             raise InputError("render --sharp draws one level; give one --iso")
-        from ..viewer.ui.headless import render_sharp_png
-        path = render_sharp_png(volume, args.out, isos[0], args.sharp, size=args.size, azimuth=args.azimuth,
-                                elevation=args.elevation, transparent=args.transparent)
-        wrote(path, f"({args.size[0]}x{args.size[1]})")
-        return 0
     from ..viewer.ui.headless import render_png
     path = render_png(volume, args.out, isos, size=args.size, azimuth=args.azimuth,
                       elevation=args.elevation, panel=args.panel, transparent=args.transparent,
                       opacities=[a for values in args.opacity or [] for a in values],
                       color_by=args.color_by, colormap=args.color_by_map,
                       tetrahedra=args.tetrahedra, smooth=args.smooth, wireframe=args.wireframe,
-                      topology=args.topology or "montani",
+                      topology=args.topology or "montani", sharp=args.sharp,
                       prepare=lambda state: (apply_slice_arguments(state, args), setattr(state, "closed", args.closed)),
                       then=_scene_saver(args),
                       letters=args.orientation_letters)

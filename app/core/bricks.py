@@ -1,5 +1,5 @@
 """Which bricks of a volume over the memory budget to show at full resolution: those in view, nearest the
-camera first, within the bytes the budget leaves beside a coarse view of the whole (issue 33, point 3).
+camera first, within the bytes the budget leaves beside a coarse view of the whole.
 
 Pure logic, no GL and no reading: the volume is cut into bricks of `BRICK_CELLS` cells a side (the chunked
 extractor's boxes, big/chunked.py: neighbours share their face's samples, so their meshes meet without a

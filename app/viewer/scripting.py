@@ -109,7 +109,7 @@ def view(volume, level=None, *, spacing=None, affine=None, gradient_direction="d
     return Viewed(level=float(state.iso), levels=tuple(float(item.value) for item in state.levels.items),
                   azimuth=float(camera.azimuth), elevation=float(camera.elevation), slices=slices,
                   volume=state.volume.name if state.volume is not None else shown.name,
-                  shown_shape=window.scene.shown_shape)
+                  shown_shape=window.scene.stats.shown_shape)
 
 
 def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None, spacing=None, affine=None,

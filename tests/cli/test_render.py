@@ -62,10 +62,10 @@ def test_sphere_renders_as_a_lit_disc(viewer):
 def test_larger_iso_gives_a_larger_disc_and_reuses_the_viewer(viewer):
     viewer.show(small_sphere(), iso=-0.2, azimuth=0, elevation=0)
     small = surface_mask(viewer.render(), viewer.state.style.background).sum()
-    small_triangles = viewer.scene.n_triangles
+    small_triangles = viewer.scene.stats.n_triangles
     viewer.state.iso = 0.2   # radius 0.5 -> 0.9: the mesh grows, the extractor may reallocate
     large = surface_mask(viewer.render(), viewer.state.style.background).sum()
-    assert viewer.scene.n_triangles > 2 * small_triangles
+    assert viewer.scene.stats.n_triangles > 2 * small_triangles
     assert large / small == pytest.approx((0.9 / 0.5) ** 2, rel=0.15)
 
 

@@ -6,7 +6,7 @@ per label map (`extractions` counts it) and keeps them all, so a label shown, hi
 only the draw list (`drawn`), never a mesh.  With `previews` (the window), a label map whose surfaces are
 too many triangles to draw at once on a software renderer is also kept as coarse surfaces (every
 `preview_step`-th sample), which the scene draws for the frames right after a label is shown, hidden or
-faded, until it rests (scene.py's REST_S), as a dragged level is previewed.  `LabelCaps` draws the
+faded, until it rests (preview_pacing.py's REST_S), as a dragged level is previewed.  `LabelCaps` draws the
 clip's cut (label_cap.frag): the labels' index on the grid plane nearest the clip, looked up in a table
 of their colours, each label's part in its colour as its surface is cut.  `label_scene` is the one-shot
 upload of `label_surfaces`' result for a caller that owns its buffers.
@@ -22,6 +22,7 @@ from ...labels import label_colors, label_surfaces, labels_of
 from ...resources import shader_source
 from ..model.labels import LabelLayer, LabelMap
 from ..model.slices import SliceScene
+from .preview_pacing import REST_S
 
 PREVIEW_TRIANGLES = 250_000   # label surfaces above this many triangles get coarse twins for the frames after a toggle
 TABLE_WIDTH = 1024   # the colour table's texture is this wide, as many rows as the labels need
@@ -58,6 +59,8 @@ class LabelMeshes:
         self.preview_step = 1
         self.serial: int | None = None   # the label map (LabelMap.serial) they are of
         self.extractions = 0             # label maps extracted so far: a toggle makes none
+        self._look = None                # the labels' (label, visible, opacity) last frame
+        self._rest_s = REST_S            # how long they have not changed
 
     def follow(self, labels: LabelMap, volume) -> None:
         """Extract `volume`'s labels when another label map is put on show; release them when none is.
@@ -86,6 +89,22 @@ class LabelMeshes:
             raise
         self.extractions += 1
         self.serial = labels.serial
+
+    def follow_look(self, labels: LabelMap, dt_seconds: float, wait: bool) -> None:
+        """How long the label map's looks have rested: coarse label surfaces are drawn until REST_S (`resting`)."""
+        look = tuple((layer.label, layer.visible, layer.opacity) for layer in labels.layers) if labels else None
+        if wait:
+            self._rest_s = REST_S
+        elif look != self._look and self._look is not None and look is not None:
+            self._rest_s = 0.0
+        else:
+            self._rest_s += dt_seconds
+        self._look = look
+
+    @property
+    def resting(self) -> bool:
+        """Whether the looks have rested REST_S: the full surfaces are drawn, not the coarse twins."""
+        return self._rest_s >= REST_S
 
     def drawn(self, labels: LabelMap, coarse: bool = False) -> list[tuple[GpuMesh, LabelLayer]]:
         """The visible labels' meshes and layers (their colours and opacities: the renderer's looks); with

@@ -16,83 +16,45 @@ is on screen meanwhile), and the status line then says what it took.
 All levels come from the one `GpuSurface` (one upload, one set of brick ranges, one extractor and its
 previews), or, on a context below OpenGL 4.3 (macOS's 4.1: no compute shaders), from its CPU twin
 `CpuSurface` (cpu_surface.py), whose meshes are uploaded into vertex buffers of the same layout.
-The selected level is drawn straight from the extractor's buffers; every other level keeps
-its last full-resolution mesh in buffers of its own (`MeshCopy`, a GPU-to-GPU copy made when it stops
-being the selected one), so a drag re-extracts one level per frame, not all.
+The selected level is drawn straight from the extractor's buffers, every other level from a copy of its own
+(level_meshes.py).  Its parts: the preview's step (preview_pacing.py), its numbers for the panel
+(`stats`, scene_stats.py), saving what it shows (saving.py).
 
-`show` and `save_mesh` raise what goes wrong; `update`, the frame's step, shows it in the panel
+`show` and saving raise what goes wrong; `update`, the frame's step, shows it in the panel
 (`state.error`) and keeps what was drawn.
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import moderngl
 
-from ...core.budget import shown_shape
-from ...core.layout import INDEX_BYTES, VERTEX_BYTES
-from ...gpu.buffers import GrowableBuffer
 from ...gpu.context import gl_summary, has_compute, is_software_renderer
 from ...gpu.memory import default_memory_budget
 from ...gpu.mesh import GpuMesh
-from ...labels import check_label_output, write_labelled
 from ...volumes import Volume
 from ..model.big_volume import downsampled
-from ..model.caps import closed_mesh
 from ..model.errors import USER_ERRORS as STATE_ERRORS
-from ..model.errors import ViewerError, one_line
-from ..model.levels import Level
-from ..model.pacing import FramePace
+from ..model.errors import one_line
+from ..model.opening import Opened
 from ..model.series import take_time_point, time_step
-from ..model.state import Opened, ViewerState
+from ..model.state import ViewerState
 from . import surface as surface_module
-from .caps import CapMeshes
+from .cap_meshes import CapMeshes
 from .colorby import GpuColorBy
 from .cpu_surface import CpuSurface
 from .label_scene import LabelMeshes
+from .level_meshes import LevelMeshes
+from .preview_pacing import REST_S, PreviewPacing
 from .renderer import SurfaceLook
+from .saving import save_mesh
+from .scene_stats import SceneStats
 from .surface import GpuSurface
 
 USER_ERRORS = (*STATE_ERRORS, moderngl.Error)
 """What a bad volume, value or extraction raises: one-line messages meant for the user."""
-REST_S = 0.15                # a value unchanged this long gets its full-resolution mesh
 SAID_FRAMES = 2
 """Frames between the status line's "full resolution: extracting..." and the extraction: the window lays
 out its panel before the scene follows the state, so a word said in one frame's update shows in the next
 frame's picture; the extraction waits for the frame after that, and the word is on screen while it runs."""
-MIN_PREVIEW_SHARE = 8        # the moving level's preview keeps at least 1/8 of the frame's triangle budget
-
-
-class MeshCopy:
-    """A mesh copied on the GPU into buffers of its own (growable: a level dragged back and forth rarely
-    reallocates)."""
-
-    def __init__(self, ctx: moderngl.Context):
-        self.ctx = ctx
-        self._vertices = GrowableBuffer(ctx, VERTEX_BYTES)
-        self._indices = GrowableBuffer(ctx, INDEX_BYTES)
-        self.n_vertices = self.n_triangles = 0
-        self.extract_ms = 0.0       # of the extraction it was copied from
-
-    def take(self, mesh: GpuMesh, extract_ms: float) -> None:
-        """Copy `mesh`'s vertices and triangles into these buffers (grown where needed) and keep its counts and
-        extraction time."""
-        vertex_bytes, index_bytes = mesh.n_vertices * VERTEX_BYTES, mesh.n_triangles * INDEX_BYTES
-        vertices, indices = self._vertices.ensure(vertex_bytes), self._indices.ensure(index_bytes)
-        if mesh.n_triangles:
-            self.ctx.copy_buffer(vertices, mesh.vertex_buffer, vertex_bytes)
-            self.ctx.copy_buffer(indices, mesh.index_buffer, index_bytes)
-        self.n_vertices, self.n_triangles, self.extract_ms = mesh.n_vertices, mesh.n_triangles, extract_ms
-
-    @property
-    def mesh(self) -> GpuMesh:
-        """The copy as the renderer draws it."""
-        return GpuMesh(self._vertices.buffer, self._indices.buffer, self.n_vertices, self.n_triangles)
-
-    def release(self) -> None:
-        """Free the copy's buffers."""
-        self._vertices.release()
-        self._indices.release()
 
 
 class GpuScene:
@@ -113,23 +75,19 @@ class GpuScene:
         state.refusal = surface_module.extractor_refusal(ctx) if self._compute else None
         self.surface: GpuSurface | CpuSurface | None = None   # the GL side of state.volume
         self.color_by: GpuColorBy | None = None  # the textures of state.color_by
-        self.caps = CapMeshes(ctx)                # the levels' caps while state.closed (caps.py)
-        self._options = state.mesh_options        # what the meshes on the GPU were made with
-        self._on_extractor: Level | None = None   # the level whose mesh the extractor holds
+        self.caps = CapMeshes(ctx)                # the levels' caps while state.closed (cap_meshes.py)
+        self.options = state.mesh_options         # what the meshes on the GPU were made with
+        self.level_meshes = LevelMeshes(ctx)      # which level the extractor holds, the other levels' copies
         self._extracted: float | None = None      # the value it was extracted at (None: extract it again)
-        self._copies: dict[Level, MeshCopy] = {}  # the other levels' meshes
         # a label map's surfaces, kept while it is on show; coarse twins where a frame of them is slow
         self.labels = LabelMeshes(ctx, previews and is_software_renderer(ctx))
-        self._label_look = None                   # the labels' (label, visible, opacity) last frame
-        self._label_rest_s = REST_S               # how long they have not changed
         self._wait = False                        # the next extraction makes its sharp features at once
         self._moved_last_frame = False
         self._rest_s = 0.0                        # how long the value has not moved
-        self.pace = FramePace()                   # frame times while the level moves, per preview step
-        self._pace_key = None                     # what they were measured with (the other levels, options)
-        self._last_frame: int | None = None       # the step the last frame drew moving (0: a preview, idle)
+        self.pacing = PreviewPacing()             # frame times while the level moves, per preview step
         self._full_said: str | None = None        # the status line's word on the full mesh, while it stands
         self._said_frames = 0                     # frames since it said the full mesh is coming
+        self.stats = SceneStats(self)             # its numbers, for the panel's Stats
 
     # --- volumes -----------------------------------------------------------
     def show(self, volume: Volume, level: float | None = None) -> None:
@@ -147,8 +105,8 @@ class GpuScene:
             self.surface.release()
         self.surface = surface
         self.state.show(opened.shown, level, opened.volume if opened.step > 1 else None, opened.step)
-        self._on_extractor, self._extracted = self.state.levels.current, None
-        self.pace.forget()   # another volume: other frame times
+        self.level_meshes.on_extractor, self._extracted = self.state.levels.current, None
+        self.pacing.pace.forget()   # another volume: other frame times
         self._extract_selected(0.0, wait=True)
 
     # --- per frame ---------------------------------------------------------
@@ -158,13 +116,13 @@ class GpuScene:
         they are in) unless `wait`, or after a change of the mesh options."""
         state = self.state
         for response in state.jobs.poll():
-            self._attempt(self._answer_open if response.kind == "open" else state.exported, response)
+            self._attempt(self._answer_open if response.kind == "open" else state.saving.exported, response)
         self._attempt(self._follow_time, dt_seconds, wait)
         self._attempt(self._follow)
-        self._follow_label_look(dt_seconds, wait)
-        if state.save_request is not None:
-            path, state.save_request = state.save_request, None
-            self._attempt(self.save_mesh, path)
+        self.labels.follow_look(state.labels, dt_seconds, wait)
+        if state.saving.save_request is not None:
+            path, state.saving.save_request = state.saving.save_request, None
+            self._attempt(save_mesh, self, path)
         try:
             return self._extract_selected(dt_seconds, wait)
         except USER_ERRORS as exc:
@@ -173,7 +131,7 @@ class GpuScene:
             return True
 
     def _answer_open(self, response) -> None:
-        self.show_opened(self.state.opened(response))
+        self.show_opened(self.state.opening.opened(response))
 
     def _attempt(self, step, *args) -> None:
         try:
@@ -198,35 +156,23 @@ class GpuScene:
             return
         if state.gradient_direction != self.surface.gradient_direction:
             self._upload_again()
-        if state.mesh_options != self._options:
+        if state.mesh_options != self.options:
             self._apply_mesh_options()
-        for level in [level for level in self._copies if level not in state.levels.items]:
-            self._copies.pop(level).release()
-        if state.levels.current is not self._on_extractor:
+        meshes = self.level_meshes
+        meshes.drop_gone(state.levels.items)
+        if state.levels.current is not meshes.on_extractor:
             self._move_extractor()
         for level in list(state.levels.items):   # levels added between two frames (a scene, a script)
-            if level is not self._on_extractor and level not in self._copies:
+            if level is not meshes.on_extractor and level not in meshes.copies:
                 self._extracted = None   # the extractor leaves the selected level for it
                 try:
-                    self._keep(level)
+                    meshes.keep(level, self.surface, self.options)
                 except USER_ERRORS:   # as _move_extractor: a level that cannot have a mesh goes
                     state.levels.restore([item for item in state.levels.items if item is not level],
                                          state.levels.current)
                     raise
         self.labels.follow(state.labels, state.volume)
         self._follow_color_by()
-
-    def _follow_label_look(self, dt_seconds: float, wait: bool) -> None:
-        """How long the label map's looks have rested: coarse label surfaces are drawn until REST_S."""
-        labels = self.state.labels
-        look = tuple((layer.label, layer.visible, layer.opacity) for layer in labels.layers) if labels else None
-        if wait:
-            self._label_rest_s = REST_S
-        elif look != self._label_look and self._label_look is not None and look is not None:
-            self._label_rest_s = 0.0
-        else:
-            self._label_rest_s += dt_seconds
-        self._label_look = look
 
     def _upload_again(self) -> None:
         """The object's side changed: the volume uploaded again with its new gradient direction (a
@@ -262,13 +208,13 @@ class GpuScene:
         """Every level made again with the state's mesh options (on the CPU's surface where the GPU's does not
         make them); on failure (e.g. a mesh too big to smooth on this GPU) the options and meshes go back to
         what was shown."""
-        before, self._options = self._options, self.state.mesh_options
+        before, self.options = self.options, self.state.mesh_options
         self._extracted, self._wait = None, True
         try:
             self._surface_for_options()
             self._refresh_copies()
         except USER_ERRORS:
-            self._options = self.state.mesh_options = before
+            self.options = self.state.mesh_options = before
             self._surface_for_options()
             self._refresh_copies()
             raise
@@ -279,33 +225,22 @@ class GpuScene:
             self._replace_surface(self.state.volume, self.surface.gradient_direction)
 
     def _refresh_copies(self) -> None:
-        for level, copy in self._copies.items():
-            if level is not self._on_extractor:
-                self.surface.extract(level.value, self._options)
-                copy.take(self.surface.mesh, self.surface.shown.last_extract_ms)
+        self.level_meshes.refresh(self.surface, self.options)
         self._extracted = None
 
     def _move_extractor(self) -> None:
         """Another level was selected (or added): the one leaving the extractor keeps its full mesh in
         its own buffers.  If that fails (e.g. out of GPU memory), the selection goes back and a level
         that never had a mesh goes: nothing changes."""
-        levels, leaving = self.state.levels, self._on_extractor
+        levels, meshes = self.state.levels, self.level_meshes
+        leaving = meshes.on_extractor
         if leaving is not None and leaving in levels.items:
             try:
-                self._keep(leaving)
+                meshes.keep(leaving, self.surface, self.options)
             except USER_ERRORS:
-                levels.restore([level for level in levels if level is leaving or level in self._copies], leaving)
+                levels.restore([level for level in levels if level is leaving or level in meshes.copies], leaving)
                 raise
-        self._on_extractor, self._extracted, self._moved_last_frame = levels.current, None, False
-
-    def _keep(self, level: Level) -> None:
-        surface = self.surface
-        if surface.shown_step != 1 or surface.shown_cells != self._options.cells or surface.shown.level != level.value:
-            surface.extract(level.value, self._options)
-        surface.settle()  # sharp features still on the worker: the copy must have them
-        if level not in self._copies:
-            self._copies[level] = MeshCopy(self.ctx)
-        self._copies[level].take(surface.mesh, surface.shown.last_extract_ms)
+        meshes.on_extractor, self._extracted, self._moved_last_frame = levels.current, None, False
 
     def _follow_color_by(self) -> None:
         wanted = self.state.color_by
@@ -330,12 +265,12 @@ class GpuScene:
         except USER_ERRORS as exc:   # the plain mesh stays on show
             state.error = one_line(exc)
         state.levels.animate(dt_seconds)
-        self._record_frame(dt_seconds)
+        self.pacing.record_frame(dt_seconds, (self.level_meshes.preview_budget(), self.options))
         value = state.iso
         moved = value != self._extracted
         if moved:
             # A moving value (a drag, an animation, Play, keys pressed in turn) gets a preview where its frames
-            # would be slow (`_preview_step`), its first change too: a 512x512x400 CT's full mesh took 0.25-0.4 s,
+            # would be slow (`PreviewPacing.step`), its first change too: a 512x512x400 CT's full mesh took 0.25-0.4 s,
             # a stall at the start of every drag.  The full mesh follows once it rests.  A new volume's first
             # extraction, and any without previews (headless renders), are full.
             preview = self.previews and self._extracted is not None
@@ -347,7 +282,7 @@ class GpuScene:
             self._rest_s += dt_seconds
             # A frame with a preview on show that extracts nothing times the frame's floor (model/pacing.py): all
             # but the preview's extraction.  One drawing the full mesh does not: that mesh is no drag's.
-            self._moved_last_frame, self._last_frame = False, 0 if self.surface.shown_step > 1 else None
+            self._moved_last_frame, self.pacing.last_frame = False, 0 if self.surface.shown_step > 1 else None
             if self.surface.shown_step == 1 or self._rest_s < REST_S:
                 return False
             if self._full_said is None:   # rested: the status line says the full mesh is coming...
@@ -360,172 +295,42 @@ class GpuScene:
             preview = False  # rested long enough: back to full resolution
         self._moved_last_frame = moved and self._extracted is not None  # a new volume's first is no move
         self._extracted, wait, self._wait = value, wait or self._wait, False  # no retry of a failed value
-        step = self._preview_step() if preview else 1
-        self.surface.extract(value, self._options, step=step, wait=wait)
+        step = self.pacing.step(self.surface, self.level_meshes.preview_budget()) if preview else 1
+        self.surface.extract(value, self.options, step=step, wait=wait)
         # A frame that drew a preview (or a full mesh while moving) is timed by the next update; one that made
         # a step's extractor (an upload) or the full mesh at rest says nothing about a drag's frames.
-        self._last_frame = self.surface.shown_step if self._moved_last_frame and not self.surface.made_preview else None
+        timed = self._moved_last_frame and not self.surface.made_preview
+        self.pacing.last_frame = self.surface.shown_step if timed else None
         if not moved:
             shown = self.surface.shown
             self._full_said = state.message = (f"full resolution: {shown.n_triangles:,} triangles in "
                                                f"{shown.last_extract_ms:.0f} ms")
         return True
 
-    def _record_frame(self, dt_seconds: float) -> None:
-        """The last frame took `dt_seconds`: a moving frame's time for its step, an idle one's with a preview on
-        show for the floor."""
-        key = (self.preview_budget(), self._options)
-        if key != self._pace_key:   # other levels' meshes or other cells: the frames measured no longer hold
-            self.pace.forget()
-            self._pace_key = key
-        elif dt_seconds > 0 and self._last_frame is not None:
-            if self._last_frame:
-                self.pace.record(self._last_frame, dt_seconds * 1000)
-            else:
-                self.pace.record_floor(dt_seconds * 1000)
-        self._last_frame = None
-
-    def _preview_step(self) -> int:
-        """The step of a moving level's next mesh: the finest whose frames stay under the target, as measured
-        (model/pacing.py); before any frame is measured, the step whose mesh fits `preview_budget`."""
-        shape = self.surface.volume.data.shape
-        first_guess = surface_module.preview_step(self.surface.full_triangles, shape, self.preview_budget())
-        return self.pace.step(first_guess, surface_module.coarsest_step(shape))
-
-    def preview_budget(self) -> int:
-        """Triangles the moving level's preview may have: the frame's budget less what the other
-        visible levels draw (full meshes), so a drag's frame time stays bounded with several."""
-        others = sum(copy.n_triangles for level, copy in self._copies.items()
-                     if level is not self._on_extractor and level.visible and level.opacity > 0)
-        budget = surface_module.PREVIEW_TRIANGLES
-        return max(budget - others, budget // MIN_PREVIEW_SHARE)
-
-    # --- saving ------------------------------------------------------------
-    def save_mesh(self, path) -> None:
-        """Write the surface on show (at full resolution) to `path`, in the format of its extension
-        and the volume's world coordinates where its file defines them."""
-        from ...io.export import COLOR_FORMATS, in_volume_space, write_mesh
-        state = self.state
-        if state.labels:   # a label map: its visible labels, in one coloured file where the format can
-            self.save_labels(path, one_file=Path(path).suffix.lower() in COLOR_FORMATS)
-            return
-        if self.surface is None:
-            raise ViewerError("no surface to save yet; open a volume first")
-        if state.closed:   # capped at the border, watertight: the padded volume's mesh, as export --closed
-            verts, faces, normals, _ = closed_mesh(state.volume, state.iso, self._options.cells, self._options.smooth,
-                                                   self._options.topology)
-        else:
-            if self.surface.shown_step != 1:  # a preview is on show: save the full mesh at its level
-                self.surface.extract(state.iso, self._options)
-            verts, faces, normals, _ = self.surface.shown.read_mesh()   # cubes' or tetrahedra's
-        verts, faces, normals, space = in_volume_space(state.volume, verts, faces, normals)
-        write_mesh(path, verts, faces, normals, space=space)
-        state.error = None
-        state.message = f"mesh saved: {path} ({len(faces):,} triangles, {space} coordinates)"
-
-    def save_labels(self, path, one_file: bool = False) -> None:
-        """The visible labels' surfaces, in the volume's world space: STEM_label<N>.EXT each, or with
-        `one_file` all in `path` (PLY, GLB) with per-vertex colours."""
-        from ...io.export import in_volume_space
-        state = self.state
-        layers = [layer for _, layer in self.labels.drawn(state.labels)]
-        check_label_output(path, one_file)
-        if not layers:
-            raise ViewerError("no label is visible; tick the labels to save")
-        placed = [in_volume_space(state.volume, *self.labels.meshes[layer.label].read()[:3]) for layer in layers]
-        meshes = {layer.label: mesh[:3] for layer, mesh in zip(layers, placed)}
-        written = write_labelled(path, meshes, [layer.color for layer in layers], placed[0][3], one_file)
-        state.error = None
-        state.message = f"saved {len(layers)} label surface(s): {', '.join(p.name for p, _, _ in written)}"
-
-    # --- what the renderer draws, and stats for the panel ---------------------
+    # --- what the renderer draws ---------------------------------------------
     def drawn(self) -> list[tuple[GpuMesh, SurfaceLook]]:
         """A label map's visible labels while one is on show, else the visible levels."""
         state = self.state
         if state.labels:
-            coarse = self._label_rest_s < REST_S   # just toggled or faded: the coarse twins, if it has them
+            coarse = not self.labels.resting   # just toggled or faded: the coarse twins, if it has them
             return [(mesh, SurfaceLook(layer.color, layer.opacity))
                     for mesh, layer in self.labels.drawn(state.labels, coarse)]
         shown = []
         for i, level in enumerate(state.levels):
-            mesh = self._level_mesh(level) if level.visible else None
+            mesh = self.level_meshes.mesh(level, self.surface) if level.visible else None
             if mesh is not None:
                 shown.append((mesh, SurfaceLook(state.levels.color(i, state.style.front_color), level.opacity,
                                                 self.color_by)))
         return shown + self.caps.drawn(state, self.color_by)
-
-    def _level_mesh(self, level: Level) -> GpuMesh | None:
-        if self.surface is None:
-            return None
-        if level is self._on_extractor:
-            return self.surface.mesh
-        copy = self._copies.get(level)
-        return copy.mesh if copy is not None else None
-
-    @property
-    def meshes(self) -> list[GpuMesh]:
-        """The visible levels' (or labels') meshes; their looks: `looks`."""
-        return [mesh for mesh, _ in self.drawn()]
-
-    @property
-    def looks(self) -> list[SurfaceLook]:
-        """The looks of what is drawn, in drawing order."""
-        return [look for _, look in self.drawn()]
 
     @property
     def extractor(self):
         """The full-resolution extractor of the volume on show (None before one is shown)."""
         return self.surface.extractor if self.surface is not None else None
 
-    @property
-    def preview_step(self) -> int:
-        """1 when the full-resolution mesh is on show, else the sample step of the preview."""
-        return self.surface.shown_step if self.surface is not None else 1
-
-    @property
-    def shown_shape(self) -> tuple[int, int, int] | None:
-        """The samples along each axis of the surface on screen: the volume on show (every `state.step`-th
-        sample of a volume over the memory budget), fewer while a preview is on show; None with no volume."""
-        if self.state.volume is None:
-            return None
-        return shown_shape(self.state.volume.data.shape, self.preview_step)
-
-    @property
-    def n_vertices(self) -> int:
-        """The selected level's vertices on show (0 with no surface)."""
-        return self.surface.shown.n_vertices if self.surface is not None else 0
-
-    @property
-    def n_triangles(self) -> int:
-        """The selected level's triangles on show (0 with no surface)."""
-        return self.surface.shown.n_triangles if self.surface is not None else 0
-
-    @property
-    def extract_ms(self) -> float:
-        """How long the selected level's last extraction took, in milliseconds."""
-        return self.surface.shown.last_extract_ms if self.surface is not None else 0.0
-
-    def level_stats(self, index: int) -> tuple[int, float]:
-        """(triangles, extraction ms) of the mesh on show for level `index`."""
-        level = self.state.levels[index]
-        if level is self._on_extractor:
-            return self.n_triangles, self.extract_ms
-        copy = self._copies.get(level)
-        return (copy.n_triangles, copy.extract_ms) if copy is not None else (0, 0.0)
-
-    def label_triangles(self, label: int) -> int:
-        """The triangles of label `label`'s surface."""
-        return self.labels.triangles(label)
-
-    def label_counts(self) -> tuple[int, int, int]:
-        """(labels shown, vertices, triangles) of the visible labels' surfaces: the stats of what is drawn."""
-        return self.labels.counts(self.state.labels)
-
     # --- releasing ---------------------------------------------------------
     def _release_meshes(self) -> None:
-        for copy in self._copies.values():
-            copy.release()
-        self._copies.clear()
+        self.level_meshes.release()
         self.labels.release()
         if self.color_by is not None:
             self.color_by.release()

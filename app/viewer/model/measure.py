@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .caps import closed_mesh, extractor
+from ...one_shot import closed_mesh, extraction_of
 from .errors import ViewerError, one_line
 from .jobs import Jobs
 
@@ -79,7 +79,7 @@ def level_mesh(volume, level: float, cells: str = "cubes", smooth: int = 0, clos
     if closed:
         verts, faces, normals, _ = closed_mesh(volume, level, cells, smooth, topology)
     else:
-        verts, faces, normals, _ = extractor(cells, topology)(volume.checked, as_level(level, volume.value_range),
+        verts, faces, normals, _ = extraction_of(cells, topology)(volume.checked, as_level(level, volume.value_range),
                                                     spacing=volume.spacing, backend="cpu",
                                                     gradient_direction=volume.gradient_direction, smooth=smooth)
     verts, faces, _, _ = in_volume_space(volume, verts, faces, normals)

@@ -196,10 +196,10 @@ def apply_scene(scene: dict, state, camera) -> None:
 
 
 def apply_opened_scene(state, camera, raise_errors: bool = False) -> None:
-    """A scene opened through `ViewerState.open` whose volume is now on show: its levels, modes, slices,
+    """A scene opened through `state.opening.open` whose volume is now on show: its levels, modes, slices,
     look and camera put on it (model/scene_file.py).  A scene that does not fit this volume leaves the
     volume as opened, with the one line in the status bar (or raised, `raise_errors`)."""
-    scene, state.scene_to_apply = state.scene_to_apply, None
+    scene, state.opening.scene_to_apply = state.opening.scene_to_apply, None
     if scene is None:
         return
     from .errors import USER_ERRORS, one_line

@@ -9,7 +9,8 @@ ValueError), leaving everything as it was; the panel shows the exception's one l
 - `color_by`: a scalar through a colour map (model/colorby.py);
 - `series`: a series' time axis: the time point, playback, its reads on a worker (model/series.py);
 - `jobs`: volumes read and full-resolution exports in the background, a request id in and a response
-  out (model/jobs.py);
+  out (model/jobs.py); `opening`: the requests for volumes and their answers (model/opening.py);
+  `saving`: "Save mesh..." and "Export full resolution" asked for (model/save_requests.py);
 - `style`, `recent`, and the panel's messages (`error`, `message`).
 
 The GPU side (gfx/scene.py) follows the state once a frame, after the panel's layout: it answers the
@@ -19,48 +20,29 @@ itself out extracts anything, and the state can be built and tested without a GL
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
-from typing import NamedTuple
 
 from ...core.budget import MemoryBudget, default_budget, given_budget
 from ...cpu.sharp.features import check_feature_angle
 from ...cpu.smooth import check_iterations
 from ...labels import label_count_hint, labels_of, refuse_a_scan
 from ...options import MeshOptions
-from ...volumes import Volume, open_volume
-from .big_volume import FullResolutionExport, downsampled, every_step
+from ...volumes import Volume
+from .big_volume import every_step
 from .colorby import DEFAULT_COLORMAP, SOURCES, ColorBy, make_color_by
-from .errors import ViewerError, one_line
+from .errors import ViewerError
 from .histogram import value_histogram
-from .jobs import Jobs, Response
+from .jobs import Jobs
 from .labels import LabelMap
 from .levels import Levels
+from .opening import VolumeOpening
 from .raycast import check_raycast, check_transfer, moved_point
 from .recent import RecentFiles
-from .scene_file import is_scene_file, read_scene, volume_spec
+from .save_requests import SaveRequests
 from .series import TimeAxis
 from .slices import SliceScene, SliceSettings
 from .style import SurfaceStyle
 
 GRADIENT_DIRECTIONS = ("descent", "ascent")
-
-
-class Opened(NamedTuple):
-    """An "open" job's answer: the volume read, and what the viewer shows of it (every `step`-th sample
-    of a big one)."""
-    spec: str
-    volume: Volume
-    shown: Volume
-    step: int
-
-
-def read_for_viewer(opener, spec: str, open_options: dict, budget: MemoryBudget, refusal=None,
-                    progress=None) -> Opened:
-    """Read `spec` with `opener` (open_volume's signature) and downsample it if it is over `budget` or (where
-    `refusal(shape)` says why) more than the extractor here can hold (big_volume.downsampled)."""
-    volume = opener(spec, progress=progress, **open_options)
-    shown, step = downsampled(volume, budget, refusal)
-    return Opened(spec, volume, shown, step)
 
 
 class ViewerState:
@@ -90,66 +72,23 @@ class ViewerState:
         self.color_by: ColorBy | None = None
         self.style = SurfaceStyle()
         self.jobs = Jobs()
-        self._export: FullResolutionExport | None = None   # the last full-resolution export, to stop on closing
-        self.closed = False                   # surfaces capped where they leave the volume (gfx/caps.py)
-        self.save_request: str | None = None   # "Save mesh..." chosen in the panel: the GPU side writes it
+        self.opening = VolumeOpening(self, opener)   # volumes asked for, read in the background (opening.py)
+        self.saving = SaveRequests(self)      # the mesh on show to save, a big volume's full resolution to export
+        self.closed = False                   # surfaces capped where they leave the volume (gfx/cap_meshes.py)
         self.error: str | None = None         # shown in the panel until the next successful action
         self.message: str | None = None       # e.g. where the last screenshot went
         self.recent = recent if recent is not None else RecentFiles(None)
         self.frame_ms = 0.0
         self.gl_renderer = "unknown"          # the GPU side says which
-        self._opener = opener if opener is not None else open_volume
         self.raycast: str | None = None       # a ray-casting mode drawn in the meshes' place (model/raycast.py)
         self.with_surfaces = False            # the surfaces drawn with the ray-cast volume too
         self.transfer = None                  # DVR's opacity points (value, opacity); None: the window's ramp
-        self._pending_scene = None            # (request, scene, its path) while a scene's volume is read
-        self.scene_to_apply: dict | None = None   # a scene whose volume is on show: the view side applies it
 
     # --- volumes -----------------------------------------------------------
-    def open(self, spec: str, **open_options) -> int:
-        """Ask for the built-in name, file path or 'expr:...' `spec`: read on a worker thread (the panel
-        shows its progress; expr: at once, with the opener); the GPU side puts it on show when the answer
-        to this request, the newest, comes in.  The request's id."""
-        if not open_options and is_scene_file(spec):   # a saved scene: its volume, then the scene on it
-            return self._open_scene(spec)
-        failure = f"could not open {spec[:80]}"
-        if spec.strip().lower().startswith("expr:"):
-            return self.jobs.submit("open", read_for_viewer, self._opener, spec, open_options, self.budget,
-                                    self.refusal, inline=True, failure=failure)
-        return self.jobs.submit("open", read_for_viewer, open_volume, spec, open_options, self.budget,
-                                self.refusal, message=f"opening {spec}", failure=failure)
-
     @property
     def budget(self) -> MemoryBudget:
         """The memory budget (the default of a software renderer until the GPU side sets its own)."""
         return self.memory_budget or default_budget(None, software=True)
-
-    @property
-    def loading(self):
-        """The volume being read (its `fraction` and `message`), or None."""
-        return self.jobs.current("open")
-
-    def _open_scene(self, path: str) -> int:
-        """Open a scene file (scene_file.py): its volume asked for as `open` asks; once that volume is on
-        show, the view side puts the scene on it (`scene_to_apply`).  A bad scene raises its one line."""
-        scene = read_scene(path)
-        spec, options = volume_spec(scene)
-        request = self.open(spec, **options)
-        self._pending_scene = (request, scene, path)
-        return request
-
-    def opened(self, response: Response) -> Opened:
-        """An "open" job's answer: its volume, or its error raised.  The answer to a scene's volume leaves
-        the scene in `scene_to_apply` for the view side, which owns the camera, once it has shown it."""
-        pending, self._pending_scene = self._pending_scene, None
-        if response.error is not None:
-            raise response.error
-        if pending is not None and pending[0] == response.request_id:
-            self.scene_to_apply = pending[1]
-            self.recent.add(pending[2])
-        elif _names_a_file(response.value.spec):
-            self.recent.add(response.value.spec)
-        return response.value
 
     def show(self, volume: Volume, level: float | None = None, full_volume: Volume | None = None,
              step: int = 1) -> None:
@@ -224,27 +163,7 @@ class ViewerState:
             raise ViewerError("choose a transfer function (a preset) before moving its points")
         self.transfer = moved_point(self.transfer, index, value, opacity, self.value_range)
 
-    # --- mesh options: one MeshOptions, replaced whole --------------------------
-    @property
-    def cells(self) -> str:
-        """The mesh's cells: "cubes" or "tetrahedra"."""
-        return self.mesh_options.cells
-
-    @property
-    def smooth(self) -> int:
-        """The smoothing iterations applied to the mesh (0: none)."""
-        return self.mesh_options.smooth
-
-    @property
-    def sharp(self) -> float | None:
-        """The sharp-feature angle in degrees, or None when sharp features are off."""
-        return self.mesh_options.sharp
-
-    @property
-    def topology(self) -> str:
-        """The cubes' topology: "montani" or "trilinear"."""
-        return self.mesh_options.topology
-
+    # --- mesh options: one MeshOptions (`mesh_options`), replaced whole ---------------
     def set_cells(self, cells: str) -> bool:
         """March "cubes" or "tetrahedra" on every level; whether the options changed."""
         return self._set_mesh_options(cells=cells)
@@ -294,40 +213,10 @@ class ViewerState:
         if source in SOURCES:
             self.color_by = make_color_by(self.volume, source, colormap, spec=source)
             return
-        second = self._opener(source)
+        second = self.opening.opener(source)
         if self.full_volume is not None and second.data.shape == self.full_volume.data.shape:
             second = every_step(second, self.step)   # a big volume's partner, at the step on show
         self.color_by = make_color_by(self.volume, "volume", colormap, second, spec=source)
-
-    # --- saving ------------------------------------------------------------
-    def request_save(self, path) -> None:
-        """Save the mesh on show to `path` (the GPU side reads it back and writes it on its next frame)."""
-        if self.volume is None:
-            raise ViewerError("no surface to save yet; open a volume first")
-        self.save_request = str(path)
-
-    def export_full_resolution(self, path) -> int:
-        """Write the full-resolution mesh of a downsampled big volume at the selected level to `path`,
-        a chunk at a time in a child process, a background job; its answer (`exported`) says when it is
-        written, or why not.  The request's id."""
-        if self.full_volume is None:
-            raise ViewerError("the whole volume is on show; use Save mesh")
-        if self.exporting is not None:
-            raise ViewerError("an export is still running; wait for it to finish")
-        self._export = FullResolutionExport(self.full_volume, self.iso, path, self.gradient_direction)
-        return self.jobs.submit("export", self._export.wait, message=self._export.message,
-                                failure="the export's progress could not be read")
-
-    @property
-    def exporting(self):
-        """The full-resolution export running (its `fraction` and `message`), or None."""
-        return self.jobs.current("export")
-
-    def exported(self, response: Response) -> None:
-        """An "export" job's answer: its "wrote" message, or its error raised."""
-        if response.error is not None:
-            raise ViewerError(f"full-resolution export failed: {one_line(response.error)}")
-        self.error, self.message = None, response.value
 
     # --- for the renderer -------------------------------------------------------
     def bounds(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
@@ -348,16 +237,4 @@ class ViewerState:
 
     def release(self) -> None:
         """Let go of what the state runs outside itself: a full-resolution export still running is stopped."""
-        if self._export is not None:   # the window closes: stop the child (its file is written whole or not at all)
-            self._export.cancel()
-
-
-def _names_a_file(spec: str) -> bool:
-    """Whether `spec` is a file's path (for the recent files); a 2,000-character expr: is no file name,
-    and asking the file system would raise "File name too long"."""
-    if spec.strip().lower().startswith("expr:"):
-        return False
-    try:
-        return Path(spec).is_file()
-    except (OSError, ValueError):
-        return False
+        self.saving.stop()   # the window closes: stop the export (its file is written whole or not at all)

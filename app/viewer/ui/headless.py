@@ -12,12 +12,8 @@ from functools import partial
 import numpy as np
 
 from ...core.budget import requested_budget
-from ...cpu.sharp.features import sharpen_extracted
-from ...cpu.sharp.normals import crisp_normals
 from ...errors import InputError
-from ...gpu.context import DRAWING_GL, current_or_standalone, has_compute
-from ...gpu.mesh import GpuMesh
-from ...gpu.sharp_features import sharp_mesh_of
+from ...gpu.context import DRAWING_GL, current_or_standalone
 from ...volumes import Volume, open_volume
 from ..gfx.colorbar import draw_colorbar
 from ..gfx.renderer import OffscreenTarget
@@ -117,12 +113,12 @@ class HeadlessViewer:
         self.app.frame(azimuth, elevation)
 
     def open(self, spec: str, wait_s: float = 60.0, **open_options) -> None:
-        """`ViewerState.open`, its answer waited for and shown (as a frame of the window would); what
+        """`state.opening.open`, its answer waited for and shown (as a frame of the window would); what
         fails is raised, the old volume staying on show."""
-        request = self.state.open(spec, **open_options)
+        request = self.state.opening.open(spec, **open_options)
         for response in self.state.jobs.poll(wait_s):
             if response.request_id == request:
-                self.scene.show_opened(self.state.opened(response))
+                self.scene.show_opened(self.state.opening.opened(response))
                 self.app.follow(0.0, wait=True, raise_errors=True)   # framed, and a scene put on it
                 return
         raise ViewerError(f"{spec[:80]} was not read within {wait_s:g} s")
@@ -199,10 +195,11 @@ def prepared_viewer(volume: Volume, iso=None, size=(800, 600), azimuth=None, ele
                     transparent: bool = False, opacities=(), color_by=None, colormap=None, prepare=None,
                     tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False,
                     raycast: str | None = None, transfer=None, with_surfaces: bool = False,
-                    topology: str = "montani") -> HeadlessViewer:
+                    topology: str = "montani", sharp: float | None = None) -> HeadlessViewer:
     """A HeadlessViewer showing `volume` as render_png draws it (its arguments; `raycast`: a ray-casting
     mode, `transfer` its opacity over the values, model/raycast.py; `with_surfaces`: the surfaces drawn
-    with it, gfx/renderer.py), ready to render (again, after moving
+    with it, gfx/renderer.py; `sharp`: Extended Marching Cubes' feature angle, the scene's sharp mesh with
+    crisp normals), ready to render (again, after moving
     its camera or level: `isoscope movie`); its caller releases it.  What fails is raised."""
     viewer = HeadlessViewer(size)
     try:
@@ -213,6 +210,7 @@ def prepared_viewer(volume: Volume, iso=None, size=(800, 600), azimuth=None, ele
         viewer.state.set_cells("tetrahedra" if tetrahedra else "cubes")
         viewer.state.set_topology(topology)
         viewer.state.set_smooth(smooth)
+        viewer.state.set_sharp(sharp)
         viewer.state.style.wireframe = wireframe
         isos = list(iso) if isinstance(iso, (list, tuple)) else [iso]
         viewer.show_levels(volume, isos, opacities, color_by, colormap, azimuth, elevation)
@@ -228,7 +226,7 @@ def prepared_viewer(volume: Volume, iso=None, size=(800, 600), azimuth=None, ele
 def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, elevation=None,
                panel: bool = False, transparent: bool = False, opacities=(), color_by=None, colormap=None,
                prepare=None, tetrahedra: bool = False, smooth: int = 0, wireframe: bool = False, then=None,
-               letters: bool = False, topology: str = "montani"):
+               letters: bool = False, topology: str = "montani", sharp: float | None = None):
     """Render one view of `volume` to the PNG file `out` (RGBA with `transparent`); returns its path.
     `then(viewer)`, if given, is called once the picture is written (render --save-scene).
 
@@ -236,11 +234,12 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
     `color_by`: "value", "gradient" or a volume spec of the same shape, through `colormap`, with a
     colour bar at the right (in the panel with `panel`); `prepare(state)`, if given, sets up the
     ViewerState once the volume is shown (slices, clip); `tetrahedra`: marching tetrahedra's
-    surfaces instead of marching cubes'; `topology`: how cubes' ambiguous cells are decided; `smooth`:
+    surfaces instead of marching cubes'; `topology`: how cubes' ambiguous cells are decided; `sharp`: the
+    feature angle of Extended Marching Cubes (edges and corners kept, drawn with crisp normals); `smooth`:
     iterations of smoothing projected onto the level set; `wireframe`: the triangles' edges drawn over;
     `letters`: a scan's orientation letters (R/L, A/P, S/I) at the picture's edges and its 2-D view's."""
     viewer = prepared_viewer(volume, iso, size, azimuth, elevation, transparent, opacities, color_by, colormap,
-                             prepare, tetrahedra, smooth, wireframe, topology=topology)
+                             prepare, tetrahedra, smooth, wireframe, topology=topology, sharp=sharp)
     try:
         path = save_png(viewer.picture(panel=panel, letters=letters), out)
         if then is not None:
@@ -258,7 +257,7 @@ def empty_level_hints(viewer) -> list[str]:
     if state.volume is None or state.labels or scene is None or scene.surface is None:
         return []
     return [empty_level_hint(level.value, state.value_range, state.histogram)
-            for i, level in enumerate(state.levels.items) if level.visible and scene.level_stats(i)[0] == 0]
+            for i, level in enumerate(state.levels.items) if level.visible and scene.stats.level_stats(i)[0] == 0]
 
 
 def scene_pixels(scene: dict, size=None, panel: bool = False, letters: bool = False) -> np.ndarray:
@@ -274,27 +273,3 @@ def scene_pixels(scene: dict, size=None, panel: bool = False, letters: bool = Fa
     finally:
         viewer.release()
 
-
-def render_sharp_png(volume, out, iso, angle, size=(800, 600), azimuth=None, elevation=None,
-                     transparent: bool = False):
-    """`render_png`, drawing the Extended-MC mesh (crisp normals) instead of the plain one."""
-    viewer = HeadlessViewer(size)
-    mesh = None
-    try:
-        viewer.state.style.transparent_background = transparent
-        viewer.show(volume, iso, azimuth, elevation)
-        extractor = viewer.scene.extractor
-        if has_compute(viewer.ctx):
-            sharpened = sharp_mesh_of(extractor, volume.data, angle)
-        else:   # OpenGL 4.1: the CPU mesh, sharpened by the same numpy steps
-            sharpened = sharpen_extracted(extractor.read_mesh(), volume.checked.data, volume.spacing,
-                                          extractor.descent, angle)
-        mesh = GpuMesh.upload(viewer.ctx, *crisp_normals(*sharpened))
-        viewer.target.use()
-        viewer.renderer.draw([mesh], viewer.camera, viewer.target.viewport, viewer.state.style)
-        target = viewer.target
-        return save_png(target.read_rgba() if transparent else target.read_rgb(), out)
-    finally:
-        if mesh is not None:
-            mesh.release()
-        viewer.release()

@@ -39,7 +39,7 @@ class LabelsSection:
             boxes["opacity"] = _item_box()
             imgui.same_line()
             imgui.text(layer.title)
-            tooltip(f"label {layer.label}: {scene.label_triangles(layer.label):,} triangles")
+            tooltip(f"label {layer.label}: {scene.stats.label_triangles(layer.label):,} triangles")
             imgui.pop_id()
         if imgui.button("Isosurface instead"):
             state.labels.hide()

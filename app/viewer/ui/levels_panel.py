@@ -104,8 +104,9 @@ class LevelsSection:
         it, at full resolution), {index: "hidden"} where it lies inside a visible opaque level."""
         empty = []
         if scene is not None and scene.surface is not None:
-            empty = [i for i in range(len(state.levels)) if (i != state.levels.selected or scene.preview_step == 1)
-                     and scene.level_stats(i)[0] == 0]
+            stats = scene.stats
+            empty = [i for i in range(len(state.levels)) if (i != state.levels.selected or stats.preview_step == 1)
+                     and stats.level_stats(i)[0] == 0]
         flags = {i: "hidden" for i in _enclosing(state, empty)}
         flags.update({i: "empty" for i in empty})
         return flags

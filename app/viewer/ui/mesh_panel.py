@@ -29,28 +29,28 @@ class MeshSection:
         if not section(MESH_TITLE, default_open=False):
             return
         imgui.set_next_item_width(px(COMBO_WIDTH))
-        choose(state, "cells", state.cells, CELLS, state.set_cells)
+        choose(state, "cells", state.mesh_options.cells, CELLS, state.set_cells)
         tooltip("tetrahedra: six per cube, no ambiguous cells, about 3x the triangles")
         imgui.set_next_item_width(px(COMBO_WIDTH))   # always drawn: the section never moves under the pointer
-        choose(state, "topology", state.topology, TOPOLOGIES, state.set_topology)
+        choose(state, "topology", state.mesh_options.topology, TOPOLOGIES, state.set_topology)
         tooltip("how ambiguous cells are decided: montani, every ambiguous face one way (fast);\n"
                 "trilinear, the field's own topology between the samples (MC33): pieces, cavities\n"
                 "and handles in Measure as the data has them; cubes only, made on the CPU here")
         # Sliders write their value beside them, never under their grab.
         imgui.set_next_item_width(px(SLIDER_WIDTH))
-        changed, smooth = imgui.slider_int("##smoothing", state.smooth, 0, MAX_SMOOTH_SLIDER, "")
+        changed, smooth = imgui.slider_int("##smoothing", state.mesh_options.smooth, 0, MAX_SMOOTH_SLIDER, "")
         if changed:
             act(state, state.set_smooth, smooth)
         tooltip("iterations, each projected back onto the level set: fewer sliver triangles, same surface")
         imgui.same_line()
-        imgui.text(f"{state.smooth:2d} smoothing")
-        toggled, sharp = imgui.checkbox("sharp features", state.sharp is not None)
+        imgui.text(f"{state.mesh_options.smooth:2d} smoothing")
+        toggled, sharp = imgui.checkbox("sharp features", state.mesh_options.sharp is not None)
         self.sharp_box = (tuple(imgui.get_item_rect_min()), tuple(imgui.get_item_rect_max()))
         if toggled:
             act(state, state.set_sharp, self.sharp_angle if sharp else None)
         tooltip("Extended Marching Cubes (Kobbelt et al. 2001): edges and corners of cells whose\n"
                  "normals open wider than the angle are kept; full-resolution meshes only")
-        if state.sharp is not None:
+        if state.mesh_options.sharp is not None:
             imgui.same_line()
             imgui.set_next_item_width(px(SLIDER_WIDTH) - imgui.calc_text_size("90 deg").x)
             _, angle = imgui.slider_float("##angle", self.sharp_angle, *SHARP_ANGLES, "")

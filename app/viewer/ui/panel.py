@@ -236,8 +236,8 @@ class Panel:
     def _volume_section(self, state: ViewerState) -> None:
         if not section("Volume"):
             return
-        if state.loading is not None:
-            imgui.progress_bar(state.loading.fraction, imgui.ImVec2(-1, 0), state.loading.message)
+        if state.opening.loading is not None:
+            imgui.progress_bar(state.opening.loading.fraction, imgui.ImVec2(-1, 0), state.opening.loading.message)
         if state.volume is not None:
             volume = state.volume
             shape = "x".join(str(n) for n in volume.data.shape)
@@ -252,11 +252,11 @@ class Panel:
             if toggled:
                 act(state, state.set_gradient_direction, "ascent" if below else "descent")
         current = state.volume.name if state.volume is not None else ""
-        choose(state, "built-in", current if current in builtin_names() else "", builtin_names(), state.open)
+        choose(state, "built-in", current if current in builtin_names() else "", builtin_names(), state.opening.open)
         if state.recent.paths and imgui.begin_combo("recent", ""):
             for path in state.recent.paths:
                 if imgui.selectable(Path(path).name + "##" + path, False)[0]:
-                    act(state, state.open, path)
+                    act(state, state.opening.open, path)
                 tooltip(path)
             imgui.end_combo()
         if self.can_browse and imgui.button("Open file...") and self._file_dialog is None:
@@ -265,8 +265,8 @@ class Panel:
             imgui.same_line()
             if imgui.button("Save mesh...") and self._save_dialog is None:
                 self._open_save_dialog(state)
-        if state.exporting is not None:
-            imgui.progress_bar(state.exporting.fraction, imgui.ImVec2(-1, 0), state.exporting.message)
+        if state.saving.exporting is not None:
+            imgui.progress_bar(state.saving.exporting.fraction, imgui.ImVec2(-1, 0), state.saving.exporting.message)
         elif self.can_browse and state.full_volume is not None:
             if imgui.button("Export full resolution...") and self._save_dialog is None:
                 self._open_save_dialog(state, full_resolution=True)
@@ -274,7 +274,7 @@ class Panel:
         entered, self.expr_text = imgui.input_text_with_hint(
             "expr", EXPR_HINT, self.expr_text, imgui.InputTextFlags_.enter_returns_true)
         if (entered or imgui.button("Show expr")) and self.expr_text.strip():
-            act(state, state.open, "expr:" + self.expr_text.strip())
+            act(state, state.opening.open, "expr:" + self.expr_text.strip())
 
     def _iso_section(self, state: ViewerState) -> None:
         self.iso_slider_box = self.histogram_box = None
@@ -348,7 +348,7 @@ class Panel:
         if not section("Stats"):
             return
         if state.labels:   # what is drawn: the visible labels, not the (hidden) level's mesh
-            shown, vertices, triangles = scene.label_counts()
+            shown, vertices, triangles = scene.stats.label_counts()
             imgui.text(f"labels     {shown} of {len(state.labels.layers)} shown")
             imgui.text(f"vertices   {vertices:,}")
             imgui.text(f"triangles  {triangles:,}")
@@ -359,23 +359,23 @@ class Panel:
 
     @staticmethod
     def _level_stats(state: ViewerState, scene) -> None:
-        imgui.text(f"vertices   {scene.n_vertices:,}")
-        imgui.text(f"triangles  {scene.n_triangles:,}")
-        if scene.shown_shape is not None:
+        imgui.text(f"vertices   {scene.stats.n_vertices:,}")
+        imgui.text(f"triangles  {scene.stats.n_triangles:,}")
+        if scene.stats.shown_shape is not None:
             full = state.full_volume.data.shape if state.full_volume is not None else state.volume.data.shape
-            shown = "x".join(map(str, scene.shown_shape))
-            if tuple(scene.shown_shape) == tuple(full):
+            shown = "x".join(map(str, scene.stats.shown_shape))
+            if tuple(scene.stats.shown_shape) == tuple(full):
                 imgui.text(f"shown      {shown}, full resolution")
             else:
                 imgui.text_colored(NOTE_COLOR, f"shown      {shown} of {'x'.join(map(str, full))}")
                 tooltip(f"memory budget {state.budget.text}" if state.step > 1 else "a preview while the level moves")
-        if scene.preview_step > 1:
-            imgui.text_colored(NOTE_COLOR, f"preview at 1/{scene.preview_step} resolution")
-            tooltip(pace_text(scene.pace))
-        imgui.text(f"extraction {scene.extract_ms:.1f} ms")
+        if scene.stats.preview_step > 1:
+            imgui.text_colored(NOTE_COLOR, f"preview at 1/{scene.stats.preview_step} resolution")
+            tooltip(pace_text(scene.pacing.pace))
+        imgui.text(f"extraction {scene.stats.extract_ms:.1f} ms")
         if len(state.levels) > 1:
             for i in range(len(state.levels)):
-                triangles, ms = scene.level_stats(i)
+                triangles, ms = scene.stats.level_stats(i)
                 imgui.text(f"surface {i + 1}  {triangles:,} triangles, {ms:.1f} ms")
 
     # --- beside the panel: messages and refusals, moving no control -------------------
@@ -391,7 +391,7 @@ class Panel:
         if state.error and (refusal(state, PANEL_TITLE) is None or self.box is None):
             return state.error, ERROR_COLOR
         if state.volume is not None and not state.labels and scene is not None and scene.surface is not None \
-                and scene.preview_step == 1 and scene.n_triangles == 0:
+                and scene.stats.preview_step == 1 and scene.stats.n_triangles == 0:
             return empty_level_hint(state.iso, state.value_range, state.histogram), HINT_COLOR
         hidden = self.levels_section.hidden_in if not state.labels else {}
         if state.levels.selected in hidden:
@@ -480,16 +480,18 @@ class Panel:
             paths = self._file_dialog.result()
             self._file_dialog = None
             if paths:
-                act(state, state.open, paths[0])
+                act(state, state.opening.open, paths[0])
         if self._save_dialog is not None and self._save_dialog.ready(0):
             path = self._save_dialog.result()
             self._save_dialog = None
             if path:
-                act(state, state.export_full_resolution if self._save_full_resolution else state.request_save, path)
+                saving = state.saving
+                act(state, saving.export_full_resolution if self._save_full_resolution else saving.request_save, path)
         browser = self._browser(state)
         chosen = browser.draw()   # the browser inside the window, where there is no native dialog
         if chosen and browser.purpose == "open":
-            act(state, state.open, chosen)
+            act(state, state.opening.open, chosen)
         elif chosen:
-            act(state, state.export_full_resolution if browser.purpose == "full resolution" else state.request_save,
+            saving = state.saving
+            act(state, saving.export_full_resolution if browser.purpose == "full resolution" else saving.request_save,
                 chosen)

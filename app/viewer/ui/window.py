@@ -197,7 +197,7 @@ class ViewerWindow:
         playing, or the selected level still a preview."""
         state = self.state
         return (self._drag_button is not None or state.levels.animation.running or state.series.playing
-                or self.scene.preview_step > 1)
+                or self.scene.stats.preview_step > 1)
 
     # The app's parts, as the window's callers and tests name them.
     scene = property(lambda self: self.app.scene)
@@ -346,4 +346,4 @@ class ViewerWindow:
 
     def _on_drop(self, window, paths) -> None:
         if paths:
-            self.state.open(paths[0])
+            self.state.opening.open(paths[0])

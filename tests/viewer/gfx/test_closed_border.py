@@ -11,7 +11,8 @@ from PIL import Image
 from support.command import assert_one_line_error, isoscope_here
 
 from isoscope.cpu.measure import measure_surface, open_edge_count
-from isoscope.viewer.model.caps import caps, closed_mesh, extractor
+from isoscope.one_shot import border_caps, closed_mesh, extraction_of
+from isoscope.viewer.gfx.saving import save_mesh
 from isoscope.volumes.volume import finish_volume
 
 N, RADIUS = 40, 12.0
@@ -37,9 +38,9 @@ def welded(verts, faces, decimals=4):
 def test_caps_close_the_surface_where_it_leaves_the_volume(cells, direction, centre):
     data = cut_ball(centre, direction)
     spacing = (1.0, 0.8, 1.25)
-    verts, faces, _, _ = extractor(cells)(data, 0.0, spacing=spacing, gradient_direction=direction, backend="cpu")
+    verts, faces, _, _ = extraction_of(cells)(data, 0.0, spacing=spacing, gradient_direction=direction, backend="cpu")
     assert open_edge_count(faces) > 0   # open where it leaves the volume
-    cap_verts, cap_faces, cap_normals, _ = caps(data, 0.0, spacing, direction, cells=cells)
+    cap_verts, cap_faces, cap_normals, _ = border_caps(data, 0.0, spacing, direction, cells=cells)
     assert len(cap_faces)
     # the caps lie on the volume's faces (within the padding's margin), their normals out of the volume
     upper = (np.asarray(data.shape) - 1) * np.asarray(spacing)
@@ -60,7 +61,7 @@ def test_caps_close_the_surface_where_it_leaves_the_volume(cells, direction, cen
 
 def test_a_surface_inside_the_volume_has_no_caps():
     data = cut_ball((20.0, 20.0, 20.0))
-    assert len(caps(data, 0.0)[1]) == 0
+    assert len(border_caps(data, 0.0)[1]) == 0
 
 
 # --- render --closed and the viewer ------------------------------------------------------------------------
@@ -109,10 +110,10 @@ def test_save_mesh_closed_at_the_border_is_watertight(gl_ctx, ball_file, tmp_pat
         viewer.update()
         viewer.state.closed = True   # the panel's 'closed at the border'
         assert len(viewer.scene.drawn()) == 2   # the level and its caps
-        viewer.scene.save_mesh(tmp_path / "ball.ply")
+        save_mesh(viewer.scene, tmp_path / "ball.ply")
         viewer.state.closed = False
         assert len(viewer.scene.drawn()) == 1
-        viewer.scene.save_mesh(tmp_path / "open.ply")
+        save_mesh(viewer.scene, tmp_path / "open.ply")
     finally:
         viewer.release()
     closed = trimesh.load(tmp_path / "ball.ply", process=True)

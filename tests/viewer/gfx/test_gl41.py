@@ -131,16 +131,16 @@ SCRIPT = textwrap.dedent("""
     state, scene = viewer.state, viewer.scene
     assert isinstance(scene.surface, CpuSurface)
     assert "OpenGL 4.1, CPU extractor" in state.gl_renderer, state.gl_renderer
-    assert scene.n_triangles == len(faces)
+    assert scene.stats.n_triangles == len(faces)
     read = scene.surface.shown.read_mesh()
     assert np.array_equal(read[1], faces) and np.allclose(read[0], verts, atol=1e-5)
-    before = scene.n_triangles
+    before = scene.stats.n_triangles
     state.levels.set_value(0.3)        # the slider: re-extracted on the CPU in the next frame
     viewer.render(panel=True)
-    assert scene.n_triangles != before and scene.surface.shown.level == 0.3
+    assert scene.stats.n_triangles != before and scene.surface.shown.level == 0.3
     state.levels.add(-0.2)             # a second level: the first keeps its copy
     viewer.update()
-    assert scene.level_stats(0)[0] > 0 and scene.level_stats(1)[0] > 0
+    assert scene.stats.level_stats(0)[0] > 0 and scene.stats.level_stats(1)[0] > 0
     viewer.release()
 
     # Sharp features through the scene (the window's path): made at once with wait, on the worker without.
@@ -161,7 +161,7 @@ SCRIPT = textwrap.dedent("""
     scene.update(0.0, wait=False)          # the slider at rest in the window: the step goes to the worker
     assert scene.surface.sharp_pending and scene.surface.shown_sharp
     scene.surface.settle()
-    assert not scene.surface.sharp_pending and scene.n_triangles > 0
+    assert not scene.surface.sharp_pending and scene.stats.n_triangles > 0
     viewer.release()
     print("ok")
 """)
@@ -234,13 +234,13 @@ def drive_window_on_41(x_display, tmp_path):
         assert window.ctx.version_code == 410 and isinstance(scene.surface, CpuSurface)
         assert state.error is None, state.error
         assert "OpenGL 4.1, CPU extractor" in state.gl_renderer
-        assert scene.n_triangles > 0
+        assert scene.stats.n_triangles > 0
 
         low, high = state.value_range
-        iso, triangles = state.iso, scene.n_triangles
+        iso, triangles = state.iso, scene.stats.n_triangles
         press_key(window, "equal", shift=True)   # '+': up 10% of the range, re-extracted on the CPU
         assert frames_until(window, lambda: state.iso == pytest.approx(iso + 0.1 * (high - low)))
-        assert scene.surface.shown.level == pytest.approx(state.iso) and scene.n_triangles != triangles
+        assert scene.surface.shown.level == pytest.approx(state.iso) and scene.stats.n_triangles != triangles
 
         pointer = Pointer(window)
         (left, top), (right, bottom) = window.panel.iso_slider_box
@@ -260,11 +260,11 @@ def drive_window_on_41(x_display, tmp_path):
         assert (np.abs(shot[100:300, 380:600] - background).max(axis=2) > 30).mean() > 0.05   # the surface
 
         # An expr: volume typed in the panel: sampled with numpy (the window's 4.1 context has no compute).
-        state.open("expr:x^2 + y^2 + z^2 - 0.3; res=24")
+        state.opening.open("expr:x^2 + y^2 + z^2 - 0.3; res=24")
         assert frames_until(window, lambda: state.volume.name.startswith("x^2"))
         assert state.error is None, state.error
         assert any("sampled with numpy" in note for note in state.volume.notes), state.volume.notes
-        assert scene.n_triangles > 0
+        assert scene.stats.n_triangles > 0
     finally:
         window.close()
 

@@ -183,10 +183,10 @@ def panel_rows(x_display, segmentation):
         assert sorted(boxes) == [1, 7] and window.scene.labels.extractions == 1
         click(boxes[7]["opacity"], 0.3)
         assert 0.1 < labels.layer(7).opacity < 0.5, labels.layer(7).opacity
-        assert [look.opacity for look in window.scene.looks] == [1.0, labels.layer(7).opacity]
+        assert [look.opacity for look in window.scene.stats.looks] == [1.0, labels.layer(7).opacity]
         click(boxes[1]["visible"])
         assert not labels.layer(1).visible and labels.layer(7).visible
-        assert [look.color for look in window.scene.looks] == [labels.layer(7).color]
+        assert [look.color for look in window.scene.stats.looks] == [labels.layer(7).color]
         assert window.scene.labels.extractions == 1
     finally:
         window.close()

@@ -42,15 +42,15 @@ def drag(viewer, values, frame_s):
     for value in values:
         viewer.state.iso = value
         viewer.app.follow(frame_s)
-        steps.append(viewer.scene.preview_step)
+        steps.append(viewer.scene.stats.preview_step)
     return steps
 
 
 def test_slow_frames_coarsen_the_preview_and_the_rested_mesh_is_export_s(viewer, field):
     viewer.show(as_volume(field), 0.0)
     scene, state = viewer.scene, viewer.state
-    full = scene.n_triangles
-    assert scene.preview_step == 1 and full > 20_000
+    full = scene.stats.n_triangles
+    assert scene.stats.preview_step == 1 and full > 20_000
     values = np.linspace(0.02, 0.5, 24)
     steps = drag(viewer, values, frame_s=0.25)   # 250 ms frames: far over the target
     assert steps[0] >= 1 and steps[-1] == coarsest_step(SHAPE) > 2
@@ -63,12 +63,12 @@ def test_slow_frames_coarsen_the_preview_and_the_rested_mesh_is_export_s(viewer,
     np.testing.assert_allclose(verts, want[0], atol=1e-4)
     coarse = viewer.render()
 
-    assert viewer.scene.update(REST_S) is False and scene.preview_step == step   # rested: the status line says so
+    assert viewer.scene.update(REST_S) is False and scene.stats.preview_step == step   # rested: the status line says so
     assert state.message == f"full resolution: extracting {'x'.join(map(str, SHAPE))} samples..."
-    assert viewer.scene.update(0.02) is False and scene.preview_step == step     # a frame shows the word
+    assert viewer.scene.update(0.02) is False and scene.stats.preview_step == step     # a frame shows the word
     viewer.app.follow(0.02)                                                   # the next makes the mesh
-    assert scene.preview_step == 1 and scene.shown_shape == SHAPE
-    assert state.message == f"full resolution: {scene.n_triangles:,} triangles in {scene.extract_ms:.0f} ms"
+    assert scene.stats.preview_step == 1 and scene.stats.shown_shape == SHAPE
+    assert state.message == f"full resolution: {scene.stats.n_triangles:,} triangles in {scene.stats.extract_ms:.0f} ms"
     verts, faces, _, _ = scene.surface.shown.read_mesh()
     want = outward(field, values[-1])
     np.testing.assert_array_equal(faces, want[1])
@@ -84,7 +84,7 @@ def test_slow_frames_coarsen_the_preview_and_the_rested_mesh_is_export_s(viewer,
     assert 0.005 < differs.mean() < 0.5
 
     drag(viewer, values[::-1][:3], frame_s=0.25)   # moving again: the last full mesh's word goes
-    assert scene.preview_step > 1 and state.message is None
+    assert scene.stats.preview_step > 1 and state.message is None
 
 
 def test_fast_frames_refine_the_preview_down_to_full_resolution(viewer, field, monkeypatch):
@@ -95,5 +95,5 @@ def test_fast_frames_refine_the_preview_down_to_full_resolution(viewer, field, m
     assert steps[0] > 3 and steps[-1] == 1
     assert all(b <= a for a, b in zip(steps, steps[1:]))
     # moving at full resolution: nothing to bring back at rest
-    assert viewer.scene.update(REST_S) is False and viewer.scene.preview_step == 1
+    assert viewer.scene.update(REST_S) is False and viewer.scene.stats.preview_step == 1
     assert viewer.state.message is None

@@ -90,15 +90,16 @@ def test_levels_share_one_volume_and_only_the_selected_one_moves(viewer, gl_ctx)
     assert state.levels.values() == pytest.approx([OUTER, INNER, 0.35])
     reference = [marching_cubes_reference(volume.data.astype(np.float32), level, volume.spacing, descent=False)
                  for level in state.levels.values()]
-    for mesh, expected in zip(scene.meshes, reference):
+    for mesh, expected in zip(scene.stats.meshes, reference):
         assert_same_mesh(mesh.read(), expected)
-    assert [scene.level_stats(i)[0] for i in range(3)] == [len(r[1]) for r in reference]
+    assert [scene.stats.level_stats(i)[0] for i in range(3)] == [len(r[1]) for r in reference]
     state.levels.set_visible(1, False)
-    assert len(scene.meshes) == 2
+    assert len(scene.stats.meshes) == 2
     state.levels.remove(0)
     assert state.levels.values() == pytest.approx([INNER, 0.35]) and state.levels.selected == 1
     viewer.render()
-    assert len(scene.meshes) == 1 and all(level in state.levels.items for level in scene._copies)   # its copy went
+    copies = scene.level_meshes.copies
+    assert len(scene.stats.meshes) == 1 and all(level in state.levels.items for level in copies)   # its copy went
 
 
 def test_more_than_four_levels_or_bad_values_keep_what_was_shown(viewer):
@@ -192,23 +193,23 @@ def test_a_drag_previews_the_moving_level_within_what_the_other_levels_leave_of_
     scene = GpuScene(gl_ctx, state, previews=True)
     try:
         scene.show(open_volume("gyroid", resolution=48), 0.0)
-        alone = scene.n_triangles
+        alone = scene.stats.n_triangles
         monkeypatch.setattr(surface_module, "PREVIEW_TRIANGLES", int(alone * 1.5))  # one level: no preview
 
         def drag():
             for value in (0.02, 0.04, 0.06):
                 state.iso = value
                 scene.update(0.04)
-            return scene.preview_step
+            return scene.stats.preview_step
         assert drag() == 1
         state.levels.add(0.3)
         scene.update(0.0)
         state.levels.select(0)   # the other level takes most of the budget
         scene.update(0.0)
-        other = scene.level_stats(1)[0]
+        other = scene.stats.level_stats(1)[0]
         assert other > alone // 2
         assert drag() > 1
-        assert scene.meshes[1].n_triangles == other   # the level not dragged stays in full
+        assert scene.stats.meshes[1].n_triangles == other   # the level not dragged stays in full
     finally:
         scene.release()
 

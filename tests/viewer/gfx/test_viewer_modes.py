@@ -13,6 +13,7 @@ from support.command import assert_one_line_error, isoscope_batch
 import isoscope as api
 from isoscope.api import outward_marching_cubes
 from isoscope.options import MeshOptionsError
+from isoscope.viewer.gfx.saving import save_mesh
 from isoscope.viewer.model.errors import ViewerError
 from isoscope.viewer.ui.headless import HeadlessViewer
 from isoscope.volumes import open_volume
@@ -27,7 +28,7 @@ def viewer(gl_ctx):
 
 def drawn_triangles(viewer):
     viewer.update()   # the frame in which the GPU follows the state
-    return [mesh.n_triangles for mesh in viewer.scene.meshes]
+    return [mesh.n_triangles for mesh in viewer.scene.stats.meshes]
 
 
 def test_tetrahedra_apply_to_every_level_without_a_new_upload(viewer):
@@ -45,7 +46,7 @@ def test_tetrahedra_apply_to_every_level_without_a_new_upload(viewer):
     assert state.set_cells("cubes") and drawn_triangles(viewer) == cubes
     with pytest.raises(MeshOptionsError, match="cubes"):
         state.set_cells("hexahedra")
-    assert state.cells == "cubes" and drawn_triangles(viewer) == cubes
+    assert state.mesh_options.cells == "cubes" and drawn_triangles(viewer) == cubes
     # One source for the options: the GPU surface keeps none of its own.
     assert not {"cells", "smooth", "sharp"} & set(vars(viewer.scene.surface))
 
@@ -57,32 +58,32 @@ def test_smoothing_moves_every_level_onto_its_own_level_set(viewer, tmp_path):
     assert state.set_smooth(3)
     viewer.update()
     data = volume.data.astype(np.float64)
-    for mesh, level in zip(viewer.scene.meshes, (0.5, 0.8)):
+    for mesh, level in zip(viewer.scene.stats.meshes, (0.5, 0.8)):
         verts = mesh.read()[0]
         values = map_coordinates(data, (verts / np.asarray(volume.spacing)).T, order=1, mode="nearest")
         assert np.abs(values - level).max() <= 1e-3 * (data.max() - data.min())
     state.levels.select(0)
     viewer.update()
-    viewer.scene.save_mesh(tmp_path / "smooth.ply")
+    save_mesh(viewer.scene, tmp_path / "smooth.ply")
     saved = trimesh.load(tmp_path / "smooth.ply", process=False)
     expected = api.marching_cubes(volume.checked, 0.5, spacing=volume.spacing, smooth=3)
     assert len(saved.faces) == len(expected[1])
     with pytest.raises(ValueError, match="smooth"):
         state.set_smooth(-1)
-    assert state.smooth == 3
+    assert state.mesh_options.smooth == 3
 
 
 def test_sharp_features_are_drawn_and_saved_as_the_api_makes_them(viewer, tmp_path):
     volume = open_volume("box", resolution=24)
     viewer.show(volume)
     state, scene = viewer.state, viewer.scene
-    plain = scene.n_triangles
+    plain = scene.stats.n_triangles
     assert state.set_sharp(30)
     viewer.update()
     verts, faces, _, _ = api.marching_cubes(volume.checked, state.iso, spacing=volume.spacing,
                                             gradient_direction=volume.gradient_direction, sharp_features=30)
-    assert scene.n_triangles == len(faces) and len(faces) != plain
-    scene.save_mesh(tmp_path / "box.stl")
+    assert scene.stats.n_triangles == len(faces) and len(faces) != plain
+    save_mesh(scene, tmp_path / "box.stl")
     saved = trimesh.load(tmp_path / "box.stl", process=False)
     assert len(saved.faces) == len(faces)
     # Smoothing or tetrahedra would undo the features: refused in the rule's words, and the sharp mesh stays.
@@ -90,12 +91,12 @@ def test_sharp_features_are_drawn_and_saved_as_the_api_makes_them(viewer, tmp_pa
         state.set_smooth(2)
     with pytest.raises(MeshOptionsError, match="not with tetrahedra"):
         state.set_cells("tetrahedra")
-    assert (state.smooth, state.cells) == (0, "cubes")
+    assert (state.mesh_options.smooth, state.mesh_options.cells) == (0, "cubes")
     viewer.update()
-    assert scene.n_triangles == len(faces)
+    assert scene.stats.n_triangles == len(faces)
     assert state.set_sharp(None)
     viewer.update()
-    assert scene.n_triangles == plain
+    assert scene.stats.n_triangles == plain
 
 
 def test_sharp_features_at_rest_are_made_on_a_worker_while_the_plain_mesh_shows(viewer, tmp_path):
@@ -123,20 +124,20 @@ def test_sharp_features_at_rest_are_made_on_a_worker_while_the_plain_mesh_shows(
     scene.update(0.0)
     plain, sharp = meshes(second)
     assert len(sharp[1]) != len(plain[1])  # the level has features
-    assert scene.surface.sharp_pending and scene.n_triangles == len(plain[1])
+    assert scene.surface.sharp_pending and scene.stats.n_triangles == len(plain[1])
     deadline = time.monotonic() + 60
     while scene.surface.sharp_pending and time.monotonic() < deadline:
         time.sleep(0.01)
         scene.update(0.0)
-    assert not scene.surface.sharp_pending and scene.n_triangles == len(sharp[1])
+    assert not scene.surface.sharp_pending and scene.stats.n_triangles == len(sharp[1])
     np.testing.assert_allclose(scene.surface.shown.read_mesh()[0], sharp[0], atol=1e-5)
 
     state.iso = first
     scene.update(0.0)
     assert scene.surface.sharp_pending
-    scene.save_mesh(tmp_path / "box.stl")  # waits for the features
+    save_mesh(scene, tmp_path / "box.stl")  # waits for the features
     assert len(trimesh.load(tmp_path / "box.stl", process=False).faces) == len(meshes(first)[1][1])
-    assert not scene.surface.sharp_pending and scene.n_triangles == len(meshes(first)[1][1])
+    assert not scene.surface.sharp_pending and scene.stats.n_triangles == len(meshes(first)[1][1])
 
 
 def test_a_failed_extraction_or_feature_step_leaves_a_drawable_plain_mesh(viewer, monkeypatch):
@@ -175,7 +176,7 @@ def test_a_failed_extraction_or_feature_step_leaves_a_drawable_plain_mesh(viewer
     viewer.render()  # no released buffer is drawn
     time.sleep(0.5)
     scene.update(0.0)
-    assert scene.n_triangles == 0  # the dropped step's mesh did not come back
+    assert scene.stats.n_triangles == 0  # the dropped step's mesh did not come back
     monkeypatch.undo()
 
     def broken(*args):
@@ -183,13 +184,13 @@ def test_a_failed_extraction_or_feature_step_leaves_a_drawable_plain_mesh(viewer
     monkeypatch.setattr(sharp_features, "_step", broken)
     state.iso -= 0.01 * (hi - lo)
     scene.update(0.0)
-    plain = scene.n_triangles
+    plain = scene.stats.n_triangles
     deadline = time.monotonic() + 30
     while scene.surface.sharp_pending and time.monotonic() < deadline:
         time.sleep(0.01)
         scene.update(0.0)
     assert "sharp features failed" in state.error and "IndexError" in state.error and "\n" not in state.error
-    assert scene.n_triangles == plain > 0
+    assert scene.stats.n_triangles == plain > 0
     viewer.render()
 
 
@@ -222,25 +223,25 @@ def test_a_label_map_shows_one_coloured_surface_per_label(viewer, two_labels, tm
     state, scene = viewer.state, viewer.scene
     viewer.show(volume)
     assert state.show_labels(volume)
-    assert scene.label_counts() == (0, 0, 0)   # asked for; the surfaces are made in the frame, not here
+    assert scene.stats.label_counts() == (0, 0, 0)   # asked for; the surfaces are made in the frame, not here
     surfaces = api.label_surfaces(volume.data, spacing=volume.spacing)
     assert drawn_triangles(viewer) == [len(surfaces[label][1]) for label in (1, 7)]
-    colors = [look.color for look in scene.looks]
+    colors = [look.color for look in scene.stats.looks]
     assert colors[0] != colors[1]
     both = viewer.render()
-    assert scene.label_counts() == (2, sum(len(s[0]) for s in surfaces.values()),
+    assert scene.stats.label_counts() == (2, sum(len(s[0]) for s in surfaces.values()),
                                     sum(len(s[1]) for s in surfaces.values()))
     state.labels.set_visible(7, False)
     assert drawn_triangles(viewer) == [len(surfaces[1][1])]
-    assert scene.label_counts() == (1, len(surfaces[1][0]), len(surfaces[1][1]))   # the stats: what is drawn
+    assert scene.stats.label_counts() == (1, len(surfaces[1][0]), len(surfaces[1][1]))   # the stats: what is drawn
     assert not np.array_equal(viewer.render(), both)
     with pytest.raises(ViewerError, match="no label 3"):
         state.labels.set_visible(3, False)
     # Save writes what is shown: the visible label, one file each (STL), in the file's world space.
-    scene.save_mesh(tmp_path / "out.stl")
+    save_mesh(scene, tmp_path / "out.stl")
     assert (tmp_path / "out_label1.stl").exists() and not (tmp_path / "out_label7.stl").exists()
     state.labels.set_visible(7, True)
-    scene.save_mesh(tmp_path / "all.ply")   # PLY carries colours: one file
+    save_mesh(scene, tmp_path / "all.ply")   # PLY carries colours: one file
     mesh = trimesh.load(tmp_path / "all.ply", process=False)
     assert len(mesh.faces) == sum(len(s[1]) for s in surfaces.values())
     assert len(np.unique(mesh.visual.vertex_colors[:, :3], axis=0)) == 2

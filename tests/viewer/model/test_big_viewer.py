@@ -36,7 +36,7 @@ def viewer(gl_ctx):
 def wait_for_export(viewer, seconds) -> int:
     """Frames of the scene's update until the running export is over (or `seconds` pass); their count."""
     frames, deadline, state = 0, time.monotonic() + seconds, viewer.state
-    while state.exporting is not None and time.monotonic() < deadline:
+    while state.saving.exporting is not None and time.monotonic() < deadline:
         viewer.scene.update(0.02)          # the viewer keeps drawing frames meanwhile
         frames += 1
         time.sleep(0.02)
@@ -54,7 +54,7 @@ def test_a_big_volume_is_shown_downsampled_with_a_note(viewer, big_npy):
     assert state.bounds() == ((0, 0, 0), (60.0, 60.0, 60.0))     # the full volume's box
     note = [note for note in state.volume.notes if "one sample in 2" in note]
     assert note and "memory budget of 1.0 MiB (--memory-budget)" in note[0]
-    assert viewer.scene.n_triangles > 0
+    assert viewer.scene.stats.n_triangles > 0
 
 
 @pytest.mark.parametrize("direction", ["descent", "ascent"])
@@ -66,11 +66,11 @@ def test_the_full_resolution_export_runs_in_the_background_and_matches_the_api(v
     state.iso = 0.3
     viewer.scene.update(0.0)
     out = tmp_path / "full.ply"
-    state.export_full_resolution(out)
+    state.saving.export_full_resolution(out)
     with pytest.raises(ViewerError, match="still running"):
-        state.export_full_resolution(tmp_path / "again.ply")
+        state.saving.export_full_resolution(tmp_path / "again.ply")
     frames = wait_for_export(viewer, 120)
-    assert state.exporting is None and state.error is None and "wrote" in state.message
+    assert state.saving.exporting is None and state.error is None and "wrote" in state.message
     assert frames > 1
     mesh = trimesh.load(out, process=False)
     expected = isoscope.api.outward_marching_cubes(np.load(big_npy), 0.3, gradient_direction=direction)
@@ -82,7 +82,7 @@ def test_a_failed_export_is_one_line_in_the_panel_and_leaves_no_file(viewer, big
     viewer.open(str(big_npy))
     state = viewer.state
     out = tmp_path / "no-such-folder" / "full.ply"
-    state.export_full_resolution(out)
+    state.saving.export_full_resolution(out)
     wait_for_export(viewer, 60)
     assert state.error.startswith("full-resolution export failed") and "\n" not in state.error
     assert not out.exists() and not out.parent.exists()
@@ -94,7 +94,7 @@ def test_a_small_volume_is_shown_whole(gl_ctx):
         viewer.show(open_volume("torus"))
         assert viewer.state.full_volume is None and viewer.state.step == 1
         with pytest.raises(ViewerError, match="Save mesh"):
-            viewer.state.export_full_resolution("x.ply")
+            viewer.state.saving.export_full_resolution("x.ply")
     finally:
         viewer.release()
 
@@ -121,7 +121,7 @@ def test_the_export_reopens_a_raw_file_with_the_options_it_was_opened_with(viewe
     assert state.full_volume.open_options == {"dims": (61, 61, 61), "dtype": "float32"}
     state.iso = 0.3
     out = tmp_path / "raw.ply"
-    state.export_full_resolution(out)
+    state.saving.export_full_resolution(out)
     wait_for_export(viewer, 120)
     assert state.error is None, state.error
     full = state.full_volume.checked.data
@@ -139,8 +139,8 @@ def test_a_stopped_export_writes_nothing(viewer, tmp_path):
     state = viewer.state
     assert state.step > 1
     out = tmp_path / "full.ply"
-    state.export_full_resolution(out)
-    state._export.cancel()
+    state.saving.export_full_resolution(out)
+    state.saving._export.cancel()
     wait_for_export(viewer, 60)
     assert state.error is not None and "stopped" in state.error and "\n" not in state.error
     assert not out.exists() and [p.name for p in tmp_path.iterdir()] == ["gyroid200.npy"]

@@ -86,7 +86,7 @@ def test_a_512_class_scan_at_rest_is_shown_whole_with_export_s_faces(viewer_with
     viewer.show(volume, 160.0)
     state, scene = viewer.state, viewer.scene
     assert state.step == 1 and state.full_volume is None
-    assert scene.shown_shape == ct.shape and scene.preview_step == 1
+    assert scene.stats.shown_shape == ct.shape and scene.stats.preview_step == 1
     verts, faces, _, _ = scene.surface.shown.read_mesh()
     want = isoscope.api.outward_marching_cubes(ct, 160.0)
     assert len(faces) > 100_000
@@ -100,7 +100,7 @@ def test_a_small_budget_shows_every_nth_sample_and_says_so(viewer_with, ct):
     state, scene = viewer.state, viewer.scene
     step = budget_step(ct.shape, 1, MemoryBudget(16 << 20, "--memory-budget"))
     assert step > 1 and state.step == step and state.full_volume.data.shape == ct.shape
-    assert scene.shown_shape == shown_shape(ct.shape, step) == state.volume.data.shape
+    assert scene.stats.shown_shape == shown_shape(ct.shape, step) == state.volume.data.shape
     np.testing.assert_array_equal(state.volume.data, ct[::step, ::step, ::step])
     note = [note for note in state.volume.notes if f"one sample in {step}" in note]
     assert note and "memory budget of 16.0 MiB (--memory-budget)" in note[0] and "--memory-budget SIZE" in note[0]
@@ -169,7 +169,7 @@ def test_an_ome_zarr_over_the_budget_is_shown_from_the_finest_level_that_fits(vi
     assert state.full_volume.data.shape == (128, 128, 128) and state.volume.spacing == (1.0, 1.0, 1.0)
     np.testing.assert_array_equal(state.volume.data, levels[1])   # the file's level, not field[::2, ::2, ::2]
     assert not np.array_equal(levels[1], field[::2, ::2, ::2])
-    assert viewer.scene.shown_shape == (64, 64, 64) and state.step == 2
+    assert viewer.scene.stats.shown_shape == (64, 64, 64) and state.step == 2
     assert any("from its level '1'" in note for note in state.volume.notes)
     assert state.bounds()[1] == (63.0, 63.0, 63.0)   # the full level's extent (0.5 * 127), to a step
     tight = viewer_with("1M")   # only level 2 (32^3) fits
@@ -196,10 +196,10 @@ def test_a_volume_the_extractor_cannot_hold_is_shown_downsampled_and_says_why(gl
         data = np.random.default_rng(0).random((64, 64, 64)).astype(np.float32)
         viewer.show(as_volume(data), 0.5)
         state = viewer.state
-        assert state.step == 2 and viewer.scene.shown_shape == (32, 32, 32)
+        assert state.step == 2 and viewer.scene.stats.shown_shape == (32, 32, 32)
         np.testing.assert_array_equal(state.volume.data, data[::2, ::2, ::2])
         note = [note for note in state.volume.notes if "one sample in 2" in note]
         assert note and "this GPU's limits" in note[0] and "32 KiB" not in note[0] and "memory budget" not in note[0]
-        assert viewer.scene.n_triangles > 0
+        assert viewer.scene.stats.n_triangles > 0
     finally:
         viewer.release()

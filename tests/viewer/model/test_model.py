@@ -102,14 +102,14 @@ def test_a_refused_mesh_option_pair_raises_the_rule_and_leaves_the_state(state):
     with pytest.raises(MeshOptionsError) as caught:
         state.set_sharp(30)
     assert str(caught.value) == MeshOptions(smooth=2, sharp=30.0).problem()   # the spec's one wording
-    assert state.mesh_options is options and state.sharp is None and state.smooth == 2
+    assert state.mesh_options is options and state.mesh_options.sharp is None and state.mesh_options.smooth == 2
     with pytest.raises(ValueError, match="whole number of iterations"):
         state.set_smooth(-1)
     assert state.mesh_options is options
     assert state.set_smooth(0) and state.set_sharp(30)
     with pytest.raises(MeshOptionsError, match="not with tetrahedra"):
         state.set_cells("tetrahedra")
-    assert state.cells == "cubes"
+    assert state.mesh_options.cells == "cubes"
     assert state.set_sharp(30) is False   # no change
 
 
@@ -119,7 +119,7 @@ def test_each_mesh_option_has_one_source(state):
     state.set_cells("tetrahedra")
     state.set_smooth(3)
     assert state.mesh_options == MeshOptions(cells="tetrahedra", smooth=3)
-    assert (state.cells, state.smooth, state.sharp) == ("tetrahedra", 3, None)
+    assert (state.mesh_options.cells, state.mesh_options.smooth, state.mesh_options.sharp) == ("tetrahedra", 3, None)
 
 
 def test_a_job_answers_with_its_request_id_and_a_stale_answer_is_dropped():
@@ -167,16 +167,16 @@ def test_a_failed_job_answers_with_its_error_and_a_bug_in_one_line():
 def test_opening_a_file_is_a_request_answered_with_its_volume(tmp_path):
     np.save(tmp_path / "noise.npy", np.random.default_rng(1).normal(size=(12, 10, 8)).astype(np.float32))
     state = ViewerState()
-    request = state.open(str(tmp_path / "noise.npy"))
+    request = state.opening.open(str(tmp_path / "noise.npy"))
     (answer,) = state.jobs.poll(wait_s=60)
     assert answer.request_id == request and state.volume is None   # the GPU side puts it on show
-    opened = state.opened(answer)
+    opened = state.opening.opened(answer)
     assert opened.volume.data.shape == (12, 10, 8) and opened.step == 1
     assert state.recent.paths == [str((tmp_path / "noise.npy").resolve())]
-    state.open(str(tmp_path / "missing.npy"))
+    state.opening.open(str(tmp_path / "missing.npy"))
     (answer,) = state.jobs.poll(wait_s=60)
     with pytest.raises(ValueError, match="no such file"):
-        state.opened(answer)
+        state.opening.opened(answer)
 
 
 def test_slices_and_the_window_refuse_what_does_not_fit(state):
@@ -229,5 +229,5 @@ def test_the_panel_shows_a_refusal_in_one_line_and_clears_it_on_success(state):
     from isoscope.viewer.ui.gui import act  # imgui's Python module: no context, no window
     state.set_smooth(2)
     assert act(state, state.set_sharp, 30) is False
-    assert state.error == MeshOptions(smooth=2, sharp=30.0).problem() and state.sharp is None
+    assert state.error == MeshOptions(smooth=2, sharp=30.0).problem() and state.mesh_options.sharp is None
     assert act(state, state.set_smooth, 0) is True and state.error is None

@@ -100,7 +100,7 @@ def test_bad_scenes_are_one_line(tmp_path):
 
 
 def test_the_viewer_opens_a_scene_where_it_opens_a_volume(tmp_path, gl_ctx):
-    """Open file (and a drop, and Recent) go through ViewerState.open: a scene opens its volume on the
+    """Open file (and a drop, and Recent) go through state.opening.open: a scene opens its volume on the
     worker, then its levels, slices and camera are put on it; a bad scene is its one line."""
     from isoscope.viewer.ui.headless import HeadlessViewer
     saved = isoscope_here("render", "bucky", *VIEW, "--out", tmp_path / "a.png", "--save-scene", tmp_path / "a.json")

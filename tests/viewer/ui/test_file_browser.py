@@ -101,7 +101,7 @@ def click(viewer, box, double: bool = False):
 def opened_name(viewer, frames=200):
     for _ in range(frames):
         viewer.render(panel=True)
-        if viewer.state.loading is None:
+        if viewer.state.opening.loading is None:
             break
     return viewer.state.volume.name
 

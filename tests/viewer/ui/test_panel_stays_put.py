@@ -121,7 +121,7 @@ def test_a_refusal_shows_beside_its_control_and_moves_nothing(viewer):
     assert sharp is not None, "the Mesh section did not open"
 
     click(viewer, centre(sharp))   # sharp features with tetrahedra: refused
-    assert state.sharp is None and "tetrahedra" in state.error
+    assert state.mesh_options.sharp is None and "tetrahedra" in state.error
     move_pointer(*OUTSIDE)
     after_image = frame(viewer)
     assert layout(viewer) == before
@@ -137,7 +137,7 @@ def test_a_refusal_shows_beside_its_control_and_moves_nothing(viewer):
     click(viewer, centre(sharp))
     state.set_cells("cubes")
     click(viewer, centre(sharp))
-    assert state.sharp is not None and state.error is None
+    assert state.mesh_options.sharp is not None and state.error is None
     frame(viewer)
     assert viewer._panel.refusal_box is None
 
@@ -197,7 +197,7 @@ def test_an_empty_level_says_where_the_values_are(gl_ctx):
         low, high = state.value_range
         state.levels.set_value(low)   # every voxel inside (ties count as inside): no surface
         image = frame(viewer, 3)
-        assert viewer.scene.n_triangles == 0
+        assert viewer.scene.stats.n_triangles == 0
         text, _ = viewer._panel.status(state, viewer.scene)
         assert text.startswith(f"no surface at {level_text(low, (low, high))}: the values lie in ")
         assert "most between" in text
@@ -205,7 +205,7 @@ def test_an_empty_level_says_where_the_values_are(gl_ctx):
         assert viewer._panel.levels_section.flags == {0: "empty"}
         state.levels.set_value((low + high) / 2)
         frame(viewer, 3)
-        assert viewer.scene.n_triangles > 0 and viewer._panel.status(state, viewer.scene) is None
+        assert viewer.scene.stats.n_triangles > 0 and viewer._panel.status(state, viewer.scene) is None
         assert viewer._panel.levels_section.flags == {}
     finally:
         viewer.release()
@@ -273,7 +273,7 @@ def test_a_refusal_from_a_combo_shows_beside_the_combo(viewer):
     click(viewer, (popup.pos.x + 30, popup.pos.y + popup.size.y * 0.75))   # its second choice: tetrahedra
     move_pointer(*OUTSIDE)
     frame(viewer)
-    assert state.cells == "cubes" and "tetrahedra" in state.error
+    assert state.mesh_options.cells == "cubes" and "tetrahedra" in state.error
     x, y, width, height = viewer._panel.refusal_box
     assert x >= sum(viewer._panel.box[0::2]) and abs(y - (row - imgui.get_frame_height() / 2)) <= 4
 

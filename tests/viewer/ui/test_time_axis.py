@@ -78,7 +78,7 @@ def test_a_series_steps_with_the_model_and_its_picture_and_mesh_follow_while_the
     assert state.slices.shown[2] and state.slices.index[2] == 10 and state.slices.clip.position == 12.0
     assert (viewer.camera.azimuth, viewer.camera.elevation, viewer.camera.distance) == camera
     assert np.array_equal(state.volume.data, ball(1))
-    assert state.smooth == 2
+    assert state.mesh_options.smooth == 2
     state.set_smooth(0)                      # the mesh compared below is the plain one
 
     # The mesh of time point 1 is that of the 3-D volume alone at the same level.

@@ -15,6 +15,7 @@ import isoscope
 from isoscope.cpu.measure import measure_surface
 from isoscope.options import MeshOptionsError
 from isoscope.viewer.gfx.cpu_surface import CpuSurface
+from isoscope.viewer.gfx.saving import save_mesh
 from isoscope.viewer.model.measure import Measurements
 from isoscope.viewer.ui.headless import HeadlessViewer
 from isoscope.volumes import open_volume
@@ -51,7 +52,7 @@ def test_the_topology_is_drawn_saved_and_measured_as_the_api_makes_it(noise_on_s
         np.testing.assert_array_equal(a, b)
     assert not np.array_equal(ours[1], montani[1])
     assert isinstance(viewer.scene.surface, CpuSurface)   # the viewer makes these meshes on the CPU (surface.py)
-    viewer.scene.save_mesh(tmp_path / "saved.ply")
+    save_mesh(viewer.scene, tmp_path / "saved.ply")
     saved = trimesh.load(tmp_path / "saved.ply", process=False)
     np.testing.assert_array_equal(saved.faces, expected[1])
     # Measure (the panel's section) measures the mesh of the topology on show: the field's own counts.
@@ -70,7 +71,7 @@ def test_the_topology_is_drawn_saved_and_measured_as_the_api_makes_it(noise_on_s
     state.set_cells("tetrahedra")
     with pytest.raises(MeshOptionsError, match="not with tetrahedra"):
         state.set_topology("trilinear")
-    assert state.topology == "montani"
+    assert state.mesh_options.topology == "montani"
 
 
 @pytest.mark.gl   # render draws through OpenGL

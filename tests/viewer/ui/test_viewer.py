@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from support.panel import assert_marker_at, click_histogram
 
+from isoscope.viewer.gfx.saving import save_mesh
 from isoscope.viewer.model.errors import ViewerError
 from isoscope.viewer.model.recent import RecentFiles
 from isoscope.viewer.model.style import SurfaceStyle
@@ -26,13 +27,13 @@ def viewer(gl_ctx):
 
 def test_changing_the_iso_through_the_state_re_extracts_once(viewer):
     state, scene = viewer.state, viewer.scene
-    triangles_before = scene.n_triangles
+    triangles_before = scene.stats.n_triangles
     assert scene.update(0.0) is False          # nothing moved: no extraction
     state.iso = 0.25
     assert scene.extractor.level != pytest.approx(0.25)   # the state changes; the GPU follows in the frame
     assert scene.update(0.0) is True
     assert scene.extractor.level == pytest.approx(0.25)
-    assert scene.n_triangles > triangles_before
+    assert scene.stats.n_triangles > triangles_before
     assert scene.update(0.0) is False
 
 
@@ -122,7 +123,7 @@ def test_dragging_the_panel_slider_with_the_mouse_re_extracts(viewer, monkeypatc
     low, high = viewer.state.value_range
     viewer.state.iso = low + 0.5 * (high - low)
     x, y = find_slider_grab(viewer.render(panel=True))
-    triangles_before = viewer.scene.n_triangles
+    triangles_before = viewer.scene.stats.n_triangles
     # No extraction while the panel lays itself out: only in the frame's update after it.
     extract, draw, laying_out = viewer.scene.surface.extract, viewer._panel.draw, []
 
@@ -149,7 +150,7 @@ def test_dragging_the_panel_slider_with_the_mouse_re_extracts(viewer, monkeypatc
     viewer.render(panel=True)
     assert viewer.state.iso > low + 0.6 * (high - low)
     assert viewer.scene.extractor.level == pytest.approx(viewer.state.iso)
-    assert viewer.scene.n_triangles != triangles_before
+    assert viewer.scene.stats.n_triangles != triangles_before
 
 
 def error_pixels(image, panel_right):
@@ -166,8 +167,8 @@ def test_bad_file_shows_its_error_in_the_panel_and_keeps_the_volume(viewer, tmp_
     broken.write_bytes(b"this is not a numpy file")
     with pytest.raises(ValueError, match="broken.npy"):
         viewer.open(str(broken))
-    state.open(str(broken))       # as the panel asks: the answer comes in a frame, shown in the panel
-    assert state.loading.done(wait_s=60)
+    state.opening.open(str(broken))       # as the panel asks: the answer comes in a frame, shown in the panel
+    assert state.opening.loading.done(wait_s=60)
     viewer.render(panel=True)              # the frame that takes the answer: after its panel's layout
     shown = viewer.render(panel=True)      # the next frame's panel shows it
     assert state.error and "\n" not in state.error and "broken.npy" in state.error
@@ -198,7 +199,7 @@ def test_opening_a_file_adds_it_to_recent_files(gl_ctx, tmp_path):
 def test_expression_box_opens_an_implicit_function(viewer):
     viewer.open("expr:x*x + y*y + z*z - 0.25; res=24")
     assert viewer.state.volume.data.shape == (24, 24, 24)
-    assert viewer.scene.n_triangles > 0
+    assert viewer.scene.stats.n_triangles > 0
 
 
 @pytest.mark.parametrize("formula", ["+".join(["x"] * 999), "*".join(["x"] * 999), "-" * 1500 + "x",
@@ -208,7 +209,7 @@ def test_a_hostile_expression_typed_in_the_panel_keeps_the_window(viewer, formul
     refused in one line with the last good volume still on show."""
     state = viewer.state
     volume = state.volume
-    state.open(f"expr:{formula}; res=8")   # as the panel's expr box asks
+    state.opening.open(f"expr:{formula}; res=8")   # as the panel's expr box asks
     viewer.render()
     if state.error is None:
         assert state.volume.data.shape == (8, 8, 8)
@@ -238,15 +239,15 @@ def test_a_volume_read_in_the_background_reports_progress_then_shows(viewer, tmp
     path = tmp_path / "ramp.npy"
     np.save(path, np.broadcast_to(np.arange(192, dtype=np.float32), (256, 256, 192)))  # 48 MiB: read in slabs
     state = viewer.state
-    request = state.open(str(path))
-    pending = state.loading
+    request = state.opening.open(str(path))
+    pending = state.opening.loading
     assert pending.request_id == request and pending.done(wait_s=60)
     assert pending.message != f"opening {path}" and 0 < pending.fraction <= 1  # the loader reported
     assert pending.response.request_id == request          # the answer carries the request's id
     assert state.volume.name != "ramp"                  # not shown until the main thread takes it
     viewer.render()                                      # a frame: the scene uploads and extracts it
-    assert state.loading is None and state.error is None
-    assert state.volume.data.shape == (256, 256, 192) and viewer.scene.n_triangles > 0
+    assert state.opening.loading is None and state.error is None
+    assert state.volume.data.shape == (256, 256, 192) and viewer.scene.stats.n_triangles > 0
     assert str(path.resolve()) in state.recent.paths
 
 
@@ -255,8 +256,8 @@ def test_a_bad_file_read_in_the_background_keeps_the_volume(viewer, tmp_path):
     before = state.volume
     bad = tmp_path / "broken.npy"
     bad.write_bytes(b"\x93NUMPY garbage")
-    state.open(str(bad))
-    assert state.loading.done(wait_s=60)
+    state.opening.open(str(bad))
+    assert state.opening.loading.done(wait_s=60)
     viewer.render()
     assert state.volume is before and viewer.scene.extractor is not None
     assert state.error and "broken.npy" in state.error and "\n" not in state.error
@@ -267,16 +268,16 @@ def test_a_newer_open_request_wins_over_an_older_slower_one(viewer):
     newer one's is stale, and dropped: the volume asked for last stays on show."""
     import threading
 
-    from isoscope.viewer.model.state import read_for_viewer
+    from isoscope.viewer.model.opening import read_for_viewer
     state, release = viewer.state, threading.Event()
 
     def slow(spec, progress=None):
         release.wait(60)
         return read_for_viewer(open_volume, spec, {"resolution": 16}, state.budget, progress=progress)
     old = state.jobs.submit("open", slow, "gyroid")
-    new = state.open("torus", resolution=16)
-    assert new > old and state.loading.request_id == new
-    assert state.loading.done(wait_s=60)
+    new = state.opening.open("torus", resolution=16)
+    assert new > old and state.opening.loading.request_id == new
+    assert state.opening.loading.done(wait_s=60)
     viewer.render()
     assert state.volume.name == "torus:16"
     release.set()
@@ -301,7 +302,7 @@ def test_progress_bar_is_drawn_while_loading(viewer, tmp_path):
     state.jobs.submit("open", stalled, "ramp")
     loading = viewer.render(panel=True)
     release.set()
-    state.loading.done(wait_s=60)
+    state.opening.loading.done(wait_s=60)
     viewer.render()
     assert np.abs(loading.astype(int) - idle.astype(int)).max(axis=2)[:, :300].sum() > 0
 
@@ -320,34 +321,35 @@ def test_a_dragged_value_shows_a_coarse_preview_then_the_full_mesh_at_rest(gl_ct
     try:
         volume = open_volume("gyroid", resolution=48)
         scene.show(volume, 0.0)
-        full = scene.n_triangles
-        assert full > 4 * 3000 and scene.preview_step == 1
+        full = scene.stats.n_triangles
+        assert full > 4 * 3000 and scene.stats.preview_step == 1
         low, high = state.value_range
         drag = [low + f * (high - low) for f in (0.45, 0.47, 0.49, 0.51)]
 
         state.iso = drag[0]
         scene.update(0.04)                 # the first change of a drag is a preview too (no stall as it starts)
-        assert scene.preview_step > 1 and scene.n_triangles < full / 2
+        assert scene.stats.preview_step > 1 and scene.stats.n_triangles < full / 2
         for value in drag[1:]:             # changing frame after frame: a drag
             state.iso = value
             assert scene.update(0.04)
-            step = scene.preview_step
-            assert step > 1 and scene.n_triangles < full / 2
+            step = scene.stats.preview_step
+            assert step > 1 and scene.stats.n_triangles < full / 2
         # The preview is exactly the mesh of every step-th sample, in the same world units.
         sign = 1.0 if volume.gradient_direction == "descent" else -1.0
         coarse = volume.data[::step, ::step, ::step].astype(np.float32)
-        assert_same_mesh(scene.meshes[0].read(),
+        assert_same_mesh(scene.stats.meshes[0].read(),
                          marching_cubes_reference(coarse, drag[-1], tuple(s * step for s in volume.spacing),
                                                   descent=sign > 0))
 
-        assert scene.update(REST_S / 2) is False and scene.preview_step == step  # not rested yet
-        assert scene.update(REST_S / 2) is False and scene.preview_step == step  # rested: the status line says
+        assert scene.update(REST_S / 2) is False and scene.stats.preview_step == step  # not rested yet
+        assert scene.update(REST_S / 2) is False and scene.stats.preview_step == step  # rested: the status line says
         assert state.message.startswith("full resolution: extracting 48x48x48")  # the full mesh is coming,
-        assert scene.update(0.01) is False and scene.preview_step == step        # a frame shows that,
-        assert scene.update(0.01) is True and scene.preview_step == 1            # and the next makes it
-        assert state.message == f"full resolution: {scene.n_triangles:,} triangles in {scene.extract_ms:.0f} ms"
+        assert scene.update(0.01) is False and scene.stats.preview_step == step        # a frame shows that,
+        assert scene.update(0.01) is True and scene.stats.preview_step == 1            # and the next makes it
+        stats = scene.stats
+        assert state.message == f"full resolution: {stats.n_triangles:,} triangles in {stats.extract_ms:.0f} ms"
         assert scene.extractor.level == drag[-1]
-        assert scene.n_triangles == len(marching_cubes_reference(volume.data.astype(np.float32), drag[-1],
+        assert scene.stats.n_triangles == len(marching_cubes_reference(volume.data.astype(np.float32), drag[-1],
                                                                  volume.spacing, descent=sign > 0)[1])
         assert scene.update(1.0) is False                                        # and stays
     finally:
@@ -361,7 +363,7 @@ def test_headless_renders_never_show_a_preview(viewer, monkeypatch):
     for value in (0.1, 0.2, 0.3):
         state.iso = value
         viewer.render()
-        assert viewer.scene.preview_step == 1 and viewer.scene.extractor.level == pytest.approx(value)
+        assert viewer.scene.stats.preview_step == 1 and viewer.scene.extractor.level == pytest.approx(value)
 
 
 def test_value_histogram_counts_every_sample_on_a_log_scale():
@@ -394,17 +396,17 @@ def test_histogram_marks_the_level_and_a_click_on_it_sets_the_level(gl_ctx):
 def test_save_mesh_writes_the_surface_on_show_in_the_format_of_its_name(viewer, tmp_path):
     from support.mesh_checks import assert_closed_manifold, read_ply
     state, scene = viewer.state, viewer.scene
-    state.request_save(tmp_path / "shown.ply")   # as the panel's save dialog asks: written in the frame
+    state.saving.request_save(tmp_path / "shown.ply")   # as the panel's save dialog asks: written in the frame
     viewer.render()
     verts, normals, _, faces = read_ply(tmp_path / "shown.ply")
-    assert len(faces) == scene.n_triangles > 100 and len(verts) == scene.n_vertices
+    assert len(faces) == scene.stats.n_triangles > 100 and len(verts) == scene.stats.n_vertices
     np.testing.assert_array_equal(faces, scene.extractor.read_mesh()[1])
     assert_closed_manifold(faces)
     assert "mesh saved" in state.message and str(tmp_path / "shown.ply") in state.message
     # A bad name: one line (raised, or in the panel), nothing written, the viewer as it was.
     with pytest.raises(ValueError, match=r"\.ply, \.obj, \.stl, \.glb, \.off"):
-        scene.save_mesh(tmp_path / "shown.vtk")
-    state.request_save(tmp_path / "shown.vtk")
+        save_mesh(scene, tmp_path / "shown.vtk")
+    state.saving.request_save(tmp_path / "shown.vtk")
     viewer.render()
     assert ".ply, .obj, .stl, .glb, .off" in state.error and "\n" not in state.error
     assert not (tmp_path / "shown.vtk").exists()

@@ -43,7 +43,7 @@ def drive_window(x_display, tmp_path):
         for _ in range(3):
             assert window.draw_frame()
         assert state.error is None, state.error
-        assert window.scene.n_triangles > 0
+        assert window.scene.stats.n_triangles > 0
 
         press_key(window, "w")
         assert frames_until(window, lambda: state.style.wireframe)

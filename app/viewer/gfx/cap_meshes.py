@@ -1,11 +1,11 @@
-"""The caps of "closed at the border" on the GPU: each visible level's caps (model/caps.py) uploaded in the
+"""The caps of "closed at the border" on the GPU: each visible level's caps (one_shot.border_caps) uploaded in the
 vertex layout the renderer draws, made again when the level, the cells, the object's side or the volume
 change, and drawn in their level's look after the levels (GpuScene.drawn).  A label map's surfaces are
 closed already (labels.py): they get none.
 """
 from __future__ import annotations
 
-from ..model.caps import caps
+from ...one_shot import border_caps
 from .cpu_surface import CpuMesh
 from .renderer import SurfaceLook
 
@@ -42,7 +42,7 @@ class CapMeshes:
         if made is not None and made[0] == key:
             return made[1]
         mesh = made[1] if made is not None else CpuMesh(self.ctx)
-        arrays = caps(volume.checked.data, level.value, volume.spacing, volume.gradient_direction,
+        arrays = border_caps(volume.checked.data, level.value, volume.spacing, volume.gradient_direction,
                       volume.value_range, cells)
         mesh.take(arrays, level.value, 0.0)
         self._meshes[level] = (key, mesh)
