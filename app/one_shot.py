@@ -237,15 +237,18 @@ def extraction_of(cells: str, topology: str = "montani"):
     return tetrahedra if cells == "tetrahedra" else partial(cubes, topology=topology)
 
 
-def closed_mesh(volume, level: float, cells: str = "cubes", smooth: int = 0, topology: str = "montani"):
+def closed_mesh(volume, level: float, cells: str = "cubes", smooth: int = 0, topology: str = "montani",
+                sharp: float | None = None, backend: str = "cpu"):
     """(verts, faces, normals, values) of `volume` (a Volume) at `level` extracted whole from the volume padded on the
     outside of the level (core/closing.py), as `export --closed` does: watertight at the border; index x spacing
-    coordinates."""
+    coordinates.  `sharp`: the feature angle of sharp features (cubes), or None."""
     from .core.closing import padded_for_closing, unpad
-    level = validation.as_level(level, volume.value_range)
+    level = validation.as_level(level, volume.value_range)   # the padding moves the range: the level first
     data = padded_for_closing(volume.checked.data, volume.value_range, volume.gradient_direction == "descent")
+    options = {} if sharp is None else {"sharp_features": sharp}
     verts, faces, normals, values = extraction_of(cells, topology)(
-        data, level, spacing=volume.spacing, backend="cpu", gradient_direction=volume.gradient_direction, smooth=smooth)
+        data, level, spacing=volume.spacing, backend=backend, gradient_direction=volume.gradient_direction,
+        smooth=smooth, **options)
     return unpad(verts, volume.spacing), faces, normals, values
 
 

@@ -62,24 +62,14 @@ def _extract_for_export(volume, iso, args):
 def _whole(volume, iso, args, closed: bool):
     """The whole volume's mesh in one extraction; `closed`: of the volume padded on the outside of the level,
     so capped where it leaves the volume."""
-    from ..one_shot import cubes, tetrahedra
-    data, level = volume.checked, iso
+    from ..one_shot import closed_mesh, extraction_of
+    cells = "tetrahedra" if args.tetrahedra else "cubes"
+    topology = getattr(args, "topology", None) or "montani"
     if closed:
-        from ..core.closing import padded_for_closing
-        from ..validation import as_level
-        level = as_level(iso, volume.value_range)   # the padding moves the range: fix the level first
-        data = padded_for_closing(volume.checked.data, volume.value_range,
-                                  as_gradient_direction(volume.gradient_direction))
-    options = dict(spacing=volume.spacing, gradient_direction=volume.gradient_direction, smooth=args.smooth)
-    if args.tetrahedra:
-        verts, faces, normals, values = tetrahedra(data, level, **options)
-    else:
-        verts, faces, normals, values = cubes(data, level, sharp_features=args.sharp,
-                                              topology=getattr(args, "topology", None) or "montani", **options)
-    if closed:
-        from ..core.closing import unpad
-        verts = unpad(verts, volume.spacing)
-    return verts, faces, normals, values
+        return closed_mesh(volume, iso, cells, args.smooth, topology, sharp=args.sharp, backend="auto")
+    options = {} if args.sharp is None else {"sharp_features": args.sharp}
+    return extraction_of(cells, topology)(volume.checked, iso, spacing=volume.spacing,
+                                          gradient_direction=volume.gradient_direction, smooth=args.smooth, **options)
 
 
 def _export_open_options(args) -> dict:

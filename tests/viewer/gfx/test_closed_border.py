@@ -137,3 +137,26 @@ def test_a_saved_scene_keeps_closed_and_render_redraws_it(ball_file, tmp_path):
     assert np.array_equal(np.asarray(Image.open(again)), np.asarray(Image.open(picture)))
     result = isoscope_here("render", scene_path, "--closed", "--out", again)
     assert_one_line_error(result, "--closed")
+
+
+def test_export_closed_with_sharp_features_is_watertight_with_its_corners(tmp_path):
+    """`export --closed --sharp`: the padded extraction with sharp features (closed_mesh, the viewer's and
+    export's one door): a box cut by the volume's x = 0 face is closed there, and its corners inside are kept
+    (sharp features place them on the corner, where plain cubes round them off)."""
+    import trimesh
+    x, y, z = np.indices((24, 24, 24)).astype(np.float32)
+    box = np.minimum.reduce([8.5 - x, x + 8.5, 8.5 - np.abs(y - 12), 8.5 - np.abs(z - 12)])   # x in -8.5..8.5
+    np.save(tmp_path / "box.npy", box.astype(np.float32))
+    for extra, name in (((), "plain.ply"), (("--sharp", "30"), "sharp.ply")):
+        result = isoscope_here("export", tmp_path / "box.npy", "--iso", "0", "--closed", *extra, "--out",
+                               tmp_path / name)
+        assert result.returncode == 0, result.stderr
+    sharp, plain = (trimesh.load(tmp_path / name, process=True) for name in ("sharp.ply", "plain.ply"))
+    assert sharp.is_watertight and plain.is_watertight
+    assert open_edge_count(np.asarray(sharp.faces)) == 0
+    want = 8.5 * 17 * 17   # the kept half of the box: x 0..8.5, y and z 3.5..20.5
+    assert sharp.volume == pytest.approx(want, rel=0.01)
+    assert abs(sharp.volume - want) < abs(plain.volume - want)   # the corners kept, not cut off
+    corner = np.array([8.5, 20.5, 20.5])
+    assert np.linalg.norm(sharp.vertices - corner, axis=1).min() < 0.1 < np.linalg.norm(plain.vertices - corner,
+                                                                                          axis=1).min()
