@@ -10,7 +10,8 @@
 //     (Beer-Lambert within each step), colour from the map lit as a surface across the field's gradient
 //     (forward differences of the trilinear interpolant; left unlit where the gradient is ~0, inside a
 //     uniform region, and where a sample adds too little to the pixel to show it); stops once nearly opaque.
-// The light is the meshes' (lighting.glsl), two-sided.
+// The light is the meshes' (lighting.glsl), two-sided, and off where theirs is (u_lighting: the panel's
+// toggle): then iso's hit and the clip's cut are the surface's flat colour and DVR's samples the map's.
 // Empty space is skipped a brick at a time: u_ranges holds each brick's (min, max) over its samples (the
 // cells of BRICK samples a side, their shared faces included), and a brick that cannot change the result
 // (MIP: no value above the largest so far; MinIP: none below; iso: all of it on the outside of the level;
@@ -42,12 +43,13 @@ uniform float u_transfer_on;
 uniform vec2 u_transfer_range;
 uniform float u_transfer_floor; // values at or below it are transparent under the transfer function
 uniform float u_gradient_floor; // DVR: a gradient no longer than this (values per model unit) is none
-uniform vec4 u_clip_plane;
+uniform vec4 u_clip_plane;     // kept where dot(plane, (p, 1)) >= 0 (slices.py); (0, 0, 0, 1): no clip
 uniform sampler2D u_depth;     // what is drawn opaque (window depth), where u_depth_on: the rays end there
 uniform float u_depth_on;
 uniform vec2 u_depth_origin;   // a fragment's texel in u_depth: (gl_FragCoord.xy - origin) * scale
 uniform vec2 u_depth_scale;
-uniform mat4 u_inverse;        // (u_projection u_view)^-1: a window depth back to model space     // kept where dot(plane, (p, 1)) >= 0 (slices.py); (0, 0, 0, 1): no clip
+uniform mat4 u_inverse;        // (u_projection u_view)^-1: a window depth back to model space
+uniform bool u_lighting;       // the meshes' lighting toggle (mesh.frag): off, colours as they are
 uniform mat4 u_view;
 uniform mat4 u_projection;
 
@@ -155,12 +157,14 @@ vec3 gradient_at(vec3 p) {
 }
 
 vec3 lit(vec3 albedo, vec3 normal, vec3 p) {   // two-sided: the normal turned to face the eye
+    if (!u_lighting) return albedo;
     vec3 view_normal = normalize(mat3(u_view) * normal);
     vec3 to_eye = normalize(-(u_view * vec4(p, 1.0)).xyz);
     return lit_albedo(albedo, dot(view_normal, to_eye) < 0.0 ? -view_normal : view_normal, to_eye);
 }
 
 vec3 shaded(vec3 albedo, vec3 p, float v) {   // DVR: a sample lit across the gradient, where there is one
+    if (!u_lighting) return albedo;   // unlit: no gradient to read
     // Forward differences from the sample's own value v: three reads more, not six (a voxel's light is no
     // sharper than its gradient: half a voxel's shift is not seen, the frame time is).
     vec3 h = u_extent / max(u_shape - 1.0, vec3(1.0));

@@ -58,6 +58,7 @@ class RaycastRequest:
     transfer: tuple | None = None        # DVR: (value, opacity) points (model/raycast.py); None: the ramp
     value_range: tuple[float, float] = (0.0, 1.0)
     with_surfaces: bool = False          # the surfaces drawn too (opaque ones end the rays; renderer.py)
+    lighting: bool = True                # iso's hits and DVR's samples lit as the meshes are (the panel's toggle)
 
 
 @dataclass(frozen=True)
@@ -144,7 +145,7 @@ class VolumeRaycaster:
                     "u_transfer_range": tuple(request.value_range),
                     "u_transfer_floor": transparent_below(request.transfer, request.value_range),
                     "u_gradient_floor": float(GRADIENT_FLOOR * max(np.ptp(request.value_range), 1e-30) / spacing.min()),
-                    "u_depth": 5, "u_depth_on": 0.0 if depth is None else 1.0,
+                    "u_lighting": bool(request.lighting), "u_depth": 5, "u_depth_on": 0.0 if depth is None else 1.0,
                     "u_depth_origin": (0.0, 0.0) if depth is None else tuple(depth.origin),
                     "u_depth_scale": (1.0, 1.0) if depth is None else tuple(depth.scale)}
         if request.transfer is not None and (request.transfer, request.value_range) != self._transfer_of:
@@ -295,4 +296,4 @@ def raycast_request(state) -> RaycastRequest | None:
     return RaycastRequest(state.volume.data, tuple(state.volume.spacing), state.raycast, float(state.iso),
                           (settings.centre - half, settings.centre + half), settings.colormap,
                           state.gradient_direction == "descent", tuple(color), tuple(clip), state.transfer,
-                          tuple(float(v) for v in state.value_range), state.with_surfaces)
+                          tuple(float(v) for v in state.value_range), state.with_surfaces, state.style.lighting)

@@ -301,10 +301,9 @@ def test_mip_along_an_axis_is_numpys_max_within_a_grey_level(viewer, axis, view)
     assert np.ptp(expected) > 150   # the picture has something to get wrong
 
 
-def test_dvr_is_lit_across_the_gradient_brighter_on_the_fill_lights_side(viewer):
-    """A smooth ball made nearly opaque from its rim in (a transfer function): the meshes' fill light comes
-    from the upper left (lighting.glsl), so the ball's upper-left half is brighter than its lower-right half
-    (unshaded, the two are the same to 1%: the ball is round)."""
+def _sides(viewer) -> tuple[float, float, int]:
+    """A smooth ball made nearly opaque from its rim in (a transfer function), in DVR: the mean brightness of
+    its upper-left and lower-right halves, and how many pixels it covers."""
     x, y, z = _grid(40)
     ball = np.exp(-(x * x + y * y + z * z) / (2 * 0.35 ** 2)).astype(np.float32)
     viewer.show(as_volume(ball), 0.5)
@@ -315,8 +314,36 @@ def test_dvr_is_lit_across_the_gradient_brighter_on_the_fill_lights_side(viewer)
     rows, columns = np.indices(image.shape)
     towards_lower_right = (columns - xs.mean()) + (rows - ys.mean())
     lit_side, far_side = (image[drawn & (side > 5)].mean() for side in (-towards_lower_right, towards_lower_right))
-    assert drawn.sum() > 2000
+    return lit_side, far_side, int(drawn.sum())
+
+
+def test_dvr_is_lit_across_the_gradient_brighter_on_the_fill_lights_side(viewer):
+    """The meshes' fill light comes from the upper left (lighting.glsl), so the ball's upper-left half is
+    brighter than its lower-right half; with the lighting toggle off (the panel's, the meshes' too) the two
+    are the same to 1%: the ball is round."""
+    lit_side, far_side, drawn = _sides(viewer)
+    assert drawn > 2000
     assert lit_side > 1.1 * far_side, (lit_side, far_side)
+    viewer.state.style.lighting = False
+    lit_side, far_side, _ = _sides(viewer)
+    assert abs(lit_side - far_side) < 0.01 * far_side, (lit_side, far_side)
+
+
+def test_the_lighting_toggle_leaves_iso_flat_as_it_leaves_the_mesh(viewer):
+    """Lit, the iso mode's ball shades from its rim to its middle as the mesh does; with the panel's lighting
+    off both are the surface's colour, flat: inside the silhouette every pixel of either is that colour."""
+    x, y, z = _grid(40)
+    ball = (0.7 - np.sqrt(x * x + 1.5 * y * y + z * z)).astype(np.float32)
+    viewer.show(as_volume(ball), 0.0)
+    viewer.state.style.show_box = False
+    lit = picture(viewer, "iso", 0.0)
+    viewer.state.style.lighting = False
+    mesh, iso = picture(viewer, None, 0.0), picture(viewer, "iso", 0.0)
+    flat = np.round(255 * np.array(viewer.state.style.front_color))
+    inside = _inner(np.abs(mesh - BACKGROUND).max(axis=2) > 30) & _inner(np.abs(iso - BACKGROUND).max(axis=2) > 30)
+    assert inside.sum() > 1500
+    assert np.ptp(lit[inside][:, 2]) > 60                  # the light's shading, lit
+    assert np.abs(iso[inside] - flat).max() <= 1 and np.abs(mesh[inside] - flat).max() <= 1
 
 
 def _inner(mask, by=2):
