@@ -200,8 +200,9 @@ class VolumeRaycaster:
         framebuffer.use()
         ctx.viewport = (0, 0, *size)
         framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        if depth is not None:
-            depth = SceneDepth(depth.texture, (0.0, 0.0), (viewport[2] / size[0], viewport[3] / size[1]))
+        if depth is not None:   # a small pixel's texel: its window pixel's, less `depth`'s origin
+            scale = (viewport[2] / size[0], viewport[3] / size[1])
+            depth = SceneDepth(depth.texture, tuple((depth.origin[k] - viewport[k]) / scale[k] for k in (0, 1)), scale)
         self.draw(request, view, projection, eye, depth)
         destination.use()
         ctx.viewport = viewport

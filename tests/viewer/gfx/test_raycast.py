@@ -378,6 +378,26 @@ def test_an_opaque_surface_hides_the_bright_core_behind_it(viewer, mode):
         assert white(alone) > 100 and white(both) == 0
 
 
+@pytest.mark.parametrize("clip", [False, True])
+def test_the_opaque_scene_drawn_once_for_the_rays_is_the_surfaces_own_picture(viewer, clip):
+    """With the surfaces, the opaque ones and the slices are drawn once, into a target of their own whose depth
+    ends the rays, and copied into the picture sample by sample: under rays that add nothing (DVR, opacity 0
+    everywhere) the picture is the one without rays on every pixel, the surfaces' antialiased edges, a slice
+    and the box's lines included, with the clip plane too (the surfaces cut, their cap drawn)."""
+    viewer.show(as_volume(nested()), 0.2)
+    viewer.state.slices.inset = False
+    viewer.state.slices.show(1, True, 30)
+    if clip:
+        viewer.state.slices.set_clip(0, 30.0)
+    plain = picture(viewer, None)
+    viewer.state.set_with_surfaces(True)
+    viewer.state.set_transfer("0:0,1:0")
+    both = picture(viewer, "dvr")
+    edges = (np.abs(np.diff(plain.sum(axis=2), axis=1)) > 60).sum()
+    assert edges > 200                                           # outlines to get wrong
+    assert np.abs(both - plain).max() <= 1, (np.abs(both - plain).max(), (np.abs(both - plain) > 1).sum())
+
+
 def test_a_slice_stays_drawn_and_ends_the_rays(viewer):
     """Seen from above, a slice across the box above the balls (all zeros there): MIP and DVR end at it, so
     the bright core behind it is hidden and the slice shows as it does without ray casting; the clip's cut

@@ -1,0 +1,70 @@
+"""The opaque scene drawn once where the rays need its depth (gfx/raycast.py: slices and opaque surfaces end
+the rays): into a target of its own, colour and depth textures at the sample count of the framebuffer
+being drawn, then copied into that framebuffer by one full-screen pass (shaders/opaque_composite.frag:
+colour and depth, sample by sample) and its depth handed to the rays, resolved to one sample a pixel
+where it has several.  Before it, the meshes were drawn twice a frame: on screen, and again into a
+depth texture for the rays.
+
+A frame with rays and something opaque:
+1. `begin`: the target bound and cleared; the caller draws the slices and opaque meshes into it;
+2. `finish`: its colour and depth copied over what the framebuffer holds (the box's lines in front of the
+   surfaces stay: depth-tested), the framebuffer bound again, and the depth texture for the rays returned.
+"""
+from __future__ import annotations
+
+import moderngl
+
+from .composite import CompositeTargets
+
+
+class OpaquePass(CompositeTargets):
+    """The opaque scene's own target (colour + depth textures), its copy into the framebuffer drawn, and its
+    depth for the rays."""
+
+    def __init__(self, ctx: moderngl.Context):
+        super().__init__(ctx, "opaque_composite.frag", ("u_colour", "u_depth"))
+        self._target = self._resolved = self._colour = self._depth = self._rays_depth = None
+        self._destination = None
+
+    def _prepare(self, size: tuple[int, int], samples: int) -> None:
+        """Targets of this size and sample count (made again only when either changes)."""
+        if self._key == (size, samples):
+            return
+        self._release_targets()
+        ctx = self.ctx
+        self._colour = ctx.texture(size, 4, samples=samples)
+        self._depth = ctx.depth_texture(size, samples=samples)
+        self._target = ctx.framebuffer([self._colour], self._depth)
+        self._objects = [self._colour, self._depth, self._target]
+        if samples:   # the rays read one depth a pixel: the samples' resolved into a texture of their own
+            self._rays_depth = ctx.depth_texture(size)
+            colour = ctx.renderbuffer(size, 4)   # a blit copies between framebuffers alike: unused
+            self._resolved = ctx.framebuffer([colour], self._rays_depth)
+            self._objects += [self._rays_depth, colour, self._resolved]
+        else:
+            self._rays_depth, self._resolved = self._depth, None
+        self._rays_depth.compare_func = ""   # read as they are (texelFetch), not compared
+        self._key = (size, samples)
+
+    def begin(self, viewport) -> None:
+        """Bind the target (the size of the framebuffer bound now, up to `viewport`'s far corner, and its sample
+        count) cleared, for the opaque scene; `finish` copies it back."""
+        self._destination = self.ctx.fbo
+        self._prepare((viewport[0] + viewport[2], viewport[1] + viewport[3]), self._destination.samples)
+        self._target.use()
+        self.ctx.viewport = viewport
+        self._target.clear(0.0, 0.0, 0.0, 0.0, depth=1.0, viewport=viewport)
+
+    def finish(self, viewport) -> moderngl.Texture:
+        """What was drawn since `begin` copied into the framebuffer bound before it, that bound again; the depth
+        texture (one sample a pixel, from (0, 0)) where the rays end."""
+        ctx = self.ctx
+        if self._resolved is not None:
+            ctx.copy_framebuffer(self._resolved, self._target)
+        self._destination.use()
+        ctx.viewport = viewport
+        ctx.disable(moderngl.BLEND)
+        ctx.enable(moderngl.DEPTH_TEST)
+        self._composite((self._colour, self._depth), self._resolved is not None)
+        self._destination = None
+        return self._rays_depth
