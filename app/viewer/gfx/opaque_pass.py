@@ -1,14 +1,16 @@
 """The opaque scene drawn once where the rays need its depth (gfx/raycast.py: slices and opaque surfaces end
 the rays): into a target of its own, colour and depth textures at the sample count of the framebuffer
-being drawn, then copied into that framebuffer by one full-screen pass (shaders/opaque_composite.frag:
-colour and depth, sample by sample) and its depth handed to the rays, resolved to one sample a pixel
-where it has several.  Before it, the meshes were drawn twice a frame: on screen, and again into a
-depth texture for the rays.
+being drawn, then copied into that framebuffer whole (colour and depth) and its depth handed to the rays,
+resolved to one sample a pixel where it has several.  Before it, the meshes were drawn twice a frame: on
+screen, and again into a depth texture for the rays.
 
 A frame with rays and something opaque:
-1. `begin`: the target bound and cleared; the caller draws the slices and opaque meshes into it;
-2. `finish`: its colour and depth copied over what the framebuffer holds (the box's lines in front of the
-   surfaces stay: depth-tested), the framebuffer bound again, and the depth texture for the rays returned.
+1. `begin`: the target bound; the caller clears it and draws the box, the slices and the opaque meshes;
+2. `finish`: the target copied into the framebuffer bound before `begin`, that bound again, and the depth
+   texture for the rays returned.  The copy is a blit where that framebuffer is one of ours alike (a
+   render's multisampled target, the OIT scene: a few ms at 1280x800x4 on llvmpipe), else (the window's
+   own framebuffer, whose depth format GL does not tell) a full-screen pass writing colour and depth,
+   sample by sample (shaders/opaque_composite.frag: ~50 ms there).
 """
 from __future__ import annotations
 
@@ -25,6 +27,7 @@ class OpaquePass(CompositeTargets):
         super().__init__(ctx, "opaque_composite.frag", ("u_colour", "u_depth"))
         self._target = self._resolved = self._colour = self._depth = self._rays_depth = None
         self._destination = None
+        self._blit = False
 
     def _prepare(self, size: tuple[int, int], samples: int) -> None:
         """Targets of this size and sample count (made again only when either changes)."""
@@ -48,12 +51,21 @@ class OpaquePass(CompositeTargets):
 
     def begin(self, viewport) -> None:
         """Bind the target (the size of the framebuffer bound now, up to `viewport`'s far corner, and its sample
-        count) cleared, for the opaque scene; `finish` copies it back."""
-        self._destination = self.ctx.fbo
-        self._prepare((viewport[0] + viewport[2], viewport[1] + viewport[3]), self._destination.samples)
+        count) for the opaque scene, clear and box included; `finish` copies it back."""
+        destination = self._destination = self.ctx.fbo
+        size = (viewport[0] + viewport[2], viewport[1] + viewport[3])
+        self._prepare(size, destination.samples)
+        self._blit = self.blits_into(destination, size, viewport)
         self._target.use()
         self.ctx.viewport = viewport
-        self._target.clear(0.0, 0.0, 0.0, 0.0, depth=1.0, viewport=viewport)
+
+    @staticmethod
+    def blits_into(destination, size, viewport) -> bool:
+        """Whether the target can be blitted into `destination` whole: one of ours alike (one colour attachment
+        and a depth one, the same size, the viewport all of it), not the window's own framebuffer."""
+        return (len(getattr(destination, "color_attachments", ())) == 1
+                and getattr(destination, "depth_attachment", None) is not None
+                and tuple(destination.size) == tuple(size) and tuple(viewport[:2]) == (0, 0))
 
     def finish(self, viewport) -> moderngl.Texture:
         """What was drawn since `begin` copied into the framebuffer bound before it, that bound again; the depth
@@ -61,10 +73,17 @@ class OpaquePass(CompositeTargets):
         ctx = self.ctx
         if self._resolved is not None:
             ctx.copy_framebuffer(self._resolved, self._target)
-        self._destination.use()
+        if self._blit:
+            ctx.copy_framebuffer(self._destination, self._target)
+            self._destination.use()
+        else:
+            self._destination.use()
+            ctx.viewport = viewport
+            ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
+            ctx.depth_func = "1"   # always: written whatever it held
+            ctx.enable(moderngl.DEPTH_TEST)
+            self._composite((self._colour, self._depth), self._resolved is not None)
+            ctx.depth_func = "<="
         ctx.viewport = viewport
-        ctx.disable(moderngl.BLEND)
-        ctx.enable(moderngl.DEPTH_TEST)
-        self._composite((self._colour, self._depth), self._resolved is not None)
         self._destination = None
         return self._rays_depth

@@ -119,6 +119,14 @@ class SceneRenderer:
         if translucent:   # the opaque scene goes to the OIT targets first (oit.py)
             self.oit.prepare((viewport[0] + viewport[2], viewport[1] + viewport[3]), destination.samples)
             self.oit.scene.use()
+        # With rays to end, the opaque scene goes to a target of its own first (opaque_pass.py): drawn once,
+        # its depth ends the rays.
+        opaque = [mesh for mesh, look in drawn if look.opacity >= 1]
+        ends_rays = raycast is not None and bool(opaque or (slices is not None and slices.settings.planes(
+            caps=surfaces)))
+        if ends_rays:
+            self._opaque = self._opaque or OpaquePass(ctx)
+            self._opaque.begin(viewport)
         # imgui's C++ renderer changes GL state behind moderngl's back: set all we rely on.
         ctx.viewport = viewport
         ctx.scissor = None
@@ -146,23 +154,16 @@ class SceneRenderer:
             self.box_program["u_color"].value = style.box_color
             self.box_program["u_opacity"].value = 1.0
             self.box_vao.render(moderngl.LINES)
-        # Opaque: with translucent meshes, into the OIT scene; with rays to end, into a target of its own first
-        # (opaque_pass.py), drawn once.  The clip's cut caps the surfaces: not drawn for rays alone (the clip
-        # cuts them; iso draws its own cut).
+        # Opaque: with translucent meshes, into the OIT scene.  The clip's cut caps the surfaces: not drawn
+        # for rays alone (the clip cuts them; iso draws its own cut).
         self._release_vaos(keep={(m.vertex_buffer, m.index_buffer) for m, _ in drawn})
-        opaque = [mesh for mesh, look in drawn if look.opacity >= 1]
-        ends_rays = raycast is not None and bool(opaque or (slices is not None and slices.settings.planes(
-            caps=surfaces)))
-        if ends_rays:
-            self._opaque = self._opaque or OpaquePass(ctx)
-            self._opaque.begin(viewport)
         self.slices.draw(slices, view, projection, caps=surfaces)
         if drawn:
             self._draw_opaque(drawn, slices, style)
         if raycast is not None:
             depth = None
             if ends_rays:
-                ctx.disable_direct(GL_CLIP_DISTANCE0)   # the copy's full-screen triangle writes no clip distance
+                ctx.disable_direct(GL_CLIP_DISTANCE0)   # a full-screen copy writes no clip distance
                 depth = SceneDepth(self._opaque.finish(viewport))
                 if drawn and slices is not None and slices.settings.clip is not None:
                     ctx.enable_direct(GL_CLIP_DISTANCE0)   # for the translucent surfaces still to come

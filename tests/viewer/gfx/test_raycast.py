@@ -378,12 +378,16 @@ def test_an_opaque_surface_hides_the_bright_core_behind_it(viewer, mode):
         assert white(alone) > 100 and white(both) == 0
 
 
-@pytest.mark.parametrize("clip", [False, True])
-def test_the_opaque_scene_drawn_once_for_the_rays_is_the_surfaces_own_picture(viewer, clip):
+@pytest.mark.parametrize("clip, blit", [(False, True), (True, True), (False, False), (True, False)])
+def test_the_opaque_scene_drawn_once_for_the_rays_is_the_surfaces_own_picture(viewer, monkeypatch, clip, blit):
     """With the surfaces, the opaque ones and the slices are drawn once, into a target of their own whose depth
-    ends the rays, and copied into the picture sample by sample: under rays that add nothing (DVR, opacity 0
-    everywhere) the picture is the one without rays on every pixel, the surfaces' antialiased edges, a slice
-    and the box's lines included, with the clip plane too (the surfaces cut, their cap drawn)."""
+    ends the rays, and copied into the picture (a blit into a render's target; into the window's framebuffer,
+    a full-screen pass, sample by sample): under rays that add nothing (DVR, opacity 0 everywhere) the
+    picture is the one without rays on every pixel, the surfaces' antialiased edges, a slice and the box's
+    lines included, with the clip plane too (the surfaces cut, their cap drawn)."""
+    from isoscope.viewer.gfx.opaque_pass import OpaquePass
+    if not blit:
+        monkeypatch.setattr(OpaquePass, "blits_into", staticmethod(lambda *args: False))
     viewer.show(as_volume(nested()), 0.2)
     viewer.state.slices.inset = False
     viewer.state.slices.show(1, True, 30)
