@@ -418,6 +418,33 @@ def test_a_slice_stays_drawn_and_ends_the_rays(viewer):
     assert white(mip) > 100 and white(picture(viewer, "mip")) == 0
 
 
+@pytest.mark.parametrize("mode", ["mip", "dvr"])
+def test_translucent_surfaces_are_laid_over_the_volume_last(viewer, mode):
+    """The stated order: the opaque scene, the rays over it, then the translucent surfaces over both (OIT's
+    resolve: their colour plus what is behind times (1 - opacity) per layer).  So the picture is linear in
+    the volume's: with the dim ball's shell at opacity 0.4 (two layers across its middle), changing the
+    volume's picture (another window) changes the picture with the shell by 0.6^2 of that, pixel by pixel;
+    the shell lies over all of the volume, the bright middle inside it too (MIP and DVR have no one depth).
+    A smooth cone (1 at the middle, 0.2 at two thirds of the way out): a binary ball's stepped shell is
+    crossed three times on some rays."""
+    x, y, z = _grid(48)
+    cone = np.clip(1.2 - 1.5 * np.sqrt(x * x + y * y + z * z), 0.0, 1.0).astype(np.float32)
+    viewer.show_levels(as_volume(cone), [0.2], opacities=[0.4])
+    viewer.state.style.show_box = False
+    shell = picture(viewer, None)
+    windows = ((1.0, 0.5), (0.5, 0.75))   # (width, centre): 0..1, then 0.5..1
+    alone = [picture(viewer, mode, window=window) for window in windows]
+    viewer.state.set_with_surfaces(True)
+    both = [picture(viewer, mode, window=window) for window in windows]
+    inside = _inner(np.abs(shell - BACKGROUND).max(axis=2) > 30, 3)
+    changed = inside & (np.abs(alone[0] - alone[1]).max(axis=2) > 30)
+    assert changed.sum() > 500
+    expected = (1 - 0.4) ** 2 * (alone[0] - alone[1])
+    error = np.abs((both[0] - both[1]) - expected)[changed]
+    assert error.max() <= 3, (error.max(), np.count_nonzero(error > 3))
+    assert np.abs(both[0] - alone[0])[inside].max() > 30   # the shell is there
+
+
 def test_translucent_surfaces_blend_over_the_volume_and_every_entry_draws_the_same(tmp_path):
     """DVR with the core's surface (0.7) opaque and the dim ball's (0.2) at opacity 0.4 over it: the command,
     isoscope.render and the saved scene draw the same picture; the translucent shell tints the volume (the
