@@ -259,6 +259,16 @@ void main() {
 #endif
         t += u_step;
     }
+#if defined(MODE_MIP) || defined(MODE_MINIP)
+    // The ray's end too (the box's far face, the clip's cut, what is drawn opaque): the lattice stops up to a
+    // step short of it, and where a cut crosses a bright (dark) region its extreme is right there.
+    float at_end = value_at(u_eye + dir * span.y);
+  #if defined(MODE_MIP)
+    gathered = max(gathered, at_end);
+  #else
+    gathered = min(gathered, at_end);
+  #endif
+#endif
 #if defined(MODE_ISO)
     discard;
 #elif defined(MODE_DVR)

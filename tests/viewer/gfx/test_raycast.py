@@ -225,6 +225,9 @@ def test_bad_transfer_functions_are_one_line(viewer, tmp_path, spec, words):
     with pytest.raises(isoscope.IsoscopeError, match=words):
         viewer.state.set_transfer(spec)
     assert viewer.state.transfer is None
+    with pytest.raises(isoscope.IsoscopeError, match=words) as refused:   # the Python door
+        isoscope.render(nested(), 0.2, size=(64, 48), raycast="dvr", transfer=spec)
+    assert "\n" not in str(refused.value)
     np.save(tmp_path / "nested.npy", nested())
     done = isoscope_here("render", tmp_path / "nested.npy", "--raycast", "dvr", "--transfer", spec,
                          "--out", tmp_path / "x.png")
@@ -283,12 +286,22 @@ def test_mip_along_an_axis_is_numpys_max_within_a_grey_level(viewer, axis, view)
     viewer.camera.fov_degrees = 0.25
     viewer.show(as_volume(data), 0.5, *view)
     image = picture(viewer, "mip", 0.5, window=(1.0, 0.5))[..., 0]
-    spot = pixel_centres_on_plane(viewer.camera, SIZE, axis, (data.shape[axis] - 1) / 2)
+    inside, expected = numpy_mip(viewer.camera, data, axis)
+    difference = np.abs(image[inside] - expected)
+    assert difference.max() <= 1, (difference.max(), np.count_nonzero(difference > 1))
+    assert np.ptp(expected) > 150   # the picture has something to get wrong
+
+
+def numpy_mip(camera, data, axis, kept=slice(None)) -> tuple[np.ndarray, np.ndarray]:
+    """Where each pixel's ray crosses the volume's footprint along `axis` (away from its rim), and there the
+    grey colour map at the largest value along the axis of the planes `kept`, each sampled bilinearly at
+    the pixel centre: the picture of a MIP straight down the axis from far away."""
+    spot = pixel_centres_on_plane(camera, SIZE, axis, (data.shape[axis] - 1) / 2)
     across = [a for a in range(3) if a != axis]
     u, v = spot[..., across[0]], spot[..., across[1]]
     inside = (u >= 1) & (u <= data.shape[across[0]] - 2) & (v >= 1) & (v <= data.shape[across[1]] - 2)
     assert inside.sum() > 2000
-    planes = np.moveaxis(data, axis, -1).astype(np.float64)   # (A, B, along)
+    planes = np.moveaxis(data, axis, -1)[..., kept].astype(np.float64)   # (A, B, along)
     u, v = u[inside], v[inside]
     i, j = np.floor(u).astype(int), np.floor(v).astype(int)
     fu, fv = (u - i)[:, None], (v - j)[:, None]
@@ -296,9 +309,24 @@ def test_mip_along_an_axis_is_numpys_max_within_a_grey_level(viewer, axis, view)
                 + (1 - fu) * fv * planes[i, j + 1] + fu * fv * planes[i + 1, j + 1])
     expected = colormap_rgba8("gray")[np.minimum((np.clip(bilinear.max(axis=1), 0, 1) * LUT_SIZE).astype(int),
                                                  LUT_SIZE - 1), 0].astype(int)
+    return inside, expected
+
+
+@pytest.mark.parametrize("hide_above", [True, False])
+def test_the_clip_plane_cuts_the_rays_of_a_mip_down_to_numpys_max_over_the_kept_planes(viewer, hide_above):
+    """Straight down z (as above), the clip across z at plane 18: MIP is numpy's max over the planes kept
+    (0..18 or 18..35) within a grey level, and differs from the whole volume's (the brightest bump lies
+    in the hidden half)."""
+    data = blobs()
+    viewer.camera.fov_degrees = 0.25
+    viewer.show(as_volume(data), 0.5, 0.0, 90.0)
+    viewer.state.slices.set_clip(2, 18.0, hide_above=hide_above)
+    image = picture(viewer, "mip", 0.5, window=(1.0, 0.5))[..., 0]
+    inside, expected = numpy_mip(viewer.camera, data, 2, slice(0, 19) if hide_above else slice(18, None))
     difference = np.abs(image[inside] - expected)
     assert difference.max() <= 1, (difference.max(), np.count_nonzero(difference > 1))
-    assert np.ptp(expected) > 150   # the picture has something to get wrong
+    _, whole = numpy_mip(viewer.camera, data, 2)
+    assert np.abs(whole - expected).max() > 50
 
 
 def _sides(viewer) -> tuple[float, float, int]:
