@@ -406,23 +406,34 @@ def test_an_opaque_surface_hides_the_bright_core_behind_it(viewer, mode):
         assert white(alone) > 100 and white(both) == 0
 
 
+@pytest.mark.parametrize("samples", [0, 4])
 @pytest.mark.parametrize("clip, blit", [(False, True), (True, True), (False, False), (True, False)])
-def test_the_opaque_scene_drawn_once_for_the_rays_is_the_surfaces_own_picture(viewer, monkeypatch, clip, blit):
+def test_the_opaque_scene_drawn_once_for_the_rays_is_the_surfaces_own_picture(gl_ctx, request, monkeypatch, clip,
+                                                                              blit, samples):
     """With the surfaces, the opaque ones and the slices are drawn once, into a target of their own whose depth
     ends the rays, and copied into the picture (a blit into a render's target; into the window's framebuffer,
     a full-screen pass, sample by sample): under rays that add nothing (DVR, opacity 0 everywhere) the
     picture is the one without rays on every pixel, the surfaces' antialiased edges, a slice and the box's
-    lines included, with the clip plane too (the surfaces cut, their cap drawn)."""
+    lines included, with the clip plane too (the surfaces cut, their cap drawn); and the surface ends the
+    rays (MIP's bright core behind it hidden).  Multisampled (a render's 4) or not (the window on llvmpipe)."""
     from isoscope.viewer.gfx.opaque_pass import OpaquePass
+    from isoscope.viewer.gfx.renderer import OffscreenTarget
     if not blit:
         monkeypatch.setattr(OpaquePass, "blits_into", staticmethod(lambda *args: False))
+    viewer = HeadlessViewer(SIZE, ctx=gl_ctx)
+    viewer.target.release()
+    viewer.target = OffscreenTarget(gl_ctx, SIZE, samples=samples)
+    request.addfinalizer(viewer.release)
     viewer.show(as_volume(nested()), 0.2)
     viewer.state.slices.inset = False
     viewer.state.slices.show(1, True, 30)
     if clip:
         viewer.state.slices.set_clip(0, 30.0)
     plain = picture(viewer, None)
+    core = white(picture(viewer, "mip"))                         # the core, without the surfaces
     viewer.state.set_with_surfaces(True)
+    if not clip:   # (the clip's cap, a slice through the core, shows it white)
+        assert core > 50 and white(picture(viewer, "mip")) == 0   # hidden by the surface
     viewer.state.set_transfer("0:0,1:0")
     both = picture(viewer, "dvr")
     edges = (np.abs(np.diff(plain.sum(axis=2), axis=1)) > 60).sum()
