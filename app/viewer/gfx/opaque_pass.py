@@ -63,7 +63,7 @@ class OpaquePass(CompositeTargets):
     def blits_into(destination, size, viewport) -> bool:
         """Whether the target can be blitted into `destination` whole: one of ours alike (one colour attachment
         and a depth one, the same size, the viewport all of it), not the window's own framebuffer."""
-        return (len(getattr(destination, "color_attachments", ())) == 1
+        return (len(getattr(destination, "color_attachments", None) or ()) == 1   # the window's: None
                 and getattr(destination, "depth_attachment", None) is not None
                 and tuple(destination.size) == tuple(size) and tuple(viewport[:2]) == (0, 0))
 
