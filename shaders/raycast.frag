@@ -44,7 +44,13 @@ uniform vec2 u_transfer_range;
 uniform float u_transfer_floor; // values at or below it are transparent under the transfer function
 uniform float u_gradient_floor; // DVR: a gradient no longer than this (values per model unit) is none
 uniform vec4 u_clip_plane;     // kept where dot(plane, (p, 1)) >= 0 (slices.py); (0, 0, 0, 1): no clip
+#ifdef DEPTH_MULTISAMPLE
+uniform sampler2DMS u_depth;   // what is drawn opaque (window depth, its first sample), where u_depth_on:
+#define DEPTH_SIZE textureSize(u_depth)   // the rays end there
+#else
 uniform sampler2D u_depth;     // what is drawn opaque (window depth), where u_depth_on: the rays end there
+#define DEPTH_SIZE textureSize(u_depth, 0)
+#endif
 uniform float u_depth_on;
 uniform vec2 u_depth_origin;   // a fragment's texel in u_depth: (gl_FragCoord.xy - origin) * scale
 uniform vec2 u_depth_scale;
@@ -103,9 +109,8 @@ vec2 clipped(vec2 span, vec3 dir) {
 // How far along the ray (t) what is drawn opaque is, or 1e38 where nothing is.
 float scene_end(vec3 dir) {
     if (u_depth_on < 0.5) return 1e38;
-    ivec2 texel = clamp(ivec2((gl_FragCoord.xy - u_depth_origin) * u_depth_scale), ivec2(0),
-                        textureSize(u_depth, 0) - 1);
-    float depth = texelFetch(u_depth, texel, 0).r;
+    ivec2 texel = clamp(ivec2((gl_FragCoord.xy - u_depth_origin) * u_depth_scale), ivec2(0), DEPTH_SIZE - 1);
+    float depth = texelFetch(u_depth, texel, 0).r;   // level 0, or sample 0
     if (depth >= 1.0) return 1e38;
     vec4 clip = u_projection * u_view * vec4(v_model, 1.0);
     vec4 p = u_inverse * vec4(clip.xy / clip.w, 2.0 * depth - 1.0, 1.0);

@@ -1,13 +1,13 @@
 """The opaque scene drawn once where the rays need its depth (gfx/raycast.py: slices and opaque surfaces end
 the rays): into a target of its own, colour and depth textures at the sample count of the framebuffer
-being drawn, then copied into that framebuffer whole (colour and depth) and its depth handed to the rays,
-resolved to one sample a pixel where it has several.  Before it, the meshes were drawn twice a frame: on
+being drawn, then copied into that framebuffer whole (colour and depth) and its depth handed to the rays
+(multisampled, they read its first sample: no resolve).  Before it, the meshes were drawn twice a frame: on
 screen, and again into a depth texture for the rays.
 
 A frame with rays and something opaque:
 1. `begin`: the target bound; the caller clears it and draws the box, the slices and the opaque meshes;
-2. `finish`: the target copied into the framebuffer bound before `begin`, that bound again, and the depth
-   texture for the rays returned.  The copy is a blit where that framebuffer is one of ours alike (a
+2. `finish`: the target copied into the framebuffer bound before `begin`, that bound again, and its depth
+   for the rays returned.  The copy is a blit where that framebuffer is one of ours alike (a
    render's multisampled target, the OIT scene: a few ms at 1280x800x4 on llvmpipe), else (the window's
    own framebuffer, whose depth format GL does not tell) a full-screen pass writing colour and depth,
    sample by sample (shaders/opaque_composite.frag: ~50 ms there).
@@ -17,6 +17,7 @@ from __future__ import annotations
 import moderngl
 
 from .composite import CompositeTargets
+from .raycast import SceneDepth
 
 
 class OpaquePass(CompositeTargets):
@@ -25,7 +26,7 @@ class OpaquePass(CompositeTargets):
 
     def __init__(self, ctx: moderngl.Context):
         super().__init__(ctx, "opaque_composite.frag", ("u_colour", "u_depth"))
-        self._target = self._resolved = self._colour = self._depth = self._rays_depth = None
+        self._target = self._colour = self._depth = None
         self._destination = None
         self._blit = False
 
@@ -39,14 +40,8 @@ class OpaquePass(CompositeTargets):
         self._depth = ctx.depth_texture(size, samples=samples)
         self._target = ctx.framebuffer([self._colour], self._depth)
         self._objects = [self._colour, self._depth, self._target]
-        if samples:   # the rays read one depth a pixel: the samples' resolved into a texture of their own
-            self._rays_depth = ctx.depth_texture(size)
-            colour = ctx.renderbuffer(size, 4)   # a blit copies between framebuffers alike: unused
-            self._resolved = ctx.framebuffer([colour], self._rays_depth)
-            self._objects += [self._rays_depth, colour, self._resolved]
-        else:
-            self._rays_depth, self._resolved = self._depth, None
-        self._rays_depth.compare_func = ""   # read as they are (texelFetch), not compared
+        if not samples:   # (a multisample texture has no sampler state)
+            self._depth.compare_func = ""   # read as they are (texelFetch), not compared
         self._key = (size, samples)
 
     def begin(self, viewport) -> None:
@@ -67,12 +62,11 @@ class OpaquePass(CompositeTargets):
                 and getattr(destination, "depth_attachment", None) is not None
                 and tuple(destination.size) == tuple(size) and tuple(viewport[:2]) == (0, 0))
 
-    def finish(self, viewport) -> moderngl.Texture:
-        """What was drawn since `begin` copied into the framebuffer bound before it, that bound again; the depth
-        texture (one sample a pixel, from (0, 0)) where the rays end."""
+    def finish(self, viewport) -> SceneDepth:
+        """What was drawn since `begin` copied into the framebuffer bound before it, that bound again; its depth
+        (a texture from (0, 0)) where the rays end."""
         ctx = self.ctx
-        if self._resolved is not None:
-            ctx.copy_framebuffer(self._resolved, self._target)
+        multisampled = self._key[1] > 0
         if self._blit:
             ctx.copy_framebuffer(self._destination, self._target)
             self._destination.use()
@@ -82,8 +76,8 @@ class OpaquePass(CompositeTargets):
             ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
             ctx.depth_func = "1"   # always: written whatever it held
             ctx.enable(moderngl.DEPTH_TEST)
-            self._composite((self._colour, self._depth), self._resolved is not None)
+            self._composite((self._colour, self._depth), multisampled)
             ctx.depth_func = "<="
         ctx.viewport = viewport
         self._destination = None
-        return self._rays_depth
+        return SceneDepth(self._depth, multisampled=multisampled)

@@ -164,7 +164,7 @@ class SceneRenderer:
             depth = None
             if ends_rays:
                 ctx.disable_direct(GL_CLIP_DISTANCE0)   # a full-screen copy writes no clip distance
-                depth = SceneDepth(self._opaque.finish(viewport))
+                depth = self._opaque.finish(viewport)
                 if drawn and slices is not None and slices.settings.clip is not None:
                     ctx.enable_direct(GL_CLIP_DISTANCE0)   # for the translucent surfaces still to come
             self._draw_rays(raycast, depth, view, projection, camera, viewport, coarse)
