@@ -23,14 +23,16 @@ from volumes import ct_torso, load_real
 MODES = (None, "mip", "minip", "mean", "iso", "dvr")
 
 
-def frames(viewer, mode: str | None, count: int, moving: bool = False) -> list[float]:
-    """Frame times in ms; `moving`: as the window draws while the view moves (a ray per 2x2 pixels)."""
+def frames(viewer, mode: str | None, count: int, moving: bool = False) -> tuple[list[float], list[float]]:
+    """Frame times in ms, wall clock and CPU (all the process's threads: llvmpipe's too, so on a shared machine
+    the work a frame takes, whatever else runs); `moving`: as the window draws while the view moves (a ray
+    per 2x2 pixels)."""
     viewer.state.set_raycast(mode)
     viewer.render()   # warm-up: the texture, the program, the mesh
-    times = []
+    times, cpu = [], []
     for _ in range(count):
         viewer.camera.azimuth += 3.0
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         if moving:
             viewer.target.use()
             viewer.app.draw(viewer.target.viewport, moving=True)
@@ -38,7 +40,8 @@ def frames(viewer, mode: str | None, count: int, moving: bool = False) -> list[f
         else:
             viewer.render()
         times.append((time.perf_counter() - start) * 1000)
-    return times
+        cpu.append((time.process_time() - start_cpu) * 1000)
+    return times, cpu
 
 
 def main() -> None:
@@ -68,11 +71,12 @@ def main() -> None:
             renderer = viewer.ctx.info["GL_RENDERER"]
             print(f"{name}: {'x'.join(map(str, data.shape))} {data.dtype}, {args.size}, {renderer}")
             for mode in (None if name == "mesh" else name for name in args.modes):
-                times = frames(viewer, mode, args.frames)
-                moving = frames(viewer, mode, args.frames, moving=True) if mode else times
+                times, cpu = frames(viewer, mode, args.frames)
+                moving, moving_cpu = frames(viewer, mode, args.frames, moving=True) if mode else (times, cpu)
                 print(f"  {mode or 'mesh':6s} at rest median {np.median(times):8.1f} ms, p90 "
-                      f"{np.percentile(times, 90):8.1f};  moving median {np.median(moving):8.1f} ms, p90 "
-                      f"{np.percentile(moving, 90):8.1f}")
+                      f"{np.percentile(times, 90):8.1f}, cpu {np.median(cpu):8.1f};  moving median "
+                      f"{np.median(moving):8.1f} ms, p90 {np.percentile(moving, 90):8.1f}, "
+                      f"cpu {np.median(moving_cpu):8.1f}")
         finally:
             viewer.release()
 

@@ -10,7 +10,8 @@
 //     (Beer-Lambert within each step), colour from the map lit as a surface across the field's gradient
 //     (forward differences of the trilinear interpolant; left unlit where the gradient is ~0, inside a
 //     uniform region, and where a sample adds too little to the pixel to show it); stops once nearly opaque.
-// The light is the meshes' (lighting.glsl), two-sided.
+// The light is the meshes' (lighting.glsl), two-sided, and off where theirs is (u_lighting: the panel's
+// toggle): then iso's hit and the clip's cut are the surface's flat colour and DVR's samples the map's.
 // Empty space is skipped a brick at a time: u_ranges holds each brick's (min, max) over its samples (the
 // cells of BRICK samples a side, their shared faces included), and a brick that cannot change the result
 // (MIP: no value above the largest so far; MinIP: none below; iso: all of it on the outside of the level;
@@ -42,12 +43,19 @@ uniform float u_transfer_on;
 uniform vec2 u_transfer_range;
 uniform float u_transfer_floor; // values at or below it are transparent under the transfer function
 uniform float u_gradient_floor; // DVR: a gradient no longer than this (values per model unit) is none
-uniform vec4 u_clip_plane;
+uniform vec4 u_clip_plane;     // kept where dot(plane, (p, 1)) >= 0 (slices.py); (0, 0, 0, 1): no clip
+#ifdef DEPTH_MULTISAMPLE
+uniform sampler2DMS u_depth;   // what is drawn opaque (window depth, its first sample), where u_depth_on:
+#define DEPTH_SIZE textureSize(u_depth)   // the rays end there
+#else
 uniform sampler2D u_depth;     // what is drawn opaque (window depth), where u_depth_on: the rays end there
+#define DEPTH_SIZE textureSize(u_depth, 0)
+#endif
 uniform float u_depth_on;
 uniform vec2 u_depth_origin;   // a fragment's texel in u_depth: (gl_FragCoord.xy - origin) * scale
 uniform vec2 u_depth_scale;
-uniform mat4 u_inverse;        // (u_projection u_view)^-1: a window depth back to model space     // kept where dot(plane, (p, 1)) >= 0 (slices.py); (0, 0, 0, 1): no clip
+uniform mat4 u_inverse;        // (u_projection u_view)^-1: a window depth back to model space
+uniform bool u_lighting;       // the meshes' lighting toggle (mesh.frag): off, colours as they are
 uniform mat4 u_view;
 uniform mat4 u_projection;
 
@@ -101,9 +109,8 @@ vec2 clipped(vec2 span, vec3 dir) {
 // How far along the ray (t) what is drawn opaque is, or 1e38 where nothing is.
 float scene_end(vec3 dir) {
     if (u_depth_on < 0.5) return 1e38;
-    ivec2 texel = clamp(ivec2((gl_FragCoord.xy - u_depth_origin) * u_depth_scale), ivec2(0),
-                        textureSize(u_depth, 0) - 1);
-    float depth = texelFetch(u_depth, texel, 0).r;
+    ivec2 texel = clamp(ivec2((gl_FragCoord.xy - u_depth_origin) * u_depth_scale), ivec2(0), DEPTH_SIZE - 1);
+    float depth = texelFetch(u_depth, texel, 0).r;   // level 0, or sample 0
     if (depth >= 1.0) return 1e38;
     vec4 clip = u_projection * u_view * vec4(v_model, 1.0);
     vec4 p = u_inverse * vec4(clip.xy / clip.w, 2.0 * depth - 1.0, 1.0);
@@ -155,12 +162,14 @@ vec3 gradient_at(vec3 p) {
 }
 
 vec3 lit(vec3 albedo, vec3 normal, vec3 p) {   // two-sided: the normal turned to face the eye
+    if (!u_lighting) return albedo;
     vec3 view_normal = normalize(mat3(u_view) * normal);
     vec3 to_eye = normalize(-(u_view * vec4(p, 1.0)).xyz);
     return lit_albedo(albedo, dot(view_normal, to_eye) < 0.0 ? -view_normal : view_normal, to_eye);
 }
 
 vec3 shaded(vec3 albedo, vec3 p, float v) {   // DVR: a sample lit across the gradient, where there is one
+    if (!u_lighting) return albedo;   // unlit: no gradient to read
     // Forward differences from the sample's own value v: three reads more, not six (a voxel's light is no
     // sharper than its gradient: half a voxel's shift is not seen, the frame time is).
     vec3 h = u_extent / max(u_shape - 1.0, vec3(1.0));
@@ -255,6 +264,16 @@ void main() {
 #endif
         t += u_step;
     }
+#if defined(MODE_MIP) || defined(MODE_MINIP)
+    // The ray's end too (the box's far face, the clip's cut, what is drawn opaque): the lattice stops up to a
+    // step short of it, and where a cut crosses a bright (dark) region its extreme is right there.
+    float at_end = value_at(u_eye + dir * span.y);
+  #if defined(MODE_MIP)
+    gathered = max(gathered, at_end);
+  #else
+    gathered = min(gathered, at_end);
+  #endif
+#endif
 #if defined(MODE_ISO)
     discard;
 #elif defined(MODE_DVR)

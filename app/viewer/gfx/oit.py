@@ -21,28 +21,18 @@ from __future__ import annotations
 
 import moderngl
 
-from ...resources import shader_source
+from .composite import CompositeTargets
 
 # Additive for the weighted sums; the accum target's alpha multiplies by (1 - a): the revealage.
 ACCUM_BLEND = (moderngl.ONE, moderngl.ONE, moderngl.ZERO, moderngl.ONE_MINUS_SRC_ALPHA)
 
 
-class OitTargets:
+class OitTargets(CompositeTargets):
     """The two float targets of weighted blended OIT and the program that composites them over the opaque scene, sized
     to the framebuffer being drawn."""
 
     def __init__(self, ctx: moderngl.Context):
-        self.ctx = ctx
-        self.programs = {samples > 0: ctx.program(
-            vertex_shader=shader_source("oit_composite.vert"),
-            fragment_shader=shader_source("oit_composite.frag", {"MULTISAMPLE": 1} if samples else None))
-            for samples in (0, 1)}
-        for program in self.programs.values():
-            for unit, name in enumerate(("u_scene", "u_accum", "u_weights")):
-                program[name].value = unit
-        self.vaos = {key: ctx.vertex_array(program, []) for key, program in self.programs.items()}
-        self._key = None
-        self._objects: list = []
+        super().__init__(ctx, "oit_composite.frag", ("u_scene", "u_accum", "u_weights"))
         self.scene = self.accum = None
 
     def prepare(self, size: tuple[int, int], samples: int) -> None:
@@ -75,18 +65,5 @@ class OitTargets:
         destination.use()
         ctx.viewport = viewport
         ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
-        for unit, texture in enumerate(self.textures):
-            texture.use(unit)
-        self.vaos[self._key[1] > 0].render(moderngl.TRIANGLES, vertices=3)
+        self._composite(self.textures, self._key[1] > 0)
         ctx.enable(moderngl.DEPTH_TEST)
-
-    def _release_targets(self) -> None:
-        for obj in self._objects:
-            obj.release()
-        self._objects, self._key = [], None
-
-    def release(self) -> None:
-        """Free the targets and the composite programs."""
-        self._release_targets()
-        for obj in (*self.vaos.values(), *self.programs.values()):
-            obj.release()

@@ -8,7 +8,7 @@ a #define), compiled the first time the mode is drawn.  This object owns its GL 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -58,15 +58,18 @@ class RaycastRequest:
     transfer: tuple | None = None        # DVR: (value, opacity) points (model/raycast.py); None: the ramp
     value_range: tuple[float, float] = (0.0, 1.0)
     with_surfaces: bool = False          # the surfaces drawn too (opaque ones end the rays; renderer.py)
+    lighting: bool = True                # iso's hits and DVR's samples lit as the meshes are (the panel's toggle)
 
 
 @dataclass(frozen=True)
 class SceneDepth:
     """What is drawn opaque before the rays, as a depth texture of the viewport's pixels: a ray ends there.
-    A fragment's texel is (gl_FragCoord.xy - origin) * scale (the coarse pass's pixels are larger)."""
+    A fragment's texel is (gl_FragCoord.xy - origin) * scale (the coarse pass's pixels are larger);
+    `multisampled`: a multisample texture, its first sample read (no resolve)."""
     texture: object
     origin: tuple[float, float] = (0.0, 0.0)
     scale: tuple[float, float] = (1.0, 1.0)
+    multisampled: bool = False
 
 
 class VolumeRaycaster:
@@ -75,7 +78,7 @@ class VolumeRaycaster:
 
     def __init__(self, ctx):
         self.ctx = ctx
-        self._programs: dict[str, object] = {}
+        self._programs: dict[tuple[str, bool], object] = {}
         self._cube = ctx.buffer(CUBE.tobytes())
         self._vaos: dict[str, object] = {}
         self._texture = None
@@ -93,14 +96,16 @@ class VolumeRaycaster:
         self._coarse = None              # (framebuffer, colour texture, depth) of the moving view's picture
         self._upscale = None             # the program stretching it over the viewport
 
-    def _program(self, mode: str):
-        if mode not in self._programs:
-            define = {f"MODE_{mode.upper()}": 1}
+    def _program(self, key: tuple[str, bool]):
+        """The program of (mode, whether the scene's depth is multisampled) and its vertex array."""
+        if key not in self._programs:
+            mode, multisampled = key
+            define = {f"MODE_{mode.upper()}": 1, **({"DEPTH_MULTISAMPLE": 1} if multisampled else {})}
             program = self.ctx.program(vertex_shader=shader_source("raycast.vert"),
                                        fragment_shader=shader_source("raycast.frag", define))
-            self._programs[mode] = program
-            self._vaos[mode] = self.ctx.vertex_array(program, [(self._cube, "3f", "in_position")])
-        return self._programs[mode]
+            self._programs[key] = program
+            self._vaos[key] = self.ctx.vertex_array(program, [(self._cube, "3f", "in_position")])
+        return self._programs[key], self._vaos[key]
 
     def _upload(self, data) -> None:
         """The volume's samples into the 3-D texture (again only for another array)."""
@@ -129,7 +134,7 @@ class VolumeRaycaster:
         if request.colormap != self._lut_name:
             self._lut.write(colormap_rgba8(request.colormap).tobytes())
             self._lut_name = request.colormap
-        program = self._program(request.mode)
+        program, vao = self._program((request.mode, depth is not None and depth.multisampled))
         shape = np.array(request.data.shape, np.float64)
         spacing = np.array(request.spacing, np.float64)
         extent = (shape - 1) * spacing
@@ -144,7 +149,7 @@ class VolumeRaycaster:
                     "u_transfer_range": tuple(request.value_range),
                     "u_transfer_floor": transparent_below(request.transfer, request.value_range),
                     "u_gradient_floor": float(GRADIENT_FLOOR * max(np.ptp(request.value_range), 1e-30) / spacing.min()),
-                    "u_depth": 5, "u_depth_on": 0.0 if depth is None else 1.0,
+                    "u_lighting": bool(request.lighting), "u_depth": 5, "u_depth_on": 0.0 if depth is None else 1.0,
                     "u_depth_origin": (0.0, 0.0) if depth is None else tuple(depth.origin),
                     "u_depth_scale": (1.0, 1.0) if depth is None else tuple(depth.scale)}
         if request.transfer is not None and (request.transfer, request.value_range) != self._transfer_of:
@@ -171,7 +176,7 @@ class VolumeRaycaster:
         ctx.blend_func = ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA   # premultiplied over what is drawn
         if request.mode != "iso":   # the box's back faces are behind what ends the rays: no depth test
             ctx.disable(ctx.DEPTH_TEST)
-        self._vaos[request.mode].render(mode=ctx.TRIANGLES)
+        vao.render(mode=ctx.TRIANGLES)
         ctx.disable(ctx.CULL_FACE | ctx.BLEND)
         ctx.enable(ctx.DEPTH_TEST)
         ctx.cull_face = "back"
@@ -199,8 +204,10 @@ class VolumeRaycaster:
         framebuffer.use()
         ctx.viewport = (0, 0, *size)
         framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        if depth is not None:
-            depth = SceneDepth(depth.texture, (0.0, 0.0), (viewport[2] / size[0], viewport[3] / size[1]))
+        if depth is not None:   # a small pixel's texel: its window pixel's, less `depth`'s origin
+            scale = (viewport[2] / size[0], viewport[3] / size[1])
+            depth = replace(depth, origin=tuple((depth.origin[k] - viewport[k]) / scale[k] for k in (0, 1)),
+                            scale=scale)
         self.draw(request, view, projection, eye, depth)
         destination.use()
         ctx.viewport = viewport
@@ -295,4 +302,4 @@ def raycast_request(state) -> RaycastRequest | None:
     return RaycastRequest(state.volume.data, tuple(state.volume.spacing), state.raycast, float(state.iso),
                           (settings.centre - half, settings.centre + half), settings.colormap,
                           state.gradient_direction == "descent", tuple(color), tuple(clip), state.transfer,
-                          tuple(float(v) for v in state.value_range), state.with_surfaces)
+                          tuple(float(v) for v in state.value_range), state.with_surfaces, state.style.lighting)

@@ -23,6 +23,7 @@ from ..model.slices import SliceScene
 from ..model.style import SurfaceStyle
 from .colorby import GpuColorBy
 from .oit import OitTargets
+from .opaque_pass import OpaquePass
 from .raycast import RaycastRequest, SceneDepth, VolumeRaycaster, raycast_request
 from .slices import GL_CLIP_DISTANCE0, SliceRenderer
 
@@ -58,7 +59,7 @@ class SceneRenderer:
             program["u_scalar"].value = SCALAR_UNIT
         self.oit = OitTargets(ctx)
         self._raycaster: VolumeRaycaster | None = None   # made the first time the volume is ray-cast
-        self._depth = None   # (framebuffer, depth texture): what is drawn opaque, where the rays end
+        self._opaque: OpaquePass | None = None   # the opaque scene drawn once where rays end at its depth
         self.box_program = ctx.program(vertex_shader=shader_source("box.vert"),
                                        fragment_shader=shader_source("flat.frag"))
         self.box_buffer = ctx.buffer(reserve=len(_BOX_EDGES) * 2 * 3 * 4)
@@ -118,6 +119,14 @@ class SceneRenderer:
         if translucent:   # the opaque scene goes to the OIT targets first (oit.py)
             self.oit.prepare((viewport[0] + viewport[2], viewport[1] + viewport[3]), destination.samples)
             self.oit.scene.use()
+        # With rays to end, the opaque scene goes to a target of its own first (opaque_pass.py): drawn once,
+        # its depth ends the rays.
+        opaque = [mesh for mesh, look in drawn if look.opacity >= 1]
+        ends_rays = raycast is not None and bool(opaque or (slices is not None and slices.settings.planes(
+            caps=surfaces)))
+        if ends_rays:
+            self._opaque = self._opaque or OpaquePass(ctx)
+            self._opaque.begin(viewport)
         # imgui's C++ renderer changes GL state behind moderngl's back: set all we rely on.
         ctx.viewport = viewport
         ctx.scissor = None
@@ -147,13 +156,18 @@ class SceneRenderer:
             self.box_vao.render(moderngl.LINES)
         # Opaque: with translucent meshes, into the OIT scene.  The clip's cut caps the surfaces: not drawn
         # for rays alone (the clip cuts them; iso draws its own cut).
-        self.slices.draw(slices, view, projection, caps=surfaces)
         self._release_vaos(keep={(m.vertex_buffer, m.index_buffer) for m, _ in drawn})
+        self.slices.draw(slices, view, projection, caps=surfaces)
         if drawn:
             self._draw_opaque(drawn, slices, style)
         if raycast is not None:
-            self._draw_rays(raycast, slices, [mesh for mesh, look in drawn if look.opacity >= 1], view,
-                            projection, camera, viewport, coarse)
+            depth = None
+            if ends_rays:
+                ctx.disable_direct(GL_CLIP_DISTANCE0)   # a full-screen copy writes no clip distance
+                depth = self._opaque.finish(viewport)
+                if drawn and slices is not None and slices.settings.clip is not None:
+                    ctx.enable_direct(GL_CLIP_DISTANCE0)   # for the translucent surfaces still to come
+            self._draw_rays(raycast, depth, view, projection, camera, viewport, coarse)
         if translucent:
             self._draw_translucent(translucent, viewport, destination)
         ctx.disable_direct(GL_CLIP_DISTANCE0)   # imgui's shaders write no clip distance
@@ -191,49 +205,15 @@ class SceneRenderer:
             ctx.disable(moderngl.BLEND)
             ctx.wireframe = False
 
-    def _draw_rays(self, raycast: RaycastRequest, slices, opaque, view, projection, camera, viewport,
+    def _draw_rays(self, raycast: RaycastRequest, depth: SceneDepth | None, view, projection, camera, viewport,
                    coarse: bool) -> None:
-        """The volume ray cast over what is drawn; the slices and `opaque` meshes drawn again into a depth
-        texture first (only where there are any), where the rays end."""
-        ctx = self.ctx
+        """The volume ray cast over what is drawn, ended by `depth` (the opaque scene's, opaque_pass.py)."""
         if self._raycaster is None:
-            self._raycaster = VolumeRaycaster(ctx)
-        depth = None
-        if opaque or (slices is not None and slices.settings.planes(caps=raycast.with_surfaces)):
-            depth = SceneDepth(self._opaque_depth(slices, opaque, view, projection, viewport, raycast.with_surfaces),
-                               (float(viewport[0]), float(viewport[1])))
+            self._raycaster = VolumeRaycaster(self.ctx)
         if coarse:
             self._raycaster.draw_coarse(raycast, view, projection, camera.eye(), viewport, depth)
         else:
             self._raycaster.draw(raycast, view, projection, camera.eye(), depth)
-
-    def _opaque_depth(self, slices, opaque, view, projection, viewport, caps: bool):
-        """A depth texture of `viewport`'s size holding the slices' and the `opaque` meshes' depth (drawn
-        again, no colour), the framebuffer bound before bound again."""
-        ctx = self.ctx
-        size = (viewport[2], viewport[3])
-        if self._depth is None or self._depth[1].size != size:
-            self._release_depth()
-            texture = ctx.depth_texture(size)
-            texture.compare_func = ""   # its values read as they are (texelFetch), not compared
-            self._depth = (ctx.framebuffer(depth_attachment=texture), texture)
-        target, framebuffer = ctx.fbo, self._depth[0]
-        framebuffer.use()
-        ctx.viewport = (0, 0, *size)
-        framebuffer.clear(depth=1.0)
-        ctx.polygon_offset = (0.0, 0.0)
-        self.slices.draw(slices, view, projection, caps=caps)
-        for mesh in opaque:
-            self._vaos_for(mesh)[0].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
-        target.use()
-        ctx.viewport = viewport
-        return self._depth[1]
-
-    def _release_depth(self) -> None:
-        if self._depth is not None:
-            for obj in self._depth:
-                obj.release()
-            self._depth = None
 
     def draw_scene(self, scene, camera, viewport: tuple[int, int, int, int], covered_left: int = 0,
                    coarse: bool = False) -> None:
@@ -280,7 +260,8 @@ class SceneRenderer:
         """Free the renderer's GL objects: programs, vertex arrays, depth targets, the OIT targets, the slices and the
         ray caster."""
         self._release_vaos()
-        self._release_depth()
+        if self._opaque is not None:
+            self._opaque.release()
         if self._raycaster is not None:
             self._raycaster.release()
         self.oit.release()

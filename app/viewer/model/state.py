@@ -83,6 +83,7 @@ class ViewerState:
         self.raycast: str | None = None       # a ray-casting mode drawn in the meshes' place (model/raycast.py)
         self.with_surfaces = False            # the surfaces drawn with the ray-cast volume too
         self.transfer = None                  # DVR's opacity points (value, opacity); None: the window's ramp
+        self.transfer_edits = 0               # the points' moves that changed them: a frame after one is coarse
 
     # --- volumes -----------------------------------------------------------
     @property
@@ -161,7 +162,10 @@ class ViewerState:
         the value range, between its neighbours, opacity 0..1: model/raycast.py moved_point)."""
         if self.transfer is None:
             raise ViewerError("choose a transfer function (a preset) before moving its points")
-        self.transfer = moved_point(self.transfer, index, value, opacity, self.value_range)
+        moved = moved_point(self.transfer, index, value, opacity, self.value_range)
+        if moved != self.transfer:   # the window's next frame: a ray per 2x2 pixels (ui/app.py), as a drag's
+            self.transfer_edits += 1
+        self.transfer = moved
 
     # --- mesh options: one MeshOptions (`mesh_options`), replaced whole ---------------
     def set_cells(self, cells: str) -> bool:

@@ -30,6 +30,8 @@ class ViewerApp:
         """`previews`: coarse meshes while a level moves (the window; a render shows finished meshes)."""
         self.ctx, self.state, self.panel = ctx, state, panel
         self.scene = GpuScene(ctx, state, previews=previews)
+        self.previews = previews
+        self._drawn_transfer_edits = 0   # the state's transfer_edits when last drawn
         self.renderer = SceneRenderer(ctx)
         self.camera = OrbitCamera()
         self._framed_serial = -1
@@ -59,8 +61,13 @@ class ViewerApp:
     def draw(self, viewport, covered_left: int = 0, moving: bool = False) -> None:
         """Step 3: the scene into `viewport` of the bound framebuffer, centred in what `covered_left` pixels
         of panel leave free; `moving` (the window's frames while the view or the level moves): a ray-cast
-        volume at a ray per 2x2 pixels, the full picture once it rests."""
-        self.renderer.draw_scene(self.scene, self.camera, viewport, covered_left=covered_left, coarse=moving)
+        volume at a ray per 2x2 pixels, the full picture once it rests.  With previews (the window) a frame
+        after the transfer function's points moved is drawn so too: a drag over them stays fluid, and the
+        first frame after it rests is whole."""
+        edited = self.state.transfer_edits != self._drawn_transfer_edits
+        self._drawn_transfer_edits = self.state.transfer_edits
+        self.renderer.draw_scene(self.scene, self.camera, viewport, covered_left=covered_left,
+                                 coarse=moving or (self.previews and edited))
 
     def offscreen(self, size, alpha: bool = False) -> np.ndarray:
         """The scene drawn into a new offscreen target of `size`, centred in the whole of it (no panel), as

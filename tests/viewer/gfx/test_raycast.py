@@ -225,6 +225,9 @@ def test_bad_transfer_functions_are_one_line(viewer, tmp_path, spec, words):
     with pytest.raises(isoscope.IsoscopeError, match=words):
         viewer.state.set_transfer(spec)
     assert viewer.state.transfer is None
+    with pytest.raises(isoscope.IsoscopeError, match=words) as refused:   # the Python door
+        isoscope.render(nested(), 0.2, size=(64, 48), raycast="dvr", transfer=spec)
+    assert "\n" not in str(refused.value)
     np.save(tmp_path / "nested.npy", nested())
     done = isoscope_here("render", tmp_path / "nested.npy", "--raycast", "dvr", "--transfer", spec,
                          "--out", tmp_path / "x.png")
@@ -283,12 +286,22 @@ def test_mip_along_an_axis_is_numpys_max_within_a_grey_level(viewer, axis, view)
     viewer.camera.fov_degrees = 0.25
     viewer.show(as_volume(data), 0.5, *view)
     image = picture(viewer, "mip", 0.5, window=(1.0, 0.5))[..., 0]
-    spot = pixel_centres_on_plane(viewer.camera, SIZE, axis, (data.shape[axis] - 1) / 2)
+    inside, expected = numpy_mip(viewer.camera, data, axis)
+    difference = np.abs(image[inside] - expected)
+    assert difference.max() <= 1, (difference.max(), np.count_nonzero(difference > 1))
+    assert np.ptp(expected) > 150   # the picture has something to get wrong
+
+
+def numpy_mip(camera, data, axis, kept=slice(None)) -> tuple[np.ndarray, np.ndarray]:
+    """Where each pixel's ray crosses the volume's footprint along `axis` (away from its rim), and there the
+    grey colour map at the largest value along the axis of the planes `kept`, each sampled bilinearly at
+    the pixel centre: the picture of a MIP straight down the axis from far away."""
+    spot = pixel_centres_on_plane(camera, SIZE, axis, (data.shape[axis] - 1) / 2)
     across = [a for a in range(3) if a != axis]
     u, v = spot[..., across[0]], spot[..., across[1]]
     inside = (u >= 1) & (u <= data.shape[across[0]] - 2) & (v >= 1) & (v <= data.shape[across[1]] - 2)
     assert inside.sum() > 2000
-    planes = np.moveaxis(data, axis, -1).astype(np.float64)   # (A, B, along)
+    planes = np.moveaxis(data, axis, -1)[..., kept].astype(np.float64)   # (A, B, along)
     u, v = u[inside], v[inside]
     i, j = np.floor(u).astype(int), np.floor(v).astype(int)
     fu, fv = (u - i)[:, None], (v - j)[:, None]
@@ -296,15 +309,29 @@ def test_mip_along_an_axis_is_numpys_max_within_a_grey_level(viewer, axis, view)
                 + (1 - fu) * fv * planes[i, j + 1] + fu * fv * planes[i + 1, j + 1])
     expected = colormap_rgba8("gray")[np.minimum((np.clip(bilinear.max(axis=1), 0, 1) * LUT_SIZE).astype(int),
                                                  LUT_SIZE - 1), 0].astype(int)
+    return inside, expected
+
+
+@pytest.mark.parametrize("hide_above", [True, False])
+def test_the_clip_plane_cuts_the_rays_of_a_mip_down_to_numpys_max_over_the_kept_planes(viewer, hide_above):
+    """Straight down z (as above), the clip across z at plane 18: MIP is numpy's max over the planes kept
+    (0..18 or 18..35) within a grey level, and differs from the whole volume's (the brightest bump lies
+    in the hidden half)."""
+    data = blobs()
+    viewer.camera.fov_degrees = 0.25
+    viewer.show(as_volume(data), 0.5, 0.0, 90.0)
+    viewer.state.slices.set_clip(2, 18.0, hide_above=hide_above)
+    image = picture(viewer, "mip", 0.5, window=(1.0, 0.5))[..., 0]
+    inside, expected = numpy_mip(viewer.camera, data, 2, slice(0, 19) if hide_above else slice(18, None))
     difference = np.abs(image[inside] - expected)
     assert difference.max() <= 1, (difference.max(), np.count_nonzero(difference > 1))
-    assert np.ptp(expected) > 150   # the picture has something to get wrong
+    _, whole = numpy_mip(viewer.camera, data, 2)
+    assert np.abs(whole - expected).max() > 50
 
 
-def test_dvr_is_lit_across_the_gradient_brighter_on_the_fill_lights_side(viewer):
-    """A smooth ball made nearly opaque from its rim in (a transfer function): the meshes' fill light comes
-    from the upper left (lighting.glsl), so the ball's upper-left half is brighter than its lower-right half
-    (unshaded, the two are the same to 1%: the ball is round)."""
+def _sides(viewer) -> tuple[float, float, int]:
+    """A smooth ball made nearly opaque from its rim in (a transfer function), in DVR: the mean brightness of
+    its upper-left and lower-right halves, and how many pixels it covers."""
     x, y, z = _grid(40)
     ball = np.exp(-(x * x + y * y + z * z) / (2 * 0.35 ** 2)).astype(np.float32)
     viewer.show(as_volume(ball), 0.5)
@@ -315,8 +342,36 @@ def test_dvr_is_lit_across_the_gradient_brighter_on_the_fill_lights_side(viewer)
     rows, columns = np.indices(image.shape)
     towards_lower_right = (columns - xs.mean()) + (rows - ys.mean())
     lit_side, far_side = (image[drawn & (side > 5)].mean() for side in (-towards_lower_right, towards_lower_right))
-    assert drawn.sum() > 2000
+    return lit_side, far_side, int(drawn.sum())
+
+
+def test_dvr_is_lit_across_the_gradient_brighter_on_the_fill_lights_side(viewer):
+    """The meshes' fill light comes from the upper left (lighting.glsl), so the ball's upper-left half is
+    brighter than its lower-right half; with the lighting toggle off (the panel's, the meshes' too) the two
+    are the same to 1%: the ball is round."""
+    lit_side, far_side, drawn = _sides(viewer)
+    assert drawn > 2000
     assert lit_side > 1.1 * far_side, (lit_side, far_side)
+    viewer.state.style.lighting = False
+    lit_side, far_side, _ = _sides(viewer)
+    assert abs(lit_side - far_side) < 0.01 * far_side, (lit_side, far_side)
+
+
+def test_the_lighting_toggle_leaves_iso_flat_as_it_leaves_the_mesh(viewer):
+    """Lit, the iso mode's ball shades from its rim to its middle as the mesh does; with the panel's lighting
+    off both are the surface's colour, flat: inside the silhouette every pixel of either is that colour."""
+    x, y, z = _grid(40)
+    ball = (0.7 - np.sqrt(x * x + 1.5 * y * y + z * z)).astype(np.float32)
+    viewer.show(as_volume(ball), 0.0)
+    viewer.state.style.show_box = False
+    lit = picture(viewer, "iso", 0.0)
+    viewer.state.style.lighting = False
+    mesh, iso = picture(viewer, None, 0.0), picture(viewer, "iso", 0.0)
+    flat = np.round(255 * np.array(viewer.state.style.front_color))
+    inside = _inner(np.abs(mesh - BACKGROUND).max(axis=2) > 30) & _inner(np.abs(iso - BACKGROUND).max(axis=2) > 30)
+    assert inside.sum() > 1500
+    assert np.ptp(lit[inside][:, 2]) > 60                  # the light's shading, lit
+    assert np.abs(iso[inside] - flat).max() <= 1 and np.abs(mesh[inside] - flat).max() <= 1
 
 
 def _inner(mask, by=2):
@@ -351,6 +406,41 @@ def test_an_opaque_surface_hides_the_bright_core_behind_it(viewer, mode):
         assert white(alone) > 100 and white(both) == 0
 
 
+@pytest.mark.parametrize("samples", [0, 4])
+@pytest.mark.parametrize("clip, blit", [(False, True), (True, True), (False, False), (True, False)])
+def test_the_opaque_scene_drawn_once_for_the_rays_is_the_surfaces_own_picture(gl_ctx, request, monkeypatch, clip,
+                                                                              blit, samples):
+    """With the surfaces, the opaque ones and the slices are drawn once, into a target of their own whose depth
+    ends the rays, and copied into the picture (a blit into a render's target; into the window's framebuffer,
+    a full-screen pass, sample by sample): under rays that add nothing (DVR, opacity 0 everywhere) the
+    picture is the one without rays on every pixel, the surfaces' antialiased edges, a slice and the box's
+    lines included, with the clip plane too (the surfaces cut, their cap drawn); and the surface ends the
+    rays (MIP's bright core behind it hidden).  Multisampled (a render's 4) or not (the window on llvmpipe)."""
+    from isoscope.viewer.gfx.opaque_pass import OpaquePass
+    from isoscope.viewer.gfx.renderer import OffscreenTarget
+    if not blit:
+        monkeypatch.setattr(OpaquePass, "blits_into", staticmethod(lambda *args: False))
+    viewer = HeadlessViewer(SIZE, ctx=gl_ctx)
+    viewer.target.release()
+    viewer.target = OffscreenTarget(gl_ctx, SIZE, samples=samples)
+    request.addfinalizer(viewer.release)
+    viewer.show(as_volume(nested()), 0.2)
+    viewer.state.slices.inset = False
+    viewer.state.slices.show(1, True, 30)
+    if clip:
+        viewer.state.slices.set_clip(0, 30.0)
+    plain = picture(viewer, None)
+    core = white(picture(viewer, "mip"))                         # the core, without the surfaces
+    viewer.state.set_with_surfaces(True)
+    if not clip:   # (the clip's cap, a slice through the core, shows it white)
+        assert core > 50 and white(picture(viewer, "mip")) == 0   # hidden by the surface
+    viewer.state.set_transfer("0:0,1:0")
+    both = picture(viewer, "dvr")
+    edges = (np.abs(np.diff(plain.sum(axis=2), axis=1)) > 60).sum()
+    assert edges > 200                                           # outlines to get wrong
+    assert np.abs(both - plain).max() <= 1, (np.abs(both - plain).max(), (np.abs(both - plain) > 1).sum())
+
+
 def test_a_slice_stays_drawn_and_ends_the_rays(viewer):
     """Seen from above, a slice across the box above the balls (all zeros there): MIP and DVR end at it, so
     the bright core behind it is hidden and the slice shows as it does without ray casting; the clip's cut
@@ -365,6 +455,33 @@ def test_a_slice_stays_drawn_and_ends_the_rays(viewer):
         ended = picture(viewer, mode)
         assert np.abs(ended[middle] - plain[middle]).max() <= 2, mode
     assert white(mip) > 100 and white(picture(viewer, "mip")) == 0
+
+
+@pytest.mark.parametrize("mode", ["mip", "dvr"])
+def test_translucent_surfaces_are_laid_over_the_volume_last(viewer, mode):
+    """The stated order: the opaque scene, the rays over it, then the translucent surfaces over both (OIT's
+    resolve: their colour plus what is behind times (1 - opacity) per layer).  So the picture is linear in
+    the volume's: with the dim ball's shell at opacity 0.4 (two layers across its middle), changing the
+    volume's picture (another window) changes the picture with the shell by 0.6^2 of that, pixel by pixel;
+    the shell lies over all of the volume, the bright middle inside it too (MIP and DVR have no one depth).
+    A smooth cone (1 at the middle, 0.2 at two thirds of the way out): a binary ball's stepped shell is
+    crossed three times on some rays."""
+    x, y, z = _grid(48)
+    cone = np.clip(1.2 - 1.5 * np.sqrt(x * x + y * y + z * z), 0.0, 1.0).astype(np.float32)
+    viewer.show_levels(as_volume(cone), [0.2], opacities=[0.4])
+    viewer.state.style.show_box = False
+    shell = picture(viewer, None)
+    windows = ((1.0, 0.5), (0.5, 0.75))   # (width, centre): 0..1, then 0.5..1
+    alone = [picture(viewer, mode, window=window) for window in windows]
+    viewer.state.set_with_surfaces(True)
+    both = [picture(viewer, mode, window=window) for window in windows]
+    inside = _inner(np.abs(shell - BACKGROUND).max(axis=2) > 30, 3)
+    changed = inside & (np.abs(alone[0] - alone[1]).max(axis=2) > 30)
+    assert changed.sum() > 500
+    expected = (1 - 0.4) ** 2 * (alone[0] - alone[1])
+    error = np.abs((both[0] - both[1]) - expected)[changed]
+    assert error.max() <= 3, (error.max(), np.count_nonzero(error > 3))
+    assert np.abs(both[0] - alone[0])[inside].max() > 30   # the shell is there
 
 
 def test_translucent_surfaces_blend_over_the_volume_and_every_entry_draws_the_same(tmp_path):

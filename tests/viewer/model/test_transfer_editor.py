@@ -104,3 +104,38 @@ def test_dragging_a_point_over_the_histogram_moves_it(gl_ctx):
         assert drawn(viewer.render()) > drawn(before) + 1000
     finally:
         viewer.release()
+
+
+def _drawn_as(viewer, moving: bool) -> np.ndarray:
+    """A frame as the window draws it while the view moves (`moving`) or at rest."""
+    viewer.target.use()
+    viewer.app.draw(viewer.target.viewport, moving=moving)
+    return viewer.target.read_rgb()
+
+
+@pytest.mark.gl
+def test_a_frame_after_the_points_move_is_coarse_and_the_next_one_at_rest_is_whole(gl_ctx):
+    """As the window draws (previews): a frame after a point moved casts a ray per 2x2 pixels, as while the
+    camera moves (the same picture as a moving frame's, pixel for pixel); the frame after it, nothing moved,
+    is the whole picture; a move that leaves the points as they were (a drag held still) moves nothing.  A
+    render (no previews) is whole after a move."""
+    from isoscope.viewer.ui.headless import HeadlessViewer
+    for previews in (True, False):
+        viewer = HeadlessViewer((200, 150), ctx=gl_ctx, previews=previews)
+        try:
+            viewer.show(as_volume(nested()), 0.2)
+            viewer.state.set_raycast("dvr")
+            viewer.state.set_transfer("0:0,0.5:0,0.9:1,1:1")
+            viewer.render()
+
+            viewer.state.move_transfer_point(1, 0.4, 1.0)
+            after_move = viewer.render()
+            at_rest = viewer.render()
+            viewer.state.move_transfer_point(1, 0.4, 1.0)   # where it is
+            held = viewer.render()
+            coarse, whole = (_drawn_as(viewer, moving) for moving in (True, False))
+            assert (np.abs(coarse.astype(int) - whole).max(axis=2) > 4).sum() > 100   # the two differ
+            assert np.array_equal(after_move, coarse if previews else whole), previews
+            assert np.array_equal(at_rest, whole) and np.array_equal(held, whole)
+        finally:
+            viewer.release()

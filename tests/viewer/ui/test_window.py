@@ -86,3 +86,49 @@ def test_isoscope_command_opens_the_window_on_an_expression(x_display):
                             capture_output=True, text=True, env=env, cwd=REPO, timeout=120)
     assert result.returncode == 0, result.stderr
     assert result.stderr == ""
+
+
+def test_the_window_draws_rays_with_the_surfaces_into_its_own_framebuffer(x_display):
+    run_spawned(rays_with_surfaces, x_display)
+
+
+def rays_with_surfaces(x_display):
+    """The window's framebuffer is none of ours: the opaque scene drawn once for the rays is copied into it by
+    a full-screen pass (gfx/opaque_pass.py), not a blit.  Its picture is the render's (a blit into a
+    multisampled target) but for the antialiased edges, the surface changes MIP's picture where it ends
+    the rays, at rest and while the view moves, and GL reports no error."""
+    os.environ["DISPLAY"] = x_display
+    from isoscope.viewer.gfx.renderer import read_rgb
+    from isoscope.viewer.model.recent import RecentFiles
+    from isoscope.viewer.ui.window import ViewerWindow
+    from isoscope.volumes import open_volume
+
+    window = ViewerWindow(open_volume("sphere", resolution=32), size=(480, 320), recent=RecentFiles(None))
+    try:
+        state, ctx = window.state, window.ctx
+
+        def scene(moving: bool = False) -> np.ndarray:
+            assert window.draw_frame()
+            size = ctx.screen.size
+            ctx.screen.use()
+            window.app.draw((0, 0, *size), moving=moving)   # the scene alone, no panel over it
+            error = ctx.error   # before the read: reading the window's framebuffer sets one on Mesa
+            assert error == "GL_NO_ERROR", error
+            pixels = read_rgb(ctx.screen, size).astype(int)
+            assert ctx.error is not None   # the read's, taken: not the next draw's
+            return pixels
+
+        for _ in range(3):
+            assert window.draw_frame()
+        assert ctx.error == "GL_NO_ERROR"
+        state.set_raycast("mip")
+        state.slices.show(2, True, 16)
+        alone = scene()
+        state.set_with_surfaces(True)
+        both, moving = scene(), scene(moving=True)
+        render = window.app.offscreen(ctx.screen.size).astype(int)
+        assert (np.abs(both - render).max(axis=2) > 8).mean() < 0.03
+        assert (np.abs(both - alone).max(axis=2) > 30).sum() > 2000
+        assert (np.abs(moving - alone).max(axis=2) > 30).sum() > 2000
+    finally:
+        window.close()
