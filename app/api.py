@@ -64,7 +64,7 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
     sharp_features : float, optional
         None for plain marching cubes, or a feature angle in degrees
         (0 < angle < 180, e.g. 30): Extended Marching Cubes [3]_
-        (`isoscope.cpu.sharp.features`) adds a vertex on the sharp edge or corner
+        (`isoscope.core.sharp.features`) adds a vertex on the sharp edge or corner
         of each cell whose normals open wider than the angle, so boxes keep their
         edges.  The extra vertices come after the plain ones; the mesh stays
         watertight.  The plain mesh is made on the chosen backend; on "gpu" the

@@ -13,8 +13,8 @@ import numpy as np
 
 from . import validation
 from .core.masking import check_mask, keep_masked_cells
+from .core.sharp.features import check_feature_angle, sharpen_extracted
 from .cpu.cubes import marching_cubes_reference
-from .cpu.sharp.features import check_feature_angle, sharpen_extracted
 from .cpu.smooth import check_iterations, smooth_projected
 from .cpu.tetra import marching_tetrahedra_reference
 from .errors import InputError

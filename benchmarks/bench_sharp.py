@@ -27,7 +27,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from isoscope import Extractor  # noqa: E402
-from isoscope.cpu.sharp.features import sharpen, signed_field  # noqa: E402
+from isoscope.core.sharp.features import sharpen, signed_field  # noqa: E402
 from isoscope.gpu.sharp_features import SharpenedMesh  # noqa: E402
 
 from volumes import VOLUMES  # noqa: E402

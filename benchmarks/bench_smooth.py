@@ -33,7 +33,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import isoscope  # noqa: E402
-from isoscope.cpu.interpolate import trilinear  # noqa: E402
+from isoscope.core.interpolate import trilinear  # noqa: E402
 from isoscope.gpu.cubes import Extractor  # noqa: E402
 from isoscope.gpu.smooth import Smoother  # noqa: E402
 

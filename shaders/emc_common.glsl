@@ -1,16 +1,16 @@
-// Shared by the Extended-MC passes (isoscope.gpu.sharp; numpy mirror: isoscope.cpu.sharp).
+// Shared by the Extended-MC passes (isoscope.gpu.sharp; numpy mirror: isoscope.core.sharp).
 //
 // All geometry here is double precision, as the numpy reference's: the feature point is a
 // least-squares solve whose matrix can be near singular, and the GPU's point must agree with
 // numpy's to ~1e-6 of a cell.  JACOBI_SWEEPS, SINGULAR_CUTOFF_SQ, CLUSTER_COS (cos CLUSTER_ANGLE)
-// and LINE_MARGIN are #defines from isoscope.cpu.sharp (qef.py, points.py).
+// and LINE_MARGIN are #defines from isoscope.core.sharp (qef.py, points.py).
 #include "mc_common.glsl"
 
 uniform dvec3 u_spacing_d;     // the spacing, in double (u_spacing is its float rounding)
 
 uint item_index() { return linear_group() * gl_WorkGroupSize.x + gl_LocalInvocationIndex; }
 
-// cpu.sharp.eno.eno_gradient at grid point q: per axis the one-sided difference of the smoother side.
+// core.sharp.eno.eno_gradient at grid point q: per axis the one-sided difference of the smoother side.
 dvec3 eno_gradient(ivec3 q) {
     dvec3 grad;
     for (int axis = 0; axis < 3; axis++) {
@@ -30,7 +30,7 @@ dvec3 eno_gradient(ivec3 q) {
     return grad;
 }
 
-// cpu.sharp.eno.eno_normals of a vertex at `position`: ENO gradients at its edge's ends, interpolated.
+// core.sharp.eno.eno_normals of a vertex at `position`: ENO gradients at its edge's ends, interpolated.
 dvec3 eno_normal(vec3 position) {
     dvec3 g = dvec3(position) / u_spacing_d;
     dvec3 nearest = roundEven(g);
@@ -44,7 +44,7 @@ dvec3 eno_normal(vec3 position) {
     return len > 0.0lf ? -grad / len : dvec3(0.0lf);
 }
 
-// cpu.sharp.qef.symmetric_eigen: eigenvalues descending, eigenvectors as the columns of `vectors`.
+// core.sharp.qef.symmetric_eigen: eigenvalues descending, eigenvectors as the columns of `vectors`.
 void symmetric_eigen(dmat3 m, out dvec3 values, out dmat3 vectors) {
     dmat3 a = m, v = dmat3(1.0lf);
     for (int sweep = 0; sweep < JACOBI_SWEEPS; sweep++) {

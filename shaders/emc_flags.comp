@@ -1,6 +1,6 @@
 #version 430
 // Extended-MC pass 0, one invocation per vertex of the plain mesh: can this vertex's cells hold a
-// feature?  cpu.sharp.cells.vertex_may_bend step for step (see there why the test is conservative):
+// feature?  core.sharp.cells.vertex_may_bend step for step (see there why the test is conservative):
 // for each of the (up to) four cells around the vertex's edge, is its normal more than the feature
 // half-angle (u_cos_half, with a margin) from the cell's mean gradient direction?  The four cells'
 // 18 samples are loaded once; all is done in the edge's frame (u, w across it, a along it).  Where no vertex
@@ -42,7 +42,7 @@ bool vertex_may_bend(uint index) {
     uint base = index * uint(VERTEX_FLOATS);
     vec3 position = vec3(vertex_data[base], vertex_data[base + 1u], vertex_data[base + 2u]);
     vec3 normal = vec3(vertex_data[base + 4u], vertex_data[base + 5u], vertex_data[base + 6u]);
-    // The vertex's edge, as cpu.sharp.eno.edge_of_vertex finds it; a vertex off the grid's edges
+    // The vertex's edge, as core.sharp.eno.edge_of_vertex finds it; a vertex off the grid's edges
     // (a smoothed mesh) has no cells to test: yes.
     vec3 g = position / u_spacing;
     vec3 off = abs(g - roundEven(g));

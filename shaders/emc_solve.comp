@@ -1,6 +1,6 @@
 #version 430
 // Extended-MC pass 1 of 1 (so far), one invocation per feature patch: the patch's feature vertex,
-// cpu.sharp.points.patch_points (and in it _solve, _extreme_normals, feature_points) step for step.
+// core.sharp.points.patch_points (and in it _solve, _extreme_normals, feature_points) step for step.
 // The planes' normals are ENO normals made here from the volume (eno_normal); a patch's vertices
 // and their one-ring come as vertex lists padded with -1 (ascending, so the valid ones first).
 // Writes per patch 8 doubles: point xyz, ok, corner xyz, corner found (rank 3 and finite).

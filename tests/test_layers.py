@@ -123,9 +123,9 @@ BELOW = {
     "validation": {"core", "errors"},
     "cpu": {"core", "errors", "validation"},
     "io": {"core", "errors"},
-    "gpu": {"core", "cpu", "errors", "resources", "validation"},
+    "gpu": {"core", "errors", "resources", "validation"},   # beside cpu, not above it: what both need is core's
     "big": {"core", "cpu", "gpu", "io", "errors", "validation"},
-    "volumes": {"core", "gpu", "errors", "resources", "validation"},
+    "volumes": {"core", "gpu", "errors", "resources", "validation"},   # expr: samples a formula on the GPU
     "one_shot": {"core", "cpu", "gpu", "big", "options", "errors", "validation"},
     "api": {"core", "cpu", "gpu", "big", "one_shot", "options", "errors", "validation"},
     "labels": {"core", "cpu", "gpu", "io", "one_shot", "options", "errors", "validation"},

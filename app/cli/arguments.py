@@ -159,7 +159,7 @@ smooth_iterations = SMOOTH.argument()
 
 def feature_angle(text: str) -> float:
     """The --sharp flag's feature angle in degrees (between 0 and 180), or argparse's error saying so."""
-    from ..cpu.sharp.features import check_feature_angle
+    from ..core.sharp.features import check_feature_angle
     try:
         return check_feature_angle(float(text))
     except ValueError:

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.interpolate import trilinear_value
 from ..errors import InputError
-from .interpolate import trilinear_value
 
 
 def open_edges(faces: np.ndarray) -> int:

@@ -14,7 +14,7 @@ the volume, fewer on its border, and with a mask only the cells it keeps (those 
 holds, as `isoscope.core.masking`).  This module finds those cells from the vertex's position: along
 each axis where the vertex sits on a grid plane (its coordinate within `ON_PLANE` of a whole number of
 cells) the cells on both sides, elsewhere the one it lies in.  For a vertex on a grid edge that is
-scikit-image's set; a sharp-feature vertex (`isoscope.cpu.sharp`) inside a cell takes that cell's
+scikit-image's set; a sharp-feature vertex (`isoscope.core.sharp`) inside a cell takes that cell's
 spread, one on a cell's face or edge the largest of the cells there.
 
 Positions are read in cells: a vertex's coordinate along its edge keeps 1/256 of a cell off the grid

@@ -58,6 +58,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.interpolate import trilinear
 from ..core.smoothing import (  # noqa: F401  (the rules both backends read; re-exported)
     ACCEPT,
     BORDER,
@@ -70,7 +71,6 @@ from ..core.smoothing import (  # noqa: F401  (the rules both backends read; re-
     check_iterations,
 )
 from .cubes import gradient_at, signed
-from .interpolate import trilinear
 
 F32 = np.float32
 

@@ -3,12 +3,12 @@
     >>> ex = Extractor(volume); ex.extract(level)
     >>> sharp = SharpExtractor(ex.resident)         # reads its volume image
     >>> sharp.may_bend(angle, ex.mesh)              # False: the sharp mesh is the plain one
-    >>> sharp.patch_points(...)                     # cpu.sharp.points.patch_points, on the GPU
+    >>> sharp.patch_points(...)                     # core.sharp.points.patch_points, on the GPU
 
-Passes (shaders/emc_*.comp; numpy mirror and the method: isoscope.cpu.sharp):
+Passes (shaders/emc_*.comp; numpy mirror and the method: isoscope.core.sharp):
 
 0. ``emc_flags``  per vertex of the plain mesh: is its normal more than half the feature angle
-   from the mean-gradient direction of a cell around its edge (cpu.sharp.cells.vertex_may_bend)?
+   from the mean-gradient direction of a cell around its edge (core.sharp.cells.vertex_may_bend)?
    Where no vertex is, no cell's normals open wider than the angle and `sharpen` would return
    the plain mesh: the caller skips the read-back and the numpy step (sphere, gyroid).
 1. ``emc_solve``  per feature patch: ENO normals of its vertices and one-ring from the volume
@@ -18,8 +18,8 @@ Passes (shaders/emc_*.comp; numpy mirror and the method: isoscope.cpu.sharp):
 What is not on the GPU yet (numpy, on the mesh read back where pass 0 flags a vertex): finding
 each triangle's cell and the candidate cells, grouping into patches, the feature test, the
 one-ring lists, the side normals, the grid samples' own planes where the field is locally linear
-(isoscope.cpu.sharp.planes), corners in empty cells, fans and the test that none folds, edge flips, the
-feature vertices' normals and the crisp normals for drawing (cpu.sharp.normals.crisp_normals; the
+(isoscope.core.sharp.planes), corners in empty cells, fans and the test that none folds, edge flips, the
+feature vertices' normals and the crisp normals for drawing (core.sharp.normals.crisp_normals; the
 drawn mesh is uploaded).
 `sharpen(..., solver=SharpExtractor(ex).patch_points)` is the numpy reference with pass 1
 swapped in; it gives the same mesh (tests/test_sharp_features.py), except where a decision rests on
@@ -37,11 +37,11 @@ import moderngl
 import numpy as np
 
 from ..core.layout import GROUP_SIZE, VERTEX_BYTES, VERTEX_FLOATS, StorageBlock
-from ..cpu.sharp.cells import bend_cos
-from ..cpu.sharp.patches import MAX_PATCH_VERTICES
-from ..cpu.sharp.points import CLUSTER_ANGLE, LINE_MARGIN, third_side_bound
-from ..cpu.sharp.points import patch_points as numpy_patch_points
-from ..cpu.sharp.qef import JACOBI_SWEEPS, SINGULAR_CUTOFF
+from ..core.sharp.cells import bend_cos
+from ..core.sharp.patches import MAX_PATCH_VERTICES
+from ..core.sharp.points import CLUSTER_ANGLE, LINE_MARGIN, third_side_bound
+from ..core.sharp.points import patch_points as numpy_patch_points
+from ..core.sharp.qef import JACOBI_SWEEPS, SINGULAR_CUTOFF
 from ..errors import InputError
 from .buffers import GrowableBuffers
 from .mesh import GpuMesh
@@ -91,7 +91,7 @@ class SharpExtractor:
 
     def may_bend(self, angle: float, mesh: GpuMesh | None = None, each: bool = False):
         """Pass 0 (emc_flags.comp) on `mesh` (default: the extractor's): whether some vertex may sit in a
-        feature cell (cpu.sharp.cells.vertex_may_bend).  False: `sharpen` would return the plain mesh
+        feature cell (core.sharp.cells.vertex_may_bend).  False: `sharpen` would return the plain mesh
         as it is, so nothing need be read back.  `each`: the per-vertex flags instead (for tests).
         None: the mesh is too large for one storage block, so the pass did not run (ask numpy)."""
         if mesh is None:
@@ -118,7 +118,7 @@ class SharpExtractor:
         return bool(np.frombuffer(flags.read(size=4), np.uint32)[0])
 
     def patch_points(self, verts, plane_normals, members, ring_members, lower, upper, spacing, cos_angle):
-        """isoscope.cpu.sharp.features.patch_points on the GPU for meshes of the resident volume.  The planes'
+        """isoscope.core.sharp.features.patch_points on the GPU for meshes of the resident volume.  The planes'
         normals are made from the volume at `verts` (so `plane_normals` is not read); only the vertices
         the lists name go up, renumbered (sharpen may have moved some next to a kink: sharp_planes)."""
         volume = self.volume

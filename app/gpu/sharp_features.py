@@ -3,12 +3,12 @@
 First pass 0 (`SharpExtractor.may_bend`, shaders/emc_flags.comp) asks the GPU whether any cell
 may bend past the feature angle; where none may, the plain mesh is the answer and nothing is read
 back (the viewer draws the extractor's own buffers).  Else the feature step
-(isoscope.cpu.sharp.features.sharpen) runs on the mesh the Extractor read back, with
+(isoscope.core.sharp.features.sharpen) runs on the mesh the Extractor read back, with
 its per-patch solve (ENO normals, the planes' point) on the GPU: `SharpExtractor.patch_points`,
 shaders/emc_solve.comp, which gives the numpy reference's points to ~1e-14.  Grouping triangles
 into patches, the one-ring lists, fans, edge flips, the feature vertices' normals and the crisp
 normals for drawing are still numpy (see isoscope.gpu.sharp).  For drawing, triangles at
-feature vertices get face normals (cpu.sharp.normals.crisp_normals), so edges render crisp.
+feature vertices get face normals (core.sharp.normals.crisp_normals), so edges render crisp.
 """
 from __future__ import annotations
 
@@ -17,8 +17,8 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from concurrent.futures import wait as wait_for
 
-from ..cpu.sharp.features import Stopped, sharpen, signed_field
-from ..cpu.sharp.normals import crisp_normals
+from ..core.sharp.features import Stopped, sharpen, signed_field
+from ..core.sharp.normals import crisp_normals
 from ..errors import InputError
 from .mesh import GpuMesh, OwnedMesh
 from .sharp import SharpExtractor

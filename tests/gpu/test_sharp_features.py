@@ -9,9 +9,9 @@ from support.mesh_checks import assert_closed_manifold, edge_use_counts, signed_
 from support.sdf_boxes import Box, distance_to_mesh, grid_points, rotation
 
 from isoscope.api import outward_marching_cubes
-from isoscope.cpu.sharp.eno import edge_of_vertex
-from isoscope.cpu.sharp.features import check_feature_angle, sharpen_extracted
-from isoscope.cpu.sharp.normals import crisp_normals
+from isoscope.core.sharp.eno import edge_of_vertex
+from isoscope.core.sharp.features import check_feature_angle, sharpen_extracted
+from isoscope.core.sharp.normals import crisp_normals
 
 N = 24  # samples per axis: boxes about 10 cells wide
 SCENES = {
@@ -342,8 +342,8 @@ GPU_SCENES = {
 def test_gpu_feature_points_match_the_numpy_reference(gl_ctx, name, spacing):
     """emc_solve.comp against reference_sharp.patch_points on the same patches (and the meshes they give)."""
     from isoscope import Extractor
-    from isoscope.cpu.sharp.features import sharpen, signed_field
-    from isoscope.cpu.sharp.points import patch_points
+    from isoscope.core.sharp.features import sharpen, signed_field
+    from isoscope.core.sharp.points import patch_points
     from isoscope.gpu.sharp import SharpExtractor
 
     volume = GPU_SCENES[name]().astype(np.float32)
@@ -444,8 +444,8 @@ def test_bend_pass_flags_every_cell_whose_normals_open_wider_than_the_angle(gl_c
     vertex normals open wider than the feature angle, the only cells `sharpen` can change; where it
     flags nothing, sharp_mesh_of gives the numpy reference's (plain) mesh without running it."""
     from isoscope import Extractor
-    from isoscope.cpu.sharp.cells import vertex_may_bend
-    from isoscope.cpu.sharp.features import sharpen, signed_field
+    from isoscope.core.sharp.cells import vertex_may_bend
+    from isoscope.core.sharp.features import sharpen, signed_field
     from isoscope.gpu.sharp import SharpExtractor
     from isoscope.gpu.sharp_features import sharp_mesh_of
 
@@ -479,8 +479,8 @@ def test_bend_pass_flags_vertices_a_smoothing_moved_off_the_grid_edges(gl_ctx):
     """Pass 0 tests a vertex against the cells of the edge it lies on; after smoothing most vertices lie on
     no edge, and those say 'may bend' (the numpy step then runs, as before pass 0), like the mirror."""
     from isoscope import Extractor
-    from isoscope.cpu.sharp.cells import vertex_may_bend
-    from isoscope.cpu.sharp.features import signed_field
+    from isoscope.core.sharp.cells import vertex_may_bend
+    from isoscope.core.sharp.features import signed_field
     from isoscope.gpu.sharp import SharpExtractor
     from isoscope.gpu.smooth import Smoother
 
@@ -566,7 +566,7 @@ def test_a_quantised_scan_keeps_its_fans_from_turning_over(size, sigma):
 def test_a_patch_with_no_valid_plane_is_no_feature_and_warns_nothing():
     import warnings
 
-    from isoscope.cpu.sharp.qef import feature_points
+    from isoscope.core.sharp.qef import feature_points
     positions = np.array([[[0.2, 0.5, 0.5], [0.8, 0.5, 0.5], [0.5, 0.5, 0.9]]] * 2)
     normals = np.array([[[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]]] * 2)
     valid = np.array([[True, True, True], [False, False, False]])
@@ -583,7 +583,7 @@ def test_a_third_side_exactly_at_the_feature_angle_is_not_one():
     # rounding (sin 30 = 0.5, as whole-number ENO differences on an 8-bit scan give it): not a third side,
     # whatever the last bit of the arithmetic, so numpy and the GPU's doubles agree (they took it opposite
     # ways on the MNI T1); a degree more out of the plane is one.
-    from isoscope.cpu.sharp.points import _extreme_normals
+    from isoscope.core.sharp.points import _extreme_normals
     cos_angle = np.cos(np.radians(30.0))
     for z, expected in ((np.nextafter(np.sqrt(1 - cos_angle ** 2), 1.0), False), (np.sin(np.radians(31.0)), True)):
         third = np.array([0.0, np.sqrt(1 - z * z), z])

@@ -19,9 +19,9 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from ...core.layout import INDEX_BYTES, VERTEX_BYTES, VERTEX_FIELDS, VERTEX_FLOATS
+from ...core.sharp.features import Stopped, sharpen, signed_field
+from ...core.sharp.normals import crisp_normals
 from ...cpu.available import cpu_extractor_class, tetrahedra_function, threads_for
-from ...cpu.sharp.features import Stopped, sharpen, signed_field
-from ...cpu.sharp.normals import crisp_normals
 from ...cpu.smooth import smooth_projected
 from ...gpu.buffers import GrowableBuffer
 from ...gpu.mesh import GpuMesh, empty_mesh

@@ -22,7 +22,7 @@ from __future__ import annotations
 import dataclasses
 
 from ...core.budget import MemoryBudget, default_budget, given_budget
-from ...cpu.sharp.features import check_feature_angle
+from ...core.sharp.features import check_feature_angle
 from ...cpu.smooth import check_iterations
 from ...labels import label_count_hint, labels_of, refuse_a_scan
 from ...options import MeshOptions

@@ -197,7 +197,7 @@ def test_a_failed_extraction_or_feature_step_leaves_a_drawable_plain_mesh(viewer
 def test_a_feature_step_stops_when_asked(gl_ctx):
     import threading
 
-    from isoscope.cpu.sharp.features import Stopped, sharpen, signed_field
+    from isoscope.core.sharp.features import Stopped, sharpen, signed_field
     volume = open_volume("box", resolution=24)
     mesh = outward_marching_cubes(volume.checked, volume.default_level, gradient_direction=volume.gradient_direction)
     field = signed_field(volume.data, volume.gradient_direction == "descent")

@@ -1,7 +1,7 @@
-"""Which cells the sharp-feature step looks at (`isoscope.cpu.sharp.features`).
+"""Which cells the sharp-feature step looks at (`isoscope.core.sharp.features`).
 
 The plain mesh's faces come cell by cell (`cell_runs`).  A cell is bent when its mesh normals
-spread wider than half the feature angle; the sample planes (`isoscope.cpu.sharp.planes`) look at
+spread wider than half the feature angle; the sample planes (`isoscope.core.sharp.planes`) look at
 the cells whose normals stray CANDIDATE_FRACTION of the angle and their neighbours
 (`_plane_cells`).  `vertex_may_bend` is the conservative per-vertex bound that lets the step
 return the plain mesh early (the GPU's pass 0, shaders/emc_flags.comp).
@@ -113,7 +113,7 @@ def _whole_numbers(field, cells):
 
 
 def _plane_cells(field, all_cells, spread, cos_loose, spacing):
-    """The cells `isoscope.cpu.sharp.planes` looks at: those whose mesh normals stray CANDIDATE_FRACTION of the angle
+    """The cells `isoscope.core.sharp.planes` looks at: those whose mesh normals stray CANDIDATE_FRACTION of the angle
     (`spread` < `cos_loose`) and their neighbours (a corner's cell can see its normals barely open, the
     sides blending in all its samples; the edges leading into it open theirs), where clean samples
     (`any_clean_corner`) are near: in the cell's corners or those of cells up to two away, the reach of

@@ -26,7 +26,7 @@ Starts from the plain marching-cubes mesh (`isoscope.cpu.cubes`) and changes it 
    - a corner that pokes into a cell with no patch is placed by the nearest
      neighbouring patch whose planes meet there (`_corner_in_empty_cell`);
    - where the field is locally linear (a signed-distance field), the grid samples'
-     own tangent planes (`isoscope.cpu.sharp.planes`) decide instead: candidate cells (mesh
+     own tangent planes (`isoscope.core.sharp.planes`) decide instead: candidate cells (mesh
      normals straying CANDIDATE_FRACTION of the angle) and their neighbours become
      feature cells when those planes open wider than the angle, and take those
      planes' point.  That point is exact, but the plain edge vertices next to a kink
@@ -53,7 +53,7 @@ vertices in patch order (cells in the plain mesh's triangle order, then their
 first triangle); faces are the plain faces of cells without features, in order,
 then the fans, patch by patch, each fan in boundary-edge order.
 
-This module is the driver (`sharpen`); the steps live beside it in isoscope.cpu.sharp:
+This module is the driver (`sharpen`); the steps live beside it in isoscope.core.sharp:
 `cells` (which cells to look at, and the early-out bound `vertex_may_bend`), `patches` (a cell's
 loops and the feature test), `planes` (the grid samples' own tangent planes), `eno` (ENO normals),
 `qef` (where planes meet), `points` (each feature patch's vertex), `merge` (patches that share a
@@ -120,7 +120,7 @@ def sharpen(mesh, field, spacing, angle, solver=patch_points, stop=None):
     all_cells, n_tri = cell_runs(verts, faces, spacing)
     spread = _normal_spread(faces, normals, n_tri)
     bent = spread < np.cos(np.radians(angle / 2))
-    # Where the field is locally linear, its samples' own planes (isoscope.cpu.sharp.planes) say where the sides
+    # Where the field is locally linear, its samples' own planes (isoscope.core.sharp.planes) say where the sides
     # are; central differences blend the sides next to an edge (a cell cutting a box's edge can see its
     # normals open only 25 degrees).
     planar = _plane_cells(field, all_cells, spread, np.cos(np.radians(angle * CANDIDATE_FRACTION)), spacing)

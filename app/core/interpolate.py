@@ -3,7 +3,7 @@
 `trilinear`: F and its gradient in float32, step for step as the smoothing shaders (shaders/smooth_*.comp),
 so that numpy's smoothed mesh is the GPU's.  `trilinear_value`: F alone in float64, clamped to the grid,
 for measuring and choosing.  One cannot stand in for the other: their roundings differ, and the sharp
-step's choice of planes (isoscope.cpu.sharp.planes) follows `trilinear_value`'s to the last bit.
+step's choice of planes (isoscope.core.sharp.planes) follows `trilinear_value`'s to the last bit.
 """
 from __future__ import annotations
 
@@ -36,7 +36,7 @@ def trilinear(field: np.ndarray, x: np.ndarray):
 def trilinear_value(field: np.ndarray, points: np.ndarray) -> np.ndarray:
     """The field's trilinear interpolant at `points` (N, 3) in index coordinates, clamped to the grid, in
     float64: for measuring (decimate.distance_off_level_set) and choosing (the sample planes' line,
-    isoscope.cpu.sharp.planes)."""
+    isoscope.core.sharp.planes)."""
     upper = np.array(field.shape) - 1
     points = np.clip(points, 0, upper)
     low = np.minimum(np.floor(points).astype(np.int64), np.maximum(upper - 1, 0))

@@ -1,4 +1,4 @@
-"""Patches of a cell's triangles and the feature test (`isoscope.cpu.sharp.features`).
+"""Patches of a cell's triangles and the feature test (`isoscope.core.sharp.features`).
 
 A cell's triangles form one patch per loop of edge vertices (`_patches`); a patch is a feature
 when some two of its normals open wider than the feature angle (`_opens_wider`).  The solve

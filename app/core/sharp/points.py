@@ -1,4 +1,4 @@
-"""Each feature patch's vertex from its planes (`isoscope.cpu.sharp.features`; shaders/emc_solve.comp
+"""Each feature patch's vertex from its planes (`isoscope.core.sharp.features`; shaders/emc_solve.comp
 does `patch_points` per patch on the GPU).
 
 Only the planes near the two or three most different normals count (`_extreme_normals`), over

@@ -1,5 +1,5 @@
 """Neighbouring feature patches whose points are one corner become one patch around one vertex
-(`_merge_coincident`, for `isoscope.cpu.sharp.features`).
+(`_merge_coincident`, for `isoscope.core.sharp.features`).
 """
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ def _merge_coincident(sub, patch, is_feature, feature_ids, points, at_corner, sp
     splits around the joined patches' inner vertices.
 
     A box's corner that pokes just out of its own cell is the point of that cell's patch and of the
-    neighbours' its edges run into (isoscope.cpu.sharp.planes: CORNER_REACH).  As two vertices at one place, the fans
+    neighbours' its edges run into (isoscope.core.sharp.planes: CORNER_REACH).  As two vertices at one place, the fans
     between them fold: the boundary edge the two patches share gets a fan triangle from each apex, one of
     them turned over, so the fold test (`_folding`) sent one apex back toward its patch's mass point, up to
     half a cell off the corner, and the edge running from the corner kinked through it (0.32 cells off on

@@ -1,4 +1,4 @@
-"""Tangent planes from the grid samples themselves, for Extended MC (`isoscope.cpu.sharp.features`).
+"""Tangent planes from the grid samples themselves, for Extended MC (`isoscope.core.sharp.features`).
 
 Where the field is locally linear (a signed-distance field next to a face of a box: every
 sample governed by one face), a sample p with value f (less the level) and gradient g knows
@@ -9,7 +9,7 @@ Smooth fields (a sphere) have no clean samples, and nothing here changes their m
 
 `plane_feature_points`: a cell's feature point from the clean planes of the 6x6x6 samples
 around it (planes passing within PLANE_REACH of its centre), each distinct plane counted
-once, by the same QEF as Kobbelt's (`isoscope.cpu.sharp.qef.feature_points`), relative to the
+once, by the same QEF as Kobbelt's (`isoscope.core.sharp.qef.feature_points`), relative to the
 cell's centre (so two patches of one cell on one edge share the point).  Near a corner
 outside the cell, the two planes whose line is the cell's edge (a corner within
 CORNER_REACH: the corner); an edge line that runs through the cell across one of its grid
@@ -42,7 +42,7 @@ def level_of(field, verts, spacing):
 
 
 def clean_gradient(field, points, spacing):
-    """ENO gradients at grid points (N, 3) (`isoscope.cpu.sharp.eno.eno_gradient`) and whether each is exact: the
+    """ENO gradients at grid points (N, 3) (`isoscope.core.sharp.eno.eno_gradient`) and whether each is exact: the
     chosen one-sided differences are straight (second difference under LINEAR_TOLERANCE of the first)."""
     grad, steps, rough = one_sided_differences(field, points, spacing)
     clean = np.ones(len(points), bool)
@@ -130,7 +130,7 @@ NEIGHBOURHOOD = np.array([(a, b, c) for a in range(-2, 4) for b in range(-2, 4) 
 def plane_feature_points(field, cells, spacing, level, cos_angle, solve, occupied, chunk=2048):
     """Per cell (P, 3 grid coordinates) the QEF of the clean sample planes around it.
 
-    `solve(positions, normals, valid, lower, upper, mass=)` is `isoscope.cpu.sharp.qef.feature_points`, taken
+    `solve(positions, normals, valid, lower, upper, mass=)` is `isoscope.core.sharp.qef.feature_points`, taken
     relative to the cell's centre; `occupied(cells)` whether cells have a patch.  Returns what `solve`
     returns, whether the planes open wider than the feature angle, and the point on the cell's edge line
     where a corner just outside the cell took the point's place (else the point itself): the fallback

@@ -1,8 +1,8 @@
-"""ENO normals (Harten and Osher 1987) for the sharp-feature step (`isoscope.cpu.sharp.features`).
+"""ENO normals (Harten and Osher 1987) for the sharp-feature step (`isoscope.core.sharp.features`).
 
 Central differences straddle an edge and blend its two sides; each axis's one-sided difference
 from the smoother side does not (`one_sided_differences`, which the sample planes' exactness test,
-`isoscope.cpu.sharp.planes.clean_gradient`, shares).  A vertex's normal is interpolated along its grid
+`isoscope.core.sharp.planes.clean_gradient`, shares).  A vertex's normal is interpolated along its grid
 edge (`edge_of_vertex`).
 """
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Fans to the feature vertices, the test that none folds, and the edge flips
-(`isoscope.cpu.sharp.features`, steps 1 and 2).
+(`isoscope.core.sharp.features`, steps 1 and 2).
 
 A feature patch is replaced by a fan from its vertex to the patch's boundary loop (`_fans`); a
 fan that turns a triangle over (`_turned_over`) tries the next candidate point (`_unfolded`).

@@ -1,4 +1,4 @@
-"""Sort-based helpers on integer id arrays for the sharp-feature step (`isoscope.cpu.sharp.features`).
+"""Sort-based helpers on integer id arrays for the sharp-feature step (`isoscope.core.sharp.features`).
 
 np.unique and np.isin hash; on the million-entry keys here a sort is several times faster, and
 equal keys are equal, so the sort need not be stable.
