@@ -46,6 +46,7 @@ from ..model.pacing import FramePace
 from ..model.series import take_time_point, time_step
 from ..model.state import Opened, ViewerState
 from . import surface as surface_module
+from .brick_surface import BrickSurface
 from .caps import CapMeshes
 from .colorby import GpuColorBy
 from .cpu_surface import CpuSurface
@@ -114,6 +115,7 @@ class GpuScene:
         self.surface: GpuSurface | CpuSurface | None = None   # the GL side of state.volume
         self.color_by: GpuColorBy | None = None  # the textures of state.color_by
         self.caps = CapMeshes(ctx)                # the levels' caps while state.closed (caps.py)
+        self.bricks = BrickSurface(ctx)           # a big volume's bricks at full resolution (brick_surface.py)
         self._options = state.mesh_options        # what the meshes on the GPU were made with
         self._on_extractor: Level | None = None   # the level whose mesh the extractor holds
         self._extracted: float | None = None      # the value it was extracted at (None: extract it again)
@@ -400,6 +402,11 @@ class GpuScene:
         budget = surface_module.PREVIEW_TRIANGLES
         return max(budget - others, budget // MIN_PREVIEW_SHARE)
 
+    def follow_bricks(self) -> None:
+        """The bricks' buffers brought in line with the state's bricks (after the app's `look` at them)."""
+        self._attempt(self.bricks.follow, self.state.bricks, self.surface, self.state.volume.spacing
+                      if self.state.volume is not None else None)
+
     # --- saving ------------------------------------------------------------
     def save_mesh(self, path) -> None:
         """Write the surface on show (at full resolution) to `path`, in the format of its extension
@@ -450,8 +457,9 @@ class GpuScene:
         for i, level in enumerate(state.levels):
             mesh = self._level_mesh(level) if level.visible else None
             if mesh is not None:
-                shown.append((mesh, SurfaceLook(state.levels.color(i, state.style.front_color), level.opacity,
-                                                self.color_by)))
+                look = SurfaceLook(state.levels.color(i, state.style.front_color), level.opacity, self.color_by)
+                in_bricks = self.bricks.drawing and level is self._on_extractor
+                shown.extend((part, look) for part in (self.bricks.meshes if in_bricks else [mesh]))
         return shown + self.caps.drawn(state, self.color_by)
 
     def _level_mesh(self, level: Level) -> GpuMesh | None:
@@ -488,6 +496,8 @@ class GpuScene:
         sample of a volume over the memory budget), fewer while a preview is on show; None with no volume."""
         if self.state.volume is None:
             return None
+        if self.bricks.drawing and self.state.bricks.full_in_view:   # every brick in view at full resolution
+            return tuple(self.state.full_volume.data.shape)
         return shown_shape(self.state.volume.data.shape, self.preview_step)
 
     @property
@@ -535,6 +545,7 @@ class GpuScene:
         """Free the scene's GL objects: the levels' meshes, the caps, the surface and its extractors."""
         self._release_meshes()
         self.caps.release()
+        self.bricks.release()
         if self.surface is not None:
             self.surface.release()
             self.surface = None
