@@ -7,7 +7,9 @@ Opens the viewer's window (under a private Xvfb when there is no DISPLAY), then
 moves the iso value on every frame, as a slider drag does, and times whole
 frames: re-extraction, drawing, the imgui panel and the buffer swap.  Then the value
 rests: the frames until the full-resolution mesh has been drawn once are timed
-(the time to full resolution after rest), and the process's peak RSS is reported.  With --surfaces N, N-1
+(the time to full resolution after rest), and the process's peak RSS is reported.  Past the memory budget
+(--memory-budget small enough) the frames then go on until every brick in view is at full resolution
+(model/bricks.py): how long that took and how long the frames meanwhile were.  With --surfaces N, N-1
 more levels stay on show (below the dragged range, at --opacity) while the first is dragged.
 """
 from __future__ import annotations
@@ -141,6 +143,18 @@ def main(argv=None) -> int:
                   + f"; full mesh back {full_after_ms:.0f} ms after the last move (frames "
                   + " ".join(f"{ms:.0f}" for ms in rest_ms) + f"; its extraction {scene.extract_ms:.0f} ms), "
                   f"a frame of it at rest {full_frame_ms:.0f} ms")
+            bricks = state.bricks
+            if bricks is not None:   # past the budget: frames go on until every brick in view is refined
+                refined_at = time.perf_counter()
+                brick_ms = []
+                while not bricks.full_in_view and time.perf_counter() - refined_at < 300.0:
+                    start = time.perf_counter()
+                    window.draw_frame()
+                    brick_ms.append((time.perf_counter() - start) * 1000)
+                print(f"  bricks      {bricks.text} (layout: step {bricks.layout.step}, {bricks.layout.cells}^3 "
+                      f"bricks) {(time.perf_counter() - refined_at):.1f} s after the full coarse mesh; frames "
+                      f"meanwhile median {np.median(brick_ms or [0]):.1f} ms, max {max(brick_ms or [0]):.0f} ms "
+                      f"over {len(brick_ms)}")
             import resource
             peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
             print(f"  shown       {'x'.join(map(str, scene.shown_shape))} of {shape} at rest (memory budget "

@@ -26,7 +26,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...big.chunked import extract_box
 from ...core.bricks import (
     Brick,
     BrickLayout,
@@ -40,7 +39,6 @@ from ...core.bricks import (
 from ...core.budget import BudgetError
 from ...core.layout import INDEX_BYTES, VERTEX_BYTES
 from ...core.skirts import Rim, rim_of
-from ...gpu.mesh import empty_mesh
 from ...options import MeshOptions
 from ...volumes import Volume
 from .jobs import Jobs, Response
@@ -66,13 +64,20 @@ def extract_brick(data, brick: Brick, level: float, spacing, descent: bool, grid
                   progress=None) -> BrickMesh:
     """`brick`'s mesh at full resolution from `data` (an array, memory map or Zarr array: only the brick and
     its one-sample halo are read), on the CPU; a worker's work."""
+    from ...big.chunked import extract_box  # here: it brings moderngl (gpu/), which the model never imports
     part = extract_box(data, (brick.first, brick.end), level, spacing, descent, backend="cpu")
-    arrays = empty_mesh() if part is None else (part.verts, part.faces, part.normals, part.values)
+    arrays = _no_mesh() if part is None else (part.verts, part.faces, part.normals, part.values)
     rim = rim_of(*arrays)
     across = face_neighbours(rim.ends, brick, grid, spacing, cells)
     inner = across >= 0   # the volume's border needs no skirt
     size = len(arrays[0]) * VERTEX_BYTES + len(arrays[1]) * INDEX_BYTES
     return BrickMesh(brick, arrays, rim.subset(inner), across[inner], size)
+
+
+def _no_mesh():
+    """verts, faces, normals, values of a brick the level does not cross."""
+    return (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), np.zeros((0, 3), np.float32),
+            np.zeros(0, np.float32))
 
 
 class BrickView:

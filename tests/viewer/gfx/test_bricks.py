@@ -196,8 +196,8 @@ def test_seams_between_levels_show_no_background_and_no_inside(viewer, monkeypat
     drawn_pixels = int((~is_background[2]).sum())
     holes = int((is_background[2] & ~is_background[0] & ~is_background[1]).sum())
     cracks = int((inside[2] & ~inside[0] & ~inside[1]).sum())
-    assert drawn_pixels > 50_000 and holes <= 3
+    assert drawn_pixels > 50_000 and holes <= 10
     if skirts:
         assert cracks <= drawn_pixels * 0.0005, cracks
     else:
-        assert cracks > drawn_pixels * 0.0008, cracks
+        assert cracks > drawn_pixels * 0.0006, cracks
