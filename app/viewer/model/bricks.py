@@ -95,6 +95,7 @@ class BrickView:
         self.serial = 0            # bumps on every change of `meshes`: the GPU side follows
         self._rested: tuple | None = None   # the key of the last frame: refinement starts once it holds
         self._asked: tuple[int, tuple] | None = None   # (request id, key) of the brick on the worker
+        self.to_load = 0           # bricks the last plan still had to load
         self.jobs = Jobs()
 
     @property
@@ -114,6 +115,11 @@ class BrickView:
     def full_in_view(self) -> bool:
         """Whether every brick in view is drawn at full resolution."""
         return self.active and bool(self.visible) and self.visible <= set(self.meshes)
+
+    @property
+    def settled(self) -> bool:
+        """Whether the last plan loads nothing more and no brick is on the worker: what the room holds is in."""
+        return self.active and self.to_load == 0 and self.refining is None
 
     @property
     def refining(self):
@@ -146,6 +152,7 @@ class BrickView:
         self.visible = {b.index for b, seen in zip(self.bricks, in_view(self.bricks, spacing, clip_matrix)) if seen}
         plan = plan_refinement(self.bricks, self.meshes, eye, clip_matrix, self.layout.room,
                                self.per_sample(*coarse), spacing)
+        self.to_load = len(plan.load)
         for brick in plan.drop:   # back to coarse: room was needed nearer
             del self.meshes[brick.index]
             self.serial += 1
@@ -194,6 +201,7 @@ class BrickView:
             self.serial += 1
         self.meshes.clear()
         self.visible = set()
+        self.to_load = 0
         self._asked = None
 
 
