@@ -7,7 +7,9 @@ Opens the viewer's window (under a private Xvfb when there is no DISPLAY), then
 moves the iso value on every frame, as a slider drag does, and times whole
 frames: re-extraction, drawing, the imgui panel and the buffer swap.  Then the value
 rests: the frames until the full-resolution mesh has been drawn once are timed
-(the time to full resolution after rest), and the process's peak RSS is reported.  With --surfaces N, N-1
+(the time to full resolution after rest), and the process's peak RSS is reported.  Past the memory budget
+(--memory-budget small enough) the frames then go on until every brick in view is at full resolution
+(model/bricks.py): how long that took and how long the frames meanwhile were.  With --surfaces N, N-1
 more levels stay on show (below the dragged range, at --opacity) while the first is dragged.
 """
 from __future__ import annotations
@@ -141,7 +143,36 @@ def main(argv=None) -> int:
                   + f"; full mesh back {full_after_ms:.0f} ms after the last move (frames "
                   + " ".join(f"{ms:.0f}" for ms in rest_ms) + f"; its extraction {scene.stats.extract_ms:.0f} ms), "
                   f"a frame of it at rest {full_frame_ms:.0f} ms")
+            bricks = state.bricks
             import resource
+            if bricks is not None:   # past the budget: frames go on until what the room holds is refined
+                before_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+                refined_at = time.perf_counter()
+                brick_ms, follow_ms = [], []
+                follow = scene.follow_bricks
+
+                def timed_follow():
+                    start = time.perf_counter()
+                    follow()
+                    follow_ms.append((time.perf_counter() - start) * 1000)
+                scene.follow_bricks = timed_follow   # the buffers' share of each frame
+                window.draw_frame()
+                while not (bricks.full_in_view or bricks.settled) and time.perf_counter() - refined_at < 600.0:
+                    start = time.perf_counter()
+                    window.draw_frame()
+                    brick_ms.append((time.perf_counter() - start) * 1000)
+                refined_s = time.perf_counter() - refined_at
+                start = time.perf_counter()
+                window.draw_frame()
+                settled_ms = (time.perf_counter() - start) * 1000
+                drawn = sum(mesh.n_triangles for mesh in scene.meshes)
+                print(f"  bricks      {bricks.text} (layout: step {bricks.layout.step}, {bricks.layout.cells}^3 "
+                      f"bricks, {bricks.layout.room / 2**20:.1f} MiB for their meshes) {refined_s:.1f} s after "
+                      f"the full coarse mesh; frames meanwhile median {np.median(brick_ms or [0]):.0f} ms, 90th "
+                      f"percentile {np.percentile(brick_ms or [0], 90):.0f} ms, max {max(brick_ms or [0]):.0f} ms "
+                      f"over {len(brick_ms)} (the buffers' part median {np.median(follow_ms):.1f} ms, max "
+                      f"{max(follow_ms):.0f} ms); then a frame {settled_ms:.0f} ms drawing {drawn:,} triangles; "
+                      f"peak RSS {before_mib:.0f} MiB before the bricks")
             peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
             print(f"  shown       {'x'.join(map(str, scene.stats.shown_shape))} of {shape} at rest (memory budget "
                   f"{state.budget.text}), {volume.data.dtype}; window open with the first mesh in {open_s:.1f} s; "

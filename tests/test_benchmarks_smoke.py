@@ -122,3 +122,17 @@ def test_viewer_benchmark_makes_its_memory_map_and_reports_rest_and_memory(x_dis
     assert made.shape == (40, 40, 40) and made.dtype == np.uint8 and made.min() < 100 < made.max()
     assert "smooth_40x40x40.npy 40x40x40" in done.stdout
     assert "after the last move" in done.stdout and "peak RSS" in done.stdout and "uint8" in done.stdout
+
+
+@pytest.mark.gl
+def test_viewer_benchmark_past_the_budget_reports_the_bricks(x_display, tmp_path):
+    """With a --memory-budget the map is over, the window shows bricks: the bench waits for what the room
+    holds and says how many, how long, and the frames meanwhile."""
+    env = dict(os.environ, DISPLAY=x_display)
+    command = [sys.executable, str(SCRIPT.parent / "bench_viewer.py"), "--frames", "3", "--memmap", "80",
+               "--dir", str(tmp_path), "--size", "320x240", "--memory-budget", "1M"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=300, env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    line = [line for line in done.stdout.splitlines() if line.strip().startswith("bricks")]
+    assert line and "bricks at full resolution" in line[0] and "frames meanwhile median" in line[0], done.stdout
+    assert "peak RSS" in line[0] and "of 80x80x80 at rest" in done.stdout

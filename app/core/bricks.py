@@ -172,3 +172,57 @@ def plan_refinement(bricks, refined, eye, clip_matrix, room_bytes: int, bytes_pe
     load = tuple(b for b in wanted if b.index not in refined)
     drop = tuple(bricks[i] for i in reversed(order) if bricks[i].index in refined and bricks[i].index not in stays)
     return RefinementPlan(tuple(wanted), tuple(kept), load, drop, used)
+
+
+def brick_grid(shape, cells: int = BRICK_CELLS) -> tuple[int, int, int]:
+    """How many bricks `bricks_of(shape, cells)` cuts along each axis (its flat indices are C order in it)."""
+    return tuple(len(range(0, max(int(n) - 1, 1), cells)) for n in shape)
+
+
+def face_neighbours(ends, brick: Brick, grid, spacing, cells: int = BRICK_CELLS) -> np.ndarray:
+    """For edges whose two ends (`ends`: (E, 2, 3) scene units) lie in one face of `brick`'s box, the flat
+    index of the brick across that face; -1 for an edge on the volume's border or on no face."""
+    index = np.asarray(ends, dtype=np.float64) / np.asarray(spacing, dtype=np.float64)   # (E, 2, 3) in samples
+    other = np.full(len(index), -1, dtype=np.int64)
+    for axis in range(3):
+        for side, plane in ((-1, brick.first[axis]), (1, brick.end[axis])):
+            neighbour = list(brick.index)
+            neighbour[axis] += side
+            if not 0 <= neighbour[axis] < grid[axis]:
+                continue   # the volume's border: no brick across
+            on = np.all(np.abs(index[:, :, axis] - plane) < 1e-3, axis=1) & (other < 0)
+            other[on] = np.ravel_multi_index(neighbour, grid)
+    return other
+
+
+@dataclass(frozen=True)
+class BrickLayout:
+    """How a volume over the budget is shown in bricks: every `step`-th sample coarse, bricks of `cells`
+    cells a side (a multiple of `step`: a coarse cell lies in one brick), `room` bytes for the meshes of the
+    bricks at full resolution, once `work` bytes are kept aside for the brick being extracted."""
+    step: int
+    cells: int
+    room: int
+    work: int
+
+
+def brick_layout(shape, itemsize: int, budget: MemoryBudget) -> BrickLayout:
+    """The layout of the largest bricks (BRICK_CELLS, then a half and a quarter of it) whose extraction
+    takes at most a quarter of what the budget leaves beside the coarse view (so several fit), else the
+    smallest that fits at all; BudgetError in one line where none does (brick_room)."""
+    fits = []
+    for wanted in (BRICK_CELLS, BRICK_CELLS // 2, BRICK_CELLS // 4):
+        try:
+            step, _ = brick_room(shape, itemsize, budget, wanted)
+            cells = step * max(1, wanted // step)
+            step, left = brick_room(shape, itemsize, budget, cells)
+        except BudgetError as exc:
+            error = exc
+            continue
+        work = max(brick_bytes(b, itemsize + EXTRACTOR_BYTES_PER_SAMPLE) for b in bricks_of(shape, cells))
+        fits.append(BrickLayout(step, cells, left - work, work))
+        if work <= left / 4:
+            break
+    if not fits:
+        raise error
+    return fits[-1]

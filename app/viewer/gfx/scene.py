@@ -38,6 +38,7 @@ from ..model.opening import Opened
 from ..model.series import take_time_point, time_step
 from ..model.state import ViewerState
 from . import surface as surface_module
+from .brick_surface import BrickSurface
 from .cap_meshes import CapMeshes
 from .colorby import GpuColorBy
 from .cpu_surface import CpuSurface
@@ -76,6 +77,7 @@ class GpuScene:
         self.surface: GpuSurface | CpuSurface | None = None   # the GL side of state.volume
         self.color_by: GpuColorBy | None = None  # the textures of state.color_by
         self.caps = CapMeshes(ctx)                # the levels' caps while state.closed (cap_meshes.py)
+        self.bricks = BrickSurface(ctx)           # a big volume's bricks at full resolution (brick_surface.py)
         self.options = state.mesh_options         # what the meshes on the GPU were made with
         self.level_meshes = LevelMeshes(ctx)      # which level the extractor holds, the other levels' copies
         self._extracted: float | None = None      # the value it was extracted at (None: extract it again)
@@ -319,9 +321,15 @@ class GpuScene:
         for i, level in enumerate(state.levels):
             mesh = self.level_meshes.mesh(level, self.surface) if level.visible else None
             if mesh is not None:
-                shown.append((mesh, SurfaceLook(state.levels.color(i, state.style.front_color), level.opacity,
-                                                self.color_by)))
+                look = SurfaceLook(state.levels.color(i, state.style.front_color), level.opacity, self.color_by)
+                in_bricks = self.bricks.drawing and level is self.level_meshes.on_extractor
+                shown.extend((part, look) for part in (self.bricks.meshes if in_bricks else [mesh]))
         return shown + self.caps.drawn(state, self.color_by)
+
+    def follow_bricks(self) -> None:
+        """The bricks' buffers brought in line with the state's bricks (after the app's `look` at them)."""
+        self._attempt(self.bricks.follow, self.state.bricks, self.surface, self.state.volume.spacing
+                      if self.state.volume is not None else None)
 
     @property
     def extractor(self):
@@ -340,6 +348,7 @@ class GpuScene:
         """Free the scene's GL objects: the levels' meshes, the caps, the surface and its extractors."""
         self._release_meshes()
         self.caps.release()
+        self.bricks.release()
         if self.surface is not None:
             self.surface.release()
             self.surface = None

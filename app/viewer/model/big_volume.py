@@ -22,6 +22,7 @@ from ...core.budget import MAX_STEP, BudgetError, MemoryBudget, budget_step, nee
 from ...core.lazy_arrays import read_block
 from ...errors import IsoscopeError
 from ...volumes import Volume
+from .bricks import bricks_layout
 from .errors import ViewerError, one_line
 
 EXPORT_CHUNK = 128
@@ -38,6 +39,7 @@ def downsampled(volume: Volume, budget: MemoryBudget, refusal=None) -> tuple[Vol
     step, reason = _fitting_step(shape, itemsize, budget, volume.name, refusal)
     if step == 1:
         return volume, 1
+    limited = reason is not None   # by the GPU's limits, not the budget
     whole = (f"{'x'.join(map(str, shape))}, {size_text(needed_bytes(shape, itemsize) / 0.75)} to show whole")
     fix = "--memory-budget SIZE changes it, 'Export full resolution...' writes the full mesh"
     if reason is not None:
@@ -56,6 +58,12 @@ def downsampled(volume: Volume, budget: MemoryBudget, refusal=None) -> tuple[Vol
                                                  f"{volume.pyramid[-1].name!r} at one sample in {level_step} to "
                                                  f"fit {reason}; {fix}")
         return shown, max(1, round(shown.spacing[0] / volume.spacing[0]))
+    if not limited:   # bricks: the coarse view, then the bricks in view at full resolution (bricks.py)
+        layout = bricks_layout(volume, budget)
+        if layout is not None:
+            note = (f"a big volume ({whole}): shown at one sample in {layout.step} along each axis, the bricks in "
+                    f"view refined to full resolution within {reason}; {fix}")
+            return every_step(volume, layout.step, note), layout.step
     note = f"a big volume ({whole}): shown at one sample in {step} along each axis to fit {reason}; {fix}"
     return every_step(volume, step, note), step
 

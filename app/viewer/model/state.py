@@ -28,6 +28,7 @@ from ...labels import label_count_hint, labels_of, refuse_a_scan
 from ...options import MeshOptions
 from ...volumes import Volume
 from .big_volume import every_step
+from .bricks import BrickView, brick_view
 from .colorby import DEFAULT_COLORMAP, SOURCES, ColorBy, make_color_by
 from .errors import ViewerError
 from .histogram import value_histogram
@@ -61,6 +62,7 @@ class ViewerState:
         self.volume: Volume | None = None     # on show (downsampled, for a big one)
         self.full_volume: Volume | None = None  # a big volume shown at every `step`-th sample (big_volume.py)
         self.step = 1
+        self.bricks: BrickView | None = None   # a big volume's bricks at full resolution (bricks.py)
         self.histogram = None                 # log counts of `volume`'s values, for the panel (histogram.py)
         self.label_hint = 0                   # labels in the volume if it looks like a label map, else 0
         self.volume_serial = 0                # bumps on every new volume: the window refits its camera
@@ -96,6 +98,7 @@ class ViewerState:
         """Put `volume` on show (the GPU side has taken it): one level at `level` (default: the volume's
         default level, else the middle of its value range), slices fitted, no label map or colour by."""
         self.volume, self.full_volume, self.step = volume, full_volume, step
+        self.bricks = brick_view(full_volume, step, self.budget)
         self.label_hint = label_count_hint(volume.data)   # the panel offers "Show as labels"
         self.histogram = value_histogram(volume.data, volume.value_range)
         self.slices.fit(volume.data, volume.value_range)

@@ -15,8 +15,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..gfx.renderer import OffscreenTarget, SceneRenderer
-from ..gfx.scene import GpuScene
+from ..gfx.scene import USER_ERRORS, GpuScene
 from ..model.camera import OrbitCamera, volume_frame
+from ..model.errors import one_line
 from ..model.scene_file import apply_opened_scene
 from ..model.state import ViewerState
 from .panel import Panel
@@ -35,6 +36,7 @@ class ViewerApp:
         self.renderer = SceneRenderer(ctx)
         self.camera = OrbitCamera()
         self._framed_serial = -1
+        self._aspect = 4 / 3   # of the last viewport drawn
 
     def show(self, volume, iso: float | None = None, azimuth=None, elevation=None) -> None:
         """Put `volume` on show at `iso` and frame it from (azimuth, elevation); what fails is raised."""
@@ -52,11 +54,25 @@ class ViewerApp:
         """Step 2 of a frame: the scene follows the state (`wait`: for the reads and meshes asked for), a
         volume new on show is framed, an opened scene is put on it.  Whether a new volume was framed."""
         self.scene.update(dt_seconds, wait=wait)
+        self._refine(wait)
         framed = self.state.volume_serial != self._framed_serial
         if framed:
             self.frame()
         apply_opened_scene(self.state, self.camera, raise_errors=raise_errors)
         return framed
+
+    def _refine(self, wait: bool) -> None:
+        """A big volume's bricks (model/bricks.py): planned for the camera, the nearest in view asked for (all
+        of them, with `wait`), and the scene's buffers following."""
+        bricks = self.state.bricks
+        if bricks is not None:
+            clip = (self.camera.view_matrix().astype(np.float64) @ self.camera.projection_matrix(self._aspect)).T
+            try:
+                bricks.look(self.state, self.camera.eye(), clip,
+                            self.scene.bricks.coarse_of(self.scene.surface, self.state), wait=wait)
+            except USER_ERRORS as exc:
+                self.state.error = one_line(exc)
+        self.scene.follow_bricks()
 
     def draw(self, viewport, covered_left: int = 0, moving: bool = False) -> None:
         """Step 3: the scene into `viewport` of the bound framebuffer, centred in what `covered_left` pixels
@@ -64,6 +80,7 @@ class ViewerApp:
         volume at a ray per 2x2 pixels, the full picture once it rests.  With previews (the window) a frame
         after the transfer function's points moved is drawn so too: a drag over them stays fluid, and the
         first frame after it rests is whole."""
+        self._aspect = viewport[2] / max(viewport[3], 1)   # the next frame's bricks are planned for it
         edited = self.state.transfer_edits != self._drawn_transfer_edits
         self._drawn_transfer_edits = self.state.transfer_edits
         self.renderer.draw_scene(self.scene, self.camera, viewport, covered_left=covered_left,

@@ -369,6 +369,8 @@ class Panel:
             else:
                 imgui.text_colored(NOTE_COLOR, f"shown      {shown} of {'x'.join(map(str, full))}")
                 tooltip(f"memory budget {state.budget.text}" if state.step > 1 else "a preview while the level moves")
+        if state.bricks is not None:
+            imgui.text_colored(NOTE_COLOR, f"bricks     {state.bricks.text}")
         if scene.stats.preview_step > 1:
             imgui.text_colored(NOTE_COLOR, f"preview at 1/{scene.stats.preview_step} resolution")
             tooltip(pace_text(scene.pacing.pace))

@@ -1,0 +1,166 @@
+"""The GL side of a volume shown in bricks (model/bricks.py): the coarse mesh with the bricks at full
+resolution cut out of it, each of those bricks' meshes, and the skirts where the two levels meet.
+
+`follow` brings the buffers in line with the model once a frame: the selected level's coarse mesh (the
+scene's surface, at rest at the model's value) is read back once and split by brick (each triangle's cell,
+big/chunked.py edges_of: a coarse cell lies in one brick); whenever the set of bricks at full resolution
+changes, the coarse remainder is uploaded again without them, a new brick's mesh is uploaded, a dropped
+one released, and the skirts made again: on the coarse side of each face between a coarse and a refined
+brick, and on the refined side (core/skirts.py), one coarse step deep.  With every brick refined there is
+no coarse remainder and no skirt: the bricks' meshes are the chunked extractor's, the whole volume's mesh.
+
+This class owns every GL object it makes and `release` frees them all.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ...big.chunked import edges_of
+from ...core.skirts import Rim, rim_of, skirt
+from ...gpu.mesh import GpuMesh, OwnedMesh
+
+
+class CoarseSplit:
+    """The coarse mesh on the CPU, each triangle's brick (`brick`, flat index), and its edges between
+    triangles of two bricks (`rim`: each side's edge, with `own` and `across` its brick and the other)."""
+
+    def __init__(self, arrays, spacing, step: int, cells: int, grid):
+        self.arrays = arrays
+        verts, faces = arrays[0], np.asarray(arrays[1], dtype=np.int64)
+        if not len(faces):
+            self.brick = np.zeros(0, dtype=np.int64)
+            self.rim, self.own, self.across = rim_of(*arrays, edges=np.zeros((0, 2))), self.brick, self.brick
+            return
+        points, _ = edges_of(verts, spacing)
+        cells_of = points[faces].min(axis=1) * step   # a triangle's cell (as extract_box), in full samples
+        index = np.minimum(cells_of // cells, np.asarray(grid) - 1)
+        self.brick = np.ravel_multi_index(index.T, grid)
+        # every directed edge; an edge whose two triangles lie in two bricks is on a face between them
+        start, stop = faces, np.roll(faces, -1, axis=1)
+        key = (np.minimum(start, stop) * (int(faces.max()) + 1) + np.maximum(start, stop)).ravel()
+        order = np.argsort(key, kind="stable")
+        pair = np.flatnonzero(key[order][1:] == key[order][:-1])
+        first, second = order[pair], order[pair + 1]
+        split = self.brick[first // 3] != self.brick[second // 3]
+        first, second = first[split], second[split]
+        sides = np.concatenate([first, second])
+        self.own = self.brick[sides // 3]
+        self.across = self.brick[np.concatenate([second, first]) // 3]
+        self.rim = rim_of(*arrays, edges=np.stack(np.divmod(sides, 3), axis=1))
+
+
+class BrickSurface:
+    """The buffers of the bricks on show; `meshes` what the renderer draws in the selected level's place while
+    `drawing`."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self.drawing = False
+        self._view = None            # the model followed
+        self._surface = None         # the surface whose coarse mesh is split
+        self._coarse_key = None
+        self._split: CoarseSplit | None = None
+        self._serial = None
+        self._coarse: OwnedMesh | None = None      # the coarse remainder and its skirts
+        self._fine: dict[tuple, OwnedMesh] = {}    # each refined brick's mesh
+        self._skirts: OwnedMesh | None = None      # the refined bricks' skirts
+
+    @staticmethod
+    def coarse_of(surface, state):
+        """(vertices, triangles) of the selected level's coarse mesh where it is on show at rest at the state's
+        value (what the model refines), else None."""
+        if surface is None or state.bricks is None or surface.shown_step != 1:
+            return None
+        shown = surface.shown
+        if shown.level is None or float(shown.level) != float(state.iso):
+            return None
+        return shown.n_vertices, shown.n_triangles
+
+    @property
+    def meshes(self) -> list[GpuMesh]:
+        """The coarse remainder, the refined bricks and the skirts (those with triangles)."""
+        parts = [self._coarse, *self._fine.values(), self._skirts]
+        return [mesh for mesh in parts if mesh is not None and mesh.n_triangles]
+
+    def follow(self, view, surface, coarse_spacing) -> None:
+        """Bring the buffers in line with `view` (a BrickView, or None) over `surface`'s coarse mesh."""
+        if view is None or not view.active or surface is None:
+            self.clear()
+            return
+        key = (view.key, surface.shown.n_vertices, surface.shown.n_triangles)
+        if view is not self._view or surface is not self._surface or key != self._coarse_key:
+            self.clear()
+            if any(mesh.arrays is None for mesh in view.meshes.values()):
+                view.forget()   # meshes whose buffers were let go with the old coarse mesh: made again
+            self._view, self._surface, self._coarse_key = view, surface, key
+            layout = view.layout
+            self._split = CoarseSplit(surface.shown.read_mesh(), coarse_spacing, layout.step, layout.cells,
+                                      view.grid)
+        if view.serial != self._serial:
+            self._rebuild(view)
+            self._serial = view.serial
+        self.drawing = True
+
+    def _rebuild(self, view) -> None:
+        flat = view.flat
+        refined = np.zeros(len(view.bricks), dtype=bool)
+        refined[[flat[index] for index in view.meshes]] = True
+        for index in [index for index in self._fine if index not in view.meshes]:
+            self._fine.pop(index).release()
+        for index, mesh in view.meshes.items():
+            if index not in self._fine and mesh.arrays is not None:
+                uploaded = _upload(self.ctx, mesh.arrays)
+                if uploaded is not None:   # a brick the level does not cross has no mesh
+                    self._fine[index] = uploaded
+                view.uploaded(index)
+        depth = view.layout.step * max(view.volume.spacing)
+        split = self._split
+        verts, faces, normals, values = split.arrays
+        coarse_faces = faces[~refined[split.brick]]
+        sides = skirt(split.rim.subset(~refined[split.own] & refined[split.across]), depth)
+        self._replace("_coarse", _joined([(verts, coarse_faces, normals, values), sides]))
+        rims = [(m.rim.subset(~refined[m.across])) for m in view.meshes.values()]
+        self._replace("_skirts", skirt(_rim_concat(rims), depth) if rims else None)
+
+    def _replace(self, name: str, arrays) -> None:
+        old = getattr(self, name)
+        setattr(self, name, None)
+        if old is not None:
+            old.release()
+        if arrays is not None and len(arrays[1]):
+            setattr(self, name, _upload(self.ctx, arrays))
+
+    def clear(self) -> None:
+        """Nothing drawn in bricks: every buffer released."""
+        self.drawing = False
+        self._view = self._surface = self._coarse_key = self._split = self._serial = None
+        self._replace("_coarse", None)
+        self._replace("_skirts", None)
+        for mesh in self._fine.values():
+            mesh.release()
+        self._fine.clear()
+
+    def release(self) -> None:
+        """Free every GL object of the bricks."""
+        self.clear()
+
+
+def _upload(ctx, arrays) -> OwnedMesh | None:
+    verts, faces, normals, values = arrays
+    if not len(faces):
+        return None
+    return GpuMesh.upload(ctx, verts, faces, normals, values)
+
+
+def _joined(parts):
+    """verts, faces, normals, values of several meshes as one."""
+    offsets = np.cumsum([0] + [len(p[0]) for p in parts])
+    return (np.concatenate([p[0] for p in parts]).astype(np.float32),
+            np.concatenate([np.asarray(p[1], np.int64) + o for p, o in zip(parts, offsets)]).astype(np.int32),
+            np.concatenate([p[2] for p in parts]).astype(np.float32),
+            np.concatenate([np.reshape(p[3], -1) for p in parts]).astype(np.float32))
+
+
+def _rim_concat(rims: list[Rim]) -> Rim:
+    return Rim(*(np.concatenate([getattr(r, name) for r in rims]) for name in
+                 ("ends", "normals", "values", "down", "triangle")))
