@@ -36,6 +36,9 @@ class SceneStats:
         volume = self.scene.state.volume
         if volume is None:
             return None
+        bricks = self.scene.state.bricks
+        if self.scene.bricks.drawing and bricks.full_in_view:   # every brick in view at full resolution
+            return tuple(self.scene.state.full_volume.data.shape)
         return shown_shape(volume.data.shape, self.preview_step)
 
     @property
