@@ -165,7 +165,7 @@ def main(argv=None) -> int:
                 start = time.perf_counter()
                 window.draw_frame()
                 settled_ms = (time.perf_counter() - start) * 1000
-                drawn = sum(mesh.n_triangles for mesh in scene.meshes)
+                drawn = sum(mesh.n_triangles for mesh in scene.stats.meshes)
                 print(f"  bricks      {bricks.text} (layout: step {bricks.layout.step}, {bricks.layout.cells}^3 "
                       f"bricks, {bricks.layout.room / 2**20:.1f} MiB for their meshes) {refined_s:.1f} s after "
                       f"the full coarse mesh; frames meanwhile median {np.median(brick_ms or [0]):.0f} ms, 90th "

@@ -129,7 +129,7 @@ def test_with_the_whole_volume_in_view_every_brick_is_refined_into_the_whole_vol
     state, scene = viewer.state, viewer.scene
     assert state.bricks.text == "27 of 27 bricks at full resolution (27 of 27 in view)"
     assert scene.stats.shown_shape == SHAPE
-    shown = triangles(mesh.read()[:2] for mesh in scene.meshes)
+    shown = triangles(mesh.read()[:2] for mesh in scene.stats.meshes)
     verts, faces, _, _ = isoscope.api.outward_marching_cubes(blob, 1.0 - LEVEL)
     whole = triangles([(verts, faces)])
     assert len(whole) > 50_000 and shown == whole
