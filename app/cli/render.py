@@ -132,13 +132,14 @@ def drawing_context(command: str):
 
 def _scene_saver(args):
     """After the picture is written: the panel's hint for each level that drew nothing, on stderr (a blank
-    picture otherwise says nothing of why), and with --save-scene PATH the scene of the picture, as
-    `isoscope render PATH` redraws it."""
+    picture otherwise says nothing of why), what it shows of a volume over the memory budget, and with
+    --save-scene PATH the scene of the picture, as `isoscope render PATH` redraws it."""
     def then(viewer) -> None:
         """After the picture: a note for each level that drew nothing, and the scene written where --save-scene asks."""
-        from ..viewer.ui.headless import empty_level_hints
-        for hint in empty_level_hints(viewer):
-            print(f"note: {hint}", file=sys.stderr)
+        from ..viewer.ui.headless import empty_level_hints, shown_note
+        for hint in [*empty_level_hints(viewer), shown_note(viewer)]:
+            if hint:
+                print(f"note: {hint}", file=sys.stderr)
         if args.save_scene:
             from ..viewer.model.scene_file import scene_of, write_scene
             wrote(write_scene(args.save_scene, scene_of(viewer.state, viewer.camera, args.size)), "(scene)")

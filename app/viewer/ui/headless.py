@@ -249,6 +249,21 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
         viewer.release()
 
 
+def shown_note(viewer) -> str | None:
+    """What a picture of a volume over the memory budget shows, e.g. "the surface is drawn from 256x256x200 of
+    512x512x400 samples to fit the memory budget of 32.0 MiB (--memory-budget); 20 of 64 bricks at full
+    resolution (20 of 64 in view)"; None where it shows every sample."""
+    state, scene = viewer.state, viewer.scene
+    if state.volume is None or state.full_volume is None or scene is None:
+        return None
+    shown, full = scene.stats.shown_shape, tuple(state.full_volume.data.shape)
+    if shown is None or tuple(shown) == full:
+        return None
+    text = (f"the surface is drawn from {'x'.join(map(str, shown))} of {'x'.join(map(str, full))} samples to fit "
+            f"the memory budget of {state.budget.text}")
+    return text + (f"; {state.bricks.text}" if state.bricks is not None and state.bricks.meshes else "")
+
+
 def empty_level_hints(viewer) -> list[str]:
     """The panel's line for each visible level whose surface drew nothing (model/hints.py), e.g. "no surface
     at 254.0: the values lie in 0.0..254.0, most between 20.0 and 140.0"."""

@@ -201,3 +201,26 @@ def test_seams_between_levels_show_no_background_and_no_inside(viewer, monkeypat
         assert cracks <= drawn_pixels * 0.0005, cracks
     else:
         assert cracks > drawn_pixels * 0.0006, cracks
+
+
+@pytest.mark.gl   # render needs a GL context
+def test_render_says_what_it_draws_of_a_volume_over_the_budget(blob, tmp_path):
+    """`render --memory-budget` under what the volume's meshes take says, on stderr, from how many samples the
+    surface is drawn and how many bricks are at full resolution; where every brick in view is refined (16M: all
+    27 fit, as above) or the whole fits, it says nothing of the kind."""
+    from support.command import isoscope_here
+    np.save(tmp_path / "blob.npy", blob)
+    said = {}
+    for budget in ("8M", BUDGET, "4G"):
+        result = isoscope_here("render", tmp_path / "blob.npy", "--iso", str(1.0 - LEVEL), "--memory-budget", budget,
+                               "--out", tmp_path / f"{budget}.png")
+        assert result.returncode == 0, result.stderr
+        said[budget] = [line for line in result.stderr.splitlines() if "the surface is drawn from" in line]
+    assert said[BUDGET] == [] and said["4G"] == []
+    layout = brick_layout(SHAPE, 4, MemoryBudget(8 << 20, "--memory-budget"))
+    coarse = "x".join(str(len(range(0, n, layout.step))) for n in SHAPE)
+    (line,) = said["8M"]
+    assert line.startswith(f"note: the surface is drawn from {coarse} of 160x160x160 samples")
+    assert "8.0 MiB (--memory-budget)" in line
+    refined, total = (int(n) for n in line.split("; ")[1].split(" bricks")[0].split(" of "))
+    assert 0 < refined < total == len(bricks_of(SHAPE, layout.cells))
