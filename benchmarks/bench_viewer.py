@@ -20,6 +20,7 @@ import shutil
 import subprocess
 import sys
 import time
+from pathlib import Path
 from contextlib import contextmanager
 
 import numpy as np
@@ -176,10 +177,23 @@ def main(argv=None) -> int:
             peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
             print(f"  shown       {'x'.join(map(str, scene.stats.shown_shape))} of {shape} at rest (memory budget "
                   f"{state.budget.text}), {volume.data.dtype}; window open with the first mesh in {open_s:.1f} s; "
-                  f"peak RSS {peak:.0f} MiB")
+                  f"peak RSS {peak:.0f} MiB; now {rss_parts()}")
         finally:
             window.close()
     return 0
+
+
+def rss_parts() -> str:
+    """The process's resident memory now, by kind (Linux /proc/self/status): its own (anonymous: arrays,
+    buffers, the GL driver's), the pages of files it maps (a memory-mapped volume's samples read: the page
+    cache, given back under pressure) and shared memory."""
+    try:
+        fields = dict(line.split(":", 1) for line in Path("/proc/self/status").read_text().splitlines() if ":" in line)
+        parts = [(name, int(fields[key].split()[0]) / 1024) for name, key in
+                 (("anonymous", "RssAnon"), ("mapped files", "RssFile"), ("shared", "RssShmem"))]
+    except (OSError, KeyError, ValueError):
+        return "RSS by kind not known here"
+    return "RSS " + ", ".join(f"{name} {mib:.0f} MiB" for name, mib in parts)
 
 
 if __name__ == "__main__":
