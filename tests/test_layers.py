@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import ast
 import functools
+import re
 from pathlib import Path
 from types import MappingProxyType
 
@@ -164,3 +165,16 @@ def test_the_root_stays_small_and_no_file_is_long():
     long = sorted(f"{path.relative_to(ROOT)}: {n}" for path in ROOT.rglob("*.py")
                   if (n := len(path.read_text().splitlines())) > 600)
     assert not long, long
+
+
+GL_CALLS = re.compile(r"\.(compute_shader|program|buffer|texture3?d?|framebuffer|vertex_array)\(")
+
+
+def test_gl_objects_are_made_in_the_gl_layers_only():
+    """Only gpu/ and the viewer's drawing and windows make GL objects (a loader asks gpu/ to sample a formula,
+    the command and the facade ask the viewer for pictures): a GL call elsewhere is work in the wrong layer."""
+    places = {"gpu", "viewer"}
+    found = sorted(f"{path.relative_to(ROOT)}: {match.group(0)}" for path in ROOT.rglob("*.py")
+                   if path.relative_to(ROOT).parts[0] not in places
+                   for match in GL_CALLS.finditer(path.read_text()))
+    assert not found, found

@@ -185,7 +185,7 @@ class StorageBlock:
     RING_MEMBERS = 2
     CELLS = 3
     POINTS = 4
-    # an expression volume sampled on the GPU (expr_sample.comp, volumes/gpu_sampler.py)
+    # an expression volume sampled on the GPU (expr_sample.comp, gpu/expression.py)
     EXPR_SAMPLES = 0
     EXPR_INPUTS = 1
     FLAGS = 5

@@ -121,11 +121,11 @@ def test_gpu_sampling_agrees_with_numpy(gl_ctx, text):
 
 
 def test_gpu_sampling_in_slabs_matches_one_pass(gl_ctx, monkeypatch):
-    from isoscope.volumes import gpu_sampler
+    from isoscope.gpu import expression
     tree = parse("sin(5*x) + y*z")
     box, shape = Box.cube(-1.0, 1.0), (20, 16, 12)
     whole = sample_on_gpu(tree, box, shape, ctx=gl_ctx)
-    monkeypatch.setattr(gpu_sampler, "_SLAB_BYTES", 16 * 12 * 4 * 3)  # 3 planes per slab, 7 slabs
+    monkeypatch.setattr(expression, "_SLAB_BYTES", 16 * 12 * 4 * 3)  # 3 planes per slab, 7 slabs
     calls = []
     slabbed = sample_on_gpu(tree, box, shape, ctx=gl_ctx, progress=lambda f, m: calls.append(f))
     np.testing.assert_array_equal(slabbed, whole)
