@@ -103,6 +103,7 @@ class GpuScene:
         """`show` of a volume read (and downsampled) by an "open" job."""
         surface = self._new_surface(opened.shown, opened.shown.gradient_direction)
         self._release_meshes()
+        self.bricks.clear()   # the last volume's bricks are not drawn over the new one's level
         if self.surface is not None:
             self.surface.release()
         self.surface = surface

@@ -37,7 +37,7 @@ class SceneStats:
         if volume is None:
             return None
         bricks = self.scene.state.bricks
-        if self.scene.bricks.drawing and bricks.full_in_view:   # every brick in view at full resolution
+        if bricks is not None and self.scene.bricks.drawing and bricks.full_in_view:   # each brick in view refined
             return tuple(self.scene.state.full_volume.data.shape)
         return shown_shape(volume.data.shape, self.preview_step)
 

@@ -178,12 +178,14 @@ class BrickView:
             self.take(response)
 
     def take(self, response: Response) -> None:
-        """A worker's answer: kept where it is of the meshes on show, else dropped."""
+        """A worker's answer: kept where it is of the meshes on show, else dropped (its error too: a brick of a
+        level no longer asked for says nothing)."""
+        if self._asked is None or self._asked[0] != response.request_id:
+            return
         asked, self._asked = self._asked, None
         if response.error is not None:
             raise response.error
-        if asked is not None and asked[0] == response.request_id:
-            self._keep(asked[1], response.value)
+        self._keep(asked[1], response.value)
 
     def _keep(self, key, mesh: BrickMesh) -> None:
         if self.active and key == self.key:

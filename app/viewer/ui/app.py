@@ -36,7 +36,7 @@ class ViewerApp:
         self.renderer = SceneRenderer(ctx)
         self.camera = OrbitCamera()
         self._framed_serial = -1
-        self._aspect = 4 / 3   # of the last viewport drawn
+        self._aspect = 4 / 3   # of the viewport the next frame is drawn into (aim)
 
     def show(self, volume, iso: float | None = None, azimuth=None, elevation=None) -> None:
         """Put `volume` on show at `iso` and frame it from (azimuth, elevation); what fails is raised."""
@@ -61,6 +61,11 @@ class ViewerApp:
         apply_opened_scene(self.state, self.camera, raise_errors=raise_errors)
         return framed
 
+    def aim(self, viewport) -> None:
+        """The viewport (x, y, width, height) the next frames are drawn into: the bricks are planned for its shape
+        (a headless render says it before `follow`, the window's frames after the first as they draw)."""
+        self._aspect = viewport[2] / max(viewport[3], 1)
+
     def _refine(self, wait: bool) -> None:
         """A big volume's bricks (model/bricks.py): planned for the camera, the nearest in view asked for (all
         of them, with `wait`), and the scene's buffers following."""
@@ -80,7 +85,7 @@ class ViewerApp:
         volume at a ray per 2x2 pixels, the full picture once it rests.  With previews (the window) a frame
         after the transfer function's points moved is drawn so too: a drag over them stays fluid, and the
         first frame after it rests is whole."""
-        self._aspect = viewport[2] / max(viewport[3], 1)   # the next frame's bricks are planned for it
+        self.aim(viewport)
         edited = self.state.transfer_edits != self._drawn_transfer_edits
         self._drawn_transfer_edits = self.state.transfer_edits
         self.renderer.draw_scene(self.scene, self.camera, viewport, covered_left=covered_left,

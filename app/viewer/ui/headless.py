@@ -158,6 +158,7 @@ class HeadlessViewer:
             self._imgui.new_frame(self.size)
         if panel or letters:
             self._panel.draw_view_labels(self.state, self.camera)
+        self.app.aim(self.target.viewport)   # the bricks are planned for this picture's shape
         self.app.follow(0.0, wait=True)  # a render shows the finished scene
         self.target.use()
         self.app.draw(self.target.viewport, covered_left=int(self._panel.covered_width) if panel else 0)

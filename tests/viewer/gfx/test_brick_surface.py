@@ -224,3 +224,36 @@ def test_render_says_what_it_draws_of_a_volume_over_the_budget(blob, tmp_path):
     assert "8.0 MiB (--memory-budget)" in line
     refined, total = (int(n) for n in line.split("; ")[1].split(" bricks")[0].split(" of "))
     assert 0 < refined < total == len(bricks_of(SHAPE, layout.cells))
+
+
+def test_a_render_plans_its_bricks_for_its_own_shape(gl_ctx, blob):
+    """A wide picture (4:1) close to the volume sees bricks at its sides that a 4:3 picture would not: the first
+    render plans for the picture's shape (it was planned for 4:3 before anything was drawn)."""
+    from isoscope.core.bricks import in_view
+    viewer = HeadlessViewer((960, 240), ctx=gl_ctx, memory_budget=BUDGET)
+    try:
+        viewer.show(as_volume(blob, name="blob"), 1.0 - LEVEL)
+        camera, bricks = viewer.camera, viewer.state.bricks
+        camera.look_from(0.0, 0.0)
+        camera.distance *= 0.25                    # close: bricks at the sides are in the wide picture only
+        viewer.render()
+        spacing = viewer.state.full_volume.spacing
+        seen = {}
+        for aspect in (4.0, 4 / 3):
+            clip = (camera.view_matrix().astype(np.float64) @ camera.projection_matrix(aspect)).T
+            seen[aspect] = {b.index for b, v in zip(bricks.bricks, in_view(bricks.bricks, spacing, clip)) if v}
+        assert seen[4.0] != seen[4 / 3]           # the case: the two shapes see different bricks
+        assert bricks.visible == seen[4.0]
+    finally:
+        viewer.release()
+
+
+def test_a_new_volume_draws_and_counts_without_the_last_one_s_bricks(viewer, blob):
+    viewer.render()
+    assert viewer.scene.bricks.drawing and len(viewer.state.bricks.meshes) == 27
+    viewer.show(as_volume(blob[:40, :40, :40].copy(), name="small"), 1.0 - LEVEL)   # fits the budget whole
+    scene = viewer.scene
+    assert viewer.state.bricks is None and not scene.bricks.drawing
+    assert scene.stats.shown_shape == (40, 40, 40)
+    assert all(mesh is not part for mesh, _ in scene.drawn() for part in scene.bricks.meshes)
+    assert scene.bricks.meshes == []
