@@ -19,7 +19,7 @@ from .slices import colormap_rgba8
 TRANSFER_SIZE = 1024    # entries of the transfer function's opacity table over the value range
 BRICK = 8              # samples a side of the bricks whose (min, max) let rays skip empty space
 STEP_PER_SAMPLE = 0.5   # the ray's step: half the smallest sample spacing (no sample's peak is stepped over)
-COARSE = 2             # while the view moves: one ray per COARSE x COARSE pixels, stretched (a quarter of the work)
+COARSE = 2             # while the view moves: by default one ray per 2 x 2 pixels, stretched (a quarter of the work)
 DENSITY_PER_SAMPLE = 0.15   # DVR: extinction per sample spacing at the top of the ramp (a few samples' depth)
 GRADIENT_FLOOR = 1e-3   # DVR: a sample changing less than this part of the value range per spacing is unlit
 
@@ -182,11 +182,11 @@ class VolumeRaycaster:
         ctx.cull_face = "back"
 
     def draw_coarse(self, request, view: bytes, projection: bytes, eye, viewport,
-                    depth: SceneDepth | None = None) -> None:
-        """`draw` with one ray per COARSE x COARSE pixels of `viewport`, into a small target stretched over it
-        (linear), for the frames while the view or the level moves: about a quarter of the time."""
+                    depth: SceneDepth | None = None, spacing: int = COARSE) -> None:
+        """`draw` with one ray per `spacing` x `spacing` pixels of `viewport`, into a small target stretched over
+        it (linear), for the frames while the view or the level moves: about 1 / spacing^2 of the time."""
         ctx = self.ctx
-        size = (max(1, viewport[2] // COARSE), max(1, viewport[3] // COARSE))
+        size = (max(1, viewport[2] // spacing), max(1, viewport[3] // spacing))
         if self._coarse is None or self._coarse[1].size != size:
             self._release_coarse()
             colour = ctx.texture(size, 4)

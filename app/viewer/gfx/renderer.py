@@ -24,7 +24,7 @@ from ..model.style import SurfaceStyle
 from .colorby import GpuColorBy
 from .oit import OitTargets
 from .opaque_pass import OpaquePass
-from .raycast import RaycastRequest, SceneDepth, VolumeRaycaster, raycast_request
+from .raycast import COARSE, RaycastRequest, SceneDepth, VolumeRaycaster, raycast_request
 from .slices import GL_CLIP_DISTANCE0, SliceRenderer
 
 WIRE_COLOR = (0.02, 0.02, 0.05)
@@ -97,7 +97,7 @@ class SceneRenderer:
     def draw(self, meshes: Sequence[GpuMesh], camera, viewport: tuple[int, int, int, int], style: SurfaceStyle,
              covered_left: int = 0, looks: Sequence[SurfaceLook] | None = None,
              slices: SliceScene | None = None, raycast: RaycastRequest | None = None,
-             coarse: bool = False) -> None:
+             coarse: int = 0) -> None:
         """Clear `viewport` of the bound framebuffer and draw the box, the slices and `meshes` into it.
 
         `covered_left`: pixels at the left hidden by the panel; the scene centres in the rest.
@@ -106,7 +106,8 @@ class SceneRenderer:
         `raycast`: the volume itself drawn by ray casting (gfx/raycast.py), in the meshes' place unless it
         asks for them too (`with_surfaces`): then the opaque surfaces and the slices are drawn first and end
         the rays (their depth), the rays are blended over them, and the translucent surfaces over both
-        (OIT); `coarse`: with a ray per 2x2 pixels (the window's frames while the view moves).
+        (OIT); `coarse`: with a ray per N x N pixels, N = `coarse` (True: 2; the window's frames while the
+        view moves; 0 or False: a ray per pixel).
         """
         ctx = self.ctx
         if looks is None:
@@ -206,17 +207,18 @@ class SceneRenderer:
             ctx.wireframe = False
 
     def _draw_rays(self, raycast: RaycastRequest, depth: SceneDepth | None, view, projection, camera, viewport,
-                   coarse: bool) -> None:
+                   coarse: int) -> None:
         """The volume ray cast over what is drawn, ended by `depth` (the opaque scene's, opaque_pass.py)."""
         if self._raycaster is None:
             self._raycaster = VolumeRaycaster(self.ctx)
-        if coarse:
-            self._raycaster.draw_coarse(raycast, view, projection, camera.eye(), viewport, depth)
+        spacing = COARSE if coarse is True else int(coarse)
+        if spacing > 1:
+            self._raycaster.draw_coarse(raycast, view, projection, camera.eye(), viewport, depth, spacing)
         else:
             self._raycaster.draw(raycast, view, projection, camera.eye(), depth)
 
     def draw_scene(self, scene, camera, viewport: tuple[int, int, int, int], covered_left: int = 0,
-                   coarse: bool = False) -> None:
+                   coarse: int = 0) -> None:
         """What a GpuScene shows of its state: the meshes in their looks, the slices and clip, then the 2-D view."""
         drawn, slices = scene.drawn(), scene.state.slice_scene   # each worked out once a frame
         self.draw([mesh for mesh, _ in drawn], camera, viewport, scene.state.style, covered_left=covered_left,

@@ -90,3 +90,27 @@ def _parsed_points(spec) -> list[tuple[float, float]]:
                                                               for v, a in points):
         raise ViewerError(f"a transfer function is 2 to {MAX_TRANSFER_POINTS} finite VALUE:OPACITY points")
     return points
+
+
+MIN_RAY_SPACING, MAX_RAY_SPACING = 2, 4
+"""While the view moves, one ray per N x N pixels, N in this range (N = 1: the whole picture, at rest)."""
+MOVING_TARGET_MS = 100.0
+"""What a frame with rays may take while the view moves (then the picture is stretched from fewer rays)."""
+
+
+class RaySpacing:
+    """How sparse the rays are while the view moves: the finest spacing whose moving frames stay under
+    MOVING_TARGET_MS, from the frames measured.  A frame over the target spaces the rays one pixel more; one
+    that would stay under it with a pixel less (its time scaled by the rays' ratio, (N / (N - 1))^2) spaces
+    them one pixel less.  Only ray-cast frames drawn while moving are recorded."""
+
+    def __init__(self):
+        self.spacing = MIN_RAY_SPACING
+
+    def record(self, frame_ms: float) -> None:
+        """A moving frame drawn at `spacing` took `frame_ms`."""
+        n = self.spacing
+        if frame_ms > MOVING_TARGET_MS and n < MAX_RAY_SPACING:
+            self.spacing = n + 1
+        elif n > MIN_RAY_SPACING and frame_ms * (n / (n - 1)) ** 2 < MOVING_TARGET_MS:
+            self.spacing = n - 1

@@ -18,6 +18,7 @@ from ..gfx.renderer import OffscreenTarget, SceneRenderer
 from ..gfx.scene import USER_ERRORS, GpuScene
 from ..model.camera import OrbitCamera, volume_frame
 from ..model.errors import one_line
+from ..model.raycast import RaySpacing
 from ..model.scene_file import apply_opened_scene
 from ..model.state import ViewerState
 from .panel import Panel
@@ -37,6 +38,8 @@ class ViewerApp:
         self.camera = OrbitCamera()
         self._framed_serial = -1
         self._aspect = 4 / 3   # of the viewport the next frame is drawn into (aim)
+        self.rays = RaySpacing()   # with previews: how sparse the rays are while the view moves, as measured
+        self._sparse_rays = False  # the last frame drew them so (its time is recorded by the next follow)
 
     def show(self, volume, iso: float | None = None, azimuth=None, elevation=None) -> None:
         """Put `volume` on show at `iso` and frame it from (azimuth, elevation); what fails is raised."""
@@ -53,6 +56,9 @@ class ViewerApp:
     def follow(self, dt_seconds: float, wait: bool = False, raise_errors: bool = False) -> bool:
         """Step 2 of a frame: the scene follows the state (`wait`: for the reads and meshes asked for), a
         volume new on show is framed, an opened scene is put on it.  Whether a new volume was framed."""
+        if self._sparse_rays and dt_seconds > 0:
+            self.rays.record(1000 * dt_seconds)
+        self._sparse_rays = False
         self.scene.update(dt_seconds, wait=wait)
         self._refine(wait)
         framed = self.state.volume_serial != self._framed_serial
@@ -84,12 +90,16 @@ class ViewerApp:
         of panel leave free; `moving` (the window's frames while the view or the level moves): a ray-cast
         volume at a ray per 2x2 pixels, the full picture once it rests.  With previews (the window) a frame
         after the transfer function's points moved is drawn so too: a drag over them stays fluid, and the
-        first frame after it rests is whole."""
+        first frame after it rests is whole; and the rays are as sparse as `rays` finds keeps such frames
+        under its target (model/raycast.py RaySpacing, from the frames' measured times)."""
         self.aim(viewport)
         edited = self.state.transfer_edits != self._drawn_transfer_edits
         self._drawn_transfer_edits = self.state.transfer_edits
-        self.renderer.draw_scene(self.scene, self.camera, viewport, covered_left=covered_left,
-                                 coarse=moving or (self.previews and edited))
+        coarse = moving or (self.previews and edited)
+        if coarse and self.previews:
+            coarse = self.rays.spacing
+            self._sparse_rays = self.state.raycast is not None
+        self.renderer.draw_scene(self.scene, self.camera, viewport, covered_left=covered_left, coarse=coarse)
 
     def offscreen(self, size, alpha: bool = False) -> np.ndarray:
         """The scene drawn into a new offscreen target of `size`, centred in the whole of it (no panel), as

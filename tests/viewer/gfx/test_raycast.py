@@ -507,3 +507,44 @@ def test_translucent_surfaces_blend_over_the_volume_and_every_entry_draws_the_sa
     core_only = api([0.7], [1.0])
     assert np.abs(core_only - cli).max() > 30
     assert np.abs(api([0.7], [1.0], with_surfaces=False) - core_only).max() > 30
+
+
+@pytest.mark.parametrize("spacing", [3, 4])
+def test_sparser_rays_while_moving_are_still_the_full_picture_stretched(viewer, spacing):
+    """A ray per 3x3 or 4x4 pixels (the window's spacing when 2x2 frames are slow): the picture to within its
+    wider blur, the background untouched outside the box."""
+    viewer.show(as_volume(nested()), 0.2)
+    full = picture(viewer, "mip")
+    viewer.target.use()
+    viewer.app.renderer.draw_scene(viewer.scene, viewer.camera, viewer.target.viewport, coarse=spacing)
+    coarse = viewer.target.read_rgb().astype(int)
+    assert np.abs(coarse - full).mean() < 2 * spacing, np.abs(coarse - full).mean()
+    assert (coarse[0, 0] == BACKGROUND).all() and (coarse[-1, -1] == BACKGROUND).all()
+    assert white(coarse) > 0.5 * white(full) > 50
+
+
+def test_the_window_spaces_its_moving_rays_by_the_frames_measured(gl_ctx):
+    """With previews (the window), a moving ray-cast frame that took longer than the target makes the next ones
+    sparser, up to 4x4 pixels a ray; fast ones make them finer again; frames at rest or without rays count for
+    nothing."""
+    from isoscope.viewer.model.raycast import MAX_RAY_SPACING, MIN_RAY_SPACING, MOVING_TARGET_MS
+    viewer = HeadlessViewer(SIZE, ctx=gl_ctx, previews=True)
+    try:
+        viewer.show(as_volume(nested()), 0.2)
+        app, viewport = viewer.app, viewer.target.viewport
+        viewer.target.use()
+        app.draw(viewport, moving=True)                 # no rays: nothing to record
+        app.follow(10 * MOVING_TARGET_MS / 1000)
+        assert app.rays.spacing == MIN_RAY_SPACING
+        viewer.state.set_raycast("mip")
+        spacings = []
+        for seconds in (0.3, 0.3, 0.3, 0.07, 0.04, 0.04):
+            app.draw(viewport, moving=True)
+            app.follow(seconds)
+            spacings.append(app.rays.spacing)
+        assert spacings == [3, 4, MAX_RAY_SPACING, 4, 3, 2], spacings
+        app.draw(viewport)                              # at rest: a ray a pixel, not recorded
+        app.follow(1.0)
+        assert app.rays.spacing == MIN_RAY_SPACING
+    finally:
+        viewer.release()
