@@ -38,16 +38,20 @@ class Rim:
         return Rim(self.ends[keep], self.normals[keep], self.values[keep], self.down[keep], self.triangle[keep])
 
 
+def edge_keys(faces) -> np.ndarray:
+    """(3 M,) int64: a number for the undirected edge of each directed edge `faces[t, c] -> faces[t, (c + 1) % 3]`,
+    at 3 t + c; two triangles sharing an edge have the same number there.  `faces`: (M, 3), M > 0."""
+    start, stop = faces, np.roll(faces, -1, axis=1)
+    return (np.minimum(start, stop) * (int(faces.max()) + 1) + np.maximum(start, stop)).ravel()
+
+
 def edges_used_once(faces) -> np.ndarray:
     """(triangle, corner) of each directed edge `faces[t, c] -> faces[t, (c + 1) % 3]` that no other triangle
     shares (an edge of the mesh's border, or of a cut)."""
     faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     if not len(faces):
         return np.zeros((0, 2), dtype=np.int64)
-    start, stop = faces, np.roll(faces, -1, axis=1)
-    low, high = np.minimum(start, stop).ravel(), np.maximum(start, stop).ravel()
-    key = low * (int(faces.max()) + 1) + high
-    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+    _, inverse, counts = np.unique(edge_keys(faces), return_inverse=True, return_counts=True)
     once = np.flatnonzero(counts[inverse.ravel()] == 1)
     return np.stack(np.divmod(once, 3), axis=1)
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...big.chunked import edges_of
-from ...core.skirts import Rim, rim_of, skirt
+from ...core.skirts import Rim, edge_keys, rim_of, skirt
 from ...gpu.mesh import GpuMesh, OwnedMesh
 
 
@@ -36,8 +36,7 @@ class CoarseSplit:
         index = np.minimum(cells_of // cells, np.asarray(grid) - 1)
         self.brick = np.ravel_multi_index(index.T, grid)
         # every directed edge; an edge whose two triangles lie in two bricks is on a face between them
-        start, stop = faces, np.roll(faces, -1, axis=1)
-        key = (np.minimum(start, stop) * (int(faces.max()) + 1) + np.maximum(start, stop)).ravel()
+        key = edge_keys(faces)
         order = np.argsort(key, kind="stable")
         pair = np.flatnonzero(key[order][1:] == key[order][:-1])
         first, second = order[pair], order[pair + 1]
