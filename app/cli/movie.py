@@ -10,6 +10,7 @@ from pathlib import Path
 from ..core.numbers import FPS, FRAMES
 from ..errors import InputError
 from ..io.movie import movie_kind
+from ..viewer.model.raycast import check_transfer_mode
 from .arguments import OneLineParser, add_render_options
 from .common import check_label_options, checked_levels, count_line, progress, wrote
 from .slice_options import apply_slice_arguments
@@ -63,6 +64,7 @@ def run_movie(args) -> int:
         check_label_options(args, "--iso", "--panel", "--sweep")
     else:
         check_label_options(args, "--label-names", "--force-labels")
+    check_transfer_mode(args.raycast, args.transfer, flags=True)
     volume = open_volume_from_args(args.volume, args, progress, several_times=True)
     times = args.time.points(volume.time_points) if several_times else None
     if times is not None and len(times) > MAX_FRAMES:

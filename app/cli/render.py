@@ -4,6 +4,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import InputError
+from ..viewer.model.raycast import check_transfer_mode
 from .common import EXIT_NO_GL, check_label_options, checked_iso, checked_levels, progress, wrote
 from .slice_options import apply_slice_arguments
 from .volume_options import open_volume_from_args
@@ -77,6 +78,8 @@ def run_render(args) -> int:
     if args.size is None:
         args.size = scene_size(scene) if scene is not None else DEFAULT_RENDER_SIZE
     check_render_size(args.size)  # pixels: before a GL context is made
+    if scene is None:
+        check_transfer_mode(args.raycast, args.transfer, flags=True)
     ctx = drawing_context("render")
     check_render_size(args.size, ctx)  # the driver's limits, before the volume is read
     if scene is not None:

@@ -195,6 +195,7 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     """
     from ..core.budget import requested_budget, using_budget
     from ..volumes.inputs import as_volume
+    from .model.raycast import check_transfer_mode
     from .ui.headless import prepared_viewer
     budget = requested_budget(memory_budget, "memory_budget")
     size = image_size(size, "size")
@@ -202,6 +203,7 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     elevation = None if elevation is None else ELEVATION.check(elevation, "elevation")
     smooth = SMOOTH.check(smooth, "smooth")   # before a GL context is made: the refusal needs none
     MeshOptions(cells="tetrahedra" if tetrahedra else "cubes", smooth=smooth, topology=topology).check()
+    check_transfer_mode(raycast, transfer)
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
     if labels and level is not None:
         raise InputError("labels=True draws every label's surface; leave out the level")

@@ -30,6 +30,18 @@ PRESETS = {
 MAX_TRANSFER_POINTS = 64
 
 
+def check_transfer_mode(raycast, transfer, flags: bool = False) -> None:
+    """A picture drawn once (render, movie, isoscope.render) uses a transfer function only in DVR: one given
+    with another mode (or none) would be silently ignored, so it is refused.  `flags`: name the command's
+    options, not the keywords."""
+    if transfer is None or raycast == "dvr":
+        return
+    given, wanted = ("--transfer", "--raycast dvr") if flags else ("transfer=", "raycast='dvr'")
+    drawn = f"the {raycast} mode" if raycast else "the surfaces"
+    raise ViewerError(f"{given} sets DVR's opacity and {drawn} would ignore it: add {wanted} or leave "
+                      f"{given.rstrip('=')} out")
+
+
 def check_transfer(spec, value_range) -> tuple[tuple[float, float], ...] | None:
     """A transfer function from `spec`: None / "off" (the window's linear ramp), a preset's name (PRESETS:
     its points clamped into the volume's range), "V:A,V:A,..." or pairs (value, opacity); the points of a

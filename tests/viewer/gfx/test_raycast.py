@@ -234,6 +234,22 @@ def test_bad_transfer_functions_are_one_line(viewer, tmp_path, spec, words):
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and words in done.stderr
 
 
+@pytest.mark.parametrize("mode", [None, "mip", "iso"])
+def test_a_transfer_without_dvr_is_refused_where_one_picture_would_ignore_it(tmp_path, mode):
+    """render, movie and isoscope.render draw once: a transfer function with another mode would be dropped
+    without a word, so each says so in one line before any work (no GL needed for the refusal)."""
+    np.save(tmp_path / "nested.npy", nested())
+    flags = ["--raycast", mode] if mode else []
+    for command, out in (("render", "x.png"), ("movie", "x.gif")):
+        done = isoscope_here(command, tmp_path / "nested.npy", *flags, "--transfer", "0:0,1:1",
+                             "--out", tmp_path / out)
+        assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1, done.stderr
+        assert "add --raycast dvr or leave --transfer out" in done.stderr
+        assert not (tmp_path / out).exists()
+    with pytest.raises(isoscope.IsoscopeError, match="add raycast='dvr' or leave transfer out"):
+        isoscope.render(nested(), 0.2, size=(64, 48), raycast=mode, transfer="0:0,1:1")
+
+
 def test_presets_fit_the_volumes_range_and_a_scene_keeps_the_transfer(tmp_path):
     from isoscope.viewer.model.raycast import check_transfer
     bone = check_transfer("ct-bone", (-1024.0, 3071.0))
