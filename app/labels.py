@@ -40,6 +40,7 @@ import numpy as np
 
 from . import validation
 from .core.case_table import label_table
+from .core.joined import joined
 from .errors import InputError, IsoscopeError
 
 # Labels from 1 up to this are their own ids for scipy's find_objects; others (negative, or
@@ -381,8 +382,7 @@ def write_labelled(path, meshes: dict, colors, space: str, one_file: bool) -> li
         return [(write_mesh(label_file(path, label), *mesh, space=space), len(mesh[0]), len(mesh[1]))
                 for label, mesh in meshes.items()]
     colors = np.round(np.asarray(colors, float) * 255).astype(np.uint8)
-    starts = np.cumsum([0] + [len(verts) for verts, _, _ in meshes.values()])
-    verts, faces, normals = (np.concatenate(parts) for parts in zip(*meshes.values()))
-    faces = np.concatenate([mesh[1] + start for mesh, start in zip(meshes.values(), starts)])
-    rgba = np.repeat(np.column_stack([colors, np.full(len(colors), 255, np.uint8)]), np.diff(starts), axis=0)
+    verts, faces, normals = joined(meshes.values(), np.int64)
+    rgba = np.repeat(np.column_stack([colors, np.full(len(colors), 255, np.uint8)]),
+                     [len(mesh[0]) for mesh in meshes.values()], axis=0)
     return [(write_mesh(path, verts, faces, normals, rgba, space=space), len(verts), len(faces))]

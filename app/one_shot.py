@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import validation
+from .core.joined import joined
 from .core.masking import check_mask, keep_masked_cells
 from .core.sharp.features import check_feature_angle, sharpen_extracted
 from .cpu.cubes import marching_cubes_reference
@@ -268,7 +269,7 @@ def border_caps(data, level: float, spacing=(1.0, 1.0, 1.0), gradient_direction:
     far = far_value(value_range, descent)
     spacing = np.asarray(spacing, np.float64)
     extract = extraction_of(cells)
-    parts, count = [], 0
+    parts = []
     for ranges in slabs(np.shape(data)):
         samples = slab_samples(data, ranges, far)
         if min(samples.shape) < 2 or all_outside(samples, level, descent):
@@ -278,8 +279,7 @@ def border_caps(data, level: float, spacing=(1.0, 1.0, 1.0), gradient_direction:
         if not len(faces):
             continue
         offset = (np.array([lo for lo, _ in ranges], np.float64) - 1.0) * spacing
-        parts.append(((verts + offset).astype(np.float32), faces.astype(np.int64) + count, normals, values))
-        count += len(verts)
+        parts.append(((verts + offset).astype(np.float32), faces, normals, values))
     if not parts:
         return EMPTY_MESH
-    return tuple(np.concatenate([part[i] for part in parts]) for i in range(4))
+    return joined(parts, np.int64)

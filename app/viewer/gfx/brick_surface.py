@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...big.chunked import edges_of
+from ...core.joined import joined
 from ...core.skirts import Rim, edge_keys, rim_of, skirt
 from ...gpu.mesh import GpuMesh, OwnedMesh
 
@@ -152,12 +153,9 @@ def _upload(ctx, arrays) -> OwnedMesh | None:
 
 
 def _joined(parts):
-    """verts, faces, normals, values of several meshes as one."""
-    offsets = np.cumsum([0] + [len(p[0]) for p in parts])
-    return (np.concatenate([p[0] for p in parts]).astype(np.float32),
-            np.concatenate([np.asarray(p[1], np.int64) + o for p, o in zip(parts, offsets)]).astype(np.int32),
-            np.concatenate([p[2] for p in parts]).astype(np.float32),
-            np.concatenate([np.reshape(p[3], -1) for p in parts]).astype(np.float32))
+    """verts, faces, normals, values of several meshes as one, in the types the buffers take."""
+    verts, faces, normals, values = joined([(p[0], p[1], p[2], np.reshape(p[3], -1)) for p in parts])
+    return verts.astype(np.float32), faces, normals.astype(np.float32), values.astype(np.float32)
 
 
 def _rim_concat(rims: list[Rim]) -> Rim:
