@@ -124,13 +124,14 @@ def coarse_step(shape, itemsize: int, room: float) -> int:
 
 
 def brick_room(shape, itemsize: int, budget: MemoryBudget, cells: int = BRICK_CELLS,
-               bytes_per_sample: float | None = None) -> tuple[int, int]:
+               bytes_per_sample: float | None = None, min_step: int = 1) -> tuple[int, int]:
     """(the coarse view's step, the bytes left for bricks at full resolution) within `budget`: what the meshes
-    take aside (MESH_SHARE), the coarse view of the whole beside.  BudgetError in one line where the budget
-    is below what one full brick needs beside the coarse view."""
+    take aside (MESH_SHARE), the coarse view of the whole beside, at `min_step` or coarser (a GPU that cannot
+    hold a finer one).  BudgetError in one line where the budget is below what one full brick needs beside
+    the coarse view."""
     per_sample = itemsize + EXTRACTOR_BYTES_PER_SAMPLE if bytes_per_sample is None else bytes_per_sample
     room = budget.bytes * (1 - MESH_SHARE)
-    step = coarse_step(shape, itemsize, room)
+    step = max(coarse_step(shape, itemsize, room), int(min_step))
     left = int(room - needed_bytes(shape, itemsize, step))
     biggest = max(brick_bytes(b, per_sample) for b in bricks_of(shape, cells))
     if left < biggest:
@@ -206,16 +207,17 @@ class BrickLayout:
     work: int
 
 
-def brick_layout(shape, itemsize: int, budget: MemoryBudget) -> BrickLayout:
+def brick_layout(shape, itemsize: int, budget: MemoryBudget, min_step: int = 1) -> BrickLayout:
     """The layout of the largest bricks (BRICK_CELLS, then a half and a quarter of it) whose extraction
     takes at most a quarter of what the budget leaves beside the coarse view (so several fit), else the
-    smallest that fits at all; BudgetError in one line where none does (brick_room)."""
+    smallest that fits at all; BudgetError in one line where none does (brick_room).  `min_step`: the
+    coarse view's finest step allowed (brick_room)."""
     fits = []
     for wanted in (BRICK_CELLS, BRICK_CELLS // 2, BRICK_CELLS // 4):
         try:
-            step, _ = brick_room(shape, itemsize, budget, wanted)
+            step, _ = brick_room(shape, itemsize, budget, wanted, min_step=min_step)
             cells = step * max(1, wanted // step)
-            step, left = brick_room(shape, itemsize, budget, cells)
+            step, left = brick_room(shape, itemsize, budget, cells, min_step=min_step)
         except BudgetError as exc:
             error = exc
             continue

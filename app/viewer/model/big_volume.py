@@ -58,12 +58,16 @@ def downsampled(volume: Volume, budget: MemoryBudget, refusal=None) -> tuple[Vol
                                                  f"{volume.pyramid[-1].name!r} at one sample in {level_step} to "
                                                  f"fit {reason}; {fix}")
         return shown, max(1, round(shown.spacing[0] / volume.spacing[0]))
-    if not limited:   # bricks: the coarse view, then the bricks in view at full resolution (bricks.py)
-        layout = bricks_layout(volume, budget)
-        if layout is not None:
-            note = (f"a big volume ({whole}): shown at one sample in {layout.step} along each axis, the bricks in "
-                    f"view refined to full resolution within {reason}; {fix}")
-            return every_step(volume, layout.step, note), layout.step
+    # Bricks: the coarse view, then the bricks in view at full resolution (bricks.py).  Where the GPU's limits,
+    # not the budget, refuse the whole, the coarse view is at their step or coarser: a brick is extracted on
+    # the CPU, a box at a time, so the limits do not bound it.
+    layout = bricks_layout(volume, budget, min_step=step if limited else 1)
+    if layout is not None:
+        within = f"the memory budget of {budget.text}"
+        shown_at = f"to fit {reason}, " if limited else ""
+        note = (f"a big volume ({whole}): shown at one sample in {layout.step} along each axis {shown_at}the "
+                f"bricks in view refined to full resolution within {within}; {fix}")
+        return every_step(volume, layout.step, note), layout.step
     note = f"a big volume ({whole}): shown at one sample in {step} along each axis to fit {reason}; {fix}"
     return every_step(volume, step, note), step
 

@@ -210,20 +210,20 @@ class BrickView:
 def brick_view(full_volume: Volume | None, step: int, budget) -> BrickView | None:
     """The bricks of `full_volume` (a volume shown at every `step`-th sample) where big_volume.downsampled
     chose their layout's coarse view for it; None where the whole is on show, or shown otherwise (a pyramid's
-    level, a series, a GPU's limits)."""
+    level, a series)."""
     if full_volume is None or step == 1:
         return None
-    layout = bricks_layout(full_volume, budget)
+    layout = bricks_layout(full_volume, budget, min_step=step)
     return BrickView(full_volume, layout) if layout is not None and layout.step == step else None
 
 
-def bricks_layout(volume: Volume, budget) -> BrickLayout | None:
-    """The brick layout of `volume` within `budget` (core/bricks.py brick_layout), or None where it is not shown
-    in bricks: a pyramid (shown from its levels), a series (each time point read at the step), a budget below
-    what one brick needs."""
+def bricks_layout(volume: Volume, budget, min_step: int = 1) -> BrickLayout | None:
+    """The brick layout of `volume` within `budget` (core/bricks.py brick_layout; its coarse view at `min_step`
+    or coarser), or None where it is not shown in bricks: a pyramid (shown from its levels), a series (each
+    time point read at the step), a budget below what one brick needs."""
     if volume.pyramid or volume.time_points > 1:
         return None
     try:
-        return brick_layout(volume.data.shape, volume.data.dtype.itemsize, budget)
+        return brick_layout(volume.data.shape, volume.data.dtype.itemsize, budget, min_step=min_step)
     except BudgetError:
         return None

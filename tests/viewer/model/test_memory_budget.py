@@ -182,9 +182,10 @@ def test_an_ome_zarr_over_the_budget_is_shown_from_the_finest_level_that_fits(vi
     assert tight.state.volume.spacing == (2.0, 2.0, 2.0)
 
 
-def test_a_volume_the_extractor_cannot_hold_is_shown_downsampled_and_says_why(gl_ctx, monkeypatch):
+def test_a_volume_the_extractor_cannot_hold_is_shown_coarse_then_in_bricks_and_says_why(gl_ctx, monkeypatch):
     """llvmpipe's RAM budget lets a 1024^3 volume through, but its 128 MiB storage blocks do not (the window
-    showed only an error); a shape the extractor refuses is shown at the smallest step it takes."""
+    showed only an error); a shape the extractor refuses is shown at the smallest step it takes, and then its
+    bricks in view at full resolution (extracted on the CPU a box at a time, which the limits do not bound)."""
     import isoscope.viewer.gfx.surface as surface_module
     from isoscope.gpu.limits import GpuLimits
     from isoscope.viewer.gfx.surface import extractor_refusal
@@ -203,7 +204,13 @@ def test_a_volume_the_extractor_cannot_hold_is_shown_downsampled_and_says_why(gl
         assert state.step == 2 and viewer.scene.stats.shown_shape == (32, 32, 32)
         np.testing.assert_array_equal(state.volume.data, data[::2, ::2, ::2])
         note = [note for note in state.volume.notes if "one sample in 2" in note]
-        assert note and "this GPU's limits" in note[0] and "32 KiB" not in note[0] and "memory budget" not in note[0]
-        assert viewer.scene.stats.n_triangles > 0
+        assert note and "to fit this GPU's limits" in note[0] and "32 KiB" not in note[0]
+        assert "the bricks in view refined to full resolution within the memory budget of 8.0 GiB" in note[0]
+        assert viewer.scene.stats.n_triangles > 0 and state.bricks is not None
+        viewer.render()
+        assert viewer.scene.stats.shown_shape == (64, 64, 64)
+        assert state.bricks.text.startswith(f"{len(state.bricks.bricks)} of {len(state.bricks.bricks)} bricks")
+        shown = sum(len(mesh.read()[1]) for mesh in viewer.scene.stats.meshes)
+        assert shown == len(isoscope.api.outward_marching_cubes(data, 0.5)[1])
     finally:
         viewer.release()
