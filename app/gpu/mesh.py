@@ -27,6 +27,17 @@ def empty_mesh():
             np.zeros((0, 3), np.float32), np.zeros((0,), np.float32))
 
 
+def vertex_records(verts, normals, values=0.0) -> np.ndarray:
+    """(N, VERTEX_FLOATS) float32: each vertex's record as a vertex buffer holds it (layout.VERTEX_FIELDS)."""
+    records = np.zeros((len(verts), VERTEX_FLOATS), np.float32)
+    start = 0
+    for name, width in VERTEX_FIELDS:
+        column = {"position": verts, "value": values, "normal": normals}.get(name, 0.0)  # "" pads
+        records[:, start:start + width] = np.reshape(column, (-1, width)) if np.ndim(column) else column
+        start += width
+    return records
+
+
 @dataclass(frozen=True)
 class GpuMesh:
     """An indexed triangle mesh in GPU buffers.
@@ -45,14 +56,8 @@ class GpuMesh:
     def upload(cls, ctx: moderngl.Context, verts, faces, normals, values=0.0) -> OwnedMesh:
         """Numpy arrays (or one value for every vertex) into new buffers of `ctx`: an `OwnedMesh`,
         which the caller releases."""
-        records = np.zeros((len(verts), VERTEX_FLOATS), np.float32)
-        start = 0
-        for name, width in VERTEX_FIELDS:
-            column = {"position": verts, "value": values, "normal": normals}.get(name, 0.0)  # "" pads
-            records[:, start:start + width] = np.reshape(column, (-1, width)) if np.ndim(column) else column
-            start += width
         faces = np.ascontiguousarray(faces, np.uint32)
-        vertex_buffer = ctx.buffer(records.tobytes())
+        vertex_buffer = ctx.buffer(vertex_records(verts, normals, values).tobytes())
         try:
             index_buffer = ctx.buffer(faces.tobytes())
         except BaseException:

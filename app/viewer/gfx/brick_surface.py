@@ -4,9 +4,10 @@ resolution cut out of it, each of those bricks' meshes, and the skirts where the
 `follow` brings the buffers in line with the model once a frame: the selected level's coarse mesh (the
 scene's surface, at rest at the model's value) is read back once and split by brick (each triangle's cell,
 big/chunked.py edges_of: a coarse cell lies in one brick); whenever the set of bricks at full resolution
-changes, the coarse remainder is uploaded again without them, a new brick's mesh is uploaded, a dropped
-one released, and the skirts made again: on the coarse side of each face between a coarse and a refined
-brick, and on the refined side (core/skirts.py), one coarse step deep.  With every brick refined there is
+changes, the coarse remainder's triangles are written again without them (its vertices are uploaded once
+per coarse mesh: a new index buffer only), a new brick's mesh is uploaded, a dropped one released, and the
+skirts made again: on the coarse side of each face between a coarse and a refined brick, and on the
+refined side (core/skirts.py), one coarse step deep.  With every brick refined there is
 no coarse remainder and no skirt: the bricks' meshes are the chunked extractor's, the whole volume's mesh.
 
 This class owns every GL object it makes and `release` frees them all.
@@ -16,9 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...big.chunked import edges_of
-from ...core.joined import joined
-from ...core.skirts import Rim, edge_keys, rim_of, skirt
-from ...gpu.mesh import GpuMesh, OwnedMesh
+from ...core.skirts import edge_keys, rim_of, skirt
+from ...gpu.mesh import GpuMesh, OwnedMesh, vertex_records
 
 
 class CoarseSplit:
@@ -61,9 +61,14 @@ class BrickSurface:
         self._coarse_key = None
         self._split: CoarseSplit | None = None
         self._serial = None
-        self._coarse: OwnedMesh | None = None      # the coarse remainder and its skirts
+        self._coarse_vertices = None               # the coarse mesh's vertex records (a buffer, once a split)
+        self._coarse_triangles = None              # and the triangles of its bricks not refined (a buffer)
+        self._coarse: GpuMesh | None = None        # those two as a mesh (a view of them)
         self._fine: dict[tuple, OwnedMesh] = {}    # each refined brick's mesh
-        self._skirts: OwnedMesh | None = None      # the refined bricks' skirts
+        # each refined brick's skirts, and which of the bricks across its faces were refined when they were
+        # made: a brick's arrival makes again only its own and its neighbours' skirts
+        self._fine_skirts: dict[tuple, tuple[bytes, OwnedMesh | None]] = {}
+        self._skirts: OwnedMesh | None = None      # the coarse side's skirts along every seam
 
     @staticmethod
     def coarse_of(surface, state):
@@ -79,7 +84,7 @@ class BrickSurface:
     @property
     def meshes(self) -> list[GpuMesh]:
         """The coarse remainder, the refined bricks and the skirts (those with triangles)."""
-        parts = [self._coarse, *self._fine.values(), self._skirts]
+        parts = [self._coarse, *self._fine.values(), self._skirts, *(m for _, m in self._fine_skirts.values())]
         return [mesh for mesh in parts if mesh is not None and mesh.n_triangles]
 
     def follow(self, view, surface, coarse_spacing) -> None:
@@ -107,6 +112,8 @@ class BrickSurface:
         refined[[flat[index] for index in view.meshes]] = True
         for index in [index for index in self._fine if index not in view.meshes]:
             self._fine.pop(index).release()
+        for index in [index for index in self._fine_skirts if index not in view.meshes]:
+            self._drop_skirt(index)
         for index, mesh in view.meshes.items():
             if index not in self._fine and mesh.arrays is not None:
                 uploaded = _upload(self.ctx, mesh.arrays)
@@ -115,12 +122,36 @@ class BrickSurface:
                 view.uploaded(index)
         depth = view.layout.step * max(view.volume.spacing)
         split = self._split
+        self._coarse_remainder(split, ~refined[split.brick])
+        self._replace("_skirts", skirt(split.rim.subset(~refined[split.own] & refined[split.across]), depth))
+        for index, mesh in view.meshes.items():   # the refined side: where the brick across is coarse
+            across = refined[mesh.across]
+            made = self._fine_skirts.get(index)
+            if made is None or made[0] != across.tobytes():
+                self._drop_skirt(index)
+                self._fine_skirts[index] = (across.tobytes(), _upload(self.ctx, skirt(mesh.rim.subset(~across),
+                                                                                      depth)))
+
+    def _drop_skirt(self, index) -> None:
+        _, mesh = self._fine_skirts.pop(index, (None, None))
+        if mesh is not None:
+            mesh.release()
+
+    def _coarse_remainder(self, split, kept) -> None:
+        """The coarse mesh's triangles where `kept` (of its bricks not refined) as the coarse remainder: its
+        vertices uploaded on the first call for this split, its triangles written again on each."""
+        self._coarse = None
+        if self._coarse_triangles is not None:
+            self._coarse_triangles.release()
+            self._coarse_triangles = None
         verts, faces, normals, values = split.arrays
-        coarse_faces = faces[~refined[split.brick]]
-        sides = skirt(split.rim.subset(~refined[split.own] & refined[split.across]), depth)
-        self._replace("_coarse", _joined([(verts, coarse_faces, normals, values), sides]))
-        rims = [(m.rim.subset(~refined[m.across])) for m in view.meshes.values()]
-        self._replace("_skirts", skirt(_rim_concat(rims), depth) if rims else None)
+        faces = faces[kept]
+        if not len(faces):
+            return
+        if self._coarse_vertices is None:
+            self._coarse_vertices = self.ctx.buffer(vertex_records(verts, normals, values).tobytes())
+        self._coarse_triangles = self.ctx.buffer(np.ascontiguousarray(faces, np.uint32).tobytes())
+        self._coarse = GpuMesh(self._coarse_vertices, self._coarse_triangles, len(verts), len(faces))
 
     def _replace(self, name: str, arrays) -> None:
         old = getattr(self, name)
@@ -133,12 +164,20 @@ class BrickSurface:
     def clear(self) -> None:
         """Nothing drawn in bricks: every buffer released."""
         self.drawing = False
-        self._view = self._surface = self._coarse_key = self._split = self._serial = None
-        self._replace("_coarse", None)
+        if (self._view is None and self._coarse_vertices is None and self._skirts is None and not self._fine
+                and not self._fine_skirts):
+            return   # nothing held (a volume shown whole: called every frame)
+        self._view = self._surface = self._coarse_key = self._split = self._serial = self._coarse = None
+        for buffer in (self._coarse_vertices, self._coarse_triangles):
+            if buffer is not None:
+                buffer.release()
+        self._coarse_vertices = self._coarse_triangles = None
         self._replace("_skirts", None)
         for mesh in self._fine.values():
             mesh.release()
         self._fine.clear()
+        for index in list(self._fine_skirts):
+            self._drop_skirt(index)
 
     def release(self) -> None:
         """Free every GL object of the bricks."""
@@ -150,14 +189,3 @@ def _upload(ctx, arrays) -> OwnedMesh | None:
     if not len(faces):
         return None
     return GpuMesh.upload(ctx, verts, faces, normals, values)
-
-
-def _joined(parts):
-    """verts, faces, normals, values of several meshes as one, in the types the buffers take."""
-    verts, faces, normals, values = joined([(p[0], p[1], p[2], np.reshape(p[3], -1)) for p in parts])
-    return verts.astype(np.float32), faces, normals.astype(np.float32), values.astype(np.float32)
-
-
-def _rim_concat(rims: list[Rim]) -> Rim:
-    return Rim(*(np.concatenate([getattr(r, name) for r in rims]) for name in
-                 ("ends", "normals", "values", "down", "triangle")))
