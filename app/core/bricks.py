@@ -124,13 +124,14 @@ def coarse_step(shape, itemsize: int, room: float) -> int:
 
 
 def brick_room(shape, itemsize: int, budget: MemoryBudget, cells: int = BRICK_CELLS,
-               bytes_per_sample: float | None = None) -> tuple[int, int]:
+               bytes_per_sample: float | None = None, step: int | None = None) -> tuple[int, int]:
     """(the coarse view's step, the bytes left for bricks at full resolution) within `budget`: what the meshes
-    take aside (MESH_SHARE), the coarse view of the whole beside.  BudgetError in one line where the budget
-    is below what one full brick needs beside the coarse view."""
+    take aside (MESH_SHARE), the coarse view of the whole beside, at `step` where given (a pyramid level's
+    factor), else at coarse_step.  BudgetError in one line where the budget is below what one full brick
+    needs beside the coarse view."""
     per_sample = itemsize + EXTRACTOR_BYTES_PER_SAMPLE if bytes_per_sample is None else bytes_per_sample
     room = budget.bytes * (1 - MESH_SHARE)
-    step = coarse_step(shape, itemsize, room)
+    step = coarse_step(shape, itemsize, room) if step is None else step
     left = int(room - needed_bytes(shape, itemsize, step))
     biggest = max(brick_bytes(b, per_sample) for b in bricks_of(shape, cells))
     if left < biggest:
@@ -206,21 +207,23 @@ class BrickLayout:
     work: int
 
 
-def brick_layout(shape, itemsize: int, budget: MemoryBudget) -> BrickLayout:
+def brick_layout(shape, itemsize: int, budget: MemoryBudget, step: int | None = None) -> BrickLayout:
     """The layout of the largest bricks (BRICK_CELLS, then a half and a quarter of it) whose extraction
     takes at most a quarter of what the budget leaves beside the coarse view (so several fit), else the
-    smallest that fits at all; BudgetError in one line where none does (brick_room)."""
+    smallest that fits at all; BudgetError in one line where none does (brick_room).  `step`: the coarse
+    view's, where it is given (a pyramid level's factor); else the smallest whose view takes at most
+    COARSE_SHARE of the room."""
     fits = []
     for wanted in (BRICK_CELLS, BRICK_CELLS // 2, BRICK_CELLS // 4):
         try:
-            step, _ = brick_room(shape, itemsize, budget, wanted)
-            cells = step * max(1, wanted // step)
-            step, left = brick_room(shape, itemsize, budget, cells)
+            coarse, _ = brick_room(shape, itemsize, budget, wanted, step=step)
+            cells = coarse * max(1, wanted // coarse)
+            coarse, left = brick_room(shape, itemsize, budget, cells, step=coarse)
         except BudgetError as exc:
             error = exc
             continue
         work = max(brick_bytes(b, itemsize + EXTRACTOR_BYTES_PER_SAMPLE) for b in bricks_of(shape, cells))
-        fits.append(BrickLayout(step, cells, left - work, work))
+        fits.append(BrickLayout(coarse, cells, left - work, work))
         if work <= left / 4:
             break
     if not fits:
