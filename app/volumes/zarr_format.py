@@ -161,6 +161,9 @@ def _refuse_disagreeing_level(path: Path, before, level) -> None:
     (first, above, above_spacing), (name, array, spacing) = before, level
     shape, above_shape = tuple(array.shape[-3:]), tuple(above.shape[-3:])
     fix = "write the pyramid again, finest level first, each level's scale its own"
+    if len(array.shape) != len(above.shape):
+        raise VolumeError(f"{path.name}: OME-Zarr level {name!r} has {len(array.shape)} axes and level {first!r} "
+                          f"before it {len(above.shape)}; {fix}")
     if any(n > m for n, m in zip(shape, above_shape)):
         raise VolumeError(f"{path.name}: OME-Zarr level {name!r} ({shape_text(shape)}) is larger than level "
                           f"{first!r} before it ({shape_text(above_shape)}); {fix}")

@@ -15,14 +15,14 @@ from isoscope.volumes import open_volume
 
 
 def write_pyramid(path, shapes, scales, missing=(), zarr_format=2):
-    """An OME-Zarr image whose level i has `shapes[i]` (z, y, x) samples and scale `scales[i]`; the levels
-    in `missing` are named in the metadata but not written."""
+    """An OME-Zarr image whose level i has `shapes[i]` (z, y, x) samples and scale `scales[i]` (as many values
+    as axes); the levels in `missing` are named in the metadata but not written."""
     group = zarr.open_group(str(path), mode="w", zarr_format=zarr_format)
     rng = np.random.default_rng(5)
     datasets = []
     for i, (shape, scale) in enumerate(zip(shapes, scales)):
         if i not in missing:
-            group.create_array(str(i), shape=shape, chunks=(8, 8, 8), dtype="f4")[:] = rng.random(shape, "f4")
+            group.create_array(str(i), shape=shape, chunks=(8,) * len(shape), dtype="f4")[:] = rng.random(shape, "f4")
         datasets.append({"path": str(i), "coordinateTransformations": [{"type": "scale", "scale": list(scale)}]})
     multiscales = [{"version": "0.4", "axes": [{"name": a, "type": "space"} for a in "zyx"], "datasets": datasets}]
     if zarr_format == 2:
@@ -39,6 +39,18 @@ def test_a_sound_pyramid_opens_with_its_levels_and_their_whole_factors(tmp_path,
     volume = open_volume(str(path))
     assert [level.name for level in volume.pyramid] == ["1", "2"]
     assert [level_factor(volume, level) for level in volume.pyramid] == [2, 4]
+
+
+def test_a_level_whose_metadata_does_not_parse_is_left_out_with_a_note(tmp_path):
+    path = write_pyramid(tmp_path / "odd.ome.zarr", [(24, 24, 24), (12, 12, 12), (6, 6, 6)],
+                         [(1.0,) * 3, (2.0,) * 3, (4.0,) * 3])
+    group = zarr.open_group(str(path), mode="r+")
+    multiscales = group.attrs["multiscales"]
+    del multiscales[0]["datasets"][1]["path"]
+    group.attrs["multiscales"] = multiscales
+    volume = open_volume(str(path))
+    assert [level.name for level in volume.pyramid] == ["2"]
+    assert any(note.startswith("OME-Zarr level {") and "left out" in note for note in volume.notes)
 
 
 def test_odd_shapes_halved_either_way_are_sound(tmp_path):
@@ -71,10 +83,12 @@ def test_factors_that_are_not_one_whole_number_give_no_brick_factor(tmp_path):
     ([(24, 24, 24), (12, 12, 12)], [(1.0,) * 3, (2.0, 2.0, -2.0)], (), ["level '1' has scale 2x2x-2, not positive"]),
     ([(24, 24, 24), (12, 12, 12), (6, 6, 6)], [(1.0,) * 3, (2.0,) * 3, (4.0,) * 3], (1,),
      ["names level '1', which is not in the store", "write the level, or drop it from the multiscales datasets"]),
+    ([(24, 24, 24), (12, 12)], [(1.0,) * 3, (2.0,) * 2], (), ["level '1' has 2 axes and level '0' before it 3"]),
 ])
+@pytest.mark.parametrize("zarr_format", [2, 3])
 def test_a_pyramid_whose_levels_disagree_or_are_missing_is_refused_in_one_line(tmp_path, shapes, scales, missing,
-                                                                                words):
-    path = write_pyramid(tmp_path / "bad.ome.zarr", shapes, scales, missing)
+                                                                                words, zarr_format):
+    path = write_pyramid(tmp_path / "bad.ome.zarr", shapes, scales, missing, zarr_format)
     with pytest.raises(IsoscopeError) as caught:
         open_volume(str(path))
     message = str(caught.value)
