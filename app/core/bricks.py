@@ -118,9 +118,15 @@ def brick_bytes(brick: Brick, bytes_per_sample: float) -> int:
 def coarse_step(shape, itemsize: int, room: float) -> int:
     """The smallest step whose coarse view of the whole volume takes at most COARSE_SHARE of `room`."""
     step = 1
-    while needed_bytes(shape, itemsize, step) > room * COARSE_SHARE and min(shown_shape(shape, step + 1)) >= 2:
+    while not in_coarse_share(shape, itemsize, room, step) and min(shown_shape(shape, step + 1)) >= 2:
         step += 1
     return step
+
+
+def in_coarse_share(shape, itemsize: int, room: float, step: int) -> bool:
+    """Whether the coarse view of the whole volume at `step` takes at most COARSE_SHARE of `room` (the budget's
+    bytes less the meshes' share)."""
+    return needed_bytes(shape, itemsize, step) <= room * COARSE_SHARE
 
 
 def brick_room(shape, itemsize: int, budget: MemoryBudget, cells: int = BRICK_CELLS,

@@ -124,3 +124,22 @@ def test_over_the_budget_a_level_is_shown_in_bricks_only_where_its_factor_is_who
         assert view is None
         assert "no bricks at full resolution: they need a level downsampled by one whole number along every " \
                "axis, and level '1' is 1.5x1.5x1.5" in note
+
+
+@pytest.mark.parametrize(("budget", "shown"), [(2 << 20, "2"), (5 << 20, "1")])
+def test_the_coarse_level_is_the_finest_that_takes_a_quarter_of_the_room_as_a_strided_view_would(tmp_path, budget,
+                                                                                                  shown):
+    """96^3 float32 (6.4 MiB to show whole) with levels 48^3 (0.6 MiB) and 24^3: under 2M the 48^3 level would
+    fit beside a brick but take more than a quarter of the 1.5 MiB room, leaving little for the bricks' meshes,
+    so the 24^3 level is the coarse view (a 4th of the room, as core/bricks.py coarse_step asks of every
+    step-th sample); under 5M the 48^3 level is."""
+    from isoscope.core.budget import MemoryBudget
+    from isoscope.viewer.model.big_volume import downsampled
+    from isoscope.viewer.model.bricks import brick_view
+    path = write_pyramid(tmp_path / "p.ome.zarr", [(96, 96, 96), (48, 48, 48), (24, 24, 24)],
+                         [(1.0,) * 3, (2.0,) * 3, (4.0,) * 3])
+    volume = open_volume(str(path))
+    memory = MemoryBudget(budget, "test")
+    coarse, step = downsampled(volume, memory)
+    np.testing.assert_array_equal(coarse.data, np.asarray(zarr.open_group(str(path), mode="r")[shown]))
+    assert step == 2 ** int(shown) and brick_view(volume, step, memory).layout.step == step

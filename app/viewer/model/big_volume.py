@@ -18,7 +18,17 @@ import threading
 
 import numpy as np
 
-from ...core.budget import MAX_STEP, BudgetError, MemoryBudget, budget_step, needed_bytes, shown_shape, size_text
+from ...core.bricks import in_coarse_share
+from ...core.budget import (
+    MAX_STEP,
+    MESH_SHARE,
+    BudgetError,
+    MemoryBudget,
+    budget_step,
+    needed_bytes,
+    shown_shape,
+    size_text,
+)
 from ...core.lazy_arrays import read_block
 from ...errors import IsoscopeError
 from ...volumes import Volume
@@ -31,9 +41,10 @@ EXPORT_CHUNK = 128
 def downsampled(volume: Volume, budget: MemoryBudget, refusal=None) -> tuple[Volume, int]:
     """(`volume`, 1) where it fits `budget`, else a volume of fewer samples and how many of the full volume's
     samples one of its steps spans: the finest of the volume's own lower-resolution levels that fits (an
-    OME-Zarr pyramid: read whole, never striding through the full level's chunks), the finest of those that
-    also leaves room for a brick at full resolution first where its factor is a whole number (bricks.py:
-    the bricks in view then come from the full level); else every step-th sample, the smallest step that
+    OME-Zarr pyramid: read whole, never striding through the full level's chunks); where levels of a whole
+    factor leave room for a brick at full resolution beside them (bricks.py: the bricks in view then come
+    from the full level), the finest of those that takes at most a quarter of the room, as every step-th
+    sample's coarse view does, else the finest of them; else every step-th sample, the smallest step that
     fits, or bricks' coarse view (core/budget.py; BudgetError where not even the coarsest view fits).
     `refusal(shape)`: why the extractor here cannot hold a volume of `shape` (a GPU limit), or None; a shape
     it refuses does not fit either (a 1024^3 volume fits llvmpipe's RAM but not its 128 MiB storage blocks)."""
@@ -49,12 +60,14 @@ def downsampled(volume: Volume, budget: MemoryBudget, refusal=None) -> tuple[Vol
     reason = f"this GPU's limits ({reason})" if reason else f"the memory budget of {budget.text}"
     fitting = [level for level in volume.pyramid   # finest first
                if _fitting_step(level.data.shape, level.data.dtype.itemsize, budget, volume.name, refusal)[0] == 1]
-    for level in fitting if not limited else ():   # bricks: the level, then the bricks in view from the full one
-        factor = level_factor(volume, level)
-        if factor is not None and bricks_layout(volume, budget, factor) is not None:
-            return from_level(volume, level, f"a big volume ({whole}): shown from its level {level.name!r} "
-                                             f"({_shape_text(level.data.shape)}), the bricks in view refined to full "
-                                             f"resolution from the full level within {reason}; {fix}")
+    bricked = [level for level in fitting if not limited and level_factor(volume, level) is not None
+               and bricks_layout(volume, budget, level_factor(volume, level)) is not None]
+    room = budget.bytes * (1 - MESH_SHARE)   # as for every step-th sample: the coarse view a quarter of the room
+    shared = [level for level in bricked if in_coarse_share(shape, itemsize, room, level_factor(volume, level))]
+    for level in (shared or bricked)[:1]:   # bricks: the level, then the bricks in view from the full one
+        return from_level(volume, level, f"a big volume ({whole}): shown from its level {level.name!r} "
+                                         f"({_shape_text(level.data.shape)}), the bricks in view refined to full "
+                                         f"resolution from the full level within {reason}; {fix}")
     if fitting:
         level = fitting[0]
         return from_level(volume, level, f"a big volume ({whole}): shown from its level {level.name!r} "
