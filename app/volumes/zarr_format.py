@@ -132,21 +132,29 @@ def _ome_level(group, multiscale: dict, path: Path):
     except (KeyError, IndexError, TypeError) as exc:
         raise VolumeError(f"{path.name}: its OME-Zarr multiscales metadata names no readable level "
                           f"({reason(exc)}); write it again") from None
+    if not hasattr(level, "shape"):   # a group where its full level should be
+        raise VolumeError(f"{path.name}: its OME-Zarr level {str(datasets[0]['path'])!r} is a group, not an array; "
+                          "write the level again")
     axes = multiscale.get("axes") or [{"name": n, "type": "space"} for n in "zyx"[-len(level.shape):]]
     axes = [{"name": a, "type": "space" if a in "zyx" else ""} if isinstance(a, str) else a for a in axes]
     spatial = sum(1 for a in axes if a.get("type") == "space")
     notes = [f"OME-Zarr level {datasets[0]['path']!r} of {len(datasets)} (full resolution)"]
-    spacing = _spacing_of(datasets[0], multiscale, len(level.shape))
+    try:
+        spacing = _spacing_of(datasets[0], multiscale, len(level.shape))
+    except (TypeError, ValueError, AttributeError) as exc:
+        raise VolumeError(f"{path.name}: the scale of its OME-Zarr level {datasets[0]['path']!r} is not a list of "
+                          f"numbers ({reason(exc)}); write it again") from None
+    _refuse_bad_scale(path, str(datasets[0]["path"]), spacing)
     coarser, before = [], (str(datasets[0]["path"]), level, spacing)
     for dataset in datasets[1:]:
         name = dataset.get("path") if isinstance(dataset, dict) else None
-        if name is not None and str(name) not in group:   # named, absent: no pyramid to trust
-            raise VolumeError(f"{path.name}: its OME-Zarr metadata names level {str(name)!r}, which is not in the "
-                              "store; write the level, or drop it from the multiscales datasets")
+        if name is not None and not hasattr(group.get(str(name)), "shape"):   # named, absent: no pyramid to trust
+            raise VolumeError(f"{path.name}: its OME-Zarr metadata names level {str(name)!r}, which is not an array "
+                              "in the store; write the level, or drop it from the multiscales datasets")
         try:
             array = group[name]
             coarser.append((str(name), array, _spacing_of(dataset, multiscale, len(array.shape))))
-        except (KeyError, IndexError, TypeError, ValueError) as exc:
+        except (KeyError, IndexError, TypeError, ValueError, AttributeError) as exc:
             notes.append(f"OME-Zarr level {name if name is not None else dataset!r} left out ({reason(exc)})")
             continue
         _refuse_disagreeing_level(path, before, coarser[-1])
@@ -167,9 +175,7 @@ def _refuse_disagreeing_level(path: Path, before, level) -> None:
     if any(n > m for n, m in zip(shape, above_shape)):
         raise VolumeError(f"{path.name}: OME-Zarr level {name!r} ({shape_text(shape)}) is larger than level "
                           f"{first!r} before it ({shape_text(above_shape)}); {fix}")
-    if any(not (math.isfinite(s) and s > 0) for s in (*spacing, *above_spacing)):
-        raise VolumeError(f"{path.name}: OME-Zarr level {name!r} has scale {_scale_text(spacing)}, not positive; "
-                          f"{fix}")
+    _refuse_bad_scale(path, name, spacing)
     ratio = [s / a for s, a in zip(spacing, above_spacing)]
     if any(abs(n * r - m) > max(r, 1.0) + 1e-6 for n, m, r in zip(shape, above_shape, ratio)):
         raise VolumeError(f"{path.name}: OME-Zarr level {name!r} ({shape_text(shape)}, scale {_scale_text(spacing)}) "
@@ -177,6 +183,13 @@ def _refuse_disagreeing_level(path: Path, before, level) -> None:
                           f"{_scale_text(above_spacing)}): its scale says one sample in "
                           f"{_scale_text(ratio)}, its shape one in "
                           f"{_scale_text([m / max(n, 1) for n, m in zip(shape, above_shape)])}; {fix}")
+
+
+def _refuse_bad_scale(path: Path, name: str, spacing) -> None:
+    """Refuse (one VolumeError line) a level whose scale is not positive and finite along every axis."""
+    if any(not (math.isfinite(s) and s > 0) for s in spacing):
+        raise VolumeError(f"{path.name}: OME-Zarr level {name!r} has scale {_scale_text(spacing)}, not positive; "
+                          "write the pyramid again, finest level first, each level's scale its own")
 
 
 def _scale_text(values) -> str:

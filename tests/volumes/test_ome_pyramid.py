@@ -4,6 +4,8 @@ names must be in the store.  Each refusal is one line naming the level and the f
 line).  The stores are written by the zarr library."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import zarr
@@ -53,6 +55,28 @@ def test_a_level_whose_metadata_does_not_parse_is_left_out_with_a_note(tmp_path)
     assert any(note.startswith("OME-Zarr level {") and "left out" in note for note in volume.notes)
 
 
+@pytest.mark.parametrize("where", ["0", "1"])
+def test_a_level_that_is_a_group_or_a_scale_that_is_no_numbers_is_one_line(tmp_path, where):
+    path = write_pyramid(tmp_path / "g.ome.zarr", [(24, 24, 24), (12, 12, 12)], [(1.0,) * 3, (2.0,) * 3],
+                         missing=(int(where),))
+    zarr.open_group(str(path), mode="r+").create_group(where)   # a group where the level's array should be
+    words = {"0": "its OME-Zarr level '0' is a group, not an array; write the level again",
+             "1": "names level '1', which is not an array in the store"}[where]
+    with pytest.raises(IsoscopeError, match=re.escape(words)):
+        open_volume(str(path))
+    path = write_pyramid(tmp_path / "s.ome.zarr", [(24, 24, 24), (12, 12, 12)], [(1.0,) * 3, (2.0,) * 3])
+    group = zarr.open_group(str(path), mode="r+")
+    multiscales = group.attrs["multiscales"]
+    multiscales[0]["datasets"][int(where)]["coordinateTransformations"][0]["scale"] = ["a", 1, 1]
+    group.attrs["multiscales"] = multiscales
+    if where == "0":
+        with pytest.raises(IsoscopeError, match="the scale of its OME-Zarr level '0' is not a list of numbers"):
+            open_volume(str(path))
+    else:   # a coarser level's metadata that does not parse: left out, said in a note
+        volume = open_volume(str(path))
+        assert volume.pyramid == () and any("OME-Zarr level '1' left out" in note for note in volume.notes)
+
+
 def test_odd_shapes_halved_either_way_are_sound(tmp_path):
     """97 samples halved are 49 (every 2nd sample) or 48 (2x2x2 means, the last sample dropped): both agree
     with a scale of 2."""
@@ -82,7 +106,9 @@ def test_factors_that_are_not_one_whole_number_give_no_brick_factor(tmp_path):
      ["level '1' (12x12x12, scale 1x1x1) does not match level '0'"]),
     ([(24, 24, 24), (12, 12, 12)], [(1.0,) * 3, (2.0, 2.0, -2.0)], (), ["level '1' has scale 2x2x-2, not positive"]),
     ([(24, 24, 24), (12, 12, 12), (6, 6, 6)], [(1.0,) * 3, (2.0,) * 3, (4.0,) * 3], (1,),
-     ["names level '1', which is not in the store", "write the level, or drop it from the multiscales datasets"]),
+     ["names level '1', which is not an array in the store",
+      "write the level, or drop it from the multiscales datasets"]),
+    ([(24, 24, 24), (12, 12, 12)], [(-1.0, 1.0, 1.0), (2.0,) * 3], (), ["level '0' has scale -1x1x1, not positive"]),
     ([(24, 24, 24), (12, 12)], [(1.0,) * 3, (2.0,) * 2], (), ["level '1' has 2 axes and level '0' before it 3"]),
 ])
 @pytest.mark.parametrize("zarr_format", [2, 3])
