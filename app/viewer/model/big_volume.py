@@ -60,10 +60,11 @@ def downsampled(volume: Volume, budget: MemoryBudget, refusal=None) -> tuple[Vol
     reason = f"this GPU's limits ({reason})" if reason else f"the memory budget of {budget.text}"
     fitting = [level for level in volume.pyramid   # finest first
                if _fitting_step(level.data.shape, level.data.dtype.itemsize, budget, volume.name, refusal)[0] == 1]
-    bricked = [level for level in fitting if not limited and level_factor(volume, level) is not None
-               and bricks_layout(volume, budget, level_factor(volume, level)) is not None]
+    factors = {level.name: level_factor(volume, level) for level in fitting}
+    bricked = [level for level in fitting if not limited and factors[level.name] is not None
+               and bricks_layout(volume, budget, factors[level.name]) is not None]
     room = budget.bytes * (1 - MESH_SHARE)   # as for every step-th sample: the coarse view a quarter of the room
-    shared = [level for level in bricked if in_coarse_share(shape, itemsize, room, level_factor(volume, level))]
+    shared = [level for level in bricked if in_coarse_share(shape, itemsize, room, factors[level.name])]
     for level in (shared or bricked)[:1]:   # bricks: the level, then the bricks in view from the full one
         return from_level(volume, level, f"a big volume ({whole}): shown from its level {level.name!r} "
                                          f"({_shape_text(level.data.shape)}), the bricks in view refined to full "
