@@ -1,6 +1,7 @@
 """Frame time of the real viewer window while the iso slider is dragged (the target: < 50 ms on llvmpipe).
 
-    python benchmarks/bench_viewer.py [--volume metaballs | --memmap 1024] [--frames 60] [--size 1280x800]
+    python benchmarks/bench_viewer.py [--volume metaballs | --memmap 1024 | --pyramid 1024] [--frames 60]
+                                      [--size 1280x800]
                                       [--slice z=40 ...] [--surfaces 2] [--opacity 0.4] [--memory-budget SIZE]
 
 Opens the viewer's window (under a private Xvfb when there is no DISPLAY), then
@@ -55,7 +56,12 @@ def main(argv=None) -> int:
     parser.add_argument("--memmap", type=int, default=None, metavar="N",
                         help="drag an N^3 uint8 memory-mapped .npy instead (volumes.smooth_memmap, made once in "
                              "--dir)")
-    parser.add_argument("--dir", default="/tmp/isoscope-bench", help="where --memmap's volume is kept")
+    parser.add_argument("--pyramid", type=int, default=None, metavar="N",
+                        help="drag --memmap N's volume as an OME-Zarr image with 2x2x2-mean levels instead "
+                             "(volumes.smooth_pyramid, made once in --dir): past the budget, one of its levels "
+                             "is the coarse view and the bricks come from the full one")
+    parser.add_argument("--dir", default="/tmp/isoscope-bench", help="where --memmap's and --pyramid's volumes "
+                                                                      "are kept")
     parser.add_argument("--frames", type=int, default=60, help="frames of dragging to time")
     parser.add_argument("--size", default="1280x800", help="window size WxH")
     parser.add_argument("--slice", action="append", default=[], metavar="AXIS=INDEX",
@@ -80,10 +86,11 @@ def main(argv=None) -> int:
         from isoscope.viewer.model.recent import RecentFiles
         from isoscope.viewer.ui.window import ViewerWindow
         from isoscope.volumes import DEFAULT_VOLUME, open_volume
-        if args.memmap:
+        if args.memmap or args.pyramid:
             sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-            from volumes import smooth_memmap
-            args.volume = str(smooth_memmap(args.dir, args.memmap))
+            from volumes import smooth_memmap, smooth_pyramid
+            made = smooth_pyramid(args.dir, args.pyramid) if args.pyramid else smooth_memmap(args.dir, args.memmap)
+            args.volume = str(made)
         opened = time.perf_counter()
         volume = open_volume(args.volume or DEFAULT_VOLUME)
         with using_budget(requested_budget(args.memory_budget)):

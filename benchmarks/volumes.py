@@ -191,3 +191,34 @@ def smooth_memmap(folder: Path, n: int = 1024, slab: int = 32) -> Path:
     del out
     part.replace(path)
     return path
+
+
+def smooth_pyramid(folder: Path, n: int = 1024, slab: int = 64) -> Path:
+    """`folder/smooth_N^3.ome.zarr`, smooth_memmap's volume as an OME-Zarr image (NGFF 0.4, Zarr v2, 64^3
+    chunks) with lower-resolution levels of 2x2x2 means (rounded, uint8), 3 at most, none under 16 samples a
+    side, as pyramid writers make them; made once (kept), `slab` planes at a time."""
+    import zarr
+    path = Path(folder) / f"smooth_{n}x{n}x{n}.ome.zarr"
+    if (path / ".zattrs").is_file():
+        return path
+    source = np.load(smooth_memmap(folder, n), mmap_mode="r")
+    group = zarr.open_group(str(path), mode="w", zarr_format=2)
+    level = group.create_array("0", shape=source.shape, chunks=(64, 64, 64), dtype="u1")
+    for start in range(0, n, slab):
+        level[start:start + slab] = source[start:start + slab]
+    datasets = [{"path": "0", "coordinateTransformations": [{"type": "scale", "scale": [1.0] * 3}]}]
+    while len(datasets) < 4 and min(level.shape) // 2 >= 16:
+        half = tuple(s // 2 for s in level.shape)
+        below = group.create_array(str(len(datasets)), shape=half, chunks=(64, 64, 64), dtype="u1")
+        for start in range(0, half[0], slab):
+            block = np.asarray(level[2 * start:2 * (start + slab)], dtype=np.float32)
+            planes = block.shape[0] // 2
+            block = block[:2 * planes, :2 * half[1], :2 * half[2]]
+            means = block.reshape(planes, 2, half[1], 2, half[2], 2).mean(axis=(1, 3, 5))
+            below[start:start + planes] = np.rint(means).astype(np.uint8)
+        datasets.append({"path": str(len(datasets)), "coordinateTransformations": [
+            {"type": "scale", "scale": [float(2 ** len(datasets))] * 3}]})
+        level = below
+    group.attrs["multiscales"] = [{"version": "0.4", "axes": [{"name": a, "type": "space"} for a in "zyx"],
+                                   "datasets": datasets}]
+    return path

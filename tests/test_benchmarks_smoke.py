@@ -125,11 +125,12 @@ def test_viewer_benchmark_makes_its_memory_map_and_reports_rest_and_memory(x_dis
 
 
 @pytest.mark.gl
-def test_viewer_benchmark_past_the_budget_reports_the_bricks(x_display, tmp_path):
-    """With a --memory-budget the map is over, the window shows bricks: the bench waits for what the room
-    holds and says how many, how long, and the frames meanwhile."""
+@pytest.mark.parametrize("kind", ["--memmap", "--pyramid"])
+def test_viewer_benchmark_past_the_budget_reports_the_bricks(x_display, tmp_path, kind):
+    """With a --memory-budget the map (or its OME-Zarr pyramid) is over, the window shows bricks: the bench waits
+    for what the room holds and says how many, how long, and the frames meanwhile."""
     env = dict(os.environ, DISPLAY=x_display)
-    command = [sys.executable, str(SCRIPT.parent / "bench_viewer.py"), "--frames", "3", "--memmap", "80",
+    command = [sys.executable, str(SCRIPT.parent / "bench_viewer.py"), "--frames", "3", kind, "80",
                "--dir", str(tmp_path), "--size", "320x240", "--memory-budget", "1M"]
     done = subprocess.run(command, capture_output=True, text=True, timeout=300, env=env)
     assert done.returncode == 0, done.stderr[-2000:]

@@ -118,20 +118,27 @@ def brick_bytes(brick: Brick, bytes_per_sample: float) -> int:
 def coarse_step(shape, itemsize: int, room: float) -> int:
     """The smallest step whose coarse view of the whole volume takes at most COARSE_SHARE of `room`."""
     step = 1
-    while needed_bytes(shape, itemsize, step) > room * COARSE_SHARE and min(shown_shape(shape, step + 1)) >= 2:
+    while not in_coarse_share(shape, itemsize, room, step) and min(shown_shape(shape, step + 1)) >= 2:
         step += 1
     return step
 
 
+def in_coarse_share(shape, itemsize: int, room: float, step: int) -> bool:
+    """Whether the coarse view of the whole volume at `step` takes at most COARSE_SHARE of `room` (the budget's
+    bytes less the meshes' share)."""
+    return needed_bytes(shape, itemsize, step) <= room * COARSE_SHARE
+
+
 def brick_room(shape, itemsize: int, budget: MemoryBudget, cells: int = BRICK_CELLS,
-               bytes_per_sample: float | None = None, min_step: int = 1) -> tuple[int, int]:
+               bytes_per_sample: float | None = None, step: int | None = None,
+               min_step: int = 1) -> tuple[int, int]:
     """(the coarse view's step, the bytes left for bricks at full resolution) within `budget`: what the meshes
-    take aside (MESH_SHARE), the coarse view of the whole beside, at `min_step` or coarser (a GPU that cannot
-    hold a finer one).  BudgetError in one line where the budget is below what one full brick needs beside
-    the coarse view."""
+    take aside (MESH_SHARE), the coarse view of the whole beside, at `step` where given (a pyramid level's
+    factor), else at coarse_step or `min_step` if coarser (a GPU that cannot hold a finer view).  BudgetError
+    in one line where the budget is below what one full brick needs beside the coarse view."""
     per_sample = itemsize + EXTRACTOR_BYTES_PER_SAMPLE if bytes_per_sample is None else bytes_per_sample
     room = budget.bytes * (1 - MESH_SHARE)
-    step = max(coarse_step(shape, itemsize, room), int(min_step))
+    step = max(coarse_step(shape, itemsize, room), int(min_step)) if step is None else step
     left = int(room - needed_bytes(shape, itemsize, step))
     biggest = max(brick_bytes(b, per_sample) for b in bricks_of(shape, cells))
     if left < biggest:
@@ -207,22 +214,24 @@ class BrickLayout:
     work: int
 
 
-def brick_layout(shape, itemsize: int, budget: MemoryBudget, min_step: int = 1) -> BrickLayout:
+def brick_layout(shape, itemsize: int, budget: MemoryBudget, step: int | None = None,
+                 min_step: int = 1) -> BrickLayout:
     """The layout of the largest bricks (BRICK_CELLS, then a half and a quarter of it) whose extraction
     takes at most a quarter of what the budget leaves beside the coarse view (so several fit), else the
-    smallest that fits at all; BudgetError in one line where none does (brick_room).  `min_step`: the
-    coarse view's finest step allowed (brick_room)."""
+    smallest that fits at all; BudgetError in one line where none does (brick_room).  `step`: the coarse
+    view's, where it is given (a pyramid level's factor); else the smallest whose view takes at most
+    COARSE_SHARE of the room, and at least `min_step` (brick_room)."""
     fits = []
     for wanted in (BRICK_CELLS, BRICK_CELLS // 2, BRICK_CELLS // 4):
         try:
-            step, _ = brick_room(shape, itemsize, budget, wanted, min_step=min_step)
-            cells = step * max(1, wanted // step)
-            step, left = brick_room(shape, itemsize, budget, cells, min_step=min_step)
+            coarse, _ = brick_room(shape, itemsize, budget, wanted, step=step, min_step=min_step)
+            cells = coarse * max(1, wanted // coarse)
+            coarse, left = brick_room(shape, itemsize, budget, cells, step=coarse)
         except BudgetError as exc:
             error = exc
             continue
         work = max(brick_bytes(b, itemsize + EXTRACTOR_BYTES_PER_SAMPLE) for b in bricks_of(shape, cells))
-        fits.append(BrickLayout(step, cells, left - work, work))
+        fits.append(BrickLayout(coarse, cells, left - work, work))
         if work <= left / 4:
             break
     if not fits:

@@ -6,7 +6,8 @@ larger than memory.  Axes stay as stored (OME-Zarr: z, y, x), as for TIFF stacks
 
 A path is a Zarr array, or a group: an OME-Zarr image (its "multiscales" metadata, under
 attrs["ome"] from OME-Zarr 0.5) opens its full-resolution level with the spacing of its
-"scale" coordinate transformations (the dataset's times the image's); any other group opens
+"scale" coordinate transformations (the dataset's times the image's), and keeps its lower-resolution
+levels as the volume's pyramid (each checked against the level before it); any other group opens
 its first array.  Leading non-spatial axes (time, channel): --time N picks along the first one longer than 1.
 """
 from __future__ import annotations
@@ -121,28 +122,78 @@ def _refuse_unreadable_size(path: Path, shape, chunks, dtype) -> None:
 
 def _ome_level(group, multiscale: dict, path: Path):
     """(array of the full-resolution level, its (z, y, x) spacing or None, spatial axis count, notes, the
-    lower-resolution levels as (name, array, spacing), finest first).  A level that cannot be opened or
-    whose metadata does not parse is left out of the pyramid (the full one must open)."""
+    lower-resolution levels as (name, array, spacing), finest first).  A level whose metadata does not parse
+    is left out of the pyramid with a note (the full one must open); a level named but absent from the store,
+    or one that is not a lower resolution of the level before it (larger, or a scale its shape does not
+    match), is refused in one line: the pyramid would be shown at the wrong size or place."""
     try:
         datasets = multiscale["datasets"]
         level = group[datasets[0]["path"]]
     except (KeyError, IndexError, TypeError) as exc:
         raise VolumeError(f"{path.name}: its OME-Zarr multiscales metadata names no readable level "
                           f"({reason(exc)}); write it again") from None
+    if not hasattr(level, "shape"):   # a group where its full level should be
+        raise VolumeError(f"{path.name}: its OME-Zarr level {str(datasets[0]['path'])!r} is a group, not an array; "
+                          "write the level again")
     axes = multiscale.get("axes") or [{"name": n, "type": "space"} for n in "zyx"[-len(level.shape):]]
     axes = [{"name": a, "type": "space" if a in "zyx" else ""} if isinstance(a, str) else a for a in axes]
     spatial = sum(1 for a in axes if a.get("type") == "space")
     notes = [f"OME-Zarr level {datasets[0]['path']!r} of {len(datasets)} (full resolution)"]
-    coarser = []
+    try:
+        spacing = _spacing_of(datasets[0], multiscale, len(level.shape))
+    except (TypeError, ValueError, AttributeError) as exc:
+        raise VolumeError(f"{path.name}: the scale of its OME-Zarr level {datasets[0]['path']!r} is not a list of "
+                          f"numbers ({reason(exc)}); write it again") from None
+    _refuse_bad_scale(path, str(datasets[0]["path"]), spacing)
+    coarser, before = [], (str(datasets[0]["path"]), level, spacing)
     for dataset in datasets[1:]:
+        name = dataset.get("path") if isinstance(dataset, dict) else None
+        if name is not None and not hasattr(group.get(str(name)), "shape"):   # named, absent: no pyramid to trust
+            raise VolumeError(f"{path.name}: its OME-Zarr metadata names level {str(name)!r}, which is not an array "
+                              "in the store; write the level, or drop it from the multiscales datasets")
         try:
-            array = group[dataset["path"]]
-            coarser.append((str(dataset["path"]), array, _spacing_of(dataset, multiscale, len(array.shape))))
-        except (KeyError, IndexError, TypeError, ValueError) as exc:
-            notes.append(f"OME-Zarr level {dataset.get('path') if isinstance(dataset, dict) else dataset!r} left "
-                         f"out ({reason(exc)})")
-    coarser.sort(key=lambda item: -math.prod(item[1].shape[-3:]))   # finest first, whatever the file's order
-    return level, _spacing_of(datasets[0], multiscale, len(level.shape)), spatial, notes, coarser
+            array = group[name]
+            coarser.append((str(name), array, _spacing_of(dataset, multiscale, len(array.shape))))
+        except (KeyError, IndexError, TypeError, ValueError, AttributeError) as exc:
+            notes.append(f"OME-Zarr level {name if name is not None else dataset!r} left out ({reason(exc)})")
+            continue
+        _refuse_disagreeing_level(path, before, coarser[-1])
+        before = coarser[-1]
+    return level, spacing, spatial, notes, coarser
+
+
+def _refuse_disagreeing_level(path: Path, before, level) -> None:
+    """Refuse (one VolumeError line) a level `(name, array, spacing)` that is not a lower resolution of the
+    one `before` it: larger along an axis, or whose scale does not match how many fewer samples it has (its
+    sample spans `r` of the level before's, so its `n` samples span that level's `m` when |n r - m| <= r)."""
+    (first, above, above_spacing), (name, array, spacing) = before, level
+    shape, above_shape = tuple(array.shape[-3:]), tuple(above.shape[-3:])
+    fix = "write the pyramid again, finest level first, each level's scale its own"
+    if len(array.shape) != len(above.shape):
+        raise VolumeError(f"{path.name}: OME-Zarr level {name!r} has {len(array.shape)} axes and level {first!r} "
+                          f"before it {len(above.shape)}; {fix}")
+    if any(n > m for n, m in zip(shape, above_shape)):
+        raise VolumeError(f"{path.name}: OME-Zarr level {name!r} ({shape_text(shape)}) is larger than level "
+                          f"{first!r} before it ({shape_text(above_shape)}); {fix}")
+    _refuse_bad_scale(path, name, spacing)
+    ratio = [s / a for s, a in zip(spacing, above_spacing)]
+    if any(abs(n * r - m) > max(r, 1.0) + 1e-6 for n, m, r in zip(shape, above_shape, ratio)):
+        raise VolumeError(f"{path.name}: OME-Zarr level {name!r} ({shape_text(shape)}, scale {_scale_text(spacing)}) "
+                          f"does not match level {first!r} ({shape_text(above_shape)}, scale "
+                          f"{_scale_text(above_spacing)}): its scale says one sample in "
+                          f"{_scale_text(ratio)}, its shape one in "
+                          f"{_scale_text([m / max(n, 1) for n, m in zip(shape, above_shape)])}; {fix}")
+
+
+def _refuse_bad_scale(path: Path, name: str, spacing) -> None:
+    """Refuse (one VolumeError line) a level whose scale is not positive and finite along every axis."""
+    if any(not (math.isfinite(s) and s > 0) for s in spacing):
+        raise VolumeError(f"{path.name}: OME-Zarr level {name!r} has scale {_scale_text(spacing)}, not positive; "
+                          "write the pyramid again, finest level first, each level's scale its own")
+
+
+def _scale_text(values) -> str:
+    return "x".join(f"{v:g}" for v in values)
 
 
 def _spacing_of(dataset: dict, multiscale: dict, ndim: int) -> tuple[float, float, float]:

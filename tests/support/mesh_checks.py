@@ -86,3 +86,24 @@ def read_ply(path):
                           np.dtype([("n", "u1"), ("i", "<i4", 3)]), counts["face"])
     assert header_end + vertex_bytes + 13 * counts["face"] == len(data)
     return vertices[:, :3], vertices[:, 3:], faces["n"], faces["i"]
+
+
+def triangles(meshes) -> set:
+    """Each triangle as the positions of its corners, turned so the least comes first (winding kept)."""
+    found = set()
+    for verts, faces in meshes:
+        corners = [tuple(map(tuple, verts[face])) for face in faces]
+        for a, b, c in corners:
+            turns = [(a, b, c), (b, c, a), (c, a, b)]
+            found.add(min(turns))
+    return found
+
+
+def edge_uses(tris: set) -> dict:
+    """How many triangles use each undirected edge (corners as positions)."""
+    uses = {}
+    for tri in tris:
+        for i in range(3):
+            edge = frozenset((tri[i], tri[(i + 1) % 3]))
+            uses[edge] = uses.get(edge, 0) + 1
+    return uses

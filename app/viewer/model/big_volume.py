@@ -18,11 +18,21 @@ import threading
 
 import numpy as np
 
-from ...core.budget import MAX_STEP, BudgetError, MemoryBudget, budget_step, needed_bytes, shown_shape, size_text
+from ...core.bricks import in_coarse_share
+from ...core.budget import (
+    MAX_STEP,
+    MESH_SHARE,
+    BudgetError,
+    MemoryBudget,
+    budget_step,
+    needed_bytes,
+    shown_shape,
+    size_text,
+)
 from ...core.lazy_arrays import read_block
 from ...errors import IsoscopeError
 from ...volumes import Volume
-from .bricks import bricks_layout
+from .bricks import bricks_layout, level_factor
 from .errors import ViewerError, one_line
 
 EXPORT_CHUNK = 128
@@ -31,8 +41,11 @@ EXPORT_CHUNK = 128
 def downsampled(volume: Volume, budget: MemoryBudget, refusal=None) -> tuple[Volume, int]:
     """(`volume`, 1) where it fits `budget`, else a volume of fewer samples and how many of the full volume's
     samples one of its steps spans: the finest of the volume's own lower-resolution levels that fits (an
-    OME-Zarr pyramid: read whole, never striding through the full level's chunks), else every step-th sample,
-    the smallest step that fits (core/budget.py; BudgetError where not even the coarsest view fits).
+    OME-Zarr pyramid: read whole, never striding through the full level's chunks); where levels of a whole
+    factor leave room for a brick at full resolution beside them (bricks.py: the bricks in view then come
+    from the full level), the finest of those that takes at most a quarter of the room, as every step-th
+    sample's coarse view does, else the finest of them; else every step-th sample, the smallest step that
+    fits, or bricks' coarse view (core/budget.py; BudgetError where not even the coarsest view fits).
     `refusal(shape)`: why the extractor here cannot hold a volume of `shape` (a GPU limit), or None; a shape
     it refuses does not fit either (a 1024^3 volume fits llvmpipe's RAM but not its 128 MiB storage blocks)."""
     shape, itemsize = volume.data.shape, volume.data.dtype.itemsize
@@ -40,16 +53,27 @@ def downsampled(volume: Volume, budget: MemoryBudget, refusal=None) -> tuple[Vol
     if step == 1:
         return volume, 1
     limited = reason is not None   # by the GPU's limits, not the budget
-    whole = (f"{'x'.join(map(str, shape))}, {size_text(needed_bytes(shape, itemsize) / 0.75)} to show whole")
+    whole = (f"{_shape_text(shape)}, {size_text(needed_bytes(shape, itemsize) / 0.75)} to show whole")
     fix = "--memory-budget SIZE changes it, 'Export full resolution...' writes the full mesh"
     if reason is not None:
         fix = "'Export full resolution...' writes the full mesh"
     reason = f"this GPU's limits ({reason})" if reason else f"the memory budget of {budget.text}"
-    for level in volume.pyramid:   # finest first
-        level_shape = tuple(level.data.shape)
-        if _fitting_step(level_shape, level.data.dtype.itemsize, budget, volume.name, refusal)[0] == 1:
-            return from_level(volume, level, f"a big volume ({whole}): shown from its level {level.name!r} "
-                                             f"({'x'.join(map(str, level_shape))}) to fit {reason}; {fix}")
+    fitting = [level for level in volume.pyramid   # finest first
+               if _fitting_step(level.data.shape, level.data.dtype.itemsize, budget, volume.name, refusal)[0] == 1]
+    factors = {level.name: level_factor(volume, level) for level in fitting}
+    bricked = [level for level in fitting if not limited and factors[level.name] is not None
+               and bricks_layout(volume, budget, factors[level.name]) is not None]
+    room = budget.bytes * (1 - MESH_SHARE)   # as for every step-th sample: the coarse view a quarter of the room
+    shared = [level for level in bricked if in_coarse_share(shape, itemsize, room, factors[level.name])]
+    for level in (shared or bricked)[:1]:   # bricks: the level, then the bricks in view from the full one
+        return from_level(volume, level, f"a big volume ({whole}): shown from its level {level.name!r} "
+                                         f"({_shape_text(level.data.shape)}), the bricks in view refined to full "
+                                         f"resolution from the full level within {reason}; {fix}")
+    if fitting:
+        level = fitting[0]
+        return from_level(volume, level, f"a big volume ({whole}): shown from its level {level.name!r} "
+                                         f"({_shape_text(level.data.shape)}) to fit {reason}{_no_bricks(volume)}; "
+                                         f"{fix}")
     if volume.pyramid:   # not even the coarsest level fits: every step-th sample of it
         coarsest = from_level(volume, volume.pyramid[-1])[0]
         level_step = _fitting_step(coarsest.data.shape, coarsest.data.dtype.itemsize, budget, volume.name,
@@ -70,6 +94,20 @@ def downsampled(volume: Volume, budget: MemoryBudget, refusal=None) -> tuple[Vol
         return every_step(volume, layout.step, note), layout.step
     note = f"a big volume ({whole}): shown at one sample in {step} along each axis to fit {reason}; {fix}"
     return every_step(volume, step, note), step
+
+
+def _shape_text(shape) -> str:
+    return "x".join(map(str, shape))
+
+
+def _no_bricks(volume: Volume) -> str:
+    """Why a pyramid's level is shown without bricks, where its levels are the reason: none is a whole-number
+    downsampling of the full level along every axis."""
+    if any(level_factor(volume, level) is not None for level in volume.pyramid):
+        return ""
+    factors = "x".join(f"{s / f:g}" for s, f in zip(volume.pyramid[0].spacing, volume.spacing))
+    return (f" (no bricks at full resolution: they need a level downsampled by one whole number along every axis, "
+            f"and level {volume.pyramid[0].name!r} is {factors})")
 
 
 def _fitting_step(shape, itemsize: int, budget: MemoryBudget, name: str, refusal) -> tuple[int, str | None]:

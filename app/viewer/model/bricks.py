@@ -3,8 +3,10 @@ view at full resolution, nearest the camera first, within the budget (issue 33, 
 without GL.
 
 The volume on show is every `layout.step`-th sample of the whole (core/bricks.py brick_layout: the coarse
-view takes at most a quarter of the room); the whole is cut into bricks of `layout.cells` cells a side, a
-multiple of the step, so each coarse cell lies in one brick.  Each frame the app hands `look` the camera:
+view takes at most a quarter of the room), or, for an OME-Zarr pyramid, its own level whose factor is a whole
+number `layout.step` (read whole; the bricks come from the full level, a brick at a time from the store);
+the whole is cut into bricks of `layout.cells` cells a side, a multiple of the step, so each coarse cell lies
+in one brick.  Each frame the app hands `look` the camera:
 once the selected level rests (its coarse mesh at that value on show, no preview), `plan_refinement` says
 which bricks to have at full resolution (in view, nearest first, within `layout.room`; far ones go back to
 coarse only when room is needed), and one brick at a time is asked of a worker: a request with an id,
@@ -208,22 +210,43 @@ class BrickView:
 
 
 def brick_view(full_volume: Volume | None, step: int, budget) -> BrickView | None:
-    """The bricks of `full_volume` (a volume shown at every `step`-th sample) where big_volume.downsampled
-    chose their layout's coarse view for it; None where the whole is on show, or shown otherwise (a pyramid's
-    level, a series)."""
+    """The bricks of `full_volume` (a volume shown at every `step`-th sample, or from its pyramid level of
+    factor `step`) where big_volume.downsampled chose their layout's coarse view for it; None where the whole
+    is on show, or shown otherwise (a pyramid level of no whole factor, a series)."""
     if full_volume is None or step == 1:
         return None
-    layout = bricks_layout(full_volume, budget, min_step=step)
+    if full_volume.pyramid:
+        layout = bricks_layout(full_volume, budget, step=step)
+    else:
+        layout = bricks_layout(full_volume, budget, min_step=step)
     return BrickView(full_volume, layout) if layout is not None and layout.step == step else None
 
 
-def bricks_layout(volume: Volume, budget, min_step: int = 1) -> BrickLayout | None:
-    """The brick layout of `volume` within `budget` (core/bricks.py brick_layout; its coarse view at `min_step`
-    or coarser), or None where it is not shown in bricks: a pyramid (shown from its levels), a series (each
-    time point read at the step), a budget below what one brick needs."""
-    if volume.pyramid or volume.time_points > 1:
+def bricks_layout(volume: Volume, budget, step: int | None = None, min_step: int = 1) -> BrickLayout | None:
+    """The brick layout of `volume` within `budget` (core/bricks.py brick_layout: its coarse view at `step`,
+    else at `min_step` or coarser), or None where it is not shown in bricks: a series (each time point read
+    at the step), a budget below what one brick needs, a pyramid without a level whose whole factor
+    (level_factor) is `step` (its coarse view is that level, read whole)."""
+    if volume.time_points > 1:
+        return None
+    if volume.pyramid and (step is None or all(level_factor(volume, level) != step for level in volume.pyramid)):
         return None
     try:
-        return brick_layout(volume.data.shape, volume.data.dtype.itemsize, budget, min_step=min_step)
+        return brick_layout(volume.data.shape, volume.data.dtype.itemsize, budget,
+                            step if volume.pyramid else None, min_step=min_step)
     except BudgetError:
         return None
+
+
+def level_factor(volume: Volume, level) -> int | None:
+    """How many of `volume`'s samples one sample of its pyramid `level` spans, where that is one whole number
+    (2 or more) along all three axes and the level's shape agrees (n samples span the full level's m when
+    |n f - m| <= f, as every f-th sample's or f^3 means'); else None: bricks need every coarse cell in one
+    brick, and a brick's step one number."""
+    ratio = [s / f for s, f in zip(level.spacing, volume.spacing)]
+    factor = round(ratio[0])
+    if factor < 2 or any(abs(r - factor) > 1e-6 * factor for r in ratio):
+        return None
+    if any(abs(n * factor - m) > factor for n, m in zip(level.data.shape, volume.data.shape)):
+        return None
+    return factor

@@ -6,6 +6,8 @@ import time
 
 import numpy as np
 import pytest
+from support.brick_seams import chequer_seams
+from support.mesh_checks import edge_uses, triangles
 
 import isoscope
 from isoscope.core.bricks import brick_grid, brick_layout, bricks_of, face_neighbours
@@ -38,34 +40,6 @@ def viewer(gl_ctx, blob):
     viewer.show(as_volume(blob, name="blob"), 1.0 - LEVEL)
     yield viewer
     viewer.release()
-
-
-def triangles(meshes) -> set:
-    """Each triangle as the positions of its corners, turned so the least comes first (winding kept)."""
-    found = set()
-    for verts, faces in meshes:
-        corners = [tuple(map(tuple, verts[face])) for face in faces]
-        for a, b, c in corners:
-            turns = [(a, b, c), (b, c, a), (c, a, b)]
-            found.add(min(turns))
-    return found
-
-
-def edge_uses(tris: set) -> dict:
-    """How many triangles use each undirected edge (corners as positions)."""
-    uses = {}
-    for tri in tris:
-        for i in range(3):
-            edge = frozenset((tri[i], tri[(i + 1) % 3]))
-            uses[edge] = uses.get(edge, 0) + 1
-    return uses
-
-
-def drawn(viewer) -> np.ndarray:
-    """The scene's buffers drawn as they are (no frame's follow: the state is not looked at again)."""
-    viewer.target.use()
-    viewer.app.draw(viewer.target.viewport)
-    return viewer.target.read_rgb()
 
 
 # --- pure parts --------------------------------------------------------------------------------------
@@ -176,26 +150,10 @@ def test_seams_between_levels_show_no_background_and_no_inside(viewer, monkeypat
     the cracks show: the test can tell."""
     if not skirts:
         monkeypatch.setattr(brick_surface, "skirt", lambda rim, depth: brick_surface_skirt(rim, 0.0))
-    state = viewer.state
     viewer.camera.distance = 200.0                # the ellipsoid fills most of the picture
-    coarse_only = drawn(viewer)   # the coarse mesh alone: shown, no frame has refined a brick yet
-    fine = viewer.render()
-    bricks = state.bricks
-    assert len(bricks.meshes) == 27
-    for index in [index for index in bricks.meshes if sum(index) % 2]:
-        del bricks.meshes[index]                   # a chequer of levels: seams along every axis
-    bricks.serial += 1
-    viewer.scene.follow_bricks()
-    mixed = drawn(viewer)
-    assert len(bricks.meshes) == 14 and viewer.scene.bricks.drawing
-    background = np.array(state.style.background) * 255
-    is_background = [np.all(np.abs(image.astype(float) - background) < 3, axis=2)
-                     for image in (coarse_only, fine, mixed)]
-    inside = [image[..., 0].astype(int) - image[..., 2] > 40 for image in (coarse_only, fine, mixed)]  # orange
-    assert np.array(state.style.back_color)[0] > 0.8 > np.array(state.style.front_color)[0]
-    drawn_pixels = int((~is_background[2]).sum())
-    holes = int((is_background[2] & ~is_background[0] & ~is_background[1]).sum())
-    cracks = int((inside[2] & ~inside[0] & ~inside[1]).sum())
+    seams = chequer_seams(viewer)
+    assert len(viewer.state.bricks.meshes) == 14
+    drawn_pixels, holes, cracks = seams.drawn, seams.holes, seams.cracks
     assert drawn_pixels > 50_000 and holes <= 10
     if skirts:
         assert cracks <= drawn_pixels * 0.0005, cracks

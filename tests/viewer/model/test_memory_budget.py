@@ -167,13 +167,15 @@ def test_an_ome_zarr_over_the_budget_is_shown_from_the_finest_level_that_fits(vi
     volume = open_volume(str(path))
     assert [level.name for level in volume.pyramid] == ["1", "2"]
     assert [level.spacing for level in volume.pyramid] == [(1.0, 1.0, 1.0), (2.0, 2.0, 2.0)]
-    viewer = viewer_with("4M")   # level 0 (128^3 float32) needs ~12 MB to show, level 1 ~1.5 MB, level 2 0.2
+    viewer = viewer_with("8M")   # level 0 (128^3 float32) needs ~16 MB to show, level 1 ~1.5 MB (a quarter of
+    # what 8M leaves beside the meshes: room for its bricks), level 2 0.2
     viewer.open(str(path))
     state = viewer.state
     assert state.full_volume.data.shape == (128, 128, 128) and state.volume.spacing == (1.0, 1.0, 1.0)
     np.testing.assert_array_equal(state.volume.data, levels[1])   # the file's level, not field[::2, ::2, ::2]
     assert not np.array_equal(levels[1], field[::2, ::2, ::2])
-    assert viewer.scene.stats.shown_shape == (64, 64, 64) and state.step == 2
+    assert state.step == 2 and state.bricks.layout.step == 2   # its bricks refined from level 0 at the open's
+    assert viewer.scene.stats.shown_shape == (128, 128, 128)   # frame (test_pyramid_bricks.py)
     assert any("from its level '1'" in note for note in state.volume.notes)
     assert state.bounds()[1] == (63.0, 63.0, 63.0)   # the full level's extent (0.5 * 127), to a step
     tight = viewer_with("1M")   # only level 2 (32^3) fits
