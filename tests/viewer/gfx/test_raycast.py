@@ -500,6 +500,38 @@ def test_translucent_surfaces_are_laid_over_the_volume_last(viewer, mode):
     assert np.abs(both[0] - alone[0])[inside].max() > 30   # the shell is there
 
 
+@pytest.mark.parametrize("coarse", [0, 2])
+def test_wireframe_lines_are_drawn_over_the_rays_and_end_none(viewer, monkeypatch, coarse):
+    """A translucent shell (0.4) with its wireframe over a MIP of a smooth cone seen from above, a slice at the
+    bottom of the box (so the opaque scene's depth ends the rays, behind the cone): lines drawn with no opacity
+    leave the picture as it is without them (their depth ended the rays at the shell once: the MIP behind every
+    line was cut), and with theirs they darken it over the volume (drawn after the rays), nowhere lighten it.
+    The same while the view moves."""
+    import isoscope.viewer.gfx.renderer as renderer
+    x, y, z = _grid(24)
+    cone = np.clip(1.2 - 1.5 * np.sqrt(x * x + y * y + z * z), 0.0, 1.0).astype(np.float32)
+    viewer.show_levels(as_volume(cone), [0.2], opacities=[0.4], azimuth=0.0, elevation=90.0)
+    viewer.state.style.show_box = False
+    viewer.state.set_with_surfaces(True)
+    viewer.state.slices.inset = False
+    viewer.state.slices.show(2, True, 0)
+    inside = _inner(np.abs(picture(viewer, None) - BACKGROUND).max(axis=2) > 30, 3)
+
+    def drawn(wireframe):
+        viewer.state.style.wireframe = wireframe
+        picture(viewer, "mip")
+        viewer.target.use()
+        viewer.app.renderer.draw_scene(viewer.scene, viewer.camera, viewer.target.viewport, coarse=coarse)
+        return viewer.target.read_rgb().astype(int)
+    plain, lined = drawn(False), drawn(True)
+    monkeypatch.setattr(renderer, "WIRE_OPACITY", 0.0)
+    unseen = drawn(True)
+    assert np.abs(unseen - plain).max() <= 1, np.abs(unseen - plain).max()
+    darker = (plain - lined).sum(axis=2)[inside]
+    assert (darker > 45).sum() > 0.2 * inside.sum() and inside.sum() > 1000, ((darker > 45).sum(), inside.sum())
+    assert darker.min() >= -3
+
+
 def test_translucent_surfaces_blend_over_the_volume_and_every_entry_draws_the_same(tmp_path):
     """DVR with the core's surface (0.7) opaque and the dim ball's (0.2) at opacity 0.4 over it: the command,
     isoscope.render and the saved scene draw the same picture; the translucent shell tints the volume (the
