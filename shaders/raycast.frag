@@ -13,7 +13,8 @@
 // The light is the meshes' (lighting.glsl), two-sided, and off where theirs is (u_lighting: the panel's
 // toggle): then iso's hit and the clip's cut are the surface's flat colour and DVR's samples the map's.
 // Empty space is skipped a brick at a time: u_ranges holds each brick's (min, max) over its samples (the
-// cells of BRICK samples a side, their shared faces included), and a brick that cannot change the result
+// cells of BRICK samples a side, their shared faces included), u_macro_ranges the same of macro bricks
+// (MACRO bricks a side: a ray through empty space leaves one in a step), and a brick that cannot change the result
 // (MIP: no value above the largest so far; MinIP: none below; iso: all of it on the outside of the level;
 // DVR: all of it below the window) is left at its far face.  The clip plane, where there is one, cuts
 // the rays: iso draws the cut through the object flat, in the surface's colour.
@@ -30,6 +31,9 @@ uniform vec3 u_extent;         // the box's far corner: (shape - 1) x spacing; t
 uniform vec3 u_shape;
 uniform vec3 u_brick;          // a brick's size, model units: BRICK x spacing
 uniform vec3 u_bricks;         // bricks along each axis
+uniform sampler3D u_macro_ranges; // the same of macro bricks, MACRO x MACRO x MACRO bricks each (the last ones fewer)
+uniform vec3 u_macro;          // a macro brick's size, model units: MACRO x u_brick
+uniform vec3 u_macros;         // macro bricks along each axis
 uniform vec3 u_eye;            // the camera, model space
 uniform float u_step;          // model units between samples
 uniform vec2 u_value_map;      // value = texel * x + y (a normalised integer texture back to its values)
@@ -117,17 +121,13 @@ float scene_end(vec3 dir) {
     return dot(p.xyz / p.w - u_eye, dir);
 }
 
-// The brick the point p lies in, and where the ray leaves it (t).
-ivec3 brick_of(vec3 p) {
-    return ivec3(clamp(floor(p / u_brick), vec3(0.0), u_bricks - 1.0));
+// The brick (of `size` model units, `count` along each axis) the point p lies in, and where the ray leaves it (t).
+ivec3 brick_of(vec3 p, vec3 size, vec3 count) {
+    return ivec3(clamp(floor(p / size), vec3(0.0), count - 1.0));
 }
 
-vec2 range_of(ivec3 brick) {
-    return texelFetch(u_ranges, brick.zyx, 0).rg;
-}
-
-float brick_exit(ivec3 brick, vec3 dir) {
-    vec3 low = vec3(brick) * u_brick, high = low + u_brick;
+float brick_exit(ivec3 brick, vec3 size, vec3 dir) {
+    vec3 low = vec3(brick) * size, high = low + size;
     vec3 inverse = 1.0 / dir;
     vec3 a = (low - u_eye) * inverse, b = (high - u_eye) * inverse;
     vec3 far = max(a, b);
@@ -217,9 +217,17 @@ void main() {
     for (int i = 0; i < MAX_STEPS && t <= span.y; ++i) {
         vec3 p = u_eye + dir * t;
 #if !defined(MODE_MEAN)   // a mean takes every sample: nothing to skip
-        ivec3 brick = brick_of(p);
-        if (skipped(range_of(brick), gathered)) {
-            float leave = brick_exit(brick, dir);
+        // The macro brick first (one fetch leaves MACRO bricks a side behind), then the brick.
+        vec3 size = u_macro;
+        ivec3 brick = brick_of(p, u_macro, u_macros);
+        bool skip = skipped(texelFetch(u_macro_ranges, brick.zyx, 0).rg, gathered);
+        if (!skip) {
+            size = u_brick;
+            brick = brick_of(p, u_brick, u_bricks);
+            skip = skipped(texelFetch(u_ranges, brick.zyx, 0).rg, gathered);
+        }
+        if (skip) {
+            float leave = brick_exit(brick, size, dir);
             // On to the first sample of the ray's own lattice (span.x + k u_step) past the brick's far face:
             // the samples taken are those a march without skipping takes, less the skipped ones, so the
             // picture is the same.  At least one step on: a position on the face may round into this brick.

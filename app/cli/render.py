@@ -139,8 +139,9 @@ def _scene_saver(args):
     --save-scene PATH the scene of the picture, as `isoscope render PATH` redraws it."""
     def then(viewer) -> None:
         """After the picture: a note for each level that drew nothing, and the scene written where --save-scene asks."""
+        from ..viewer.model.raycast import rays_note
         from ..viewer.ui.headless import empty_level_hints, shown_note
-        for hint in [*empty_level_hints(viewer), shown_note(viewer)]:
+        for hint in [*empty_level_hints(viewer), shown_note(viewer), rays_note(viewer.state)]:
             if hint:
                 print(f"note: {hint}", file=sys.stderr)
         if args.save_scene:

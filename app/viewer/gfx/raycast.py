@@ -18,8 +18,10 @@ from .slices import colormap_rgba8
 
 TRANSFER_SIZE = 1024    # entries of the transfer function's opacity table over the value range
 BRICK = 8              # samples a side of the bricks whose (min, max) let rays skip empty space
+MACRO = 4              # bricks a side of the macro bricks a ray looks at first (empty space left in bigger steps)
 STEP_PER_SAMPLE = 0.5   # the ray's step: half the smallest sample spacing (no sample's peak is stepped over)
 COARSE = 2             # while the view moves: by default one ray per 2 x 2 pixels, stretched (a quarter of the work)
+MOVING_STEP = 2.0      # while the view moves: the ray's step this many times longer (iso bisects its hit all the same)
 DENSITY_PER_SAMPLE = 0.15   # DVR: extinction per sample spacing at the top of the ramp (a few samples' depth)
 GRADIENT_FLOOR = 1e-3   # DVR: a sample changing less than this part of the value range per spacing is unlit
 
@@ -83,7 +85,8 @@ class VolumeRaycaster:
         self._vaos: dict[str, object] = {}
         self._texture = None
         self._ranges = None              # each brick's (min, max): empty space skipped
-        self._bricks = (1, 1, 1)
+        self._macro_ranges = None        # each macro brick's (MACRO^3 bricks)
+        self._bricks = self._macros = (1, 1, 1)
         self._texture_of = None          # the data array the textures hold
         self._value_map = (1.0, 0.0)
         self._lut = ctx.texture((LUT_SIZE, 1), 4)
@@ -111,13 +114,13 @@ class VolumeRaycaster:
         """The volume's samples into the 3-D texture (again only for another array)."""
         if self._texture is not None and self._texture_of is data:
             return
-        if self._texture is not None:
-            self._texture.release()
-            self._ranges.release()
+        self._release_volume()
         array = np.asarray(data)
         ranges = brick_ranges(array, BRICK)
-        self._bricks = ranges.shape[:3]
-        self._ranges = self.ctx.texture3d(ranges.shape[2::-1], 2, np.ascontiguousarray(ranges).tobytes(), dtype="f4")
+        macro_ranges = coarser_ranges(ranges, MACRO)
+        self._bricks, self._macros = ranges.shape[:3], macro_ranges.shape[:3]
+        self._ranges, self._macro_ranges = (self.ctx.texture3d(r.shape[2::-1], 2, np.ascontiguousarray(r).tobytes(),
+                                                               dtype="f4") for r in (ranges, macro_ranges))
         kind, unit = NORMALISED.get(array.dtype, ("f4", None))
         array = np.ascontiguousarray(array if unit is not None else array.astype(np.float32, copy=False))
         self._texture = self.ctx.texture3d(array.shape[::-1], 1, array.tobytes(), dtype=kind)
@@ -125,10 +128,12 @@ class VolumeRaycaster:
         self._texture.repeat_x = self._texture.repeat_y = self._texture.repeat_z = False
         self._texture_of, self._value_map = data, ((unit, 0.0) if unit is not None else (1.0, 0.0))
 
-    def draw(self, request, view: bytes, projection: bytes, eye, depth: SceneDepth | None = None) -> None:
+    def draw(self, request, view: bytes, projection: bytes, eye, depth: SceneDepth | None = None,
+             step_scale: float = 1.0) -> None:
         """Draw `request` (a RaycastRequest; its mode checked by the state, model/raycast.py) into the bound
         framebuffer under the camera's matrices, blended over what is there (premultiplied); `depth`: where
-        what is drawn opaque ends the rays.  Only iso writes depth (its hit), tested against what is drawn."""
+        what is drawn opaque ends the rays; `step_scale`: the ray's step that many times STEP_PER_SAMPLE's.
+        Only iso writes depth (its hit), tested against what is drawn."""
         ctx = self.ctx
         self._upload(request.data)
         if request.colormap != self._lut_name:
@@ -139,11 +144,13 @@ class VolumeRaycaster:
         spacing = np.array(request.spacing, np.float64)
         extent = (shape - 1) * spacing
         uniforms = {"u_extent": tuple(extent), "u_shape": tuple(shape), "u_eye": tuple(float(v) for v in eye),
-                    "u_step": float(STEP_PER_SAMPLE * spacing.min()), "u_value_map": self._value_map,
+                    "u_step": float(STEP_PER_SAMPLE * step_scale * spacing.min()), "u_value_map": self._value_map,
                     "u_window": tuple(request.window), "u_level": float(request.level),
                     "u_inside": 1.0 if request.inside_above else -1.0,
                     "u_density": float(DENSITY_PER_SAMPLE / spacing.min()), "u_front_color": tuple(request.color),
                     "u_brick": tuple(BRICK * spacing), "u_bricks": tuple(float(n) for n in self._bricks),
+                    "u_macro": tuple(MACRO * BRICK * spacing), "u_macros": tuple(float(n) for n in self._macros),
+                    "u_macro_ranges": 6,
                     "u_clip_plane": tuple(request.clip_plane), "u_volume": 0, "u_colormap": 1, "u_ranges": 2,
                     "u_transfer": 4, "u_transfer_on": 0.0 if request.transfer is None else 1.0,
                     "u_transfer_range": tuple(request.value_range),
@@ -168,6 +175,7 @@ class VolumeRaycaster:
         self._texture.use(0)
         self._lut.use(1)
         self._ranges.use(2)
+        self._macro_ranges.use(6)
         self._transfer.use(4)
         # The box's back faces: a ray for every pixel the box covers, the eye inside the box too.
         ctx.enable(ctx.CULL_FACE)
@@ -184,7 +192,9 @@ class VolumeRaycaster:
     def draw_coarse(self, request, view: bytes, projection: bytes, eye, viewport,
                     depth: SceneDepth | None = None, spacing: int = COARSE) -> None:
         """`draw` with one ray per `spacing` x `spacing` pixels of `viewport`, into a small target stretched over
-        it (linear), for the frames while the view or the level moves: about 1 / spacing^2 of the time."""
+        it (linear), for the frames while the view or the level moves, each ray stepping MOVING_STEP times
+        further: about 1 / spacing^2 of the time, and less again where the rays march through what is not
+        skipped (a body's soft tissue in DVR, the samples near the level in iso)."""
         ctx = self.ctx
         size = (max(1, viewport[2] // spacing), max(1, viewport[3] // spacing))
         if self._coarse is None or self._coarse[1].size != size:
@@ -208,7 +218,7 @@ class VolumeRaycaster:
             scale = (viewport[2] / size[0], viewport[3] / size[1])
             depth = replace(depth, origin=tuple((depth.origin[k] - viewport[k]) / scale[k] for k in (0, 1)),
                             scale=scale)
-        self.draw(request, view, projection, eye, depth)
+        self.draw(request, view, projection, eye, depth, MOVING_STEP)
         destination.use()
         ctx.viewport = viewport
         program, vao = self._upscale
@@ -244,10 +254,13 @@ class VolumeRaycaster:
         self._cube.release()
         self._lut.release()
         self._transfer.release()
+        self._release_volume()
+
+    def _release_volume(self) -> None:
         if self._texture is not None:
-            self._texture.release()
-            self._ranges.release()
-            self._texture = self._ranges = self._texture_of = None
+            for texture in (self._texture, self._ranges, self._macro_ranges):
+                texture.release()
+            self._texture = self._ranges = self._macro_ranges = self._texture_of = None
 
 
 def opacity_table(points, value_range) -> np.ndarray:
@@ -285,6 +298,17 @@ def brick_ranges(data: np.ndarray, brick: int) -> np.ndarray:
             low = np.minimum(low[tuple(first)], low[tuple(second)])
             high = np.maximum(high[tuple(first)], high[tuple(second)])
         starts = np.arange(0, low.shape[axis], brick)
+        low = np.minimum.reduceat(low, starts, axis=axis)
+        high = np.maximum.reduceat(high, starts, axis=axis)
+    return np.stack([low, high], axis=-1).astype(np.float32)
+
+
+def coarser_ranges(ranges: np.ndarray, by: int) -> np.ndarray:
+    """The (min, max) of `by` x `by` x `by` bricks of `ranges` (brick_ranges'; the last ones along an axis fewer):
+    the range of the samples of all of them, so a brick of these is skippable wherever all of its are."""
+    low, high = ranges[..., 0], ranges[..., 1]
+    for axis in range(3):
+        starts = np.arange(0, low.shape[axis], by)
         low = np.minimum.reduceat(low, starts, axis=axis)
         high = np.maximum.reduceat(high, starts, axis=axis)
     return np.stack([low, high], axis=-1).astype(np.float32)

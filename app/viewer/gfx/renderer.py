@@ -160,21 +160,26 @@ class SceneRenderer:
         self._release_vaos(keep={(m.vertex_buffer, m.index_buffer) for m, _ in drawn})
         self.slices.draw(slices, view, projection, caps=surfaces)
         if drawn:
-            self._draw_opaque(drawn, slices, style)
+            self._draw_opaque(drawn, slices, style, wireframe=raycast is None)
         if raycast is not None:
             depth = None
             if ends_rays:
                 ctx.disable_direct(GL_CLIP_DISTANCE0)   # a full-screen copy writes no clip distance
                 depth = self._opaque.finish(viewport)
                 if drawn and slices is not None and slices.settings.clip is not None:
-                    ctx.enable_direct(GL_CLIP_DISTANCE0)   # for the translucent surfaces still to come
+                    ctx.enable_direct(GL_CLIP_DISTANCE0)   # for the wireframe and translucent surfaces to come
             self._draw_rays(raycast, depth, view, projection, camera, viewport, coarse)
+            if drawn and style.wireframe:
+                # After the rays, so their lines end no ray and show over the volume; tested against the opaque
+                # depth (and iso's hits), written nowhere.  Under the translucent layers, as without rays.
+                self._draw_wireframe([mesh for mesh, _ in drawn], write_depth=False)
         if translucent:
             self._draw_translucent(translucent, viewport, destination)
         ctx.disable_direct(GL_CLIP_DISTANCE0)   # imgui's shaders write no clip distance
 
-    def _draw_opaque(self, drawn, slices: SliceScene | None, style: SurfaceStyle) -> None:
-        """The opaque meshes of `drawn` (with their wireframe over all of them), the clip plane set."""
+    def _draw_opaque(self, drawn, slices: SliceScene | None, style: SurfaceStyle, wireframe: bool = True) -> None:
+        """The opaque meshes of `drawn` (with `wireframe`, and the style's, their wireframe over all of them), the
+        clip plane set."""
         ctx = self.ctx
         for program in (self.mesh_program, self.oit_program):
             program["u_lighting"].value = style.lighting
@@ -192,19 +197,26 @@ class SceneRenderer:
             if look.opacity >= 1:
                 self._use_look(self.mesh_program, look, style.back_color)
                 self._vaos_for(mesh)[0].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
-        meshes = [mesh for mesh, _ in drawn]
-        if style.wireframe:
-            ctx.polygon_offset = (0.0, 0.0)
-            ctx.wireframe = True
-            # Translucent lines: a dense mesh still shows the shading underneath.
-            ctx.enable(moderngl.BLEND)
-            ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
-            self.wire_program["u_color"].value = WIRE_COLOR
-            self.wire_program["u_opacity"].value = WIRE_OPACITY
-            for mesh in meshes:
-                self._vaos_for(mesh)[1].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
-            ctx.disable(moderngl.BLEND)
-            ctx.wireframe = False
+        ctx.polygon_offset = (0.0, 0.0)
+        if style.wireframe and wireframe:
+            self._draw_wireframe([mesh for mesh, _ in drawn])
+
+    def _draw_wireframe(self, meshes, write_depth: bool = True) -> None:
+        """The lines of `meshes`' triangles, translucent, depth-tested (`write_depth`: writing it too)."""
+        ctx = self.ctx
+        ctx.wireframe = True
+        # Translucent lines: a dense mesh still shows the shading underneath.
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        self.wire_program["u_color"].value = WIRE_COLOR
+        self.wire_program["u_opacity"].value = WIRE_OPACITY
+        framebuffer = ctx.fbo
+        framebuffer.depth_mask = write_depth
+        for mesh in meshes:
+            self._vaos_for(mesh)[1].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
+        framebuffer.depth_mask = True
+        ctx.disable(moderngl.BLEND)
+        ctx.wireframe = False
 
     def _draw_rays(self, raycast: RaycastRequest, depth: SceneDepth | None, view, projection, camera, viewport,
                    coarse: int) -> None:

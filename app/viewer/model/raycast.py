@@ -104,6 +104,20 @@ def _parsed_points(spec) -> list[tuple[float, float]]:
     return points
 
 
+def rays_note(state) -> str | None:
+    """Where a volume over the memory budget is ray cast: the rays go through the coarse view's samples (every
+    step-th, model/big_volume.py), the bricks at full resolution being surfaces only (model/bricks.py), in a line;
+    None where the volume is not ray cast or shown whole."""
+    if state.raycast is None or state.volume is None or state.full_volume is None:
+        return None
+    shown, full = (tuple(volume.data.shape) for volume in (state.volume, state.full_volume))
+    if shown == full:
+        return None
+    return (f"the volume is ray cast from {'x'.join(map(str, shown))} of {'x'.join(map(str, full))} samples, the "
+            f"coarse view that fits the memory budget of {state.budget.text} (its bricks at full resolution refine "
+            "the surfaces, not the rays)")
+
+
 MIN_RAY_SPACING, MAX_RAY_SPACING = 2, 4
 """While the view moves, one ray per N x N pixels, N in this range (N = 1: the whole picture, at rest)."""
 MOVING_TARGET_MS = 100.0

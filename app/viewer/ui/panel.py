@@ -20,6 +20,7 @@ from ..model.formats import level_format, level_text
 from ..model.hints import empty_level_hint
 from ..model.histogram import fraction_of, level_at
 from ..model.pacing import pace_text
+from ..model.raycast import rays_note
 from ..model.settings import PanelSettings
 from ..model.state import ViewerState
 from . import gui
@@ -371,6 +372,10 @@ class Panel:
                 tooltip(f"memory budget {state.budget.text}" if state.step > 1 else "a preview while the level moves")
         if state.bricks is not None:
             imgui.text_colored(NOTE_COLOR, f"bricks     {state.bricks.text}")
+        note = rays_note(state)
+        if note is not None:
+            imgui.text_colored(NOTE_COLOR, f"rays       {'x'.join(map(str, state.volume.data.shape))} (coarse view)")
+            tooltip(note)
         if scene.stats.preview_step > 1:
             imgui.text_colored(NOTE_COLOR, f"preview at 1/{scene.stats.preview_step} resolution")
             tooltip(pace_text(scene.pacing.pace))

@@ -155,22 +155,34 @@ def test_a_bad_mode_is_one_line_everywhere(viewer, tmp_path):
 
 @pytest.mark.parametrize("mode", ["mip", "minip", "iso", "dvr"])
 def test_skipping_empty_bricks_changes_no_pixel(gl_ctx, monkeypatch, mode):
-    """The picture with 8^3-cell bricks left where they cannot change a ray's result equals the picture
-    with one brick for the whole volume (nothing skippable), within a grey level."""
+    """The picture with 8^3-cell bricks left where they cannot change a ray's result, alone or macro bricks of
+    4^3 (or 3^3 of 4^3-cell) bricks looked at first, equals the picture with one brick for the whole volume
+    (nothing skippable), within a grey level."""
     import isoscope.viewer.gfx.raycast as raycast
     x, y, z = _grid(40)
     field = np.where(np.sqrt(x * x + y * y + z * z) < 0.6, 1.0 - x * x - y * y, 0.0).astype(np.float32)
     pictures = []
-    for brick in (8, 10**6):
+    for brick, macro in ((10**6, 1), (8, 1), (8, 4), (4, 3)):
         monkeypatch.setattr(raycast, "BRICK", brick)
+        monkeypatch.setattr(raycast, "MACRO", macro)
         viewer = HeadlessViewer(SIZE, ctx=gl_ctx)
         try:
             viewer.show(as_volume(field), 0.5)
             pictures.append(picture(viewer, mode, 0.5, window=(1.0, 0.5)))
         finally:
             viewer.release()
-    assert np.abs(pictures[0] - pictures[1]).max() <= 1
+    for skipping in pictures[1:]:
+        assert np.abs(skipping - pictures[0]).max() <= 1
     assert np.abs(pictures[0] - BACKGROUND).max() > 50   # something was drawn
+
+
+def test_macro_brick_ranges_are_the_ranges_of_bricks_that_many_times_larger():
+    """coarser_ranges(brick_ranges(a, 8), 4) is brick_ranges(a, 32): the (min, max) a macro brick's rays may meet,
+    the partial last ones along each axis too."""
+    from isoscope.viewer.gfx.raycast import brick_ranges, coarser_ranges
+    data = np.random.default_rng(3).normal(size=(70, 41, 33)).astype(np.float32)
+    for brick, by in ((8, 4), (4, 3), (5, 2)):
+        np.testing.assert_array_equal(coarser_ranges(brick_ranges(data, brick), by), brick_ranges(data, brick * by))
 
 
 def test_the_clip_plane_cuts_the_rays_and_iso_draws_the_cut(viewer):
@@ -188,10 +200,11 @@ def test_the_clip_plane_cuts_the_rays_and_iso_draws_the_cut(viewer):
     assert both / union > 0.95, both / union                  # where the capped mesh is, the cut rays are
 
 
-@pytest.mark.parametrize("mode", ["mip", "dvr"])
+@pytest.mark.parametrize("mode", ["mip", "dvr", "iso"])
 def test_the_coarse_picture_while_moving_is_the_full_one_stretched(viewer, mode):
-    """While the view moves the window casts a ray per 2x2 pixels and stretches the picture: the same
-    picture to within its blur (the bright ball where it is), the background untouched outside the box."""
+    """While the view moves the window casts a ray per 2x2 pixels, each stepping MOVING_STEP times further,
+    and stretches the picture: the same picture to within its blur (the bright ball where it is; iso's
+    silhouette where it is: its hit is bisected all the same), the background untouched outside the box."""
     viewer.show(as_volume(nested()), 0.2)
     full = picture(viewer, mode)
     viewer.target.use()
@@ -201,6 +214,9 @@ def test_the_coarse_picture_while_moving_is_the_full_one_stretched(viewer, mode)
     assert (coarse[0, 0] == BACKGROUND).all() and (coarse[-1, -1] == BACKGROUND).all()
     if mode == "mip":
         assert white(coarse) > 0.6 * white(full) > 50
+    if mode == "iso":
+        drawn = [np.abs(image - full[0, 0]).max(axis=2) > 30 for image in (full, coarse)]
+        assert (drawn[0] & drawn[1]).sum() / (drawn[0] | drawn[1]).sum() > 0.95 and drawn[0].sum() > 2000
 
 
 def test_a_transfer_function_shows_only_what_it_makes_opaque(viewer):
@@ -498,6 +514,38 @@ def test_translucent_surfaces_are_laid_over_the_volume_last(viewer, mode):
     error = np.abs((both[0] - both[1]) - expected)[changed]
     assert error.max() <= 3, (error.max(), np.count_nonzero(error > 3))
     assert np.abs(both[0] - alone[0])[inside].max() > 30   # the shell is there
+
+
+@pytest.mark.parametrize("coarse", [0, 2])
+def test_wireframe_lines_are_drawn_over_the_rays_and_end_none(viewer, monkeypatch, coarse):
+    """A translucent shell (0.4) with its wireframe over a MIP of a smooth cone seen from above, a slice at the
+    bottom of the box (so the opaque scene's depth ends the rays, behind the cone): lines drawn with no opacity
+    leave the picture as it is without them (their depth ended the rays at the shell once: the MIP behind every
+    line was cut), and with theirs they darken it over the volume (drawn after the rays), nowhere lighten it.
+    The same while the view moves."""
+    import isoscope.viewer.gfx.renderer as renderer
+    x, y, z = _grid(24)
+    cone = np.clip(1.2 - 1.5 * np.sqrt(x * x + y * y + z * z), 0.0, 1.0).astype(np.float32)
+    viewer.show_levels(as_volume(cone), [0.2], opacities=[0.4], azimuth=0.0, elevation=90.0)
+    viewer.state.style.show_box = False
+    viewer.state.set_with_surfaces(True)
+    viewer.state.slices.inset = False
+    viewer.state.slices.show(2, True, 0)
+    inside = _inner(np.abs(picture(viewer, None) - BACKGROUND).max(axis=2) > 30, 3)
+
+    def drawn(wireframe):
+        viewer.state.style.wireframe = wireframe
+        picture(viewer, "mip")
+        viewer.target.use()
+        viewer.app.renderer.draw_scene(viewer.scene, viewer.camera, viewer.target.viewport, coarse=coarse)
+        return viewer.target.read_rgb().astype(int)
+    plain, lined = drawn(False), drawn(True)
+    monkeypatch.setattr(renderer, "WIRE_OPACITY", 0.0)
+    unseen = drawn(True)
+    assert np.abs(unseen - plain).max() <= 1, np.abs(unseen - plain).max()
+    darker = (plain - lined).sum(axis=2)[inside]
+    assert (darker > 45).sum() > 0.2 * inside.sum() and inside.sum() > 1000, ((darker > 45).sum(), inside.sum())
+    assert darker.min() >= -3
 
 
 def test_translucent_surfaces_blend_over_the_volume_and_every_entry_draws_the_same(tmp_path):
