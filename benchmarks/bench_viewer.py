@@ -85,7 +85,8 @@ def main(argv=None) -> int:
             from volumes import smooth_memmap
             args.volume = str(smooth_memmap(args.dir, args.memmap))
         opened = time.perf_counter()
-        volume = open_volume(args.volume or DEFAULT_VOLUME)
+        # --memmap: mapped whatever its size (a 512^3 .npy, 128 MiB, would otherwise be read whole into RSS)
+        volume = open_volume(args.volume or DEFAULT_VOLUME, map_files=bool(args.memmap))
         with using_budget(requested_budget(args.memory_budget)):
             window = ViewerWindow(volume, size=(width, height), recent=RecentFiles(None))
         open_s = time.perf_counter() - opened
