@@ -31,6 +31,10 @@ MESH_SHARE = 0.25
 """The share of the budget left for the meshes (a few million triangles in a gigabyte)."""
 DEFAULT_GPU_BYTES = 2 << 30
 """The budget on graphics hardware whose driver does not say how much memory it has (2 GiB)."""
+SOFTWARE_OVERHEAD_BYTES = 16 << 20
+"""What a software renderer's process takes beyond the budget while a volume is on show (16 MiB): llvmpipe's
+binned triangles, at most renderer.SOFTWARE_DRAW_TRIANGLES at a time (~11 MiB at 1280x800), and the
+allocator's slack around the bricks' meshes (measured: benchmarks/results-llvmpipe.md)."""
 MIN_BUDGET_BYTES = 1 << 20
 """The smallest budget taken (1 MiB); a volume whose coarsest view needs more is refused by budget_step."""
 MAX_STEP = 64

@@ -17,6 +17,7 @@ import numpy as np
 
 from ...big.chunked import edges_of
 from ...core.skirts import Rim, edge_keys, rim_of, skirt
+from ...gpu.memory import give_back_freed_memory
 from ...gpu.mesh import GpuMesh, OwnedMesh
 
 
@@ -106,12 +107,14 @@ class BrickSurface:
         refined[[flat[index] for index in view.meshes]] = True
         for index in [index for index in self._fine if index not in view.meshes]:
             self._fine.pop(index).release()
+        taken = 0
         for index, mesh in view.meshes.items():
             if index not in self._fine and mesh.arrays is not None:
                 uploaded = _upload(self.ctx, mesh.arrays)
                 if uploaded is not None:   # a brick the level does not cross has no mesh
                     self._fine[index] = uploaded
                 view.uploaded(index)
+                taken += 1
         depth = view.layout.step * max(view.volume.spacing)
         split = self._split
         verts, faces, normals, values = split.arrays
@@ -120,6 +123,8 @@ class BrickSurface:
         self._replace("_coarse", _joined([(verts, coarse_faces, normals, values), sides]))
         rims = [(m.rim.subset(~refined[m.across])) for m in view.meshes.values()]
         self._replace("_skirts", skirt(_rim_concat(rims), depth) if rims else None)
+        if taken:   # the bricks' arrays and their extraction's work arrays are gone: their pages too
+            give_back_freed_memory()
 
     def _replace(self, name: str, arrays) -> None:
         old = getattr(self, name)
