@@ -49,9 +49,13 @@ class BudgetError(IsoscopeError, ValueError):
 
 @dataclass(frozen=True)
 class MemoryBudget:
-    """`bytes` the viewer may use for the volume on show; `source` says where the figure came from."""
+    """`bytes` the viewer may use for the volume on show; `source` says where the figure came from.  `software`:
+    the budget is spent on a software renderer, whose images and buffers lie in the process's RAM beside the
+    arrays the process keeps (the viewer's GL side sets it): the coarse view's volume image is then counted
+    twice, its samples and llvmpipe's copy (core/bricks.py brick_room)."""
     bytes: int
     source: str
+    software: bool = False
 
     @property
     def text(self) -> str:
@@ -137,7 +141,7 @@ def default_budget(gpu_bytes: int | None, software: bool, driver: str = "") -> M
     graphics hardware, else DEFAULT_GPU_BYTES; half the available RAM on a software renderer."""
     if software:
         return MemoryBudget(max(MIN_BUDGET_BYTES, available_memory_bytes() // 2),
-                            "half the available memory: a software renderer")
+                            "half the available memory: a software renderer", software=True)
     if gpu_bytes:
         return MemoryBudget(max(MIN_BUDGET_BYTES, int(gpu_bytes * 0.8)),
                             f"80% of the GPU memory {driver} reports free")
