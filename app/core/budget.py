@@ -11,6 +11,14 @@ Where the budget comes from (`default_budget`, with the GPU's own figures where 
 gpu/memory.py): the GPU's available memory (GL_NVX_gpu_memory_info, GL_ATI_meminfo) on graphics hardware,
 DEFAULT_GPU_BYTES where the driver says nothing, and half the available RAM on a software renderer (llvmpipe
 keeps its textures and buffers in RAM).  `--memory-budget SIZE` and `memory_budget=` override it.
+
+On a software renderer the budget is the process's own RAM (`MemoryBudget.software`): what llvmpipe copies
+(the coarse view's volume image) is counted, and the process's anonymous RSS grows by at most the budget plus
+SOFTWARE_OVERHEAD_BYTES from before a volume is opened.  That is above a fixed part no budget covers: the
+process with GL, numba's CPU kernels and a 1280x800 view before any volume, measured at about 165 MiB of
+anonymous RSS on llvmpipe (39 MiB after `import isoscope`, 96 MiB with the headless viewer's GL context and
+its multisampled 1280x800 targets, 113 MiB with the GPU programs, 163 MiB with numba's CPU kernels, which
+the first brick loads: tests/viewer/gfx/test_memory_rss.py loads them first).
 """
 from __future__ import annotations
 
