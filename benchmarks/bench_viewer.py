@@ -91,8 +91,10 @@ def main(argv=None) -> int:
             from volumes import smooth_memmap, smooth_pyramid
             made = smooth_pyramid(args.dir, args.pyramid) if args.pyramid else smooth_memmap(args.dir, args.memmap)
             args.volume = str(made)
+        before_window = rss_parts()   # imports done, no GL yet: what the window and the volume add is above it
         opened = time.perf_counter()
-        volume = open_volume(args.volume or DEFAULT_VOLUME)
+        # --memmap: mapped whatever its size (a 512^3 .npy, 128 MiB, would otherwise be read whole into RSS)
+        volume = open_volume(args.volume or DEFAULT_VOLUME, map_files=bool(args.memmap))
         with using_budget(requested_budget(args.memory_budget)):
             window = ViewerWindow(volume, size=(width, height), recent=RecentFiles(None))
         open_s = time.perf_counter() - opened
@@ -184,7 +186,7 @@ def main(argv=None) -> int:
             peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
             print(f"  shown       {'x'.join(map(str, scene.stats.shown_shape))} of {shape} at rest (memory budget "
                   f"{state.budget.text}), {volume.data.dtype}; window open with the first mesh in {open_s:.1f} s; "
-                  f"peak RSS {peak:.0f} MiB; now {rss_parts()}")
+                  f"peak RSS {peak:.0f} MiB; now {rss_parts()} (before the window: {before_window})")
         finally:
             window.close()
     return 0

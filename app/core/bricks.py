@@ -133,20 +133,31 @@ def brick_room(shape, itemsize: int, budget: MemoryBudget, cells: int = BRICK_CE
                bytes_per_sample: float | None = None, step: int | None = None,
                min_step: int = 1) -> tuple[int, int]:
     """(the coarse view's step, the bytes left for bricks at full resolution) within `budget`: what the meshes
-    take aside (MESH_SHARE), the coarse view of the whole beside, at `step` where given (a pyramid level's
-    factor), else at coarse_step or `min_step` if coarser (a GPU that cannot hold a finer view).  BudgetError
-    in one line where the budget is below what one full brick needs beside the coarse view."""
+    take aside (MESH_SHARE), the coarse view of the whole beside (on a software renderer, `budget.software`,
+    with llvmpipe's copy of its volume image, in the same RAM as its samples), at `step` where given (a
+    pyramid level's factor), else at coarse_step or `min_step` if coarser (a GPU that cannot hold a finer
+    view).  BudgetError in one line where the budget is below what one full brick needs beside the coarse
+    view."""
     per_sample = itemsize + EXTRACTOR_BYTES_PER_SAMPLE if bytes_per_sample is None else bytes_per_sample
-    room = budget.bytes * (1 - MESH_SHARE)
-    step = max(coarse_step(shape, itemsize, room), int(min_step)) if step is None else step
-    left = int(room - needed_bytes(shape, itemsize, step))
     biggest = max(brick_bytes(b, per_sample) for b in bricks_of(shape, cells))
+    coarse, left = _room(shape, itemsize, budget.bytes, budget.software, step, min_step)
     if left < biggest:
         need = biggest / (1 - COARSE_SHARE) / (1 - MESH_SHARE)   # the coarse view then fits in the rest
+        while _room(shape, itemsize, need, budget.software, step, min_step)[1] < biggest:   # its image's copy
+            need += 1 << 20
         raise BudgetError(f"the memory budget {budget.text} is below what one {cells}^3 brick at full resolution "
                           f"needs beside the coarse view ({size_text(need)} in all); give --memory-budget "
                           f"{math.ceil(need / (1 << 20))}M or more")
-    return step, left
+    return coarse, left
+
+
+def _room(shape, itemsize: int, budget_bytes: float, software: bool, step: int | None = None,
+          min_step: int = 1) -> tuple[int, int]:
+    """brick_room's (step, bytes left) for a budget of `budget_bytes`."""
+    room = budget_bytes * (1 - MESH_SHARE)
+    step = max(coarse_step(shape, itemsize, room), int(min_step)) if step is None else step
+    copy = math.prod(shown_shape(shape, step)) * itemsize if software else 0
+    return step, int(room - needed_bytes(shape, itemsize, step) - copy)
 
 
 def plan_refinement(bricks, refined, eye, clip_matrix, room_bytes: int, bytes_per_sample: float,

@@ -11,6 +11,14 @@ Where the budget comes from (`default_budget`, with the GPU's own figures where 
 gpu/memory.py): the GPU's available memory (GL_NVX_gpu_memory_info, GL_ATI_meminfo) on graphics hardware,
 DEFAULT_GPU_BYTES where the driver says nothing, and half the available RAM on a software renderer (llvmpipe
 keeps its textures and buffers in RAM).  `--memory-budget SIZE` and `memory_budget=` override it.
+
+On a software renderer the budget is the process's own RAM (`MemoryBudget.software`): what llvmpipe copies
+(the coarse view's volume image) is counted, and the process's anonymous RSS grows by at most the budget plus
+SOFTWARE_OVERHEAD_BYTES from before a volume is opened.  That is above a fixed part no budget covers: the
+process with GL, numba's CPU kernels and a 1280x800 view before any volume, measured at about 165 MiB of
+anonymous RSS on llvmpipe (39 MiB after `import isoscope`, 96 MiB with the headless viewer's GL context and
+its multisampled 1280x800 targets, 113 MiB with the GPU programs, 163 MiB with numba's CPU kernels, which
+the first brick loads: tests/viewer/gfx/test_memory_rss.py loads them first).
 """
 from __future__ import annotations
 
@@ -31,6 +39,10 @@ MESH_SHARE = 0.25
 """The share of the budget left for the meshes (a few million triangles in a gigabyte)."""
 DEFAULT_GPU_BYTES = 2 << 30
 """The budget on graphics hardware whose driver does not say how much memory it has (2 GiB)."""
+SOFTWARE_OVERHEAD_BYTES = 16 << 20
+"""What a software renderer's process takes beyond the budget while a volume is on show (16 MiB): llvmpipe's
+binned triangles, at most renderer.SOFTWARE_DRAW_TRIANGLES at a time (~11 MiB at 1280x800), and the
+allocator's slack around the bricks' meshes (measured: benchmarks/results-llvmpipe.md)."""
 MIN_BUDGET_BYTES = 1 << 20
 """The smallest budget taken (1 MiB); a volume whose coarsest view needs more is refused by budget_step."""
 MAX_STEP = 64
@@ -45,9 +57,13 @@ class BudgetError(IsoscopeError, ValueError):
 
 @dataclass(frozen=True)
 class MemoryBudget:
-    """`bytes` the viewer may use for the volume on show; `source` says where the figure came from."""
+    """`bytes` the viewer may use for the volume on show; `source` says where the figure came from.  `software`:
+    the budget is spent on a software renderer, whose images and buffers lie in the process's RAM beside the
+    arrays the process keeps (the viewer's GL side sets it): the coarse view's volume image is then counted
+    twice, its samples and llvmpipe's copy (core/bricks.py brick_room)."""
     bytes: int
     source: str
+    software: bool = False
 
     @property
     def text(self) -> str:
@@ -133,7 +149,7 @@ def default_budget(gpu_bytes: int | None, software: bool, driver: str = "") -> M
     graphics hardware, else DEFAULT_GPU_BYTES; half the available RAM on a software renderer."""
     if software:
         return MemoryBudget(max(MIN_BUDGET_BYTES, available_memory_bytes() // 2),
-                            "half the available memory: a software renderer")
+                            "half the available memory: a software renderer", software=True)
     if gpu_bytes:
         return MemoryBudget(max(MIN_BUDGET_BYTES, int(gpu_bytes * 0.8)),
                             f"80% of the GPU memory {driver} reports free")

@@ -95,8 +95,9 @@ def open_volume(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, 
     inside ("above" or "below"), if given, overrides which side of the level
     the object is on. fits, if given, is a test on a 3-D shape (core.layout.fits_one_extraction):
     a file whose header gives a shape it rejects is refused before its data is read, in words
-    ending with fits_refusal. map_files: a raw file is memory-mapped whatever its size (its data is then
-    read by name, as dask workers do), not read whole when small.
+    ending with fits_refusal. map_files: a raw file, or a C-ordered 3-D .npy, is memory-mapped whatever its
+    size (its data is then read by name, as dask workers do, or a block at a time by the viewer's bricks),
+    not read whole when small.
     """
     if inside is not None and inside not in INSIDE_SIDES:
         raise VolumeError(f"inside must be 'above' or 'below' the level, not {inside!r}")

@@ -101,7 +101,7 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, ti
         elif kind == "zarr":
             data, header_spacing, notes, pyramid = load_zarr(path, time, progress)
         elif kind == "npy":
-            data, header_spacing, notes = load_npy(path, progress)
+            data, header_spacing, notes = load_npy(path, progress, map_file=map_files)
         elif kind == "tiff":
             data, header_spacing, notes = load_tiff(path, time, progress)
         elif kind == "npz":

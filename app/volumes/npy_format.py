@@ -40,18 +40,18 @@ def read_header(fp, what: str, file_bytes: int | None = None) -> tuple[tuple[int
     return shape, dtype
 
 
-def load_npy(path: Path, progress: Progress | None = None) -> Loaded:
-    """Small files are read; a C-ordered one of MAP_BYTES or more is memory-mapped, read on demand (it may
-    exceed RAM)."""
+def load_npy(path: Path, progress: Progress | None = None, map_file: bool = False) -> Loaded:
+    """Small files are read; a C-ordered one of MAP_BYTES or more (with `map_file`, of any size) is
+    memory-mapped, read on demand (it may exceed RAM)."""
     with open(path, "rb") as fp:
         shape, dtype = read_header(fp, path.name, path.stat().st_size)
     report(progress, 0.0, f"reading {path.name}")
     try:
         n_bytes = np.prod(shape, dtype=np.float64) * dtype.itemsize
-        if len(shape) < 3 or n_bytes < min(SLAB_BYTES, MAP_BYTES):
+        if len(shape) < 3 or (n_bytes < min(SLAB_BYTES, MAP_BYTES) and not map_file):
             return np.load(path, allow_pickle=False), None, []
         mapped = np.load(path, mmap_mode="r", allow_pickle=False)
-        if mapped.flags.c_contiguous and n_bytes >= MAP_BYTES:
+        if mapped.flags.c_contiguous and (n_bytes >= MAP_BYTES or map_file):
             return mapped, None, [f"{path.name} is memory-mapped: read from disk as needed"]
         # Fortran order: copy it slab by slab into C order, so the progress bar moves.
         slab_axis = len(shape) - 1 if mapped.flags.f_contiguous and not mapped.flags.c_contiguous else 0

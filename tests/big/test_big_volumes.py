@@ -115,3 +115,17 @@ def test_raw_larger_than_memory_is_mapped_x_first(tmp_path, field, map_everythin
     np.testing.assert_array_equal(np.asarray(volume.data[3:9, 5:7, 1:30]), big[3:9, 5:7, 1:30])
     with pytest.raises(VolumeError, match="more than this machine.*--chunk"):
         _ = volume.checked  # the viewer's whole read is refused, naming the way out
+
+
+def test_map_files_maps_a_small_c_ordered_npy_and_reads_a_fortran_one(tmp_path, field):
+    """open_volume(map_files=True): a C-ordered .npy of any size is memory-mapped (the viewer's bricks then read
+    it a block at a time, the benchmark's --memmap), not read into memory; a Fortran-ordered one is still read."""
+    np.save(tmp_path / "small.npy", field)
+    np.save(tmp_path / "fortran.npy", np.asfortranarray(field))
+    mapped = open_volume(str(tmp_path / "small.npy"), map_files=True)
+    assert isinstance(mapped.data.base, np.memmap)
+    np.testing.assert_array_equal(mapped.data, field)
+    assert not isinstance(open_volume(str(tmp_path / "small.npy")).data.base, np.memmap)
+    read = open_volume(str(tmp_path / "fortran.npy"), map_files=True)
+    assert not isinstance(read.data.base, np.memmap)
+    np.testing.assert_array_equal(read.data, field)

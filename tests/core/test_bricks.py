@@ -147,3 +147,16 @@ def test_the_room_leaves_a_coarse_view_and_a_budget_below_one_brick_is_one_line(
     for too_little in (need // 2, need // 4):   # the room, three quarters of it, is below one brick
         with pytest.raises(BudgetError):
             brick_room(SHAPE, 2, MemoryBudget(too_little << 20, "--memory-budget"))
+
+
+def test_on_a_software_renderer_the_room_leaves_out_its_copy_of_the_coarse_image_and_the_step_stays():
+    """llvmpipe keeps the coarse view's volume image in the process's RAM beside its samples: the bricks' room
+    is that much smaller, the coarse view the same; a budget asked for in the refusal is still enough."""
+    gpu = brick_room(SHAPE, 2, MemoryBudget(256 << 20, "--memory-budget"))
+    software = brick_room(SHAPE, 2, MemoryBudget(256 << 20, "--memory-budget", software=True))
+    coarse = np.prod([len(range(0, n, gpu[0])) for n in SHAPE])
+    assert software[0] == gpu[0] and gpu[1] - software[1] == coarse * 2
+    with pytest.raises(BudgetError) as caught:
+        brick_room(SHAPE, 2, MemoryBudget(4 << 20, "--memory-budget", software=True))
+    need = int(str(caught.value).split("give --memory-budget ")[1].split("M")[0])
+    brick_room(SHAPE, 2, MemoryBudget(need << 20, "--memory-budget", software=True))

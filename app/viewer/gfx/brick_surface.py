@@ -18,6 +18,7 @@ import numpy as np
 
 from ...big.chunked import edges_of
 from ...core.skirts import edge_keys, rim_of, skirt
+from ...gpu.memory import give_back_freed_memory
 from ...gpu.mesh import GpuMesh, OwnedMesh, vertex_records
 
 
@@ -114,12 +115,14 @@ class BrickSurface:
             self._fine.pop(index).release()
         for index in [index for index in self._fine_skirts if index not in view.meshes]:
             self._drop_skirt(index)
+        taken = 0
         for index, mesh in view.meshes.items():
             if index not in self._fine and mesh.arrays is not None:
                 uploaded = _upload(self.ctx, mesh.arrays)
                 if uploaded is not None:   # a brick the level does not cross has no mesh
                     self._fine[index] = uploaded
                 view.uploaded(index)
+                taken += 1
         depth = view.layout.step * max(view.volume.spacing)
         split = self._split
         self._coarse_remainder(split, ~refined[split.brick])
@@ -131,6 +134,8 @@ class BrickSurface:
                 self._drop_skirt(index)
                 self._fine_skirts[index] = (across.tobytes(), _upload(self.ctx, skirt(mesh.rim.subset(~across),
                                                                                       depth)))
+        if taken:   # the bricks' arrays and their extraction's work arrays are gone: their pages too
+            give_back_freed_memory()
 
     def _drop_skirt(self, index) -> None:
         _, mesh = self._fine_skirts.pop(index, (None, None))

@@ -17,6 +17,7 @@ import numpy as np
 
 from ...core.layout import VERTEX_FORMAT, vertex_format
 from ...errors import InputError
+from ...gpu.context import is_software_renderer
 from ...gpu.mesh import GpuMesh
 from ...resources import shader_source
 from ..model.slices import SliceScene
@@ -30,6 +31,13 @@ from .slices import GL_CLIP_DISTANCE0, SliceRenderer
 WIRE_COLOR = (0.02, 0.02, 0.05)
 WIRE_OPACITY = 0.45
 COLORMAP_UNIT, SCALAR_UNIT = 3, 4   # texture units of a look's colour map and scalar volume
+
+SOFTWARE_DRAW_TRIANGLES = 1 << 14
+"""On a software renderer, the triangles drawn between two waits for its rasterizer (16,384).  llvmpipe bins
+each triangle drawn (~100-250 bytes of setup each) into scenes its threads then rasterize; the binning runs
+ahead, and a frame's scenes grow with what it draws and stay allocated: 0.93 M triangles at 1280x800 took
+154 MiB of RSS that no later frame gave back.  Waiting every 16,384 triangles keeps that to 6-10 MiB (640x480
+to 1280x800; 65,536: 11-16 MiB), at no cost in frame time measured (benchmarks/results-llvmpipe.md)."""
 
 # The 12 edges of a box as pairs of corner indices; corner i has bit k set when axis k is at `upper`.
 _BOX_EDGES = [(a, b) for a in range(8) for b in range(8) if a < b and bin(a ^ b).count("1") == 1]
@@ -67,6 +75,7 @@ class SceneRenderer:
         # (vertex buffer, index buffer) -> (lit VAO, wireframe VAO), for the meshes drawn last frame.
         self._vaos: dict[tuple[moderngl.Buffer, moderngl.Buffer], tuple[moderngl.VertexArray, ...]] = {}
         self.slices = SliceRenderer(ctx)   # slice planes, the clip's cut and the 2-D view (slices.py)
+        self.pacer = DrawPacer(ctx, SOFTWARE_DRAW_TRIANGLES if is_software_renderer(ctx) else 0)
 
     def set_box(self, lower, upper) -> None:
         """The bounding box to draw, in world units."""
@@ -196,7 +205,7 @@ class SceneRenderer:
         for mesh, look in drawn:
             if look.opacity >= 1:
                 self._use_look(self.mesh_program, look, style.back_color)
-                self._vaos_for(mesh)[0].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
+                self.pacer.draw(self._vaos_for(mesh)[0], mesh.n_triangles)
         ctx.polygon_offset = (0.0, 0.0)
         if style.wireframe and wireframe:
             self._draw_wireframe([mesh for mesh, _ in drawn])
@@ -213,7 +222,7 @@ class SceneRenderer:
         framebuffer = ctx.fbo
         framebuffer.depth_mask = write_depth
         for mesh in meshes:
-            self._vaos_for(mesh)[1].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
+            self.pacer.draw(self._vaos_for(mesh)[1], mesh.n_triangles)
         framebuffer.depth_mask = True
         ctx.disable(moderngl.BLEND)
         ctx.wireframe = False
@@ -249,7 +258,7 @@ class SceneRenderer:
         self.ctx.viewport = viewport
         for mesh, look in translucent:
             self._use_look(self.oit_program, look)
-            self._vaos_for(mesh)[2].render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
+            self.pacer.draw(self._vaos_for(mesh)[2], mesh.n_triangles)
         self.ctx.disable_direct(GL_CLIP_DISTANCE0)   # the resolve's full-screen quad writes no clip distance
         self.oit.resolve(destination, viewport)
 
@@ -283,6 +292,31 @@ class SceneRenderer:
         for obj in (self.box_vao, self.box_buffer, self.mesh_program, self.wire_program, self.box_program,
                     self.oit_program):
             obj.release()
+
+
+class DrawPacer:
+    """Draws indexed triangles, waiting for the GL (`ctx.finish`) after every `every` triangles drawn, whatever
+    the meshes they came in (0: never): on a software renderer what it holds for the draws not yet rasterized
+    stays bounded (SOFTWARE_DRAW_TRIANGLES)."""
+
+    def __init__(self, ctx: moderngl.Context, every: int):
+        self.ctx, self.every = ctx, int(every)
+        self.pending = 0   # triangles drawn since the last wait
+
+    def draw(self, vao: moderngl.VertexArray, n_triangles: int) -> None:
+        """`vao`'s first `n_triangles` triangles."""
+        if self.every <= 0:
+            vao.render(moderngl.TRIANGLES, vertices=3 * n_triangles)
+            return
+        first = 0
+        while first < n_triangles:
+            count = min(n_triangles - first, self.every - self.pending)
+            vao.render(moderngl.TRIANGLES, vertices=3 * count, first=3 * first)
+            first += count
+            self.pending += count
+            if self.pending >= self.every:
+                self.ctx.finish()
+                self.pending = 0
 
 
 def read_rgb(framebuffer: moderngl.Framebuffer, size: tuple[int, int], components: int = 3) -> np.ndarray:

@@ -25,6 +25,8 @@ The selected level is drawn straight from the extractor's buffers, every other l
 """
 from __future__ import annotations
 
+import dataclasses
+
 import moderngl
 
 from ...gpu.context import gl_summary, has_compute, is_software_renderer
@@ -69,6 +71,8 @@ class GpuScene:
         state.gl_renderer = f"{ctx.info.get('GL_RENDERER', 'unknown')} ({gl_summary(ctx)})"
         if state.memory_budget is None:   # what a volume may take here: the GPU's memory (gpu/memory.py)
             state.memory_budget = default_memory_budget(ctx)
+        elif is_software_renderer(ctx) and not state.memory_budget.software:   # a given one, spent in RAM
+            state.memory_budget = dataclasses.replace(state.memory_budget, software=True)
         # Below OpenGL 4.3 (no compute shaders: macOS's 4.1) the meshes are made on the CPU (cpu_surface.py), and
         # so are those of mesh options the GPU extractor does not make (`GpuSurface.makes`).
         self._compute = has_compute(ctx)

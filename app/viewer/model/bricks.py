@@ -72,8 +72,10 @@ def extract_brick(data, brick: Brick, level: float, spacing, descent: bool, grid
     rim = rim_of(*arrays)
     across = face_neighbours(rim.ends, brick, grid, spacing, cells)
     inner = across >= 0   # the volume's border needs no skirt
-    size = len(arrays[0]) * VERTEX_BYTES + len(arrays[1]) * INDEX_BYTES
-    return BrickMesh(brick, arrays, rim.subset(inner), across[inner], size)
+    rim, across = rim.subset(inner), across[inner]
+    kept = sum(getattr(rim, name).nbytes for name in ("ends", "normals", "values", "down", "triangle"))
+    size = len(arrays[0]) * VERTEX_BYTES + len(arrays[1]) * INDEX_BYTES + kept + across.nbytes   # the rim stays
+    return BrickMesh(brick, arrays, rim, across, size)
 
 
 def _no_mesh():
