@@ -70,6 +70,7 @@ def open_volume_from_args(spec: str, args: argparse.Namespace, progress: Progres
     time point); `backend` samples expr: volumes ("auto", "gpu" or "cpu"); `more` (fits, fits_refusal,
     map_files) goes to open_volume."""
     from ..volumes import open_volume
+    from ..volumes.reading import maps_within
     names = ("dims", "dtype", "endian", "spacing", "time", "series", "resolution", "inside")
     options = {name: getattr(args, name) for name in names}
     if isinstance(options["time"], TimeRange):
@@ -80,6 +81,8 @@ def open_volume_from_args(spec: str, args: argparse.Namespace, progress: Progres
     if options["spacing"] is not None:
         _checked_spacing(options["spacing"], None, "--spacing")  # before a big file is read
     # finish_volume holds the spacing (the header's, or --spacing) to the same rule against the shape.
+    if maps_within(spec, getattr(args, "memory_budget", None)):
+        more.setdefault("map_files", True)   # a file over --memory-budget is not read whole into memory
     return open_volume(spec, progress=progress, backend=backend, **options, **more)
 
 

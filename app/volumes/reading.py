@@ -22,6 +22,16 @@ SLAB_BYTES = 32 << 20  # per read: big enough to be fast, small enough for a mov
 MAP_BYTES = 256 << 20  # .npy and raw files this big are memory-mapped, not read: they may not fit in memory
 
 
+def maps_within(spec, budget_bytes: int | None) -> bool:
+    """Whether to memory-map `spec` (a raw file or a C-ordered .npy) rather than read it, for a viewer whose memory
+    budget is `budget_bytes`: where the file takes more than half the budget, reading it whole would spend
+    the budget before a surface is made (a volume over it is shown in bricks, read a block at a time)."""
+    import os
+    if budget_bytes is None or not isinstance(spec, str) or not os.path.isfile(spec):
+        return False
+    return os.path.getsize(spec) > budget_bytes // 2
+
+
 def read_in_slabs(read, shape, axis: int, what: str, progress: Progress | None) -> np.ndarray:
     """A new array filled by read(index) over slabs along one axis, reporting progress.
 

@@ -129,3 +129,25 @@ def test_map_files_maps_a_small_c_ordered_npy_and_reads_a_fortran_one(tmp_path, 
     read = open_volume(str(tmp_path / "fortran.npy"), map_files=True)
     assert not isinstance(read.data.base, np.memmap)
     np.testing.assert_array_equal(read.data, field)
+
+
+def test_a_file_over_half_the_viewer_s_budget_is_mapped_not_read(tmp_path, field):
+    """The window (--memory-budget) and the panel's Open map a C-ordered .npy that takes more than half the
+    budget, as export does, instead of reading it whole before the bricks read it a block at a time; a file
+    well within the budget is still read."""
+    import argparse
+
+    from isoscope.cli.volume_options import open_volume_from_args
+    from isoscope.core.budget import MemoryBudget
+    from isoscope.viewer.model.opening import read_for_viewer
+
+    np.save(tmp_path / "field.npy", field)
+    path = str(tmp_path / "field.npy")
+    size = (tmp_path / "field.npy").stat().st_size
+    names = ("dims", "dtype", "endian", "spacing", "time", "series", "resolution", "inside")
+    for budget, mapped in ((size, True), (4 * size, False)):
+        args = argparse.Namespace(**dict.fromkeys(names), memory_budget=budget)
+        assert isinstance(open_volume_from_args(path, args).data.base, np.memmap) is mapped
+        opened = read_for_viewer(open_volume, path, {}, MemoryBudget(budget, "--memory-budget"))
+        assert isinstance(opened.volume.data.base, np.memmap) is mapped
+        np.testing.assert_array_equal(opened.volume.data, field)

@@ -8,6 +8,7 @@ from typing import NamedTuple
 
 from ...core.budget import MemoryBudget
 from ...volumes import Volume, open_volume
+from ...volumes.reading import maps_within
 from .big_volume import downsampled
 from .jobs import Response
 from .scene_file import is_scene_file, read_scene, volume_spec
@@ -26,6 +27,8 @@ def read_for_viewer(opener, spec: str, open_options: dict, budget: MemoryBudget,
                     progress=None) -> Opened:
     """Read `spec` with `opener` (open_volume's signature) and downsample it if it is over `budget` or (where
     `refusal(shape)` says why) more than the extractor here can hold (big_volume.downsampled)."""
+    if maps_within(spec, budget.bytes):   # a file over the budget is not read whole into memory
+        open_options = {"map_files": True, **open_options}
     volume = opener(spec, progress=progress, **open_options)
     shown, step = downsampled(volume, budget, refusal)
     return Opened(spec, volume, shown, step)
