@@ -5,7 +5,8 @@
 
 Each mode (mip, minip, mean, iso, dvr) and the plain mesh drawn by the headless viewer (the `render`
 path: the same shaders as the window) with the camera turning a little every frame, so no frame repeats
-the last, at rest and as the window draws while the view moves (a ray per 2x2 pixels, stretched): the
+the last, at rest and as the window draws while the view moves (a ray per 2x2, 3x3 or 4x4 pixels as the
+frame times measured say, stretched, and a step twice as long, model/raycast.py): the
 median and 90th percentile of whole frames (drawing and reading back the pixels), after one warm-up frame
 that uploads the volume and compiles the mode's program.  Volumes: the MNI T1 template
 (nilearn's wheel ships it: 197x233x189 uint8) and the 512x512x400 int16 CT-like torso of volumes.py.
