@@ -11,14 +11,16 @@ those words with bit operations, and only the cells the surface cuts do per-cell
                    level cuts.
 2. `_count_plane`  per word: the crossing edges it owns, one bit mask per axis (the XOR of a word and
                    its neighbour along the axis), and the triangles of its cut cells (the case table's
-                   counts).
+                   counts); whether it has any (`busy`: pass 4 passes over the rest, 78% of an MRI's words
+                   at 128).  A word whose neighbourhood is all on one side is known without the counting.
 3. `_scan`         the exclusive prefix sums of the counts in the GPU's order of the words (brick,
                    then word in brick: cubes.py's docstring), so each word's vertices and triangles
                    start where the GPU puts them.
 4. `_write_cubes`  per word: its vertices (axis 0, 1, 2, each by k) and its triangles (by k, then the
    (`_write` for   table's order) at its offsets; a triangle finds the vertex of an edge from the owning
    tetrahedra)     word's offset and a population count of the edge mask below the edge's bit.  Cubes
-                   take each sample's gradient once, from planes of gradients.
+                   take each sample's gradient once, from planes of gradients
+                   (packed: only the samples an edge ends at).
 
 Passes 1 and 2 run in one parallel launch (`_pack_and_count`), 4 in another, each over runs of planes of
 axis 0 that the threads take in turn (so a thread the machine holds back leaves its runs to the others);
@@ -233,10 +235,15 @@ def _write(flat, swap, layout, sign, level, spacing, steps, signs, edges, vertex
 
 
 @_cached_njit(inline="always", error_model="numpy")
-def _plane_gradients(flat, swap, grid, sign, spacing, edges, i, grads):
-    """grads[j, k] = the gradient (_gradient) at each sample (i, j, k) a crossing edge ends at: the plane's
-    own edges (both ends) and the axis-0 edges of plane i - 1.  Cubes' edges only."""
+def _plane_gradients(flat, swap, grid, sign, spacing, edges, i, grads, index):
+    """The gradient (_gradient) at each sample (i, j, k) a crossing edge ends at (the plane's own edges, both
+    ends, and the axis-0 edges of plane i - 1), packed: index[j, w, 0] holds the samples of word (j, w) that
+    have one (a bit mask), index[j, w, 1] the row of grads its first one is in (_gradient_row); the rest
+    follow in order.  A plane's few gradients then lie together in a few kilobytes, where a full plane
+    (n1 x n2 x 12 bytes, half a megabyte for an MRI) took from the cache the samples the next plane reads
+    again.  Cubes' edges only."""
     n1, nw = edges.shape[1], edges.shape[2]
+    row = 0
     for j in range(n1):
         carry = np.int64(0)  # the end of the last word's edge at bit 31 along axis 2
         for w in range(nw):
@@ -247,14 +254,24 @@ def _plane_gradients(flat, swap, grid, sign, spacing, edges, i, grads):
                 need |= np.int64(edges[i - 1, j, w, 0])
             if j > 0:
                 need |= np.int64(edges[i, j - 1, w, 1])
+            index[j, w, 0] = need
+            index[j, w, 1] = row
             k0 = w * WORD_BITS
             while need:
                 k = k0 + _lowest_bit(need)
                 need &= need - 1
                 g0, g1, g2 = _gradient(flat, swap, grid, sign, i, j, k, spacing)
-                grads[j, k, 0] = g0
-                grads[j, k, 1] = g1
-                grads[j, k, 2] = g2
+                grads[row, 0] = g0
+                grads[row, 1] = g1
+                grads[row, 2] = g2
+                row += 1
+
+
+@_cached_njit(inline="always", error_model="numpy")
+def _gradient_row(index, j, k):
+    """The row of a plane's packed gradients (_plane_gradients) that holds sample (j, k)'s."""
+    w = k >> 5
+    return index[j, w, 1] + _popcount(index[j, w, 0] & _low_bits(k & (WORD_BITS - 1)))
 
 
 @_cached_njit(inline="always", error_model="numpy")
@@ -301,20 +318,21 @@ def _edge_spread(grid, i, j, k, axis, before, here):
 
 
 @_cached_njit(inline="always", error_model="numpy")
-def _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, axis, starts, ends, end_row, verts,
-                   normals, values, spreads, spreads_before, spreads_here):
+def _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, axis, starts, starts_index, ends,
+                   ends_index, end_row, verts, normals, values, spreads, spreads_before, spreads_here):
     """The vertices of word (i, j, w)'s edges along `axis` from row n on, their gradients from the planes
-    of gradients (starts[j, k] at an edge's start, ends[end_row, k or k + 1] at its end); returns the next
-    row.  With `spreads`, values[n] is scikit-image's (_edge_spread, from the planes of cell spreads of planes
-    i - 1 and i), not the level."""
+    of gradients (_plane_gradients: `starts` at (j, k), an edge's start, `ends` at (end_row, k or k + 1), its
+    end); returns the next row.  With `spreads`, values[n] is scikit-image's (_edge_spread, from the planes of
+    cell spreads of planes i - 1 and i), not the level."""
     bits = np.int64(edges[i, j, w, axis])
     d2 = 1 if axis == 2 else 0
     while bits:
         k = w * WORD_BITS + _lowest_bit(bits)
+        a = _gradient_row(starts_index, j, k)
+        b = _gradient_row(ends_index, end_row, k + d2)
         _vertex_between(flat, swap, grid, sign, level, spacing, i, j, k, 1 if axis == 0 else 0,
-                        1 if axis == 1 else 0, d2, starts[j, k, 0], starts[j, k, 1], starts[j, k, 2],
-                        ends[end_row, k + d2, 0], ends[end_row, k + d2, 1], ends[end_row, k + d2, 2], verts, normals,
-                        values, n)
+                        1 if axis == 1 else 0, d2, starts[a, 0], starts[a, 1], starts[a, 2], ends[b, 0], ends[b, 1],
+                        ends[b, 2], verts, normals, values, n)
         if spreads:
             values[n] = _edge_spread(grid, i, j, k, axis, spreads_before, spreads_here)
         bits &= bits - 1
@@ -323,16 +341,17 @@ def _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, ax
 
 
 @_cached_njit(parallel=True, error_model="numpy")
-def _write_cubes(flat, swap, layout, sign, level, spacing, signs, edges, vertex_offsets, triangle_offsets, table_counts,
-                 corners, row_owner, workers, starts, taken, verts, faces, normals, values, spreads, spread_level,
-                 triangles=True):
+def _write_cubes(flat, swap, layout, sign, level, spacing, signs, edges, vertex_offsets, triangle_offsets, busy,
+                 table_counts, corners, row_owner, workers, starts, taken, verts, faces, normals, values, spreads,
+                 spread_level, triangles=True):
     """Pass 4 for cubes: _write's mesh, each sample's gradient computed once (not once per edge that ends
     there) into a plane of gradients, two planes held at a time.  The planes go in runs (starts[r] to
     starts[r + 1]) to `workers` threads, each taking the next run not yet taken (taken[0], reset to 0 by the
     caller) when it is done with one: a thread the machine holds back leaves its runs to the other.  With
     `spreads`, the values are scikit-image's at `spread_level` (_edge_spread), from two planes of cell
     spreads (_plane_spreads) made alongside the planes of gradients.  Without `triangles`, the vertices only
-    (the trilinear topology writes its triangles in a pass of its own, compiled_trilinear.py)."""
+    (the trilinear topology writes its triangles in a pass of its own, compiled_trilinear.py).  Words that
+    are not `busy` (pass 2: no vertex, no triangle; most of a volume's) are passed over."""
     n0, n1, nw = signs.shape
     n2 = layout[6]
     rows = row_owner.shape[0]
@@ -344,35 +363,43 @@ def _write_cubes(flat, swap, layout, sign, level, spacing, signs, edges, vertex_
         cells = n1 * n2 if spreads else 1
         spreads_here = np.empty(cells, np.float32).reshape((n1, n2) if spreads else (1, 1))  # of cells (i, j, k)
         spreads_before = np.empty_like(spreads_here)  # and of cells (i - 1, j, k)
-        here = np.empty((n1, n2, 3), np.float32)  # the gradients of plane i
-        after = np.empty((n1, n2, 3), np.float32)  # and of plane i + 1
+        here = np.empty((n1 * n2, 3), np.float32)  # the gradients of plane i (_plane_gradients)
+        after = np.empty((n1 * n2, 3), np.float32)  # and of plane i + 1
+        here_index = np.empty((n1, nw, 2), np.int64)
+        after_index = np.empty((n1, nw, 2), np.int64)
         while True:
             run = _take(taken)
             if run >= starts.shape[0] - 1:
                 break
             if starts[run] < starts[run + 1]:
-                _plane_gradients(flat, swap, grid, sign, spacing, edges, starts[run], here)
+                _plane_gradients(flat, swap, grid, sign, spacing, edges, starts[run], here, here_index)
                 if spreads and starts[run] > 0:
                     _plane_spreads(flat, swap, grid, signs, starts[run] - 1, spread_level, spreads_here)
             for i in range(starts[run], starts[run + 1]):
                 if i + 1 < n0:
-                    _plane_gradients(flat, swap, grid, sign, spacing, edges, i + 1, after)
+                    _plane_gradients(flat, swap, grid, sign, spacing, edges, i + 1, after, after_index)
                 if spreads:
                     spreads_here, spreads_before = spreads_before, spreads_here
                     _plane_spreads(flat, swap, grid, signs, i, spread_level, spreads_here)
                 for j in range(n1):
                     for w in range(nw):
+                        if not busy[i, j, w]:
+                            continue
                         n = vertex_offsets[i, j, w]
-                        n = _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, 0, here, after,
-                                           j, verts, normals, values, spreads, spreads_before, spreads_here)
-                        n = _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, 1, here, here,
-                                           j + 1, verts, normals, values, spreads, spreads_before, spreads_here)
-                        n = _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, 2, here, here,
-                                           j, verts, normals, values, spreads, spreads_before, spreads_here)
+                        n = _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, 0, here,
+                                           here_index, after, after_index, j, verts, normals, values, spreads,
+                                           spreads_before, spreads_here)
+                        n = _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, 1, here,
+                                           here_index, here, here_index, j + 1, verts, normals, values, spreads,
+                                           spreads_before, spreads_here)
+                        n = _axis_vertices(flat, swap, grid, sign, level, spacing, edges, i, j, w, n, 2, here,
+                                           here_index, here, here_index, j, verts, normals, values, spreads,
+                                           spreads_before, spreads_here)
                         if triangles:
                             _word_triangles(signs, edges, vertex_offsets, triangle_offsets, table_counts, corners,
                                             row_owner, i, j, w, n2, masks, firsts, faces, True)
                 here, after = after, here
+                here_index, after_index = after_index, here_index
 
 
 def code_rows(codes):
@@ -440,6 +467,7 @@ class CompiledCubes:
         self._edges = np.empty((n0, n1, nw, len(self._steps)), np.uint32)
         self._vertex_offsets = np.empty((n0, n1, nw), np.int32)
         self._triangle_offsets = np.empty((n0, n1, nw), np.int32)
+        self._busy = np.empty((n0, n1, nw), np.bool_)  # the words with vertices or triangles (pass 2)
         self._plane_work = np.empty(n0, np.int64)
         self.runs = None  # the runs of planes pass 4 hands to the threads; None: RUNS_PER_THREAD a thread
         self._taken = np.zeros(2, np.int64)  # the runs taken: in pass 4, in passes 1 and 2
@@ -520,8 +548,8 @@ class CompiledCubes:
                                measure, los, his, nans)
         _pack_and_count(flat, swap, grid, not along_0, self.sign, level, lows, highs, ranged, self._signs,
                         self._steps, self._counts, self._edges, self._vertex_offsets, self._triangle_offsets,
-                        self._plane_work, workers, self._plane_runs(workers), self._taken[1:], measure, los, his,
-                        nans)
+                        self._busy, self._plane_work, workers, self._plane_runs(workers), self._taken[1:], measure,
+                        los, his, nans)
         if measure:
             lo, hi = float(los.min()), float(his.max())
             finite = not nans.any() and np.isfinite(lo) and np.isfinite(hi)
@@ -545,9 +573,9 @@ class CompiledCubes:
         verts, faces, normals, values = self._output_arrays(n_vertices, n_triangles)
         if self._steps is CUBE_STEPS:
             _write_cubes(flat, swap, grid, self.sign, level, self.spacing, self._signs, self._edges,
-                         self._vertex_offsets, self._triangle_offsets, self._counts, self._corners, self._row_owner,
-                         workers, self._runs(workers), self._taken, verts, faces, normals, values, skimage_values,
-                         user_level)
+                         self._vertex_offsets, self._triangle_offsets, self._busy, self._counts, self._corners,
+                         self._row_owner, workers, self._runs(workers), self._taken, verts, faces, normals, values,
+                         skimage_values, user_level)
         else:
             _write(flat, swap, grid, self.sign, level, self.spacing, self._steps, self._signs, self._edges,
                    self._vertex_offsets, self._triangle_offsets, self._counts, self._corners, self._row_owner,

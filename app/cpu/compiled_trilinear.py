@@ -197,7 +197,7 @@ class CompiledTrilinear(CompiledCubes):
         self._check_size(n_edge_vertices + n_own, n_triangles, user_level)
         verts, faces, normals, values = self._output_arrays(n_edge_vertices + n_own, n_triangles)
         _write_cubes(flat, swap, grid, self.sign, level, self.spacing, self._signs, self._edges, self._vertex_offsets,
-                     self._triangle_offsets, self._counts, self._corners, self._row_owner, workers,
+                     self._triangle_offsets, self._busy, self._counts, self._corners, self._row_owner, workers,
                      self._runs(workers), self._taken, verts, faces, normals, values, False, user_level, False)
         _write(flat, swap, grid, self.sign, level64, self._signs, self._edges, self._vertex_offsets,
                self._triangle_offsets, self._own_offsets, n_edge_vertices, self._keys_counts, self._codes, self._own,

@@ -276,11 +276,30 @@ def _pack_rows_along_0(flat, swap, grid, sign, level, lows, highs, ranged, signs
             nans[block] = nan
 
 
+@_cached_njit(inline="always", error_model="numpy")
+def _uniform(signs, i, j, w, s, full):
+    """Whether word (i, j, w) (its bits s, `full` those of a word all inside) and the words after it along
+    axes 0 and 1 and both are all inside or all outside, and so is the first sample of the next word of
+    each: no edge, no cut cell (most of a volume's words; pass 2 then writes zeros and goes on).  False on
+    the last plane and row (their words' neighbours are missing)."""
+    n0, n1, nw = signs.shape
+    if i + 1 >= n0 or j + 1 >= n1 or (s != 0 and s != full):
+        return False
+    if np.int64(signs[i + 1, j, w]) != s or np.int64(signs[i, j + 1, w]) != s or np.int64(signs[i + 1, j + 1, w]) != s:
+        return False
+    if w + 1 == nw:
+        return True
+    bit = s & 1
+    return ((np.int64(signs[i, j, w + 1]) & 1) == bit and (np.int64(signs[i + 1, j, w + 1]) & 1) == bit
+            and (np.int64(signs[i, j + 1, w + 1]) & 1) == bit and (np.int64(signs[i + 1, j + 1, w + 1]) & 1) == bit)
+
+
 @_cached_njit(error_model="numpy")
-def _count_plane(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts, plane_work, i):
+def _count_plane(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts, busy, plane_work, i):
     """Pass 2 on plane i: per word, the crossing-edge masks (edges[i, j, w, kind]: the edges from its samples
-    to the samples steps[kind] away), its vertex count and triangle count; an estimate of pass 4's time
-    on the plane (WORK_* units).  Three steps must be the axes in order (CUBE_STEPS)."""
+    to the samples steps[kind] away), its vertex count and triangle count, whether it has either (busy: pass 4
+    passes over the others, most of a volume's words); an estimate of pass 4's time on the plane (WORK_*
+    units).  Three steps must be the axes in order (CUBE_STEPS)."""
     n0, n1, nw = signs.shape
     axes_only = steps.shape[0] == 3
     work = n1 * nw * WORK_WORD
@@ -290,6 +309,14 @@ def _count_plane(signs, n2, steps, table_counts, edges, vertex_counts, triangle_
             s = np.int64(signs[i, j, w])
             # Edges with a step along axis 2 end in the row: the last sample owns none.
             along2 = _low_bits(min(WORD_BITS, n2 - 1 - k0))
+            if axes_only and _uniform(signs, i, j, w, s, _low_bits(min(WORD_BITS, n2 - k0))):
+                edges[i, j, w, 0] = 0
+                edges[i, j, w, 1] = 0
+                edges[i, j, w, 2] = 0
+                vertex_counts[i, j, w] = 0
+                triangle_counts[i, j, w] = 0
+                busy[i, j, w] = False
+                continue
             if axes_only:  # cubes (steps the three axes, in order): unrolled, 40% of this pass's time
                 e0 = s ^ np.int64(signs[i + 1, j, w]) if i + 1 < n0 else 0
                 e1 = s ^ np.int64(signs[i, j + 1, w]) if j + 1 < n1 else 0
@@ -320,13 +347,15 @@ def _count_plane(signs, n2, steps, table_counts, edges, vertex_counts, triangle_
                     cut &= cut - 1
                     triangles += table_counts[_case(k, a, b, c, d, a1, b1, c1, d1)]
             triangle_counts[i, j, w] = triangles
+            busy[i, j, w] = vertices + triangles > 0
             work += vertices * WORK_VERTEX + triangles * WORK_TRIANGLE
     plane_work[i] = work
 
 
 @_cached_njit(parallel=True, error_model="numpy")
 def _pack_and_count(flat, swap, layout, pack, sign, level, lows, highs, ranged, signs, steps, table_counts, edges,
-                    vertex_counts, triangle_counts, plane_work, workers, starts, taken, measure, los, his, nans):
+                    vertex_counts, triangle_counts, busy, plane_work, workers, starts, taken, measure, los, his,
+                    nans):
     """Passes 1 and 2 in one launch (one wait for the threads, not two), over runs of planes (starts[r] to
     starts[r + 1]) taken in turn by `workers` threads (taken[0], reset to 0 by the caller): a run packs its
     planes and the plane after it, then counts its planes.  That next plane's words are packed twice, by
@@ -344,7 +373,8 @@ def _pack_and_count(flat, swap, layout, pack, sign, level, lows, highs, ranged, 
                 for i in range(starts[run], min(starts[run + 1] + 1, n0)):
                     _pack_plane(flat, swap, grid, sign, level, lows, highs, ranged, signs, i, measure, los, his, nans)
             for i in range(starts[run], starts[run + 1]):
-                _count_plane(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts, plane_work, i)
+                _count_plane(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts, busy, plane_work,
+                             i)
 
 
 @_cached_njit(error_model="numpy")
