@@ -118,7 +118,7 @@ def rays_note(state) -> str | None:
             "the surfaces, not the rays)")
 
 
-MIN_RAY_SPACING, MAX_RAY_SPACING = 2, 4
+MIN_RAY_SPACING, MAX_RAY_SPACING = 2, 5
 """While the view moves, one ray per N x N pixels, N in this range (N = 1: the whole picture, at rest)."""
 MOVING_TARGET_MS = 100.0
 """What a frame with rays may take while the view moves (then the picture is stretched from fewer rays)."""

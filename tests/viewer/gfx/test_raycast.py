@@ -573,9 +573,9 @@ def test_translucent_surfaces_blend_over_the_volume_and_every_entry_draws_the_sa
     assert np.abs(api([0.7], [1.0], with_surfaces=False) - core_only).max() > 30
 
 
-@pytest.mark.parametrize("spacing", [3, 4])
+@pytest.mark.parametrize("spacing", [3, 4, 5])
 def test_sparser_rays_while_moving_are_still_the_full_picture_stretched(viewer, spacing):
-    """A ray per 3x3 or 4x4 pixels (the window's spacing when 2x2 frames are slow): the picture to within its
+    """A ray per 3x3, 4x4 or 5x5 pixels (the window's spacing when 2x2 frames are slow): the picture to within its
     wider blur, the background untouched outside the box."""
     viewer.show(as_volume(nested()), 0.2)
     full = picture(viewer, "mip")
@@ -584,12 +584,12 @@ def test_sparser_rays_while_moving_are_still_the_full_picture_stretched(viewer, 
     coarse = viewer.target.read_rgb().astype(int)
     assert np.abs(coarse - full).mean() < 2 * spacing, np.abs(coarse - full).mean()
     assert (coarse[0, 0] == BACKGROUND).all() and (coarse[-1, -1] == BACKGROUND).all()
-    assert white(coarse) > 0.5 * white(full) > 50
+    assert white(coarse) > (0.5 if spacing < 5 else 0.4) * white(full) > 50   # 5x5 blurs more of the core
 
 
 def test_the_window_spaces_its_moving_rays_by_the_frames_measured(gl_ctx):
     """With previews (the window), a moving ray-cast frame that took longer than the target makes the next ones
-    sparser, up to 4x4 pixels a ray; fast ones make them finer again; frames at rest or without rays count for
+    sparser, up to 5x5 pixels a ray; fast ones make them finer again; frames at rest or without rays count for
     nothing."""
     from isoscope.viewer.model.raycast import MAX_RAY_SPACING, MIN_RAY_SPACING, MOVING_TARGET_MS
     viewer = HeadlessViewer(SIZE, ctx=gl_ctx, previews=True)
@@ -606,9 +606,10 @@ def test_the_window_spaces_its_moving_rays_by_the_frames_measured(gl_ctx):
             app.draw(viewport, moving=True)
             app.follow(seconds)
             spacings.append(app.rays.spacing)
-        assert spacings == [3, 4, MAX_RAY_SPACING, 4, 3, 2], spacings
+        # 70 ms at 5x5 would take 109 at 4x4: it stays; 40 ms would take 62 at 4x4, then 40 at 4x4 71 at 3x3
+        assert spacings == [3, 4, MAX_RAY_SPACING, MAX_RAY_SPACING, 4, 3] and MAX_RAY_SPACING == 5, spacings
         app.draw(viewport)                              # at rest: a ray a pixel, not recorded
         app.follow(1.0)
-        assert app.rays.spacing == MIN_RAY_SPACING
+        assert app.rays.spacing == 3
     finally:
         viewer.release()
