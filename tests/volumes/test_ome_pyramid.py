@@ -140,7 +140,7 @@ def test_over_the_budget_a_level_is_shown_in_bricks_only_where_its_factor_is_who
     budget = MemoryBudget(1 << 20, "test")   # level 0 (64^3 float32) needs 2 MiB to show whole
     shown, step = downsampled(volume, budget)
     np.testing.assert_array_equal(shown.data, np.asarray(zarr.open_group(str(path), mode="r")["1"]))
-    view = brick_view(volume, step, budget)
+    view = brick_view(volume, step, budget, shown)
     (note,) = [note for note in shown.notes if "a big volume" in note]
     assert "shown from its level '1'" in note
     if bricks:
@@ -168,4 +168,30 @@ def test_the_coarse_level_is_the_finest_that_takes_a_quarter_of_the_room_as_a_st
     memory = MemoryBudget(budget, "test")
     coarse, step = downsampled(volume, memory)
     np.testing.assert_array_equal(coarse.data, np.asarray(zarr.open_group(str(path), mode="r")[shown]))
-    assert step == 2 ** int(shown) and brick_view(volume, step, memory).layout.step == step
+    assert step == 2 ** int(shown) and brick_view(volume, step, memory, coarse).layout.step == step
+
+
+@pytest.mark.parametrize(("coarsest", "bricks"), [((2.0, 4.0, 4.0), False), ((4.0, 4.0, 4.0), True)])
+def test_under_the_gpu_s_limits_a_level_gets_bricks_only_where_they_fit_its_own_samples(tmp_path, coarsest, bricks):
+    """A GPU that holds only the coarsest level: a level of whole factor gets bricks (made on the CPU, which the
+    limits do not bound) and its note says so; one of (2, 4, 4) full samples is shown without them (bricks
+    planned at its first axis' factor, 2, put its triangles in the wrong bricks)."""
+    from isoscope.core.budget import MemoryBudget
+    from isoscope.viewer.model.big_volume import downsampled
+    from isoscope.viewer.model.bricks import brick_view
+    shape = tuple(int(64 / f) for f in coarsest)
+    path = write_pyramid(tmp_path / "p.ome.zarr", [(64, 64, 64), (32, 32, 32), shape],
+                         [(1.0,) * 3, (2.0,) * 3, coarsest])
+    volume = open_volume(str(path))
+    budget = MemoryBudget(512 << 20, "test")
+    refusal = lambda shape: "over the test's limit" if np.prod(shape) > 16 ** 3 * 2 else None   # noqa: E731
+    shown, step = downsampled(volume, budget, refusal)
+    assert shown.data.shape == shape
+    view = brick_view(volume, step, budget, shown)
+    (note,) = [note for note in shown.notes if "a big volume" in note]
+    assert "to fit this GPU's limits (over the test's limit)" in note
+    if bricks:
+        assert step == 4 and view is not None and view.layout.step == 4
+        assert "the bricks in view refined to full resolution from the full level within the memory budget" in note
+    else:
+        assert view is None and "bricks in view" not in note

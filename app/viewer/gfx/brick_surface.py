@@ -18,6 +18,7 @@ import numpy as np
 
 from ...big.chunked import edges_of
 from ...core.skirts import edge_keys, rim_of, skirt
+from ...gpu.context import is_software_renderer
 from ...gpu.memory import give_back_freed_memory
 from ...gpu.mesh import GpuMesh, OwnedMesh, vertex_records
 
@@ -134,8 +135,8 @@ class BrickSurface:
                 self._drop_skirt(index)
                 self._fine_skirts[index] = (across.tobytes(), _upload(self.ctx, skirt(mesh.rim.subset(~across),
                                                                                       depth)))
-        if taken:   # the bricks' arrays and their extraction's work arrays are gone: their pages too
-            give_back_freed_memory()
+        if taken and is_software_renderer(self.ctx):   # the bricks' arrays and their extraction's work arrays
+            give_back_freed_memory()   # are gone: their pages too, where they count in the budget (llvmpipe)
 
     def _drop_skirt(self, index) -> None:
         _, mesh = self._fine_skirts.pop(index, (None, None))

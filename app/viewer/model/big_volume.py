@@ -61,14 +61,15 @@ def downsampled(volume: Volume, budget: MemoryBudget, refusal=None) -> tuple[Vol
     fitting = [level for level in volume.pyramid   # finest first
                if _fitting_step(level.data.shape, level.data.dtype.itemsize, budget, volume.name, refusal)[0] == 1]
     factors = {level.name: level_factor(volume, level) for level in fitting}
-    bricked = [level for level in fitting if not limited and factors[level.name] is not None
-               and bricks_layout(volume, budget, factors[level.name]) is not None]
+    bricked = [level for level in fitting if factors[level.name] is not None   # a brick is made on the CPU: the
+               and bricks_layout(volume, budget, factors[level.name]) is not None]   # GPU's limits do not bound it
     room = budget.bytes * (1 - MESH_SHARE)   # as for every step-th sample: the coarse view a quarter of the room
     shared = [level for level in bricked if in_coarse_share(shape, itemsize, room, factors[level.name])]
     for level in (shared or bricked)[:1]:   # bricks: the level, then the bricks in view from the full one
+        within = f"{' to fit ' + reason if limited else ''}, the bricks in view refined to full resolution from " \
+                 f"the full level within the memory budget of {budget.text}"
         return from_level(volume, level, f"a big volume ({whole}): shown from its level {level.name!r} "
-                                         f"({_shape_text(level.data.shape)}), the bricks in view refined to full "
-                                         f"resolution from the full level within {reason}; {fix}")
+                                         f"({_shape_text(level.data.shape)}){within}; {fix}")
     if fitting:
         level = fitting[0]
         return from_level(volume, level, f"a big volume ({whole}): shown from its level {level.name!r} "

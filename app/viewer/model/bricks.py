@@ -211,13 +211,16 @@ class BrickView:
         self._asked = None
 
 
-def brick_view(full_volume: Volume | None, step: int, budget) -> BrickView | None:
+def brick_view(full_volume: Volume | None, step: int, budget, shown: Volume | None = None) -> BrickView | None:
     """The bricks of `full_volume` (a volume shown at every `step`-th sample, or from its pyramid level of
-    factor `step`) where big_volume.downsampled chose their layout's coarse view for it; None where the whole
-    is on show, or shown otherwise (a pyramid level of no whole factor, a series)."""
+    factor `step`: `shown`) where big_volume.downsampled chose their layout's coarse view for it; None where
+    the whole is on show, or shown otherwise (a pyramid level whose samples are not `step` full ones along
+    every axis, a series)."""
     if full_volume is None or step == 1:
         return None
     if full_volume.pyramid:
+        if shown is None or any(abs(a - f * step) > 1e-6 * a for a, f in zip(shown.spacing, full_volume.spacing)):
+            return None   # e.g. a level of (2, 4, 4) full samples: `step`, its first axis' factor, is not its own
         layout = bricks_layout(full_volume, budget, step=step)
     else:
         layout = bricks_layout(full_volume, budget, min_step=step)

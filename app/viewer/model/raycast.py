@@ -114,8 +114,8 @@ def rays_note(state) -> str | None:
     if shown == full:
         return None
     return (f"the volume is ray cast from {'x'.join(map(str, shown))} of {'x'.join(map(str, full))} samples, the "
-            f"coarse view that fits the memory budget of {state.budget.text} (its bricks at full resolution refine "
-            "the surfaces, not the rays)")
+            "coarse view on show (what the memory budget or the GPU's limits let in; its bricks at full resolution "
+            "refine the surfaces, not the rays)")
 
 
 MIN_RAY_SPACING, MAX_RAY_SPACING = 2, 5

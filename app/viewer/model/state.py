@@ -98,7 +98,7 @@ class ViewerState:
         """Put `volume` on show (the GPU side has taken it): one level at `level` (default: the volume's
         default level, else the middle of its value range), slices fitted, no label map or colour by."""
         self.volume, self.full_volume, self.step = volume, full_volume, step
-        self.bricks = brick_view(full_volume, step, self.budget)
+        self.bricks = brick_view(full_volume, step, self.budget, volume)
         self.label_hint = label_count_hint(volume.data)   # the panel offers "Show as labels"
         self.histogram = value_histogram(volume.data, volume.value_range)
         self.slices.fit(volume.data, volume.value_range)
