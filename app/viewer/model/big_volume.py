@@ -89,8 +89,8 @@ def downsampled(volume: Volume, budget: MemoryBudget, refusal=None) -> tuple[Vol
     layout = bricks_layout(volume, budget, min_step=step if limited else 1)
     if layout is not None:
         within = f"the memory budget of {budget.text}"
-        shown_at = f"to fit {reason}, " if limited else ""
-        note = (f"a big volume ({whole}): shown at one sample in {layout.step} along each axis {shown_at}the "
+        shown_at = f" to fit {reason}," if limited else ","
+        note = (f"a big volume ({whole}): shown at one sample in {layout.step} along each axis{shown_at} the "
                 f"bricks in view refined to full resolution within {within}; {fix}")
         return every_step(volume, layout.step, note), layout.step
     note = f"a big volume ({whole}): shown at one sample in {step} along each axis to fit {reason}; {fix}"

@@ -94,7 +94,7 @@ def test_a_skirt_folds_the_rim_down_keeping_the_orientation():
 def test_the_coarse_view_shows_at_once_and_says_so(viewer):
     state, scene = viewer.state, viewer.scene
     assert state.step == 2 and state.volume.data.shape == (80, 80, 80) and state.bricks is not None
-    assert any("bricks in view refined to full resolution" in note for note in state.volume.notes)
+    assert any("along each axis, the bricks in view refined to full resolution" in note for note in state.volume.notes)
     assert scene.stats.shown_shape == (80, 80, 80)
     assert state.bricks.text.startswith("0 of 27 bricks at full resolution")
 
