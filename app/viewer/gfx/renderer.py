@@ -32,12 +32,13 @@ WIRE_COLOR = (0.02, 0.02, 0.05)
 WIRE_OPACITY = 0.45
 COLORMAP_UNIT, SCALAR_UNIT = 3, 4   # texture units of a look's colour map and scalar volume
 
-SOFTWARE_DRAW_TRIANGLES = 1 << 14
-"""On a software renderer, the triangles drawn between two waits for its rasterizer (16,384).  llvmpipe bins
+SOFTWARE_DRAW_TRIANGLES = 1 << 16
+"""On a software renderer, the triangles drawn between two waits for its rasterizer (65,536).  llvmpipe bins
 each triangle drawn (~100-250 bytes of setup each) into scenes its threads then rasterize; the binning runs
 ahead, and a frame's scenes grow with what it draws and stay allocated: 0.93 M triangles at 1280x800 took
-154 MiB of RSS that no later frame gave back.  Waiting every 16,384 triangles keeps that to 6-10 MiB (640x480
-to 1280x800; 65,536: 11-16 MiB), at no cost in frame time measured (benchmarks/results-llvmpipe.md)."""
+154 MiB of RSS that no later frame gave back.  Waiting every 65,536 triangles keeps that to 11-16 MiB (640x480
+to 1280x800) for ~5% of a big frame's time: 1.17 M triangles at 1280x800, 432 ms median against 410 without
+waits; every 16,384 kept 6-10 MiB but took 866 ms (benchmarks/results-llvmpipe.md)."""
 
 # The 12 edges of a box as pairs of corner indices; corner i has bit k set when axis k is at `upper`.
 _BOX_EDGES = [(a, b) for a in range(8) for b in range(8) if a < b and bin(a ^ b).count("1") == 1]
