@@ -32,6 +32,7 @@ from ...core.budget import (
 from ...core.lazy_arrays import read_block
 from ...errors import IsoscopeError
 from ...volumes import Volume
+from ...volumes.volume import shape_text
 from .bricks import bricks_layout, level_factor
 from .errors import ViewerError, one_line
 
@@ -53,7 +54,7 @@ def downsampled(volume: Volume, budget: MemoryBudget, refusal=None) -> tuple[Vol
     if step == 1:
         return volume, 1
     limited = reason is not None   # by the GPU's limits, not the budget
-    whole = (f"{_shape_text(shape)}, {size_text(needed_bytes(shape, itemsize) / 0.75)} to show whole")
+    whole = (f"{shape_text(shape)}, {size_text(needed_bytes(shape, itemsize) / 0.75)} to show whole")
     fix = "--memory-budget SIZE changes it, 'Export full resolution...' writes the full mesh"
     if reason is not None:
         fix = "'Export full resolution...' writes the full mesh"
@@ -69,11 +70,11 @@ def downsampled(volume: Volume, budget: MemoryBudget, refusal=None) -> tuple[Vol
         within = f"{' to fit ' + reason if limited else ''}, the bricks in view refined to full resolution from " \
                  f"the full level within the memory budget of {budget.text}"
         return from_level(volume, level, f"a big volume ({whole}): shown from its level {level.name!r} "
-                                         f"({_shape_text(level.data.shape)}){within}; {fix}")
+                                         f"({shape_text(level.data.shape)}){within}; {fix}")
     if fitting:
         level = fitting[0]
         return from_level(volume, level, f"a big volume ({whole}): shown from its level {level.name!r} "
-                                         f"({_shape_text(level.data.shape)}) to fit {reason}{_no_bricks(volume)}; "
+                                         f"({shape_text(level.data.shape)}) to fit {reason}{_no_bricks(volume)}; "
                                          f"{fix}")
     if volume.pyramid:   # not even the coarsest level fits: every step-th sample of it
         coarsest = from_level(volume, volume.pyramid[-1])[0]
@@ -95,10 +96,6 @@ def downsampled(volume: Volume, budget: MemoryBudget, refusal=None) -> tuple[Vol
         return every_step(volume, layout.step, note), layout.step
     note = f"a big volume ({whole}): shown at one sample in {step} along each axis to fit {reason}; {fix}"
     return every_step(volume, step, note), step
-
-
-def _shape_text(shape) -> str:
-    return "x".join(map(str, shape))
 
 
 def _no_bricks(volume: Volume) -> str:

@@ -2,6 +2,7 @@
 The GL side is gfx/raycast.py and shaders/raycast.frag."""
 from __future__ import annotations
 
+from ...volumes.volume import shape_text
 from .errors import ViewerError
 
 RAYCAST_MODES = ("mip", "minip", "mean", "iso", "dvr")
@@ -113,7 +114,7 @@ def rays_note(state) -> str | None:
     shown, full = (tuple(volume.data.shape) for volume in (state.volume, state.full_volume))
     if shown == full:
         return None
-    return (f"the volume is ray cast from {'x'.join(map(str, shown))} of {'x'.join(map(str, full))} samples, the "
+    return (f"the volume is ray cast from {shape_text(shown)} of {shape_text(full)} samples, the "
             "coarse view on show (what the memory budget or the GPU's limits let in; its bricks at full resolution "
             "refine the surfaces, not the rays)")
 

@@ -15,6 +15,7 @@ from ...core.budget import requested_budget
 from ...errors import InputError
 from ...gpu.context import DRAWING_GL, current_or_standalone
 from ...volumes import Volume, open_volume
+from ...volumes.volume import shape_text
 from ..gfx.colorbar import draw_colorbar
 from ..gfx.renderer import OffscreenTarget
 from ..gfx.screenshot import save_png
@@ -260,7 +261,7 @@ def shown_note(viewer) -> str | None:
     shown, full = scene.stats.shown_shape, tuple(state.full_volume.data.shape)
     if shown is None or tuple(shown) == full:
         return None
-    text = (f"the surface is drawn from {'x'.join(map(str, shown))} of {'x'.join(map(str, full))} samples to fit "
+    text = (f"the surface is drawn from {shape_text(shown)} of {shape_text(full)} samples to fit "
             f"the memory budget of {state.budget.text}")
     return text + (f"; {state.bricks.text}" if state.bricks is not None and state.bricks.meshes else "")
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ...volumes import builtin_names
+from ...volumes.volume import shape_text
 from ..model.formats import level_format, level_text
 from ..model.hints import empty_level_hint
 from ..model.histogram import fraction_of, level_at
@@ -374,7 +375,7 @@ class Panel:
             imgui.text_colored(NOTE_COLOR, f"bricks     {state.bricks.text}")
         note = rays_note(state)
         if note is not None:
-            imgui.text_colored(NOTE_COLOR, f"rays       {'x'.join(map(str, state.volume.data.shape))} (coarse view)")
+            imgui.text_colored(NOTE_COLOR, f"rays       {shape_text(state.volume.data.shape)} (coarse view)")
             tooltip(note)
         if scene.stats.preview_step > 1:
             imgui.text_colored(NOTE_COLOR, f"preview at 1/{scene.stats.preview_step} resolution")
