@@ -219,7 +219,7 @@ def brick_view(full_volume: Volume | None, step: int, budget, shown: Volume | No
     if full_volume is None or step == 1:
         return None
     if full_volume.pyramid:
-        if shown is None or any(abs(a - f * step) > 1e-6 * a for a, f in zip(shown.spacing, full_volume.spacing)):
+        if shown is None or level_factor(full_volume, shown) != step:
             return None   # e.g. a level of (2, 4, 4) full samples: `step`, its first axis' factor, is not its own
         layout = bricks_layout(full_volume, budget, step=step)
     else:
@@ -230,11 +230,9 @@ def brick_view(full_volume: Volume | None, step: int, budget, shown: Volume | No
 def bricks_layout(volume: Volume, budget, step: int | None = None, min_step: int = 1) -> BrickLayout | None:
     """The brick layout of `volume` within `budget` (core/bricks.py brick_layout: its coarse view at `step`,
     else at `min_step` or coarser), or None where it is not shown in bricks: a series (each time point read
-    at the step), a budget below what one brick needs, a pyramid without a level whose whole factor
-    (level_factor) is `step` (its coarse view is that level, read whole)."""
-    if volume.time_points > 1:
-        return None
-    if volume.pyramid and (step is None or all(level_factor(volume, level) != step for level in volume.pyramid)):
+    at the step), a budget below what one brick needs, a pyramid without `step` (its coarse view is one of its
+    levels, read whole: the caller gives that level's whole factor, level_factor)."""
+    if volume.time_points > 1 or (volume.pyramid and step is None):
         return None
     try:
         return brick_layout(volume.data.shape, volume.data.dtype.itemsize, budget,
@@ -244,7 +242,8 @@ def bricks_layout(volume: Volume, budget, step: int | None = None, min_step: int
 
 
 def level_factor(volume: Volume, level) -> int | None:
-    """How many of `volume`'s samples one sample of its pyramid `level` spans, where that is one whole number
+    """How many of `volume`'s samples one sample of its pyramid `level` (a PyramidLevel, or the Volume shown from
+    one: its `spacing` and `data` are read) spans, where that is one whole number
     (2 or more) along all three axes and the level's shape agrees (n samples span the full level's m when
     |n f - m| <= f, as every f-th sample's or f^3 means'); else None: bricks need every coarse cell in one
     brick, and a brick's step one number."""
