@@ -26,10 +26,9 @@ def maps_within(spec, budget_bytes: int | None) -> bool:
     """Whether to memory-map `spec` (a raw file or a C-ordered .npy) rather than read it, for a viewer whose memory
     budget is `budget_bytes`: where the file takes more than half the budget, reading it whole would spend
     the budget before a surface is made (a volume over it is shown in bricks, read a block at a time)."""
-    import os
-    if budget_bytes is None or not isinstance(spec, str) or not os.path.isfile(spec):
+    if budget_bytes is None or not isinstance(spec, str) or not Path(spec).is_file():
         return False
-    return os.path.getsize(spec) > budget_bytes // 2
+    return Path(spec).stat().st_size > budget_bytes // 2
 
 
 def read_in_slabs(read, shape, axis: int, what: str, progress: Progress | None) -> np.ndarray:
