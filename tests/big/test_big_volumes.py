@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import zarr
+from support.ome_zarr import write_ome
 
 import isoscope
 from isoscope.core.lazy_arrays import is_lazy
@@ -34,20 +35,11 @@ def test_zarr_array_opens_lazily_with_its_values(tmp_path, field, zarr_format):
 def _ome(tmp_path, field, zarr_format, scale, leading=()):
     """An OME-Zarr image with two levels, its multiscales metadata written by hand (0.4 for v2, 0.5 for v3)."""
     path = tmp_path / "image.ome.zarr"
-    group = zarr.open_group(str(path), mode="w", zarr_format=zarr_format)
     axes = [{"name": n, "type": t} for n, t in (("t", "time"), ("c", "channel"))[:len(leading)]]
     axes += [{"name": n, "type": "space", "unit": "micrometer"} for n in "zyx"]
     full = field.reshape(leading + field.shape) if leading else field
-    datasets = []
-    for level, data in enumerate((full, full[..., ::2, ::2, ::2])):
-        group.create_array(str(level), shape=data.shape, chunks=data.shape[:-3] + (8, 8, 8), dtype="f4")[:] = data
-        factor = [1.0] * len(leading) + [s * 2 ** level for s in scale]
-        datasets.append({"path": str(level), "coordinateTransformations": [{"type": "scale", "scale": factor}]})
-    multiscales = [{"version": "0.4", "name": "image", "axes": axes, "datasets": datasets}]
-    if zarr_format == 2:
-        group.attrs["multiscales"] = multiscales
-    else:
-        group.attrs["ome"] = {"version": "0.5", "multiscales": multiscales}
+    scales = [[1.0] * len(leading) + [s * 2 ** level for s in scale] for level in range(2)]
+    write_ome(path, [full, full[..., ::2, ::2, ::2]], scales, axes, zarr_format)
     return path
 
 

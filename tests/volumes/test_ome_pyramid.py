@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import zarr
 from support.command import assert_one_line_error, isoscope_here
+from support.ome_zarr import write_ome
 
 from isoscope.errors import IsoscopeError
 from isoscope.viewer.model.bricks import level_factor
@@ -19,18 +20,9 @@ from isoscope.volumes import open_volume
 def write_pyramid(path, shapes, scales, missing=(), zarr_format=2):
     """An OME-Zarr image whose level i has `shapes[i]` (z, y, x) samples and scale `scales[i]` (as many values
     as axes); the levels in `missing` are named in the metadata but not written."""
-    group = zarr.open_group(str(path), mode="w", zarr_format=zarr_format)
     rng = np.random.default_rng(5)
-    datasets = []
-    for i, (shape, scale) in enumerate(zip(shapes, scales)):
-        if i not in missing:
-            group.create_array(str(i), shape=shape, chunks=(8,) * len(shape), dtype="f4")[:] = rng.random(shape, "f4")
-        datasets.append({"path": str(i), "coordinateTransformations": [{"type": "scale", "scale": list(scale)}]})
-    multiscales = [{"version": "0.4", "axes": [{"name": a, "type": "space"} for a in "zyx"], "datasets": datasets}]
-    if zarr_format == 2:
-        group.attrs["multiscales"] = multiscales
-    else:
-        group.attrs["ome"] = {"version": "0.5", "multiscales": multiscales}
+    levels = [None if i in missing else rng.random(shape, "f4") for i, shape in enumerate(shapes)]
+    write_ome(path, levels, scales, zarr_format=zarr_format, missing=missing)
     return path
 
 
@@ -126,6 +118,16 @@ def test_a_pyramid_whose_levels_disagree_or_are_missing_is_refused_in_one_line(t
     assert not (tmp_path / "bad.ply").exists()
 
 
+def shown_in_bricks(volume, budget, refusal=None):
+    """What the viewer shows of `volume` over `budget` (big_volume.downsampled, with the GPU's `refusal`): the
+    volume on show, its step, its bricks (model/bricks.brick_view, None without) and its "a big volume" note."""
+    from isoscope.viewer.model.big_volume import downsampled
+    from isoscope.viewer.model.bricks import brick_view
+    shown, step = downsampled(volume, budget, refusal)
+    (note,) = [note for note in shown.notes if "a big volume" in note]
+    return shown, step, brick_view(volume, step, budget, shown), note
+
+
 @pytest.mark.parametrize(("level_shape", "scale", "bricks"), [((32, 32, 32), 2.0, True), ((43, 43, 43), 1.5, False)])
 def test_over_the_budget_a_level_is_shown_in_bricks_only_where_its_factor_is_whole(tmp_path, level_shape, scale,
                                                                                    bricks):
@@ -133,15 +135,11 @@ def test_over_the_budget_a_level_is_shown_in_bricks_only_where_its_factor_is_who
     from the full level where one of its samples spans a whole number of the full level's, else the note says
     why there are none."""
     from isoscope.core.budget import MemoryBudget
-    from isoscope.viewer.model.big_volume import downsampled
-    from isoscope.viewer.model.bricks import brick_view
     path = write_pyramid(tmp_path / "p.ome.zarr", [(64, 64, 64), level_shape], [(1.0,) * 3, (scale,) * 3])
     volume = open_volume(str(path))
     budget = MemoryBudget(1 << 20, "test")   # level 0 (64^3 float32) needs 2 MiB to show whole
-    shown, step = downsampled(volume, budget)
+    shown, step, view, note = shown_in_bricks(volume, budget)
     np.testing.assert_array_equal(shown.data, np.asarray(zarr.open_group(str(path), mode="r")["1"]))
-    view = brick_view(volume, step, budget, shown)
-    (note,) = [note for note in shown.notes if "a big volume" in note]
     assert "shown from its level '1'" in note
     if bricks:
         assert step == 2 and view is not None and view.layout.step == 2
@@ -177,18 +175,14 @@ def test_under_the_gpu_s_limits_a_level_gets_bricks_only_where_they_fit_its_own_
     limits do not bound) and its note says so; one of (2, 4, 4) full samples is shown without them (bricks
     planned at its first axis' factor, 2, put its triangles in the wrong bricks)."""
     from isoscope.core.budget import MemoryBudget
-    from isoscope.viewer.model.big_volume import downsampled
-    from isoscope.viewer.model.bricks import brick_view
     shape = tuple(int(64 / f) for f in coarsest)
     path = write_pyramid(tmp_path / "p.ome.zarr", [(64, 64, 64), (32, 32, 32), shape],
                          [(1.0,) * 3, (2.0,) * 3, coarsest])
     volume = open_volume(str(path))
     budget = MemoryBudget(512 << 20, "test")
     refusal = lambda shape: "over the test's limit" if np.prod(shape) > 16 ** 3 * 2 else None   # noqa: E731
-    shown, step = downsampled(volume, budget, refusal)
+    shown, step, view, note = shown_in_bricks(volume, budget, refusal)
     assert shown.data.shape == shape
-    view = brick_view(volume, step, budget, shown)
-    (note,) = [note for note in shown.notes if "a big volume" in note]
     assert "to fit this GPU's limits (over the test's limit)" in note
     if bricks:
         assert step == 4 and view is not None and view.layout.step == 4

@@ -8,9 +8,9 @@ import time
 
 import numpy as np
 import pytest
-import zarr
 from support.brick_seams import chequer_seams
 from support.mesh_checks import edge_uses, triangles
+from support.ome_zarr import mean_levels, write_ome
 
 import isoscope
 from isoscope.core.bricks import brick_grid
@@ -32,16 +32,7 @@ def pyramid(tmp_path_factory):
     bumps = 0.03 * np.sin(k * x) * np.sin(k * y) * np.sin(k * z)
     data = (1.0 - np.sqrt(x * x + 1.3 * y * y + 0.8 * z * z) - bumps).astype(np.float32)
     path = tmp_path_factory.mktemp("pyramid") / "blob.ome.zarr"
-    group = zarr.open_group(str(path), mode="w", zarr_format=2)
-    datasets = []
-    for level in range(3):
-        group.create_array(str(level), shape=data.shape, chunks=(16, 16, 16), dtype="f4")[:] = data
-        datasets.append({"path": str(level), "coordinateTransformations": [
-            {"type": "scale", "scale": [0.5 * 2 ** level] * 3}]})
-        n = [s // 2 for s in data.shape]
-        data = data.reshape(n[0], 2, n[1], 2, n[2], 2).mean(axis=(1, 3, 5))
-    group.attrs["multiscales"] = [{"version": "0.4", "axes": [{"name": a, "type": "space"} for a in "zyx"],
-                                   "datasets": datasets}]
+    group = write_ome(path, mean_levels(data, 3), [[0.5 * 2 ** level] * 3 for level in range(3)], chunk=16)
     return path, [np.asarray(group[str(level)]) for level in range(3)]
 
 

@@ -143,18 +143,9 @@ def test_the_command_takes_a_budget_and_refuses_a_bad_one_in_one_line(tmp_path):
 def _pyramid(tmp_path, field, levels=3):
     """An OME-Zarr image (NGFF 0.4) whose levels are 2x2x2 means of the one above, as pyramid writers make
     them: not what striding the full level gives, so the level shown says where it was read from."""
-    import zarr
+    from support.ome_zarr import mean_levels, write_ome
     path = tmp_path / "pyramid.ome.zarr"
-    group = zarr.open_group(str(path), mode="w", zarr_format=2)
-    data, datasets = field, []
-    for level in range(levels):
-        group.create_array(str(level), shape=data.shape, chunks=(16, 16, 16), dtype="f4")[:] = data
-        datasets.append({"path": str(level), "coordinateTransformations": [
-            {"type": "scale", "scale": [0.5 * 2 ** level] * 3}]})
-        n = [s // 2 for s in data.shape]
-        data = data[: 2 * n[0], : 2 * n[1], : 2 * n[2]].reshape(n[0], 2, n[1], 2, n[2], 2).mean(axis=(1, 3, 5))
-    group.attrs["multiscales"] = [{"version": "0.4", "axes": [{"name": a, "type": "space"} for a in "zyx"],
-                                   "datasets": datasets}]
+    group = write_ome(path, mean_levels(field, levels), [[0.5 * 2 ** level] * 3 for level in range(levels)], chunk=16)
     return path, [np.asarray(group[str(level)]) for level in range(levels)]
 
 
