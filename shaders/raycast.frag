@@ -18,6 +18,12 @@
 // (MIP: no value above the largest so far; MinIP: none below; iso: all of it on the outside of the level;
 // DVR: all of it below the window) is left at its far face.  The clip plane, where there is one, cuts
 // the rays: iso draws the cut through the object flat, in the surface's colour.
+// BRICKED (a #define: a volume over the memory budget, model/ray_bricks.py): the box is the full volume's,
+// and where the brick of the full volume a point lies in is in the atlas (u_slots: its slot's first texel and
+// 1; gfx/ray_atlas.py) the samples are read there, at full resolution, else from the coarse view (u_volume);
+// the ray steps u_step there and u_coarse_steps times that in the coarse view (one lattice: the samples are
+// those of a ray at the full resolution's step, every u_coarse_steps-th where the view is coarse), and the
+// gradient is taken at the spacing of the samples read.  The skipping ranges hold what both may read.
 // What is drawn opaque before the rays (slices, opaque surfaces: u_depth, their depth) ends them there: a
 // ray stopped so shows iso's hit in front of it (the only mode that writes depth), DVR over it (premultiplied),
 // and MIP and mean over it as opaque as their value is bright in the window (MinIP: as it is dark), so what
@@ -28,7 +34,8 @@ uniform sampler3D u_volume;    // the samples as C-ordered bytes: texture x is a
 uniform sampler3D u_ranges;    // per brick (min, max) in values, C-ordered the same way (texelFetch .zyx)
 uniform sampler2D u_colormap;  // LUT x 1 RGBA
 uniform vec3 u_extent;         // the box's far corner: (shape - 1) x spacing; the near one is 0
-uniform vec3 u_shape;
+uniform vec3 u_texture_extent; // u_volume's far corner (the coarse view's where BRICKED, else u_extent)
+uniform vec3 u_shape;          // u_volume's samples along each axis
 uniform vec3 u_brick;          // a brick's size, model units: BRICK x spacing
 uniform vec3 u_bricks;         // bricks along each axis
 uniform sampler3D u_macro_ranges; // the same of macro bricks, MACRO x MACRO x MACRO bricks each (the last ones fewer)
@@ -62,6 +69,16 @@ uniform mat4 u_inverse;        // (u_projection u_view)^-1: a window depth back 
 uniform bool u_lighting;       // the meshes' lighting toggle (mesh.frag): off, colours as they are
 uniform mat4 u_view;
 uniform mat4 u_projection;
+#ifdef BRICKED
+uniform sampler3D u_atlas;     // the bricks at full resolution, a slot each, as u_volume (texture x: array axis 2)
+uniform sampler3D u_slots;     // per brick of the full volume: (its slot's first texel along the array's axes, 1)
+uniform vec3 u_atlas_shape;    // the atlas's texels along the array's axes
+uniform vec2 u_atlas_value_map; // as u_value_map, for the atlas's texels
+uniform vec3 u_fine_spacing;   // the full volume's spacing
+uniform float u_cells;         // cells a side of a brick
+uniform vec3 u_grid;           // bricks along each axis
+uniform float u_coarse_steps;  // steps of the ray's lattice per step in the coarse view
+#endif
 
 out vec4 frag_color;
 
@@ -69,9 +86,46 @@ out vec4 frag_color;
 
 const int MAX_STEPS = 8192;
 
+#ifdef BRICKED
+// The brick of the full volume p lies in: (its slot's first texel, 1) where it is in the atlas, else 0s.
+vec4 slot_at(vec3 p, out vec3 local) {
+    vec3 q = p / u_fine_spacing;
+    vec3 brick = clamp(floor(q / u_cells), vec3(0.0), u_grid - 1.0);
+    local = clamp(q - brick * u_cells, vec3(0.0), vec3(u_cells));
+    return texelFetch(u_slots, ivec3(brick).zyx, 0);
+}
+
+bool full_at(vec3 p) {
+    vec3 local;
+    return slot_at(p, local).w > 0.5;
+}
+#endif
+
 float value_at(vec3 p) {
-    vec3 texel = (p / max(u_extent, vec3(1e-30))) * (u_shape - 1.0) + 0.5;
+#ifdef BRICKED
+    vec3 local;
+    vec4 slot = slot_at(p, local);
+    if (slot.w > 0.5) {
+        vec3 texel = slot.xyz + local + 0.5;
+        return texture(u_atlas, (texel / u_atlas_shape).zyx).r * u_atlas_value_map.x + u_atlas_value_map.y;
+    }
+#endif
+    vec3 texel = (p / max(u_texture_extent, vec3(1e-30))) * (u_shape - 1.0) + 0.5;
     return texture(u_volume, (texel / u_shape).zyx).r * u_value_map.x + u_value_map.y;
+}
+
+vec3 spacing_at(vec3 p) {   // the spacing of the samples value_at reads at p
+#ifdef BRICKED
+    if (full_at(p)) return u_fine_spacing;
+#endif
+    return u_texture_extent / max(u_shape - 1.0, vec3(1.0));
+}
+
+float step_at(vec3 p) {   // the ray's step from p
+#ifdef BRICKED
+    if (!full_at(p)) return u_step * u_coarse_steps;
+#endif
+    return u_step;
 }
 
 float mapped(float v) {
@@ -155,7 +209,7 @@ void finish_depth(vec3 p) {   // iso: the depth of the hit, so later draws (tran
 }
 
 vec3 gradient_at(vec3 p) {
-    vec3 h = u_extent / max(u_shape - 1.0, vec3(1.0));
+    vec3 h = spacing_at(p);
     return vec3(value_at(p + vec3(h.x, 0, 0)) - value_at(p - vec3(h.x, 0, 0)),
                 value_at(p + vec3(0, h.y, 0)) - value_at(p - vec3(0, h.y, 0)),
                 value_at(p + vec3(0, 0, h.z)) - value_at(p - vec3(0, 0, h.z))) / (2.0 * h);
@@ -172,7 +226,7 @@ vec3 shaded(vec3 albedo, vec3 p, float v) {   // DVR: a sample lit across the gr
     if (!u_lighting) return albedo;   // unlit: no gradient to read
     // Forward differences from the sample's own value v: three reads more, not six (a voxel's light is no
     // sharper than its gradient: half a voxel's shift is not seen, the frame time is).
-    vec3 h = u_extent / max(u_shape - 1.0, vec3(1.0));
+    vec3 h = spacing_at(p);
     vec3 gradient = vec3(value_at(p + vec3(h.x, 0, 0)) - v, value_at(p + vec3(0, h.y, 0)) - v,
                          value_at(p + vec3(0, 0, h.z)) - v) / h;
     return length(gradient) <= u_gradient_floor ? albedo : lit(albedo, gradient / length(gradient), p);
@@ -261,7 +315,7 @@ void main() {
         }
         t_before = t;
 #elif defined(MODE_DVR)
-        float length_step = min(u_step, span.y - t + 1e-6);
+        float length_step = min(step_at(p), span.y - t + 1e-6);
         float alpha = 1.0 - exp(-u_density * opacity_of(v) * length_step);
         // A sample that adds under a 2048th of the pixel is left unlit: its light could not be told apart.
         float weight = transmitted * alpha;
@@ -270,7 +324,7 @@ void main() {
         transmitted *= 1.0 - alpha;
         if (transmitted < 0.004) break;
 #endif
-        t += u_step;
+        t += step_at(p);
     }
 #if defined(MODE_MIP) || defined(MODE_MINIP)
     // The ray's end too (the box's far face, the clip's cut, what is drawn opaque): the lattice stops up to a

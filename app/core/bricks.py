@@ -161,10 +161,14 @@ def _room(shape, itemsize: int, budget_bytes: float, software: bool, step: int |
 
 
 def plan_refinement(bricks, refined, eye, clip_matrix, room_bytes: int, bytes_per_sample: float,
-                    spacing=(1.0, 1.0, 1.0)) -> RefinementPlan:
+                    spacing=(1.0, 1.0, 1.0), cost=None) -> RefinementPlan:
     """Which `bricks` to have at full resolution for this camera (the module's docstring), given the indices
-    of those at full resolution now (`refined`) and `room_bytes` for them."""
+    of those at full resolution now (`refined`) and `room_bytes` for them; a brick takes `cost(brick)` bytes
+    where that is given (e.g. a fixed slot), else its samples at `bytes_per_sample`."""
     bricks = list(bricks)
+
+    def size_of(brick: Brick) -> int:
+        return cost(brick) if cost is not None else brick_bytes(brick, bytes_per_sample)
     refined = set(refined)
     near = distances(bricks, spacing, eye)
     visible = in_view(bricks, spacing, clip_matrix)
@@ -173,7 +177,7 @@ def plan_refinement(bricks, refined, eye, clip_matrix, room_bytes: int, bytes_pe
     for i in order:
         if not visible[i]:
             continue
-        size = brick_bytes(bricks[i], bytes_per_sample)
+        size = size_of(bricks[i])
         if used + size > room_bytes:
             break   # nearest first: a farther brick does not take the place of a nearer one
         wanted.append(bricks[i])
@@ -183,7 +187,7 @@ def plan_refinement(bricks, refined, eye, clip_matrix, room_bytes: int, bytes_pe
     for i in order:   # loaded before, not wanted now: kept while room is left, the nearest first
         brick = bricks[i]
         if brick.index in refined and brick.index not in chosen:
-            size = brick_bytes(brick, bytes_per_sample)
+            size = size_of(brick)
             if used + size <= room_bytes:
                 kept.append(brick)
                 used += size

@@ -12,22 +12,21 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ...core.value_ranges import MACRO, brick_ranges, coarser_ranges, widened
+from ...core.value_ranges import RANGE_BRICK as BRICK
 from ...resources import shader_source
 from ..model.colormaps import LUT_SIZE
+from ..model.raycast import texture_samples, texture_type
+from .ray_atlas import RayAtlas
 from .slices import colormap_rgba8
 
 TRANSFER_SIZE = 1024    # entries of the transfer function's opacity table over the value range
-BRICK = 8              # samples a side of the bricks whose (min, max) let rays skip empty space
-MACRO = 4              # bricks a side of the macro bricks a ray looks at first (empty space left in bigger steps)
 STEP_PER_SAMPLE = 0.5   # the ray's step: half the smallest sample spacing (no sample's peak is stepped over)
 COARSE = 2             # while the view moves: by default one ray per 2 x 2 pixels, stretched (a quarter of the work)
 MOVING_STEP = 2.0      # while the view moves: the ray's step this many times longer (iso bisects its hit all the same)
 DENSITY_PER_SAMPLE = 0.15   # DVR: extinction per sample spacing at the top of the ramp (a few samples' depth)
 GRADIENT_FLOOR = 1e-3   # DVR: a sample changing less than this part of the value range per spacing is unlit
 
-# dtype -> (moderngl texture dtype, what one unit of the normalised texel is worth)
-NORMALISED = {np.dtype(np.uint8): ("nu1", 255.0), np.dtype(np.uint16): ("nu2", 65535.0),
-              np.dtype(np.int8): ("ni1", 127.0), np.dtype(np.int16): ("ni2", 32767.0)}
 
 def _outward(triangles: np.ndarray) -> np.ndarray:
     """The unit cube's triangles, each wound counter-clockwise seen from outside (GL's front faces)."""
@@ -61,6 +60,7 @@ class RaycastRequest:
     value_range: tuple[float, float] = (0.0, 1.0)
     with_surfaces: bool = False          # the surfaces drawn too (opaque ones end the rays; renderer.py)
     lighting: bool = True                # iso's hits and DVR's samples lit as the meshes are (the panel's toggle)
+    bricks: object = None                # a volume over the budget: its rays' bricks (model/ray_bricks.py)
 
 
 @dataclass(frozen=True)
@@ -96,14 +96,18 @@ class VolumeRaycaster:
         self._transfer.repeat_x = self._transfer.repeat_y = False
         self._transfer.filter = (ctx.LINEAR, ctx.LINEAR)
         self._transfer_of = None
+        self._base_ranges = None         # the volume's bricks' (min, max), before the atlas's widen them
+        self._atlas: RayAtlas | None = None   # a volume over the budget: its bricks at full resolution
         self._coarse = None              # (framebuffer, colour texture, depth) of the moving view's picture
         self._upscale = None             # the program stretching it over the viewport
 
-    def _program(self, key: tuple[str, bool]):
-        """The program of (mode, whether the scene's depth is multisampled) and its vertex array."""
+    def _program(self, key: tuple[str, bool, bool]):
+        """The program of (mode, whether the scene's depth is multisampled, whether bricks are read at full
+        resolution) and its vertex array."""
         if key not in self._programs:
-            mode, multisampled = key
-            define = {f"MODE_{mode.upper()}": 1, **({"DEPTH_MULTISAMPLE": 1} if multisampled else {})}
+            mode, multisampled, bricked = key
+            define = {f"MODE_{mode.upper()}": 1, **({"DEPTH_MULTISAMPLE": 1} if multisampled else {}),
+                      **({"BRICKED": 1} if bricked else {})}
             program = self.ctx.program(vertex_shader=shader_source("raycast.vert"),
                                        fragment_shader=shader_source("raycast.frag", define))
             self._programs[key] = program
@@ -119,10 +123,11 @@ class VolumeRaycaster:
         ranges = brick_ranges(array, BRICK)
         macro_ranges = coarser_ranges(ranges, MACRO)
         self._bricks, self._macros = ranges.shape[:3], macro_ranges.shape[:3]
+        self._base_ranges = ranges
         self._ranges, self._macro_ranges = (self.ctx.texture3d(r.shape[2::-1], 2, np.ascontiguousarray(r).tobytes(),
                                                                dtype="f4") for r in (ranges, macro_ranges))
-        kind, unit = NORMALISED.get(array.dtype, ("f4", None))
-        array = np.ascontiguousarray(array if unit is not None else array.astype(np.float32, copy=False))
+        kind, unit = texture_type(array.dtype)
+        array = texture_samples(array)
         self._texture = self.ctx.texture3d(array.shape[::-1], 1, array.tobytes(), dtype=kind)
         self._texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)   # the trilinear interpolant
         self._texture.repeat_x = self._texture.repeat_y = self._texture.repeat_z = False
@@ -136,18 +141,36 @@ class VolumeRaycaster:
         Only iso writes depth (its hit), tested against what is drawn."""
         ctx = self.ctx
         self._upload(request.data)
+        atlas = self._follow_bricks(request.bricks)
         if request.colormap != self._lut_name:
             self._lut.write(colormap_rgba8(request.colormap).tobytes())
             self._lut_name = request.colormap
-        program, vao = self._program((request.mode, depth is not None and depth.multisampled))
+        program, vao = self._program((request.mode, depth is not None and depth.multisampled, atlas is not None))
         shape = np.array(request.data.shape, np.float64)
         spacing = np.array(request.spacing, np.float64)
-        extent = (shape - 1) * spacing
-        uniforms = {"u_extent": tuple(extent), "u_shape": tuple(shape), "u_eye": tuple(float(v) for v in eye),
-                    "u_step": float(STEP_PER_SAMPLE * step_scale * spacing.min()), "u_value_map": self._value_map,
+        extent = texture_extent = (shape - 1) * spacing
+        step = STEP_PER_SAMPLE * step_scale * spacing.min()
+        # DVR's extinction and its gradient floor are per sample spacing of the volume: of the full volume's where
+        # it is shown in bricks, so a picture keeps its opacity as its bricks come in full
+        unit = float(min(request.bricks.volume.spacing) if request.bricks is not None else spacing.min())
+        if atlas is not None:   # the full volume's box, stepped at its spacing where it is read in full
+            model = request.bricks
+            fine = np.array(model.volume.spacing, np.float64)
+            extent = (np.array(model.volume.data.shape, np.float64) - 1) * fine
+            step = STEP_PER_SAMPLE * step_scale * fine.min()
+            program["u_atlas_shape"].value = tuple(float(n) for n in atlas.shape)
+            program["u_atlas_value_map"].value = atlas.value_map
+            program["u_fine_spacing"].value = tuple(fine)
+            program["u_cells"].value = float(model.layout.cells)
+            program["u_grid"].value = tuple(float(n) for n in model.grid)
+            program["u_coarse_steps"].value = float(model.layout.step)
+            program["u_atlas"].value, program["u_slots"].value = 7, 8
+            atlas.use(7, 8)
+        uniforms = {"u_extent": tuple(extent), "u_texture_extent": tuple(texture_extent), "u_shape": tuple(shape),
+                    "u_eye": tuple(float(v) for v in eye), "u_step": float(step), "u_value_map": self._value_map,
                     "u_window": tuple(request.window), "u_level": float(request.level),
                     "u_inside": 1.0 if request.inside_above else -1.0,
-                    "u_density": float(DENSITY_PER_SAMPLE / spacing.min()), "u_front_color": tuple(request.color),
+                    "u_density": float(DENSITY_PER_SAMPLE / unit), "u_front_color": tuple(request.color),
                     "u_brick": tuple(BRICK * spacing), "u_bricks": tuple(float(n) for n in self._bricks),
                     "u_macro": tuple(MACRO * BRICK * spacing), "u_macros": tuple(float(n) for n in self._macros),
                     "u_macro_ranges": 6,
@@ -155,7 +178,7 @@ class VolumeRaycaster:
                     "u_transfer": 4, "u_transfer_on": 0.0 if request.transfer is None else 1.0,
                     "u_transfer_range": tuple(request.value_range),
                     "u_transfer_floor": transparent_below(request.transfer, request.value_range),
-                    "u_gradient_floor": float(GRADIENT_FLOOR * max(np.ptp(request.value_range), 1e-30) / spacing.min()),
+                    "u_gradient_floor": float(GRADIENT_FLOOR * max(np.ptp(request.value_range), 1e-30) / unit),
                     "u_lighting": bool(request.lighting), "u_depth": 5, "u_depth_on": 0.0 if depth is None else 1.0,
                     "u_depth_origin": (0.0, 0.0) if depth is None else tuple(depth.origin),
                     "u_depth_scale": (1.0, 1.0) if depth is None else tuple(depth.scale)}
@@ -188,6 +211,37 @@ class VolumeRaycaster:
         ctx.disable(ctx.CULL_FACE | ctx.BLEND)
         ctx.enable(ctx.DEPTH_TEST)
         ctx.cull_face = "back"
+
+    def _follow_bricks(self, model) -> RayAtlas | None:
+        """The atlas of `model`'s bricks (a RayBricks, or None), in line with it, and the skipping ranges widened
+        by what its bricks hold; None where no brick is read at full resolution."""
+        if self._atlas is not None and self._atlas.model is not model:
+            self._release_atlas()
+        if model is None or not model.capacity:
+            self._release_atlas()
+            return None
+        if self._atlas is None:
+            self._atlas = RayAtlas(self.ctx, model)
+        if self._atlas.follow():
+            self._write_ranges(widened(self._base_ranges, [model.loaded[i].ranges for i in self._atlas.slots]))
+        return self._atlas if self._atlas.any else None
+
+    def _write_ranges(self, ranges: np.ndarray) -> None:
+        """The skipping ranges (and their macro bricks') into their textures."""
+        self._ranges.write(np.ascontiguousarray(ranges).tobytes())
+        self._macro_ranges.write(np.ascontiguousarray(coarser_ranges(ranges, MACRO)).tobytes())
+
+    def _release_atlas(self) -> None:
+        if self._atlas is not None:
+            had = self._atlas.any
+            self._atlas.release()
+            self._atlas = None
+            if had and self._ranges is not None:
+                self._write_ranges(self._base_ranges)
+
+    def idle(self) -> None:
+        """The volume is not ray cast now: the bricks' atlas (counted in the memory budget) is freed."""
+        self._release_atlas()
 
     def draw_coarse(self, request, view: bytes, projection: bytes, eye, viewport,
                     depth: SceneDepth | None = None, spacing: int = COARSE) -> None:
@@ -257,6 +311,7 @@ class VolumeRaycaster:
         self._release_volume()
 
     def _release_volume(self) -> None:
+        self._release_atlas()
         if self._texture is not None:
             for texture in (self._texture, self._ranges, self._macro_ranges):
                 texture.release()
@@ -285,35 +340,6 @@ def transparent_below(points, value_range) -> float:
     return floor
 
 
-def brick_ranges(data: np.ndarray, brick: int) -> np.ndarray:
-    """(bx, by, bz, 2) float32: the (min, max) of the samples of each brick of `brick` cells a side (samples
-    b*brick .. (b+1)*brick along each axis, the faces shared with the next brick included), so a ray can
-    tell from one fetch that the trilinear interpolant inside a brick stays within that range.  An axis at a
-    time: each cell's range along it (a sample and the next), then those of `brick` cells together."""
-    low = high = np.asarray(data)
-    for axis in range(3):
-        if low.shape[axis] > 1:
-            first, second = [slice(None)] * 3, [slice(None)] * 3
-            first[axis], second[axis] = slice(0, -1), slice(1, None)
-            low = np.minimum(low[tuple(first)], low[tuple(second)])
-            high = np.maximum(high[tuple(first)], high[tuple(second)])
-        starts = np.arange(0, low.shape[axis], brick)
-        low = np.minimum.reduceat(low, starts, axis=axis)
-        high = np.maximum.reduceat(high, starts, axis=axis)
-    return np.stack([low, high], axis=-1).astype(np.float32)
-
-
-def coarser_ranges(ranges: np.ndarray, by: int) -> np.ndarray:
-    """The (min, max) of `by` x `by` x `by` bricks of `ranges` (brick_ranges'; the last ones along an axis fewer):
-    the range of the samples of all of them, so a brick of these is skippable wherever all of its are."""
-    low, high = ranges[..., 0], ranges[..., 1]
-    for axis in range(3):
-        starts = np.arange(0, low.shape[axis], by)
-        low = np.minimum.reduceat(low, starts, axis=axis)
-        high = np.maximum.reduceat(high, starts, axis=axis)
-    return np.stack([low, high], axis=-1).astype(np.float32)
-
-
 def raycast_request(state) -> RaycastRequest | None:
     """What the state asks to ray-cast (`ViewerState.raycast`), or None for the meshes: the volume on show,
     the selected level and its colour, the slices' window and colour map (--window, --level, --colormap)."""
@@ -326,4 +352,5 @@ def raycast_request(state) -> RaycastRequest | None:
     return RaycastRequest(state.volume.data, tuple(state.volume.spacing), state.raycast, float(state.iso),
                           (settings.centre - half, settings.centre + half), settings.colormap,
                           state.gradient_direction == "descent", tuple(color), tuple(clip), state.transfer,
-                          tuple(float(v) for v in state.value_range), state.with_surfaces, state.style.lighting)
+                          tuple(float(v) for v in state.value_range), state.with_surfaces, state.style.lighting,
+                          state.bricks.rays if state.bricks is not None else None)

@@ -183,6 +183,8 @@ class SceneRenderer:
                 # After the rays, so their lines end no ray and show over the volume; tested against the opaque
                 # depth (and iso's hits), written nowhere.  Under the translucent layers, as without rays.
                 self._draw_wireframe([mesh for mesh, _ in drawn], write_depth=False)
+        elif self._raycaster is not None:
+            self._raycaster.idle()   # not ray cast now: the bricks' atlas is let go
         if translucent:
             self._draw_translucent(translucent, viewport, destination)
         ctx.disable_direct(GL_CLIP_DISTANCE0)   # imgui's shaders write no clip distance

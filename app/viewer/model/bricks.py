@@ -9,7 +9,8 @@ the whole is cut into bricks of `layout.cells` cells a side, a multiple of the s
 in one brick.  Each frame the app hands `look` the camera:
 once the selected level rests (its coarse mesh at that value on show, no preview), `plan_refinement` says
 which bricks to have at full resolution (in view, nearest first, within `layout.room`; far ones go back to
-coarse only when room is needed), and one brick at a time is asked of a worker: a request with an id,
+coarse only when room is needed; where the volume is ray cast too, the rays' bricks take their share of
+the room, model/ray_bricks.py), and one brick at a time is asked of a worker: a request with an id,
 answered by `take` (model/jobs.py; a headless render, `wait`, makes them all in its frame).  A brick's mesh
 is the chunked extractor's box (big/chunked.py extract_box, on the CPU: a worker has no GL context), so
 neighbouring bricks at full resolution meet exactly; where a brick meets a coarse one, the GPU side hangs
@@ -44,6 +45,7 @@ from ...core.skirts import Rim, rim_of
 from ...options import MeshOptions
 from ...volumes import Volume
 from .jobs import Jobs, Response
+from .ray_bricks import SURFACES_SHARE, RayBricks
 
 BRICK_JOB = "brick"
 MESH_HEADROOM = 1.5
@@ -101,6 +103,7 @@ class BrickView:
         self._asked: tuple[int, tuple] | None = None   # (request id, key) of the brick on the worker
         self.to_load = 0           # bricks the last plan still had to load
         self.jobs = Jobs()
+        self.rays = RayBricks(volume, layout, self.bricks, self.grid)   # the samples the rays read in full
 
     @property
     def flat(self) -> dict[tuple[int, int, int], int]:
@@ -145,7 +148,7 @@ class BrickView:
         self.poll()
         key = (float(state.iso), state.gradient_direction)
         active = (coarse is not None and state.mesh_options == MeshOptions() and not state.labels
-                  and not state.closed)
+                  and not state.closed and (state.raycast is None or state.with_surfaces))
         if not active or key != self.key:
             self.forget()
         self.active, self.key = active, key if active else None
@@ -154,8 +157,9 @@ class BrickView:
             return
         spacing = self.volume.spacing
         self.visible = {b.index for b, seen in zip(self.bricks, in_view(self.bricks, spacing, clip_matrix)) if seen}
-        plan = plan_refinement(self.bricks, self.meshes, eye, clip_matrix, self.layout.room,
-                               self.per_sample(*coarse), spacing)
+        room = self.layout.room * (1.0 - SURFACES_SHARE if state.raycast is not None else 1.0)   # the rays' beside
+        plan = plan_refinement(self.bricks, self.meshes, eye, clip_matrix, int(room), self.per_sample(*coarse),
+                               spacing)
         self.to_load = len(plan.load)
         for brick in plan.drop:   # back to coarse: room was needed nearer
             del self.meshes[brick.index]

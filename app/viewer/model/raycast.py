@@ -2,6 +2,8 @@
 The GL side is gfx/raycast.py and shaders/raycast.frag."""
 from __future__ import annotations
 
+import numpy as np
+
 from ...volumes.volume import shape_text
 from .errors import ViewerError
 
@@ -9,6 +11,24 @@ RAYCAST_MODES = ("mip", "minip", "mean", "iso", "dvr")
 """mip / minip / mean: the largest, smallest, mean value along each ray, through the colour map over the
 window; iso: the level's first hit on the trilinear interpolant, shaded (no mesh made); dvr: emission and
 absorption through the colour map and a linear opacity ramp over the window."""
+
+
+# A volume's samples as the rays read them: dtype -> (moderngl texture dtype, what one unit of the normalised
+# texel is worth), kept exactly in their own type where GL has one; float32 otherwise.
+NORMALISED = {np.dtype(np.uint8): ("nu1", 255.0), np.dtype(np.uint16): ("nu2", 65535.0),
+              np.dtype(np.int8): ("ni1", 127.0), np.dtype(np.int16): ("ni2", 32767.0)}
+
+
+def texture_type(dtype) -> tuple[str, float | None]:
+    """(moderngl texture dtype, the normalised texel's unit, None for float32) of samples of `dtype`."""
+    return NORMALISED.get(np.dtype(dtype), ("f4", None))
+
+
+def texture_samples(array) -> np.ndarray:
+    """`array` as the ray caster's texture takes it: C order, in its own type where `texture_type` keeps
+    it, else float32."""
+    kind, unit = texture_type(np.asarray(array).dtype)
+    return np.ascontiguousarray(array if unit is not None else np.asarray(array, dtype=np.float32))
 
 
 def check_raycast(mode) -> str | None:
@@ -106,17 +126,31 @@ def _parsed_points(spec) -> list[tuple[float, float]]:
 
 
 def rays_note(state) -> str | None:
-    """Where a volume over the memory budget is ray cast: the rays go through the coarse view's samples (every
-    step-th, model/big_volume.py), the bricks at full resolution being surfaces only (model/bricks.py), in a line;
-    None where the volume is not ray cast or shown whole."""
+    """Where a volume over the memory budget is ray cast, in a line: the rays read its bricks in view at full
+    resolution, as many as the room holds (model/ray_bricks.py), and the coarse view (every step-th sample,
+    model/big_volume.py) elsewhere; or the coarse view alone where it is not shown in bricks.  None where the
+    volume is not ray cast or shown whole."""
     if state.raycast is None or state.volume is None or state.full_volume is None:
         return None
     shown, full = (tuple(volume.data.shape) for volume in (state.volume, state.full_volume))
     if shown == full:
         return None
-    return (f"the volume is ray cast from {shape_text(shown)} of {shape_text(full)} samples, the "
-            "coarse view on show (what the memory budget or the GPU's limits let in; its bricks at full resolution "
-            "refine the surfaces, not the rays)")
+    rays = state.bricks.rays if state.bricks is not None else None
+    if rays is not None and rays.capacity:
+        return (f"the volume is ray cast at full resolution in its bricks read so far, {rays.text}, and from "
+                f"{shape_text(shown)} of {shape_text(full)} samples elsewhere (what the memory budget lets in)")
+    return (f"the volume is ray cast from {shape_text(shown)} of {shape_text(full)} samples, the coarse view on "
+            "show (what the memory budget or the GPU's limits let in)")
+
+
+def rays_line(state) -> str | None:
+    """The panel's Stats line of the rays of a volume over the budget (rays_note in a tooltip), or None."""
+    if rays_note(state) is None:
+        return None
+    rays = state.bricks.rays if state.bricks is not None else None
+    if rays is not None and rays.capacity:
+        return f"{len(rays.loaded)} of {len(rays.bricks)} bricks in full"
+    return f"{shape_text(state.volume.data.shape)} (coarse view)"
 
 
 MIN_RAY_SPACING, MAX_RAY_SPACING = 2, 5

@@ -81,6 +81,7 @@ class ViewerApp:
             try:
                 bricks.look(self.state, self.camera.eye(), clip,
                             self.scene.bricks.coarse_of(self.scene.surface, self.state), wait=wait)
+                bricks.rays.look(self.state, self.camera.eye(), clip, wait=wait)
             except USER_ERRORS as exc:
                 self.state.error = one_line(exc)
         self.scene.follow_bricks()

@@ -16,12 +16,11 @@ from __future__ import annotations
 from pathlib import Path
 
 from ...volumes import builtin_names
-from ...volumes.volume import shape_text
 from ..model.formats import level_format, level_text
 from ..model.hints import empty_level_hint
 from ..model.histogram import fraction_of, level_at
 from ..model.pacing import pace_text
-from ..model.raycast import rays_note
+from ..model.raycast import rays_line, rays_note
 from ..model.settings import PanelSettings
 from ..model.state import ViewerState
 from . import gui
@@ -375,7 +374,7 @@ class Panel:
             imgui.text_colored(NOTE_COLOR, f"bricks     {state.bricks.text}")
         note = rays_note(state)
         if note is not None:
-            imgui.text_colored(NOTE_COLOR, f"rays       {shape_text(state.volume.data.shape)} (coarse view)")
+            imgui.text_colored(NOTE_COLOR, f"rays       {rays_line(state)}")
             tooltip(note)
         if scene.stats.preview_step > 1:
             imgui.text_colored(NOTE_COLOR, f"preview at 1/{scene.stats.preview_step} resolution")

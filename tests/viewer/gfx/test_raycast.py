@@ -179,7 +179,7 @@ def test_skipping_empty_bricks_changes_no_pixel(gl_ctx, monkeypatch, mode):
 def test_macro_brick_ranges_are_the_ranges_of_bricks_that_many_times_larger():
     """coarser_ranges(brick_ranges(a, 8), 4) is brick_ranges(a, 32): the (min, max) a macro brick's rays may meet,
     the partial last ones along each axis too."""
-    from isoscope.viewer.gfx.raycast import brick_ranges, coarser_ranges
+    from isoscope.core.value_ranges import brick_ranges, coarser_ranges
     data = np.random.default_rng(3).normal(size=(70, 41, 33)).astype(np.float32)
     for brick, by in ((8, 4), (4, 3), (5, 2)):
         np.testing.assert_array_equal(coarser_ranges(brick_ranges(data, brick), by), brick_ranges(data, brick * by))

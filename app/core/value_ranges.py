@@ -1,0 +1,73 @@
+"""The value ranges that let a ray skip empty space (viewer/gfx/raycast.py, shaders/raycast.frag): each brick's
+(min, max) over its samples, bricks of RANGE_BRICK cells a side of the volume on show, and macro bricks of
+MACRO of those a side.  Pure numpy.
+
+A volume over the memory budget is ray cast from its coarse view where its bricks at full resolution are not
+loaded (viewer/model/ray_bricks.py): the ranges of the coarse view's bricks are then widened by what the full
+resolution holds inside them (`ranges_within`, `widened`), so a brick is skipped only where no sample the rays
+may read there, coarse or full, could change the picture.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+RANGE_BRICK = 8   # samples a side of the bricks whose (min, max) let rays skip empty space
+MACRO = 4         # bricks a side of the macro bricks a ray looks at first (empty space left in bigger steps)
+
+
+def range_counts(shape, brick: int = RANGE_BRICK) -> tuple[int, int, int]:
+    """How many bricks of `brick` cells `brick_ranges` cuts along each axis of a volume of `shape` samples."""
+    return tuple(len(range(0, max(int(n) - 1, 1), brick)) for n in shape)
+
+
+def brick_ranges(data: np.ndarray, brick: int) -> np.ndarray:
+    """(bx, by, bz, 2) float32: the (min, max) of the samples of each brick of `brick` cells a side (samples
+    b*brick .. (b+1)*brick along each axis, the faces shared with the next brick included), so a ray can
+    tell from one fetch that the trilinear interpolant inside a brick stays within that range.  An axis at a
+    time: each cell's range along it (a sample and the next), then those of `brick` cells together."""
+    return ranges_within(data, (0, 0, 0), brick)[1]
+
+
+def coarser_ranges(ranges: np.ndarray, by: int) -> np.ndarray:
+    """The (min, max) of `by` x `by` x `by` bricks of `ranges` (brick_ranges'; the last ones along an axis fewer):
+    the range of the samples of all of them, so a brick of these is skippable wherever all of its are."""
+    low, high = ranges[..., 0], ranges[..., 1]
+    for axis in range(3):
+        starts = np.arange(0, low.shape[axis], by)
+        low = np.minimum.reduceat(low, starts, axis=axis)
+        high = np.maximum.reduceat(high, starts, axis=axis)
+    return np.stack([low, high], axis=-1).astype(np.float32)
+
+
+def ranges_within(samples: np.ndarray, first, size: int) -> tuple[tuple[int, int, int], np.ndarray]:
+    """The (min, max) of `samples` (a part of a larger volume whose first sample is `first` along each axis)
+    in each brick of `size` cells a side of that volume (cells b*size .. (b+1)*size, global indices) the part
+    reaches: (the first such brick's index, (n0, n1, n2, 2) float32).  As `brick_ranges`, a cell counts in the
+    brick it starts in, with both of its samples."""
+    low = high = np.asarray(samples)
+    origin = []
+    for axis in range(3):
+        if low.shape[axis] > 1:
+            first_half, second_half = [slice(None)] * 3, [slice(None)] * 3
+            first_half[axis], second_half[axis] = slice(0, -1), slice(1, None)
+            low = np.minimum(low[tuple(first_half)], low[tuple(second_half)])
+            high = np.maximum(high[tuple(first_half)], high[tuple(second_half)])
+        which = (int(first[axis]) + np.arange(low.shape[axis])) // size   # each cell's brick
+        starts = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
+        low = np.minimum.reduceat(low, starts, axis=axis)
+        high = np.maximum.reduceat(high, starts, axis=axis)
+        origin.append(int(which[0]))
+    return tuple(origin), np.stack([low, high], axis=-1).astype(np.float32)
+
+
+def widened(ranges: np.ndarray, parts) -> np.ndarray:
+    """`ranges` (brick_ranges') with each of `parts` ((first brick, ranges) of `ranges_within`) taken in: a brick's
+    (min, max) over both.  A part's bricks past the last along an axis count in the last (the shader's lookup
+    clamps there too: the full volume may reach a little past its coarse view's last sample)."""
+    out = ranges.copy()
+    counts = out.shape[:3]
+    for origin, part in parts:
+        index = np.ix_(*(np.minimum(o + np.arange(n), c - 1) for o, n, c in zip(origin, part.shape[:3], counts)))
+        np.minimum.at(out[..., 0], index, part[..., 0])
+        np.maximum.at(out[..., 1], index, part[..., 1])
+    return out
