@@ -1,7 +1,7 @@
 """Frame time of direct volume rendering (ray casting, gfx/raycast.py) against the mesh of the same view.
 
     python benchmarks/bench_raycast.py [--size 1280x800] [--frames 8] [--volumes mri ct] [--modes mesh dvr ...]
-                                       [--with-surfaces]
+                                       [--with-surfaces] [--memory-budget 64M]
 
 Each mode (mip, minip, mean, iso, dvr) and the plain mesh drawn by the headless viewer (the `render`
 path: the same shaders as the window) with the camera turning a little every frame, so no frame repeats
@@ -55,8 +55,11 @@ def main() -> None:
     parser.add_argument("--modes", nargs="+", default=[mode or "mesh" for mode in MODES],
                         choices=[mode or "mesh" for mode in MODES])
     parser.add_argument("--with-surfaces", action="store_true", help="the level's surface drawn with the rays")
+    parser.add_argument("--memory-budget", default=None,
+                        help="e.g. 64M: a volume over it is ray cast in bricks (its bricks in view read in full)")
     args = parser.parse_args()
     size = tuple(int(n) for n in args.size.split("x"))
+    from isoscope.viewer.model.raycast import rays_note
     from isoscope.viewer.ui.headless import HeadlessViewer
     from isoscope.volumes.inputs import as_volume
     for name in args.volumes:
@@ -66,7 +69,7 @@ def main() -> None:
         else:
             data, spacing = ct_torso(), (0.8, 0.8, 1.0)
             level = 300.0
-        viewer = HeadlessViewer(size, previews=True)   # the window's frames: previews, rays spaced as measured
+        viewer = HeadlessViewer(size, previews=True, memory_budget=args.memory_budget)   # the window's frames
         try:
             viewer.show(as_volume(data, spacing=spacing), level)
             if args.with_surfaces:
@@ -81,6 +84,9 @@ def main() -> None:
                       f"{np.median(moving):8.1f} ms, p90 {np.percentile(moving, 90):8.1f}, "
                       f"cpu {np.median(moving_cpu):8.1f}"
                       + (f", a ray per {viewer.app.rays.spacing}x{viewer.app.rays.spacing} pixels" if mode else ""))
+                note = rays_note(viewer.state)
+                if note:
+                    print(f"         {note}")
         finally:
             viewer.release()
 

@@ -78,6 +78,9 @@ uniform vec3 u_fine_spacing;   // the full volume's spacing
 uniform float u_cells;         // cells a side of a brick
 uniform vec3 u_grid;           // bricks along each axis
 uniform float u_coarse_steps;  // steps of the ray's lattice per step in the coarse view
+uniform sampler3D u_atlas_ranges; // per slot, the (min, max) of its brick's bricks of u_range_cells cells a side
+uniform float u_range_cells;   // RANGE_BRICK: full samples a side of those
+uniform float u_slot_ranges;   // their number along each axis of a slot
 #endif
 
 out vec4 frag_color;
@@ -87,31 +90,40 @@ out vec4 frag_color;
 const int MAX_STEPS = 8192;
 
 #ifdef BRICKED
-// The brick of the full volume p lies in: (its slot's first texel, 1) where it is in the atlas, else 0s.
-vec4 slot_at(vec3 p, out vec3 local) {
+// The brick of the full volume p lies in (`brick`, its index; `local`, p in its samples): (its slot's first
+// texel, 1) where it is in the atlas, else 0s.
+vec4 slot_at(vec3 p, out vec3 brick, out vec3 local) {
     vec3 q = p / u_fine_spacing;
-    vec3 brick = clamp(floor(q / u_cells), vec3(0.0), u_grid - 1.0);
+    brick = clamp(floor(q / u_cells), vec3(0.0), u_grid - 1.0);
     local = clamp(q - brick * u_cells, vec3(0.0), vec3(u_cells));
     return texelFetch(u_slots, ivec3(brick).zyx, 0);
 }
 
 bool full_at(vec3 p) {
-    vec3 local;
-    return slot_at(p, local).w > 0.5;
+    vec3 brick, local;
+    return slot_at(p, brick, local).w > 0.5;
 }
 #endif
 
-float value_at(vec3 p) {
+// The value at p, and the ray's step from there (in the coarse view u_coarse_steps of u_step where BRICKED).
+float value_and_step(vec3 p, out float step) {
+    step = u_step;
 #ifdef BRICKED
-    vec3 local;
-    vec4 slot = slot_at(p, local);
+    vec3 brick, local;
+    vec4 slot = slot_at(p, brick, local);
     if (slot.w > 0.5) {
         vec3 texel = slot.xyz + local + 0.5;
         return texture(u_atlas, (texel / u_atlas_shape).zyx).r * u_atlas_value_map.x + u_atlas_value_map.y;
     }
+    step = u_step * u_coarse_steps;
 #endif
     vec3 texel = (p / max(u_texture_extent, vec3(1e-30))) * (u_shape - 1.0) + 0.5;
     return texture(u_volume, (texel / u_shape).zyx).r * u_value_map.x + u_value_map.y;
+}
+
+float value_at(vec3 p) {
+    float step;
+    return value_and_step(p, step);
 }
 
 vec3 spacing_at(vec3 p) {   // the spacing of the samples value_at reads at p
@@ -119,13 +131,6 @@ vec3 spacing_at(vec3 p) {   // the spacing of the samples value_at reads at p
     if (full_at(p)) return u_fine_spacing;
 #endif
     return u_texture_extent / max(u_shape - 1.0, vec3(1.0));
-}
-
-float step_at(vec3 p) {   // the ray's step from p
-#ifdef BRICKED
-    if (!full_at(p)) return u_step * u_coarse_steps;
-#endif
-    return u_step;
 }
 
 float mapped(float v) {
@@ -180,8 +185,7 @@ ivec3 brick_of(vec3 p, vec3 size, vec3 count) {
     return ivec3(clamp(floor(p / size), vec3(0.0), count - 1.0));
 }
 
-float brick_exit(ivec3 brick, vec3 size, vec3 dir) {
-    vec3 low = vec3(brick) * size, high = low + size;
+float box_exit(vec3 low, vec3 high, vec3 dir) {   // where the ray leaves the box [low, high] (t)
     vec3 inverse = 1.0 / dir;
     vec3 a = (low - u_eye) * inverse, b = (high - u_eye) * inverse;
     vec3 far = max(a, b);
@@ -272,16 +276,31 @@ void main() {
         vec3 p = u_eye + dir * t;
 #if !defined(MODE_MEAN)   // a mean takes every sample: nothing to skip
         // The macro brick first (one fetch leaves MACRO bricks a side behind), then the brick.
-        vec3 size = u_macro;
         ivec3 brick = brick_of(p, u_macro, u_macros);
+        vec3 low = vec3(brick) * u_macro, high = low + u_macro;
         bool skip = skipped(texelFetch(u_macro_ranges, brick.zyx, 0).rg, gathered);
         if (!skip) {
-            size = u_brick;
-            brick = brick_of(p, u_brick, u_bricks);
-            skip = skipped(texelFetch(u_ranges, brick.zyx, 0).rg, gathered);
+#ifdef BRICKED
+            // In a brick read in full: its own ranges, RANGE_BRICK full samples a side (within the brick).
+            vec3 whole, local;
+            vec4 slot = slot_at(p, whole, local);
+            if (slot.w > 0.5) {
+                vec3 r = min(floor(local / u_range_cells), vec3(u_slot_ranges - 1.0));
+                ivec3 entry = ivec3(slot.xyz / (u_cells + 1.0) * u_slot_ranges + r + 0.5);
+                skip = skipped(texelFetch(u_atlas_ranges, entry.zyx, 0).rg, gathered);
+                low = (whole * u_cells + r * u_range_cells) * u_fine_spacing;
+                high = min(low + u_range_cells * u_fine_spacing, min((whole + 1.0) * u_cells * u_fine_spacing, u_extent));
+            } else
+#endif
+            {
+                brick = brick_of(p, u_brick, u_bricks);
+                low = vec3(brick) * u_brick;
+                high = low + u_brick;
+                skip = skipped(texelFetch(u_ranges, brick.zyx, 0).rg, gathered);
+            }
         }
         if (skip) {
-            float leave = brick_exit(brick, size, dir);
+            float leave = box_exit(low, high, dir);
             // On to the first sample of the ray's own lattice (span.x + k u_step) past the brick's far face:
             // the samples taken are those a march without skipping takes, less the skipped ones, so the
             // picture is the same.  At least one step on: a position on the face may round into this brick.
@@ -292,7 +311,8 @@ void main() {
             continue;
         }
 #endif
-        float v = value_at(p);
+        float step;
+        float v = value_and_step(p, step);
 #if defined(MODE_MINIP)
         gathered = min(gathered, v);
 #elif defined(MODE_MIP)
@@ -315,7 +335,7 @@ void main() {
         }
         t_before = t;
 #elif defined(MODE_DVR)
-        float length_step = min(step_at(p), span.y - t + 1e-6);
+        float length_step = min(step, span.y - t + 1e-6);
         float alpha = 1.0 - exp(-u_density * opacity_of(v) * length_step);
         // A sample that adds under a 2048th of the pixel is left unlit: its light could not be told apart.
         float weight = transmitted * alpha;
@@ -324,7 +344,7 @@ void main() {
         transmitted *= 1.0 - alpha;
         if (transmitted < 0.004) break;
 #endif
-        t += step_at(p);
+        t += step;
     }
 #if defined(MODE_MIP) || defined(MODE_MINIP)
     // The ray's end too (the box's far face, the clip's cut, what is drawn opaque): the lattice stops up to a

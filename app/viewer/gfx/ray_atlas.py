@@ -1,11 +1,12 @@
 """The GL side of the rays' bricks (model/ray_bricks.py): one 3-D texture, the atlas, of slots of (cells + 1)^3
-samples, each holding a brick at full resolution in the samples' own type, and a small table texture with a
-texel per brick of the volume: its slot's first texel (along the array's axes) and 1 where the brick is in
+samples, each holding a brick at full resolution in the samples' own type, a small one of the same slots'
+skipping ranges (RANGE_BRICK cells a side within the brick), and a table texture with a texel per brick of the
+volume: its slot's first texel (along the array's axes) and 1 where the brick is in
 the atlas, 0 where the rays read the coarse view there (shaders/raycast.frag, BRICKED).
 
 `follow` brings the atlas in line with the model once a frame: a dropped brick's slot is free again, a new
 brick's samples are written into a free slot (and let go on the model's side).  The atlas is made for the
-model's `slots` and made again when they change.  This class owns its two textures; `release` frees them.
+model's `slots` and made again when they change.  This class owns its three textures; `release` frees them.
 """
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import math
 
 import numpy as np
 
+from ..model.ray_bricks import RANGE_BRICK, slot_ranges
 from ..model.raycast import texture_type
 
 
@@ -22,7 +24,9 @@ class RayAtlas:
     def __init__(self, ctx, model):
         self.ctx, self.model = ctx, model
         self.slot = model.slot_shape[0]
+        self.range_cells, self.slot_ranges = RANGE_BRICK, slot_ranges(model.layout.cells)
         self.texture = None
+        self.ranges = None           # each slot's own skipping ranges, slot_ranges a side
         self.table = None
         self.kind, unit = texture_type(model.volume.data.dtype)
         self.value_map = (unit, 0.0) if unit is not None else (1.0, 0.0)
@@ -62,6 +66,9 @@ class RayAtlas:
             corner = tuple(int(o) * self.slot for o in origin)
             self.texture.write(np.ascontiguousarray(brick.samples).tobytes(),
                                viewport=(corner[2], corner[1], corner[0], self.slot, self.slot, self.slot))
+            corner, side = tuple(int(o) * self.slot_ranges for o in origin), self.slot_ranges
+            self.ranges.write(np.ascontiguousarray(brick.own_ranges, np.float32).tobytes(),
+                              viewport=(corner[2], corner[1], corner[0], side, side, side))
             self.slots[index] = slot
             model.uploaded(index)
         self._write_table()
@@ -77,6 +84,8 @@ class RayAtlas:
             self.texture = self.ctx.texture3d(shape[::-1], 1, dtype=self.kind)
             self.texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)   # the trilinear interpolant, inside a slot
             self.texture.repeat_x = self.texture.repeat_y = self.texture.repeat_z = False
+            self.ranges = self.ctx.texture3d(tuple(n * self.slot_ranges for n in grid[::-1]), 2, dtype="f4")
+            self.ranges.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
         grid = self.model.grid
         self.table = self.ctx.texture3d(tuple(grid[::-1]), 4, dtype="f4")
         self.table.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
@@ -88,15 +97,16 @@ class RayAtlas:
             table[index] = (*origin, 1.0)
         self.table.write(table.tobytes())
 
-    def use(self, atlas_unit: int, table_unit: int) -> None:
+    def use(self, atlas_unit: int, table_unit: int, ranges_unit: int) -> None:
         self.texture.use(atlas_unit)
         self.table.use(table_unit)
+        self.ranges.use(ranges_unit)
 
     def _release_textures(self) -> None:
-        for texture in (self.texture, self.table):
+        for texture in (self.texture, self.table, self.ranges):
             if texture is not None:
                 texture.release()
-        self.texture = self.table = None
+        self.texture = self.table = self.ranges = None
 
     def release(self) -> None:
         """Free the atlas and its table (the model's bricks are read again when wanted)."""

@@ -157,15 +157,19 @@ class VolumeRaycaster:
             model = request.bricks
             fine = np.array(model.volume.spacing, np.float64)
             extent = (np.array(model.volume.data.shape, np.float64) - 1) * fine
-            step = STEP_PER_SAMPLE * step_scale * fine.min()
+            moving = step_scale > 1.0   # the moving view's pass: the coarse view's step throughout, bricks read
+            coarse_steps = 1.0 if moving else float(model.layout.step)
+            step = step if moving else STEP_PER_SAMPLE * step_scale * fine.min()
             program["u_atlas_shape"].value = tuple(float(n) for n in atlas.shape)
             program["u_atlas_value_map"].value = atlas.value_map
             program["u_fine_spacing"].value = tuple(fine)
             program["u_cells"].value = float(model.layout.cells)
             program["u_grid"].value = tuple(float(n) for n in model.grid)
-            program["u_coarse_steps"].value = float(model.layout.step)
-            program["u_atlas"].value, program["u_slots"].value = 7, 8
-            atlas.use(7, 8)
+            program["u_coarse_steps"].value = coarse_steps
+            program["u_range_cells"].value = float(atlas.range_cells)
+            program["u_slot_ranges"].value = float(atlas.slot_ranges)
+            program["u_atlas"].value, program["u_slots"].value, program["u_atlas_ranges"].value = 7, 8, 9
+            atlas.use(7, 8, 9)
         uniforms = {"u_extent": tuple(extent), "u_texture_extent": tuple(texture_extent), "u_shape": tuple(shape),
                     "u_eye": tuple(float(v) for v in eye), "u_step": float(step), "u_value_map": self._value_map,
                     "u_window": tuple(request.window), "u_level": float(request.level),

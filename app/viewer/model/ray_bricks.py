@@ -36,11 +36,19 @@ SURFACES_SHARE = 0.5
 
 @dataclass
 class RayBrick:
-    """A brick's samples at full resolution, padded to a slot (None once the GPU side has them), and the (min,
-    max) of its samples in each of the coarse view's skipping bricks it reaches: (first such brick, ranges)."""
+    """A brick's samples at full resolution, padded to a slot, and the (min, max) of its own skipping bricks
+    (RANGE_BRICK cells a side from its first sample, padded to slot_ranges a side): None once the GPU side has
+    them; and the (min, max) of its samples in each of the coarse view's skipping bricks it reaches: (first such
+    brick, ranges)."""
     brick: Brick
     samples: np.ndarray | None
+    own_ranges: np.ndarray | None
     ranges: tuple
+
+
+def slot_ranges(cells: int) -> int:
+    """A slot's skipping bricks along each axis (RANGE_BRICK cells a side, the last fewer)."""
+    return -(-cells // RANGE_BRICK)
 
 
 def read_ray_brick(data, brick: Brick, cells: int, range_cells: int, progress=None) -> RayBrick:
@@ -51,10 +59,14 @@ def read_ray_brick(data, brick: Brick, cells: int, range_cells: int, progress=No
     part = np.asarray(data[tuple(slice(f, e + 1) for f, e in zip(brick.first, brick.end))])
     samples = texture_samples(part)
     ranges = ranges_within(samples, brick.first, range_cells)
-    pad = [(0, cells + 1 - n) for n in samples.shape]
-    if any(after for _, after in pad):
-        samples = np.pad(samples, pad, mode="edge")
-    return RayBrick(brick, samples, ranges)
+    _, own = ranges_within(samples, (0, 0, 0), RANGE_BRICK)
+    return RayBrick(brick, _padded(samples, (cells + 1,) * 3), _padded(own, (slot_ranges(cells),) * 3 + (2,)), ranges)
+
+
+def _padded(array: np.ndarray, shape) -> np.ndarray:
+    """`array` grown to `shape` by repeating its last entries."""
+    pad = [(0, n - m) for n, m in zip(shape, array.shape)]
+    return np.pad(array, pad, mode="edge") if any(after for _, after in pad) else array
 
 
 def slot_grid(slots: int, per_axis: int) -> tuple[int, int, int]:
@@ -179,7 +191,7 @@ class RayBricks:
 
     def uploaded(self, index) -> None:
         """The GPU side has brick `index`'s samples in its atlas: they are let go here (its ranges stay)."""
-        self.loaded[index].samples = None
+        self.loaded[index].samples = self.loaded[index].own_ranges = None
 
     def lost(self, index) -> None:
         """The GPU side no longer has brick `index` (its atlas made again): it is read again when wanted."""

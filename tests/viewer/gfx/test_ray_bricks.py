@@ -112,6 +112,27 @@ def test_the_bricks_in_view_are_ray_cast_at_full_resolution(gl_ctx, lines, mode,
     assert whole.std() > 10
 
 
+@pytest.mark.parametrize("mode", ["mip", "iso", "dvr"])
+def test_skipping_in_bricks_changes_no_pixel(gl_ctx, lines, monkeypatch, mode):
+    """The picture of the volume in bricks with its skipping ranges (the coarse view's, widened by what the
+    bricks read in full hold, and each brick's own of 8^3 full cells) equals the one with nothing skippable."""
+    import isoscope.viewer.gfx.ray_atlas as ray_atlas
+    import isoscope.viewer.gfx.raycast as raycast
+    import isoscope.viewer.model.ray_bricks as ray_bricks
+    level = 120.0 if mode == "iso" else 100.0
+    pictures = []
+    for brick, macro in ((10**6, 1), (8, 4)):
+        for module in (raycast, ray_bricks, ray_atlas):
+            monkeypatch.setattr(module, "RANGE_BRICK" if module is not raycast else "BRICK", brick)
+        monkeypatch.setattr(raycast, "MACRO", macro)
+        viewer, picture = _pictured(gl_ctx, as_volume(lines, name="lines"), BUDGET, mode, level)
+        assert viewer.state.bricks.rays.loaded
+        viewer.release()
+        pictures.append(picture)
+    assert np.abs(pictures[1] - pictures[0]).max() <= 1
+    assert pictures[0].std() > 10
+
+
 def test_ray_bricks_come_from_a_worker_share_the_room_with_surfaces_and_go_with_the_rays(gl_ctx, lines):
     viewer, _ = _pictured(gl_ctx, as_volume(lines, name="lines"), BUDGET, "mip")
     try:
