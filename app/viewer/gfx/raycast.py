@@ -260,7 +260,9 @@ class VolumeRaycaster:
             colour = ctx.texture(size, 4)
             colour.filter = (ctx.LINEAR, ctx.LINEAR)
             colour.repeat_x = colour.repeat_y = False
-            depth_buffer = ctx.depth_renderbuffer(size)
+            depth_buffer = ctx.depth_texture(size)   # iso's hits, stretched with the picture
+            depth_buffer.filter = (ctx.NEAREST, ctx.NEAREST)
+            depth_buffer.repeat_x = depth_buffer.repeat_y = False
             self._coarse = (ctx.framebuffer(color_attachments=[colour], depth_attachment=depth_buffer), colour,
                             depth_buffer)
         if self._upscale is None:
@@ -280,10 +282,12 @@ class VolumeRaycaster:
         destination.use()
         ctx.viewport = viewport
         program, vao = self._upscale
-        program["u_coarse"].value = 3
+        program["u_coarse"].value, program["u_coarse_depth"].value = 3, 10
         program["u_viewport"].value = tuple(float(v) for v in viewport)
         colour.use(3)
-        ctx.disable(ctx.DEPTH_TEST)
+        self._coarse[2].use(10)
+        if request.mode != "iso":   # only iso's hits have a depth: the other modes blend over all there is
+            ctx.disable(ctx.DEPTH_TEST)
         ctx.enable(ctx.BLEND)
         ctx.blend_func = ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA
         vao.render(mode=ctx.TRIANGLES, vertices=3)

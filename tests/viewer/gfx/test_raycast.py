@@ -516,6 +516,29 @@ def test_translucent_surfaces_are_laid_over_the_volume_last(viewer, mode):
     assert np.abs(both[0] - alone[0])[inside].max() > 30   # the shell is there
 
 
+@pytest.mark.parametrize("coarse", [0, 2, 3])
+def test_iso_hits_hide_the_wireframe_behind_them_while_moving_too(viewer, coarse):
+    """Iso rays at the outer ball's level with the inner ball's surface drawn too, its wireframe on: the lines
+    lie behind the iso hits, so the picture is the one without the wireframe, at rest and in the moving
+    view's stretched frames (their depth goes with them); the lines show where nothing hides them."""
+    data = nested()
+    viewer.show_levels(as_volume(data), [0.2, 0.7])
+    viewer.state.levels.set_visible(0, False)   # the rays' level: drawn by the rays alone
+    viewer.state.set_with_surfaces(True)
+    viewer.state.style.show_box = False
+
+    def drawn(wireframe, mode="iso"):
+        viewer.state.style.wireframe = wireframe
+        picture(viewer, mode, 0.2)
+        viewer.target.use()
+        viewer.app.renderer.draw_scene(viewer.scene, viewer.camera, viewer.target.viewport, coarse=coarse)
+        return viewer.target.read_rgb().astype(int)
+    plain, lined = drawn(False), drawn(True)
+    assert np.abs(lined - plain).max() <= 1, np.count_nonzero(np.abs(lined - plain).max(axis=2) > 1)
+    seen = np.abs(drawn(True, "mip") - drawn(False, "mip")).max(axis=2)
+    assert np.count_nonzero(seen > 20) > 200   # without iso's hits in front, the lines do show
+
+
 @pytest.mark.parametrize("coarse", [0, 2])
 def test_wireframe_lines_are_drawn_over_the_rays_and_end_none(viewer, monkeypatch, coarse):
     """A translucent shell (0.4) with its wireframe over a MIP of a smooth cone seen from above, a slice at the
