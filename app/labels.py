@@ -381,8 +381,15 @@ def write_labelled(path, meshes: dict, colors, space: str, one_file: bool) -> li
     if not one_file:
         return [(write_mesh(label_file(path, label), *mesh, space=space), len(mesh[0]), len(mesh[1]))
                 for label, mesh in meshes.items()]
-    colors = np.round(np.asarray(colors, float) * 255).astype(np.uint8)
-    verts, faces, normals = joined(meshes.values(), np.int64)
-    rgba = np.repeat(np.column_stack([colors, np.full(len(colors), 255, np.uint8)]),
-                     [len(mesh[0]) for mesh in meshes.values()], axis=0)
+    verts, faces, normals, rgba = coloured_join(list(meshes.values()), colors)
     return [(write_mesh(path, verts, faces, normals, rgba, space=space), len(verts), len(faces))]
+
+
+def coloured_join(meshes, colors) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Label meshes [(verts, faces, normals), ...] joined into one (int64 faces), and each vertex's colour:
+    its label's (`colors`: (labels, 3) RGB in 0..1, in the meshes' order) as (N, 4) RGBA uint8, opaque."""
+    colors = np.round(np.asarray(colors, float).reshape(-1, 3) * 255).astype(np.uint8)
+    verts, faces, normals = joined(meshes, np.int64)
+    rgba = np.repeat(np.column_stack([colors, np.full(len(colors), 255, np.uint8)]),
+                     [len(mesh[0]) for mesh in meshes], axis=0)
+    return verts, faces, normals, rgba

@@ -74,26 +74,20 @@ def isosurface(volume, level=None, *, spacing=None, affine=None, gradient_direct
     """
     import trimesh
 
-    from .core.joined import joined
     from .io.export import in_volume_space
     from .volumes.inputs import as_volume
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
     if labels:
-        from .labels import label_colors, label_surfaces, labels_of
+        from .labels import coloured_join, label_colors, label_surfaces, labels_of
         # labels=True is the caller's word that it is a label map (as label_surfaces takes an array)
         surfaces = label_surfaces(labels_of(shown), spacing=shown.spacing, backend=options.get("backend", "auto"))
-        parts, colors = [], []
-        # Coloured in the labels' order, as the viewer colours them (a palette indexed by a label's value
-        # allocated 2e9 colours for a label numbered 2e9).
-        for mesh, color in zip(surfaces.values(), label_colors(len(surfaces))):
-            verts, faces, normals, _ = in_volume_space(shown, *mesh, world=world)
-            parts.append((verts, faces, normals))
-            colors.append(np.repeat(color[None, :], len(verts), axis=0))
+        parts = [in_volume_space(shown, *mesh, world=world)[:3] for mesh in surfaces.values()]
         if not parts:
             return trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64), process=False)
-        verts, faces, normals = joined(parts, np.int64)
-        return trimesh.Trimesh(verts, faces, vertex_normals=normals, vertex_colors=np.concatenate(colors),
-                               process=False)
+        # Coloured in the labels' order, as the viewer colours them (a palette indexed by a label's value
+        # allocated 2e9 colours for a label numbered 2e9).
+        verts, faces, normals, rgba = coloured_join(parts, label_colors(len(parts)))
+        return trimesh.Trimesh(verts, faces, vertex_normals=normals, vertex_colors=rgba, process=False)
     from .one_shot import cubes
     from .one_shot import tetrahedra as tetrahedra_extract
     from .validation import named_level
