@@ -318,8 +318,8 @@ void main() {
 #elif defined(MODE_MIP)
         gathered = max(gathered, v);
 #elif defined(MODE_MEAN)
-        gathered += v;
-        count += 1.0;
+        gathered += v * step;   // weighed by the length it stands for (a coarse view's step is longer)
+        count += step;
 #elif defined(MODE_ISO)
         float now = u_inside * (v - u_level);
         if (now >= 0.0 && i > 0) {   // crossed between t_before and t: bisect on the interpolant

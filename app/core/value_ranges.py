@@ -15,11 +15,6 @@ RANGE_BRICK = 8   # samples a side of the bricks whose (min, max) let rays skip 
 MACRO = 4         # bricks a side of the macro bricks a ray looks at first (empty space left in bigger steps)
 
 
-def range_counts(shape, brick: int = RANGE_BRICK) -> tuple[int, int, int]:
-    """How many bricks of `brick` cells `brick_ranges` cuts along each axis of a volume of `shape` samples."""
-    return tuple(len(range(0, max(int(n) - 1, 1), brick)) for n in shape)
-
-
 def brick_ranges(data: np.ndarray, brick: int) -> np.ndarray:
     """(bx, by, bz, 2) float32: the (min, max) of the samples of each brick of `brick` cells a side (samples
     b*brick .. (b+1)*brick along each axis, the faces shared with the next brick included), so a ray can

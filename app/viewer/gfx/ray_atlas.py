@@ -31,7 +31,9 @@ class RayAtlas:
         self.kind, unit = texture_type(model.volume.data.dtype)
         self.value_map = (unit, 0.0) if unit is not None else (1.0, 0.0)
         self.slots: dict[tuple[int, int, int], int] = {}
+        self._held: dict[tuple[int, int, int], object] = {}   # the RayBrick each slot holds
         self.grid = (0, 0, 0)
+        self.changes = 0             # bumps whenever the bricks in the atlas change
         self._serial = None
 
     @property
@@ -51,8 +53,8 @@ class RayAtlas:
             return False
         if model.slots != self.grid or self.table is None:
             self._make(model.slots)
-        for index in [i for i in self.slots if i not in model.loaded]:
-            del self.slots[index]
+        for index in [i for i in self.slots if self._held.get(i) is not model.loaded.get(i)]:
+            del self.slots[index], self._held[index]   # dropped (or dropped and read again since)
         free = sorted(set(range(math.prod(self.grid))) - set(self.slots.values()))
         for index, brick in list(model.loaded.items()):
             if index in self.slots:
@@ -69,15 +71,17 @@ class RayAtlas:
             corner, side = tuple(int(o) * self.slot_ranges for o in origin), self.slot_ranges
             self.ranges.write(np.ascontiguousarray(brick.own_ranges, np.float32).tobytes(),
                               viewport=(corner[2], corner[1], corner[0], side, side, side))
-            self.slots[index] = slot
+            self.slots[index], self._held[index] = slot, brick
             model.uploaded(index)
         self._write_table()
         self._serial = model.serial
+        self.changes += 1
         return True
 
     def _make(self, grid) -> None:
         self._release_textures()
         self.slots.clear()
+        self._held.clear()
         self.grid = tuple(grid)
         if math.prod(grid):
             shape = self.shape
@@ -114,5 +118,6 @@ class RayAtlas:
         for index in list(self.slots):
             self.model.lost(index)
         self.slots.clear()
+        self._held.clear()
         self._serial = None
         self.grid = (0, 0, 0)

@@ -97,6 +97,7 @@ class VolumeRaycaster:
         self._transfer.filter = (ctx.LINEAR, ctx.LINEAR)
         self._transfer_of = None
         self._base_ranges = None         # the volume's bricks' (min, max), before the atlas's widen them
+        self._ranges_of = None           # (atlas, its changes) the ranges' textures are widened for
         self._atlas: RayAtlas | None = None   # a volume over the budget: its bricks at full resolution
         self._coarse = None              # (framebuffer, colour texture, depth) of the moving view's picture
         self._upscale = None             # the program stretching it over the viewport
@@ -153,25 +154,25 @@ class VolumeRaycaster:
         # DVR's extinction and its gradient floor are per sample spacing of the volume: of the full volume's where
         # it is shown in bricks, so a picture keeps its opacity as its bricks come in full
         unit = float(min(request.bricks.volume.spacing) if request.bricks is not None else spacing.min())
-        if atlas is not None:   # the full volume's box, stepped at its spacing where it is read in full
+        bricked = {}
+        if atlas is not None:   # stepped at the full volume's spacing where it is read in full
             model = request.bricks
             fine = np.array(model.volume.spacing, np.float64)
-            extent = (np.array(model.volume.data.shape, np.float64) - 1) * fine
+            # the box drawn, the bounds and the camera's are the coarse view's (a few full samples short of the
+            # full volume's far faces where its step does not divide them): so are the rays'
+            extent = np.minimum(extent, (np.array(model.volume.data.shape, np.float64) - 1) * fine)
             moving = step_scale > 1.0   # the moving view's pass: the coarse view's step throughout, bricks read
-            coarse_steps = 1.0 if moving else float(model.layout.step)
             step = step if moving else STEP_PER_SAMPLE * step_scale * fine.min()
-            program["u_atlas_shape"].value = tuple(float(n) for n in atlas.shape)
-            program["u_atlas_value_map"].value = atlas.value_map
-            program["u_fine_spacing"].value = tuple(fine)
-            program["u_cells"].value = float(model.layout.cells)
-            program["u_grid"].value = tuple(float(n) for n in model.grid)
-            program["u_coarse_steps"].value = coarse_steps
-            program["u_range_cells"].value = float(atlas.range_cells)
-            program["u_slot_ranges"].value = float(atlas.slot_ranges)
-            program["u_atlas"].value, program["u_slots"].value, program["u_atlas_ranges"].value = 7, 8, 9
+            bricked = {"u_atlas_shape": tuple(float(n) for n in atlas.shape), "u_atlas_value_map": atlas.value_map,
+                       "u_fine_spacing": tuple(fine), "u_cells": float(model.layout.cells),
+                       "u_grid": tuple(float(n) for n in model.grid),
+                       "u_coarse_steps": 1.0 if moving else float(model.layout.step),
+                       "u_range_cells": float(atlas.range_cells), "u_slot_ranges": float(atlas.slot_ranges),
+                       "u_atlas": 7, "u_slots": 8, "u_atlas_ranges": 9}
             atlas.use(7, 8, 9)
-        uniforms = {"u_extent": tuple(extent), "u_texture_extent": tuple(texture_extent), "u_shape": tuple(shape),
-                    "u_eye": tuple(float(v) for v in eye), "u_step": float(step), "u_value_map": self._value_map,
+        uniforms = {**bricked, "u_extent": tuple(extent), "u_texture_extent": tuple(texture_extent),
+                    "u_shape": tuple(shape), "u_eye": tuple(float(v) for v in eye), "u_step": float(step),
+                    "u_value_map": self._value_map,
                     "u_window": tuple(request.window), "u_level": float(request.level),
                     "u_inside": 1.0 if request.inside_above else -1.0,
                     "u_density": float(DENSITY_PER_SAMPLE / unit), "u_front_color": tuple(request.color),
@@ -216,9 +217,8 @@ class VolumeRaycaster:
         ctx.enable(ctx.DEPTH_TEST)
         ctx.cull_face = "back"
 
-    def _follow_bricks(self, model) -> RayAtlas | None:
-        """The atlas of `model`'s bricks (a RayBricks, or None), in line with it, and the skipping ranges widened
-        by what its bricks hold; None where no brick is read at full resolution."""
+    def follow_bricks(self, model) -> RayAtlas | None:
+        """The atlas of `model`'s bricks (a RayBricks, or None) in line with it; None where there is none."""
         if self._atlas is not None and self._atlas.model is not model:
             self._release_atlas()
         if model is None or not model.capacity:
@@ -226,9 +226,19 @@ class VolumeRaycaster:
             return None
         if self._atlas is None:
             self._atlas = RayAtlas(self.ctx, model)
-        if self._atlas.follow():
-            self._write_ranges(widened(self._base_ranges, [model.loaded[i].ranges for i in self._atlas.slots]))
-        return self._atlas if self._atlas.any else None
+        self._atlas.follow()
+        return self._atlas
+
+    def _follow_bricks(self, model) -> RayAtlas | None:
+        """follow_bricks, and the skipping ranges widened by what the atlas's bricks hold; None where no brick
+        is read at full resolution."""
+        atlas = self.follow_bricks(model)
+        if atlas is None:
+            return None
+        if self._ranges_of != (atlas, atlas.changes):
+            self._write_ranges(widened(self._base_ranges, [model.loaded[i].ranges for i in atlas.slots]))
+            self._ranges_of = (atlas, atlas.changes)
+        return atlas if atlas.any else None
 
     def _write_ranges(self, ranges: np.ndarray) -> None:
         """The skipping ranges (and their macro bricks') into their textures."""
@@ -237,11 +247,11 @@ class VolumeRaycaster:
 
     def _release_atlas(self) -> None:
         if self._atlas is not None:
-            had = self._atlas.any
             self._atlas.release()
             self._atlas = None
-            if had and self._ranges is not None:
+            if self._ranges_of is not None and self._ranges is not None:
                 self._write_ranges(self._base_ranges)
+            self._ranges_of = None
 
     def idle(self) -> None:
         """The volume is not ray cast now: the bricks' atlas (counted in the memory budget) is freed."""
@@ -261,6 +271,7 @@ class VolumeRaycaster:
             colour.filter = (ctx.LINEAR, ctx.LINEAR)
             colour.repeat_x = colour.repeat_y = False
             depth_buffer = ctx.depth_texture(size)   # iso's hits, stretched with the picture
+            depth_buffer.compare_func = ""   # read as depths by a plain sampler (a comparison reads 0 or 1)
             depth_buffer.filter = (ctx.NEAREST, ctx.NEAREST)
             depth_buffer.repeat_x = depth_buffer.repeat_y = False
             self._coarse = (ctx.framebuffer(color_attachments=[colour], depth_attachment=depth_buffer), colour,
@@ -303,6 +314,7 @@ class VolumeRaycaster:
     def release(self) -> None:
         """Free the textures, programs, vertex arrays and buffers."""
         self._release_coarse()
+        self._release_atlas()
         if self._upscale is not None:
             for obj in self._upscale[::-1]:
                 obj.release()
@@ -319,7 +331,7 @@ class VolumeRaycaster:
         self._release_volume()
 
     def _release_volume(self) -> None:
-        self._release_atlas()
+        self._ranges_of = None   # the new volume's ranges are widened again (its atlas follows its own model)
         if self._texture is not None:
             for texture in (self._texture, self._ranges, self._macro_ranges):
                 texture.release()

@@ -241,6 +241,13 @@ class SceneRenderer:
         else:
             self._raycaster.draw(raycast, view, projection, camera.eye(), depth)
 
+    def follow_ray_bricks(self, model) -> None:
+        """The rays' bricks (model/ray_bricks.py) into their atlas now, before a frame draws them (a headless
+        render reads them one by one: each goes to the GPU before the next is read)."""
+        if self._raycaster is None:
+            self._raycaster = VolumeRaycaster(self.ctx)
+        self._raycaster.follow_bricks(model)
+
     def draw_scene(self, scene, camera, viewport: tuple[int, int, int, int], covered_left: int = 0,
                    coarse: int = 0) -> None:
         """What a GpuScene shows of its state: the meshes in their looks, the slices and clip, then the 2-D view."""

@@ -103,7 +103,7 @@ class BrickView:
         self._asked: tuple[int, tuple] | None = None   # (request id, key) of the brick on the worker
         self.to_load = 0           # bricks the last plan still had to load
         self.jobs = Jobs()
-        self.rays = RayBricks(volume, layout, self.bricks, self.grid)   # the samples the rays read in full
+        self.rays = RayBricks(volume, layout, self.bricks, self.grid, self.refines)   # what the rays read in full
 
     @property
     def flat(self) -> dict[tuple[int, int, int], int]:
@@ -147,8 +147,7 @@ class BrickView:
         brick the plan loads is made now."""
         self.poll()
         key = (float(state.iso), state.gradient_direction)
-        active = (coarse is not None and state.mesh_options == MeshOptions() and not state.labels
-                  and not state.closed and (state.raycast is None or state.with_surfaces))
+        active = coarse is not None and self.refines(state)
         if not active or key != self.key:
             self.forget()
         self.active, self.key = active, key if active else None
@@ -173,6 +172,13 @@ class BrickView:
                                        message=f"refining brick {brick.index}",
                                        failure=f"brick {brick.index} could not be made")
             self._asked = (request, key)
+
+    @staticmethod
+    def refines(state) -> bool:
+        """Whether the surfaces of `state` are refined in bricks: plain meshes (marching cubes, Montani's faces,
+        no smoothing or sharp features, no caps, no label map), drawn (not the rays alone)."""
+        return (state.mesh_options == MeshOptions() and not state.labels and not state.closed
+                and (state.raycast is None or state.with_surfaces))
 
     def _extract(self, brick: Brick, key, progress=None) -> BrickMesh:
         level, direction = key

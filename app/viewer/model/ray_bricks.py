@@ -32,6 +32,8 @@ ATLAS_SIDE = 2048
 """Texels along each axis of the atlas at most: every OpenGL 4.x GPU's GL_MAX_3D_TEXTURE_SIZE is at least this."""
 SURFACES_SHARE = 0.5
 """The share of the bricks' room the rays' bricks take where the surfaces are drawn with them (and refined too)."""
+READS_IN_FLIGHT = 2
+"""Slots of the room kept for the brick being read (the part read and its copy padded to a slot)."""
 
 
 @dataclass
@@ -85,14 +87,16 @@ class RayBricks:
     """Which bricks of a volume shown in bricks (a BrickView's `volume`, `bricks`, `grid` and `layout`) the
     rays read at full resolution, and the one being read."""
 
-    def __init__(self, volume, layout: BrickLayout, bricks, grid):
+    def __init__(self, volume, layout: BrickLayout, bricks, grid, surfaces_refine=lambda state: False):
         self.volume, self.layout, self.bricks, self.grid = volume, layout, bricks, grid
+        self.surfaces_refine = surfaces_refine   # whether the surfaces' bricks take a share of the room (state)
+        self.failed: set[tuple[int, int, int]] = set()   # bricks that could not be read: not asked again
         self.loaded: dict[tuple[int, int, int], RayBrick] = {}
         self.slots = (0, 0, 0)     # the atlas's slots along each array axis (slot_grid; none: not ray cast)
         self.visible: set[tuple[int, int, int]] = set()
         self.to_load = 0
         self.serial = 0            # bumps on every change of `loaded` or `capacity`: the GPU side follows
-        self._asked: int | None = None
+        self._asked: tuple[int, tuple] | None = None   # (request id, brick index) on the worker
         self.jobs = Jobs()
 
     @property
@@ -133,12 +137,14 @@ class RayBricks:
         bricks; none where the volume is not ray cast)."""
         if state.raycast is None:
             return (0, 0, 0)
-        room = self.layout.room * (SURFACES_SHARE if state.with_surfaces else 1.0)
-        return slot_grid(int(min(len(self.bricks), room // self.slot_bytes)), ATLAS_SIDE // self.slot_shape[0])
+        room = self.layout.room * (SURFACES_SHARE if self.surfaces_refine(state) else 1.0)
+        room -= READS_IN_FLIGHT * self.slot_bytes   # a brick being read: its part and its padded copy
+        return slot_grid(int(min(len(self.bricks), max(room, 0) // self.slot_bytes)), ATLAS_SIDE // self.slot_shape[0])
 
-    def look(self, state, eye, clip_matrix, wait: bool = False) -> None:
+    def look(self, state, eye, clip_matrix, wait: bool = False, each=None) -> None:
         """One frame: plan for the camera at `eye` with `clip_matrix` (scene units to clip space, column vectors)
-        and ask for the next brick; `wait` (a headless render): every brick the plan loads is read now."""
+        and ask for the next brick; `wait` (a headless render): every brick the plan loads is read now, `each()`
+        called after each (the GPU side takes it then: no more than one brick's samples are held at a time)."""
         self.poll()
         slots = self.atlas_slots(state)
         if slots != self.slots:
@@ -151,7 +157,8 @@ class RayBricks:
         spacing = self.volume.spacing
         self.visible = {b.index for b, seen in zip(self.bricks, in_view(self.bricks, spacing, clip_matrix)) if seen}
         slot = self.slot_bytes
-        plan = plan_refinement(self.bricks, self.loaded, eye, clip_matrix, capacity * slot, 0.0, spacing,
+        readable = [b for b in self.bricks if b.index not in self.failed]
+        plan = plan_refinement(readable, self.loaded, eye, clip_matrix, capacity * slot, 0.0, spacing,
                                cost=lambda _: slot)
         self.to_load = len(plan.load)
         for brick in plan.drop:
@@ -159,13 +166,20 @@ class RayBricks:
             self.serial += 1
         if wait:
             for brick in plan.load:
-                self._keep(self._read(brick))
+                try:
+                    self._keep(self._read(brick))
+                except Exception:
+                    self.failed.add(brick.index)
+                    raise
+                if each is not None:
+                    each()
             self.to_load = 0
         elif plan.load and self.reading is None:
             brick = plan.load[0]
-            self._asked = self.jobs.submit(RAY_BRICK_JOB, self._read, brick,
-                                           message=f"reading brick {brick.index} for the rays",
-                                           failure=f"brick {brick.index} could not be read")
+            request = self.jobs.submit(RAY_BRICK_JOB, self._read, brick,
+                                       message=f"reading brick {brick.index} for the rays",
+                                       failure=f"brick {brick.index} could not be read")
+            self._asked = (request, brick.index)
 
     def _read(self, brick: Brick, progress=None) -> RayBrick:
         return read_ray_brick(self.volume.data, brick, self.layout.cells, self.range_cells, progress)
@@ -177,10 +191,11 @@ class RayBricks:
 
     def take(self, response: Response) -> None:
         """A worker's answer: kept where it is the brick last asked for and there is room, else dropped."""
-        if self._asked is None or self._asked != response.request_id:
+        if self._asked is None or self._asked[0] != response.request_id:
             return
-        self._asked = None
+        asked, self._asked = self._asked, None
         if response.error is not None:
+            self.failed.add(asked[1])   # said once, not asked again every frame
             raise response.error
         self._keep(response.value)
 

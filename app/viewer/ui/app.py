@@ -78,12 +78,14 @@ class ViewerApp:
         bricks = self.state.bricks
         if bricks is not None:
             clip = (self.camera.view_matrix().astype(np.float64) @ self.camera.projection_matrix(self._aspect)).T
-            try:
-                bricks.look(self.state, self.camera.eye(), clip,
-                            self.scene.bricks.coarse_of(self.scene.surface, self.state), wait=wait)
-                bricks.rays.look(self.state, self.camera.eye(), clip, wait=wait)
-            except USER_ERRORS as exc:
-                self.state.error = one_line(exc)
+            for look in (lambda: bricks.look(self.state, self.camera.eye(), clip,
+                                             self.scene.bricks.coarse_of(self.scene.surface, self.state), wait=wait),
+                         lambda: bricks.rays.look(self.state, self.camera.eye(), clip, wait=wait,
+                                                  each=lambda: self.renderer.follow_ray_bricks(bricks.rays))):
+                try:   # the surfaces' bricks and the rays' each on their own: one's error does not stop the other
+                    look()
+                except USER_ERRORS as exc:
+                    self.state.error = one_line(exc)
         self.scene.follow_bricks()
 
     def draw(self, viewport, covered_left: int = 0, moving: bool = False) -> None:

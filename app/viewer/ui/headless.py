@@ -251,12 +251,17 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
         viewer.release()
 
 
+def surfaces_drawn(state) -> bool:
+    """Whether the picture draws the surfaces (not the ray-cast volume alone): their notes say nothing otherwise."""
+    return state.raycast is None or state.with_surfaces
+
+
 def shown_note(viewer) -> str | None:
     """What a picture of a volume over the memory budget shows, e.g. "the surface is drawn from 256x256x200 of
     512x512x400 samples to fit the memory budget of 32.0 MiB (--memory-budget); 20 of 64 bricks at full
     resolution (20 of 64 in view)"; None where it shows every sample."""
     state, scene = viewer.state, viewer.scene
-    if state.volume is None or state.full_volume is None or scene is None:
+    if state.volume is None or state.full_volume is None or scene is None or not surfaces_drawn(state):
         return None
     shown, full = scene.stats.shown_shape, tuple(state.full_volume.data.shape)
     if shown is None or tuple(shown) == full:
@@ -271,7 +276,7 @@ def empty_level_hints(viewer) -> list[str]:
     at 254.0: the values lie in 0.0..254.0, most between 20.0 and 140.0"."""
     from ..model.hints import empty_level_hint
     state, scene = viewer.state, viewer.scene
-    if state.volume is None or state.labels or scene is None or scene.surface is None:
+    if state.volume is None or state.labels or scene is None or scene.surface is None or not surfaces_drawn(state):
         return []
     return [empty_level_hint(level.value, state.value_range, state.histogram)
             for i, level in enumerate(state.levels.items) if level.visible and scene.stats.level_stats(i)[0] == 0]
