@@ -266,8 +266,9 @@ def shown_note(viewer) -> str | None:
     shown, full = scene.stats.shown_shape, tuple(state.full_volume.data.shape)
     if shown is None or tuple(shown) == full:
         return None
-    text = (f"the surface is drawn from {shape_text(shown)} of {shape_text(full)} samples to fit "
-            f"the memory budget of {state.budget.text}")
+    limits = state.refusal(full) if state.refusal is not None else None   # as big_volume.downsampled decided
+    why = f"this GPU's limits ({limits})" if limits else f"the memory budget of {state.budget.text}"
+    text = f"the surface is drawn from {shape_text(shown)} of {shape_text(full)} samples to fit {why}"
     return text + (f"; {state.bricks.text}" if state.bricks is not None and state.bricks.meshes else "")
 
 

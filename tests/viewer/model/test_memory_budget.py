@@ -200,6 +200,9 @@ def test_a_volume_the_extractor_cannot_hold_is_shown_coarse_then_in_bricks_and_s
         assert note and "to fit this GPU's limits" in note[0] and "32 KiB" not in note[0]
         assert "the bricks in view refined to full resolution within the memory budget of 8.0 GiB" in note[0]
         assert viewer.scene.stats.n_triangles > 0 and state.bricks is not None
+        from isoscope.viewer.ui.headless import shown_note  # render's note: the limits, not the budget (8G)
+        assert shown_note(viewer).startswith("the surface is drawn from 32x32x32 of 64x64x64 samples to fit this "
+                                             "GPU's limits (")
         viewer.render()
         assert viewer.scene.stats.shown_shape == (64, 64, 64)
         assert state.bricks.text.startswith(f"{len(state.bricks.bricks)} of {len(state.bricks.bricks)} bricks")
