@@ -119,3 +119,30 @@ def test_seams_between_the_pyramid_level_and_full_resolution_show_no_background_
         assert seams.holes <= 10 and seams.cracks <= seams.drawn * 0.002, seams
     else:
         assert seams.holes > 10 and seams.cracks > seams.drawn * 0.008, seams
+
+
+def test_its_rays_read_the_bricks_in_view_from_the_full_level(viewer, pyramid, gl_ctx):
+    """Ray cast (MIP), the pyramid's bricks in view are read from its full level: with a close view whose
+    bricks all fit the room, the picture is level 0's shown whole at the same camera."""
+    from isoscope.volumes.inputs import as_volume
+
+    def mip(shown):
+        shown.camera.fit((0.0, 0.0, 0.0), (0.5 * (N - 1),) * 3, 30.0, 25.0)
+        shown.camera.target = np.array([10.0, 10.0, 10.0])
+        shown.camera.distance = 40.0
+        shown.state.set_raycast("mip")
+        shown.state.slices.set_window(1.0, 0.5)
+        return shown.picture().astype(int)
+    bricked = mip(viewer)
+    rays = viewer.state.bricks.rays
+    assert rays.loaded and rays.visible <= set(rays.loaded) and len(rays.visible) < 27
+    whole_viewer = HeadlessViewer((480, 360), ctx=gl_ctx)
+    try:
+        whole_viewer.show(as_volume(pyramid[1][0], spacing=(0.5, 0.5, 0.5), name="blob"), 1.0 - LEVEL)
+        whole = mip(whole_viewer)
+    finally:
+        whole_viewer.release()
+    difference = np.abs(bricked - whole).max(axis=2)
+    assert np.count_nonzero(difference > 1) <= 0.001 * difference.size, (difference.max(),
+                                                                         np.count_nonzero(difference > 1))
+    assert whole.std() > 10
