@@ -11,7 +11,8 @@ view's skipping bricks (core/value_ranges.py ranges_within), until the GPU side 
 (gfx/ray_atlas.py): then the samples are let go (`uploaded`).
 
 The room: every slot takes its bytes; the rays have the bricks' room (core/bricks.py BrickLayout.room) alone,
-or SURFACES_SHARE of it where the surfaces are drawn with them (the surfaces' bricks the rest).  The rays'
+or SURFACES_SHARE of it where the surfaces are refined with them (the surfaces' bricks the rest), less the ray
+caster's own texture of the coarse view and READS_IN_FLIGHT slots for the brick being read.  The rays'
 bricks are forgotten when the volume is no longer ray cast, and when the room changes (the GPU side's
 atlas is made for a number of slots).
 """
@@ -23,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...core.bricks import Brick, BrickLayout, in_view, plan_refinement
+from ...core.budget import shown_shape
 from ...core.value_ranges import RANGE_BRICK, ranges_within
 from .jobs import Jobs, Response
 from .raycast import texture_samples, texture_type
@@ -104,10 +106,15 @@ class RayBricks:
         return (self.layout.cells + 1,) * 3
 
     @property
+    def texel_bytes(self) -> int:
+        """What one sample takes in the ray caster's textures (texture_type)."""
+        kind, unit = texture_type(self.volume.data.dtype)
+        return int(kind[-1]) if unit is not None else 4
+
+    @property
     def slot_bytes(self) -> int:
         """What one slot of the atlas takes: (cells + 1)^3 samples in the texture's type."""
-        kind, unit = texture_type(self.volume.data.dtype)
-        return math.prod(self.slot_shape) * (int(kind[-1]) if unit is not None else 4)
+        return math.prod(self.slot_shape) * self.texel_bytes
 
     @property
     def range_cells(self) -> int:
@@ -139,6 +146,8 @@ class RayBricks:
             return (0, 0, 0)
         room = self.layout.room * (SURFACES_SHARE if self.surfaces_refine(state) else 1.0)
         room -= READS_IN_FLIGHT * self.slot_bytes   # a brick being read: its part and its padded copy
+        # and the ray caster's own texture of the coarse view (gfx/raycast.py), beside the extractor's
+        room -= math.prod(shown_shape(self.volume.data.shape, self.layout.step)) * self.texel_bytes
         return slot_grid(int(min(len(self.bricks), max(room, 0) // self.slot_bytes)), ATLAS_SIDE // self.slot_shape[0])
 
     def look(self, state, eye, clip_matrix, wait: bool = False, each=None) -> None:

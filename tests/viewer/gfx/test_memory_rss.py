@@ -58,12 +58,16 @@ def rss_anon():
 
 
 path, budget, size = sys.argv[1], sys.argv[2], (int(sys.argv[3]), int(sys.argv[4]))
+rays = sys.argv[5] if len(sys.argv) > 5 else None   # a ray-cast mode, drawn with the surfaces
 viewer = HeadlessViewer(size, memory_budget=budget)
 # the process before any volume: GL, the window's targets, the GPU programs and numba's CPU kernels loaded
 axis = np.linspace(-1, 1, 48, dtype=np.float32)
 x, y, z = np.meshgrid(axis, axis, axis, indexing="ij")
 ball = (100 + 100 * (0.6 - np.sqrt(x * x + y * y + z * z))).astype(np.uint8)
 viewer.show(as_volume(ball, name="ball"), 100.0)
+if rays:   # the ray caster's program and the opaque scene's targets: no more with a bigger volume
+    viewer.state.set_raycast(rays)
+    viewer.state.set_with_surfaces(True)
 viewer.render()
 extract_box(ball, ((0, 0, 0), (47, 47, 47)), 100.0, (1.0, 1.0, 1.0), True, backend="cpu")
 before = rss_anon()
@@ -74,7 +78,8 @@ after = rss_anon()
 print(json.dumps({"growth": after - before, "before": before, "budget": viewer.state.budget.bytes,
                   "bricks": bricks is not None and bricks.text, "full": bricks is not None and bricks.full_in_view,
                   "step": viewer.state.step, "mesh": sum(m.bytes for m in bricks.meshes.values()) if bricks else 0,
-                  "room": bricks.layout.room if bricks else 0}))
+                  "room": bricks.layout.room if bricks else 0,
+                  "rays": len(bricks.rays.loaded) if bricks else 0, "slots": bricks.rays.capacity if bricks else 0}))
 """
 
 
@@ -96,26 +101,33 @@ def wrinkled_map(tmp_path_factory):
     return path
 
 
-def rss_growth(path, budget: str, size=(640, 480)) -> dict:
+def rss_growth(path, budget: str, size=(640, 480), rays=None) -> dict:
     """In a fresh process (no other test's memory in the measure): RssAnon after the volume at `path` is shown
     and every brick in view refined, minus before it was opened (GL, numba's kernels, the targets loaded)."""
     import json
     import os
     import subprocess
     import sys
-    done = subprocess.run([sys.executable, "-c", RSS_SCRIPT, str(path), budget, *map(str, size)],
-                          capture_output=True, text=True, timeout=300, env=os.environ.copy())
+    arguments = [str(path), budget, *map(str, size), *([rays] if rays else [])]
+    done = subprocess.run([sys.executable, "-c", RSS_SCRIPT, *arguments], capture_output=True, text=True,
+                          timeout=300, env=os.environ.copy())
     assert done.returncode == 0, done.stderr[-2000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
 @pytest.mark.gl
-@pytest.mark.parametrize("budget", ["32M"])
+@pytest.mark.parametrize("budget, rays", [("32M", None), ("40M", "mip")])
 def test_a_volume_over_a_small_budget_keeps_the_process_within_the_budget_and_the_stated_overhead(
-        wrinkled_map, budget):
+        wrinkled_map, budget, rays):
+    """Surfaces alone, and ray cast (MIP) with the surfaces: the rays' bricks in their atlas (llvmpipe's RAM)
+    and the surfaces' bricks share the room."""
     from isoscope.core.budget import SOFTWARE_OVERHEAD_BYTES, parse_size
-    measured = rss_growth(wrinkled_map, budget)
+    measured = rss_growth(wrinkled_map, budget, rays=rays)
     assert measured["budget"] == parse_size(budget) and measured["step"] >= 2   # over the budget: bricks
-    assert measured["full"], measured                                             # every brick in view refined
-    assert measured["mesh"] > 0.3 * measured["room"], measured                    # the room was used
+    if rays:
+        assert 0 < measured["rays"] == measured["slots"], measured                # the rays' room used
+        assert measured["mesh"] > 0.1 * measured["room"], measured                # the surfaces' too
+    else:
+        assert measured["full"], measured                                         # every brick in view refined
+        assert measured["mesh"] > 0.3 * measured["room"], measured                # the room was used
     assert measured["growth"] <= parse_size(budget) + SOFTWARE_OVERHEAD_BYTES, measured
