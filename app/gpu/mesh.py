@@ -43,7 +43,8 @@ class GpuMesh:
     """An indexed triangle mesh in GPU buffers.
 
     `vertex_buffer` holds `n_vertices` records of `vertex_format` (see layout.VERTEX_FIELDS:
-    position, value, normal), `index_buffer` `n_triangles` triples of uint32 vertex indices.
+    position, value, normal), `index_buffer` `n_triangles` triples of uint32 vertex indices from its
+    `first_triangle`-th on (a range of a larger mesh's triangles: 0 for all of them).
     The buffers belong to the mesh's maker, which may reuse them for its next mesh: a view.
     """
     vertex_buffer: moderngl.Buffer
@@ -51,6 +52,7 @@ class GpuMesh:
     n_vertices: int
     n_triangles: int
     vertex_format: str = VERTEX_FORMAT
+    first_triangle: int = 0
 
     @classmethod
     def upload(cls, ctx: moderngl.Context, verts, faces, normals, values=0.0) -> OwnedMesh:
@@ -74,7 +76,7 @@ class GpuMesh:
         fields = _read_fields(self.vertex_buffer, self.n_vertices)
         # Indices are below 2^31, so the GPU's uint32 triangles are read as the int32 faces they are.
         faces = np.empty((self.n_triangles, 3), np.int32)
-        self.index_buffer.read_into(faces, self.n_triangles * INDEX_BYTES)
+        self.index_buffer.read_into(faces, self.n_triangles * INDEX_BYTES, offset=self.first_triangle * INDEX_BYTES)
         return fields["position"], faces, fields["normal"], np.ascontiguousarray(fields["value"][:, 0])
 
 

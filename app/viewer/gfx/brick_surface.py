@@ -4,8 +4,9 @@ resolution cut out of it, each of those bricks' meshes, and the skirts where the
 `follow` brings the buffers in line with the model once a frame: the selected level's coarse mesh (the
 scene's surface, at rest at the model's value) is read back once and split by brick (each triangle's cell,
 big/chunked.py edges_of: a coarse cell lies in one brick); whenever the set of bricks at full resolution
-changes, the coarse remainder's triangles are written again without them (its vertices are uploaded once
-per coarse mesh: a new index buffer only), a new brick's mesh is uploaded, a dropped one released, and the
+changes, the coarse remainder is drawn again without them: its vertices and its triangles, in order of their
+brick, are uploaded once per coarse mesh, and it is drawn as ranges of those, a range per run of bricks not
+refined (nothing is written again), a new brick's mesh is uploaded, a dropped one released, and the
 skirts made again: on the coarse side of each face between a coarse and a refined brick, and on the
 refined side (core/skirts.py), one coarse step deep.  With every brick refined there is
 no coarse remainder and no skirt: the bricks' meshes are the chunked extractor's, the whole volume's mesh.
@@ -24,20 +25,25 @@ from ...gpu.mesh import GpuMesh, OwnedMesh, vertex_records
 
 
 class CoarseSplit:
-    """The coarse mesh on the CPU, each triangle's brick (`brick`, flat index), and its edges between
-    triangles of two bricks (`rim`: each side's edge, with `own` and `across` its brick and the other)."""
+    """The coarse mesh on the CPU, each triangle's brick (`brick`, flat index), the triangles in order of their
+    brick (`by_brick`; brick b's are `starts[b]` to `starts[b + 1]` of them), and its edges between triangles of
+    two bricks (`rim`: each side's edge, with `own` and `across` its brick and the other)."""
 
     def __init__(self, arrays, spacing, step: int, cells: int, grid):
         self.arrays = arrays
         verts, faces = arrays[0], np.asarray(arrays[1], dtype=np.int64)
         if not len(faces):
-            self.brick = np.zeros(0, dtype=np.int64)
+            self.brick = self.by_brick = np.zeros(0, dtype=np.int64)
+            self.starts = np.zeros(int(np.prod(grid)) + 1, dtype=np.int64)
             self.rim, self.own, self.across = rim_of(*arrays, edges=np.zeros((0, 2))), self.brick, self.brick
             return
         points, _ = edges_of(verts, spacing)
         cells_of = points[faces].min(axis=1) * step   # a triangle's cell (as extract_box), in full samples
         index = np.minimum(cells_of // cells, np.asarray(grid) - 1)
         self.brick = np.ravel_multi_index(index.T, grid)
+        # the triangles sorted by brick (stable: each brick's in the mesh's order), and where each brick's start
+        self.by_brick = np.argsort(self.brick, kind="stable")
+        self.starts = np.searchsorted(self.brick[self.by_brick], np.arange(int(np.prod(grid)) + 1))
         # every directed edge; an edge whose two triangles lie in two bricks is on a face between them
         key = edge_keys(faces)
         order = np.argsort(key, kind="stable")
@@ -64,8 +70,8 @@ class BrickSurface:
         self._split: CoarseSplit | None = None
         self._serial = None
         self._coarse_vertices = None               # the coarse mesh's vertex records (a buffer, once a split)
-        self._coarse_triangles = None              # and the triangles of its bricks not refined (a buffer)
-        self._coarse: GpuMesh | None = None        # those two as a mesh (a view of them)
+        self._coarse_triangles = None              # and its triangles in order of their brick (a buffer, once)
+        self._coarse: list[GpuMesh] = []           # the runs of those of bricks not refined (views of them)
         self._fine: dict[tuple, OwnedMesh] = {}    # each refined brick's mesh
         # each refined brick's skirts, and which of the bricks across its faces were refined when they were
         # made: a brick's arrival makes again only its own and its neighbours' skirts
@@ -86,7 +92,7 @@ class BrickSurface:
     @property
     def meshes(self) -> list[GpuMesh]:
         """The coarse remainder, the refined bricks and the skirts (those with triangles)."""
-        parts = [self._coarse, *self._fine.values(), self._skirts, *(m for _, m in self._fine_skirts.values())]
+        parts = [*self._coarse, *self._fine.values(), self._skirts, *(m for _, m in self._fine_skirts.values())]
         return [mesh for mesh in parts if mesh is not None and mesh.n_triangles]
 
     def follow(self, view, surface, coarse_spacing) -> None:
@@ -126,7 +132,7 @@ class BrickSurface:
                 taken += 1
         depth = view.layout.step * max(view.volume.spacing)
         split = self._split
-        self._coarse_remainder(split, ~refined[split.brick])
+        self._coarse_remainder(split, ~refined)
         self._replace("_skirts", skirt(split.rim.subset(~refined[split.own] & refined[split.across]), depth))
         for index, mesh in view.meshes.items():   # the refined side: where the brick across is coarse
             across = refined[mesh.across]
@@ -144,20 +150,23 @@ class BrickSurface:
             mesh.release()
 
     def _coarse_remainder(self, split, kept) -> None:
-        """The coarse mesh's triangles where `kept` (of its bricks not refined) as the coarse remainder: its
-        vertices uploaded on the first call for this split, its triangles written again on each."""
-        self._coarse = None
-        if self._coarse_triangles is not None:
-            self._coarse_triangles.release()
-            self._coarse_triangles = None
+        """The coarse mesh's triangles in the bricks `kept` (those not refined: a flag per brick) as the coarse
+        remainder: its vertices and its triangles in order of their brick uploaded on the first call for this
+        split, and on each a view of every run of kept bricks' triangles (no buffer written again)."""
         verts, faces, normals, values = split.arrays
-        faces = faces[kept]
+        self._coarse = []
         if not len(faces):
             return
         if self._coarse_vertices is None:
             self._coarse_vertices = self.ctx.buffer(vertex_records(verts, normals, values).tobytes())
-        self._coarse_triangles = self.ctx.buffer(np.ascontiguousarray(faces, np.uint32).tobytes())
-        self._coarse = GpuMesh(self._coarse_vertices, self._coarse_triangles, len(verts), len(faces))
+            ordered = np.ascontiguousarray(faces[split.by_brick], np.uint32)
+            self._coarse_triangles = self.ctx.buffer(ordered.tobytes())
+        edges = np.diff(np.concatenate(([0], kept.astype(np.int8), [0])))
+        for first, end in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):   # runs [first, end)
+            start, stop = int(split.starts[first]), int(split.starts[end])
+            if stop > start:
+                self._coarse.append(GpuMesh(self._coarse_vertices, self._coarse_triangles, len(verts), stop - start,
+                                            first_triangle=start))
 
     def _replace(self, name: str, arrays) -> None:
         old = getattr(self, name)
@@ -173,7 +182,8 @@ class BrickSurface:
         if (self._view is None and self._coarse_vertices is None and self._skirts is None and not self._fine
                 and not self._fine_skirts):
             return   # nothing held (a volume shown whole: called every frame)
-        self._view = self._surface = self._coarse_key = self._split = self._serial = self._coarse = None
+        self._view = self._surface = self._coarse_key = self._split = self._serial = None
+        self._coarse = []
         for buffer in (self._coarse_vertices, self._coarse_triangles):
             if buffer is not None:
                 buffer.release()

@@ -143,7 +143,8 @@ class Picker:
         try:
             meshes = [mesh for mesh, look in scene.drawn() if mesh.n_triangles and look.opacity > 0]
             for mesh in meshes:
-                self._vao(mesh).render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles)
+                self._vao(mesh).render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles,
+                                       first=3 * mesh.first_triangle)
             data = self._framebuffer.read(viewport=(x, y, 1, 1), attachment=-1, dtype="f4")
         finally:
             ctx.disable_direct(GL_CLIP_DISTANCE0)

@@ -208,7 +208,7 @@ class SceneRenderer:
         for mesh, look in drawn:
             if look.opacity >= 1:
                 self._use_look(self.mesh_program, look, style.back_color)
-                self.pacer.draw(self._vaos_for(mesh)[0], mesh.n_triangles)
+                self.pacer.draw(self._vaos_for(mesh)[0], mesh.n_triangles, mesh.first_triangle)
         ctx.polygon_offset = (0.0, 0.0)
         if style.wireframe and wireframe:
             self._draw_wireframe([mesh for mesh, _ in drawn])
@@ -225,7 +225,7 @@ class SceneRenderer:
         framebuffer = ctx.fbo
         framebuffer.depth_mask = write_depth
         for mesh in meshes:
-            self.pacer.draw(self._vaos_for(mesh)[1], mesh.n_triangles)
+            self.pacer.draw(self._vaos_for(mesh)[1], mesh.n_triangles, mesh.first_triangle)
         framebuffer.depth_mask = True
         ctx.disable(moderngl.BLEND)
         ctx.wireframe = False
@@ -268,7 +268,7 @@ class SceneRenderer:
         self.ctx.viewport = viewport
         for mesh, look in translucent:
             self._use_look(self.oit_program, look)
-            self.pacer.draw(self._vaos_for(mesh)[2], mesh.n_triangles)
+            self.pacer.draw(self._vaos_for(mesh)[2], mesh.n_triangles, mesh.first_triangle)
         self.ctx.disable_direct(GL_CLIP_DISTANCE0)   # the resolve's full-screen quad writes no clip distance
         self.oit.resolve(destination, viewport)
 
@@ -313,15 +313,15 @@ class DrawPacer:
         self.ctx, self.every = ctx, int(every)
         self.pending = 0   # triangles drawn since the last wait
 
-    def draw(self, vao: moderngl.VertexArray, n_triangles: int) -> None:
-        """`vao`'s first `n_triangles` triangles."""
+    def draw(self, vao: moderngl.VertexArray, n_triangles: int, first_triangle: int = 0) -> None:
+        """`n_triangles` of `vao`'s triangles from its `first_triangle`-th."""
         if self.every <= 0:
-            vao.render(moderngl.TRIANGLES, vertices=3 * n_triangles)
+            vao.render(moderngl.TRIANGLES, vertices=3 * n_triangles, first=3 * first_triangle)
             return
         first = 0
         while first < n_triangles:
             count = min(n_triangles - first, self.every - self.pending)
-            vao.render(moderngl.TRIANGLES, vertices=3 * count, first=3 * first)
+            vao.render(moderngl.TRIANGLES, vertices=3 * count, first=3 * (first_triangle + first))
             first += count
             self.pending += count
             if self.pending >= self.every:

@@ -128,6 +128,32 @@ def test_looking_at_one_corner_refines_only_the_bricks_in_view(viewer):
     assert viewer.scene.stats.shown_shape == SHAPE and len(bricks.meshes) == 27
 
 
+def test_the_coarse_remainder_is_ranges_of_one_index_buffer_written_once(viewer):
+    """The coarse mesh's triangles go up once, in order of their brick; as bricks are refined the remainder is
+    drawn as ranges of that buffer (no buffer written again), and the ranges hold exactly the coarse triangles
+    of the bricks not refined."""
+    camera = viewer.camera
+    camera.target = np.array([8.0, 8.0, 8.0])
+    camera.distance = 30.0
+    app, bricks, surface = viewer.app, viewer.state.bricks, viewer.scene.bricks
+    buffers, sizes = set(), []
+    for _ in range(200):
+        app.follow(0.02)
+        if surface._coarse:
+            buffers.add(id(surface._coarse_triangles))
+            sizes.append(sum(mesh.n_triangles for mesh in surface._coarse))
+        if bricks.meshes and bricks.refining is None and not bricks.to_load:
+            break
+        time.sleep(0.01)
+    assert len(buffers) == 1 and sizes[0] > sizes[-1] and len(bricks.meshes) < 27
+    split = surface._split
+    refined = {bricks.flat[index] for index in bricks.meshes}
+    expected = split.arrays[1][~np.isin(split.brick, list(refined))]
+    drawn = np.concatenate([mesh.read()[1] for mesh in surface._coarse])
+    assert sorted(map(tuple, drawn)) == sorted(map(tuple, expected))
+    assert len(surface._coarse) <= len(refined) + 1
+
+
 def test_bricks_come_a_few_a_frame_from_a_worker_and_a_new_level_starts_again(viewer):
     app, bricks = viewer.app, viewer.state.bricks
     counts, deadline = [], time.monotonic() + 120
