@@ -125,6 +125,12 @@ def _parsed_points(spec) -> list[tuple[float, float]]:
     return points
 
 
+def surfaces_drawn(state) -> bool:
+    """Whether the picture draws the surfaces (not the ray-cast volume alone): their hints and notes say nothing
+    otherwise."""
+    return state.raycast is None or state.with_surfaces
+
+
 def rays_note(state) -> str | None:
     """Where a volume over the memory budget is ray cast, in a line: the rays read its bricks in view at full
     resolution, as many as the room holds (model/ray_bricks.py), and the coarse view (every step-th sample,

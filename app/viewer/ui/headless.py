@@ -20,6 +20,7 @@ from ..gfx.colorbar import draw_colorbar
 from ..gfx.renderer import OffscreenTarget
 from ..gfx.screenshot import save_png
 from ..model.errors import ViewerError
+from ..model.raycast import surfaces_drawn
 from ..model.state import ViewerState
 from .app import ViewerApp
 from .panel import ImguiLayer, Panel
@@ -249,11 +250,6 @@ def render_png(volume: Volume, out, iso=None, size=(800, 600), azimuth=None, ele
         return path
     finally:
         viewer.release()
-
-
-def surfaces_drawn(state) -> bool:
-    """Whether the picture draws the surfaces (not the ray-cast volume alone): their notes say nothing otherwise."""
-    return state.raycast is None or state.with_surfaces
 
 
 def shown_note(viewer) -> str | None:

@@ -20,7 +20,7 @@ from ..model.formats import level_format, level_text
 from ..model.hints import empty_level_hint
 from ..model.histogram import fraction_of, level_at
 from ..model.pacing import pace_text
-from ..model.raycast import rays_line, rays_note
+from ..model.raycast import rays_line, rays_note, surfaces_drawn
 from ..model.settings import PanelSettings
 from ..model.state import ViewerState
 from . import gui
@@ -398,7 +398,7 @@ class Panel:
         if state.error and (refusal(state, PANEL_TITLE) is None or self.box is None):
             return state.error, ERROR_COLOR
         if state.volume is not None and not state.labels and scene is not None and scene.surface is not None \
-                and scene.stats.preview_step == 1 and scene.stats.n_triangles == 0:
+                and scene.stats.preview_step == 1 and scene.stats.n_triangles == 0 and surfaces_drawn(state):
             return empty_level_hint(state.iso, state.value_range, state.histogram), HINT_COLOR
         hidden = self.levels_section.hidden_in if not state.labels else {}
         if state.levels.selected in hidden:

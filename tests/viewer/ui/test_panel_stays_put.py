@@ -203,6 +203,13 @@ def test_an_empty_level_says_where_the_values_are(gl_ctx):
         assert "most between" in text
         assert coloured(box_pixels(image, viewer._panel.status_box), HINT_RGB) > 100
         assert viewer._panel.levels_section.flags == {0: "empty"}
+        state.set_raycast("mip")   # the volume ray cast alone: no surface is drawn, so none is said empty
+        frame(viewer, 3)
+        assert viewer._panel.status(state, viewer.scene) is None
+        state.set_with_surfaces(True)
+        frame(viewer, 3)
+        assert viewer._panel.status(state, viewer.scene)[0] == text
+        state.set_raycast(None)
         state.levels.set_value((low + high) / 2)
         frame(viewer, 3)
         assert viewer.scene.stats.n_triangles > 0 and viewer._panel.status(state, viewer.scene) is None
