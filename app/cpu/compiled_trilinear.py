@@ -179,6 +179,8 @@ def _kernel_tables():
 class CompiledTrilinear(CompiledCubes):
     """`CompiledCubes` whose triangles have the trilinear interpolant's topology (`trilinear.py`)."""
 
+    recounts = False  # its own pass counts the triangles, in the offsets' arrays, at every level
+
     def __init__(self, volume, spacing, descent: bool, reuse_outputs: bool = False, value_range=None):
         super().__init__(volume, spacing, descent, reuse_outputs=reuse_outputs, value_range=value_range)
         (self._keys_counts, self._codes, self._own, self._own_masks, self._ambiguous,
@@ -191,14 +193,16 @@ class CompiledTrilinear(CompiledCubes):
         level64 = np.float64(level)
         _count(flat, swap, grid, self.sign, level64, self._signs, self._keys_counts, self._own, self._ambiguous,
                self._needs, _FACE_CORNERS, self._triangle_offsets, self._own_offsets)
-        n_edge_vertices, n_triangles = _scan(self._vertex_offsets, self._triangle_offsets)
+        n_edge_vertices, n_triangles = _scan(self._vertex_offsets, self._triangle_offsets, self._vertex_offsets,
+                                             self._triangle_offsets)  # pass 2's vertex counts, its own triangles'
         self._own_scratch[:] = 0
-        n_own, _ = _scan(self._own_offsets, self._own_scratch)
+        n_own, _ = _scan(self._own_offsets, self._own_scratch, self._own_offsets, self._own_scratch)
         self._check_size(n_edge_vertices + n_own, n_triangles, user_level)
         verts, faces, normals, values = self._output_arrays(n_edge_vertices + n_own, n_triangles)
         _write_cubes(flat, swap, grid, self.sign, level, self.spacing, self._signs, self._edges, self._vertex_offsets,
-                     self._triangle_offsets, self._busy, self._counts, self._corners, self._row_owner, workers,
-                     self._runs(workers), self._taken, verts, faces, normals, values, False, user_level, False)
+                     self._triangle_offsets, self._busy, self._busy_rows, self._counts, self._corners, self._row_owner,
+                     workers, self._runs(workers), self._taken, self._plane_rows(), verts, faces, normals, values,
+                     False, user_level, False)
         _write(flat, swap, grid, self.sign, level64, self._signs, self._edges, self._vertex_offsets,
                self._triangle_offsets, self._own_offsets, n_edge_vertices, self._keys_counts, self._codes, self._own,
                self._own_masks, _EDGE_CODES, self._ambiguous, self._needs, _FACE_CORNERS, self._row_owner, verts,

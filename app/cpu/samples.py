@@ -88,8 +88,9 @@ def _bswap(typingctx, x):
 
 @_cached_njit(inline="always", error_model="numpy")
 def raw(flat, swap, index):
-    """The stored sample at flat index `index`, in its own type (bytes swapped where stored the other way)."""
-    value = flat[index]
+    """The stored sample at flat index `index`, in its own type (bytes swapped where stored the other way).  The
+    index goes in unsigned (it is never negative): numba then adds no wraparound test to each read."""
+    value = flat[np.uint64(index)]
     if swap:
         value = _bswap(value)
     return value

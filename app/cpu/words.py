@@ -150,12 +150,16 @@ def _float_of(typingctx, word, like):
 
 
 @_cached_njit(error_model="numpy")
-def _pack_plane(flat, swap, grid, sign, level, lows, highs, ranged, signs, i, measure, los, his, nans):
+def _pack_plane(flat, swap, grid, sign, level, lows, highs, ranged, signs, i, measure, los, his, nans, previous,
+                changed, compare):
     """Pass 1 on plane i: bit k of signs[i, j, w] is set where sample (i, j, 32 w + k) of the signed field
     (sign * field) is at or above `level`.  With `ranged`, lows/highs (the words' ranges of `field`)
     let a word the level does not cut be filled without reading its samples.  With `measure`, the plane's
     smallest and largest sample (in their own type) go to los[i] and his[i], and whether one is NaN to
-    nans[i]: the value range of a volume nothing scanned before, read in the same pass."""
+    nans[i]: the value range of a volume nothing scanned before, read in the same pass.  With `compare`,
+    bit w of changed[i, j, 0] is set where word (i, j, w) differs from previous[i, j, w] (the last level's
+    words), of changed[i, j, 1] where its first bit does: pass 2 then recounts only the words next to a
+    change (_count_plane)."""
     off, s0, s1, s2 = grid[0], grid[1], grid[2], grid[3]
     n1, n2 = grid[5], grid[6]
     nw = signs.shape[2]
@@ -167,29 +171,37 @@ def _pack_plane(flat, swap, grid, sign, level, lows, highs, ranged, signs, i, me
         row = off + i * s0 + j * s1
         if measure and contiguous:
             lo, hi, nan = _extent(flat[row:row + n2], lo, hi, nan)
+        moved = np.int64(0)
+        first = np.int64(0)
         for w in range(nw):
             k0 = w * WORD_BITS
             count = min(WORD_BITS, n2 - k0)
-            if ranged:
-                outside = _word_outside(sign, level, lows, highs, i, j, w, count)
-                if outside <= 0:
-                    signs[i, j, w] = _low_bits(count) if outside else 0
-                    continue
+            outside = _word_outside(sign, level, lows, highs, i, j, w, count) if ranged else 1
             word = np.int64(0)
-            start = row + k0 * s2
-            if contiguous:  # on a slice of the row, which LLVM vectorizes
-                samples = flat[start:start + count]
-                for b in range(count):
-                    word |= np.int64(sign * np.float32(samples[b]) >= level) << b
-            else:
-                for b in range(count):
-                    v = raw(flat, swap, start + b * s2)
-                    word |= np.int64(sign * np.float32(v) >= level) << b
-                    if measure:
-                        lo = min(lo, v)
-                        hi = max(hi, v)
-                        nan |= v != v
+            if outside < 0:
+                word = _low_bits(count)
+            elif outside > 0:
+                start = row + k0 * s2
+                if contiguous:  # on a slice of the row, which LLVM vectorizes
+                    samples = flat[start:start + count]
+                    for b in range(count):
+                        word |= np.int64(sign * np.float32(samples[b]) >= level) << b
+                else:
+                    for b in range(count):
+                        v = raw(flat, swap, start + b * s2)
+                        word |= np.int64(sign * np.float32(v) >= level) << b
+                        if measure:
+                            lo = min(lo, v)
+                            hi = max(hi, v)
+                            nan |= v != v
             signs[i, j, w] = word
+            if compare:
+                diff = word ^ np.int64(previous[i, j, w])
+                moved |= np.int64(diff != 0) << w
+                first |= (diff & 1) << w
+        if compare:  # one store each: the run before this plane's may pack it too, to the same words and bits
+            changed[i, j, 0] = moved
+            changed[i, j, 1] = first
     if measure:
         los[i] = lo
         his[i] = hi
@@ -211,14 +223,15 @@ def rows_per_block(shape) -> int:
 
 @_cached_njit(parallel=True, error_model="numpy")
 def _pack_rows_along_0(flat, swap, grid, sign, level, lows, highs, ranged, signs, block_rows, measure, los,
-                       his, nans):
+                       his, nans, previous, changed, compare):
     """Pass 1 for a volume whose axis 0 is contiguous (ORDER_F, nibabel's arrays): _pack_plane's words, read
     in memory order.  Per row (j, w) of words, bit b of all n0 words is set from the contiguous row of
     samples (:, j, 32 w + b), a slice LLVM vectorizes.  With `ranged` (lows and highs in Fortran order), a row
     of words none of which the level cuts is filled without reading its samples; a row the level cuts is
     read whole (its words' ranges, one by one, cost more than the vectorized reads they would save).  Rows
     of axis 1 go in blocks of `block_rows` (rows_per_block) to the threads.  With `measure`, _pack_plane's
-    extent of each block's samples goes to los, his and nans[block]."""
+    extent of each block's samples goes to los, his and nans[block].  `previous`, `changed`, `compare`: as for
+    _pack_plane."""
     off, s1, s2 = grid[0], grid[2], grid[3]
     n0, n1, n2 = grid[4], grid[5], grid[6]
     nw = signs.shape[2]
@@ -268,8 +281,18 @@ def _pack_rows_along_0(flat, swap, grid, sign, level, lows, highs, ranged, signs
                                 nan |= v != v
         for i in range(n0):
             for r in range(rows):
+                moved = np.int64(0)
+                first = np.int64(0)
                 for w in range(nw):
-                    signs[i, j0 + r, w] = bits[r, w, i]
+                    word = bits[r, w, i]
+                    signs[i, j0 + r, w] = word
+                    if compare:
+                        diff = np.int64(word ^ previous[i, j0 + r, w])
+                        moved |= np.int64(diff != 0) << w
+                        first |= (diff & 1) << w
+                if compare:
+                    changed[i, j0 + r, 0] = moved
+                    changed[i, j0 + r, 1] = first
         if measure:
             los[block] = lo
             his[block] = hi
@@ -294,17 +317,56 @@ def _uniform(signs, i, j, w, s, full):
             and (np.int64(signs[i, j + 1, w + 1]) & 1) == bit and (np.int64(signs[i + 1, j + 1, w + 1]) & 1) == bit)
 
 
+@_cached_njit(inline="always", error_model="numpy")
+def _near_changes(changed, i, j):
+    """The words of row (i, j) whose counts a change of pass 1 reaches (a bit per word): those with a change in
+    rows (i, j), (i + 1, j), (i, j + 1) or (i + 1, j + 1) at the same word, or at the first bit of the next."""
+    n0, n1 = changed.shape[0], changed.shape[1]
+    near = changed[i, j, 0]
+    first = changed[i, j, 1]
+    if i + 1 < n0:
+        near |= changed[i + 1, j, 0]
+        first |= changed[i + 1, j, 1]
+    if j + 1 < n1:
+        near |= changed[i, j + 1, 0]
+        first |= changed[i, j + 1, 1]
+        if i + 1 < n0:
+            near |= changed[i + 1, j + 1, 0]
+            first |= changed[i + 1, j + 1, 1]
+    return near | (first >> 1)
+
+
 @_cached_njit(error_model="numpy")
-def _count_plane(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts, busy, plane_work, i):
+def _count_plane(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts, busy, busy_rows, plane_work,
+                 i, changed, recount):
     """Pass 2 on plane i: per word, the crossing-edge masks (edges[i, j, w, kind]: the edges from its samples
     to the samples steps[kind] away), its vertex count and triangle count, whether it has either (busy: pass 4
-    passes over the others, most of a volume's words); an estimate of pass 4's time on the plane (WORK_*
-    units).  Three steps must be the axes in order (CUBE_STEPS)."""
+    passes over the others, most of a volume's words) and whether a row has a busy word (busy_rows[i, j]: pass 4
+    passes over the other rows at once); an estimate of pass 4's time on the plane (WORK_* units) and its
+    vertices and triangles (plane_work[i]: pass 3 starts a slab of planes from them).  Three steps
+    must be the axes in order (CUBE_STEPS).  With `recount`, the arrays hold the last level's counts and only
+    the words whose cells or edges reach a word pass 1 changed (`changed`: per row, a bit per word changed and
+    a bit per word whose first bit did) are counted again: a word's counts depend on its own bits, those of the
+    words after it along axes 0 and 1 and both, and the first bits of the next words along axis 2."""
     n0, n1, nw = signs.shape
     axes_only = steps.shape[0] == 3
-    work = n1 * nw * WORK_WORD
+    work = plane_work[i, 0] if recount else n1 * nw * WORK_WORD
+    plane_vertices = plane_work[i, 1] if recount else 0
+    plane_triangles = plane_work[i, 2] if recount else 0
+    near = np.int64(-1)  # the words to count in a row: all of them, unless recounting
     for j in range(n1):
+        if recount:
+            near = _near_changes(changed, i, j)
+            if near == 0:
+                continue
         for w in range(nw):
+            if recount:  # a word next to no change keeps its counts; one that is counted loses its old share
+                if not (near >> w) & 1:
+                    continue
+                old_vertices, old_triangles = vertex_counts[i, j, w], triangle_counts[i, j, w]
+                work -= old_vertices * WORK_VERTEX + old_triangles * WORK_TRIANGLE
+                plane_vertices -= old_vertices
+                plane_triangles -= old_triangles
             k0 = w * WORD_BITS
             s = np.int64(signs[i, j, w])
             # Edges with a step along axis 2 end in the row: the last sample owns none.
@@ -349,18 +411,28 @@ def _count_plane(signs, n2, steps, table_counts, edges, vertex_counts, triangle_
             triangle_counts[i, j, w] = triangles
             busy[i, j, w] = vertices + triangles > 0
             work += vertices * WORK_VERTEX + triangles * WORK_TRIANGLE
-    plane_work[i] = work
+            plane_vertices += vertices
+            plane_triangles += triangles
+        row = False
+        for w in range(nw):
+            row |= busy[i, j, w]
+        busy_rows[i, j] = row
+    plane_work[i, 0] = work
+    plane_work[i, 1] = plane_vertices
+    plane_work[i, 2] = plane_triangles
 
 
 @_cached_njit(parallel=True, error_model="numpy")
 def _pack_and_count(flat, swap, layout, pack, sign, level, lows, highs, ranged, signs, steps, table_counts, edges,
-                    vertex_counts, triangle_counts, busy, plane_work, workers, starts, taken, measure, los, his,
-                    nans):
+                    vertex_counts, triangle_counts, busy, busy_rows, plane_work, workers, starts, taken, measure, los,
+                    his, nans, previous, changed, recount):
     """Passes 1 and 2 in one launch (one wait for the threads, not two), over runs of planes (starts[r] to
     starts[r + 1]) taken in turn by `workers` threads (taken[0], reset to 0 by the caller): a run packs its
     planes and the plane after it, then counts its planes.  That next plane's words are packed twice, by
     this run and the next, to the same values.  With `pack` False the words are packed already
-    (_pack_rows_along_0): pass 2 alone.  `measure`, los, his, nans: as for _pack_plane."""
+    (_pack_rows_along_0): pass 2 alone.  `measure`, los, his, nans: as for _pack_plane.  With `recount`,
+    pass 1 compares each word with `previous` (the last level's words, another array) and pass 2 counts
+    again only the words next to a change (_count_plane)."""
     n0, n2 = layout[4], layout[6]
     for _worker in prange(workers):
         grid = (layout[0], layout[1], layout[2], layout[3], layout[4], layout[5], layout[6])  # a tuple in the
@@ -371,28 +443,63 @@ def _pack_and_count(flat, swap, layout, pack, sign, level, lows, highs, ranged, 
                 break
             if pack:
                 for i in range(starts[run], min(starts[run + 1] + 1, n0)):
-                    _pack_plane(flat, swap, grid, sign, level, lows, highs, ranged, signs, i, measure, los, his, nans)
+                    _pack_plane(flat, swap, grid, sign, level, lows, highs, ranged, signs, i, measure, los, his, nans,
+                                previous, changed, recount)
             for i in range(starts[run], starts[run + 1]):
-                _count_plane(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts, busy, plane_work,
-                             i)
+                _count_plane(signs, n2, steps, table_counts, edges, vertex_counts, triangle_counts, busy, busy_rows,
+                             plane_work, i, changed, recount)
+
+
+@_cached_njit(inline="always", error_model="numpy")
+def _scan_slab(vertex_counts, triangle_counts, vertex_offsets, triangle_offsets, busy, bi, vertices, triangles):
+    """_scan's prefix sums over the bricks of planes bi to bi + BRICK_I (a slab), from the vertices and
+    triangles of the slabs before it; returns those after it."""
+    n0, n1, nw = vertex_counts.shape
+    for bj in range(0, n1, BRICK_J):
+        for w in range(nw):
+            for i in range(bi, min(bi + BRICK_I, n0)):
+                for j in range(bj, min(bj + BRICK_J, n1)):
+                    if busy is not None and not busy[i, j, w]:
+                        continue
+                    v = vertex_counts[i, j, w]
+                    t = triangle_counts[i, j, w]
+                    vertex_offsets[i, j, w] = vertices
+                    triangle_offsets[i, j, w] = triangles
+                    vertices += v
+                    triangles += t
+    return vertices, triangles
 
 
 @_cached_njit(error_model="numpy")
-def _scan(vertex_counts, triangle_counts):
-    """Pass 3: the counts become exclusive prefix sums in the GPU's word order (brick (i // BRICK_I,
-    j // BRICK_J, w) in C order, then (i % BRICK_I, j % BRICK_J)); returns the totals."""
-    n0, n1, nw = vertex_counts.shape
+def _scan(vertex_counts, triangle_counts, vertex_offsets, triangle_offsets, busy=None):
+    """Pass 3: the exclusive prefix sums of the counts in the GPU's word order (brick (i // BRICK_I,
+    j // BRICK_J, w) in C order, then (i % BRICK_I, j % BRICK_J)) into the offsets (which may be the counts'
+    own arrays); returns the totals.  Given `busy` (pass 2's), only busy words get their offsets: the others
+    count nothing, and pass 4 reads no offset of theirs (a word is busy where it has an edge)."""
     vertices = 0
     triangles = 0
-    for bi in range(0, n0, BRICK_I):
-        for bj in range(0, n1, BRICK_J):
-            for w in range(nw):
-                for i in range(bi, min(bi + BRICK_I, n0)):
-                    for j in range(bj, min(bj + BRICK_J, n1)):
-                        v = vertex_counts[i, j, w]
-                        t = triangle_counts[i, j, w]
-                        vertex_counts[i, j, w] = vertices
-                        triangle_counts[i, j, w] = triangles
-                        vertices += v
-                        triangles += t
+    for bi in range(0, vertex_counts.shape[0], BRICK_I):
+        vertices, triangles = _scan_slab(vertex_counts, triangle_counts, vertex_offsets, triangle_offsets, busy, bi,
+                                         vertices, triangles)
     return vertices, triangles
+
+
+@_cached_njit(parallel=True, error_model="numpy")
+def _scan_slabs(vertex_counts, triangle_counts, vertex_offsets, triangle_offsets, busy, plane_work, workers, taken):
+    """_scan (busy words only) with the slabs of BRICK_I planes taken in turn by `workers` threads (taken[0], reset
+    to 0 by the caller), each slab starting from the vertices and triangles of the planes before it (pass 2's
+    plane_work[:, 1:]).  The totals are plane_work's sums."""
+    n0 = vertex_counts.shape[0]
+    slabs = -(-n0 // BRICK_I)
+    for _worker in prange(workers):
+        while True:
+            slab = _take(taken)
+            if slab >= slabs:
+                break
+            vertices = 0
+            triangles = 0
+            for i in range(slab * BRICK_I):
+                vertices += plane_work[i, 1]
+                triangles += plane_work[i, 2]
+            _scan_slab(vertex_counts, triangle_counts, vertex_offsets, triangle_offsets, busy, slab * BRICK_I, vertices,
+                       triangles)

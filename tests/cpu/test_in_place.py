@@ -110,6 +110,47 @@ def test_a_resident_extractor_reads_the_volume_where_it_lies(dtype):
                 assert_identical(extractor.read_mesh(), marching_cubes_reference(copy, level, (1, 1, 1), True))
 
 
+@pytest.mark.parametrize("dtype", ["uint8", "int16", ">f8"])
+def test_iso_changes_recount_only_the_changes_yet_match_a_fresh_extraction(dtype):
+    """From the third level on, pass 2 counts again only the words next to a word whose bits changed and keeps
+    the rest: on every layout, in both directions, over levels in small steps, repeated, on sample values and
+    in big jumps, with the planes split differently between the threads each time, the mesh and every
+    word's counts, edges, offsets and pass 4's plane shares are those of a fresh extraction at that level."""
+    volume = scan(dtype)
+    copy = volume.astype(np.float64)
+    rng = np.random.default_rng(34)
+    values = np.unique(copy)
+    middle = float(np.median(copy))
+    step = 1.0 if volume.dtype.kind in "ui" else 0.5
+    levels = [middle, middle + step, middle, middle + step, middle + step, float(values[len(values) // 3]),
+              float(values[len(values) // 3]) + step / 2, float(values[-2]), middle - 3 * step]
+    levels += [float(rng.choice(values)) + float(rng.choice([0.0, 0.5, -step])) for _ in range(4)]
+    levels = [min(max(level, values[0]), values[-1]) for level in levels]
+    for descent in (True, False):
+        for name, layout in layouts(volume).items():
+            cubes = CompiledCubes(layout, (0.5, 1.0, 2.0), descent)
+            for n, level in enumerate(levels):
+                cubes.runs = int(rng.integers(1, 9))
+                got = cubes.extract(level)
+                fresh = CompiledCubes(layout, (0.5, 1.0, 2.0), descent)
+                assert_identical(got, fresh.extract(level))
+                for part in ("_edges", "_busy", "_plane_work"):
+                    assert np.array_equal(getattr(cubes, part), getattr(fresh, part)), (name, level, part)
+                for part in ("_vertex_offsets", "_triangle_offsets"):  # the offsets pass 4 reads: busy words'
+                    assert np.array_equal(getattr(cubes, part)[fresh._busy], getattr(fresh, part)[fresh._busy])
+                assert cubes._counted == (n >= 1), name  # the counts kept from the second level on
+
+
+def test_rows_of_more_than_62_words_count_every_word_at_each_level():
+    """A row of 63 words (2,016 samples along axis 2) has no room in a row's bit mask of changes: every level
+    counts all words, and gives the fresh mesh."""
+    volume = scan("float32", shape=(4, 5, 2016))
+    cubes = CompiledCubes(volume, (1, 1, 1), True)
+    for level in (0.0, 30.0, 0.0, -50.0):
+        assert_identical(cubes.extract(level), CompiledCubes(volume, (1, 1, 1), True).extract(level))
+        assert cubes._vertex_counts is cubes._vertex_offsets and not cubes._counted
+
+
 def test_the_view_finds_the_memory_order():
     volume = scan("int16")
     assert sample_view(volume).order == ORDER_C
