@@ -49,9 +49,15 @@ class SceneStats:
 
     @property
     def n_triangles(self) -> int:
-        """The selected level's triangles on show (0 with no surface)."""
+        """The selected level's triangles on show (0 with no surface): in bricks, those of the coarse remainder,
+        the bricks at full resolution and the skirts."""
         surface = self.scene.surface
+        if surface is not None and self.scene.bricks.drawing:
+            return self._brick_triangles()
         return surface.shown.n_triangles if surface is not None else 0
+
+    def _brick_triangles(self) -> int:
+        return sum(mesh.n_triangles for mesh in self.scene.bricks.meshes)
 
     @property
     def extract_ms(self) -> float:
@@ -62,7 +68,11 @@ class SceneStats:
     def level_stats(self, index: int) -> tuple[int, float]:
         """(triangles, extraction ms) of the mesh on show for level `index`."""
         scene = self.scene
-        return scene.level_meshes.stats(scene.state.levels[index], scene.surface)
+        level = scene.state.levels[index]
+        triangles, ms = scene.level_meshes.stats(level, scene.surface)
+        if scene.bricks.drawing and level is scene.level_meshes.on_extractor:   # drawn in bricks
+            return self._brick_triangles(), ms
+        return triangles, ms
 
     def label_triangles(self, label: int) -> int:
         """The triangles of label `label`'s surface."""

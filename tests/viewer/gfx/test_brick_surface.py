@@ -277,3 +277,23 @@ def test_a_volume_over_the_budget_says_how_it_is_ray_cast(gl_ctx, blob, tmp_path
                            "--out", tmp_path / "mip.png")
     assert result.returncode == 0, result.stderr
     assert "note: the volume is ray cast at full resolution in its bricks read so far" in result.stderr
+
+
+def test_a_level_only_the_bricks_show_is_not_said_empty(gl_ctx):
+    """Lines one sample thick at odd indices: the coarse view (every 2nd sample) has no surface at 0.5, the
+    bricks at full resolution do. The Stats' triangles count what is drawn, and no hint says the level empty."""
+    from isoscope.viewer.ui.headless import empty_level_hints
+    data = np.zeros(SHAPE, np.float32)
+    for k in range(25, 135, 10):
+        data[k, 20:140, 81] = 1.0
+    viewer = HeadlessViewer((160, 120), ctx=gl_ctx, memory_budget=BUDGET)
+    try:
+        viewer.show(as_volume(data, name="lines"), 0.5)
+        assert viewer.state.step == 2 and viewer.scene.stats.n_triangles == 0
+        assert empty_level_hints(viewer)   # the coarse view alone: nothing at 0.5, and said so
+        viewer.render()
+        drawn = sum(mesh.n_triangles for mesh in viewer.scene.stats.meshes)
+        assert drawn > 0 and viewer.scene.stats.n_triangles == drawn
+        assert viewer.scene.stats.level_stats(0)[0] == drawn and empty_level_hints(viewer) == []
+    finally:
+        viewer.release()
