@@ -43,8 +43,11 @@ class SceneStats:
 
     @property
     def n_vertices(self) -> int:
-        """The selected level's vertices on show (0 with no surface)."""
+        """The selected level's vertices on show (0 with no surface): in bricks, those of each buffer drawn (the
+        coarse remainder's ranges share one)."""
         surface = self.scene.surface
+        if surface is not None and self.scene.bricks.drawing:
+            return sum({mesh.vertex_buffer: mesh.n_vertices for mesh in self.scene.bricks.meshes}.values())
         return surface.shown.n_vertices if surface is not None else 0
 
     @property

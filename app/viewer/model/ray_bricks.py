@@ -26,6 +26,7 @@ import numpy as np
 from ...core.bricks import Brick, BrickLayout, in_view, plan_refinement
 from ...core.budget import shown_shape
 from ...core.value_ranges import RANGE_BRICK, ranges_within
+from .errors import READ_ERRORS
 from .jobs import Jobs, Response
 from .raycast import texture_samples, texture_type
 
@@ -174,15 +175,19 @@ class RayBricks:
             del self.loaded[brick.index]
             self.serial += 1
         if wait:
+            error = None
             for brick in plan.load:
                 try:
                     self._keep(self._read(brick))
-                except Exception:
+                except READ_ERRORS as exc:   # the others are read all the same; the first error is said
                     self.failed.add(brick.index)
-                    raise
+                    error = error or exc
+                    continue
                 if each is not None:
                     each()
             self.to_load = 0
+            if error is not None:
+                raise error
         elif plan.load and self.reading is None:
             brick = plan.load[0]
             request = self.jobs.submit(RAY_BRICK_JOB, self._read, brick,
@@ -223,10 +228,12 @@ class RayBricks:
             self.serial += 1
 
     def forget(self) -> None:
-        """No brick at full resolution for the rays; the brick on the worker, when it comes, is dropped."""
+        """No brick at full resolution for the rays; the brick on the worker, when it comes, is dropped; bricks
+        that could not be read are asked for again (the rays back on, another room)."""
         if self.loaded:
             self.serial += 1
         self.loaded.clear()
+        self.failed.clear()
         self.visible = set()
         self.to_load = 0
         self._asked = None

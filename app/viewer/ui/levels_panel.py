@@ -11,6 +11,7 @@ from ..model.colormaps import COLORMAPS
 from ..model.formats import level_text
 from ..model.hints import empty_level_hint, enclosing_levels
 from ..model.levels import MAX_LEVELS
+from ..model.raycast import surfaces_drawn
 from ..model.state import ViewerState
 from .gui import act, choose, imgui, px, section, tooltip
 
@@ -101,7 +102,10 @@ class LevelsSection:
     @staticmethod
     def flagged(state: ViewerState, scene) -> dict[int, str]:
         """Levels that show nothing: {index: "empty"} where the mesh has no triangle (as `scene` last made
-        it, at full resolution), {index: "hidden"} where it lies inside a visible opaque level."""
+        it, at full resolution), {index: "hidden"} where it lies inside a visible opaque level; none while the
+        volume is ray cast alone (no surface is drawn)."""
+        if not surfaces_drawn(state):
+            return {}
         empty = []
         if scene is not None and scene.surface is not None:
             stats = scene.stats

@@ -189,6 +189,11 @@ def test_a_brick_that_cannot_be_read_is_said_once_and_the_others_still_come(gl_c
             viewer.app.follow(0.02)
         viewer.render()
         assert reads.count((0, 0, 0)) == 1 and viewer.state.error is None and len(rays.loaded) > 1
+        viewer.state.set_raycast(None)   # the rays off and on again: the brick is asked for again
+        viewer.render()
+        viewer.state.set_raycast("mip")
+        viewer.render()
+        assert reads.count((0, 0, 0)) == 2 and rays.failed == {(0, 0, 0)}
     finally:
         viewer.release()
 

@@ -205,7 +205,7 @@ def test_an_empty_level_says_where_the_values_are(gl_ctx):
         assert viewer._panel.levels_section.flags == {0: "empty"}
         state.set_raycast("mip")   # the volume ray cast alone: no surface is drawn, so none is said empty
         frame(viewer, 3)
-        assert viewer._panel.status(state, viewer.scene) is None
+        assert viewer._panel.status(state, viewer.scene) is None and viewer._panel.levels_section.flags == {}
         state.set_with_surfaces(True)
         frame(viewer, 3)
         assert viewer._panel.status(state, viewer.scene)[0] == text
