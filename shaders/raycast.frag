@@ -18,8 +18,8 @@
 // (MIP: no value above the largest so far; MinIP: none below; iso: all of it on the outside of the level;
 // DVR: all of it below the window) is left at its far face.  The clip plane, where there is one, cuts
 // the rays: iso draws the cut through the object flat, in the surface's colour.
-// BRICKED (a #define: a volume over the memory budget, model/ray_bricks.py): the box is the full volume's,
-// and where the brick of the full volume a point lies in is in the atlas (u_slots: its slot's first texel and
+// BRICKED (a #define: a volume over the memory budget, model/ray_bricks.py): the box is the coarse view's (as
+// the box drawn), and where the brick of the full volume a point lies in is in the atlas (u_slots: its slot's first texel and
 // 1; gfx/ray_atlas.py) the samples are read there, at full resolution, else from the coarse view (u_volume);
 // the ray steps u_step there and u_coarse_steps times that in the coarse view (one lattice: the samples are
 // those of a ray at the full resolution's step, every u_coarse_steps-th where the view is coarse), and the
@@ -105,25 +105,35 @@ bool full_at(vec3 p) {
 }
 #endif
 
-// The value at p, and the ray's step from there (in the coarse view u_coarse_steps of u_step where BRICKED).
-float value_and_step(vec3 p, out float step) {
-    step = u_step;
-#ifdef BRICKED
-    vec3 brick, local;
-    vec4 slot = slot_at(p, brick, local);
-    if (slot.w > 0.5) {
-        vec3 texel = slot.xyz + local + 0.5;
-        return texture(u_atlas, (texel / u_atlas_shape).zyx).r * u_atlas_value_map.x + u_atlas_value_map.y;
-    }
-    step = u_step * u_coarse_steps;
-#endif
+// The value at p from the coarse view (u_volume).
+float coarse_value(vec3 p) {
     vec3 texel = (p / max(u_texture_extent, vec3(1e-30))) * (u_shape - 1.0) + 0.5;
     return texture(u_volume, (texel / u_shape).zyx).r * u_value_map.x + u_value_map.y;
 }
 
+#ifdef BRICKED
+// The value at p, its brick's `slot` and `local` position given (slot_at), and the ray's step from there:
+// u_coarse_steps of u_step where the brick is not in the atlas.
+float slot_value(vec3 p, vec4 slot, vec3 local, out float step) {
+    if (slot.w > 0.5) {
+        step = u_step;
+        vec3 texel = slot.xyz + local + 0.5;
+        return texture(u_atlas, (texel / u_atlas_shape).zyx).r * u_atlas_value_map.x + u_atlas_value_map.y;
+    }
+    step = u_step * u_coarse_steps;
+    return coarse_value(p);
+}
+#endif
+
 float value_at(vec3 p) {
+#ifdef BRICKED
+    vec3 brick, local;
+    vec4 slot = slot_at(p, brick, local);
     float step;
-    return value_and_step(p, step);
+    return slot_value(p, slot, local, step);
+#else
+    return coarse_value(p);
+#endif
 }
 
 vec3 spacing_at(vec3 p) {   // the spacing of the samples value_at reads at p
@@ -274,6 +284,10 @@ void main() {
 #endif
     for (int i = 0; i < MAX_STEPS && t <= span.y; ++i) {
         vec3 p = u_eye + dir * t;
+#ifdef BRICKED   // p's brick, looked up once for the skipping and the sample
+        vec3 whole, local;
+        vec4 slot = slot_at(p, whole, local);
+#endif
 #if !defined(MODE_MEAN)   // a mean takes every sample: nothing to skip
         // The macro brick first (one fetch leaves MACRO bricks a side behind), then the brick.
         ivec3 brick = brick_of(p, u_macro, u_macros);
@@ -282,8 +296,6 @@ void main() {
         if (!skip) {
 #ifdef BRICKED
             // In a brick read in full: its own ranges, RANGE_BRICK full samples a side (within the brick).
-            vec3 whole, local;
-            vec4 slot = slot_at(p, whole, local);
             if (slot.w > 0.5) {
                 vec3 r = min(floor(local / u_range_cells), vec3(u_slot_ranges - 1.0));
                 ivec3 entry = ivec3(slot.xyz / (u_cells + 1.0) * u_slot_ranges + r + 0.5);
@@ -311,8 +323,13 @@ void main() {
             continue;
         }
 #endif
+#ifdef BRICKED
         float step;
-        float v = value_and_step(p, step);
+        float v = slot_value(p, slot, local, step);
+#else
+        float step = u_step;
+        float v = coarse_value(p);
+#endif
 #if defined(MODE_MINIP)
         gathered = min(gathered, v);
 #elif defined(MODE_MIP)
