@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from ..model.ray_bricks import RANGE_BRICK, slot_ranges
-from ..model.raycast import texture_type
+from ..model.raycast import texture_type, value_map
 
 
 class RayAtlas:
@@ -28,8 +28,8 @@ class RayAtlas:
         self.texture = None
         self.ranges = None           # each slot's own skipping ranges, slot_ranges a side
         self.table = None
-        self.kind, unit = texture_type(model.volume.data.dtype)
-        self.value_map = (unit, 0.0) if unit is not None else (1.0, 0.0)
+        self.kind = texture_type(model.volume.data.dtype)[0]
+        self.value_map = value_map(model.volume.data.dtype)
         self.slots: dict[tuple[int, int, int], int] = {}
         self._held: dict[tuple[int, int, int], object] = {}   # the RayBrick each slot holds
         self.grid = (0, 0, 0)

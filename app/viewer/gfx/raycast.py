@@ -16,7 +16,7 @@ from ...core.value_ranges import MACRO, brick_ranges, coarser_ranges, widened
 from ...core.value_ranges import RANGE_BRICK as BRICK
 from ...resources import shader_source
 from ..model.colormaps import LUT_SIZE
-from ..model.raycast import texture_samples, texture_type
+from ..model.raycast import texture_samples, texture_type, value_map
 from .ray_atlas import RayAtlas
 from .slices import colormap_rgba8
 
@@ -127,12 +127,12 @@ class VolumeRaycaster:
         self._base_ranges = ranges
         self._ranges, self._macro_ranges = (self.ctx.texture3d(r.shape[2::-1], 2, np.ascontiguousarray(r).tobytes(),
                                                                dtype="f4") for r in (ranges, macro_ranges))
-        kind, unit = texture_type(array.dtype)
-        array = texture_samples(array)
-        self._texture = self.ctx.texture3d(array.shape[::-1], 1, array.tobytes(), dtype=kind)
+        kind = texture_type(array.dtype)[0]
+        samples = texture_samples(array)
+        self._texture = self.ctx.texture3d(samples.shape[::-1], 1, samples.tobytes(), dtype=kind)
         self._texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)   # the trilinear interpolant
         self._texture.repeat_x = self._texture.repeat_y = self._texture.repeat_z = False
-        self._texture_of, self._value_map = data, ((unit, 0.0) if unit is not None else (1.0, 0.0))
+        self._texture_of, self._value_map = data, value_map(array.dtype)
 
     def draw(self, request, view: bytes, projection: bytes, eye, depth: SceneDepth | None = None,
              step_scale: float = 1.0) -> None:
@@ -314,6 +314,7 @@ class VolumeRaycaster:
     def release(self) -> None:
         """Free the textures, programs, vertex arrays and buffers."""
         self._release_coarse()
+        self._release_volume()   # first: the atlas let go then writes no ranges into textures about to go
         self._release_atlas()
         if self._upscale is not None:
             for obj in self._upscale[::-1]:
@@ -328,7 +329,6 @@ class VolumeRaycaster:
         self._cube.release()
         self._lut.release()
         self._transfer.release()
-        self._release_volume()
 
     def _release_volume(self) -> None:
         self._ranges_of = None   # the new volume's ranges are widened again (its atlas follows its own model)

@@ -28,7 +28,7 @@ from ...core.budget import shown_shape
 from ...core.value_ranges import RANGE_BRICK, ranges_within
 from .errors import READ_ERRORS
 from .jobs import Jobs, Response
-from .raycast import texture_samples, texture_type
+from .raycast import texel_bytes, texture_samples
 
 RAY_BRICK_JOB = "ray brick"
 ATLAS_SIDE = 2048
@@ -98,7 +98,7 @@ class RayBricks:
         self.slots = (0, 0, 0)     # the atlas's slots along each array axis (slot_grid; none: not ray cast)
         self.visible: set[tuple[int, int, int]] = set()
         self.to_load = 0
-        self.serial = 0            # bumps on every change of `loaded` or `capacity`: the GPU side follows
+        self.serial = 0            # bumps on every change of `loaded` or `slots`: the GPU side follows
         self._asked: tuple[int, tuple] | None = None   # (request id, brick index) on the worker
         self.jobs = Jobs()
 
@@ -109,8 +109,7 @@ class RayBricks:
     @property
     def texel_bytes(self) -> int:
         """What one sample takes in the ray caster's textures (texture_type)."""
-        kind, unit = texture_type(self.volume.data.dtype)
-        return int(kind[-1]) if unit is not None else 4
+        return texel_bytes(self.volume.data.dtype)
 
     @property
     def slot_bytes(self) -> int:

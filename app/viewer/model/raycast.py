@@ -24,6 +24,18 @@ def texture_type(dtype) -> tuple[str, float | None]:
     return NORMALISED.get(np.dtype(dtype), ("f4", None))
 
 
+def value_map(dtype) -> tuple[float, float]:
+    """(scale, offset) taking a texel of samples of `dtype`, as the shader reads it, back to its value."""
+    unit = texture_type(dtype)[1]
+    return (unit, 0.0) if unit is not None else (1.0, 0.0)
+
+
+def texel_bytes(dtype) -> int:
+    """What one sample of `dtype` takes in the ray caster's textures: its own size where texture_type keeps
+    its type, else float32's."""
+    return np.dtype(dtype).itemsize if texture_type(dtype)[1] is not None else 4
+
+
 def texture_samples(array) -> np.ndarray:
     """`array` as the ray caster's texture takes it: C order, in its own type where `texture_type` keeps
     it, else float32."""
@@ -141,20 +153,26 @@ def rays_note(state) -> str | None:
     shown, full = (tuple(volume.data.shape) for volume in (state.volume, state.full_volume))
     if shown == full:
         return None
-    rays = state.bricks.rays if state.bricks is not None else None
-    if rays is not None and rays.capacity:
+    rays = _rays_in_bricks(state)
+    if rays is not None:
         return (f"the volume is ray cast at full resolution in its bricks read so far, {rays.text}, and from "
                 f"{shape_text(shown)} of {shape_text(full)} samples elsewhere (what the memory budget lets in)")
     return (f"the volume is ray cast from {shape_text(shown)} of {shape_text(full)} samples, the coarse view on "
             "show (what the memory budget or the GPU's limits let in)")
 
 
+def _rays_in_bricks(state):
+    """The rays' bricks (model/ray_bricks.py RayBricks) where the rays read some at full resolution, else None."""
+    rays = state.bricks.rays if state.bricks is not None else None
+    return rays if rays is not None and rays.capacity else None
+
+
 def rays_line(state) -> str | None:
     """The panel's Stats line of the rays of a volume over the budget (rays_note in a tooltip), or None."""
     if rays_note(state) is None:
         return None
-    rays = state.bricks.rays if state.bricks is not None else None
-    if rays is not None and rays.capacity:
+    rays = _rays_in_bricks(state)
+    if rays is not None:
         return f"{len(rays.loaded)} of {len(rays.bricks)} bricks in full"
     return f"{shape_text(state.volume.data.shape)} (coarse view)"
 
