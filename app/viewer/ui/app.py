@@ -78,15 +78,20 @@ class ViewerApp:
         bricks = self.state.bricks
         if bricks is not None:
             clip = (self.camera.view_matrix().astype(np.float64) @ self.camera.projection_matrix(self._aspect)).T
-            for look in (lambda: bricks.look(self.state, self.camera.eye(), clip,
-                                             self.scene.bricks.coarse_of(self.scene.surface, self.state), wait=wait),
-                         lambda: bricks.rays.look(self.state, self.camera.eye(), clip, wait=wait,
-                                                  each=lambda: self.renderer.follow_ray_bricks(bricks.rays))):
-                try:   # the surfaces' bricks and the rays' each on their own: one's error does not stop the other
-                    look()
-                except USER_ERRORS as exc:
-                    self.state.error = one_line(exc)
+            eye = self.camera.eye()
+            # the surfaces' bricks and the rays' each on their own: one's error does not stop the other
+            self._saying_errors(bricks.look, self.state, eye, clip,
+                                self.scene.bricks.coarse_of(self.scene.surface, self.state), wait=wait)
+            self._saying_errors(bricks.rays.look, self.state, eye, clip, wait=wait,
+                                each=lambda: self.renderer.follow_ray_bricks(bricks.rays))
         self.scene.follow_bricks()
+
+    def _saying_errors(self, work, *args, **kwargs) -> None:
+        """`work(*args, **kwargs)`; a user's error it raises goes to the status line in one line."""
+        try:
+            work(*args, **kwargs)
+        except USER_ERRORS as exc:
+            self.state.error = one_line(exc)
 
     def draw(self, viewport, covered_left: int = 0, moving: bool = False) -> None:
         """Step 3: the scene into `viewport` of the bound framebuffer, centred in what `covered_left` pixels
