@@ -133,6 +133,12 @@ def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), backend="auto", max_label
     touch their surfaces have the same vertices on the common boundary, equal to
     the last bit.
 
+    There is no ``topology`` here, nor smoothing, tetrahedra or sharp features
+    (every door refuses them with a label map): on a 0/1 indicator at 0.5 each
+    ambiguous face's bilinear saddle sits exactly at the level, where the
+    trilinear interpolant's level set crosses itself and has no topology of its
+    own to follow; the label table's rule (each loop folds outwards) decides it.
+
     References
     ----------
     .. [1] W. Schroeder, R. Maynard and B. Geveci, "Flying edges: a

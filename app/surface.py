@@ -24,7 +24,8 @@ def isosurface(volume, level=None, *, spacing=None, affine=None, gradient_direct
         "descent": the object is where values are above the level.
     labels : bool, default False
         Treat `volume` as a label map: one surface per non-zero label in one mesh, each vertex coloured
-        by its label (``mesh.visual.vertex_colors``), neighbours sharing their boundary.
+        by its label (``mesh.visual.vertex_colors``), neighbours sharing their boundary.  It takes no
+        `level`, `tetrahedra` or mesh option but ``backend`` (`isoscope.label_surfaces` says why).
     tetrahedra : bool, default False
         Marching tetrahedra's surface instead of marching cubes'.
     world : bool, default True
@@ -78,7 +79,14 @@ def isosurface(volume, level=None, *, spacing=None, affine=None, gradient_direct
     from .volumes.inputs import as_volume
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
     if labels:
+        from .errors import InputError
         from .labels import coloured_join, label_colors, label_surfaces, labels_of
+        # A label's surface is its boundary (label_surfaces): a level or a mesh mode would be silently dropped.
+        dropped = ["level"] * (level is not None) + ["tetrahedra"] * bool(tetrahedra) + \
+            [name for name in options if name != "backend"]
+        if dropped:
+            raise InputError(f"{dropped[0]} does not apply with labels=True (each label's surface is its boundary); "
+                             f"leave out {dropped[0]}")
         # labels=True is the caller's word that it is a label map (as label_surfaces takes an array)
         surfaces = label_surfaces(labels_of(shown), spacing=shown.spacing, backend=options.get("backend", "auto"))
         parts = [in_volume_space(shown, *mesh, world=world)[:3] for mesh in surfaces.values()]

@@ -58,6 +58,12 @@ def level_path(out, level: float) -> str:
     return str(out.with_name(f"{out.stem}_iso{level:g}{out.suffix}"))
 
 
+LABEL_MESH_FLAGS = ("--tetrahedra", "--smooth", "--sharp", "--topology")
+"""Mesh modes a label map's surfaces do not take: each is marching cubes of the label's 0/1 indicator at 0.5 with
+the label table (labels.py), whose every vertex is an edge's midpoint; the trilinear topology has nothing to decide
+there (every ambiguous face's saddle sits exactly at the level)."""
+
+
 def check_label_options(args, *options: str) -> None:
     """--labels draws or writes every label's boundary: refuse the options that have no meaning there."""
     for option in options:

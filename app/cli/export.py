@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..validation import as_gradient_direction
-from .common import check_label_options, checked_levels, count_line, level_path, progress, wrote
+from .common import LABEL_MESH_FLAGS, check_label_options, checked_levels, count_line, level_path, progress, wrote
 from .volume_options import each_time_point, open_volume_from_args
 
 
@@ -135,7 +135,7 @@ def _export_labels(args) -> int:
         refuse_a_scan,
         write_label_meshes,
     )
-    check_label_options(args, "--iso", "--decimate", "--topology")
+    check_label_options(args, "--iso", "--decimate", "--closed", *LABEL_MESH_FLAGS)   # closed already
     for option in ("--chunk", "--workers", "--scheduler"):
         if getattr(args, option.strip("-")) is not None:
             raise InputError(f"export --labels makes every label's surface here, from the whole volume; "

@@ -12,7 +12,7 @@ import math
 import sys
 
 from .arguments import VOLUME_HELP, OneLineParser, _add_iso, add_force_labels, add_topology, max_labels
-from .common import check_label_options, checked_levels, progress
+from .common import LABEL_MESH_FLAGS, check_label_options, checked_levels, progress
 from .volume_options import add_volume_arguments, each_time_point
 
 ML_PER_MM3 = 1e-3
@@ -48,7 +48,7 @@ def run_measure(args) -> int:
     """``isoscope measure``: each surface's measures (each level's, or each label's with --labels; per time point with
     --time all or A:B), as a table or as JSON; the exit status."""
     if args.labels:
-        check_label_options(args, "--iso", "--closed", "--topology")   # a label's surface is closed already
+        check_label_options(args, "--iso", "--closed", *LABEL_MESH_FLAGS)   # a label's surface is closed already
     else:
         check_label_options(args, "--max-labels", "--label-names", "--force-labels")
     records = []

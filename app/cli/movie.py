@@ -12,7 +12,7 @@ from ..errors import InputError
 from ..io.movie import movie_kind
 from ..viewer.model.raycast import check_transfer_mode
 from .arguments import OneLineParser, add_render_options
-from .common import check_label_options, checked_levels, count_line, progress, wrote
+from .common import LABEL_MESH_FLAGS, check_label_options, checked_levels, count_line, progress, wrote
 from .slice_options import apply_slice_arguments
 from .volume_options import TimeRange, add_volume_arguments, open_volume_from_args
 
@@ -61,7 +61,7 @@ def run_movie(args) -> int:
     if args.save_scene:
         raise InputError("movie saves no scene; leave out --save-scene (render --save-scene does)")
     if args.labels:   # each label's surface, as render --labels draws it
-        check_label_options(args, "--iso", "--panel", "--sweep")
+        check_label_options(args, "--iso", "--panel", "--sweep", *LABEL_MESH_FLAGS)
     else:
         check_label_options(args, "--label-names", "--force-labels")
     check_transfer_mode(args.raycast, args.transfer, flags=True)

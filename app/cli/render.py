@@ -5,7 +5,7 @@ import sys
 
 from ..errors import InputError
 from ..viewer.model.raycast import check_transfer_mode
-from .common import EXIT_NO_GL, check_label_options, checked_iso, checked_levels, progress, wrote
+from .common import EXIT_NO_GL, LABEL_MESH_FLAGS, check_label_options, checked_iso, checked_levels, progress, wrote
 from .slice_options import apply_slice_arguments
 from .volume_options import open_volume_from_args
 
@@ -50,6 +50,7 @@ def _apply_mesh_arguments(state, args) -> None:
     """--labels, --tetrahedra, --smooth, --sharp on the viewer: through ViewerState, as the panel does;
     a refusal raises its one line (MeshOptionsError, a ValueError) and changes nothing."""
     if args.labels:
+        check_label_options(args, *LABEL_MESH_FLAGS)
         state.show_labels(names=args.label_names, force=args.force_labels)
     else:
         check_label_options(args, "--label-names", "--force-labels")
@@ -85,7 +86,7 @@ def run_render(args) -> int:
     if scene is not None:
         return _render_scene(scene, args)
     if args.labels:
-        check_label_options(args, "--iso", "--panel")
+        check_label_options(args, "--iso", "--panel", *LABEL_MESH_FLAGS)
         from ..viewer.ui.headless import render_png
         volume = open_volume_from_args(args.volume, args, progress)
         path = render_png(volume, args.out, size=args.size, azimuth=args.azimuth, elevation=args.elevation,

@@ -60,3 +60,31 @@ def test_measure_refuses_topology_with_labels(tmp_path):
     np.save(tmp_path / "seg.npy", np.pad(np.ones((4, 4, 4), np.uint8), 2))
     assert_one_line_error(isoscope_here("measure", tmp_path / "seg.npy", "--labels", "--topology", "trilinear"),
                           "--topology does not apply with --labels")
+
+
+@pytest.mark.parametrize("command, flags", [
+    ("export", ["--topology", "trilinear"]), ("export", ["--smooth", "2"]), ("export", ["--tetrahedra"]),
+    ("export", ["--closed"]), ("render", ["--topology", "trilinear"]), ("render", ["--smooth", "3"]),
+    ("render", ["--tetrahedra"]), ("render", ["--sharp", "30"]), ("movie", ["--smooth", "2"]),
+    ("movie", ["--topology", "trilinear"]),
+])
+def test_a_label_maps_surfaces_refuse_the_mesh_modes(tmp_path, command, flags):
+    """A label's surface is its boundary: a mesh mode given with --labels was dropped without a word (the PLY
+    and the PNG were the same bytes with and without it)."""
+    np.save(tmp_path / "seg.npy", np.pad(np.ones((4, 4, 4), np.uint8), 2))
+    out = {"export": ["--out", tmp_path / "x.ply"], "render": ["--out", tmp_path / "x.png"],
+           "movie": ["--out", tmp_path / "x.mp4"], "measure": []}[command]
+    assert_one_line_error(isoscope_here(command, tmp_path / "seg.npy", "--labels", *flags, *out),
+                          f"{flags[0]} does not apply with --labels")
+    assert not any(tmp_path.glob("x*"))
+
+
+@pytest.mark.parametrize("option", [dict(topology="trilinear"), dict(smooth=2), dict(tetrahedra=True),
+                                    dict(level=0.5), dict(sharp_features=30)])
+def test_isosurface_of_labels_refuses_what_it_would_drop(option):
+    import isoscope
+    from isoscope.errors import IsoscopeError
+    labels = np.pad(np.ones((4, 4, 4), np.uint8), 2)
+    with pytest.raises(IsoscopeError, match=f"{next(iter(option))} does not apply with labels=True"):
+        isoscope.isosurface(labels, labels=True, **option)
+    assert len(isoscope.isosurface(labels, labels=True, backend="cpu").faces) > 0
