@@ -37,6 +37,8 @@ class SurfaceRecord:
     open_edges: int
     euler: int = 0
     genus: int | None = None          # the handles of a closed surface; None where it is open
+    cavities: int = 0                 # pieces enclosing less than nothing: a hollow's inner walls
+    cavities_ml: float = 0.0          # what they take away (>= 0)
 
     @property
     def size(self) -> tuple[float, float, float] | None:
@@ -61,13 +63,14 @@ class MeasureRequest:
 
 def record_of(name: str, verts, faces) -> SurfaceRecord:
     """The Measure section's row for one surface (`name`) from its mesh: area, enclosed volume and the largest part's in
-    millilitres (from cubic millimetres), components, bounding box, open edges, Euler characteristic and genus."""
+    millilitres (from cubic millimetres), components, bounding box, open edges, Euler characteristic, genus and
+    cavities."""
     from ...cpu.measure import measure_surface
     m = measure_surface(verts, faces)
     finite = all(math.isfinite(v) for v in m.bbox_min)
     return SurfaceRecord(name, m.area, m.volume * ML_PER_MM3, m.components, m.largest_component_volume * ML_PER_MM3,
                          tuple(m.bbox_min) if finite else None, tuple(m.bbox_max) if finite else None, m.open_edges,
-                         m.euler, m.genus)
+                         m.euler, m.genus, m.cavities, -m.cavity_volume * ML_PER_MM3)
 
 
 def level_mesh(volume, level: float, cells: str = "cubes", smooth: int = 0, closed: bool = False,

@@ -82,6 +82,10 @@ class MeasureSection:
         imgui.text(f"  area {record.area_mm2:.6g} mm^2, volume {record.volume_ml:.5g} mL")
         imgui.text(f"  {record.components:,} piece{'s' * (record.components != 1)}, largest "
                    f"{record.largest_component_ml:.5g} mL")
+        if record.cavities:   # a hollow's inner walls are pieces too (measure's line names them the same way)
+            imgui.text(f"  {record.cavities:,} of them {'cavities' if record.cavities != 1 else 'a cavity'}, "
+                       f"taking {record.cavities_ml:.5g} mL away")
+            tooltip("pieces that enclose less than nothing: the walls of hollows inside the object")
         imgui.text(f"  Euler characteristic {record.euler}" +
                    (f", genus {record.genus}" if record.genus is not None else ""))
         tooltip("V - E + F of the mesh; genus: the handles (tunnels through the object) of a closed surface, "

@@ -47,6 +47,8 @@ def assert_same_as_command(record, expected):
     assert record.bbox_min == pytest.approx(tuple(expected["bbox_min"]))
     assert record.bbox_max == pytest.approx(tuple(expected["bbox_max"]))
     assert record.open_edges == expected["open_edges"]
+    assert (record.euler, record.genus, record.cavities) == (expected["euler"], expected["genus"], expected["cavities"])
+    assert record.cavities_ml == pytest.approx(expected["cavities_ml"], rel=1e-9)
 
 
 @pytest.mark.parametrize("closed", [False, True])
@@ -82,9 +84,11 @@ def test_a_newer_request_makes_the_older_answer_stale():
 
 
 def test_labels_measure_as_the_command_s_labels(tmp_path):
-    labels = np.zeros((20, 18, 16), np.uint8)
+    labels = np.zeros((20, 18, 30), np.uint8)
     labels[0:9, 4:12, 2:10] = 1      # touches the volume's x = 0 face
     labels[10:17, 5:15, 6:14] = 2
+    labels[2:9, 2:9, 18:27] = 3
+    labels[4:7, 4:7, 20:25] = 0      # a hollow inside label 3: its surface's inner wall is a cavity
     path = tmp_path / "seg.npy"
     np.save(path, labels)
     state = ViewerState()
@@ -98,6 +102,8 @@ def test_labels_measure_as_the_command_s_labels(tmp_path):
     for record, row in zip(measurements.records, expected):
         assert_same_as_command(record, row)
         assert record.open_edges == 0   # a label's surface is closed at the border already
+    assert [r.cavities for r in measurements.records] == [0, 0, 1]
+    assert measurements.records[2].cavities_ml == pytest.approx(3 * 3 * 5 * 1e-3, rel=0.3)
 
 
 def test_nothing_to_measure_is_one_line():
