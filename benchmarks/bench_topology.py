@@ -9,7 +9,8 @@ oracle samples the trilinear interpolant 16 and 32 times per cell edge (scipy's 
 meshes it with scikit-image and counts pieces and V - E + F, vertices merged by position
 (tests/support/topology.py, the suite's oracle); grids where the two refinements disagree are left out.
 Then isoscope's montani (default) and trilinear meshes and scikit-image's Lewiner (MC33) mesh are counted
-the same way.
+the same way.  First, the same three meshes on MC33's 33 configurations built by hand (tests/support/mc33.py) in
+all 96 turns of the cell, against each configuration's own pieces and Euler characteristic.
 
 Cost: one-shot `isoscope.marching_cubes(volume, level, topology=...)` with the default backend and scikit-image's
 `measure.marching_cubes` (lewiner) on the MNI T1 (as nibabel gives it: Fortran uint8; needs nilearn), the
@@ -28,6 +29,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent / "tests"))   # the suite's oracle, not a second copy of it
+from support.mc33 import MC33, grid, symmetries  # noqa: E402
 from support.topology import configuration, counts, oracle, single_cells  # noqa: E402
 
 import isoscope  # noqa: E402
@@ -86,6 +88,38 @@ def every_key(seed: int) -> None:
           f"of {sure}, trilinear agrees on {agree} ({time.perf_counter() - started:.0f} s)")
 
 
+def configurations() -> None:
+    """MC33's 33 configurations built by hand (tests/support/mc33.py), each in its 96 rotations, mirror images and
+    inside/outside swaps: how many turns each mesh gives the configuration's pieces and Euler characteristic."""
+    from skimage import measure
+
+    from isoscope.cpu.trilinear import marching_cubes_trilinear
+    meshes = {"montani": lambda f: isoscope.api.outward_marching_cubes(f, 0.0, backend="cpu"),
+              "trilinear": lambda f: marching_cubes_trilinear(f, 0.0),
+              "scikit-image lewiner": lambda f: measure.marching_cubes(f, 0.0, method="lewiner")}
+    hits = {name: 0 for name in meshes}
+    wrong = {name: [] for name in meshes}
+    turns = 0
+    for configuration_name, (values, expected) in MC33.items():
+        if expected == (0, 0):
+            continue   # no surface: nothing to mesh (scikit-image refuses the level)
+        misses = dict.fromkeys(meshes, 0)
+        for field in symmetries(grid(values)):
+            turns += 1
+            for name, mesh in meshes.items():
+                verts, faces = mesh(field)[:2]
+                misses[name] += counts(verts, faces) != expected
+        for name, missed in misses.items():
+            hits[name] += 96 - missed
+            if missed:
+                wrong[name].append(f"{configuration_name} ({missed})")
+    print(f"\nMC33's configurations built by hand, 32 with a surface x 96 turns = {turns} cells\n")
+    print("| mesh | turns with the configuration's pieces and Euler characteristic | configurations missed (turns) |"
+          "\n|---|---:|---|")
+    for name, hit in hits.items():
+        print(f"| {name} | {hit} / {turns} ({100 * hit / turns:.1f}%) | {', '.join(wrong[name]) or 'none'} |")
+
+
 def cost(size: int, rounds: int) -> None:
     from skimage import measure
     volumes = []
@@ -126,6 +160,7 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=7)
     args = parser.parse_args()
     if args.grids:
+        configurations()
         agreement(args.grids, args.seed)
         every_key(args.seed)
     if args.rounds:

@@ -79,8 +79,8 @@ def test_every_turn_of_each_configuration_is_meshed_as_the_interpolant(name):
 
 
 def test_todays_mesh_misses_most_configurations():
-    """Montani's rule decides every ambiguous face one way: it gives the wrong topology on some turn of 23 of the
-    33 configurations (half the turns where a face decides it, every turn where a tube does)."""
+    """Montani's rule decides every ambiguous face one way: it gives the wrong topology on some turn of 21 of the
+    33 configurations (every turn of those with a tube)."""
     missed = [name for name, (values, expected) in MC33.items()
               if any(counts(*marching_cubes_reference(field, 0.0)[:2]) != expected
                      for field in symmetries(grid(values)))]
