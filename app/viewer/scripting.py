@@ -207,6 +207,11 @@ def render(volume, level=None, *, size=(800, 600), azimuth=None, elevation=None,
     shown = as_volume(volume, spacing=spacing, affine=affine, gradient_direction=gradient_direction)
     if labels and level is not None:
         raise InputError("labels=True draws every label's surface; leave out the level")
+    modes = {"tetrahedra": tetrahedra, "smooth": smooth, "topology": topology != "montani"}
+    dropped = [name for name, given in modes.items() if labels and given]
+    if dropped:   # as render --labels: a label's surface is its boundary, the mode would be silently dropped
+        raise InputError(f"{dropped[0]} does not apply with labels=True (each label's surface is its boundary); "
+                         f"leave out {dropped[0]}")
     if not labels and label_names is not None:
         raise InputError("label_names goes with labels=True")
     level = None if labels else checked_levels(shown, level)

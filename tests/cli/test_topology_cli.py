@@ -87,4 +87,7 @@ def test_isosurface_of_labels_refuses_what_it_would_drop(option):
     labels = np.pad(np.ones((4, 4, 4), np.uint8), 2)
     with pytest.raises(IsoscopeError, match=f"{next(iter(option))} does not apply with labels=True"):
         isoscope.isosurface(labels, labels=True, **option)
+    if next(iter(option)) in ("topology", "smooth", "tetrahedra"):   # render's modes: refused before any GL
+        with pytest.raises(IsoscopeError, match=f"{next(iter(option))} does not apply with labels=True"):
+            isoscope.render(labels, labels=True, **option)
     assert len(isoscope.isosurface(labels, labels=True, backend="cpu").faces) > 0
