@@ -92,9 +92,10 @@ def slice_hit(slices, spacing, shape, origin, direction) -> tuple[float, int] | 
 
 
 def probe_of(volume, point, on: str) -> Probe:
-    """The probe at scene `point` of `volume`: its nearest sample, value and world coordinates."""
+    """The probe at scene `point` of `volume` (index x spacing, moved by the volume's origin): its nearest
+    sample, value and world coordinates."""
     spacing = np.asarray(volume.spacing, np.float64)
-    index = np.asarray(point, np.float64) / spacing
+    index = (np.asarray(point, np.float64) - np.asarray(getattr(volume, "origin", (0.0, 0.0, 0.0)))) / spacing
     voxel = tuple(int(v) for v in np.clip(np.rint(index), 0, np.asarray(volume.data.shape) - 1))
     value = float(np.asarray(volume.data[voxel]))
     world, space = tuple(float(v) for v in point), "index x spacing"
@@ -128,7 +129,8 @@ class Picker:
         self.program["u_projection"].write(projection.tobytes())
         slices = scene.state.slice_scene
         clip = slices.settings.clip if slices is not None else None
-        self.program["u_clip_plane"].value = clip.plane(slices.spacing) if clip is not None else (0.0, 0.0, 0.0, 1.0)
+        self.program["u_clip_plane"].value = (clip.plane(slices.spacing, slices.origin) if clip is not None
+                                              else (0.0, 0.0, 0.0, 1.0))
         previous = ctx.fbo
         self._framebuffer.use()
         ctx.viewport = (0, 0, width, height)
@@ -141,8 +143,10 @@ class Picker:
         if clip is not None:
             ctx.enable_direct(GL_CLIP_DISTANCE0)
         try:
-            meshes = [mesh for mesh, look in scene.drawn() if mesh.n_triangles and look.opacity > 0]
-            for mesh in meshes:
+            drawn = [(mesh, look) for mesh, look in scene.drawn() if mesh.n_triangles and look.opacity > 0]
+            meshes = [mesh for mesh, _ in drawn]
+            for mesh, look in drawn:
+                self.program["u_origin"].value = look.origin
                 self._vao(mesh).render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles,
                                        first=3 * mesh.first_triangle)
             data = self._framebuffer.read(viewport=(x, y, 1, 1), attachment=-1, dtype="f4")
@@ -165,7 +169,8 @@ class Picker:
         if depth < BACKGROUND_DEPTH:
             point = unproject(camera, viewport, pixel, depth)
             surface_t = float(np.dot(point - origin, direction))
-        hit = slice_hit(scene.state.slices, volume.spacing, volume.data.shape, origin, direction)
+        hit = slice_hit(scene.state.slices, volume.spacing, volume.data.shape, origin - np.asarray(volume.origin),
+                        direction)
         if hit is not None and (surface_t is None or hit[0] < surface_t):
             return probe_of(volume, origin + hit[0] * direction, f"slice {'xyz'[hit[1]]}")
         if surface_t is None:
