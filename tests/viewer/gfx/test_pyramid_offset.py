@@ -85,3 +85,26 @@ def test_the_coarse_remainder_between_bricks_is_placed_at_the_origin_and_split_w
     np.testing.assert_array_equal(placed.brick, plain.brick)
     np.testing.assert_allclose(placed.arrays[0], arrays[0] + np.float32(0.5), atol=1e-5)
     np.testing.assert_allclose(placed.rim.ends, plain.rim.ends + np.float32(0.5), atol=1e-5)
+
+
+def test_the_probe_on_a_coarse_view_names_the_full_level_s_point_and_its_own_voxel(viewer, pyramid, gl_ctx):
+    """The cursor probe (picking.py) draws the meshes at their origin too: on a coarse view it hits the full
+    level's surface, its world point is the full level's, and its voxel is the coarse sample under it."""
+    from isoscope.viewer.gfx.picking import Picker
+    picker = Picker(gl_ctx)
+    viewport, pixel = (0, 0, *SIZE, 0), (SIZE[0] // 2 + 7, SIZE[1] // 2 - 5)
+    try:
+        silhouette_centre(viewer, pyramid, False)
+        full = picker.probe(viewer.scene, viewer.camera, viewport, pixel)
+        for level in pyramid.pyramid:
+            shown, _ = from_level(pyramid, level)
+            silhouette_centre(viewer, shown, False)
+            probe = picker.probe(viewer.scene, viewer.camera, viewport, pixel)
+            assert probe.on == "surface" and probe.space == full.space == "OME-Zarr"
+            assert np.linalg.norm(np.subtract(probe.point, full.point)) < 0.25, level.name
+            assert np.linalg.norm(np.subtract(probe.world, full.world)) < 0.25, level.name
+            index = (np.asarray(probe.point) - shown.origin) / shown.spacing
+            assert probe.voxel == tuple(int(v) for v in np.rint(index))
+            assert probe.value == shown.data[probe.voxel]
+    finally:
+        picker.release()
