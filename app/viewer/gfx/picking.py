@@ -7,8 +7,10 @@ same ray, analytically (they are axis-aligned planes); the nearer of the two win
 the window's: that one is multisampled where there is MSAA, and translucent surfaces (weighted blended
 OIT) write no depth, yet the user points at them too.
 
-World here is the scene's: array index x spacing (axis 0 is x).  `Probe.world` is also given in the
-file's own frame (RAS or LPS millimetres) where the file defines one, and distances are taken there.
+World here is the scene's: array index x spacing (axis 0 is x), moved by the volume's origin (a pyramid
+level's coarse view: where the file puts its samples).  `Probe.world` is also given in the file's own frame
+(RAS or LPS millimetres, an OME-Zarr image's scale and translation) where the file defines one, and distances
+are taken there.
 """
 from __future__ import annotations
 
@@ -29,7 +31,7 @@ class Probe:
     """What lies under the cursor."""
     point: tuple[float, float, float]      # scene coordinates: index x spacing
     world: tuple[float, float, float]      # the file's frame (mm) where it has one, else `point`
-    space: str                             # "RAS", "LPS" or "index x spacing"
+    space: str                             # "RAS", "LPS", "OME-Zarr" or "index x spacing"
     voxel: tuple[int, int, int]            # the nearest sample's index
     value: float                           # the volume's value at that sample
     on: str                                # "surface" or "slice x|y|z"
