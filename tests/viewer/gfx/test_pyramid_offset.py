@@ -108,3 +108,26 @@ def test_the_probe_on_a_coarse_view_names_the_full_level_s_point_and_its_own_vox
             assert probe.value == shown.data[probe.voxel]
     finally:
         picker.release()
+
+
+@pytest.mark.parametrize("raycast", [False, True], ids=["mesh", "rays"])
+def test_in_bricks_the_coarse_view_and_the_full_level_s_bricks_meet_where_the_file_puts_them(gl_ctx, pyramid,
+                                                                                            raycast):
+    """Over a budget of 1M the coarse view is level 1 and the bricks in view that fit come from level 0 (3 of 8
+    for the meshes): drawn or ray cast (BRICKED: the box from the origin, the coarse texture and its skipping
+    bricks read from there) the silhouette is the full level's shown whole, from the same camera."""
+    pictures = []
+    budget = "1M"
+    for memory in (budget, "1G"):
+        viewer = HeadlessViewer(SIZE, ctx=gl_ctx, memory_budget=memory)
+        try:
+            viewer.state.style.show_box = False
+            centre = silhouette_centre(viewer, pyramid, raycast)
+            assert (viewer.state.bricks is not None) == (memory == budget)
+            pictures.append((centre, viewer.render().astype(int)))
+        finally:
+            viewer.release()
+    (bricked_centre, bricked), (whole_centre, whole) = pictures
+    difference = np.abs(bricked - whole).max(axis=2)
+    assert np.linalg.norm(bricked_centre - whole_centre) < 0.15, bricked_centre - whole_centre
+    assert np.count_nonzero(difference > 8) < 0.002 * difference.size
