@@ -15,6 +15,9 @@ uniform vec3 u_spacing;
 uniform vec3 u_dims;            // the scalar volume's shape
 uniform vec2 u_scalar_range;    // the scalars at the two ends of the colour map
 uniform vec4 u_clip_plane;      // the clip plane (slices.py): kept where dot(plane, (p, 1)) >= 0
+// Where the mesh's index x spacing 0 lies in the scene: (0, 0, 0) but for a pyramid level's coarse view whose
+// samples lie off the full level's grid (Volume.origin); colour by samples the mesh's own volume unmoved.
+uniform vec3 u_origin;
 
 out float gl_ClipDistance[1];   // used only while the renderer enables GL_CLIP_DISTANCE0
 
@@ -23,7 +26,8 @@ out vec3 v_view_normal;
 out float v_map_coord;          // where on the colour map, 0..1
 
 void main() {
-    vec4 view_position = u_view * vec4(in_position, 1.0);
+    vec3 position = in_position + u_origin;
+    vec4 view_position = u_view * vec4(position, 1.0);
     v_view_position = view_position.xyz;
     // The view matrix is a rigid motion, so its 3x3 part transforms normals.
     v_view_normal = mat3(u_view) * in_normal;
@@ -35,5 +39,5 @@ void main() {
     float span = u_scalar_range.y - u_scalar_range.x;
     v_map_coord = span > 0.0 ? clamp((scalar - u_scalar_range.x) / span, 0.0, 1.0) : 0.0;
     gl_Position = u_projection * view_position;
-    gl_ClipDistance[0] = dot(u_clip_plane, vec4(in_position, 1.0));
+    gl_ClipDistance[0] = dot(u_clip_plane, vec4(position, 1.0));
 }

@@ -33,8 +33,11 @@ in vec3 v_model;
 uniform sampler3D u_volume;    // the samples as C-ordered bytes: texture x is array axis 2 (sampled .zyx)
 uniform sampler3D u_ranges;    // per brick (min, max) in values, C-ordered the same way (texelFetch .zyx)
 uniform sampler2D u_colormap;  // LUT x 1 RGBA
-uniform vec3 u_extent;         // the box's far corner: (shape - 1) x spacing; the near one is 0
-uniform vec3 u_texture_extent; // u_volume's far corner (the coarse view's where BRICKED, else u_extent)
+uniform vec3 u_extent;         // the box's far corner: u_box_low + (shape - 1) x spacing
+uniform vec3 u_box_low;        // the box's near corner: u_texture_origin (0 where BRICKED and it is below 0)
+uniform vec3 u_texture_origin; // where u_volume's index 0 lies (Volume.origin: 0 but for a pyramid level's coarse
+                               // view off the full level's grid); its bricks' ranges are looked up from there
+uniform vec3 u_texture_extent; // u_volume's far corner less u_texture_origin: (its shape - 1) x its spacing
 uniform vec3 u_shape;          // u_volume's samples along each axis
 uniform vec3 u_brick;          // a brick's size, model units: BRICK x spacing
 uniform vec3 u_bricks;         // bricks along each axis
@@ -107,7 +110,7 @@ bool full_at(vec3 p) {
 
 // The value at p from the coarse view (u_volume).
 float coarse_value(vec3 p) {
-    vec3 texel = (p / max(u_texture_extent, vec3(1e-30))) * (u_shape - 1.0) + 0.5;
+    vec3 texel = ((p - u_texture_origin) / max(u_texture_extent, vec3(1e-30))) * (u_shape - 1.0) + 0.5;
     return texture(u_volume, (texel / u_shape).zyx).r * u_value_map.x + u_value_map.y;
 }
 
@@ -161,10 +164,10 @@ vec4 colour_of(float v) {
     return texelFetch(u_colormap, ivec2(min(int(mapped(v) * float(size)), size - 1), 0), 0);
 }
 
-// Where the ray eye + t dir is inside the box [0, u_extent]: (t_in, t_out); t_in > t_out for none.
+// Where the ray eye + t dir is inside the box [u_box_low, u_extent]: (t_in, t_out); t_in > t_out for none.
 vec2 box_span(vec3 dir) {
     vec3 inverse = 1.0 / dir;
-    vec3 a = (vec3(0.0) - u_eye) * inverse;
+    vec3 a = (u_box_low - u_eye) * inverse;
     vec3 b = (u_extent - u_eye) * inverse;
     vec3 near = min(a, b), far = max(a, b);
     return vec2(max(max(near.x, near.y), max(near.z, 0.0)), min(min(far.x, far.y), far.z));
@@ -289,9 +292,16 @@ void main() {
         vec4 slot = slot_at(p, whole, local);
 #endif
 #if !defined(MODE_MEAN)   // a mean takes every sample: nothing to skip
-        // The macro brick first (one fetch leaves MACRO bricks a side behind), then the brick.
-        ivec3 brick = brick_of(p, u_macro, u_macros);
-        vec3 low = vec3(brick) * u_macro, high = low + u_macro;
+        // The macro brick first (one fetch leaves MACRO bricks a side behind), then the brick.  The coarse view's
+        // bricks are where its samples are (from u_texture_origin); a brick read in full widened them where it
+        // lies itself (model/ray_bricks.py), so p inside one is looked up as it is.
+        vec3 at = p - u_texture_origin;
+#ifdef BRICKED
+        if (slot.w > 0.5) at = p;
+#endif
+        vec3 moved = p - at;
+        ivec3 brick = brick_of(at, u_macro, u_macros);
+        vec3 low = vec3(brick) * u_macro + moved, high = low + u_macro;
         bool skip = skipped(texelFetch(u_macro_ranges, brick.zyx, 0).rg, gathered);
         if (!skip) {
 #ifdef BRICKED
@@ -305,8 +315,8 @@ void main() {
             } else
 #endif
             {
-                brick = brick_of(p, u_brick, u_bricks);
-                low = vec3(brick) * u_brick;
+                brick = brick_of(at, u_brick, u_bricks);
+                low = vec3(brick) * u_brick + moved;
                 high = low + u_brick;
                 skip = skipped(texelFetch(u_ranges, brick.zyx, 0).rg, gathered);
             }

@@ -298,7 +298,8 @@ def command_parser(command: str) -> argparse.ArgumentParser:
                             help="the file to write: .ply, .obj, .stl, .glb or .off (replaced only once complete)")
         parser.add_argument("--space", choices=("world", "voxel"), default="world",
                             help="world (default): the file's own world coordinates where it defines them "
-                                 "(NIfTI: RAS; NRRD and DICOM: LPS, as 3D Slicer saves models), so the mesh "
+                                 "(NIfTI: RAS; NRRD and DICOM: LPS, as 3D Slicer saves models; OME-Zarr: its "
+                                 "scale and translation), so the mesh "
                                  "overlays the scan; voxel: array index x spacing")
         parser.add_argument("--closed", action="store_true",
                             help="cap the surface where it leaves the volume, so the mesh is watertight (for "

@@ -37,7 +37,8 @@ COLOR_FORMATS = (".ply", ".glb")  # the formats here that carry a colour per ver
 
 def space_comment(space: str) -> str:
     """The line that names a file's coordinate space (`in_volume_space`'s name for it)."""
-    unit = " millimetres (world)" if space in ("RAS", "LPS") else ""
+    unit = {"RAS": " millimetres (world)", "LPS": " millimetres (world)",
+            "OME-Zarr": " scale and translation, axes z y x, the file's units (world)"}.get(space, "")
     return f"isoscope mesh; vertex coordinates: {space}{unit}"
 
 
@@ -90,11 +91,15 @@ def to_world(verts, faces, normals, spacing, index_to_world: np.ndarray):
 
 
 def in_volume_space(volume, verts, faces, normals, world: bool = True):
-    """(verts, faces, normals, space name): the mesh in `volume`'s world coordinates where its file
-    defines them and `world` is asked for, else as extracted (array index x spacing)."""
+    """(verts, faces, normals, space name): the mesh (as extracted: array index x spacing) in `volume`'s world
+    coordinates where its file defines them and `world` is asked for, else in index x spacing, moved by the
+    volume's `origin` (a coarse view's of a pyramid level off the full level's grid; (0, 0, 0) for the rest)."""
     if world and volume.world is not None:
         matrix, space = volume.world
         return (*to_world(verts, faces, normals, volume.spacing, matrix), space)
+    origin = getattr(volume, "origin", (0.0, 0.0, 0.0))
+    if any(origin):
+        verts = (np.asarray(verts, np.float64) + origin).astype(np.float32)
     return verts, faces, normals, "index x spacing"
 
 

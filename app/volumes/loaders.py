@@ -99,7 +99,7 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, ti
         elif kind == "raw":
             data, header_spacing, notes = load_raw(path, dims, dtype, endian, spacing, progress, map_file=map_files)
         elif kind == "zarr":
-            data, header_spacing, notes, pyramid = load_zarr(path, time, progress)
+            data, header_spacing, notes, pyramid, world = load_zarr(path, time, progress)
         elif kind == "npy":
             data, header_spacing, notes = load_npy(path, progress, map_file=map_files)
         elif kind == "tiff":

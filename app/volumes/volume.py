@@ -20,13 +20,20 @@ from ..errors import InputError
 from ..validation import CheckedVolume, Progress, as_spacing, check_volume
 from .errors import VolumeError
 
+ANATOMICAL_SPACES = ("RAS", "LPS")
+"""World frames that place the array in a patient (the viewer's anatomical camera, letters and view names);
+any other (an OME-Zarr image's scale and translation) is a frame in the file's own units and axes."""
+
 
 class PyramidLevel(NamedTuple):
-    """A lower-resolution level of a volume: its lazy samples (same axes), their spacing, and its name in
-    the file (an OME-Zarr dataset's path)."""
+    """A lower-resolution level of a volume: its lazy samples (same axes), their spacing, its name in the file
+    (an OME-Zarr dataset's path), and where its sample 0 lies, in index units of the full level (along axes 0,
+    1, 2): (0, 0, 0) for every f-th sample, (f - 1) / 2 for the means of f^3 blocks (their centres), as the
+    file's translations say."""
     data: object
     spacing: tuple[float, float, float]
     name: str
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 @dataclass
@@ -43,7 +50,8 @@ class Volume:
     value_range: tuple[float, float]  # (min, max) of the data, from finish_volume's one scan
     notes: list[str] = field(default_factory=list)  # things to tell the user
     # (4x4 array index (i, j, k, 1) -> world millimetres, "RAS" or "LPS") where the file defines
-    # it (NIfTI, NRRD, DICOM); None: world units are index x spacing.
+    # it (NIfTI, NRRD, DICOM); an OME-Zarr image's scale and translation: (diagonal with an offset, "OME-Zarr"),
+    # its own units; None: world units are index x spacing.
     world: tuple[np.ndarray, str] | None = None
     _in_memory: np.ndarray | None = field(default=None, repr=False, compare=False)  # a lazy volume, once read
     # The options it was opened with (dims, dtype, endian, spacing, time, series, resolution; those
@@ -55,6 +63,10 @@ class Volume:
     # Lower-resolution copies of the same samples that came with it (an OME-Zarr image's multiscale levels),
     # finest first: what a viewer over its memory budget shows instead of striding through this one.
     pyramid: tuple[PyramidLevel, ...] = field(default=(), compare=False)
+    # Where sample 0 sits in index x spacing units: (0, 0, 0) but for the viewer's coarse view of a pyramid
+    # level whose samples lie off the full level's grid (big_volume.from_level: the level's offset times the
+    # full spacing); its meshes, extracted at index x spacing, are placed (drawn, exported) this much further.
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     @property
     def checked(self) -> CheckedVolume:

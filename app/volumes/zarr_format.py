@@ -8,13 +8,20 @@ A path is a Zarr array, or a group: an OME-Zarr image (its "multiscales" metadat
 attrs["ome"] from OME-Zarr 0.5) opens its full-resolution level with the spacing of its
 "scale" coordinate transformations (the dataset's times the image's), and keeps its lower-resolution
 levels as the volume's pyramid (each checked against the level before it); any other group opens
-its first array.  Leading non-spatial axes (time, channel): --time N picks along the first one longer than 1.
+its first array.  "translation" transformations are honoured, in order (the dataset's, then the image's:
+the image's scale scales the dataset's translation): the full level's scale and translation are the
+volume's world frame (`Volume.world`, space "OME-Zarr", axes z y x as stored; none without a translation),
+and each coarser level's translation less the full level's is its offset (`PyramidLevel.offset`): where its
+sample 0 sits, which for a pyramid of block means is the centre of the first block, not sample 0.
+Leading non-spatial axes (time, channel): --time N picks along the first one longer than 1.
 """
 from __future__ import annotations
 
 import math
 import zlib
 from pathlib import Path
+
+import numpy as np
 
 from ..core.lazy_arrays import Block3D
 from .errors import VolumeError
@@ -27,6 +34,9 @@ MARKERS = (".zarray", ".zgroup", "zarr.json")
 # overhead (2000^3 samples in 1^3 chunks ran for minutes), and every sample is scanned once.
 MAX_CHUNKS = 1 << 18  # 4096^3 in 64^3 chunks
 MAX_SAMPLES = 1 << 40  # 4 TiB of float32
+OME_ZARR_SPACE = "OME-Zarr"
+"""The world frame's name for an OME-Zarr image's scale and translation: the file's own units along its z, y,
+x axes, no patient frame (volume.ANATOMICAL_SPACES)."""
 
 
 class CheckedReads:
@@ -54,19 +64,20 @@ def is_zarr(path: Path) -> bool:
 
 
 def load_zarr(path: Path, time: int | None, progress: Progress | None = None):
-    """(lazy 3-D array, spacing or None, notes, pyramid): an OME-Zarr image's lower-resolution levels as
-    PyramidLevels (finest first; none for a plain array), read as lazily as the full one."""
+    """(lazy 3-D array, spacing or None, notes, pyramid, world or None): an OME-Zarr image's lower-resolution
+    levels as PyramidLevels (finest first; none for a plain array), read as lazily as the full one; its world
+    frame where its full level has a translation (the module's docstring)."""
     import zarr
     report(progress, 0.0, f"opening {path.name}")
     try:
         node = zarr.open(store=str(path), mode="r")
     except Exception as exc:  # zarr raises many kinds for a damaged store
         raise damaged(path, exc, "check that it is a Zarr array or an OME-Zarr image") from None
-    spacing, notes, spatial, coarser = None, [], 3, []
+    spacing, notes, spatial, coarser, world = None, [], 3, [], None
     if isinstance(node, zarr.Group):
         multiscales = node.attrs.get("multiscales") or dict(node.attrs.get("ome") or {}).get("multiscales")
         if multiscales:
-            node, spacing, spatial, notes, coarser = _ome_level(node, multiscales[0], path)
+            node, spacing, spatial, notes, coarser, world = _ome_level(node, multiscales[0], path)
         else:
             arrays = sorted(node.array_keys())
             if not arrays:
@@ -88,10 +99,10 @@ def load_zarr(path: Path, time: int | None, progress: Progress | None = None):
     notes.append(f"Zarr {shape_text(shape[-3:])} {node.dtype} in {shape_text(node.chunks[-3:])} chunks, "
                  "read on demand")
     pyramid = tuple(PyramidLevel(Block3D(CheckedReads(level, f"{path.name}/{name}"), tuple(lead)), level_spacing,
-                                 name)
-                    for name, level, level_spacing in coarser
+                                 name, offset)
+                    for name, level, level_spacing, offset in coarser
                     if tuple(level.shape[:-3]) == shape[:-3] and all(2 <= n for n in level.shape[-3:]))
-    return Block3D(CheckedReads(node, path.name), tuple(lead)), spacing, [n for n in notes if n], pyramid
+    return Block3D(CheckedReads(node, path.name), tuple(lead)), spacing, [n for n in notes if n], pyramid, world
 
 
 def _settle_pending_reads() -> None:
@@ -122,10 +133,11 @@ def _refuse_unreadable_size(path: Path, shape, chunks, dtype) -> None:
 
 def _ome_level(group, multiscale: dict, path: Path):
     """(array of the full-resolution level, its (z, y, x) spacing or None, spatial axis count, notes, the
-    lower-resolution levels as (name, array, spacing), finest first).  A level whose metadata does not parse
-    is left out of the pyramid with a note (the full one must open); a level named but absent from the store,
-    or one that is not a lower resolution of the level before it (larger, or a scale its shape does not
-    match), is refused in one line: the pyramid would be shown at the wrong size or place."""
+    lower-resolution levels as (name, array, spacing, offset), finest first, world frame or None).  A level
+    whose metadata does not parse is left out of the pyramid with a note (the full one must open); a level
+    named but absent from the store, or one that is not a lower resolution of the level before it (larger, or
+    a scale its shape does not match), or a translation that is not one finite number per axis, is refused in
+    one line: the pyramid would be shown at the wrong size or place."""
     try:
         datasets = multiscale["datasets"]
         level = group[datasets[0]["path"]]
@@ -138,14 +150,17 @@ def _ome_level(group, multiscale: dict, path: Path):
     axes = multiscale.get("axes") or [{"name": n, "type": "space"} for n in "zyx"[-len(level.shape):]]
     axes = [{"name": a, "type": "space" if a in "zyx" else ""} if isinstance(a, str) else a for a in axes]
     spatial = sum(1 for a in axes if a.get("type") == "space")
-    notes = [f"OME-Zarr level {datasets[0]['path']!r} of {len(datasets)} (full resolution)"]
+    first = str(datasets[0]["path"])
+    notes = [f"OME-Zarr level {first!r} of {len(datasets)} (full resolution)"]
     try:
-        spacing = _spacing_of(datasets[0], multiscale, len(level.shape))
+        spacing, shift = _frame_of(datasets[0], multiscale, len(level.shape), path, first)
+    except VolumeError:
+        raise
     except (TypeError, ValueError, AttributeError) as exc:
-        raise VolumeError(f"{path.name}: the scale of its OME-Zarr level {datasets[0]['path']!r} is not a list of "
+        raise VolumeError(f"{path.name}: the scale of its OME-Zarr level {first!r} is not a list of "
                           f"numbers ({reason(exc)}); write it again") from None
-    _refuse_bad_scale(path, str(datasets[0]["path"]), spacing)
-    coarser, before = [], (str(datasets[0]["path"]), level, spacing)
+    _refuse_bad_scale(path, first, spacing)
+    coarser, before = [], (first, level, spacing)
     for dataset in datasets[1:]:
         name = dataset.get("path") if isinstance(dataset, dict) else None
         if name is not None and not hasattr(group.get(str(name)), "shape"):   # named, absent: no pyramid to trust
@@ -153,13 +168,22 @@ def _ome_level(group, multiscale: dict, path: Path):
                               "in the store; write the level, or drop it from the multiscales datasets")
         try:
             array = group[name]
-            coarser.append((str(name), array, _spacing_of(dataset, multiscale, len(array.shape))))
+            level_spacing, level_shift = _frame_of(dataset, multiscale, len(array.shape), path, str(name))
+        except VolumeError:   # a translation that is no numbers: refused, as a scale that is not positive
+            raise
         except (KeyError, IndexError, TypeError, ValueError, AttributeError) as exc:
             notes.append(f"OME-Zarr level {name if name is not None else dataset!r} left out ({reason(exc)})")
             continue
-        _refuse_disagreeing_level(path, before, coarser[-1])
-        before = coarser[-1]
-    return level, spacing, spatial, notes, coarser
+        _refuse_disagreeing_level(path, before, (str(name), array, level_spacing))
+        before = (str(name), array, level_spacing)
+        offset = tuple((b - a) / s for a, b, s in zip(shift or (0.0,) * 3, level_shift or (0.0,) * 3, spacing))
+        coarser.append((str(name), array, level_spacing, offset))
+    world = None
+    if shift is not None:   # the full level's scale and translation: an affine with a diagonal and an offset
+        matrix = np.diag([*spacing, 1.0])
+        matrix[:3, 3] = shift
+        world = (matrix, OME_ZARR_SPACE)
+    return level, spacing, spatial, notes, coarser, world
 
 
 def _refuse_disagreeing_level(path: Path, before, level) -> None:
@@ -196,12 +220,34 @@ def _scale_text(values) -> str:
     return "x".join(f"{v:g}" for v in values)
 
 
-def _spacing_of(dataset: dict, multiscale: dict, ndim: int) -> tuple[float, float, float]:
-    """The (z, y, x) spacing of one OME-Zarr level: its dataset's "scale" times the image's."""
-    scale = [1.0] * ndim
-    for transforms in (dataset.get("coordinateTransformations", []),
-                       multiscale.get("coordinateTransformations", [])):
+def _frame_of(dataset: dict, multiscale: dict, ndim: int, path: Path, name: str):
+    """((z, y, x) scale, (z, y, x) translation or None where none is given) of one OME-Zarr level: its dataset's
+    coordinateTransformations, then the image's, each applied in its order (a scale scales the translation
+    before it).  A scale of another length than the axes is passed over (as before translations were read); a
+    translation that is not a list of one finite number per axis is refused in one VolumeError line."""
+    scale, shift, shifted = [1.0] * ndim, [0.0] * ndim, False
+    for owner, transforms in (("its", dataset.get("coordinateTransformations", [])),
+                              ("the image's", multiscale.get("coordinateTransformations", []))):
         for transform in transforms:
-            if transform.get("type") == "scale" and len(transform.get("scale", [])) == len(scale):
-                scale = [a * float(b) for a, b in zip(scale, transform["scale"])]
-    return tuple(scale[-3:])
+            kind = transform.get("type")
+            if kind == "scale" and len(transform.get("scale", [])) == len(scale):
+                factors = [float(b) for b in transform["scale"]]
+                scale = [a * b for a, b in zip(scale, factors)]
+                shift = [a * b for a, b in zip(shift, factors)]
+            elif kind == "translation":
+                shift = [a + b for a, b in zip(shift, _translation(transform.get("translation"), ndim, path, name,
+                                                                   owner))]
+                shifted = True
+    return tuple(scale[-3:]), (tuple(shift[-3:]) if shifted else None)
+
+
+def _translation(value, ndim: int, path: Path, name: str, owner: str) -> list[float]:
+    """`value` as `ndim` finite floats, or one VolumeError line naming the level and the fix."""
+    numbers = isinstance(value, (list, tuple)) and len(value) == ndim and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    if not numbers:
+        text = repr(value) if len(repr(value)) <= 60 else repr(value)[:57] + "..."
+        raise VolumeError(f"{path.name}: OME-Zarr level {name!r} has translation {text} in {owner} "
+                          f"coordinateTransformations, not a list of "
+                          f"{ndim} finite numbers (one per axis); write it again with one number per axis")
+    return [float(v) for v in value]

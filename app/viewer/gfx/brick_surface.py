@@ -27,11 +27,15 @@ from ...gpu.mesh import GpuMesh, OwnedMesh, vertex_records
 class CoarseSplit:
     """The coarse mesh on the CPU, each triangle's brick (`brick`, flat index), the triangles in order of their
     brick (`by_brick`; brick b's are `starts[b]` to `starts[b + 1]` of them), and its edges between triangles of
-    two bricks (`rim`: each side's edge, with `own` and `across` its brick and the other)."""
+    two bricks (`rim`: each side's edge, with `own` and `across` its brick and the other).  A triangle's brick is
+    its coarse cell's; its vertices (and the rim's) are moved by `origin`, where the coarse view's samples lie in
+    the scene (Volume.origin: a pyramid level off the full level's grid), so it is drawn where the file puts it."""
 
-    def __init__(self, arrays, spacing, step: int, cells: int, grid):
-        self.arrays = arrays
+    def __init__(self, arrays, spacing, step: int, cells: int, grid, origin=(0.0, 0.0, 0.0)):
         verts, faces = arrays[0], np.asarray(arrays[1], dtype=np.int64)
+        if any(origin):
+            arrays = ((np.asarray(verts, np.float64) + origin).astype(np.float32), *arrays[1:])
+        self.arrays = arrays
         if not len(faces):
             self.brick = self.by_brick = np.zeros(0, dtype=np.int64)
             self.starts = np.zeros(int(np.prod(grid)) + 1, dtype=np.int64)
@@ -95,8 +99,9 @@ class BrickSurface:
         parts = [*self._coarse, *self._fine.values(), self._skirts, *(m for _, m in self._fine_skirts.values())]
         return [mesh for mesh in parts if mesh is not None and mesh.n_triangles]
 
-    def follow(self, view, surface, coarse_spacing) -> None:
-        """Bring the buffers in line with `view` (a BrickView, or None) over `surface`'s coarse mesh."""
+    def follow(self, view, surface, coarse_spacing, origin=(0.0, 0.0, 0.0)) -> None:
+        """Bring the buffers in line with `view` (a BrickView, or None) over `surface`'s coarse mesh, whose
+        vertices are placed at `origin` (Volume.origin of the coarse view)."""
         if view is None or not view.active or surface is None:
             self.clear()
             return
@@ -108,7 +113,7 @@ class BrickSurface:
             self._view, self._surface, self._coarse_key = view, surface, key
             layout = view.layout
             self._split = CoarseSplit(surface.shown.read_mesh(), coarse_spacing, layout.step, layout.cells,
-                                      view.grid)
+                                      view.grid, origin)
         if view.serial != self._serial:
             self._rebuild(view)
             self._serial = view.serial

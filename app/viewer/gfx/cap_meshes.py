@@ -33,7 +33,7 @@ class CapMeshes:
             mesh = self._mesh(level, volume, state.mesh_options.cells)
             if mesh.n_triangles:
                 shown.append((mesh.mesh, SurfaceLook(levels.color(i, state.style.front_color), level.opacity,
-                                                     color_by)))
+                                                     color_by, volume.origin)))
         return shown
 
     def _mesh(self, level, volume, cells: str) -> CpuMesh:

@@ -7,8 +7,10 @@ same ray, analytically (they are axis-aligned planes); the nearer of the two win
 the window's: that one is multisampled where there is MSAA, and translucent surfaces (weighted blended
 OIT) write no depth, yet the user points at them too.
 
-World here is the scene's: array index x spacing (axis 0 is x).  `Probe.world` is also given in the
-file's own frame (RAS or LPS millimetres) where the file defines one, and distances are taken there.
+World here is the scene's: array index x spacing (axis 0 is x), moved by the volume's origin (a pyramid
+level's coarse view: where the file puts its samples).  `Probe.world` is also given in the file's own frame
+(RAS or LPS millimetres, an OME-Zarr image's scale and translation) where the file defines one, and distances
+are taken there.
 """
 from __future__ import annotations
 
@@ -29,7 +31,7 @@ class Probe:
     """What lies under the cursor."""
     point: tuple[float, float, float]      # scene coordinates: index x spacing
     world: tuple[float, float, float]      # the file's frame (mm) where it has one, else `point`
-    space: str                             # "RAS", "LPS" or "index x spacing"
+    space: str                             # "RAS", "LPS", "OME-Zarr" or "index x spacing"
     voxel: tuple[int, int, int]            # the nearest sample's index
     value: float                           # the volume's value at that sample
     on: str                                # "surface" or "slice x|y|z"
@@ -92,9 +94,10 @@ def slice_hit(slices, spacing, shape, origin, direction) -> tuple[float, int] | 
 
 
 def probe_of(volume, point, on: str) -> Probe:
-    """The probe at scene `point` of `volume`: its nearest sample, value and world coordinates."""
+    """The probe at scene `point` of `volume` (index x spacing, moved by the volume's origin): its nearest
+    sample, value and world coordinates."""
     spacing = np.asarray(volume.spacing, np.float64)
-    index = np.asarray(point, np.float64) / spacing
+    index = (np.asarray(point, np.float64) - np.asarray(getattr(volume, "origin", (0.0, 0.0, 0.0)))) / spacing
     voxel = tuple(int(v) for v in np.clip(np.rint(index), 0, np.asarray(volume.data.shape) - 1))
     value = float(np.asarray(volume.data[voxel]))
     world, space = tuple(float(v) for v in point), "index x spacing"
@@ -128,7 +131,8 @@ class Picker:
         self.program["u_projection"].write(projection.tobytes())
         slices = scene.state.slice_scene
         clip = slices.settings.clip if slices is not None else None
-        self.program["u_clip_plane"].value = clip.plane(slices.spacing) if clip is not None else (0.0, 0.0, 0.0, 1.0)
+        self.program["u_clip_plane"].value = (clip.plane(slices.spacing, slices.origin) if clip is not None
+                                              else (0.0, 0.0, 0.0, 1.0))
         previous = ctx.fbo
         self._framebuffer.use()
         ctx.viewport = (0, 0, width, height)
@@ -141,8 +145,10 @@ class Picker:
         if clip is not None:
             ctx.enable_direct(GL_CLIP_DISTANCE0)
         try:
-            meshes = [mesh for mesh, look in scene.drawn() if mesh.n_triangles and look.opacity > 0]
-            for mesh in meshes:
+            drawn = [(mesh, look) for mesh, look in scene.drawn() if mesh.n_triangles and look.opacity > 0]
+            meshes = [mesh for mesh, _ in drawn]
+            for mesh, look in drawn:
+                self.program["u_origin"].value = look.origin
                 self._vao(mesh).render(moderngl.TRIANGLES, vertices=3 * mesh.n_triangles,
                                        first=3 * mesh.first_triangle)
             data = self._framebuffer.read(viewport=(x, y, 1, 1), attachment=-1, dtype="f4")
@@ -165,7 +171,8 @@ class Picker:
         if depth < BACKGROUND_DEPTH:
             point = unproject(camera, viewport, pixel, depth)
             surface_t = float(np.dot(point - origin, direction))
-        hit = slice_hit(scene.state.slices, volume.spacing, volume.data.shape, origin, direction)
+        hit = slice_hit(scene.state.slices, volume.spacing, volume.data.shape, origin - np.asarray(volume.origin),
+                        direction)
         if hit is not None and (surface_t is None or hit[0] < surface_t):
             return probe_of(volume, origin + hit[0] * direction, f"slice {'xyz'[hit[1]]}")
         if surface_t is None:

@@ -61,6 +61,7 @@ class RaycastRequest:
     with_surfaces: bool = False          # the surfaces drawn too (opaque ones end the rays; renderer.py)
     lighting: bool = True                # iso's hits and DVR's samples lit as the meshes are (the panel's toggle)
     bricks: object = None                # a volume over the budget: its rays' bricks (model/ray_bricks.py)
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)   # where the samples' index 0 lies (Volume.origin)
 
 
 @dataclass(frozen=True)
@@ -149,7 +150,9 @@ class VolumeRaycaster:
         program, vao = self._program((request.mode, depth is not None and depth.multisampled, atlas is not None))
         shape = np.array(request.data.shape, np.float64)
         spacing = np.array(request.spacing, np.float64)
-        extent = texture_extent = (shape - 1) * spacing
+        texture_extent = (shape - 1) * spacing
+        origin = np.array(request.origin, np.float64)   # the box is [origin, extent]: the samples' own place
+        extent = origin + texture_extent
         step = STEP_PER_SAMPLE * step_scale * spacing.min()
         # DVR's extinction and its gradient floor are per sample spacing of the volume: of the full volume's where
         # it is shown in bricks, so a picture keeps its opacity as its bricks come in full
@@ -161,6 +164,7 @@ class VolumeRaycaster:
             # the box drawn, the bounds and the camera's are the coarse view's (a few full samples short of the
             # full volume's far faces where its step does not divide them): so are the rays'
             extent = np.minimum(extent, (np.array(model.volume.data.shape, np.float64) - 1) * fine)
+            origin = np.maximum(origin, 0.0)
             moving = step_scale > 1.0   # the moving view's pass: the coarse view's step throughout, bricks read
             step = step if moving else STEP_PER_SAMPLE * step_scale * fine.min()
             bricked = {"u_atlas_shape": tuple(float(n) for n in atlas.shape), "u_atlas_value_map": atlas.value_map,
@@ -171,6 +175,7 @@ class VolumeRaycaster:
                        "u_atlas": 7, "u_slots": 8, "u_atlas_ranges": 9}
             atlas.use(7, 8, 9)
         uniforms = {**bricked, "u_extent": tuple(extent), "u_texture_extent": tuple(texture_extent),
+                    "u_box_low": tuple(origin), "u_texture_origin": tuple(float(o) for o in request.origin),
                     "u_shape": tuple(shape), "u_eye": tuple(float(v) for v in eye), "u_step": float(step),
                     "u_value_map": self._value_map,
                     "u_window": tuple(request.window), "u_level": float(request.level),
@@ -368,9 +373,11 @@ def raycast_request(state) -> RaycastRequest | None:
     settings, level = state.slices, state.levels.current
     half = settings.window / 2
     color = level.color if level is not None and level.color is not None else state.style.front_color
-    clip = settings.clip.plane(state.volume.spacing) if settings.clip is not None else (0.0, 0.0, 0.0, 1.0)
+    volume = state.volume
+    clip = settings.clip.plane(volume.spacing, volume.origin) if settings.clip is not None else (0.0, 0.0, 0.0, 1.0)
     return RaycastRequest(state.volume.data, tuple(state.volume.spacing), state.raycast, float(state.iso),
                           (settings.centre - half, settings.centre + half), settings.colormap,
                           state.gradient_direction == "descent", tuple(color), tuple(clip), state.transfer,
                           tuple(float(v) for v in state.value_range), state.with_surfaces, state.style.lighting,
-                          state.bricks.rays if state.bricks is not None else None)
+                          state.bricks.rays if state.bricks is not None else None,
+                          tuple(float(o) for o in volume.origin))

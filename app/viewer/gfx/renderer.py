@@ -46,10 +46,12 @@ _BOX_EDGES = [(a, b) for a in range(8) for b in range(8) if a < b and bin(a ^ b)
 
 @dataclass(frozen=True)
 class SurfaceLook:
-    """How the renderer draws one mesh."""
+    """How the renderer draws one mesh: its colour, opacity, colour map, and where it is placed (`origin`, added
+    to its vertices: a pyramid level's coarse view off the full level's grid, Volume.origin)."""
     color: tuple[float, float, float]
     opacity: float
     color_by: GpuColorBy | None = None
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 class SceneRenderer:
@@ -182,7 +184,7 @@ class SceneRenderer:
             if drawn and style.wireframe:
                 # After the rays, so their lines end no ray and show over the volume; tested against the opaque
                 # depth (and iso's hits), written nowhere.  Under the translucent layers, as without rays.
-                self._draw_wireframe([mesh for mesh, _ in drawn], write_depth=False)
+                self._draw_wireframe(drawn, write_depth=False)
         elif self._raycaster is not None:
             self._raycaster.idle()   # not ray cast now: the bricks' atlas is let go
         if translucent:
@@ -199,7 +201,8 @@ class SceneRenderer:
         # clip by it while GL_CLIP_DISTANCE0 was disabled.
         clip = slices.settings.clip if slices is not None else None
         for program in (self.mesh_program, self.wire_program, self.oit_program):
-            program["u_clip_plane"].value = clip.plane(slices.spacing) if clip is not None else (0.0, 0.0, 0.0, 1.0)
+            program["u_clip_plane"].value = (clip.plane(slices.spacing, slices.origin) if clip is not None
+                                             else (0.0, 0.0, 0.0, 1.0))
         if clip is not None:
             ctx.enable_direct(GL_CLIP_DISTANCE0)
         if style.wireframe:
@@ -211,10 +214,11 @@ class SceneRenderer:
                 self.pacer.draw(self._vaos_for(mesh)[0], mesh.n_triangles, mesh.first_triangle)
         ctx.polygon_offset = (0.0, 0.0)
         if style.wireframe and wireframe:
-            self._draw_wireframe([mesh for mesh, _ in drawn])
+            self._draw_wireframe(drawn)
 
-    def _draw_wireframe(self, meshes, write_depth: bool = True) -> None:
-        """The lines of `meshes`' triangles, translucent, depth-tested (`write_depth`: writing it too)."""
+    def _draw_wireframe(self, drawn, write_depth: bool = True) -> None:
+        """The lines of the triangles of `drawn`'s meshes (mesh, look), translucent, depth-tested (`write_depth`:
+        writing it too)."""
         ctx = self.ctx
         ctx.wireframe = True
         # Translucent lines: a dense mesh still shows the shading underneath.
@@ -224,7 +228,8 @@ class SceneRenderer:
         self.wire_program["u_opacity"].value = WIRE_OPACITY
         framebuffer = ctx.fbo
         framebuffer.depth_mask = write_depth
-        for mesh in meshes:
+        for mesh, look in drawn:
+            self.wire_program["u_origin"].value = look.origin
             self.pacer.draw(self._vaos_for(mesh)[1], mesh.n_triangles, mesh.first_triangle)
         framebuffer.depth_mask = True
         ctx.disable(moderngl.BLEND)
@@ -275,6 +280,7 @@ class SceneRenderer:
     @staticmethod
     def _use_look(program: moderngl.Program, look: SurfaceLook, back_color=None) -> None:
         program["u_front_color"].value = look.color
+        program["u_origin"].value = look.origin
         if back_color is not None:   # opaque only: a translucent shell's inside takes its front colour
             program["u_back_color"].value = back_color
         if "u_opacity" in program:

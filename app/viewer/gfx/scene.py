@@ -320,21 +320,24 @@ class GpuScene:
         state = self.state
         if state.labels:
             coarse = not self.labels.resting   # just toggled or faded: the coarse twins, if it has them
-            return [(mesh, SurfaceLook(layer.color, layer.opacity))
+            return [(mesh, SurfaceLook(layer.color, layer.opacity, origin=state.volume.origin))
                     for mesh, layer in self.labels.drawn(state.labels, coarse)]
         shown = []
         for i, level in enumerate(state.levels):
             mesh = self.level_meshes.mesh(level, self.surface) if level.visible else None
             if mesh is not None:
-                look = SurfaceLook(state.levels.color(i, state.style.front_color), level.opacity, self.color_by)
                 in_bricks = self.bricks.drawing and level is self.level_meshes.on_extractor
+                # the volume's meshes placed at its origin; the bricks' are placed already (brick_surface.py)
+                look = SurfaceLook(state.levels.color(i, state.style.front_color), level.opacity, self.color_by,
+                                   (0.0, 0.0, 0.0) if in_bricks else state.volume.origin)
                 shown.extend((part, look) for part in (self.bricks.meshes if in_bricks else [mesh]))
         return shown + self.caps.drawn(state, self.color_by)
 
     def follow_bricks(self) -> None:
         """The bricks' buffers brought in line with the state's bricks (after the app's `look` at them)."""
-        self._attempt(self.bricks.follow, self.state.bricks, self.surface, self.state.volume.spacing
-                      if self.state.volume is not None else None)
+        volume = self.state.volume
+        self._attempt(self.bricks.follow, self.state.bricks, self.surface, volume.spacing if volume is not None
+                      else None, volume.origin if volume is not None else (0.0, 0.0, 0.0))
 
     @property
     def extractor(self):

@@ -51,10 +51,11 @@ def slice_image(data: np.ndarray, axis: int, position: float) -> np.ndarray:
     return np.ascontiguousarray(image)
 
 
-def plane_corners(shape, spacing, axis: int, position: float, flat: bool = False) -> np.ndarray:
+def plane_corners(shape, spacing, axis: int, position: float, flat: bool = False,
+                  origin=(0.0, 0.0, 0.0)) -> np.ndarray:
     """4 vertices (x, y, z, row, column) of the plane, as a triangle strip.  Rows run along the lower of
     the two other axes, columns along the higher.  `flat`: positions in the 2-D view's own plane
-    (rows right, columns up, in world units)."""
+    (rows right, columns up, in world units); else in the scene, index 0 at `origin` (Volume.origin)."""
     rows_axis, columns_axis = (a for a in range(3) if a != axis)
     rows, columns = shape[rows_axis] - 1, shape[columns_axis] - 1
     vertices = []
@@ -65,6 +66,7 @@ def plane_corners(shape, spacing, axis: int, position: float, flat: bool = False
             point = [0.0, 0.0, 0.0]
             point[axis] = position * spacing[axis]
             point[rows_axis], point[columns_axis] = row * spacing[rows_axis], column * spacing[columns_axis]
+            point = [p + o for p, o in zip(point, origin)]
         vertices.append([*point, row, column])
     return np.array(vertices, "f4")
 
@@ -101,7 +103,7 @@ class SliceRenderer:
     def _draw_plane(self, scene: SliceScene, axis: int, position: float, flat: bool, cap: bool = False) -> None:
         self._texture(scene.data, axis, position).use(0)
         self.program["u_cap"].value = cap
-        self.quad.write(plane_corners(scene.data.shape, scene.spacing, axis, position, flat).tobytes())
+        self.quad.write(plane_corners(scene.data.shape, scene.spacing, axis, position, flat, scene.origin).tobytes())
         self.vao.render(moderngl.TRIANGLE_STRIP)
 
     def _set_uniforms(self, scene: SliceScene, view: bytes, projection: bytes) -> None:

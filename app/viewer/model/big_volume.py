@@ -125,16 +125,22 @@ def _fitting_step(shape, itemsize: int, budget: MemoryBudget, name: str, refusal
 def from_level(volume: Volume, level, note: str | None = None) -> tuple[Volume, int]:
     """`volume` shown from its lower-resolution `level` (a PyramidLevel), read whole; and the step, the
     level's spacing over the full one's along the first axis, rounded.  The value range stays the full
-    volume's; a world transform is scaled by each axis' ratio of spacings."""
+    volume's.  The level's sample i is the full level's i x ratio + offset (its spacings' ratio, its offset:
+    a pyramid of block means is the blocks' centres): the view's `origin` is that offset in the full volume's
+    index x spacing (where its meshes are drawn and exported), and a world transform is composed with it."""
     ratio = [s / f for s, f in zip(level.spacing, volume.spacing)]
+    offset = tuple(float(o) for o in getattr(level, "offset", (0.0, 0.0, 0.0)))
     data = read_block(level.data, (slice(None),) * 3)
     world = None
     if volume.world is not None:
         matrix, space = volume.world
-        world = (matrix @ np.diag([*ratio, 1.0]), space)
+        to_full = np.diag([*ratio, 1.0])
+        to_full[:3, 3] = offset
+        world = (matrix @ to_full, space)
+    origin = tuple(o * s + a for o, s, a in zip(offset, volume.spacing, volume.origin))
     notes = [*volume.notes, note] if note else list(volume.notes)
     shown = dataclasses.replace(volume, data=data, spacing=tuple(level.spacing), world=world, notes=notes,
-                                _in_memory=None, pyramid=())
+                                _in_memory=None, pyramid=(), origin=origin)
     return shown, max(1, round(ratio[0]))
 
 

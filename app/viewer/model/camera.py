@@ -23,6 +23,8 @@ import math
 import numpy as np
 from pyrr import matrix44
 
+from ...volumes.volume import ANATOMICAL_SPACES
+
 WORLD_UP = np.array([0.0, 0.0, 1.0])
 HOME_AZIMUTH = -60.0     # degrees; an oblique view shows all three axes
 HOME_ELEVATION = 25.0
@@ -45,9 +47,10 @@ VIEWS = (
 def anatomical_frame(world) -> np.ndarray | None:
     """The rotation (or, for a left-handed storage order, rotation and mirror) taking a scene direction
     to the patient's LPS frame, for `world` = (4x4 array index -> world, "RAS" or "LPS") as `Volume.world`
-    holds it; None without one.  The nearest orthogonal matrix to the transform's unit axes (its polar
-    factor), so the voxel sizes and a slight shear drop out."""
-    if world is None:
+    holds it; None without one, or for a frame that places nothing in a patient (an OME-Zarr image's).  The
+    nearest orthogonal matrix to the transform's unit axes (its polar factor), so the voxel sizes and a slight
+    shear drop out."""
+    if world is None or world[1] not in ANATOMICAL_SPACES:
         return None
     matrix, space = world
     axes = np.asarray(matrix, float)[:3, :3]

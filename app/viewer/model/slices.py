@@ -42,12 +42,13 @@ class Clip:
     position: float = 0.0      # array index along `axis`; may be fractional
     hide_above: bool = True    # hide the surface where the index is above `position` (else below)
 
-    def plane(self, spacing) -> tuple[float, float, float, float]:
-        """(a, b, c, d): a world point p is kept where a*px + b*py + c*pz + d >= 0."""
+    def plane(self, spacing, origin=(0.0, 0.0, 0.0)) -> tuple[float, float, float, float]:
+        """(a, b, c, d): a world point p is kept where a*px + b*py + c*pz + d >= 0; `origin`: where the volume's
+        index 0 lies (Volume.origin)."""
         sign = -1.0 if self.hide_above else 1.0
         normal = [0.0, 0.0, 0.0]
         normal[self.axis] = sign
-        return (*normal, -sign * self.position * spacing[self.axis])
+        return (*normal, -sign * (self.position * spacing[self.axis] + origin[self.axis]))
 
 
 @dataclass
@@ -134,3 +135,4 @@ class SliceScene(NamedTuple):
     gradient_direction: str    # which side of it is inside ("descent": above)
     curve_color: tuple[float, float, float]
     label_caps: tuple | None = None   # a label map's (labels, RGBA): the clip's cut in their colours
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)   # where index 0 lies in the scene (Volume.origin)

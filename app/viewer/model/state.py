@@ -227,11 +227,13 @@ class ViewerState:
 
     # --- for the renderer -------------------------------------------------------
     def bounds(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-        """The volume's box in world units: [0, (n-1) * spacing] along each axis."""
+        """The volume's box in world units: [0, (n-1) * spacing] along each axis, moved by its origin (a pyramid
+        level's coarse view off the full level's grid)."""
         if self.volume is None:
             return (0.0, 0.0, 0.0), (1.0, 1.0, 1.0)
-        upper = tuple((n - 1) * s for n, s in zip(self.volume.data.shape, self.volume.spacing))
-        return (0.0, 0.0, 0.0), upper
+        origin = tuple(float(o) for o in self.volume.origin)
+        upper = tuple((n - 1) * s + o for n, s, o in zip(self.volume.data.shape, self.volume.spacing, origin))
+        return origin, upper
 
     @property
     def slice_scene(self) -> SliceScene | None:
@@ -240,7 +242,7 @@ class ViewerState:
             return None
         return SliceScene(self.volume.data, self.volume.spacing, self.slices, self.iso,
                           self.gradient_direction, self.style.front_color,
-                          self.labels.cap_table() if self.labels else None)
+                          self.labels.cap_table() if self.labels else None, self.volume.origin)
 
     def release(self) -> None:
         """Let go of what the state runs outside itself: a full-resolution export still running is stopped."""

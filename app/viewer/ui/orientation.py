@@ -44,7 +44,7 @@ def direction_letters(world_direction, space: str) -> str:
 def screen_letters(world: tuple[np.ndarray, str] | None, spacing, right, up) -> dict[str, str] | None:
     """Letters for the view's right, left, top and bottom edges, given the camera's right and up
     vectors in scene space; None when the volume has no world transform."""
-    if world is None:
+    if world is None or world[1] not in _AXIS_LETTERS:   # no patient frame (an OME-Zarr image's world)
         return None
     matrix, space = world
     to_world = np.asarray(matrix, float)[:3, :3] / np.asarray(spacing, float)   # A @ diag(1/spacing)
@@ -105,7 +105,7 @@ def inset_view(slices, spacing) -> tuple[float, float, float, float] | None:
 def draw_orientation(volume, camera, view: tuple[float, float, float, float], slices=None) -> None:
     """The letters for `volume` (or none) seen through `camera`, drawn around `view`; with `slices`
     (SliceSettings), the 2-D view's letters inside its frame too."""
-    if volume is None or volume.world is None:
+    if volume is None or volume.world is None or volume.world[1] not in _AXIS_LETTERS:
         return
     box = inset_view(slices, volume.spacing) if slices is not None else None
     draw_screen_letters(screen_letters(volume.world, volume.spacing, *camera.screen_axes()), view, avoid=box)

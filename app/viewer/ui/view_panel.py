@@ -7,7 +7,7 @@ Keys 1-6 do the same in the window.  Plugged into `Panel.draw` (panel.py); its k
 through `keys()`."""
 from __future__ import annotations
 
-from ..model.camera import VIEWS
+from ..model.camera import VIEWS, volume_frame
 from ..model.state import ViewerState
 from .gui import imgui, section, tooltip
 
@@ -18,7 +18,7 @@ ANATOMICAL_BUTTONS = ("A", "P", "L", "R", "S", "I")
 def view_names(volume) -> list[tuple[str, str]]:
     """(button label, what it shows) for each of the six views of `volume`: anatomical where its file
     places it in the patient, else the array axis the eye sits on."""
-    if volume is not None and getattr(volume, "world", None) is not None:
+    if volume_frame(volume) is not None:   # a patient frame (not an OME-Zarr image's scale and translation)
         return [(button, f"from {name}") for button, (name, _, _) in zip(ANATOMICAL_BUTTONS, VIEWS)]
     return [(axis, f"from {axis} (array axes: no patient frame in this file)") for _, axis, _ in VIEWS]
 

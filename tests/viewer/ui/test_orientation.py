@@ -80,3 +80,27 @@ def test_the_letters_are_drawn_beside_the_scene_only_where_the_file_defines_them
     without_world = open_volume("torus")
     assert without_world.world is None
     assert _bright_pixels_near_the_right_edge(without_world, gl_ctx) == 0
+
+
+def test_an_ome_zarr_world_frame_places_nothing_in_a_patient(tmp_path, gl_ctx):
+    """An OME-Zarr image's scale and translation are a world frame (export, measure, the probe) in the file's
+    units and z y x axes, not a patient's: no letters, no anatomical camera frame, the view buttons name the
+    array axes."""
+    from support.ome_zarr import write_ome
+
+    from isoscope.viewer.model.camera import volume_frame
+    from isoscope.viewer.ui.view_panel import view_names
+    data = np.zeros((20, 20, 20), np.float32)
+    data[5:15, 5:15, 5:15] = 1
+    group = write_ome(tmp_path / "cube.ome.zarr", [data], [(1.0, 1.0, 1.0)])
+    multiscales = group.attrs["multiscales"]
+    multiscales[0]["datasets"][0]["coordinateTransformations"].append(
+        {"type": "translation", "translation": [100.0, 20.5, -3.0]})
+    group.attrs["multiscales"] = multiscales
+    volume = open_volume(str(tmp_path / "cube.ome.zarr"))
+    assert volume.world is not None and volume.world[1] == "OME-Zarr"
+    right, up = camera_at(0, 0).screen_axes()
+    assert screen_letters(volume.world, volume.spacing, right, up) is None
+    assert volume_frame(volume) is None
+    assert [button for button, _ in view_names(volume)] == ["-y", "+y", "+x", "-x", "+z", "-z"]
+    assert _bright_pixels_near_the_right_edge(volume, gl_ctx) == 0
