@@ -146,22 +146,29 @@ def extract_box(source, box, level: float, spacing, descent: bool, ctx=None, sha
     points, axes = edges_of(verts[:n_edge], spacing)
     # A triangle's cell: per axis the least owner coordinate of its corners (no triangle of either table
     # lies in a cell's far face, tests/big/test_chunked*.py check it); with an own vertex, that vertex's.
-    cells = points[np.minimum(faces, n_edge - 1)].min(axis=1)
-    with_own = faces.max(axis=1) >= n_edge
-    cells[with_own] = own_cells[faces[with_own].max(axis=1) - n_edge]
-    cells += origin
-    keep = np.all((cells >= start) & (cells < stop), axis=1)
-    faces, cells = faces[keep], cells[keep]
-    own_kept = np.flatnonzero(np.all((own_cells + origin >= start) & (own_cells + origin < stop), axis=1))
-    used = np.unique(faces[faces < n_edge])
-    rows = np.full(len(verts), -1, np.int64)   # a box row (its used edge vertices, then its own) per block vertex
-    rows[used] = np.arange(len(used))
-    rows[n_edge + own_kept] = len(used) + np.arange(len(own_kept))
+    if not len(own_cells):   # every vertex on a grid edge (the default topology's mesh, always)
+        cells = points[faces].min(axis=1) + origin
+        keep = np.all((cells >= start) & (cells < stop), axis=1)
+        faces, cells = faces[keep], cells[keep]
+        used, corners = np.unique(faces, return_inverse=True)
+        corners = corners.reshape(-1, 3).astype(np.int32)
+    else:
+        cells = points[np.minimum(faces, n_edge - 1)].min(axis=1)
+        with_own = faces.max(axis=1) >= n_edge
+        cells[with_own] = own_cells[faces[with_own].max(axis=1) - n_edge]
+        cells += origin
+        keep = np.all((cells >= start) & (cells < stop), axis=1)
+        faces, cells = faces[keep], cells[keep]
+        own_kept = np.flatnonzero(np.all((own_cells + origin >= start) & (own_cells + origin < stop), axis=1))
+        used = np.unique(faces[faces < n_edge])
+        rows = np.full(len(verts), -1, np.int64)   # a box row (its used edge vertices, then its own) per vertex
+        rows[used] = np.arange(len(used))
+        rows[n_edge + own_kept] = len(used) + np.arange(len(own_kept))
+        corners = rows[faces].astype(np.int32)
     positions = vertex_positions(field, lvl, points[used], axes[used], np.asarray(spacing, np.float64), origin)
     edge_ids = np.ravel_multi_index((points[used] + origin).T, shape) * 3 + axes[used]
-    mesh = ChunkMesh(edge_ids, positions, gpu_normals[used], gpu_values[used], rows[faces].astype(np.int32),
-                     cell_key(cells, shape))
-    if trilinear:
+    mesh = ChunkMesh(edge_ids, positions, gpu_normals[used], gpu_values[used], corners, cell_key(cells, shape))
+    if len(own_cells):
         mesh.own_keys, mesh.own_members = own_vertex_names(field, lvl, own_cells[own_kept], own_ranks[own_kept],
                                                            origin, shape)
     return mesh
