@@ -84,8 +84,9 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_dire
         so pieces, cavities and handles (`isoscope.measure`) are the field's.
         The same vertices on the same edges, plus a vertex inside the few cells
         whose tube needs one.  Every backend makes the same mesh (the GPU's
-        normals, as ever, within an ulp or so); plain cubes only (no sharp
-        features, mask or chunks).
+        normals, as ever, within an ulp or so), and so does `chunks` (each
+        cell is decided from its own samples, so a box decides it as the whole
+        volume does); plain cubes only (no sharp features or mask).
 
     Returns
     -------

@@ -40,7 +40,7 @@ def cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="de
     chosen = backend == "auto"
     backend = backend_of(backend)
     if chunks is not None:
-        return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks, skimage)
+        return _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks, skimage, topology)
     # The plain GPU mesh of every sample leaves the value scan to the upload; the compiled CPU extractor
     # measures the values in its first pass (_checked).
     every_sample = isinstance(step_size, (int, np.integer)) and step_size == 1
@@ -209,7 +209,8 @@ def backend_of(backend: str, allowed=BACKENDS) -> str:
     return one_shot_backend() if backend == "auto" else backend
 
 
-def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks, skimage=False):
+def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chunks, skimage=False,
+             topology="montani"):
     from .big.chunked import as_chunks, marching_cubes_chunked, value_range
     from .core.lazy_arrays import is_lazy
     if step_size != 1:
@@ -224,7 +225,7 @@ def _chunked(volume, level, spacing, gradient_direction, step_size, backend, chu
     if known is None and level is not None:
         known = (-np.inf, np.inf)  # not scanned for a range: boxes the level misses give no surface
     level = validation.as_level(level, known or value_range(source, chunks))
-    mesh = marching_cubes_chunked(source, level, spacing, descent, chunks, backend=backend)
+    mesh = marching_cubes_chunked(source, level, spacing, descent, chunks, backend=backend, topology=topology)
     if not skimage:
         return mesh
     from .cpu.skimage_values import skimage_values

@@ -38,10 +38,9 @@ class MeshOptions:
         topology = topology_problem(self.topology)
         if topology is not None:
             return topology
-        if self.topology == "trilinear" and (self.cells != "cubes" or self.sharp is not None or self.masked
-                                             or self.chunked):
+        if self.topology == "trilinear" and (self.cells != "cubes" or self.sharp is not None or self.masked):
             return ("the trilinear topology decides the ambiguous cells of plain marching cubes: not with "
-                    "tetrahedra, sharp features, a mask or chunks")
+                    "tetrahedra, sharp features or a mask")
         if self.sharp is not None and self.cells != "cubes":
             return "sharp features are Extended Marching Cubes, a method of cubes: not with tetrahedra"
         if self.sharp is not None and self.smooth:

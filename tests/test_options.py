@@ -18,6 +18,8 @@ RULES = [
     (MeshOptions(smooth=3, chunked=True), "plain marching cubes"),
     (MeshOptions(cells="tetrahedra", chunked=True), "plain marching cubes"),
     (MeshOptions(cells="hexahedra"), "unknown cells"),
+    (MeshOptions(topology="trilinear", masked=True), "not with tetrahedra, sharp features or a mask"),
+    (MeshOptions(topology="trilinear", chunked=True, smooth=2), "plain marching cubes"),
 ]
 
 
@@ -30,7 +32,8 @@ def test_each_rule_refuses_in_its_words(options, words):
 
 
 @pytest.mark.parametrize("options", [MeshOptions(), MeshOptions(cells="tetrahedra", smooth=5),
-                                     MeshOptions(sharp=30.0), MeshOptions(masked=True), MeshOptions(chunked=True)])
+                                     MeshOptions(sharp=30.0), MeshOptions(masked=True), MeshOptions(chunked=True),
+                                     MeshOptions(topology="trilinear", chunked=True)])
 def test_what_goes_together_passes(options):
     assert options.problem() is None and options.check() is options
 

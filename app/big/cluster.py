@@ -61,14 +61,14 @@ def _worker_backend(backend: str) -> str:
     return _local.backend
 
 
-def _extract_task(source, box, level, spacing, descent, backend="auto"):
+def _extract_task(source, box, level, spacing, descent, backend="auto", topology="montani"):
     from .chunked import extract_box
     backend = _worker_backend(backend)
     if backend != "gpu":
-        return extract_box(source, box, level, spacing, descent, backend=backend)
+        return extract_box(source, box, level, spacing, descent, backend=backend, topology=topology)
     ctx = _worker_context()
     with ctx:
-        return extract_box(source, box, level, spacing, descent, ctx)
+        return extract_box(source, box, level, spacing, descent, ctx, topology=topology)
 
 
 def mapped_npy(source, path):
@@ -263,11 +263,11 @@ def _receive(sock, count: int, deadline: float) -> bytes:
 
 
 def marching_cubes_on_cluster(source, level: float, spacing, descent: bool, chunks, *, scheduler=None,
-                              workers=None, progress=None, path=None, backend="auto"):
+                              workers=None, progress=None, path=None, backend="auto", topology="montani"):
     """verts, faces, normals, values of `source` (lazy or memory-mapped), extracted a box per task;
     `path`, the .npy file `source` was read from, lets workers read it themselves whatever its size.
     `backend`: "gpu", "cpu", "numpy", or "auto" (each worker the GPU where it can open a GL context,
-    else the CPU: the same mesh either way)."""
+    else the CPU: the same mesh either way); `topology`: of the ambiguous cells, as chunked.extract_box."""
     from dask.distributed import as_completed
 
     from .chunked import chunk_boxes, merge
@@ -275,7 +275,7 @@ def marching_cubes_on_cluster(source, level: float, spacing, descent: bool, chun
     client = connect(scheduler, workers)
     try:
         remote = client.scatter(shippable(source, path), broadcast=True)
-        futures = [client.submit(_extract_task, remote, box, level, spacing, descent, backend, pure=False)
+        futures = [client.submit(_extract_task, remote, box, level, spacing, descent, backend, topology, pure=False)
                    for box in boxes]
         parts, pending = [], as_completed(futures)
         del futures  # each result is held by the cluster only until this client has it

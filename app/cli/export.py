@@ -51,12 +51,14 @@ def _extract_for_export(volume, iso, args):
     chunks = as_chunks(DEFAULT_CHUNK if args.chunk is None else args.chunk, volume.data.shape)
     level = as_level(iso, volume.value_range)
     descent = as_gradient_direction(volume.gradient_direction)
+    topology = getattr(args, "topology", None) or "montani"
     if distributed:
         from ..big.cluster import marching_cubes_on_cluster
         return marching_cubes_on_cluster(volume.data, level, volume.spacing, descent, chunks,
                                          scheduler=args.scheduler, workers=args.workers, progress=progress,
-                                         path=volume.source)
-    return marching_cubes_chunked(volume.data, level, volume.spacing, descent, chunks, progress=progress)
+                                         path=volume.source, topology=topology)
+    return marching_cubes_chunked(volume.data, level, volume.spacing, descent, chunks, progress=progress,
+                                  topology=topology)
 
 
 def _whole(volume, iso, args, closed: bool):

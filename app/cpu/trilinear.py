@@ -88,6 +88,18 @@ def trilinear_keys(field: np.ndarray, level, inside: np.ndarray) -> np.ndarray:
     return table_key(cases, face_keys(d, cases), tunnel_keys(d))
 
 
+def keys_of_cells(field: np.ndarray, level, cells: np.ndarray) -> np.ndarray:
+    """`trilinear_keys` of the cells at `cells` (N, 3) alone: the same decisions from the same eight samples
+    (the chunked extraction names a box's own vertices by them, `isoscope.big.chunked`)."""
+    corners = [field[cells[:, 0] + (c & 1), cells[:, 1] + (c >> 1 & 1), cells[:, 2] + (c >> 2 & 1)] for c in range(8)]
+    lvl = np.float32(level)
+    cases = np.zeros(len(cells), np.int64)
+    for c, samples in enumerate(corners):
+        cases |= (samples >= lvl).astype(np.int64) << c   # inside_mask's rule, cube_cases' bits
+    d = [samples.astype(np.float64) - np.float64(lvl) for samples in corners]
+    return table_key(cases, face_keys(d, cases), tunnel_keys(d))
+
+
 def marching_cubes_trilinear(volume: np.ndarray, level: float, spacing=(1.0, 1.0, 1.0), descent: bool = True):
     """verts (N,3) float32, faces (M,3) int32, normals (N,3) float32, values (N,) float32: the mesh with the
     trilinear interpolant's topology.  `volume` as `cubes.marching_cubes_reference` takes it."""
@@ -115,6 +127,24 @@ def cell_vertex_means(verts, normals, values, members):
         extra_values.append(value / count)
     return (np.array(extra_verts, np.float32).reshape(-1, 3), np.array(extra_normals, np.float32).reshape(-1, 3),
             np.array(extra_values, np.float32))
+
+
+def mean_vertices(verts, normals, values, members):
+    """`cell_vertex_means` for rows of `members` (O, M) padded with -1, in the same float32 arithmetic in the
+    same order (adding nothing where a row has ended), a column at a time instead of a vertex at a time."""
+    p = np.zeros((len(members), 3), np.float32)
+    n = np.zeros((len(members), 3), np.float32)
+    value = np.zeros(len(members), np.float32)
+    for column in members.T:
+        taken = column >= 0
+        p[taken] += verts[column[taken]]
+        n[taken] += normals[column[taken]]
+        value[taken] += values[column[taken]]
+    count = (members >= 0).sum(axis=1).astype(np.float32)
+    length = np.sqrt(n[:, 0] * n[:, 0] + n[:, 1] * n[:, 1] + n[:, 2] * n[:, 2])
+    long = length > 0
+    n[long] /= length[long, None]
+    return p / count[:, None], n, value / count
 
 
 def trilinear_parts(volume: np.ndarray, level: float, spacing=(1.0, 1.0, 1.0), descent: bool = True):

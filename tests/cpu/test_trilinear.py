@@ -132,8 +132,8 @@ def test_every_door_takes_the_topology_and_refuses_what_it_cannot_do():
         np.testing.assert_array_equal(a, b)
     mesh = isoscope.isosurface(field, 0.0, topology="trilinear")
     assert len(mesh.faces) == len(one_shot[1])
-    refusals = [dict(topology="mc33"),
-                dict(topology="trilinear", sharp_features=30), dict(topology="trilinear", chunks=8)]
+    refusals = [dict(topology="mc33"), dict(topology="trilinear", sharp_features=30),
+                dict(topology="trilinear", mask=np.ones(field.shape, bool))]
     for options in refusals:
         with pytest.raises(IsoscopeError) as caught:
             isoscope.marching_cubes(field, 0.0, **options)
