@@ -20,10 +20,11 @@ class Stopped(IsoscopeError):
 def write_full_resolution(volume, level: float, out, *, gradient_direction: str | None = None,
                           chunk: int = DEFAULT_CHUNK, world: bool = True,
                           progress: Callable[[float, str], None] | None = None,
-                          stop: threading.Event | None = None) -> tuple[Path, int, int, str]:
+                          stop: threading.Event | None = None, topology: str = "montani") -> tuple[Path, int, int, str]:
     """Write the mesh of `volume` (a `Volume`: its data, spacing, world frame) at `level` to `out`, with
-    `gradient_direction` the side taken as inside (default: the volume's own); (path, vertices, triangles,
-    the coordinates' name).  `progress(fraction, message)` hears each chunk; a set `stop` ends the work
+    `gradient_direction` the side taken as inside (default: the volume's own) and `topology` the ambiguous
+    cells' rule; (path, vertices, triangles, the coordinates' name).  `progress(fraction, message)` hears each
+    chunk; a set `stop` ends the work
     with Stopped before the file is written (writes are atomic: no half file either way)."""
     from ..io.export import in_volume_space, mesh_format, write_mesh
     mesh_format(out)   # an unknown extension refused before any work
@@ -39,7 +40,7 @@ def write_full_resolution(volume, level: float, out, *, gradient_direction: str 
             progress(fraction, message)
 
     verts, faces, normals, _ = marching_cubes_chunked(volume.data, level, volume.spacing, descent, chunks,
-                                                      progress=report, backend="cpu")
+                                                      progress=report, backend="cpu", topology=topology)
     report(1.0, "writing the mesh")
     verts, faces, normals, space = in_volume_space(volume, verts, faces, normals, world=world)
     path = write_mesh(out, verts, faces, normals, space=space)

@@ -165,10 +165,11 @@ class FullResolutionExport:
     (big/export.py: what `isoscope export --chunk` writes); `wait` is the background job's work (model/jobs.py)
     and reports each chunk; `cancel` stops it before its file is written."""
 
-    def __init__(self, volume: Volume, level: float, out, gradient_direction: str):
-        """`volume`: the full volume; `gradient_direction`: the side the viewer shows as inside now."""
+    def __init__(self, volume: Volume, level: float, out, gradient_direction: str, topology: str = "montani"):
+        """`volume`: the full volume; `gradient_direction`: the side the viewer shows as inside now; `topology`:
+        the ambiguous cells' rule the viewer shows (the Mesh section's)."""
         self.volume, self.level, self.out = volume, float(level), str(out)
-        self.gradient_direction = gradient_direction
+        self.gradient_direction, self.topology = gradient_direction, topology
         self.message = f"exporting {os.path.basename(self.out)}"
         self._stop = threading.Event()
 
@@ -179,7 +180,7 @@ class FullResolutionExport:
         try:
             path, vertices, triangles, _ = write_full_resolution(
                 self.volume, self.level, self.out, gradient_direction=self.gradient_direction, chunk=EXPORT_CHUNK,
-                progress=progress, stop=self._stop)
+                progress=progress, stop=self._stop, topology=self.topology)
         except (ValueError, OSError, IsoscopeError) as exc:
             raise ViewerError(f"full-resolution export failed: {one_line(exc)}") from None
         return f"wrote {path}: {vertices:,} vertices, {triangles:,} triangles"

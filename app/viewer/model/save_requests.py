@@ -31,7 +31,8 @@ class SaveRequests:
             raise ViewerError("the whole volume is on show; use Save mesh")
         if self.exporting is not None:
             raise ViewerError("an export is still running; wait for it to finish")
-        self._export = FullResolutionExport(state.full_volume, state.iso, path, state.gradient_direction)
+        self._export = FullResolutionExport(state.full_volume, state.iso, path, state.gradient_direction,
+                                            state.mesh_options.topology)
         return state.jobs.submit("export", self._export.wait, message=self._export.message,
                                  failure="the export's progress could not be read")
 

@@ -78,6 +78,25 @@ def test_the_full_resolution_export_runs_in_the_background_and_matches_the_api(v
     np.testing.assert_array_equal(mesh.faces, expected[1])   # the same winding: the same side out
 
 
+def test_the_full_resolution_export_has_the_topology_on_show(viewer, tmp_path):
+    """The Mesh section's topology reaches the file (it was written with montani's, whatever was shown)."""
+    noise = np.random.default_rng(7).standard_normal((61, 61, 61)).astype(np.float32)   # ambiguous everywhere
+    np.save(tmp_path / "noise.npy", noise)
+    viewer.open(str(tmp_path / "noise.npy"))
+    state = viewer.state
+    assert state.full_volume is not None
+    state.iso = 0.0
+    assert state.set_topology("trilinear")
+    viewer.scene.update(0.0)
+    state.saving.export_full_resolution(tmp_path / "trilinear.ply")
+    wait_for_export(viewer, 120)
+    assert state.error is None, state.error
+    trilinear, montani = (isoscope.api.outward_marching_cubes(noise, 0.0, topology=topology)
+                          for topology in ("trilinear", "montani"))
+    assert len(trilinear[1]) != len(montani[1])
+    np.testing.assert_array_equal(trimesh.load(tmp_path / "trilinear.ply", process=False).faces, trilinear[1])
+
+
 def test_a_failed_export_is_one_line_in_the_panel_and_leaves_no_file(viewer, big_npy, tmp_path):
     viewer.open(str(big_npy))
     state = viewer.state
