@@ -3,15 +3,16 @@
 The volume's cells are cut into boxes of at most `chunks` cells per axis.  Each box is
 read with a halo of one sample on every side (its last cells' far corners, and the
 neighbours the central-difference normals need), extracted by the GPU Extractor, and
-only the triangles of the box's own cells are kept.  Every vertex lies on a grid edge:
-its GLOBAL edge id (owning sample's flat index x 3 + axis) names it, so a vertex that
-two boxes both make (on their shared face) is merged into one, and the stitched mesh is
-watertight across the seams.  Vertex attributes are placed by the numpy reference on
-the haloed block in whole-volume coordinates (reference.vertex_positions with `origin`),
-which the GPU matches byte for byte; normals and values are the GPU's (the halo gives
-them the whole volume's neighbours); vertices and triangles are then put in the order
-a whole-volume extraction gives.  So the result equals `marching_cubes(volume)` array
-for array, not only up to order.
+only the triangles of the box's own cells are kept.  Every vertex of the default topology
+lies on a grid edge (the trilinear topology's own vertices: below): its GLOBAL edge id
+(owning sample's flat index x 3 + axis) names it, so a vertex that two boxes both make
+(on their shared face) is merged into one, and the stitched mesh is watertight across
+the seams.  Vertex attributes are placed by the numpy reference on the haloed block in
+whole-volume coordinates (reference.vertex_positions with `origin`), which the GPU
+matches byte for byte; normals and values are the GPU's (the halo gives them the whole
+volume's neighbours); vertices and triangles are then put in the order a whole-volume
+extraction gives.  So the result equals `marching_cubes(volume)` array for array, not
+only up to order.
 
 topology="trilinear" too: a cell's key (case, faces, tunnel) depends on its eight samples alone (a face's
 decision on its four: neighbours agree), so the haloed block decides each cell as the whole volume does.
@@ -39,6 +40,7 @@ import numpy as np
 
 from .. import validation
 from ..core.lazy_arrays import read_block
+from ..core.trilinear_table import topology_problem
 from ..cpu.cubes import brick_order_key, vertex_positions
 from ..errors import InputError
 from ..gpu.limits import GPULimitError
@@ -124,16 +126,24 @@ def extract_box(source, box, level: float, spacing, descent: bool, ctx=None, sha
     block = read_block(source, tuple(slice(o, min(b + 2, n)) for o, b, n in zip(origin, stop, shape)))
     checked = validation.check_volume(block, "volume", where=lambda index: validation._at_index(np.add(index, origin)))
     lo, hi = checked.value_range
-    if not lo <= level <= hi:
-        return None  # every sample on one side: no edge of this box crosses the level
+    if not np.float32(lo) <= np.float32(level) <= np.float32(hi):
+        # Every sample on one side: no edge of this box crosses the level.  Compared in float32, as the
+        # extractors compare: a float64 (or large integer) sample just below the level that float32 rounds
+        # onto it is inside for them, so a box of such samples has a surface (rounding keeps order).
+        return None
+    # The box's extractor holds the level to the box's own range in float64: the nearest level inside it is the
+    # same float32 level (the float32 test above passed), so the same mesh.
+    box_level = min(max(level, lo), hi)
     trilinear = topology == "trilinear"
     try:
-        verts, faces, gpu_normals, gpu_values = _box_mesh(checked, level, spacing, descent, ctx, backend, trilinear)
+        verts, faces, gpu_normals, gpu_values = _box_mesh(checked, box_level, spacing, descent, ctx, backend,
+                                                          trilinear)
     except GPULimitError:
         if not trilinear:
             raise
         # The topology's own vertices need the box's mesh in one storage block: the CPU makes the same mesh.
-        verts, faces, gpu_normals, gpu_values = _box_mesh(checked, level, spacing, descent, ctx, "cpu", trilinear)
+        verts, faces, gpu_normals, gpu_values = _box_mesh(checked, box_level, spacing, descent, ctx, "cpu",
+                                                          trilinear)
     if not len(faces):
         return None
     field = checked.samples.astype(np.float32) if descent else -checked.samples.astype(np.float32)  # its own order
@@ -297,6 +307,9 @@ def marching_cubes_chunked(source, level: float, spacing=(1.0, 1.0, 1.0), descen
     """The whole-volume mesh of `source` (an array, memory map or Zarr array), a box at a time in one
     GL context (or with backend "cpu" / "numpy", on the CPU; "auto": gpu.context's one_shot_backend),
     with the `topology` of ambiguous cells.  `level` must already be checked against the volume's range."""
+    problem = topology_problem(topology)
+    if problem is not None:
+        raise InputError(problem)
     if backend == "auto":
         from ..gpu.context import one_shot_backend
         backend = one_shot_backend()

@@ -112,3 +112,17 @@ def test_a_nan_is_reported_at_its_place_in_the_whole_volume():
     volume[21, 17, 25] = np.nan
     with pytest.raises(ValueError, match=r"at index \(21, 17, 25\)"):
         isoscope.marching_cubes(volume, 0.0, chunks=8)
+
+
+@pytest.mark.parametrize("topology", ["montani", "trilinear"])
+def test_float64_samples_that_float32_rounds_onto_the_level_are_not_skipped(topology):
+    """A box whose float64 samples all lie just below the level, where float32 (the extractors' comparison)
+    rounds them onto it, has a surface: it was skipped by a range test in float64, and its part went missing."""
+    from isoscope.api import outward_marching_cubes
+    volume = np.zeros((6, 6, 12))
+    volume[:, :, 6:] = 0.1 - 1e-10          # float32(0.1 - 1e-10) == float32(0.1): inside for the extractors
+    volume[2:4, 2:4, 2:4] = 0.2
+    whole = outward_marching_cubes(volume, 0.1, backend="cpu", topology=topology)
+    stitched = outward_marching_cubes(volume, 0.1, backend="cpu", topology=topology, chunks=(5, 5, 5))
+    for a, b in zip(whole, stitched):
+        np.testing.assert_array_equal(a, b)

@@ -95,7 +95,15 @@ def test_a_box_the_gpu_cannot_hold_is_made_on_the_cpu(gl_ctx, monkeypatch):
     with pytest.raises(IsoscopeError, match="backend='cpu'"):
         outward_marching_cubes(field, 0.0, backend="gpu", topology="trilinear")   # the limit bites
     # boxes of 12 cells along axis 2: the first three outgrow the block, the last (3 cells) fits it
+    from isoscope.big import chunked
+    backends, real_box_mesh = [], chunked._box_mesh
+
+    def box_mesh(*args):   # the real function, its backend noted: which boxes the CPU made
+        backends.append(args[5])
+        return real_box_mesh(*args)
+    monkeypatch.setattr(chunked, "_box_mesh", box_mesh)
     stitched = outward_marching_cubes(field, 0.0, backend="gpu", topology="trilinear", chunks=(24, 24, 12))
+    assert backends == ["gpu", "cpu"] * 3 + ["gpu"]
     assert_same_mesh(stitched, outward_marching_cubes(field, 0.0, backend="cpu", topology="trilinear"),
                      normals_atol=1e-6)
 
