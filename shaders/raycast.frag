@@ -333,6 +333,12 @@ void main() {
 #ifdef BRICKED
         float step;
         float v = slot_value(p, slot, local, step);
+        if (step > u_step) {   // a coarse step ends at the first sample of the lattice past its brick's far face:
+            // a brick read in full beyond it is read from its first full samples on, none stepped over
+            vec3 brick_low = whole * u_cells * u_fine_spacing;
+            float leave = box_exit(brick_low, brick_low + u_cells * u_fine_spacing, dir);
+            step = clamp(span.x + (floor((leave - span.x) / u_step) + 1.0) * u_step - t, u_step, step);
+        }
 #else
         float step = u_step;
         float v = coarse_value(p);
