@@ -242,16 +242,24 @@ def _scale_text(values) -> str:
 def _frame_of(dataset: dict, multiscale: dict, ndim: int, path: Path, name: str):
     """((z, y, x) scale, (z, y, x) translation or None where none is given) of one OME-Zarr level: its dataset's
     coordinateTransformations, then the image's, each applied in its order (a scale scales the translation
-    before it).  A scale of another length than the axes is passed over (as before translations were read); a
-    translation that is not a list of one finite number per axis, or that its scale makes infinite (a scale that
-    is not positive and finite is refused by the caller), is refused in one VolumeError line."""
+    before it).  One VolumeError line refuses a scale or translation stored in a file ("path": isoscope reads
+    only inline ones), a scale list or a translation that is not one number per axis, and a translation that
+    its scale makes infinite (a scale that is not positive and finite is refused by the caller)."""
     scale, shift, shifted = [1.0] * ndim, [0.0] * ndim, False
     for owner, transforms in (("its", dataset.get("coordinateTransformations", [])),
                               ("the image's", multiscale.get("coordinateTransformations", []))):
         for transform in transforms:
             kind = transform.get("type")
-            if kind == "scale" and len(transform.get("scale", [])) == len(scale):
-                factors = [float(b) for b in transform["scale"]]
+            if kind in ("scale", "translation") and kind not in transform and "path" in transform:
+                raise VolumeError(f"{path.name}: OME-Zarr level {name!r} has its {kind} in a file "
+                                  f"({_short(transform['path'])}) in {owner} coordinateTransformations; isoscope "
+                                  f"reads only inline transformations: write it again with the {kind}'s numbers "
+                                  "in the metadata")
+            if kind == "scale":
+                value = transform.get("scale", [])
+                if isinstance(value, (list, tuple)) and len(value) != ndim:
+                    _refuse_not_per_axis(path, name, "scale", value, owner, ndim)
+                factors = [float(b) for b in value]
                 scale = [a * b for a, b in zip(scale, factors)]
                 shift = [a * b for a, b in zip(shift, factors)]
             elif kind == "translation":
@@ -265,13 +273,23 @@ def _frame_of(dataset: dict, multiscale: dict, ndim: int, path: Path, name: str)
     return tuple(scale[-3:]), (tuple(shift[-3:]) if shifted else None)
 
 
+def _short(value) -> str:
+    """`value`'s repr, cut to 60 characters."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _refuse_not_per_axis(path: Path, name: str, kind: str, value, owner: str, ndim: int):
+    """Refuse (one VolumeError line) a level's scale or translation `value` that is not one number per axis."""
+    raise VolumeError(f"{path.name}: OME-Zarr level {name!r} has {kind} {_short(value)} in {owner} "
+                      f"coordinateTransformations, not a list of "
+                      f"{ndim} finite numbers (one per axis); write it again with one number per axis")
+
+
 def _translation(value, ndim: int, path: Path, name: str, owner: str) -> list[float]:
     """`value` as `ndim` finite floats, or one VolumeError line naming the level and the fix."""
     numbers = isinstance(value, (list, tuple)) and len(value) == ndim and all(
         isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
     if not numbers:
-        text = repr(value) if len(repr(value)) <= 60 else repr(value)[:57] + "..."
-        raise VolumeError(f"{path.name}: OME-Zarr level {name!r} has translation {text} in {owner} "
-                          f"coordinateTransformations, not a list of "
-                          f"{ndim} finite numbers (one per axis); write it again with one number per axis")
+        _refuse_not_per_axis(path, name, "translation", value, owner, ndim)
     return [float(v) for v in value]

@@ -222,3 +222,43 @@ def test_a_translation_its_scale_makes_infinite_is_refused_in_one_line(tmp_path,
         open_volume(str(path))
     assert words in str(caught.value) and "\n" not in str(caught.value)
     assert_one_line_error(isoscope_here("export", str(path), "--out", str(tmp_path / "m.ply")), words)
+
+
+def _transformed(path, level: int, transform=None, image=None):
+    """The store at `path` with `transform` in place of level `level`'s scale (None: kept), and `image` as the
+    multiscale's own coordinateTransformations."""
+    group = zarr.open_group(str(path), mode="r+")
+    multiscales = group.attrs["multiscales"]
+    if transform is not None:
+        multiscales[0]["datasets"][level]["coordinateTransformations"][0] = transform
+    if image is not None:
+        multiscales[0]["coordinateTransformations"] = image
+    group.attrs["multiscales"] = multiscales
+    return path
+
+
+@pytest.mark.parametrize(("level", "transform", "image", "words"), [
+    (0, {"type": "translation", "path": "translation.bin"}, None,
+     "OME-Zarr level '0' has its translation in a file ('translation.bin') in its coordinateTransformations; "
+     "isoscope reads only inline transformations: write it again with the translation's numbers in the metadata"),
+    (1, {"type": "scale", "path": "scale.bin"}, None, "OME-Zarr level '1' has its scale in a file ('scale.bin')"),
+    (0, None, [{"type": "translation", "path": "t.bin"}],
+     "OME-Zarr level '0' has its translation in a file ('t.bin') in the image's coordinateTransformations"),
+    (0, {"type": "scale", "scale": [1.0, 1.0]}, None,
+     "OME-Zarr level '0' has scale [1.0, 1.0] in its coordinateTransformations, not a list of 3 finite numbers "
+     "(one per axis); write it again with one number per axis"),
+    (1, {"type": "scale", "scale": [1, 2.0, 2.0, 2.0]}, None,
+     "OME-Zarr level '1' has scale [1, 2.0, 2.0, 2.0] in its coordinateTransformations, not a list of 3"),
+])
+def test_a_transformation_in_a_file_or_a_scale_not_one_number_per_axis_is_refused_in_one_line(
+        tmp_path, ball, level, transform, image, words):
+    """isoscope reads the coordinateTransformations written in the metadata, not those stored in a file ("path"),
+    and says so (it said "translation None"); a scale of another length than the axes is refused as a
+    translation is (it was passed over)."""
+    path = tmp_path / "t.ome.zarr"
+    write_ome(path, mean_levels(ball, 2), [(1.0,) * 3, (2.0,) * 3])
+    _transformed(path, level, transform, image)
+    with pytest.raises(IsoscopeError) as caught:
+        open_volume(str(path))
+    assert words in str(caught.value) and "\n" not in str(caught.value)
+    assert_one_line_error(isoscope_here("export", str(path), "--out", str(tmp_path / "m.ply")), words)
