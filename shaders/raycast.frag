@@ -293,13 +293,10 @@ void main() {
 #endif
 #if !defined(MODE_MEAN)   // a mean takes every sample: nothing to skip
         // The macro brick first (one fetch leaves MACRO bricks a side behind), then the brick.  The coarse view's
-        // bricks are where its samples are (from u_texture_origin); a brick read in full widened them where it
-        // lies itself (model/ray_bricks.py), so p inside one is looked up as it is.
-        vec3 at = p - u_texture_origin;
-#ifdef BRICKED
-        if (slot.w > 0.5) at = p;
-#endif
-        vec3 moved = p - at;
+        // bricks are where its samples are (from u_texture_origin), wherever p is: a brick read in full widened
+        // every one of them its cells reach into (model/ray_bricks.py), so a box skipped holds no sample, coarse
+        // or full, that a ray inside it reads.
+        vec3 moved = u_texture_origin, at = p - moved;
         ivec3 brick = brick_of(at, u_macro, u_macros);
         vec3 low = vec3(brick) * u_macro + moved, high = low + u_macro;
         bool skip = skipped(texelFetch(u_macro_ranges, brick.zyx, 0).rg, gathered);
@@ -336,6 +333,12 @@ void main() {
 #ifdef BRICKED
         float step;
         float v = slot_value(p, slot, local, step);
+        if (step > u_step) {   // a coarse step ends at the first sample of the lattice past its brick's far face:
+            // a brick read in full beyond it is read from its first full samples on, none stepped over
+            vec3 brick_low = whole * u_cells * u_fine_spacing;
+            float leave = box_exit(brick_low, brick_low + u_cells * u_fine_spacing, dir);
+            step = clamp(span.x + (floor((leave - span.x) / u_step) + 1.0) * u_step - t, u_step, step);
+        }
 #else
         float step = u_step;
         float v = coarse_value(p);

@@ -136,8 +136,9 @@ def _ome_level(group, multiscale: dict, path: Path):
     lower-resolution levels as (name, array, spacing, offset), finest first, world frame or None).  A level
     whose metadata does not parse is left out of the pyramid with a note (the full one must open); a level
     named but absent from the store, or one that is not a lower resolution of the level before it (larger, or
-    a scale its shape does not match), or a translation that is not one finite number per axis, is refused in
-    one line: the pyramid would be shown at the wrong size or place."""
+    a scale its shape does not match, or a translation that puts its sample 0 more than one of its samples from
+    where its scale does), or a translation that is not one finite number per axis, is refused in one line: the
+    pyramid would be shown at the wrong size or place."""
     try:
         datasets = multiscale["datasets"]
         level = group[datasets[0]["path"]]
@@ -177,6 +178,7 @@ def _ome_level(group, multiscale: dict, path: Path):
         _refuse_disagreeing_level(path, before, (str(name), array, level_spacing))
         before = (str(name), array, level_spacing)
         offset = tuple((b - a) / s for a, b, s in zip(shift or (0.0,) * 3, level_shift or (0.0,) * 3, spacing))
+        _refuse_far_level(path, (first, spacing, shift), (str(name), level_spacing, level_shift), offset)
         coarser.append((str(name), array, level_spacing, offset))
     world = None
     if shift is not None:   # the full level's scale and translation: an affine with a diagonal and an offset
@@ -209,6 +211,23 @@ def _refuse_disagreeing_level(path: Path, before, level) -> None:
                           f"{_scale_text([m / max(n, 1) for n, m in zip(shape, above_shape)])}; {fix}")
 
 
+def _refuse_far_level(path: Path, full, level, offset) -> None:
+    """Refuse (one VolumeError line) a coarser level `(name, spacing, translation)` whose sample 0 lies more than
+    one of its own samples from where its scale puts it (the full level's sample 0): |offset| (in the full
+    level's samples) above its spacing over the full level's, along an axis; as a scale its shape disagrees
+    with, the pyramid would be shown in the wrong place (a pyramid of means is half a block in, (f - 1) / 2)."""
+    (first, full_spacing, full_shift), (name, spacing, shift) = full, level
+    ratio = [s / f for s, f in zip(spacing, full_spacing)]
+    if all(abs(o) <= r * (1 + 1e-9) for o, r in zip(offset, ratio)):
+        return
+    raise VolumeError(f"{path.name}: OME-Zarr level {name!r} (scale {_scale_text(spacing)}, translation "
+                      f"{_scale_text(shift or (0.0,) * 3)}) is not where its scale puts it against level {first!r} "
+                      f"(scale {_scale_text(full_spacing)}, translation {_scale_text(full_shift or (0.0,) * 3)}): "
+                      f"its sample 0 lies {_scale_text(offset)} samples of level {first!r} from that level's, more "
+                      f"than one of its own ({_scale_text(ratio)}); write the pyramid again, each level's "
+                      "translation where its samples lie")
+
+
 def _refuse_bad_scale(path: Path, name: str, spacing) -> None:
     """Refuse (one VolumeError line) a level whose scale is not positive and finite along every axis."""
     if any(not (math.isfinite(s) and s > 0) for s in spacing):
@@ -223,22 +242,48 @@ def _scale_text(values) -> str:
 def _frame_of(dataset: dict, multiscale: dict, ndim: int, path: Path, name: str):
     """((z, y, x) scale, (z, y, x) translation or None where none is given) of one OME-Zarr level: its dataset's
     coordinateTransformations, then the image's, each applied in its order (a scale scales the translation
-    before it).  A scale of another length than the axes is passed over (as before translations were read); a
-    translation that is not a list of one finite number per axis is refused in one VolumeError line."""
+    before it).  One VolumeError line refuses a scale or translation stored in a file ("path": isoscope reads
+    only inline ones), a scale list or a translation that is not one number per axis, and a translation that
+    its scale makes infinite (a scale that is not positive and finite is refused by the caller)."""
     scale, shift, shifted = [1.0] * ndim, [0.0] * ndim, False
     for owner, transforms in (("its", dataset.get("coordinateTransformations", [])),
                               ("the image's", multiscale.get("coordinateTransformations", []))):
         for transform in transforms:
             kind = transform.get("type")
-            if kind == "scale" and len(transform.get("scale", [])) == len(scale):
-                factors = [float(b) for b in transform["scale"]]
+            if kind in ("scale", "translation") and kind not in transform and "path" in transform:
+                raise VolumeError(f"{path.name}: OME-Zarr level {name!r} has its {kind} in a file "
+                                  f"({_short(transform['path'])}) in {owner} coordinateTransformations; isoscope "
+                                  f"reads only inline transformations: write it again with the {kind}'s numbers "
+                                  "in the metadata")
+            if kind == "scale":
+                value = transform.get("scale", [])
+                if isinstance(value, (list, tuple)) and len(value) != ndim:
+                    _refuse_not_per_axis(path, name, "scale", value, owner, ndim)
+                factors = [float(b) for b in value]
                 scale = [a * b for a, b in zip(scale, factors)]
                 shift = [a * b for a, b in zip(shift, factors)]
             elif kind == "translation":
                 shift = [a + b for a, b in zip(shift, _translation(transform.get("translation"), ndim, path, name,
                                                                    owner))]
                 shifted = True
+    finite_scale = all(math.isfinite(s) for s in scale)
+    if shifted and finite_scale and not all(math.isfinite(v) for v in shift):
+        raise VolumeError(f"{path.name}: OME-Zarr level {name!r} has a translation its scale makes "
+                          f"{_scale_text(shift)}, not finite; write it again with numbers whose product is finite")
     return tuple(scale[-3:]), (tuple(shift[-3:]) if shifted else None)
+
+
+def _short(value) -> str:
+    """`value`'s repr, cut to 60 characters."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _refuse_not_per_axis(path: Path, name: str, kind: str, value, owner: str, ndim: int):
+    """Refuse (one VolumeError line) a level's scale or translation `value` that is not one number per axis."""
+    raise VolumeError(f"{path.name}: OME-Zarr level {name!r} has {kind} {_short(value)} in {owner} "
+                      f"coordinateTransformations, not a list of "
+                      f"{ndim} finite numbers (one per axis); write it again with one number per axis")
 
 
 def _translation(value, ndim: int, path: Path, name: str, owner: str) -> list[float]:
@@ -246,8 +291,5 @@ def _translation(value, ndim: int, path: Path, name: str, owner: str) -> list[fl
     numbers = isinstance(value, (list, tuple)) and len(value) == ndim and all(
         isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
     if not numbers:
-        text = repr(value) if len(repr(value)) <= 60 else repr(value)[:57] + "..."
-        raise VolumeError(f"{path.name}: OME-Zarr level {name!r} has translation {text} in {owner} "
-                          f"coordinateTransformations, not a list of "
-                          f"{ndim} finite numbers (one per axis); write it again with one number per axis")
+        _refuse_not_per_axis(path, name, "translation", value, owner, ndim)
     return [float(v) for v in value]

@@ -179,3 +179,86 @@ def test_a_translation_that_is_not_one_finite_number_per_axis_is_refused_in_one_
         open_volume(str(path))
     assert words in str(caught.value) and "\n" not in str(caught.value)
     assert_one_line_error(isoscope_here("export", str(path), "--out", str(tmp_path / "m.ply")), words)
+
+
+@pytest.mark.parametrize(("translations", "opens"), [
+    ([None, [0.5, 2.5, 0.5]], "OME-Zarr level '1' (scale 2x2x2, translation 0.5x2.5x0.5) is not where its scale puts "
+                              "it against level '0' (scale 1x1x1, translation 0x0x0): its sample 0 lies 0.5x2.5x0.5 "
+                              "samples of level '0' from that level's, more than one of its own (2x2x2); write the "
+                              "pyramid again, each level's translation where its samples lie"),
+    ([[10.0, 10.0, 10.0], [10.0, 10.0, 7.5]], "its sample 0 lies 0x0x-2.5 samples of level '0'"),
+    ([None, [2.0, -2.0, 0.0]], None),                  # one of its own samples off: taken (its offset)
+    ([[1.0, 1.0, 1.0], [1.5, 1.5, 1.5]], None),        # a pyramid of means, moved
+])
+def test_a_coarser_level_more_than_one_of_its_samples_from_its_place_is_refused_in_one_line(tmp_path, ball,
+                                                                                            translations, opens):
+    """A coarser level's translation, less the full level's, puts its sample 0 within one of its own samples of
+    the full level's sample 0 (|offset| <= its spacing over the full level's, per axis: block means are half a
+    block in); further, the pyramid would be shown in the wrong place: one line, as a scale its shape disagrees
+    with."""
+    path = tmp_path / "far.ome.zarr"
+    write_ome(path, mean_levels(ball, 2), [(1.0,) * 3, (2.0,) * 3])
+    with_translations(path, translations)
+    if opens is None:
+        volume = open_volume(str(path))
+        expected = np.subtract(translations[1], translations[0] or (0.0,) * 3)
+        np.testing.assert_allclose(volume.pyramid[0].offset, expected)
+        return
+    with pytest.raises(IsoscopeError) as caught:
+        open_volume(str(path))
+    assert opens in str(caught.value) and "\n" not in str(caught.value)
+    assert_one_line_error(isoscope_here("export", str(path), "--out", str(tmp_path / "m.ply")), opens)
+
+
+def test_a_translation_its_scale_makes_infinite_is_refused_in_one_line(tmp_path, ball):
+    """The image's scale multiplies the levels' translations: where that overflows, the world frame and the
+    levels' offsets would be infinite; one line instead."""
+    path = tmp_path / "inf.ome.zarr"
+    write_ome(path, mean_levels(ball, 2), [(1.0,) * 3, (2.0,) * 3])
+    with_translations(path, [[1e10, 1.0, 1e10], [1e10, 1.0, 1e10]], image=[{"type": "scale", "scale": [1e300] * 3}])
+    words = ("OME-Zarr level '0' has a translation its scale makes infx1e+300xinf, not finite; write it again with "
+             "numbers whose product is finite")
+    with pytest.raises(IsoscopeError) as caught:
+        open_volume(str(path))
+    assert words in str(caught.value) and "\n" not in str(caught.value)
+    assert_one_line_error(isoscope_here("export", str(path), "--out", str(tmp_path / "m.ply")), words)
+
+
+def _transformed(path, level: int, transform=None, image=None):
+    """The store at `path` with `transform` in place of level `level`'s scale (None: kept), and `image` as the
+    multiscale's own coordinateTransformations."""
+    group = zarr.open_group(str(path), mode="r+")
+    multiscales = group.attrs["multiscales"]
+    if transform is not None:
+        multiscales[0]["datasets"][level]["coordinateTransformations"][0] = transform
+    if image is not None:
+        multiscales[0]["coordinateTransformations"] = image
+    group.attrs["multiscales"] = multiscales
+    return path
+
+
+@pytest.mark.parametrize(("level", "transform", "image", "words"), [
+    (0, {"type": "translation", "path": "translation.bin"}, None,
+     "OME-Zarr level '0' has its translation in a file ('translation.bin') in its coordinateTransformations; "
+     "isoscope reads only inline transformations: write it again with the translation's numbers in the metadata"),
+    (1, {"type": "scale", "path": "scale.bin"}, None, "OME-Zarr level '1' has its scale in a file ('scale.bin')"),
+    (0, None, [{"type": "translation", "path": "t.bin"}],
+     "OME-Zarr level '0' has its translation in a file ('t.bin') in the image's coordinateTransformations"),
+    (0, {"type": "scale", "scale": [1.0, 1.0]}, None,
+     "OME-Zarr level '0' has scale [1.0, 1.0] in its coordinateTransformations, not a list of 3 finite numbers "
+     "(one per axis); write it again with one number per axis"),
+    (1, {"type": "scale", "scale": [1, 2.0, 2.0, 2.0]}, None,
+     "OME-Zarr level '1' has scale [1, 2.0, 2.0, 2.0] in its coordinateTransformations, not a list of 3"),
+])
+def test_a_transformation_in_a_file_or_a_scale_not_one_number_per_axis_is_refused_in_one_line(
+        tmp_path, ball, level, transform, image, words):
+    """isoscope reads the coordinateTransformations written in the metadata, not those stored in a file ("path"),
+    and says so (it said "translation None"); a scale of another length than the axes is refused as a
+    translation is (it was passed over)."""
+    path = tmp_path / "t.ome.zarr"
+    write_ome(path, mean_levels(ball, 2), [(1.0,) * 3, (2.0,) * 3])
+    _transformed(path, level, transform, image)
+    with pytest.raises(IsoscopeError) as caught:
+        open_volume(str(path))
+    assert words in str(caught.value) and "\n" not in str(caught.value)
+    assert_one_line_error(isoscope_here("export", str(path), "--out", str(tmp_path / "m.ply")), words)

@@ -140,9 +140,10 @@ def plane_indices(data: np.ndarray, labels: np.ndarray, axis: int, position: flo
     return index, np.ascontiguousarray(np.where(hit, found + 1, 0).astype(np.float32))
 
 
-def cap_corners(shape, spacing, axis: int, position: float) -> np.ndarray:
+def cap_corners(shape, spacing, axis: int, position: float, origin=(0.0, 0.0, 0.0)) -> np.ndarray:
     """4 vertices (x, y, z, row, column) of the clip's plane, half a sample beyond the volume on every
-    side (where the labels' surfaces close), as a triangle strip."""
+    side (where the labels' surfaces close), as a triangle strip; index 0 at `origin` (Volume.origin: where
+    the labels' surfaces are drawn and the clip cuts them, as slices.py's plane_corners)."""
     rows_axis, columns_axis = (a for a in range(3) if a != axis)
     vertices = []
     for row in (-0.5, shape[rows_axis] - 0.5):
@@ -150,7 +151,7 @@ def cap_corners(shape, spacing, axis: int, position: float) -> np.ndarray:
             point = [0.0, 0.0, 0.0]
             point[axis] = position * spacing[axis]
             point[rows_axis], point[columns_axis] = row * spacing[rows_axis], column * spacing[columns_axis]
-            vertices.append([*point, row, column])
+            vertices.append([*(p + o for p, o in zip(point, origin)), row, column])
     return np.array(vertices, "f4")[[0, 2, 1, 3]]
 
 
@@ -178,7 +179,7 @@ class LabelCaps:
         program["u_projection"].write(projection)
         program["u_plane"].value = PLANE_UNIT
         program["u_table"].value = TABLE_UNIT
-        self.quad.write(cap_corners(scene.data.shape, scene.spacing, axis, position).tobytes())
+        self.quad.write(cap_corners(scene.data.shape, scene.spacing, axis, position, scene.origin).tobytes())
         self.vao.render(moderngl.TRIANGLE_STRIP)
 
     def _plane_texture(self, data, labels, axis, position) -> moderngl.Texture:

@@ -144,6 +144,37 @@ def from_level(volume: Volume, level, note: str | None = None) -> tuple[Volume, 
     return shown, max(1, round(ratio[0]))
 
 
+def view_recipe(volume: Volume, shown: Volume) -> tuple[str | None, int]:
+    """How `shown`, `downsampled`'s view of `volume`, was made: (the name of the pyramid level it was read from,
+    then one sample in how many of that level's), or (None, 1) where it is `volume` itself or every step-th
+    sample of it.  Another time point of the same series is shown the same way (`shown_as`): a series' coarse
+    view keeps its samples (a level's means, not the full level's every step-th) and its place (the level's
+    offset: Volume.origin) as time moves."""
+    if shown is volume:
+        return None, 1
+    for level in volume.pyramid:
+        spacing = tuple(level.spacing)
+        steps = max(1, round(shown.spacing[0] / spacing[0]))
+        expected = tuple(s * steps for s in spacing) if steps > 1 else spacing   # as every_step computes it
+        if tuple(shown.spacing) == expected and tuple(shown.data.shape) == shown_shape(level.data.shape, steps):
+            return level.name, steps
+    return None, 1
+
+
+def shown_as(volume: Volume, recipe: tuple[str | None, int], step: int) -> Volume:
+    """`volume` (a time point of a series) shown as `view_recipe` says the series' first was: from its pyramid
+    level of that name (then one sample in so many of it), or every `step`-th sample of it; a ViewerError line
+    where the time point lacks that level."""
+    name, level_step = recipe
+    if name is None:
+        return every_step(volume, step)
+    level = next((level for level in volume.pyramid if level.name == name), None)
+    if level is None:
+        raise ViewerError(f"{volume.name}: this time point has no pyramid level {name!r}, which the series is "
+                          "shown from; write every time point with the same levels")
+    return every_step(from_level(volume, level)[0], level_step)
+
+
 def every_step(volume: Volume, step: int, note: str | None = None) -> Volume:
     """A volume of every `step`-th sample of `volume` along each axis (`volume` itself for step 1).  Spacing,
     world transform and value range stay the full volume's (the range bounds the samples kept)."""

@@ -89,7 +89,8 @@ def _no_mesh():
 class BrickView:
     """Which bricks of `volume` (the whole, over the budget) are at full resolution, and the one being made."""
 
-    def __init__(self, volume: Volume, layout: BrickLayout):
+    def __init__(self, volume: Volume, layout: BrickLayout, shift=(0.0, 0.0, 0.0)):
+        """`shift`: where the coarse view's sample 0 lies in `volume`'s samples (a pyramid level's offset)."""
         self.volume, self.layout = volume, layout
         shape = volume.data.shape
         self.bricks = bricks_of(shape, layout.cells)
@@ -103,7 +104,7 @@ class BrickView:
         self._asked: tuple[int, tuple] | None = None   # (request id, key) of the brick on the worker
         self.to_load = 0           # bricks the last plan still had to load
         self.jobs = Jobs()
-        self.rays = RayBricks(volume, layout, self.bricks, self.grid, self.refines)   # what the rays read in full
+        self.rays = RayBricks(volume, layout, self.bricks, self.grid, self.refines, shift)   # what rays read in full
 
     @property
     def flat(self) -> dict[tuple[int, int, int], int]:
@@ -234,7 +235,11 @@ def brick_view(full_volume: Volume | None, step: int, budget, shown: Volume | No
         layout = bricks_layout(full_volume, budget, step=step)
     else:
         layout = bricks_layout(full_volume, budget, min_step=step)
-    return BrickView(full_volume, layout) if layout is not None and layout.step == step else None
+    if layout is None or layout.step != step:
+        return None
+    origin = shown.origin if shown is not None else full_volume.origin   # the coarse view's sample 0, in samples
+    return BrickView(full_volume, layout, tuple((o - f) / s for o, f, s in zip(origin, full_volume.origin,
+                                                                                full_volume.spacing)))
 
 
 def bricks_layout(volume: Volume, budget, step: int | None = None, min_step: int = 1) -> BrickLayout | None:

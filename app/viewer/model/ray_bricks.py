@@ -56,14 +56,17 @@ def slot_ranges(cells: int) -> int:
     return -(-cells // RANGE_BRICK)
 
 
-def read_ray_brick(data, brick: Brick, cells: int, range_cells: int, progress=None) -> RayBrick:
+def read_ray_brick(data, brick: Brick, cells: int, range_cells: int, progress=None,
+                   shift=(0.0, 0.0, 0.0)) -> RayBrick:
     """`brick`'s samples from `data` (an array, memory map or Zarr array: only the brick is read), as the ray
     caster's texture takes them, padded to (cells + 1)^3 by repeating its last samples (a slot's
     unused texels are never read between two samples, but they are never garbage either); a worker's work.
-    `range_cells`: the full samples a side of the coarse view's skipping bricks."""
+    `range_cells`: the full samples a side of the coarse view's skipping bricks; `shift`: where they start, in full
+    samples (the coarse view's sample 0: a pyramid level's offset): the brick's samples count in each of them
+    its cells reach into, so a ray skipping one of them skips no sample of the brick it should read."""
     part = np.asarray(data[tuple(slice(f, e + 1) for f, e in zip(brick.first, brick.end))])
     samples = texture_samples(part)
-    ranges = ranges_within(samples, brick.first, range_cells)
+    ranges = ranges_within(samples, brick.first, range_cells, shift)
     _, own = ranges_within(samples, (0, 0, 0), RANGE_BRICK)
     return RayBrick(brick, _padded(samples, (cells + 1,) * 3), _padded(own, (slot_ranges(cells),) * 3 + (2,)), ranges)
 
@@ -90,8 +93,10 @@ class RayBricks:
     """Which bricks of a volume shown in bricks (a BrickView's `volume`, `bricks`, `grid` and `layout`) the
     rays read at full resolution, and the one being read."""
 
-    def __init__(self, volume, layout: BrickLayout, bricks, grid, surfaces_refine=lambda state: False):
+    def __init__(self, volume, layout: BrickLayout, bricks, grid, surfaces_refine=lambda state: False,
+                 shift=(0.0, 0.0, 0.0)):
         self.volume, self.layout, self.bricks, self.grid = volume, layout, bricks, grid
+        self.shift = tuple(float(s) for s in shift)   # the coarse view's sample 0, in full samples (its origin)
         self.surfaces_refine = surfaces_refine   # whether the surfaces' bricks take a share of the room (state)
         self.failed: set[tuple[int, int, int]] = set()   # bricks that could not be read: not asked again
         self.loaded: dict[tuple[int, int, int], RayBrick] = {}
@@ -195,7 +200,7 @@ class RayBricks:
             self._asked = (request, brick.index)
 
     def _read(self, brick: Brick, progress=None) -> RayBrick:
-        return read_ray_brick(self.volume.data, brick, self.layout.cells, self.range_cells, progress)
+        return read_ray_brick(self.volume.data, brick, self.layout.cells, self.range_cells, progress, self.shift)
 
     def poll(self) -> None:
         """Take the brick read on the worker since the last frame; its error is raised (one line)."""

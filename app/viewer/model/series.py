@@ -25,7 +25,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ...core.budget import available_memory_bytes, shown_shape
-from .big_volume import every_step
+from .big_volume import shown_as, view_recipe
 from .errors import ViewerError
 from .histogram import BINS, value_histogram
 from .jobs import Jobs
@@ -58,14 +58,16 @@ class SeriesRange(NamedTuple):
     histogram: np.ndarray
 
 
-def read_time_point(spec: str, options: dict, index: int, shape, step: int, progress=None) -> TimePoint:
+def read_time_point(spec: str, options: dict, index: int, shape, step: int,
+                    recipe: tuple[str | None, int] = (None, 1), progress=None) -> TimePoint:
     """Time point `index` of the series `spec` (opened with `options`), refused in one line unless it
-    has `shape` (the series' first shape); every `step`-th sample of it on show, as the first."""
+    has `shape` (the series' first shape); shown as the first was (`recipe`: big_volume.view_recipe): from
+    the same pyramid level, at its place (origin), else every `step`-th sample of it."""
     from ...volumes import open_volume
     from ...volumes.time_points import same_shape
     volume = open_volume(spec, time=index, progress=progress, **options)
     same_shape(volume, shape, index)
-    shown = every_step(volume, step)
+    shown = shown_as(volume, recipe, step)
     _ = shown.checked   # a lazy (Zarr) time point is read here, on the worker, not when it is uploaded
     return TimePoint(index, volume, shown, step, sampled_histogram(shown.data, shown.value_range))
 
@@ -116,10 +118,11 @@ class TimeAxis:
         self.fixed_range = False   # the value range and histogram: the whole series' (else the time point's)
         self.attach(None)
 
-    def attach(self, volume, step: int = 1) -> None:
-        """A new volume on show (`state.show`, every `step`-th sample of it): its time axis, at the time
-        point it was opened at."""
+    def attach(self, volume, step: int = 1, shown=None) -> None:
+        """A new volume on show (`state.show`: `shown`, its view, one step of which spans `step` of its
+        samples): its time axis, at the time point it was opened at; every time point is shown as `shown` is."""
         self.sample_step = step
+        self.recipe = view_recipe(volume, shown) if volume is not None and shown is not None else (None, 1)
         self.count = int(volume.time_points) if volume is not None else 1
         self.spec = volume.source if volume is not None else ""
         options = dict(volume.open_options) if volume is not None else {}
@@ -296,7 +299,8 @@ class TimeAxis:
         """Read time point `index` on a worker: "time" (the one wanted) or "prefetch" (read ahead); a newer
         request of the same kind makes an older one's answer stale."""
         request = self.jobs.submit(kind, read_time_point, self.spec, self.options, index, self.shape, self.sample_step,
-                                   message=f"reading time point {index}", failure=f"could not read time point {index}")
+                                   self.recipe, message=f"reading time point {index}",
+                                   failure=f"could not read time point {index}")
         self._reading[kind] = (request, index)
 
     def _read_range(self) -> None:

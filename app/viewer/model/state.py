@@ -106,7 +106,7 @@ class ViewerState:
         self.labels.hide()
         self.color_by = None
         self.transfer = None   # a transfer function is in the values of the volume it was given for
-        self.series.attach(full_volume if full_volume is not None else volume, step)
+        self.series.attach(full_volume if full_volume is not None else volume, step, volume)
         self.volume_serial += 1
         self.error = None
 

@@ -190,3 +190,23 @@ def panel_rows(x_display, segmentation):
         assert window.scene.labels.extractions == 1
     finally:
         window.close()
+
+
+def test_the_clip_cap_of_a_view_placed_off_the_grid_lies_on_the_cut(gl_ctx, segmentation):
+    """A coarse view of a pyramid level off the full level's grid (Volume.origin, big_volume.from_level) draws
+    its label surfaces at its origin and the clip cuts them there: the coloured cut is drawn there too, each
+    label's colour on its own part of the cut (label_scene.cap_corners)."""
+    import dataclasses
+    origin = (3.0, -2.5, 4.0)
+    viewer = HeadlessViewer(SIZE, ctx=gl_ctx)
+    try:
+        viewer.show(dataclasses.replace(open_volume(str(segmentation)), origin=origin), **CAP_VIEW)
+        assert viewer.state.show_labels()
+        viewer.state.slices.set_clip(2, 12.0)
+        pixels = viewer.render()
+        for point, color in ((LABEL_1_CUT, RED), (LABEL_7_CUT, GREEN), ((13.0, 12.0, 12.0), RED),
+                             ((14.0, 12.0, 12.0), GREEN)):
+            placed = tuple(p + o for p, o in zip(point, origin))
+            assert np.abs(patch(pixels, viewer.camera, placed) - color).max() <= 2, point
+    finally:
+        viewer.release()

@@ -6,6 +6,7 @@ level's drawn the same way from the same camera; without the offset it would be 
 from __future__ import annotations
 
 import dataclasses
+import itertools
 
 import numpy as np
 import pytest
@@ -131,3 +132,78 @@ def test_in_bricks_the_coarse_view_and_the_full_level_s_bricks_meet_where_the_fi
     difference = np.abs(bricked - whole).max(axis=2)
     assert np.linalg.norm(bricked_centre - whole_centre) < 0.15, bricked_centre - whole_centre
     assert np.count_nonzero(difference > 8) < 0.002 * difference.size
+
+
+def test_rays_in_bricks_skip_no_full_sample_in_the_strip_a_shifted_coarse_brick_reaches_over_a_seam(
+        gl_ctx, tmp_path, monkeypatch):
+    """Rays in bricks over a translated pyramid (4^3 means, 1.5 full samples in): the coarse view's skipping
+    bricks start at its origin, so the one a ray crosses in a brick read coarse reaches 1.5 full samples into
+    the next brick, read in full.  A sheet one full sample thick lies in that strip (x = 33, just past the seam
+    at 32; its means are a quarter of it, below the level): iso rays that cross the bricks of x < 32 coarse
+    (they cannot be read) and meet the sheet in a brick read in full stop on it, as the whole volume's rays do
+    (model/ray_bricks.py widens every shifted brick a full brick's cells reach into)."""
+    import isoscope.viewer.model.ray_bricks as ray_bricks
+    n, level = 96, 0.6
+    data = np.zeros((n, n, n), np.float32)
+    data[33, 4:92, 4:92] = 1.0
+    path = tmp_path / "sheet.ome.zarr"
+    write_ome(path, mean_levels(data, 3), [[2.0 ** k] * 3 for k in range(3)], chunk=16)
+    group = zarr.open_group(str(path), mode="r+")
+    multiscales = group.attrs["multiscales"]
+    for k, dataset in enumerate(multiscales[0]["datasets"]):
+        dataset["coordinateTransformations"].append({"type": "translation", "translation": [(2 ** k - 1) / 2] * 3})
+    group.attrs["multiscales"] = multiscales
+    volume = open_volume(str(path))
+    read = ray_bricks.read_ray_brick
+
+    def unreadable_below_the_seam(data, brick, *args, **kwargs):
+        if brick.index[0] == 0:
+            raise OSError("a damaged chunk")
+        return read(data, brick, *args, **kwargs)
+    monkeypatch.setattr(ray_bricks, "read_ray_brick", unreadable_below_the_seam)
+
+    def pictured(budget):
+        viewer = HeadlessViewer(SIZE, ctx=gl_ctx, memory_budget=budget)
+        viewer.state.style.show_box = False
+        viewer.show(volume, level)
+        viewer.state.set_raycast("iso")
+        camera = viewer.camera
+        camera.fit((0.0, 0.0, 0.0), (n - 1.0,) * 3, 0.0, 0.0)
+        azimuth = min((0.0, 90.0, 180.0, 270.0), key=lambda a: (camera.look_from(a, 8.0), camera.eye()[0])[1])
+        camera.look_from(azimuth, 8.0)
+        for _ in range(4):   # the bricks below the seam fail once each, the others come
+            viewer.state.error = None
+            picture = viewer.render().astype(int)
+        return viewer, picture
+
+    viewer, bricked = pictured("2M")
+    try:
+        rays = viewer.state.bricks.rays
+        assert viewer.state.step == 4 and viewer.state.volume.origin == (1.5, 1.5, 1.5)
+        assert rays.shift == (1.5, 1.5, 1.5) and rays.range_cells == 32 and rays.layout.cells == 32
+        full = [index for index in rays.loaded if index[0] == 1]
+        assert full and all(index[0] != 0 for index in rays.loaded), sorted(rays.loaded)
+        camera = viewer.camera
+    finally:
+        viewer.release()
+    whole_viewer, whole = pictured("1G")
+    whole_viewer.release()
+    width, height = SIZE
+    checked = set()
+    for _, j, k in full:   # the sheet's points inside the bricks read in full, a few samples from their edges
+        for y, z in itertools.product(range(32 * j + 4, 32 * j + 29, 3), range(32 * k + 4, 32 * k + 29, 3)):
+            if 8 <= y < 88 and 8 <= z < 88:   # off the sheet's rim
+                clip = np.array([33.0, y, z, 1.0]) @ camera.view_matrix() @ camera.projection_matrix(width / height)
+                x_ndc, y_ndc = clip[:2] / clip[3]
+                checked.add((int((1 - y_ndc) / 2 * height), int((x_ndc + 1) / 2 * width)))
+    rows, columns = np.array(sorted(checked)).T
+    inside = (0 <= rows) & (rows < height) & (0 <= columns) & (columns < width)
+    rows, columns = rows[inside], columns[inside]
+    sheet = np.abs(whole[rows, columns] - BACKGROUND).max(axis=1) > 8   # the whole volume's rays meet the sheet
+    assert np.count_nonzero(sheet) > 0.9 * len(checked) > 100, (np.count_nonzero(sheet), len(checked))
+    rows, columns = rows[sheet], columns[sheet]
+    missed = np.abs(bricked[rows, columns] - BACKGROUND).max(axis=1) <= 8
+    assert not missed.any(), (np.count_nonzero(missed), len(rows))
+    # the same sheet: lit within a few levels (its gradient at the seam takes the coarse view's samples below it)
+    difference = np.abs(bricked[rows, columns] - whole[rows, columns]).max(axis=1)
+    assert np.count_nonzero(difference > 24) <= 0.01 * len(rows), (difference.max(), len(rows))

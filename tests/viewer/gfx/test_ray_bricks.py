@@ -62,6 +62,39 @@ def test_the_ranges_of_parts_taken_into_nothing_are_the_ranges_of_the_whole():
     assert clamped[3, 2, 2, 1] == data[48:, 32:, 32:].max() and clamped[3, 2, 2, 0] == data[48:, 32:, 32:].min()
 
 
+@pytest.mark.parametrize("shift", [(0.5, 1.5, -0.25), (3.5, 0.5, 7.5), (1.0, 0.0, 2.0)])
+def test_a_shifted_brick_s_range_covers_every_sample_a_ray_inside_it_reads(shift):
+    """A coarse view off the full grid (a pyramid level's offset, `shift` full samples): the full bricks' parts
+    (cut anywhere, sharing their faces' samples) widened into its bricks of 16 full cells a side, which start
+    at `shift`, give each of them the (min, max) of every full sample whose cell reaches into it (the first and
+    last take what lies before and past them): a ray skipping one skips no sample it should read.  Exactly
+    those where the shift falls between samples; at least those where it falls on them (a hair wider)."""
+    data = np.random.default_rng(2).random((70, 61, 53)).astype(np.float32)
+    size, counts = 16, (4, 3, 3)
+    empty = np.stack([np.full(counts, np.inf), np.full(counts, -np.inf)], -1).astype(np.float32)
+    cuts = [(0, 30, 69), (0, 20, 60), (0, 50, 52)]
+    parts = []
+    for corner in itertools.product(range(2), repeat=3):
+        first = [cuts[axis][i] for axis, i in enumerate(corner)]
+        part = data[tuple(slice(cuts[axis][i], cuts[axis][i + 1] + 1) for axis, i in enumerate(corner))]
+        parts.append(ranges_within(part, first, size, shift))
+    ranges = widened(empty, parts)
+    exact = all(float(s) != int(s) for s in shift)
+    for index in np.ndindex(counts):
+        reach = []
+        for b, s, n, c in zip(index, shift, data.shape, counts):
+            low = 0 if b == 0 else math.floor(b * size + s)
+            high = n - 1 if b == c - 1 else min(math.ceil((b + 1) * size + s), n - 1)
+            reach.append(slice(low, high + 1))
+        samples = data[tuple(reach)]
+        assert ranges[index][0] <= samples.min() and ranges[index][1] >= samples.max(), (index, shift)
+        if exact:
+            assert tuple(ranges[index]) == (samples.min(), samples.max()), (index, shift)
+    # folded where the full grid's bricks lie (unshifted, as before): some shifted brick lacks samples in it
+    unshifted = widened(empty, [ranges_within(data, (0, 0, 0), size)])
+    assert np.any(unshifted[..., 1] < ranges[..., 1]) or np.any(unshifted[..., 0] > ranges[..., 0])
+
+
 def test_the_atlas_has_the_most_slots_the_room_and_its_sides_allow():
     for slots, per_axis in itertools.product(range(0, 130), (1, 2, 3, 5, 15)):
         grid = slot_grid(slots, per_axis)

@@ -254,3 +254,41 @@ def test_while_playing_the_time_label_names_the_time_point_drawn(viewer, any_ser
     label = time_text(state.series)
     assert int(label.split()[0]) == shown, label
     assert np.array_equal(np.asarray(state.volume.data), ball(shown)), label
+
+
+def test_a_big_ome_zarr_series_shows_every_time_point_from_the_level_and_place_of_the_first(viewer, tmp_path):
+    """Over the memory budget a t, z, y, x OME-Zarr series is shown from its level of 2^3 means, which the file
+    translates by half a full sample (the blocks' centres): every time point, and going back to the first, is
+    that level's samples at that place (Volume.origin), so a ball that stays put in time stays put on screen."""
+    import zarr
+    from support.ome_zarr import mean_levels, write_ome
+    n, times = 64, 3
+    grid = np.indices((n,) * 3, dtype=np.float64)
+    still = (20.0 - np.sqrt(sum((g - 31.3) ** 2 for g in grid))).astype(np.float32)
+    full, half = mean_levels(still, 2)
+    axes = [{"name": "t", "type": "time"}] + [{"name": a, "type": "space"} for a in "zyx"]
+    path = tmp_path / "still.ome.zarr"
+    write_ome(path, [np.stack([full] * times), np.stack([half] * times)], [[1, 1, 1, 1], [1, 2, 2, 2]], axes=axes)
+    group = zarr.open_group(str(path), mode="r+")
+    multiscales = group.attrs["multiscales"]
+    multiscales[0]["datasets"][1]["coordinateTransformations"].append(
+        {"type": "translation", "translation": [0, 0.5, 0.5, 0.5]})
+    group.attrs["multiscales"] = multiscales
+
+    big = HeadlessViewer(SIZE, ctx=viewer.ctx, memory_budget="1M")
+    try:
+        big.state.style.show_box = False
+        big.open(str(path))
+        state = big.state
+        assert state.series.count == times and state.step == 2
+        assert state.volume.origin == (0.5, 0.5, 0.5) and np.array_equal(state.volume.data, half)
+        first = big.render().astype(int)
+        for index in (1, 2, 0):
+            state.series.go_to(index)
+            pixels = big.render().astype(int)
+            assert state.series.shown == index
+            assert state.volume.origin == (0.5, 0.5, 0.5), index
+            assert np.array_equal(state.volume.data, half), index   # the level's means, not every 2nd sample
+            assert np.abs(pixels - first).max() <= 2, index
+    finally:
+        big.release()
