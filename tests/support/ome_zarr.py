@@ -36,3 +36,29 @@ def mean_levels(field: np.ndarray, count: int) -> list[np.ndarray]:
         n = [s // 2 for s in data.shape]
         levels.append(data[: 2 * n[0], : 2 * n[1], : 2 * n[2]].reshape(n[0], 2, n[1], 2, n[2], 2).mean(axis=(1, 3, 5)))
     return levels
+
+
+def with_translations(path, translations, image=None):
+    """Append a translation to each level's coordinateTransformations (after its scale, as NGFF orders them);
+    `image`: the multiscale's own transformations."""
+    group = zarr.open_group(str(path), mode="r+")
+    key = "multiscales" if "multiscales" in group.attrs else "ome"
+    attrs = dict(group.attrs[key]) if key == "ome" else None
+    multiscales = attrs["multiscales"] if attrs is not None else group.attrs["multiscales"]
+    for dataset, translation in zip(multiscales[0]["datasets"], translations):
+        if translation is not None:
+            dataset["coordinateTransformations"].append({"type": "translation", "translation": translation})
+    if image is not None:
+        multiscales[0]["coordinateTransformations"] = image
+    if attrs is not None:
+        attrs["multiscales"] = multiscales
+        group.attrs["ome"] = attrs
+    else:
+        group.attrs["multiscales"] = multiscales
+    return path
+
+
+def half_block_translations(count: int, spacing=(1.0, 1.0, 1.0)) -> list[list[float]]:
+    """Each of `count` levels of 2^k-block means' translation: its blocks' centres, (2^k - 1) / 2 full samples in
+    (as ome-zarr-py writes them)."""
+    return [[(2 ** k - 1) / 2 * s for s in spacing] for k in range(count)]

@@ -13,7 +13,7 @@ import pytest
 import trimesh
 import zarr
 from support.command import assert_one_line_error, isoscope_here, succeeded_here
-from support.ome_zarr import mean_levels, write_ome
+from support.ome_zarr import half_block_translations, mean_levels, with_translations, write_ome
 
 import isoscope
 from isoscope.errors import IsoscopeError
@@ -34,26 +34,6 @@ def ball():
     grid = np.indices((N, N, N), dtype=np.float64)
     distance = np.sqrt(sum((g - c) ** 2 for g, c in zip(grid, CENTRE)))
     return (RADIUS - distance).astype(np.float32)
-
-
-def with_translations(path, translations, image=None):
-    """Append a translation to each level's coordinateTransformations (after its scale, as NGFF orders them);
-    `image`: the multiscale's own transformations."""
-    group = zarr.open_group(str(path), mode="r+")
-    key = "multiscales" if "multiscales" in group.attrs else "ome"
-    attrs = dict(group.attrs[key]) if key == "ome" else None
-    multiscales = attrs["multiscales"] if attrs is not None else group.attrs["multiscales"]
-    for dataset, translation in zip(multiscales[0]["datasets"], translations):
-        if translation is not None:
-            dataset["coordinateTransformations"].append({"type": "translation", "translation": translation})
-    if image is not None:
-        multiscales[0]["coordinateTransformations"] = image
-    if attrs is not None:
-        attrs["multiscales"] = multiscales
-        group.attrs["ome"] = attrs
-    else:
-        group.attrs["multiscales"] = multiscales
-    return path
 
 
 def centre_of(verts) -> np.ndarray:
@@ -137,7 +117,7 @@ def test_a_mean_pyramid_s_coarse_view_lies_on_the_full_level_s_surface(tmp_path,
     spacing = np.array([0.5, 0.4, 0.3])
     path = tmp_path / "pyramid.ome.zarr"
     write_ome(path, mean_levels(ball, 3), [tuple(spacing * 2 ** k) for k in range(3)])
-    half_blocks = [[(2 ** k - 1) / 2 * s for s in spacing] for k in range(3)]
+    half_blocks = half_block_translations(3, spacing)
     with_translations(path, [[a + b for a, b in zip(shift or (0, 0, 0), t)] for t in half_blocks])
     volume = open_volume(str(path))
     np.testing.assert_allclose([level.offset for level in volume.pyramid], [(0.5,) * 3, (1.5,) * 3], rtol=1e-12)

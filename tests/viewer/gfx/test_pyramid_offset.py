@@ -10,8 +10,7 @@ import itertools
 
 import numpy as np
 import pytest
-import zarr
-from support.ome_zarr import mean_levels, write_ome
+from support.ome_zarr import half_block_translations, mean_levels, with_translations, write_ome
 
 from isoscope.viewer.gfx.brick_surface import CoarseSplit
 from isoscope.viewer.model.big_volume import from_level
@@ -34,12 +33,7 @@ def pyramid(tmp_path_factory):
     ball = (RADIUS - np.sqrt(sum((g - c) ** 2 for g, c in zip(grid, CENTRE)))).astype(np.float32)
     path = tmp_path_factory.mktemp("offset") / "ball.ome.zarr"
     write_ome(path, mean_levels(ball, 3), [[2.0 ** k] * 3 for k in range(3)], chunk=16)
-    group = zarr.open_group(str(path), mode="r+")
-    multiscales = group.attrs["multiscales"]
-    for k, dataset in enumerate(multiscales[0]["datasets"]):
-        dataset["coordinateTransformations"].append({"type": "translation", "translation": [(2 ** k - 1) / 2] * 3})
-    group.attrs["multiscales"] = multiscales
-    return open_volume(str(path))
+    return open_volume(str(with_translations(path, half_block_translations(3))))
 
 
 @pytest.fixture
@@ -148,12 +142,7 @@ def test_rays_in_bricks_skip_no_full_sample_in_the_strip_a_shifted_coarse_brick_
     data[33, 4:92, 4:92] = 1.0
     path = tmp_path / "sheet.ome.zarr"
     write_ome(path, mean_levels(data, 3), [[2.0 ** k] * 3 for k in range(3)], chunk=16)
-    group = zarr.open_group(str(path), mode="r+")
-    multiscales = group.attrs["multiscales"]
-    for k, dataset in enumerate(multiscales[0]["datasets"]):
-        dataset["coordinateTransformations"].append({"type": "translation", "translation": [(2 ** k - 1) / 2] * 3})
-    group.attrs["multiscales"] = multiscales
-    volume = open_volume(str(path))
+    volume = open_volume(str(with_translations(path, half_block_translations(3))))
     read = ray_bricks.read_ray_brick
 
     def unreadable_below_the_seam(data, brick, *args, **kwargs):
