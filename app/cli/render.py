@@ -81,12 +81,13 @@ def run_render(args) -> int:
     check_render_size(args.size)  # pixels: before a GL context is made
     if scene is None:
         check_transfer_mode(args.raycast, args.transfer, flags=True)
+        if args.labels:   # flags refused before a GL context is made (and where there is none)
+            check_label_options(args, "--iso", "--panel", *LABEL_MESH_FLAGS)
     ctx = drawing_context("render")
     check_render_size(args.size, ctx)  # the driver's limits, before the volume is read
     if scene is not None:
         return _render_scene(scene, args)
     if args.labels:
-        check_label_options(args, "--iso", "--panel", *LABEL_MESH_FLAGS)
         from ..viewer.ui.headless import render_png
         volume = open_volume_from_args(args.volume, args, progress)
         path = render_png(volume, args.out, size=args.size, azimuth=args.azimuth, elevation=args.elevation,
