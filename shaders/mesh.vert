@@ -16,8 +16,11 @@ uniform vec3 u_dims;            // the scalar volume's shape
 uniform vec2 u_scalar_range;    // the scalars at the two ends of the colour map
 uniform vec4 u_clip_plane;      // the clip plane (slices.py): kept where dot(plane, (p, 1)) >= 0
 // Where the mesh's index x spacing 0 lies in the scene: (0, 0, 0) but for a pyramid level's coarse view whose
-// samples lie off the full level's grid (Volume.origin); colour by samples the mesh's own volume unmoved.
+// samples lie off the full level's grid (Volume.origin); the bricks' meshes come placed already (0 here).
 uniform vec3 u_origin;
+// Where the volume on show (whose grid the scalar texture shares) puts its sample 0 in the scene: colour by
+// samples it at the vertex's scene position less that, so a placed mesh and a moved one read the same texel.
+uniform vec3 u_scalar_origin;
 
 out float gl_ClipDistance[1];   // used only while the renderer enables GL_CLIP_DISTANCE0
 
@@ -33,7 +36,7 @@ void main() {
     v_view_normal = mat3(u_view) * in_normal;
     float scalar = in_value;
     if (u_color_source == 2) {
-        vec3 index = in_position / u_spacing;
+        vec3 index = (position - u_scalar_origin) / u_spacing;
         scalar = texture(u_scalar, (index.zyx + 0.5) / u_dims.zyx).r;
     }
     float span = u_scalar_range.y - u_scalar_range.x;

@@ -18,6 +18,7 @@ class GpuColorBy:
     def __init__(self, ctx: moderngl.Context, color_by: ColorBy):
         self.color_by = color_by
         self.value_range, self.shape, self.spacing = color_by.value_range, color_by.shape, color_by.spacing
+        self.origin = color_by.origin
         self.lut_texture = ctx.texture((LUT_SIZE, 1), 3, color_by.lut.tobytes(), dtype="f4")
         self.lut_texture.filter = moderngl.NEAREST, moderngl.NEAREST
         self.lut_texture.repeat_x = self.lut_texture.repeat_y = False

@@ -294,6 +294,7 @@ class SceneRenderer:
                 color_by.scalar_texture.use(SCALAR_UNIT)
                 program["u_spacing"].value = color_by.spacing
                 program["u_dims"].value = color_by.shape
+                program["u_scalar_origin"].value = color_by.origin
 
     def release(self) -> None:
         """Free the renderer's GL objects: programs, vertex arrays, depth targets, the OIT targets, the slices and the

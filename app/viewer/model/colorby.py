@@ -46,6 +46,7 @@ class ColorBy:
     shape: tuple[int, int, int]
     spacing: tuple[float, float, float]
     spec: str = ""                   # what set_color_by was given: "value", "gradient" or a volume spec
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)   # where the volume on show puts its sample 0 (its origin)
 
     def color_at(self, scalar: float) -> np.ndarray:
         """The map's RGB at `scalar` (as the shader picks it: nearest of LUT_SIZE entries)."""
@@ -72,4 +73,4 @@ def make_color_by(volume: Volume, source: str, colormap: str, second: Volume | N
         scalar = np.asarray(second.data, np.float32)
         value_range, name = second.value_range, second.name
     return ColorBy(name, colormap, (float(value_range[0]), float(value_range[1])), lut, scalar,
-                   tuple(volume.data.shape), tuple(volume.spacing), spec)
+                   tuple(volume.data.shape), tuple(volume.spacing), spec, tuple(float(o) for o in volume.origin))

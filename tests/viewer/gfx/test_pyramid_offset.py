@@ -196,3 +196,38 @@ def test_rays_in_bricks_skip_no_full_sample_in_the_strip_a_shifted_coarse_brick_
     # the same sheet: lit within a few levels (its gradient at the seam takes the coarse view's samples below it)
     difference = np.abs(bricked[rows, columns] - whole[rows, columns]).max(axis=1)
     assert np.count_nonzero(difference > 24) <= 0.01 * len(rows), (difference.max(), len(rows))
+
+
+def test_colour_by_reads_the_same_texel_for_a_placed_mesh_and_a_moved_one(viewer, gl_ctx, pyramid):
+    """A coarse view's mesh is drawn placed by the look's origin (whole) or with its vertices moved already (the
+    bricks' coarse remainder, look origin 0): coloured by a second volume (a steep ramp along x, on the view's
+    grid), both give the same picture.  The moved one sampled the texture off by origin / spacing."""
+    from isoscope.viewer.gfx.colorby import GpuColorBy
+    from isoscope.viewer.gfx.cpu_surface import CpuMesh
+    from isoscope.viewer.gfx.renderer import SurfaceLook
+    from isoscope.viewer.model.colorby import make_color_by
+    shown, _ = from_level(pyramid, pyramid.pyramid[1])            # 4^3 means: origin 1.5 samples
+    steep = np.arange(shown.data.shape[0], dtype=np.float32)[:, None, None]
+    ramp = dataclasses.replace(shown, data=np.broadcast_to(steep, shown.data.shape).copy(), name="ramp")
+    viewer.show(shown, 0.0)
+    viewer.state.style.lighting = False                             # flat colours: the map's colour alone
+    arrays = viewer.scene.surface.shown.read_mesh()
+    moved = (arrays[0] + np.asarray(shown.origin, np.float32), *arrays[1:])
+    colours = GpuColorBy(gl_ctx, make_color_by(shown, "volume", "viridis", ramp))
+    meshes = [CpuMesh(gl_ctx), CpuMesh(gl_ctx)]
+    pictures = []
+    try:
+        for mesh, data, origin in zip(meshes, (arrays, moved), (shown.origin, (0.0, 0.0, 0.0))):
+            mesh.take(data, 0.0, 0.0)
+            viewer.target.use()
+            viewer.renderer.draw([mesh.mesh], viewer.camera, viewer.target.viewport, viewer.state.style,
+                                 looks=[SurfaceLook((1.0, 1.0, 1.0), 1.0, colours, origin)])
+            pictures.append(viewer.target.read_rgb().astype(int))
+    finally:
+        colours.release()
+        for mesh in meshes:
+            mesh.release()
+    placed, moved_picture = pictures
+    covered = np.abs(placed - BACKGROUND).max(axis=2) > 8
+    assert covered.sum() > 1000
+    assert np.abs(placed - moved_picture).max(axis=2)[covered].mean() < 1.0
