@@ -152,7 +152,9 @@ def view_recipe(volume: Volume, shown: Volume) -> tuple[str | None, int]:
     offset: Volume.origin) as time moves."""
     if shown is volume:
         return None, 1
-    for level in volume.pyramid:
+    # Coarsest first: a view of level k looks like every 2nd sample of level k - 1 too (its spacing doubled, its
+    # sides halved), and a coarser level cannot look like a finer one; so the first match is the level it is.
+    for level in reversed(volume.pyramid):
         spacing = tuple(level.spacing)
         steps = max(1, round(shown.spacing[0] / spacing[0]))
         expected = tuple(s * steps for s in spacing) if steps > 1 else spacing   # as every_step computes it

@@ -292,3 +292,24 @@ def test_a_big_ome_zarr_series_shows_every_time_point_from_the_level_and_place_o
             assert np.abs(pixels - first).max() <= 2, index
     finally:
         big.release()
+
+
+def test_the_recipe_of_a_coarse_view_names_its_own_level_in_a_pyramid_of_three(tmp_path):
+    """A view of the coarsest of three mean levels is also 'every 2nd sample of the middle one' by spacing and
+    shape: the recipe names the level it was read from (the middle one's every 2nd sample is other samples, at
+    another place), and every 2nd sample of the coarsest is that level, step 2."""
+    from support.ome_zarr import half_block_translations, mean_levels, with_translations, write_ome
+
+    from isoscope.viewer.model.big_volume import every_step, from_level, shown_as, view_recipe
+    data = np.random.default_rng(0).random((64,) * 3).astype(np.float32)
+    path = tmp_path / "three.ome.zarr"
+    write_ome(path, mean_levels(data, 3), [[2.0 ** k] * 3 for k in range(3)])
+    volume = open_volume(str(with_translations(path, half_block_translations(3))))
+    coarsest = volume.pyramid[-1]
+    shown, step = from_level(volume, coarsest)
+    assert view_recipe(volume, shown) == (coarsest.name, 1)
+    again = shown_as(volume, view_recipe(volume, shown), step)
+    assert again.origin == shown.origin and np.array_equal(np.asarray(again.data), np.asarray(shown.data))
+    sparser = every_step(shown, 2)
+    assert view_recipe(volume, sparser) == (coarsest.name, 2)
+    assert view_recipe(volume, from_level(volume, volume.pyramid[0])[0]) == (volume.pyramid[0].name, 1)
