@@ -178,7 +178,10 @@ def _ome_level(group, multiscale: dict, path: Path):
         _refuse_disagreeing_level(path, before, (str(name), array, level_spacing))
         before = (str(name), array, level_spacing)
         offset = tuple((b - a) / s for a, b, s in zip(shift or (0.0,) * 3, level_shift or (0.0,) * 3, spacing))
-        _refuse_far_level(path, (first, spacing, shift), (str(name), level_spacing, level_shift), offset)
+        far = _far_level(path, (first, spacing, shift), (str(name), level_spacing, level_shift), offset)
+        if far is not None:   # the full level still opens: only this level's place is wrong
+            notes.append(far)
+            continue
         coarser.append((str(name), array, level_spacing, offset))
     world = None
     if shift is not None:   # the full level's scale and translation: an affine with a diagonal and an offset
@@ -211,21 +214,20 @@ def _refuse_disagreeing_level(path: Path, before, level) -> None:
                           f"{_scale_text([m / max(n, 1) for n, m in zip(shape, above_shape)])}; {fix}")
 
 
-def _refuse_far_level(path: Path, full, level, offset) -> None:
-    """Refuse (one VolumeError line) a coarser level `(name, spacing, translation)` whose sample 0 lies more than
-    one of its own samples from where its scale puts it (the full level's sample 0): |offset| (in the full
-    level's samples) above its spacing over the full level's, along an axis; as a scale its shape disagrees
-    with, the pyramid would be shown in the wrong place (a pyramid of means is half a block in, (f - 1) / 2)."""
+def _far_level(path: Path, full, level, offset) -> str | None:
+    """The note that leaves out a coarser level `(name, spacing, translation)` whose sample 0 lies more than one
+    of its own samples from where its scale puts it (the full level's sample 0): |offset| (in the full level's
+    samples) above its spacing over the full level's, along an axis; drawn, it would be in the wrong place (a
+    pyramid of means is half a block in, (f - 1) / 2).  None where it is in its place.  Left out, not refused:
+    a writer that gives only the full level a translation (a stage position) still opens, the full level whole."""
     (first, full_spacing, full_shift), (name, spacing, shift) = full, level
     ratio = [s / f for s, f in zip(spacing, full_spacing)]
     if all(abs(o) <= r * (1 + 1e-9) for o, r in zip(offset, ratio)):
-        return
-    raise VolumeError(f"{path.name}: OME-Zarr level {name!r} (scale {_scale_text(spacing)}, translation "
-                      f"{_scale_text(shift or (0.0,) * 3)}) is not where its scale puts it against level {first!r} "
-                      f"(scale {_scale_text(full_spacing)}, translation {_scale_text(full_shift or (0.0,) * 3)}): "
-                      f"its sample 0 lies {_scale_text(offset)} samples of level {first!r} from that level's, more "
-                      f"than one of its own ({_scale_text(ratio)}); write the pyramid again, each level's "
-                      "translation where its samples lie")
+        return None
+    return (f"OME-Zarr level {name!r} left out: its translation ({_scale_text(shift or (0.0,) * 3)}, scale "
+            f"{_scale_text(spacing)}) puts its sample 0 {_scale_text(offset)} samples of level {first!r} from that "
+            f"level's (translation {_scale_text(full_shift or (0.0,) * 3)}), more than one of its own "
+            f"({_scale_text(ratio)}); {path.name} would show it in the wrong place")
 
 
 def _refuse_bad_scale(path: Path, name: str, spacing) -> None:
