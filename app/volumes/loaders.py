@@ -105,7 +105,7 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, ti
         elif kind == "npy":
             data, header_spacing, notes = load_npy(path, progress, map_file=map_files)
         elif kind == "tiff":
-            data, header_spacing, notes = load_tiff(path, time, progress)
+            data, header_spacing, notes, unit = load_tiff(path, time, progress)
         elif kind == "npz":
             data, header_spacing, notes = load_npz(path, array_name, progress)
         elif kind == "nrrd":
