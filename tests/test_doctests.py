@@ -10,8 +10,8 @@ import importlib
 import pytest
 
 # The modules whose docstrings carry the public functions' examples: marching_cubes, marching_tetrahedra and
-# smooth_mesh (api), find_contours (core.contours), label_surfaces (labels).
-MODULES = ["isoscope.api", "isoscope.core.contours", "isoscope.labels", "isoscope.surface"]
+# smooth_mesh (api), find_contours (core.contours), label_surfaces (labels); and core.units' length units.
+MODULES = ["isoscope.api", "isoscope.core.contours", "isoscope.labels", "isoscope.surface", "isoscope.core.units"]
 
 
 @pytest.mark.parametrize("name", MODULES)

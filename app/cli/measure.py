@@ -2,15 +2,19 @@
 
 Measured on the mesh export would write (the same extraction, in world coordinates where the file
 has them), so the numbers agree with what a mesh tool says of the exported file.  Lengths are taken as
-millimetres, as a scan's world frame gives them (a file without one: its spacing's units).
+millimetres, as a scan's world frame gives them (a file without one: its spacing's units), unless the file states
+another unit (an OME-Zarr image's axes in micrometres, a NIfTI in microns): then they are converted to millimetres
+(`unit` in each row names the file's), while the exported mesh keeps the file's own units.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import math
+import os
 import sys
 
+from ..core.units import TAKEN_AS_MM, mm_per_unit
 from .arguments import VOLUME_HELP, OneLineParser, _add_iso, add_force_labels, add_topology, max_labels
 from .common import LABEL_MESH_FLAGS, check_label_options, checked_levels, progress
 from .volume_options import add_volume_arguments, each_time_point
@@ -51,13 +55,21 @@ def run_measure(args) -> int:
         check_label_options(args, "--iso", "--closed", *LABEL_MESH_FLAGS)   # a label's surface is closed already
     else:
         check_label_options(args, "--max-labels", "--label-names", "--force-labels")
-    records = []
+    records, told = [], set()
     for time, volume in each_time_point(args.volume, args, progress):   # --time all or A:B: rows per time point
+        for note in volume.notes:   # units the file states but that cannot be used: its numbers are taken as mm
+            if TAKEN_AS_MM in note and note not in told:
+                told.add(note)
+                print(f"note: {note}", file=sys.stderr)
         stamp = {} if time is None else {"time": time}
         records += [dict(stamp, **record) for record in _records(volume, args)]
     if args.json:
         print(json.dumps(records, indent=1, allow_nan=False))
         return 0
+    converted = sorted({r["unit"] for r in records if r["unit"] is not None and mm_per_unit(r["unit"]) != 1.0})
+    if converted:   # said once: the numbers below are no longer in the file's own units
+        print(f"note: {os.path.basename(args.volume.rstrip('/'))}'s lengths are in {' and '.join(converted)}: "
+              "converted to mm, mm^2 and mL")
     for record in records:
         what = f"label {record['label']}" if "label" in record else f"level {record['level']:g}"
         what = what if "time" not in record else f"time {record['time']}, {what}"
@@ -83,7 +95,7 @@ def run_measure(args) -> int:
 
 def _records(volume, args) -> list[dict]:
     """measure's rows for one volume (one time point): a row per --iso level, or per label with --labels."""
-    from ..cpu.measure import measure_surface
+    from ..cpu.measure import in_millimetres, measure_surface
     from ..io.export import in_volume_space
     world = args.space == "world"
     rows = []
@@ -108,9 +120,10 @@ def _records(volume, args) -> list[dict]:
             verts, faces, normals, _ = _extract_for_export(volume, iso, args_for_export)
             verts, faces, _, _ = in_volume_space(volume, verts, faces, normals, world=world)
             rows.append(({"level": as_level(iso, volume.value_range)}, measure_surface(verts, faces)))
-    rows = [_object_side(key, m, volume, args.labels) for key, m in rows]
-    return [dict(key, area_mm2=m.area, volume_ml=m.volume * ML_PER_MM3, components=m.components,
-                 largest_component_ml=m.largest_component_volume * ML_PER_MM3,
+    rows = [_object_side(key, in_millimetres(m, mm_per_unit(volume.length_unit)), volume, args.labels)
+            for key, m in rows]   # the file's lengths (micrometres, ...) in millimetres
+    return [dict(key, unit=volume.length_unit, area_mm2=m.area, volume_ml=m.volume * ML_PER_MM3,
+                 components=m.components, largest_component_ml=m.largest_component_volume * ML_PER_MM3,
                  bbox_min=_finite_or_none(m.bbox_min), bbox_max=_finite_or_none(m.bbox_max),
                  open_edges=m.open_edges, cavities=m.cavities, cavities_ml=-m.cavity_volume * ML_PER_MM3,
                  euler=m.euler, genus=m.genus)

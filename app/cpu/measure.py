@@ -132,3 +132,16 @@ def _measured(verts: np.ndarray, faces: np.ndarray) -> SurfaceMeasure:
                           euler=int(len(used) - len(edge_counts) + len(faces)),
                           cavities=int((volumes < 0).sum()), cavity_volume=float(volumes[volumes < 0].sum()),
                           solids=int((volumes > 0).sum()), solid_volume=float(volumes[volumes > 0].sum()))
+
+
+def in_millimetres(measured: SurfaceMeasure, mm_per_unit: float) -> SurfaceMeasure:
+    """`measured` (in the file's length unit) in millimetres: areas times `mm_per_unit` squared, volumes cubed,
+    the box times it; the same record where the unit is the millimetre (1)."""
+    f = float(mm_per_unit)
+    if f == 1.0:
+        return measured
+    return replace(measured, area=measured.area * f ** 2, volume=measured.volume * f ** 3,
+                   largest_component_volume=measured.largest_component_volume * f ** 3,
+                   smallest_component_volume=measured.smallest_component_volume * f ** 3,
+                   bbox_min=tuple(v * f for v in measured.bbox_min), bbox_max=tuple(v * f for v in measured.bbox_max),
+                   cavity_volume=measured.cavity_volume * f ** 3, solid_volume=measured.solid_volume * f ** 3)

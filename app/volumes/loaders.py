@@ -9,11 +9,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..core.units import mm_per_unit
 from .dicom_format import load_dicom_folder
 from .errors import VolumeError
-from .nifti_format import load_nifti, nifti_world
+from .nifti_format import load_nifti, nifti_unit, nifti_world
 from .npy_format import load_npy, load_npz
-from .nrrd_format import load_nrrd, nrrd_world
+from .nrrd_format import load_nrrd, nrrd_unit, nrrd_world
 from .raw_format import load_raw, sidecar_path, three_positive
 from .reading import refuse_unless_regular
 from .tiff_format import TIFF_SUFFIXES, load_tiff
@@ -93,25 +94,28 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, ti
     pyramid = ()   # lower-resolution levels that come with the volume (OME-Zarr)
     try:
         world = None  # (4x4 array index -> world mm, its space), for files that define one
+        unit = None   # the length unit the file states (core.units), None where it states none: mm
         if kind == "dicom":
             data, header_spacing, notes, world = load_dicom_folder(path, None if series is None else str(series),
                                                                    progress, time)
         elif kind == "raw":
             data, header_spacing, notes = load_raw(path, dims, dtype, endian, spacing, progress, map_file=map_files)
         elif kind == "zarr":
-            data, header_spacing, notes, pyramid, world = load_zarr(path, time, progress)
+            data, header_spacing, notes, pyramid, world, unit = load_zarr(path, time, progress)
         elif kind == "npy":
             data, header_spacing, notes = load_npy(path, progress, map_file=map_files)
         elif kind == "tiff":
-            data, header_spacing, notes = load_tiff(path, time, progress)
+            data, header_spacing, notes, unit = load_tiff(path, time, progress)
         elif kind == "npz":
             data, header_spacing, notes = load_npz(path, array_name, progress)
         elif kind == "nrrd":
             data, header_spacing, notes = load_nrrd(path, time, progress)
             world = nrrd_world(path)
+            unit = nrrd_unit(path, notes)
         else:
             data, header_spacing, notes = load_nifti(path, time, progress)
             world = nifti_world(path)
+            unit = nifti_unit(path)
     except MemoryError:
         raise VolumeError(f"{path.name} does not fit in memory; crop or downsample it first") from None
     except PermissionError:
@@ -127,10 +131,15 @@ def open_file(spec: str, *, dims=None, dtype=None, endian=None, spacing=None, ti
     if spacing is not None and world is not None:
         notes.append("--spacing given: the file's world coordinates are dropped (index x spacing)")
         world = None
+    if spacing is not None and unit is not None:   # --spacing is in millimetres, as everywhere else
+        if mm_per_unit(unit) != 1.0:
+            notes.append(f"--spacing given: taken as millimetres, not the file's {unit}")
+        unit = None
     chosen = spacing or header_spacing or (1.0, 1.0, 1.0)
     volume = finish_volume(data, spacing=chosen, name=path.name if array_name is None else f"{path.name}:{array_name}",
                          source=spec, gradient_direction="descent", default_level=None,
-                         notes=notes, what=path.name, progress=progress, world=world)
+                         notes=notes, what=path.name, progress=progress, world=world,
+                         length_unit=unit)
     volume.time_points = time_points_of(notes)
     if pyramid:   # each level's spacing in the spacing chosen (--spacing scales them alike)
         ratio = [c / h for c, h in zip(chosen, header_spacing or (1.0, 1.0, 1.0))]

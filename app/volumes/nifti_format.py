@@ -227,6 +227,20 @@ def nifti_world(path: Path):
             return None  # no usable orientation: index x spacing (the samples were read)
 
 
+def nifti_unit(path: Path) -> str | None:
+    """The spatial unit the header's xyzt_units states ("micron", "meter"; "millimeter" for mm), or None where it
+    states none ("unknown", or a header nibabel cannot read again)."""
+    import nibabel
+
+    from ..core.units import length_unit_name
+    with library_messages([], "nibabel"):
+        try:
+            unit = nibabel.load(str(path)).header.get_xyzt_units()[0]
+        except (*_nibabel_errors(), OSError, EOFError, ValueError, KeyError):
+            return None
+    return length_unit_name(unit)
+
+
 def _raise_if_broken_gzip(path: Path) -> None:
     """nibabel reports a cut-off .gz as an unknown file type; say what is really wrong."""
     if not path.name.lower().endswith(".gz"):

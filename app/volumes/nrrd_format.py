@@ -56,6 +56,24 @@ def nrrd_world(path: Path):
     return world, "LPS"
 
 
+def nrrd_unit(path: Path, notes: list[str]) -> str | None:
+    """The length unit the header's "space units" state for every spatial axis ("mm", "um", ...), or None where it
+    states none; units that differ between the axes, or are no length unit known here, are taken as none, with a
+    note (the samples still open; only measures depend on it)."""
+    import nrrd
+
+    from ..core.units import TAKEN_AS_MM, length_unit_name
+    stated = [str(u) for u in nrrd.read_header(str(path)).get("space units") or [] if str(u).strip()]
+    if not stated:
+        return None
+    names = {length_unit_name(u) for u in stated}
+    if len(names) == 1 and None not in names:
+        return names.pop()
+    notes.append(f"{path.name}: its space units {stated} are not one length unit isoscope knows; {TAKEN_AS_MM} "
+                 "(write one unit such as \"mm\" or \"um\" for every axis)")
+    return None
+
+
 # The NRRD format's sample types, each spelling it allows, and their bytes per sample.
 _TYPES = {**dict.fromkeys(("signed char", "int8", "int8_t", "uchar", "unsigned char", "uint8", "uint8_t"), 1),
           **dict.fromkeys(("short", "short int", "signed short", "signed short int", "int16", "int16_t", "ushort",

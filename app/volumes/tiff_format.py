@@ -30,24 +30,41 @@ def _resolution_spacing(page, tag: str) -> float | None:
 
 
 def _spacing(tif, axes: str):
-    """(z, y, x) from OME PhysicalSize* or ImageJ's spacing and resolution tags; None if absent."""
+    """((z, y, x) from OME PhysicalSize* or ImageJ's spacing and resolution tags, or None if absent; the units
+    they state: OME's PhysicalSize*Unit (the schema's default: micrometres), ImageJ's "unit")."""
     if tif.is_ome and tif.ome_metadata:
         pixels = re.search(r"<Pixels\b[^>]*>", tif.ome_metadata)
         sizes = {axis: re.search(rf'PhysicalSize{axis}="([0-9.eE+-]+)"', pixels.group(0)) if pixels else None
                  for axis in "ZYX"}
         if all(sizes.values()):
-            return tuple(float(sizes[axis].group(1)) for axis in "ZYX")
+            units = [re.search(rf'PhysicalSize{axis}Unit="([^"]*)"', pixels.group(0)) for axis in "ZYX"]
+            return (tuple(float(sizes[axis].group(1)) for axis in "ZYX"),
+                    [unit.group(1) if unit else "µm" for unit in units])
     if tif.is_imagej and tif.imagej_metadata:
         page = tif.pages[0]
         z = tif.imagej_metadata.get("spacing")
         y, x = _resolution_spacing(page, "YResolution"), _resolution_spacing(page, "XResolution")
         if z and y and x:
-            return float(z), float(y), float(x)
+            unit = str(tif.imagej_metadata.get("unit") or "").replace("\\u00B5", "µ").replace("\\u00b5", "µ")
+            return (float(z), float(y), float(x)), ([unit] * 3 if unit and unit != "pixel" else [])
+    return None, []
+
+
+def _length_unit(path: Path, stated: list[str], notes: list[str]) -> str | None:
+    """The one length unit of `stated` (core.units' name), or None with a note where they differ or are unknown."""
+    from ..core.units import TAKEN_AS_MM, length_unit_name
+    if not stated:
+        return None
+    names = {length_unit_name(u) for u in stated}
+    if len(names) == 1 and None not in names:
+        return names.pop()
+    notes.append(f"{path.name}: its voxel size units {sorted(set(stated))} are not one length unit isoscope knows; "
+                 f"{TAKEN_AS_MM}")
     return None
 
 
 def load_tiff(path: Path, time: int | None, progress: Progress | None = None):
-    """(array (z, y, x), spacing or None, notes)."""
+    """(array (z, y, x), spacing or None, notes, the length unit its metadata states or None)."""
     import tifffile
     report(progress, 0.0, f"reading {path.name}")
 
@@ -65,7 +82,7 @@ def load_tiff(path: Path, time: int | None, progress: Progress | None = None):
     notes: list[str] = []
     with library_messages(notes, "tifffile"):  # "invalid page offset" and the like: notes, not stderr
         # tifffile reports a damaged file as any of these (an "incompatible keyframe" is a RuntimeError)
-        data, axes, spacing = read_or_explain(path, read, (tifffile.TiffFileError, RuntimeError, IndexError,
+        data, axes, (spacing, units) = read_or_explain(path, read, (tifffile.TiffFileError, RuntimeError, IndexError,
                                                            KeyError, TypeError, struct.error))
     keep = [a for a, n in zip(axes, data.shape) if n > 1 or a in "ZYX"]
     data = data.reshape([n for a, n in zip(axes, data.shape) if a in keep])
@@ -81,4 +98,4 @@ def load_tiff(path: Path, time: int | None, progress: Progress | None = None):
     notes += time_notes
     if axes != "ZYX" and data.ndim == 3:
         notes.append(f"{path.name}: axes {axes} read as z, y, x")
-    return np.ascontiguousarray(data), spacing, notes
+    return np.ascontiguousarray(data), spacing, notes, _length_unit(path, units, notes)

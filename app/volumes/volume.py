@@ -67,6 +67,9 @@ class Volume:
     # level whose samples lie off the full level's grid (big_volume.from_level: the level's offset times the
     # full spacing); its meshes, extracted at index x spacing, are placed (drawn, exported) this much further.
     origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    # The length unit the file states for its spatial axes (core.units' name: "micrometer", "micron", ...), or
+    # None where it states none (taken as millimetres); measures convert by it, exports keep the file's units.
+    length_unit: str | None = None
 
     @property
     def checked(self) -> CheckedVolume:
@@ -158,7 +161,7 @@ def finish_volume(data: np.ndarray, *, spacing, name: str, source: str, gradient
                   default_level: float | None, notes: list[str] | None = None,
                   what: str | None = None, progress: Progress | None = None,
                   where: Callable[[tuple], str] | None = None,
-                  world: tuple[np.ndarray, str] | None = None) -> Volume:
+                  world: tuple[np.ndarray, str] | None = None, length_unit: str | None = None) -> Volume:
     """The single gate: shape, dtype and value checks (validation.check_volume), then the record."""
     what = what or name
     try:
@@ -187,4 +190,4 @@ def finish_volume(data: np.ndarray, *, spacing, name: str, source: str, gradient
     return Volume(data=data, spacing=spacing, name=name, source=source,
                   gradient_direction=gradient_direction, default_level=default_level,
                   value_range=checked.value_range, notes=notes + list(checked.notes),
-                  world=world)
+                  world=world, length_unit=length_unit)

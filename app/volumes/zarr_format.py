@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.lazy_arrays import Block3D
+from ..core.units import TAKEN_AS_MM, length_unit_name
 from .errors import VolumeError
 from .reading import damaged, reason
 from .time_points import time_index, time_note
@@ -64,20 +65,21 @@ def is_zarr(path: Path) -> bool:
 
 
 def load_zarr(path: Path, time: int | None, progress: Progress | None = None):
-    """(lazy 3-D array, spacing or None, notes, pyramid, world or None): an OME-Zarr image's lower-resolution
-    levels as PyramidLevels (finest first; none for a plain array), read as lazily as the full one; its world
-    frame where its full level has a translation (the module's docstring)."""
+    """(lazy 3-D array, spacing or None, notes, pyramid, world or None, length unit or None): an OME-Zarr image's
+    lower-resolution levels as PyramidLevels (finest first; none for a plain array), read as lazily as the full
+    one; its world frame where its full level has a translation (the module's docstring); its axes' unit."""
     import zarr
     report(progress, 0.0, f"opening {path.name}")
     try:
         node = zarr.open(store=str(path), mode="r")
     except Exception as exc:  # zarr raises many kinds for a damaged store
         raise damaged(path, exc, "check that it is a Zarr array or an OME-Zarr image") from None
-    spacing, notes, spatial, coarser, world = None, [], 3, [], None
+    spacing, notes, spatial, coarser, world, unit = None, [], 3, [], None, None
     if isinstance(node, zarr.Group):
         multiscales = node.attrs.get("multiscales") or dict(node.attrs.get("ome") or {}).get("multiscales")
         if multiscales:
             node, spacing, spatial, notes, coarser, world = _ome_level(node, multiscales[0], path)
+            unit = _length_unit(multiscales[0], path, notes)
         else:
             arrays = sorted(node.array_keys())
             if not arrays:
@@ -102,7 +104,27 @@ def load_zarr(path: Path, time: int | None, progress: Progress | None = None):
                                  name, offset)
                     for name, level, level_spacing, offset in coarser
                     if tuple(level.shape[:-3]) == shape[:-3] and all(2 <= n for n in level.shape[-3:]))
-    return Block3D(CheckedReads(node, path.name), tuple(lead)), spacing, [n for n in notes if n], pyramid, world
+    return (Block3D(CheckedReads(node, path.name), tuple(lead)), spacing, [n for n in notes if n], pyramid, world,
+            unit)
+
+
+def _length_unit(multiscale: dict, path: Path, notes: list[str]) -> str | None:
+    """The unit the image's spatial axes state ("micrometer", ...), or None where they state none.  Spatial axes
+    that state different units, or one that is no length unit known here, are taken as stating none, with a note:
+    the samples still open and show; only measures (taken as millimetres then) depend on it."""
+    axes = [a for a in multiscale.get("axes") or [] if isinstance(a, dict) and a.get("type") == "space"]
+    stated = [a.get("unit") for a in axes[-3:]]
+    if not any(u is not None for u in stated):
+        return None
+    names = [length_unit_name(u) for u in stated]
+    if None not in names and len(set(names)) == 1:
+        return names[0]
+    said = ", ".join(f"{a.get('name', '?')}: {u!r}" for a, u in zip(axes[-3:], stated))
+    why = ("not one length unit for all three" if None not in names
+           else "not a length unit isoscope knows")
+    notes.append(f"{path.name}: its spatial axes' units ({said}) are {why}; {TAKEN_AS_MM} "
+                 "(write one unit such as \"micrometer\" on every spatial axis)")
+    return None
 
 
 def _settle_pending_reads() -> None:

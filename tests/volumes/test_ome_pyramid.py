@@ -189,3 +189,20 @@ def test_under_the_gpu_s_limits_a_level_gets_bricks_only_where_they_fit_its_own_
         assert "the bricks in view refined to full resolution from the full level within the memory budget" in note
     else:
         assert view is None and "bricks in view" not in note
+
+
+@pytest.mark.parametrize("zarr_format", [2, 3])
+def test_the_spatial_axes_unit_comes_with_every_time_point_and_coarse_view(tmp_path, zarr_format):
+    """Axes t (seconds), z, y, x (micrometres): the volume's length unit is the spatial axes' (a time unit is
+    no length), at every time point and in the viewer's views from a pyramid level or every other sample."""
+    from isoscope.viewer.model.big_volume import every_step, from_level
+    rng = np.random.default_rng(7)
+    axes = [{"name": "t", "type": "time", "unit": "second"},
+            *({"name": a, "type": "space", "unit": "micrometer"} for a in "zyx")]
+    write_ome(tmp_path / "t.ome.zarr", [rng.random((2, 16, 16, 16), "f4"), rng.random((2, 8, 8, 8), "f4")],
+              [[1.0, 0.5, 0.5, 0.5], [1.0, 1.0, 1.0, 1.0]], axes=axes, zarr_format=zarr_format)
+    for time in (0, 1):
+        volume = open_volume(str(tmp_path / "t.ome.zarr"), time=time)
+        assert volume.length_unit == "micrometer" and volume.time_points == 2
+        assert from_level(volume, volume.pyramid[0])[0].length_unit == "micrometer"
+        assert every_step(volume, 2).length_unit == "micrometer"

@@ -4,7 +4,8 @@ measured on request in the background, and the cursor probe's picked points and 
 `Measurements.request(state)` takes what is on show (the volume, its levels or visible labels, the mesh
 options) and measures it on a worker thread with the code `isoscope measure` runs: the same CPU extraction
 (cubes, or the viewer's tetrahedra and smoothing), `in_volume_space` (world millimetres where the file has
-a frame), `cpu.measure.measure_surface`; so a plain level gives the command's numbers.  It is a request
+a frame), `cpu.measure.measure_surface`, `in_millimetres` (a file in micrometres, ...); so a plain level gives
+the command's numbers.  It is a request
 with an id and a response (jobs.py): a newer request makes an older one stale, and `poll` (once a frame)
 keeps the newest answer, or its error.  A big volume is measured as shown (every `step`-th sample) and
 says so.
@@ -61,12 +62,13 @@ class MeasureRequest:
     topology: str = "montani"
 
 
-def record_of(name: str, verts, faces) -> SurfaceRecord:
+def record_of(name: str, verts, faces, mm_per_unit: float = 1.0) -> SurfaceRecord:
     """The Measure section's row for one surface (`name`) from its mesh: area, enclosed volume and the largest part's in
     millilitres (from cubic millimetres), components, bounding box, open edges, Euler characteristic, genus and
-    cavities."""
-    from ...cpu.measure import measure_surface
-    m = measure_surface(verts, faces)
+    cavities.  `mm_per_unit`: millimetres per unit of the mesh's lengths (the file's stated unit, core.units), by
+    which they are converted as `isoscope measure` converts them."""
+    from ...cpu.measure import in_millimetres, measure_surface
+    m = in_millimetres(measure_surface(verts, faces), mm_per_unit)
     finite = all(math.isfinite(v) for v in m.bbox_min)
     return SurfaceRecord(name, m.area, m.volume * ML_PER_MM3, m.components, m.largest_component_volume * ML_PER_MM3,
                          tuple(m.bbox_min) if finite else None, tuple(m.bbox_max) if finite else None, m.open_edges,
@@ -91,7 +93,9 @@ def level_mesh(volume, level: float, cells: str = "cubes", smooth: int = 0, clos
 
 def measure(request: MeasureRequest, progress=None) -> list[SurfaceRecord]:
     """The records of `request`'s surfaces (the work of a "measure" job)."""
+    from ...core.units import mm_per_unit
     volume, records = request.volume, []
+    factor = mm_per_unit(getattr(volume, "length_unit", None))   # the file's micrometres, ... in millimetres
     if request.labels:
         from ...io.export import in_volume_space
         from ...labels import label_surfaces, labels_of
@@ -100,13 +104,13 @@ def measure(request: MeasureRequest, progress=None) -> list[SurfaceRecord]:
         surfaces = label_surfaces(np.where(wanted, labels, 0), spacing=volume.spacing, backend="cpu")
         for label, mesh in surfaces.items():
             verts, faces, _, _ = in_volume_space(volume, *mesh)
-            records.append(record_of(f"label {int(label)}", verts, faces))
+            records.append(record_of(f"label {int(label)}", verts, faces, factor))
         return records
     for i, level in enumerate(request.levels):
         if progress is not None:
             progress(i / len(request.levels), f"measuring level {level:.5g}")
         verts, faces = level_mesh(volume, level, request.cells, request.smooth, request.closed, request.topology)
-        records.append(record_of(f"level {level:.5g}", verts, faces))
+        records.append(record_of(f"level {level:.5g}", verts, faces, factor))
     return records
 
 
@@ -124,6 +128,7 @@ class Measurements:
         self.picks: list[np.ndarray] = []   # in the file's frame (mm): distances are taken here
         self.points: list[np.ndarray | None] = []   # the same points in scene coordinates, to mark them
         self.probe = None                   # the last probe (picking.Probe), for the panel
+        self.mm_per_unit = 1.0              # millimetres per unit of the picks' frame (the file's stated unit)
 
     def request_of(self, state) -> MeasureRequest:
         """What to measure in `state` now: its visible labels, else its visible levels, with the mesh options and step
@@ -167,11 +172,13 @@ class Measurements:
         return came
 
     # --- the cursor probe's two-point distance ---------------------------------
-    def pick(self, world, point=None) -> None:
-        """Add a point (`world`: the file's frame; `point`: scene coordinates, to mark it); a third starts a
-        new pair."""
+    def pick(self, world, point=None, mm_per_unit: float = 1.0) -> None:
+        """Add a point (`world`: the file's frame; `point`: scene coordinates, to mark it; `mm_per_unit`:
+        millimetres per unit of that frame, core.units.mm_per_unit of the volume's length unit); a third starts
+        a new pair."""
         if len(self.picks) >= MAX_PICKS:
             self.clear_picks()
+        self.mm_per_unit = float(mm_per_unit)
         self.picks.append(np.asarray(world, np.float64).reshape(3))
         self.points.append(None if point is None else np.asarray(point, np.float64).reshape(3))
 
@@ -181,10 +188,10 @@ class Measurements:
 
     @property
     def distance(self) -> float | None:
-        """The distance (world units, mm) between the two picked points, or None before two."""
+        """The distance (mm: the file's units converted) between the two picked points, or None before two."""
         if len(self.picks) < MAX_PICKS:
             return None
-        return float(np.linalg.norm(self.picks[1] - self.picks[0]))
+        return float(np.linalg.norm(self.picks[1] - self.picks[0])) * self.mm_per_unit
 
 
 def _measured(request: MeasureRequest, progress=None):

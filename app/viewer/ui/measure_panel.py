@@ -132,7 +132,8 @@ class MeasureSection:
         self._last_cursor = cursor
         probe = self.probe_at(scene, camera, cursor, covered_left)
         if clicked and probe is not None:
-            self.measurements.pick(probe.world, probe.point)
+            from ...core.units import mm_per_unit
+            self.measurements.pick(probe.world, probe.point, mm_per_unit(scene.state.volume.length_unit))
 
     def draw_marks(self, camera, covered_left: float = 0.0) -> None:
         """The picked points over the scene (under the panel's windows), joined by a line with their distance."""

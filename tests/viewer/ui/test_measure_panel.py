@@ -24,13 +24,14 @@ N, RADIUS = 48, 15.0
 SIZE = (320, 240)
 
 
-def sphere_volume(spacing=(1.0, 1.0, 1.0)):
-    """A signed distance to a sphere of RADIUS (world units) at the grid's centre, negative inside."""
+def sphere_volume(spacing=(1.0, 1.0, 1.0), length_unit=None):
+    """A signed distance to a sphere of RADIUS (world units, in `length_unit`: None for mm) at the grid's centre,
+    negative inside."""
     centre = (N - 1) / 2
     points = (np.indices((N, N, N)).astype(np.float32) - centre) * np.asarray(spacing, np.float32)[:, None, None, None]
     data = (np.sqrt((points ** 2).sum(axis=0)) - RADIUS).astype(np.float32)
     return finish_volume(data, spacing=spacing, name="sphere", source="sphere", gradient_direction="ascent",
-                         default_level=None)
+                         default_level=None, length_unit=length_unit)
 
 
 def command_records(*args):
@@ -68,6 +69,30 @@ def test_measures_equal_the_command_s_on_the_same_volume_and_levels(closed):
         assert_same_as_command(record, row)
     if closed:
         assert all(r.open_edges == 0 for r in measurements.records)
+
+
+def test_a_store_in_micrometres_measures_in_millimetres_as_the_command_does(tmp_path):
+    """An OME-Zarr image whose axes are in micrometres: the section's records are the command's, converted
+    (area x 1e-6 of the same store stating no unit, volume x 1e-9, box x 1e-3)."""
+    from support.ome_zarr import SPACE_AXES, write_ome
+    field = sphere_volume().data
+    write_ome(tmp_path / "um.ome.zarr", [field], [[0.5] * 3], axes=[dict(a, unit="micrometer") for a in SPACE_AXES])
+    write_ome(tmp_path / "plain.ome.zarr", [field], [[0.5] * 3])
+    records = {}
+    for name in ("um", "plain"):
+        state = ViewerState()
+        state.show(open_volume(str(tmp_path / f"{name}.ome.zarr")), 0.0)
+        measurements = Measurements()
+        measurements.request(state, inline=True)
+        measurements.poll()
+        (records[name],) = measurements.records
+    (expected,) = command_records(tmp_path / "um.ome.zarr", "--iso", "0")
+    assert expected["unit"] == "micrometer"
+    assert_same_as_command(records["um"], expected)
+    um, plain = records["um"], records["plain"]
+    assert um.area_mm2 == pytest.approx(plain.area_mm2 * 1e-6, rel=1e-12)
+    assert um.volume_ml == pytest.approx(plain.volume_ml * 1e-9, rel=1e-12)
+    assert um.size == pytest.approx(tuple(v * 1e-3 for v in plain.size), rel=1e-12)
 
 
 def test_a_newer_request_makes_the_older_answer_stale():
@@ -125,6 +150,8 @@ def test_two_picks_give_their_distance_and_a_third_starts_again():
     assert measurements.distance == pytest.approx(13.0)
     measurements.pick((1.0, 1.0, 1.0))
     assert len(measurements.picks) == 1 and measurements.distance is None
+    measurements.pick((4.0, 5.0, 13.0), mm_per_unit=1e-3)   # a file in micrometres: the distance in mm
+    assert measurements.distance == pytest.approx(13e-3)
 
 
 # --- the probe, on a real context -------------------------------------------------------------------------
@@ -259,7 +286,8 @@ def _ctrl_clicks(x_display):
 
     from isoscope.viewer.model.recent import RecentFiles
     from isoscope.viewer.ui.window import ViewerWindow
-    window = ViewerWindow(sphere_volume(), 0.0, size=(640, 400), recent=RecentFiles(None))
+    # lengths in micrometres: the panel's picks give the distance in millimetres
+    window = ViewerWindow(sphere_volume(length_unit="micrometer"), 0.0, size=(640, 400), recent=RecentFiles(None))
     try:
         for _ in range(3):
             window.draw_frame()
@@ -304,7 +332,8 @@ def _ctrl_clicks(x_display):
         centre = (N - 1) / 2
         for picked in measurements.picks:
             assert abs(np.linalg.norm(picked - centre) - RADIUS) < 1.0
-        assert 2.0 < measurements.distance < 2 * RADIUS
+        apart = float(np.linalg.norm(measurements.picks[1] - measurements.picks[0]))   # micrometres
+        assert measurements.distance == pytest.approx(apart * 1e-3, rel=1e-12) and 2.0 < apart < 2 * RADIUS
         assert measurements.probe.on == "surface"
         assert len(measurements.points) == 2 and measurements.points[1] is not None
     finally:
