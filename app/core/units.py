@@ -29,17 +29,26 @@ _CANONICAL = {"millimetre": "millimeter", "mm": "millimeter", "micrometre": "mic
               "å": "angstrom", "pm": "picometer", "centimetre": "centimeter", "cm": "centimeter",
               "dm": "decimeter", "metre": "meter", "m": "meter", "km": "kilometer"}
 
+_PLURALS = {"inches": "inch", "feet": "foot"}
+
 # How a loader's note ends when a file states units it cannot use (mixed, or not lengths): measure repeats it.
 TAKEN_AS_MM = "lengths are taken as millimetres"
 
 
 def length_unit_name(text) -> str | None:
     """The unit `text` names (its NGFF spelling; "micron" stays "micron"), or None when it is no length unit known
-    here (a time unit, "unknown", "pixel", not a string)."""
+    here (a time unit, "unknown", "pixel", not a string).  Plurals as free-text headers write them
+    ("micrometers", "millimetres", "inches", "feet") name their unit.
+
+    >>> length_unit_name("Micrometers"), length_unit_name("inches"), length_unit_name("pixels")
+    ('micrometer', 'inch', None)
+    """
     if not isinstance(text, str):
         return None
     key = text.strip().lower()
     if key not in _MM_PER_UNIT:
+        key = _PLURALS.get(key) or (key[:-1] if key.endswith("s") and key[:-1] in _MM_PER_UNIT else key)
+    if key not in _MM_PER_UNIT or len(key) <= 2 and text.strip().lower() != key:   # "ms" is no plural of "m"
         return None
     return _CANONICAL.get(key, key)
 

@@ -31,9 +31,11 @@ def as_volume(obj, *, spacing=None, affine=None, gradient_direction: str = "desc
     world = None
     if isinstance(obj, tuple) and len(obj) == 2 and np.ndim(obj[1]) == 2:   # (array, affine)
         obj, affine = obj
+    length_unit, spacing_given = None, spacing   # a spacing given is taken as mm, as --spacing is (loaders.py)
     if _is_nibabel_image(obj):
         affine = obj.affine if affine is None else affine
         name = name or "nibabel image"
+        length_unit = _nibabel_unit(obj)   # as open_volume reads the file's (nifti_format.nifti_unit)
         obj = np.asanyarray(obj.dataobj)
     elif _is_xarray(obj):
         obj, steps, origin = _xarray_grid(obj)
@@ -56,7 +58,16 @@ def as_volume(obj, *, spacing=None, affine=None, gradient_direction: str = "desc
                           "array, a path, a nibabel image or an xarray DataArray") from None
     return finish_volume(data, spacing=spacing or (1.0, 1.0, 1.0), name=name or type(obj).__name__,
                          source=name or "array", gradient_direction=gradient_direction, default_level=None,
-                         world=world)
+                         world=world, length_unit=length_unit if spacing_given is None else None)
+
+
+def _nibabel_unit(image) -> str | None:
+    """The spatial unit a nibabel image's header states (None: none, or a header without xyzt units)."""
+    from ..core.units import length_unit_name
+    try:
+        return length_unit_name(image.header.get_xyzt_units()[0])
+    except (AttributeError, KeyError, ValueError, IndexError):
+        return None
 
 
 def _is_nibabel_image(obj) -> bool:

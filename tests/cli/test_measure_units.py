@@ -133,3 +133,28 @@ def test_spacing_given_is_millimetres_whatever_the_file_says(tmp_path):
     (record,) = json.loads(result.stdout)
     (plain,) = measured(ome(tmp_path / "plain.ome.zarr", [None] * 3), "--json")
     assert record["unit"] is None and record["area_mm2"] == pytest.approx(plain["area_mm2"], rel=1e-12)
+
+
+def test_a_nibabel_image_handed_to_python_keeps_its_unit(tmp_path):
+    """isoscope.view / render / isosurface take a nibabel image as well as its file: the Measure section measured
+    the image 10^6 larger than the file (as_volume read no unit).  A spacing given is taken as mm, as --spacing."""
+    from isoscope.viewer.model.measure import Measurements
+    from isoscope.viewer.model.state import ViewerState
+    from isoscope.volumes import open_volume
+    from isoscope.volumes.inputs import as_volume
+    data = np.zeros((20, 20, 20), np.float32)
+    data[5:15, 5:15, 5:15] = 1.0
+    image = nibabel.Nifti1Image(data, np.diag([0.5, 0.5, 0.5, 1.0]))
+    image.header.set_xyzt_units("micron")
+    nibabel.save(image, tmp_path / "um.nii")
+    from_file, from_image = open_volume(str(tmp_path / "um.nii")), as_volume(nibabel.load(tmp_path / "um.nii"))
+    assert from_file.length_unit == from_image.length_unit == "micron"
+    areas = []
+    for volume in (from_file, from_image):
+        state, measurements = ViewerState(), Measurements()
+        state.show(volume, 0.5)
+        measurements.request(state, inline=True)
+        measurements.poll()
+        areas.append(measurements.records[0].area_mm2)
+    assert areas[0] == areas[1] and 0 < areas[0] < 1e-3    # ~1.5e-4 mm^2 (a 5 um cube), not 150 "mm^2"
+    assert as_volume(nibabel.load(tmp_path / "um.nii"), spacing=(1.0, 1.0, 1.0)).length_unit is None
