@@ -195,6 +195,10 @@ class Measurements:
 
 
 def _measured(request: MeasureRequest, progress=None):
+    from ...core.units import mm_per_unit
     records = measure(request, progress)
-    note = (f"measured as shown: every {request.step}th sample (the file is larger)" if request.step > 1 else None)
-    return records, note
+    notes = [f"measured as shown: every {request.step}th sample (the file is larger)"] if request.step > 1 else []
+    unit = getattr(request.volume, "length_unit", None)
+    if mm_per_unit(unit) != 1.0:   # as `isoscope measure` says it once
+        notes.append(f"the file's lengths are in {unit}: converted to mm, mm^2 and mL")
+    return records, "; ".join(notes) or None

@@ -64,8 +64,10 @@ class MeasureSection:
             imgui.text_colored(ERROR_COLOR, measurements.error)
         for record in measurements.records:
             self._record(record)
-        if measurements.note:
+        if measurements.note:   # wrapped: the unit's note is wider than the panel
+            imgui.push_text_wrap_pos(0.0)
             imgui.text_colored(NOTE_COLOR, measurements.note)
+            imgui.pop_text_wrap_pos()
         self._probe_lines()
         if self.can_browse and state.volume is not None:
             if imgui.button("Save scene...") and not self._saving_scene:
@@ -84,7 +86,7 @@ class MeasureSection:
                    f"{record.largest_component_ml:.5g} mL")
         if record.cavities:   # a hollow's inner walls are pieces too (measure's line names them the same way)
             imgui.text(f"  {record.cavities:,} of them {'cavities' if record.cavities != 1 else 'a cavity'}, "
-                       f"taking {record.cavities_ml:.5g} mL away")
+                       f"{record.cavities_ml:.5g} mL")
             tooltip("pieces that enclose less than nothing: the walls of hollows inside the object")
         imgui.text(f"  Euler characteristic {record.euler}" +
                    (f", genus {record.genus}" if record.genus is not None else ""))

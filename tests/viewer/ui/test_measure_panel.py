@@ -78,14 +78,16 @@ def test_a_store_in_micrometres_measures_in_millimetres_as_the_command_does(tmp_
     field = sphere_volume().data
     write_ome(tmp_path / "um.ome.zarr", [field], [[0.5] * 3], axes=[dict(a, unit="micrometer") for a in SPACE_AXES])
     write_ome(tmp_path / "plain.ome.zarr", [field], [[0.5] * 3])
-    records = {}
+    records, notes = {}, {}
     for name in ("um", "plain"):
         state = ViewerState()
         state.show(open_volume(str(tmp_path / f"{name}.ome.zarr")), 0.0)
         measurements = Measurements()
         measurements.request(state, inline=True)
         measurements.poll()
-        (records[name],) = measurements.records
+        (records[name],), notes[name] = measurements.records, measurements.note
+    # the section says the conversion, as the command's note does (it said nothing)
+    assert notes == {"um": "the file's lengths are in micrometer: converted to mm, mm^2 and mL", "plain": None}
     (expected,) = command_records(tmp_path / "um.ome.zarr", "--iso", "0")
     assert expected["unit"] == "micrometer"
     assert_same_as_command(records["um"], expected)
