@@ -35,6 +35,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
@@ -222,9 +223,8 @@ def own_vertex_cells(field: np.ndarray, lvl) -> tuple[np.ndarray, np.ndarray]:
 
 def crossing_edge_count(field: np.ndarray, lvl) -> int:
     """How many grid edges of the signed field cross the level: its mesh's edge vertices."""
-    from ..cpu.cubes import inside_mask
-    inside = inside_mask(field, lvl)
-    return sum(int(np.count_nonzero(np.diff(inside, axis=axis))) for axis in range(3))
+    from ..cpu.cubes import crossing_edges, inside_mask
+    return sum(int(np.count_nonzero(mask)) for mask in crossing_edges(inside_mask(field, lvl)))
 
 
 def own_vertex_names(field, lvl, cells, ranks, origin, shape) -> tuple[np.ndarray, np.ndarray]:
@@ -242,8 +242,9 @@ def own_vertex_names(field, lvl, cells, ranks, origin, shape) -> tuple[np.ndarra
     return cell_key(whole, shape) * 4 + ranks, members
 
 
+@cache
 def _own_vertex_tables():
-    """The trilinear table, and per case whether any of its keys has an own vertex."""
+    """The trilinear table, and per case whether any of its keys has an own vertex (made once: two calls a box)."""
     from ..core.trilinear_table import trilinear_table
     table = trilinear_table()
     possible = np.zeros(256, bool)

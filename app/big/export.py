@@ -24,8 +24,8 @@ def write_full_resolution(volume, level: float, out, *, gradient_direction: str 
     """Write the mesh of `volume` (a `Volume`: its data, spacing, world frame) at `level` to `out`, with
     `gradient_direction` the side taken as inside (default: the volume's own) and `topology` the ambiguous
     cells' rule; (path, vertices, triangles, the coordinates' name).  `progress(fraction, message)` hears each
-    chunk; a set `stop` ends the work
-    with Stopped before the file is written (writes are atomic: no half file either way)."""
+    chunk; a set `stop` ends the work with Stopped before the file is written (writes are atomic: no half file
+    either way)."""
     from ..io.export import in_volume_space, mesh_format, write_mesh
     mesh_format(out)   # an unknown extension refused before any work
     level = as_level(level, volume.value_range)

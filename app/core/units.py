@@ -53,6 +53,17 @@ def length_unit_name(text) -> str | None:
     return _CANONICAL.get(key, key)
 
 
+def one_length_unit(stated) -> str | None:
+    """The one length unit every entry of `stated` (a file's units, one per axis) names, or None where they name
+    different units or one not known here (each loader then notes that its lengths are TAKEN_AS_MM).
+
+    >>> one_length_unit(["um", "micrometer", "µm"]), one_length_unit(["um", "mm"]), one_length_unit(["um", "s"])
+    ('micrometer', None, None)
+    """
+    names = {length_unit_name(u) for u in stated}
+    return names.pop() if len(names) == 1 and None not in names else None
+
+
 def mm_per_unit(unit: str | None) -> float:
     """Millimetres per `unit` (1 for None: a file that states no unit is taken as millimetres)."""
     if unit is None:

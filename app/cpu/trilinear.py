@@ -112,26 +112,17 @@ def marching_cubes_trilinear(volume: np.ndarray, level: float, spacing=(1.0, 1.0
 def cell_vertex_means(verts, normals, values, members):
     """The cells' own vertices from the edge vertices (verts, normals, values): per list of `members` (edge
     vertex indices in edge order), their positions' and values' means and their normals' normalised sum, in
-    float32 one number at a time (the compiled and GPU extractors' arithmetic)."""
-    extra_verts, extra_normals, extra_values = [], [], []
-    for which in members:
-        p, n, value = [np.float32(0)] * 3, [np.float32(0)] * 3, np.float32(0)
-        for v in which:
-            p = [p[a] + verts[v, a] for a in range(3)]
-            n = [n[a] + normals[v, a] for a in range(3)]
-            value = value + values[v]
-        count = np.float32(len(which))
-        length = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
-        extra_verts.append([p[a] / count for a in range(3)])
-        extra_normals.append([n[a] / length for a in range(3)] if length > 0 else n)
-        extra_values.append(value / count)
-    return (np.array(extra_verts, np.float32).reshape(-1, 3), np.array(extra_normals, np.float32).reshape(-1, 3),
-            np.array(extra_values, np.float32))
+    float32, adding the members in their order (the compiled and GPU extractors' arithmetic: `mean_vertices`)."""
+    padded = np.full((len(members), max((len(which) for which in members), default=0)), -1, np.int64)
+    for row, which in zip(padded, members):
+        row[:len(which)] = which
+    return mean_vertices(verts, normals, values, padded)
 
 
 def mean_vertices(verts, normals, values, members):
-    """`cell_vertex_means` for rows of `members` (O, M) padded with -1, in the same float32 arithmetic in the
-    same order (adding nothing where a row has ended), a column at a time instead of a vertex at a time."""
+    """The cells' own vertices for rows of `members` (O, M) edge vertex indices padded with -1: per row the
+    members' positions' and values' means and their normals' normalised sum, in float32, each sum added a member
+    at a time in the row's order (a column at a time over the rows; nothing added where a row has ended)."""
     p = np.zeros((len(members), 3), np.float32)
     n = np.zeros((len(members), 3), np.float32)
     value = np.zeros(len(members), np.float32)

@@ -62,13 +62,11 @@ def nrrd_unit(path: Path, notes: list[str]) -> str | None:
     note (the samples still open; only measures depend on it)."""
     import nrrd
 
-    from ..core.units import TAKEN_AS_MM, length_unit_name
+    from ..core.units import TAKEN_AS_MM, one_length_unit
     stated = [str(u) for u in nrrd.read_header(str(path)).get("space units") or [] if str(u).strip()]
-    if not stated:
-        return None
-    names = {length_unit_name(u) for u in stated}
-    if len(names) == 1 and None not in names:
-        return names.pop()
+    unit = one_length_unit(stated)
+    if unit is not None or not stated:
+        return unit
     notes.append(f"{path.name}: its space units {stated} are not one length unit isoscope knows; {TAKEN_AS_MM} "
                  "(write one unit such as \"mm\" or \"um\" for every axis)")
     return None

@@ -52,12 +52,10 @@ def _spacing(tif, axes: str):
 
 def _length_unit(path: Path, stated: list[str], notes: list[str]) -> str | None:
     """The one length unit of `stated` (core.units' name), or None with a note where they differ or are unknown."""
-    from ..core.units import TAKEN_AS_MM, length_unit_name
-    if not stated:
-        return None
-    names = {length_unit_name(u) for u in stated}
-    if len(names) == 1 and None not in names:
-        return names.pop()
+    from ..core.units import TAKEN_AS_MM, one_length_unit
+    unit = one_length_unit(stated)
+    if unit is not None or not stated:
+        return unit
     notes.append(f"{path.name}: its voxel size units {sorted(set(stated))} are not one length unit isoscope knows; "
                  f"{TAKEN_AS_MM}")
     return None

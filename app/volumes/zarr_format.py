@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.lazy_arrays import Block3D
-from ..core.units import TAKEN_AS_MM, length_unit_name
+from ..core.units import TAKEN_AS_MM, length_unit_name, one_length_unit
 from .errors import VolumeError
 from .reading import damaged, reason
 from .time_points import time_index, time_note
@@ -116,11 +116,11 @@ def _length_unit(multiscale: dict, path: Path, notes: list[str]) -> str | None:
     stated = [a.get("unit") for a in axes[-3:]]
     if not any(u is not None for u in stated):
         return None
-    names = [length_unit_name(u) for u in stated]
-    if None not in names and len(set(names)) == 1:
-        return names[0]
+    unit = one_length_unit(stated)
+    if unit is not None:
+        return unit
     said = ", ".join(f"{a.get('name', '?')}: {u!r}" for a, u in zip(axes[-3:], stated))
-    why = ("not one length unit for all three" if None not in names
+    why = ("not one length unit for all three" if all(length_unit_name(u) for u in stated)
            else "not a length unit isoscope knows")
     notes.append(f"{path.name}: its spatial axes' units ({said}) are {why}; {TAKEN_AS_MM} "
                  "(write one unit such as \"micrometer\" on every spatial axis)")
@@ -158,9 +158,9 @@ def _ome_level(group, multiscale: dict, path: Path):
     lower-resolution levels as (name, array, spacing, offset), finest first, world frame or None).  A level
     whose metadata does not parse is left out of the pyramid with a note (the full one must open); a level
     named but absent from the store, or one that is not a lower resolution of the level before it (larger, or
-    a scale its shape does not match, or a translation that puts its sample 0 more than one of its samples from
-    where its scale does), or a translation that is not one finite number per axis, is refused in one line: the
-    pyramid would be shown at the wrong size or place."""
+    a scale its shape does not match), or a translation that is not one finite number per axis, is refused in
+    one line: the pyramid would be shown at the wrong size or place.  A level whose translation puts its sample
+    0 more than one of its samples from where its scale does is left out with a note (`_far_level`)."""
     try:
         datasets = multiscale["datasets"]
         level = group[datasets[0]["path"]]
